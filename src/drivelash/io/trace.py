@@ -1,0 +1,183 @@
+"""The :class:`Trace`: a constant-rate recording with named SI columns.
+
+Contract (DESIGN.md): ``t`` [s], ``theta_m`` [rad], ``omega_m`` [rad/s],
+``theta_l`` [rad], ``omega_l`` [rad/s], ``torque_m`` [N·m]; optional further
+columns (``delta_true`` [rad] in simulations, ``x_T`` [m], ``F_load`` [N] for
+rack-and-pinion drives, …). ``meta`` holds JSON-serialisable provenance
+(scenario name, seed, parameters).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drivelash.errors import DataError
+
+TWO_MASS_COLUMNS = ("t", "theta_m", "omega_m", "theta_l", "omega_l", "torque_m")
+
+UNITS: dict[str, str] = {
+    "t": "s",
+    "theta_m": "rad",
+    "omega_m": "rad/s",
+    "theta_l": "rad",
+    "omega_l": "rad/s",
+    "torque_m": "N·m",
+    "delta_true": "rad",
+    "x_T": "m",
+    "x_d": "m",
+    "F_load": "N",
+}
+
+
+@dataclass
+class Trace:
+    """A recording sampled at a constant period, columns in SI units.
+
+    Parameters
+    ----------
+    columns : Mapping[str, numpy.ndarray]
+        Column name → 1-D float64 array; all of equal length; must include ``t``.
+    meta : dict
+        JSON-serialisable provenance (scenario, seed, parameters, source file).
+    """
+
+    columns: dict[str, np.ndarray]
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        cols: dict[str, np.ndarray] = {}
+        n = None
+        for k, v in self.columns.items():
+            a = np.ascontiguousarray(np.asarray(v, dtype=np.float64))
+            if a.ndim != 1:
+                raise DataError(f"must be one-dimensional, got shape {a.shape}", column=k)
+            if n is None:
+                n = a.size
+            elif a.size != n:
+                raise DataError(f"has {a.size} samples, expected {n}", column=k)
+            cols[k] = a
+        if "t" not in cols:
+            raise DataError("a trace needs a time column", column="t")
+        self.columns = cols
+
+    # -- access -------------------------------------------------------------
+    def __getitem__(self, name: str) -> np.ndarray:
+        try:
+            return self.columns[name]
+        except KeyError:
+            raise DataError(
+                f"no such column; available: {', '.join(self.columns)}", column=name
+            ) from None
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.columns
+
+    def __len__(self) -> int:
+        return self.columns["t"].size
+
+    @property
+    def names(self) -> list[str]:
+        """Column names in order."""
+        return list(self.columns)
+
+    @property
+    def sample_time(self) -> float:
+        """Sample period [s] (median of time differences)."""
+        t = self.columns["t"]
+        if t.size < 2:
+            raise DataError("fewer than two samples: no sample time", column="t")
+        return float(np.median(np.diff(t)))
+
+    @property
+    def duration(self) -> float:
+        """Recording length t[-1] − t[0] [s]."""
+        t = self.columns["t"]
+        return float(t[-1] - t[0]) if t.size else 0.0
+
+    def select(self, names: Iterable[str]) -> Trace:
+        """A trace with only ``names`` (``t`` always kept)."""
+        keep = ["t"] + [n for n in names if n != "t"]
+        return Trace({n: self[n] for n in keep}, dict(self.meta))
+
+    def slice(self, start: int, stop: int | None = None) -> Trace:
+        """Rows ``start:stop`` as a new trace."""
+        return Trace({k: v[start:stop] for k, v in self.columns.items()}, dict(self.meta))
+
+    def with_columns(self, extra: Mapping[str, np.ndarray]) -> Trace:
+        """A copy with ``extra`` columns added or replaced."""
+        cols = dict(self.columns)
+        cols.update(extra)
+        return Trace(cols, dict(self.meta))
+
+    def to_pandas(self):  # noqa: ANN201 - pandas is an optional import at call time
+        """The columns as a :class:`pandas.DataFrame`."""
+        import pandas as pd
+
+        return pd.DataFrame(self.columns)
+
+    # -- files --------------------------------------------------------------
+    def to_parquet(self, path: str | Path) -> Path:
+        """Write Parquet; ``meta`` goes into the schema metadata as JSON."""
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        path = Path(path)
+        table = pa.table(self.columns)
+        table = table.replace_schema_metadata({b"drivelash.meta": json.dumps(self.meta).encode()})
+        pq.write_table(table, path)
+        return path
+
+    @classmethod
+    def from_parquet(cls, path: str | Path) -> Trace:
+        """Read a file written by :meth:`to_parquet` (or any numeric Parquet table)."""
+        import pyarrow.parquet as pq
+
+        table = pq.read_table(path)
+        meta: dict[str, Any] = {}
+        md = table.schema.metadata or {}
+        if b"drivelash.meta" in md:
+            meta = json.loads(md[b"drivelash.meta"].decode())
+        cols = {name: table.column(name).to_numpy() for name in table.column_names}
+        return cls(cols, meta)
+
+    def to_csv(self, path: str | Path) -> Path:
+        """Write CSV with a header row; floats with 17 significant digits (lossless)."""
+        path = Path(path)
+        names = self.names
+        data = np.column_stack([self.columns[n] for n in names])
+        header = ",".join(names)
+        meta_line = "# drivelash.meta " + json.dumps(self.meta)
+        with path.open("w", encoding="utf-8", newline="\n") as fh:
+            fh.write(meta_line + "\n")
+            np.savetxt(fh, data, delimiter=",", header=header, comments="", fmt="%.17g")
+        return path
+
+    @classmethod
+    def from_csv(cls, path: str | Path) -> Trace:
+        """Read a file written by :meth:`to_csv` (plain numeric CSV with header)."""
+        import pandas as pd
+
+        path = Path(path)
+        meta: dict[str, Any] = {}
+        with path.open("r", encoding="utf-8") as fh:
+            first = fh.readline()
+        if first.startswith("# drivelash.meta "):
+            meta = json.loads(first[len("# drivelash.meta ") :])
+        df = pd.read_csv(path, comment="#", float_precision="round_trip")
+        return cls({c: df[c].to_numpy(dtype=np.float64) for c in df.columns}, meta)
+
+    def save(self, path: str | Path) -> Path:
+        """Write by extension: ``.parquet``/``.pq`` or ``.csv``."""
+        path = Path(path)
+        ext = path.suffix.lower()
+        if ext in (".parquet", ".pq"):
+            return self.to_parquet(path)
+        if ext == ".csv":
+            return self.to_csv(path)
+        raise DataError(f"unsupported extension {ext!r} (use .parquet or .csv)", path=str(path))

@@ -1,0 +1,1 @@
+"""Pure physical models: @njit kernels and thin NumPy wrappers."""

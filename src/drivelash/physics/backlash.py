@@ -1,0 +1,117 @@
+"""Backlash (deadzone) models of spec 01: eqs (10)–(12), (45)–(50).
+
+Notation: ``dtheta`` = Δθ = θ_m/N − θ_l [rad], ``domega`` = Δω = ω_m/N − ω_l [rad/s],
+``delta`` = δ (total gap) [rad], ``delta1`` = δ1 (offset) [rad], ``alpha`` = α [1/rad].
+The shafts are disengaged for −δ1 ≤ Δθ ≤ δ − δ1.
+
+Each model is a scalar ``@njit`` kernel (``*_scalar``, callable from other kernels)
+and a NumPy ufunc of the same name that broadcasts over arrays.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit, vectorize
+
+_F8 = "float64"
+
+
+@njit(cache=True, inline="always")
+def _sgn(x: float) -> float:
+    if x > 0.0:
+        return 1.0
+    if x < 0.0:
+        return -1.0
+    return 0.0
+
+
+@njit(cache=True)
+def deadzone_torque_scalar(dtheta, domega, K_S, D_S, delta, delta1):
+    """Deadzone shaft torque T_l^DZ, eq (10) [N·m]."""
+    if dtheta < -delta1:
+        return K_S * (dtheta + delta1) + D_S * domega
+    if dtheta > delta - delta1:
+        return K_S * (dtheta + delta1 - delta) + D_S * domega
+    return 0.0
+
+
+@njit(cache=True)
+def smooth_stiffness_scalar(dtheta, K_S, delta, delta1, alpha):
+    """Varying stiffness K_BL(Δθ, δ), eq (11) [N·m/rad]."""
+    return (K_S / math.pi) * (
+        math.pi
+        + math.atan(alpha * (dtheta - delta + delta1))
+        - math.atan(alpha * (dtheta + delta1))
+    )
+
+
+@njit(cache=True)
+def smooth_torque_scalar(dtheta, domega, K_S, D_S, delta, delta1, alpha):
+    """Smooth shaft torque T_l(x, δ), eq (12) [N·m]."""
+    arg = dtheta + delta1 - 0.5 * delta * (1.0 + _sgn(dtheta)) + (D_S / K_S) * domega
+    return arg * smooth_stiffness_scalar(dtheta, K_S, delta, delta1, alpha)
+
+
+@njit(cache=True)
+def chi1_scalar(dtheta, delta, delta1, alpha):
+    """χ1(x, δ), eq (46) [-]."""
+    return (
+        0.5
+        * (1.0 + _sgn(dtheta))
+        * (
+            math.pi
+            + math.atan(alpha * (dtheta - delta + delta1))
+            - math.atan(alpha * (dtheta + delta1))
+        )
+    )
+
+
+@njit(cache=True)
+def chi2_scalar(dtheta, domega, K_S, D_S, delta, delta1, alpha):
+    """χ2(x, δ), eq (47) [-]."""
+    arg = dtheta + delta1 - 0.5 * delta * (1.0 + _sgn(dtheta)) + (D_S / K_S) * domega
+    z = alpha * (dtheta + delta1 - delta)
+    return arg * alpha / (1.0 + z * z)
+
+
+@njit(cache=True)
+def dtorque_ddelta_scalar(dtheta, domega, K_S, D_S, delta, delta1, alpha):
+    """Sensitivity ∂T_l/∂δ, eq (50) [N·m/rad]."""
+    return -(K_S / math.pi) * (
+        chi1_scalar(dtheta, delta, delta1, alpha)
+        + chi2_scalar(dtheta, domega, K_S, D_S, delta, delta1, alpha)
+    )
+
+
+@njit(cache=True)
+def excitation_scalar(dtheta, domega, K_S, D_S, Lambda, delta1, alpha):
+    """Excitation measure σ(x) = (χ1(x, Λ) + χ2(x, Λ))² / π², eq (45) [-]."""
+    s = chi1_scalar(dtheta, Lambda, delta1, alpha) + chi2_scalar(
+        dtheta, domega, K_S, D_S, Lambda, delta1, alpha
+    )
+    return s * s / (math.pi * math.pi)
+
+
+deadzone_torque = vectorize([f"{_F8}({','.join([_F8] * 6)})"], cache=True)(
+    deadzone_torque_scalar.py_func
+)
+deadzone_torque.__doc__ = deadzone_torque_scalar.__doc__
+smooth_stiffness = vectorize([f"{_F8}({','.join([_F8] * 5)})"], cache=True)(
+    smooth_stiffness_scalar.py_func
+)
+smooth_stiffness.__doc__ = smooth_stiffness_scalar.__doc__
+smooth_torque = vectorize([f"{_F8}({','.join([_F8] * 7)})"], cache=True)(
+    smooth_torque_scalar.py_func
+)
+smooth_torque.__doc__ = smooth_torque_scalar.__doc__
+chi1 = vectorize([f"{_F8}({','.join([_F8] * 4)})"], cache=True)(chi1_scalar.py_func)
+chi1.__doc__ = chi1_scalar.__doc__
+chi2 = vectorize([f"{_F8}({','.join([_F8] * 7)})"], cache=True)(chi2_scalar.py_func)
+chi2.__doc__ = chi2_scalar.__doc__
+dtorque_ddelta = vectorize([f"{_F8}({','.join([_F8] * 7)})"], cache=True)(
+    dtorque_ddelta_scalar.py_func
+)
+dtorque_ddelta.__doc__ = dtorque_ddelta_scalar.__doc__
+excitation = vectorize([f"{_F8}({','.join([_F8] * 7)})"], cache=True)(excitation_scalar.py_func)
+excitation.__doc__ = excitation_scalar.__doc__

@@ -1,0 +1,54 @@
+"""Friction models, eqs (6)–(7) of spec 01.
+
+``T_F(ω) = T_C sgn(ω) + β ω`` (plus an optional Stribeck/static part).
+
+Simulation uses a *regularised* sign, ``tanh(ω / ω_reg)``: the sign function
+makes the ODE discontinuous at ω = 0 and a fixed-step integrator would chatter
+across zero. With ω_reg much smaller than any velocity of interest the friction
+torque equals the Coulomb model except in a band |ω| ≲ 3 ω_reg around standstill,
+where it behaves like a steep viscous damper (a "sticking" approximation). The
+estimator side uses the exact sign, as the paper does.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit, vectorize
+
+
+@njit(cache=True)
+def friction_scalar(omega, T_C, beta, T_S, omega_s, omega_reg):
+    """Friction torque [N·m] at velocity ``omega`` [rad/s].
+
+    Parameters
+    ----------
+    omega : float
+        Velocity [rad/s].
+    T_C : float
+        Coulomb torque [N·m].
+    beta : float
+        Viscous coefficient [N·m·s/rad].
+    T_S : float
+        Static (breakaway) torque [N·m]; 0 for none. Adds the Stribeck term
+        (T_S − T_C) exp(−(ω/ω_s)²) to the Coulomb part.
+    omega_s : float
+        Stribeck velocity [rad/s].
+    omega_reg : float
+        Regularisation velocity [rad/s]; 0 selects the exact sign function.
+    """
+    if omega_reg > 0.0:
+        s = math.tanh(omega / omega_reg)
+    else:
+        s = 1.0 if omega > 0.0 else (-1.0 if omega < 0.0 else 0.0)
+    level = T_C
+    if T_S > 0.0:
+        r = omega / omega_s
+        level = T_C + (T_S - T_C) * math.exp(-r * r)
+    return level * s + beta * omega
+
+
+friction = vectorize(["float64(float64,float64,float64,float64,float64,float64)"], cache=True)(
+    friction_scalar.py_func
+)
+friction.__doc__ = friction_scalar.__doc__
