@@ -163,9 +163,7 @@ class CascadeGains:
         _check_finite(self)
         _positive(self, "K_v", "K_p", "T_n", "torque_limit", "T_s")
         if not 0.0 <= self.k_ff <= 1.0:
-            raise ParameterError(
-                type(self).__name__, "k_ff", f"must lie in [0, 1], got {self.k_ff!r}"
-            )
+            raise ParameterError(type(self).__name__, "k_ff", f"must lie in [0, 1], got {self.k_ff!r}")
 
 
 @dataclass(frozen=True)

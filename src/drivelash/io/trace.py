@@ -71,9 +71,7 @@ class Trace:
         try:
             return self.columns[name]
         except KeyError:
-            raise DataError(
-                f"no such column; available: {', '.join(self.columns)}", column=name
-            ) from None
+            raise DataError(f"no such column; available: {', '.join(self.columns)}", column=name) from None
 
     def __contains__(self, name: object) -> bool:
         return name in self.columns

@@ -40,9 +40,7 @@ def deadzone_torque_scalar(dtheta, domega, K_S, D_S, delta, delta1):
 def smooth_stiffness_scalar(dtheta, K_S, delta, delta1, alpha):
     """Varying stiffness K_BL(Δθ, δ), eq (11) [N·m/rad]."""
     return (K_S / math.pi) * (
-        math.pi
-        + math.atan(alpha * (dtheta - delta + delta1))
-        - math.atan(alpha * (dtheta + delta1))
+        math.pi + math.atan(alpha * (dtheta - delta + delta1)) - math.atan(alpha * (dtheta + delta1))
     )
 
 
@@ -59,11 +57,7 @@ def chi1_scalar(dtheta, delta, delta1, alpha):
     return (
         0.5
         * (1.0 + _sgn(dtheta))
-        * (
-            math.pi
-            + math.atan(alpha * (dtheta - delta + delta1))
-            - math.atan(alpha * (dtheta + delta1))
-        )
+        * (math.pi + math.atan(alpha * (dtheta - delta + delta1)) - math.atan(alpha * (dtheta + delta1)))
     )
 
 
@@ -93,25 +87,17 @@ def excitation_scalar(dtheta, domega, K_S, D_S, Lambda, delta1, alpha):
     return s * s / (math.pi * math.pi)
 
 
-deadzone_torque = vectorize([f"{_F8}({','.join([_F8] * 6)})"], cache=True)(
-    deadzone_torque_scalar.py_func
-)
+deadzone_torque = vectorize([f"{_F8}({','.join([_F8] * 6)})"], cache=True)(deadzone_torque_scalar.py_func)
 deadzone_torque.__doc__ = deadzone_torque_scalar.__doc__
-smooth_stiffness = vectorize([f"{_F8}({','.join([_F8] * 5)})"], cache=True)(
-    smooth_stiffness_scalar.py_func
-)
+smooth_stiffness = vectorize([f"{_F8}({','.join([_F8] * 5)})"], cache=True)(smooth_stiffness_scalar.py_func)
 smooth_stiffness.__doc__ = smooth_stiffness_scalar.__doc__
-smooth_torque = vectorize([f"{_F8}({','.join([_F8] * 7)})"], cache=True)(
-    smooth_torque_scalar.py_func
-)
+smooth_torque = vectorize([f"{_F8}({','.join([_F8] * 7)})"], cache=True)(smooth_torque_scalar.py_func)
 smooth_torque.__doc__ = smooth_torque_scalar.__doc__
 chi1 = vectorize([f"{_F8}({','.join([_F8] * 4)})"], cache=True)(chi1_scalar.py_func)
 chi1.__doc__ = chi1_scalar.__doc__
 chi2 = vectorize([f"{_F8}({','.join([_F8] * 7)})"], cache=True)(chi2_scalar.py_func)
 chi2.__doc__ = chi2_scalar.__doc__
-dtorque_ddelta = vectorize([f"{_F8}({','.join([_F8] * 7)})"], cache=True)(
-    dtorque_ddelta_scalar.py_func
-)
+dtorque_ddelta = vectorize([f"{_F8}({','.join([_F8] * 7)})"], cache=True)(dtorque_ddelta_scalar.py_func)
 dtorque_ddelta.__doc__ = dtorque_ddelta_scalar.__doc__
 excitation = vectorize([f"{_F8}({','.join([_F8] * 7)})"], cache=True)(excitation_scalar.py_func)
 excitation.__doc__ = excitation_scalar.__doc__
