@@ -1,0 +1,1 @@
+"""Online backlash estimation: STSMO perturbation observer, adaptive deadzone law, excitation monitor."""
