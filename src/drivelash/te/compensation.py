@@ -1,0 +1,629 @@
+"""Feed-forward compensation of transmission errors and backlash, spec 02 §5 (eqs 6–7).
+
+The compensator runs once per compensation period t_s,c (5 ms). It keeps a model
+estimate ``TE_hat`` of the transmission error TE = x_T − x_M and outputs its rate,
+the correction velocity
+
+    v_c = v_c,TE + v_c,BL,
+    v_c,TE = (TE(x_d,n+1, T, flank) − TE(x_d,n, T, flank)) / t_s,c            (6)
+    v_c,BL = d/dt [ b · s(t / t_ss) ],  s(τ) = 3τ² − 2τ³ on [0, 1]             (7)
+
+with x_d,n the current and x_d,n+1 the look-ahead set position of the planned
+trajectory, T the model torque (motor torque minus acceleration torque, held
+constant over the cycle), and b the backlash at the current position from the two
+direction models, applied after a change of the flank in contact. The flank is
+found from the sign of the *mesh torque*: motor torque minus the estimated friction
+and acceleration torque of the drive train, with hysteresis — not from the
+set-point direction.
+
+Sign convention. With e = x_d − x_T and a velocity loop that tracks its command,
+ė = −K_v e + (v_c − dTE/dt) when the command is ``v_ff + K_v e − v_c``; the
+compensator therefore *subtracts* v_c (table units, m/s) from the velocity command.
+v_c integrates exactly to the change of ``TE_hat``: over a flank change
+Σ v_c,BL · t_s,c = b (the discrete form of (7) is the difference of the smooth step
+between cycle boundaries).
+
+Feed-forward only: the output depends on the planned trajectory and, through the
+error models, on the torque state; no measured position or velocity error feeds
+through, so the closed-loop poles are those of the uncompensated cascade (tested).
+
+Runtime form: the fitted model is sampled once into a :class:`TETable` (position ×
+torque grid per direction, bilinear interpolation, clamped at the edges), which a
+``@njit`` kernel evaluates; export as CSV/JSON for a CNC (:func:`export_table`).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+from numba import njit
+
+from drivelash.errors import DataError, ParameterError
+
+#: Direction codes: index 0 ⇔ positive flank (+1), index 1 ⇔ negative flank (−1).
+DIRECTIONS = (1, -1)
+
+# Layout of the compensator state vector (float64).
+S_FLANK = 0  # flank in contact, +1 or −1
+S_T_SINCE = 1  # time since the last flank change at the start of the next cycle [s]
+S_B = 2  # signed backlash step b of the last flank change [m]
+S_T_LAST = 3  # model torque of the previous cycle [N·m]
+S_INIT = 4  # 0 before the first cycle, 1 afterwards
+S_TE_HAT = 5  # integral of v_c: the compensator's running TE estimate (offset-free) [m]
+STATE_SIZE = 6
+
+# Layout of the parameter vector of the kernels.
+P_T_SC = 0
+P_T_SS = 1
+P_J_FLANK = 2
+P_T_C = 3
+P_BETA = 4
+P_OMEGA_REG = 5
+P_HYST = 6
+P_J_MODEL = 7
+P_V_MAX = 8
+PARAM_SIZE = 9
+
+
+class TEPredictor(Protocol):
+    """Anything that predicts the transmission error of one flank.
+
+    ``predict(x_T [m], torque [N·m], direction ±1) -> TE [m]``, vectorised over
+    ``x_T`` and ``torque`` (broadcast).
+    """
+
+    def predict(self, x_T: np.ndarray, torque: np.ndarray, direction: int) -> np.ndarray: ...
+
+
+@dataclass(frozen=True)
+class CompensatorParams:
+    """Settings of the compensator (spec 02 §5); values and reasons in docs/assumptions.md.
+
+    Parameters
+    ----------
+    t_sc : float
+        Compensation period t_s,c [s] (paper: 5 ms).
+    t_ss : float
+        Duration of the smooth backlash step t_ss [s] (paper: 35 ms).
+    J_flank : float
+        Inertia of motor + gearbox + pinion, motor side [kg·m²], whose acceleration
+        torque is subtracted from the motor torque for flank detection.
+    T_C : float
+        Estimated Coulomb friction of the drive train, motor side [N·m].
+    beta : float
+        Estimated viscous friction of the drive train, motor side [N·m·s/rad].
+    omega_reg : float
+        Regularisation velocity of the friction sign [rad/s].
+    hysteresis : float
+        Mesh-torque band [N·m] the estimate must leave before a flank change is
+        accepted (noise immunity).
+    J_model : float
+        Inertia [kg·m²] whose acceleration torque is removed from the motor torque
+        before it enters the error models (the models are trained at constant
+        velocity, where motor torque = friction + load).
+    v_max : float
+        Symmetric limit of |v_c| [m/s] (drive limit).
+    """
+
+    t_sc: float = 5e-3
+    t_ss: float = 35e-3
+    J_flank: float = 0.0
+    T_C: float = 0.0
+    beta: float = 0.0
+    omega_reg: float = 1.0
+    hysteresis: float = 0.2
+    J_model: float = 0.0
+    v_max: float = 0.05
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if not math.isfinite(v):
+                raise ParameterError(type(self).__name__, f.name, f"must be finite, got {v!r}")
+        for n in ("t_sc", "t_ss", "omega_reg", "v_max"):
+            if not getattr(self, n) > 0:
+                raise ParameterError(type(self).__name__, n, f"must be > 0, got {getattr(self, n)!r}")
+        for n in ("J_flank", "T_C", "beta", "hysteresis", "J_model"):
+            if not getattr(self, n) >= 0:
+                raise ParameterError(type(self).__name__, n, f"must be >= 0, got {getattr(self, n)!r}")
+
+    def as_array(self) -> np.ndarray:
+        """Parameters in kernel order (see ``P_*`` constants)."""
+        return np.array([getattr(self, f.name) for f in fields(self)], dtype=np.float64)
+
+
+# ---------------------------------------------------------------------------
+# smooth step (7)
+
+
+@njit(cache=True)
+def smooth_step(tau: float) -> float:
+    """Smooth step s(τ) of eq (7) [-]: 0 for τ ≤ 0, 3τ² − 2τ³ on [0, 1], 1 for τ ≥ 1."""
+    if tau <= 0.0:
+        return 0.0
+    if tau >= 1.0:
+        return 1.0
+    return tau * tau * (3.0 - 2.0 * tau)
+
+
+@njit(cache=True)
+def smooth_step_rate(tau: float) -> float:
+    """ds/dτ of the smooth step [-]: 6τ(1 − τ) on [0, 1], else 0."""
+    if tau <= 0.0 or tau >= 1.0:
+        return 0.0
+    return 6.0 * tau * (1.0 - tau)
+
+
+# ---------------------------------------------------------------------------
+# lookup table
+
+
+@dataclass(frozen=True)
+class TETable:
+    """Transmission error on a regular position × torque grid per flank.
+
+    Parameters
+    ----------
+    x0 : float
+        First grid position [m].
+    dx : float
+        Position step [m].
+    torque0 : numpy.ndarray
+        First grid torque per flank, shape (2,) [N·m] (index 0: flank +1, 1: flank −1).
+    dtorque : numpy.ndarray
+        Torque step per flank, shape (2,) [N·m].
+    te : numpy.ndarray
+        TE values, shape (2, n_x, n_torque) [m].
+    meta : dict
+        Provenance (model directory, units, axis name).
+    """
+
+    x0: float
+    dx: float
+    torque0: np.ndarray
+    dtorque: np.ndarray
+    te: np.ndarray
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        te = np.ascontiguousarray(np.asarray(self.te, dtype=np.float64))
+        if te.ndim != 3 or te.shape[0] != 2 or te.shape[1] < 2 or te.shape[2] < 1:
+            raise DataError(f"TE table must have shape (2, n_x>=2, n_torque>=1), got {te.shape}")
+        if not np.all(np.isfinite(te)):
+            raise DataError("TE table holds non-finite values")
+        if not self.dx > 0:
+            raise DataError(f"position step must be > 0, got {self.dx}")
+        t0 = np.ascontiguousarray(np.asarray(self.torque0, dtype=np.float64).reshape(2))
+        dt = np.ascontiguousarray(np.asarray(self.dtorque, dtype=np.float64).reshape(2))
+        if te.shape[2] > 1 and not np.all(dt > 0):
+            raise DataError(f"torque steps must be > 0, got {dt}")
+        object.__setattr__(self, "te", te)
+        object.__setattr__(self, "torque0", t0)
+        object.__setattr__(self, "dtorque", dt)
+
+    @property
+    def x_grid(self) -> np.ndarray:
+        """Grid positions [m]."""
+        return self.x0 + self.dx * np.arange(self.te.shape[1])
+
+    def torque_grid(self, direction: int) -> np.ndarray:
+        """Grid torques of a flank [N·m]."""
+        d = _dir_index(direction)
+        return self.torque0[d] + self.dtorque[d] * np.arange(self.te.shape[2])
+
+    def predict(self, x_T: np.ndarray, torque: np.ndarray, direction: int) -> np.ndarray:
+        """Bilinear interpolation of the table (same protocol as the models) [m]."""
+        x, t = np.broadcast_arrays(np.asarray(x_T, dtype=np.float64), np.asarray(torque, dtype=np.float64))
+        out = np.empty(x.shape)
+        _table_batch(
+            self.te,
+            self.x0,
+            self.dx,
+            self.torque0,
+            self.dtorque,
+            _dir_index(direction),
+            np.ascontiguousarray(x.ravel()),
+            np.ascontiguousarray(t.ravel()),
+            out.reshape(-1),
+        )
+        return out
+
+    def backlash(self, x_T: np.ndarray, torque: float = 0.0) -> np.ndarray:
+        """Gap between the flank curves TE(−1) − TE(+1) at equal torque [m]."""
+        return self.predict(x_T, -abs(torque), -1) - self.predict(x_T, abs(torque), 1)
+
+
+def _dir_index(direction: int) -> int:
+    if direction == 1:
+        return 0
+    if direction == -1:
+        return 1
+    raise ParameterError("TETable", "direction", f"must be +1 or -1, got {direction!r}")
+
+
+def build_table(
+    model: TEPredictor,
+    x_min: float,
+    x_max: float,
+    dx: float,
+    torque_max: float,
+    n_torque: int,
+    torque_min: float = 0.0,
+    meta: dict[str, Any] | None = None,
+) -> TETable:
+    """Sample a TE model into a :class:`TETable`.
+
+    The torque grid of flank +1 runs over [torque_min, torque_max], that of flank
+    −1 over [−torque_max, −torque_min] (the load acts against the motion, so the
+    motor torque has the sign of the flank).
+
+    Parameters
+    ----------
+    model : TEPredictor
+        Fitted model with ``predict(x_T, torque, direction)`` [m].
+    x_min, x_max : float
+        Position range [m].
+    dx : float
+        Position step [m].
+    torque_max : float
+        Largest torque magnitude of the grid [N·m].
+    n_torque : int
+        Number of torque grid points per flank (≥ 1).
+    torque_min : float
+        Smallest torque magnitude of the grid [N·m].
+    meta : dict, optional
+        Provenance stored in the table.
+
+    Returns
+    -------
+    TETable
+    """
+    if not (x_max > x_min and dx > 0):
+        raise ParameterError("build_table", "x_max", "position range must be non-empty with dx > 0")
+    if n_torque < 1 or torque_max < torque_min:
+        raise ParameterError("build_table", "n_torque", "need n_torque >= 1 and torque_max >= torque_min")
+    n_x = int(math.floor((x_max - x_min) / dx + 1e-9)) + 1
+    x = x_min + dx * np.arange(n_x)
+    tq = np.linspace(torque_min, torque_max, n_torque)
+    step = tq[1] - tq[0] if n_torque > 1 else 1.0
+    te = np.empty((2, n_x, n_torque))
+    for d, sgn in enumerate(DIRECTIONS):
+        grid_t = tq if sgn == 1 else -tq[::-1]
+        X, T = np.meshgrid(x, grid_t, indexing="ij")
+        te[d] = np.asarray(model.predict(X.ravel(), T.ravel(), sgn), dtype=np.float64).reshape(n_x, n_torque)
+    torque0 = np.array([tq[0], -tq[-1]])
+    return TETable(float(x_min), float(dx), torque0, np.array([step, step]), te, dict(meta or {}))
+
+
+@njit(cache=True)
+def table_te(te, x0, dx, torque0, dtorque, d, x, torque):
+    """TE [m] at position ``x`` [m] and ``torque`` [N·m] on flank index ``d`` (bilinear, clamped)."""
+    n_x = te.shape[1]
+    n_t = te.shape[2]
+    u = (x - x0) / dx
+    if u <= 0.0:
+        i = 0
+        fu = 0.0
+    elif u >= n_x - 1:
+        i = n_x - 2
+        fu = 1.0
+    else:
+        i = int(u)
+        if i > n_x - 2:
+            i = n_x - 2
+        fu = u - i
+    if n_t == 1:
+        return te[d, i, 0] * (1.0 - fu) + te[d, i + 1, 0] * fu
+    w = (torque - torque0[d]) / dtorque[d]
+    if w <= 0.0:
+        j = 0
+        fw = 0.0
+    elif w >= n_t - 1:
+        j = n_t - 2
+        fw = 1.0
+    else:
+        j = int(w)
+        if j > n_t - 2:
+            j = n_t - 2
+        fw = w - j
+    a = te[d, i, j] * (1.0 - fw) + te[d, i, j + 1] * fw
+    b = te[d, i + 1, j] * (1.0 - fw) + te[d, i + 1, j + 1] * fw
+    return a * (1.0 - fu) + b * fu
+
+
+@njit(cache=True)
+def _table_batch(te, x0, dx, torque0, dtorque, d, x, torque, out):
+    for k in range(x.size):
+        out[k] = table_te(te, x0, dx, torque0, dtorque, d, x[k], torque[k])
+
+
+# ---------------------------------------------------------------------------
+# the compensation cycle
+
+
+@njit(cache=True)
+def mesh_torque(torque_m, omega_m, alpha_m, p):
+    """Estimated torque transmitted through the mesh [N·m], motor side.
+
+    Motor torque minus the estimated friction ``T_C tanh(ω/ω_reg) + β ω`` and the
+    acceleration torque ``J_flank α`` of the drive train.
+    """
+    fr = p[P_T_C] * math.tanh(omega_m / p[P_OMEGA_REG]) + p[P_BETA] * omega_m
+    return torque_m - fr - p[P_J_FLANK] * alpha_m
+
+
+@njit(cache=True)
+def init_state(flank):
+    """Fresh compensator state on flank ``flank`` (±1)."""
+    s = np.zeros(STATE_SIZE)
+    s[S_FLANK] = 1.0 if flank >= 0 else -1.0
+    s[S_T_SINCE] = 1e9
+    return s
+
+
+@njit(cache=True)
+def compensation_cycle(state, te, x0, dx, torque0, dtorque, p, x_d_n, x_d_next, torque_m, omega_m, alpha_m):
+    """One compensation cycle: update ``state`` in place and return (v_c, v_c,TE, v_c,BL) [m/s].
+
+    Parameters
+    ----------
+    state : numpy.ndarray
+        Compensator state (``init_state``), modified in place.
+    te, x0, dx, torque0, dtorque
+        The :class:`TETable` arrays.
+    p : numpy.ndarray
+        :meth:`CompensatorParams.as_array`.
+    x_d_n, x_d_next : float
+        Current and look-ahead (t + t_s,c) set positions [m].
+    torque_m : float
+        Motor torque, mean over the last cycle [N·m].
+    omega_m : float
+        Motor velocity [rad/s].
+    alpha_m : float
+        Motor acceleration [rad/s²].
+    """
+    t_sc = p[P_T_SC]
+    # flank in contact from the mesh torque, with hysteresis
+    tm = mesh_torque(torque_m, omega_m, alpha_m, p)
+    flank = state[S_FLANK]
+    new_flank = flank
+    if flank > 0.0 and tm < -p[P_HYST]:
+        new_flank = -1.0
+    elif flank < 0.0 and tm > p[P_HYST]:
+        new_flank = 1.0
+    # model torque: motor torque minus acceleration torque (trained at constant velocity)
+    tq = torque_m - p[P_J_MODEL] * alpha_m
+    d_new = 0 if new_flank > 0.0 else 1
+    if new_flank != flank:
+        d_old = 1 - d_new
+        t_old = state[S_T_LAST] if state[S_INIT] > 0.0 else tq
+        b = table_te(te, x0, dx, torque0, dtorque, d_new, x_d_n, tq) - table_te(
+            te, x0, dx, torque0, dtorque, d_old, x_d_n, t_old
+        )
+        # a flank change during a running step: the unfinished part of the previous
+        # step is carried over so that the sum of v_c,BL still equals the net jump
+        tau = state[S_T_SINCE] / p[P_T_SS]
+        rest = state[S_B] * (1.0 - smooth_step(tau))
+        state[S_B] = b + rest
+        state[S_T_SINCE] = 0.0
+        state[S_FLANK] = new_flank
+    # (6): rate of the model error along the planned trajectory at constant torque
+    v_te = (
+        table_te(te, x0, dx, torque0, dtorque, d_new, x_d_next, tq)
+        - table_te(te, x0, dx, torque0, dtorque, d_new, x_d_n, tq)
+    ) / t_sc
+    # (7): exact discrete derivative of b·s(t/t_ss) over this cycle
+    t0 = state[S_T_SINCE]
+    v_bl = state[S_B] * (smooth_step((t0 + t_sc) / p[P_T_SS]) - smooth_step(t0 / p[P_T_SS])) / t_sc
+    v = v_te + v_bl
+    vmax = p[P_V_MAX]
+    if v > vmax:
+        v = vmax
+    elif v < -vmax:
+        v = -vmax
+    state[S_T_SINCE] = t0 + t_sc
+    state[S_T_LAST] = tq
+    state[S_INIT] = 1.0
+    state[S_TE_HAT] += v * t_sc
+    return v, v_te, v_bl
+
+
+@njit(cache=True)
+def compensate_run(state, te, x0, dx, torque0, dtorque, p, x_d, torque_m, omega_m, alpha_m):
+    """Run the compensator over a sequence of cycles (chunks give the result of one run).
+
+    ``x_d`` holds the set positions at the cycle instants plus one look-ahead value
+    (length n + 1); the other inputs have length n. Returns (state, v_c, v_c,TE, v_c,BL).
+    """
+    n = torque_m.size
+    v = np.empty(n)
+    vte = np.empty(n)
+    vbl = np.empty(n)
+    for k in range(n):
+        v[k], vte[k], vbl[k] = compensation_cycle(
+            state, te, x0, dx, torque0, dtorque, p, x_d[k], x_d[k + 1], torque_m[k], omega_m[k], alpha_m[k]
+        )
+    return state, v, vte, vbl
+
+
+class Compensator:
+    """Runtime compensator: a :class:`TETable` plus state, one call per t_s,c.
+
+    Parameters
+    ----------
+    table : TETable
+        Sampled error model.
+    params : CompensatorParams
+        Compensation settings.
+    flank : int
+        Flank in contact at start (±1).
+    """
+
+    def __init__(self, table: TETable, params: CompensatorParams, flank: int = 1) -> None:
+        self.table = table
+        self.params = params
+        self._p = params.as_array()
+        self.state = init_state(float(flank))
+
+    def reset(self, flank: int = 1) -> None:
+        """Forget the history; start on ``flank``."""
+        self.state = init_state(float(flank))
+
+    @property
+    def flank(self) -> int:
+        """Flank currently in contact (±1)."""
+        return int(self.state[S_FLANK])
+
+    def step(
+        self, x_d_n: float, x_d_next: float, torque_m: float, omega_m: float, alpha_m: float
+    ) -> tuple[float, float, float]:
+        """One cycle; returns (v_c, v_c,TE, v_c,BL) [m/s]. See :func:`compensation_cycle`."""
+        t = self.table
+        return compensation_cycle(
+            self.state,
+            t.te,
+            t.x0,
+            t.dx,
+            t.torque0,
+            t.dtorque,
+            self._p,
+            float(x_d_n),
+            float(x_d_next),
+            float(torque_m),
+            float(omega_m),
+            float(alpha_m),
+        )
+
+    def run(
+        self, x_d: np.ndarray, torque_m: np.ndarray, omega_m: np.ndarray, alpha_m: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Many cycles at once (``x_d`` one longer: look-ahead); returns (v_c, v_c,TE, v_c,BL)."""
+        t = self.table
+        a = [np.ascontiguousarray(np.asarray(z, dtype=np.float64)) for z in (x_d, torque_m, omega_m, alpha_m)]
+        if a[0].size != a[1].size + 1 or not (a[1].size == a[2].size == a[3].size):
+            raise DataError("x_d needs one look-ahead sample more than torque_m/omega_m/alpha_m")
+        self.state, v, vte, vbl = compensate_run(
+            self.state, t.te, t.x0, t.dx, t.torque0, t.dtorque, self._p, *a
+        )
+        return v, vte, vbl
+
+
+# ---------------------------------------------------------------------------
+# export for a CNC
+
+_CSV_HEADER = ("direction", "x_T_mm", "torque_Nm", "TE_um")
+
+
+def export_table(table: TETable, path: Path, params: CompensatorParams | None = None) -> Path:
+    """Write the table as CSV (long format) or JSON, chosen by the file suffix.
+
+    Units in the file: position in mm (table axis, linear scale coordinates), motor
+    torque in N·m, TE = x_T − x_M in µm. Interpolate bilinearly, clamp outside the grid.
+
+    Parameters
+    ----------
+    table : TETable
+        The table to export.
+    path : pathlib.Path
+        ``*.csv`` or ``*.json``.
+    params : CompensatorParams, optional
+        Written into the JSON (and the CSV comment header) for the CNC integrator.
+
+    Returns
+    -------
+    pathlib.Path
+        The written file.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    doc = _grid_doc(table, params)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if suffix == ".json":
+        doc["te_um"] = {str(sgn): np.round(table.te[d] * 1e6, 6).tolist() for d, sgn in enumerate(DIRECTIONS)}
+        path.write_text(json.dumps(doc, indent=1))
+    elif suffix == ".csv":
+        with path.open("w", newline="") as fh:
+            fh.write("# drivelash transmission-error table; " + json.dumps(doc) + "\n")
+            w = csv.writer(fh)
+            w.writerow(_CSV_HEADER)
+            xs = table.x_grid * 1e3
+            for d, sgn in enumerate(DIRECTIONS):
+                ts = table.torque_grid(sgn)
+                for i, xv in enumerate(xs):
+                    for j, tv in enumerate(ts):
+                        w.writerow((sgn, f"{xv:.6f}", f"{tv:.6f}", f"{table.te[d, i, j] * 1e6:.6f}"))
+    else:
+        raise DataError(f"unknown export format '{path.suffix}', use .csv or .json", path=str(path))
+    return path
+
+
+def _grid_doc(table: TETable, params: CompensatorParams | None) -> dict[str, Any]:
+    n_x, n_t = table.te.shape[1:]
+    doc: dict[str, Any] = {
+        "format": "drivelash-te-table",
+        "version": 1,
+        "definition": "TE = x_T - x_M (table position by linear scale minus motor position "
+        "theta_M*d_p/(2*i_PG)), per flank in contact; flank +1 = positive direction of travel",
+        "units": {"x_T": "mm", "torque": "N*m (motor side)", "TE": "um"},
+        "interpolation": "bilinear in (x_T, torque); clamped at the grid edges",
+        "grid": {
+            "x_T": {"start_mm": table.x0 * 1e3, "step_mm": table.dx * 1e3, "count": int(n_x)},
+            "torque": {
+                str(sgn): {
+                    "start_Nm": float(table.torque0[d]),
+                    "step_Nm": float(table.dtorque[d]),
+                    "count": int(n_t),
+                }
+                for d, sgn in enumerate(DIRECTIONS)
+            },
+        },
+        "usage": "every t_sc: v_c = (TE(x_d[n+1],T)-TE(x_d[n],T))/t_sc + d/dt[b*s(t/t_ss)]; "
+        "subtract v_c from the table velocity command",
+        "meta": table.meta,
+    }
+    if params is not None:
+        doc["compensator"] = asdict(params)
+    return doc
+
+
+def load_table(path: Path) -> TETable:
+    """Read a table written by :func:`export_table` (CSV or JSON) back, in SI units."""
+    path = Path(path)
+    if not path.is_file():
+        raise DataError("no such file", path=str(path))
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".json":
+            doc = json.loads(path.read_text())
+            te = np.stack([np.asarray(doc["te_um"][str(s)], dtype=np.float64) for s in DIRECTIONS]) * 1e-6
+        elif suffix == ".csv":
+            with path.open() as fh:
+                first = fh.readline()
+                if not first.startswith("# drivelash transmission-error table; "):
+                    raise DataError("not a drivelash TE table (missing header line)", path=str(path))
+                doc = json.loads(first.split("; ", 1)[1])
+                rows = np.loadtxt(fh, delimiter=",", skiprows=1, ndmin=2)
+            n_x = doc["grid"]["x_T"]["count"]
+            n_t = doc["grid"]["torque"]["1"]["count"]
+            if rows.shape != (2 * n_x * n_t, 4):
+                msg = f"expected {2 * n_x * n_t} rows of 4 values, got {rows.shape}"
+                raise DataError(msg, path=str(path))
+            te = rows[:, 3].reshape(2, n_x, n_t) * 1e-6
+        else:
+            raise DataError(f"unknown table format '{path.suffix}', use .csv or .json", path=str(path))
+        g = doc["grid"]
+        torque0 = np.array([g["torque"][str(s)]["start_Nm"] for s in DIRECTIONS])
+        dtorque = np.array([g["torque"][str(s)]["step_Nm"] for s in DIRECTIONS])
+        return TETable(
+            g["x_T"]["start_mm"] * 1e-3, g["x_T"]["step_mm"] * 1e-3, torque0, dtorque, te, doc.get("meta", {})
+        )
+    except (KeyError, ValueError, TypeError) as exc:
+        if isinstance(exc, DataError):
+            raise
+        raise DataError(f"malformed TE table ({exc.__class__.__name__}: {exc})", path=str(path)) from None
