@@ -1,5 +1,8 @@
 """Traces, file formats, column/unit mapping, validation and configuration."""
 
+from drivelash.io.config import DriveConfig, load_config
+from drivelash.io.formats import read_raw, write_trace
+from drivelash.io.load import load_trace
 from drivelash.io.trace import Trace
 
-__all__ = ["Trace"]
+__all__ = ["DriveConfig", "Trace", "load_config", "load_trace", "read_raw", "write_trace"]

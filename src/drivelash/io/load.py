@@ -1,0 +1,429 @@
+"""``load_trace``: read a recording, map and convert its columns, validate it once.
+
+Pipeline: :func:`~drivelash.io.formats.read_raw` → column mapping and unit
+conversion (``[columns]`` of the configuration) → encoder wrap-around unwrapping
+→ validation. Every problem is a :class:`~drivelash.errors.DataError` whose one
+line names the file, the column and the first bad row. Non-uniform sampling is
+refused unless resampling is asked for explicitly.
+
+Prismatic axes (a carriage on a ball screw, like EMPS): position columns given
+in a length unit (m, mm, µm) make the trace *prismatic* — ``theta_m`` then
+carries metres, ``omega_m`` m/s and ``torque_m`` newtons, and ``meta["axis"]``
+is ``"prismatic"`` with ``meta["units"]`` stating the units actually carried.
+The inverse dynamic model τ = M q̈ + F_v q̇ + F_c sign(q̇) + offset has the same
+form on both kinds of axis, so identification and the observer need no
+special case.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drivelash.errors import DataError
+from drivelash.io.config import UNIT_KIND, ColumnMap, DriveConfig, SamplingSection
+from drivelash.io.formats import RawTable, read_raw
+from drivelash.io.trace import Trace
+
+#: Signal columns that are checked for constant and saturated values.
+SIGNAL_COLUMNS = ("theta_m", "omega_m", "theta_l", "omega_l", "torque_m")
+
+#: Factor to SI per unit.
+_TO_SI: dict[str, float] = {
+    "s": 1.0,
+    "ms": 1e-3,
+    "us": 1e-6,
+    "rad": 1.0,
+    "deg": math.pi / 180.0,
+    "rev": 2.0 * math.pi,
+    "rad/s": 1.0,
+    "deg/s": math.pi / 180.0,
+    "rpm": 2.0 * math.pi / 60.0,
+    "rev/s": 2.0 * math.pi,
+    "m": 1.0,
+    "mm": 1e-3,
+    "um": 1e-6,
+    "µm": 1e-6,
+    "m/s": 1.0,
+    "mm/s": 1e-3,
+    "N·m": 1.0,
+    "N*m": 1.0,
+    "Nm": 1.0,
+    "N": 1.0,
+    "1": 1.0,
+}
+
+#: Which unit kinds a canonical column accepts.
+_ACCEPTS: dict[str, tuple[str, ...]] = {
+    "t": ("time",),
+    "theta_m": ("angle", "length", "dimensionless"),
+    "theta_l": ("angle", "length", "dimensionless"),
+    "omega_m": ("angular_velocity", "velocity", "dimensionless"),
+    "omega_l": ("angular_velocity", "velocity", "dimensionless"),
+    "torque_m": ("torque", "force", "current", "voltage", "dimensionless"),
+}
+
+#: Relative tolerance for recognising a unit-factor mix-up (deg↔rad 57.3, rpm↔rad/s 9.55).
+UNIT_FACTOR_TOLERANCE = 0.15
+
+#: A torque/force column is "saturated" when at least this fraction of samples sits
+#: exactly at its maximum or minimum, in runs of at least SATURATION_MIN_RUN samples.
+SATURATION_FRACTION = 0.02
+SATURATION_MIN_RUN = 5
+
+
+def _one_rev(cm: ColumnMap) -> float | None:
+    """One revolution in the column's file units (the default wrap modulus)."""
+    return {"rad": 2 * math.pi, "deg": 360.0, "rev": 1.0, "counts": cm.counts_per_rev}.get(cm.unit)
+
+
+def _factor(cm: ColumnMap, table: RawTable, source: str) -> float:
+    """Multiplicative factor from file units to SI for one mapped column."""
+    path = table.path
+    if cm.unit == "counts":
+        if cm.counts_per_rev is None:
+            raise DataError("unit 'counts' needs counts_per_rev in [columns]", path=path, column=source)
+        return 2.0 * math.pi / cm.counts_per_rev
+    if cm.unit == "A":
+        if cm.torque_constant is None:
+            raise DataError("unit 'A' needs torque_constant in [columns]", path=path, column=source)
+        return cm.torque_constant
+    if cm.unit == "V":
+        g = cm.gain
+        if g is None:
+            raise DataError("unit 'V' needs gain (N·m/V or N/V) in [columns]", path=path, column=source)
+        if isinstance(g, str):
+            if g not in table.scalars:
+                raise DataError(
+                    f"gain refers to scalar '{g}', which the file does not contain"
+                    f" (scalars: {', '.join(table.scalars) or 'none'})",
+                    path=path,
+                    column=source,
+                )
+            g = table.scalars[g]
+        if not math.isfinite(g) or g == 0:
+            raise DataError(f"gain must be finite and non-zero, got {g!r}", path=path, column=source)
+        return float(g)
+    return _TO_SI[cm.unit]
+
+
+def unwrap_encoder(x: np.ndarray, modulus: float) -> tuple[np.ndarray, int, int | None]:
+    """Undo wrap-around of a position counter.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Position in file units.
+    modulus : float
+        Counter range (one revolution or the counter size) in the same units.
+
+    Returns
+    -------
+    unwrapped : numpy.ndarray
+    n_wraps : int
+        Number of wrap events found (jumps larger than half the modulus).
+    first_row : int or None
+        Row of the first sample after the first wrap.
+    """
+    if x.size < 2 or not np.all(np.isfinite(x)) or modulus <= 0:
+        return x, 0, None
+    d = np.diff(x)
+    jumps = np.abs(d) > 0.5 * modulus
+    # A wrapping signal stays within one modulus; a genuinely fast multi-turn signal does not.
+    if not jumps.any() or np.ptp(x) > modulus * (1 + 1e-9):
+        return x, 0, None
+    return np.unwrap(x, period=modulus), int(jumps.sum()), int(np.flatnonzero(jumps)[0] + 1)
+
+
+def _mapping_from(mapping: Any) -> tuple[dict[str, ColumnMap] | None, SamplingSection]:
+    if mapping is None:
+        return None, SamplingSection()
+    if isinstance(mapping, DriveConfig):
+        return mapping.columns, mapping.sampling_or_default()
+    if isinstance(mapping, Mapping):
+        out = {}
+        for k, v in mapping.items():
+            out[str(k)] = v if isinstance(v, ColumnMap) else ColumnMap.model_validate(v)
+        return out, SamplingSection()
+    raise TypeError(f"mapping must be a DriveConfig, a dict of column maps or None, got {type(mapping)}")
+
+
+def _apply_mapping(
+    table: RawTable, cmap: dict[str, ColumnMap] | None, sampling: SamplingSection, warnings: list[str]
+) -> tuple[dict[str, np.ndarray], dict[str, str], dict[str, str]]:
+    """Columns in SI, their unit kinds and the source name of each Trace column."""
+    path = table.path
+    kinds: dict[str, str] = {}
+    origin: dict[str, str] = {}
+    cols: dict[str, np.ndarray] = {}
+    if cmap is None:
+        cols = dict(table.columns)
+        origin = {k: k for k in cols}
+        if "t" in cols and sampling.time_unit != "s":
+            cols["t"] = cols["t"] * _TO_SI[sampling.time_unit]
+        for k in cols:
+            if k.startswith("theta"):
+                x, n_wraps, row = unwrap_encoder(cols[k], 2 * math.pi)
+                if n_wraps:
+                    cols[k] = x
+                    warnings.append(
+                        f"{path}, column '{k}', row {row}: encoder wrap-around"
+                        f" ({n_wraps} jump(s) of one revolution) unwrapped"
+                    )
+        return cols, kinds, origin
+    for source, cm in cmap.items():
+        if source not in table.columns:
+            avail = ", ".join(list(table.columns)[:20])
+            raise DataError(f"missing required column (available: {avail})", path=path, column=source)
+        if cm.column in cols:
+            raise DataError(f"two source columns map to Trace column '{cm.column}'", path=path, column=source)
+        kind = UNIT_KIND[cm.unit]
+        acc = _ACCEPTS.get(cm.column)
+        if acc is not None and kind not in acc:
+            raise DataError(
+                f"unit '{cm.unit}' ({kind}) does not fit Trace column '{cm.column}'"
+                f" (needs {' or '.join(acc)})",
+                path=path,
+                column=source,
+            )
+        raw = table.columns[source]
+        modulus = cm.wrap if cm.wrap is not None else (_one_rev(cm) if kind == "angle" else None)
+        if modulus is not None and cm.column.startswith("theta"):
+            raw, n_wraps, row = unwrap_encoder(raw, modulus)
+            if n_wraps:
+                warnings.append(
+                    f"{path}, column '{source}', row {row}: encoder wrap-around"
+                    f" ({n_wraps} jump(s) of {modulus:g} {cm.unit}) unwrapped"
+                )
+        cols[cm.column] = raw * _factor(cm, table, source) * cm.scale + cm.offset
+        kinds[cm.column] = kind
+        origin[cm.column] = source
+    return cols, kinds, origin
+
+
+def _check_finite(cols: Mapping[str, np.ndarray], origin: Mapping[str, str], path: str) -> None:
+    for name, a in cols.items():
+        bad = ~np.isfinite(a)
+        if bad.any():
+            row = int(np.flatnonzero(bad)[0])
+            what = "NaN" if np.isnan(a[row]) else "infinite value"
+            raise DataError(
+                f"{what} ({int(bad.sum())} bad sample(s))", path=path, column=origin.get(name, name), row=row
+            )
+
+
+def _check_time(
+    t: np.ndarray, path: str, column: str, sampling: SamplingSection, warnings: list[str]
+) -> np.ndarray | None:
+    """Validate the time column; return a uniform grid to resample onto, or None."""
+    if t.size < 3:
+        raise DataError(f"only {t.size} sample(s); need at least 3", path=path, column=column)
+    dt = np.diff(t)
+    if np.any(dt <= 0):
+        i = int(np.flatnonzero(dt <= 0)[0])
+        what = "duplicated time stamp" if dt[i] == 0 else "time goes backwards (non-increasing)"
+        raise DataError(f"{what}: t={t[i + 1]!r} after t={t[i]!r}", path=path, column=column, row=i + 1)
+    med = float(np.median(dt))
+    dev = np.abs(dt - med) / med
+    if np.any(dev > sampling.tolerance):
+        i = int(np.flatnonzero(dev > sampling.tolerance)[0])
+        if not sampling.resample:
+            raise DataError(
+                f"non-uniform sampling: interval {dt[i]:.6g} s vs median {med:.6g} s"
+                f" (deviation {dev[i]:.1%} > tolerance {sampling.tolerance:.1%});"
+                " resample explicitly with --resample or [sampling] resample = true",
+                path=path,
+                column=column,
+                row=i + 1,
+            )
+        n = int(math.floor((t[-1] - t[0]) / med + 1e-9)) + 1
+        warnings.append(
+            f"{path}, column '{column}', row {i + 1}: non-uniform sampling;"
+            f" resampled linearly onto a {med:.6g} s grid ({n} samples)"
+        )
+        return t[0] + med * np.arange(n)
+    return None
+
+
+def _check_signals(
+    cols: Mapping[str, np.ndarray], origin: Mapping[str, str], path: str, names: Iterable[str]
+) -> None:
+    for name in names:
+        if name not in cols or name == "t":
+            continue
+        a = cols[name]
+        src = origin.get(name, name)
+        if np.ptp(a) == 0:
+            raise DataError(f"constant signal (every sample is {a[0]:.6g})", path=path, column=src, row=0)
+        if name.startswith("torque") or name.startswith("F_"):
+            for ext, label in ((a.max(), "maximum"), (a.min(), "minimum")):
+                at = a == ext
+                frac = at.mean()
+                if frac < SATURATION_FRACTION:
+                    continue
+                # longest run at the extreme
+                edges = np.diff(np.concatenate(([0], at.view(np.int8), [0])))
+                starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+                if (stops - starts).max() >= SATURATION_MIN_RUN:
+                    raise DataError(
+                        f"saturated signal: {frac:.1%} of samples sit at the {label} {ext:.6g}"
+                        " (clipped recording?)",
+                        path=path,
+                        column=src,
+                        row=int(starts[0]),
+                    )
+
+
+def _check_units(
+    cols: Mapping[str, np.ndarray], origin: Mapping[str, str], path: str, kinds: Mapping[str, str]
+) -> None:
+    """Velocity against the derivative of position: factor ≈ 57.3 / 9.55 means deg or rpm."""
+    t = cols["t"]
+    for side in ("m", "l"):
+        th, om = cols.get(f"theta_{side}"), cols.get(f"omega_{side}")
+        if th is None or om is None:
+            continue
+        d = np.gradient(th, t)
+        # robust scale ratio on samples with motion, after light smoothing of the derivative
+        k = max(1, min(25, t.size // 50))
+        if k > 1:
+            ker = np.ones(k) / k
+            d = np.convolve(d, ker, mode="same")
+            om_s = np.convolve(om, ker, mode="same")
+        else:
+            om_s = om
+        moving = np.abs(d) > 0.1 * np.max(np.abs(d)) if np.max(np.abs(d)) > 0 else np.zeros(d.size, bool)
+        if moving.sum() < 10:
+            continue
+        ratio = float(np.dot(om_s[moving], d[moving]) / np.dot(d[moving], d[moving]))
+        row = int(np.flatnonzero(moving)[0])
+        src = origin.get(f"omega_{side}", f"omega_{side}")
+        for factor, hint in (
+            (180.0 / math.pi, "velocity looks like deg/s (or position like rad where deg was meant)"),
+            (60.0 / (2 * math.pi), "velocity looks like rpm"),
+            (math.pi / 180.0, "position looks like deg (declare unit 'deg')"),
+            (2 * math.pi / 60.0, "position/velocity units inconsistent by 9.55 (rpm vs rad/s?)"),
+        ):
+            if abs(ratio / factor - 1) < UNIT_FACTOR_TOLERANCE:
+                raise DataError(
+                    f"implausible units: velocity is {ratio:.4g}× the derivative of"
+                    f" theta_{side}; {hint} — fix the unit in [columns]",
+                    path=path,
+                    column=src,
+                    row=row,
+                )
+
+
+def load_trace(
+    path: str | Path,
+    mapping: DriveConfig | Mapping[str, Any] | None = None,
+    *,
+    required: Iterable[str] = (),
+    resample: bool | None = None,
+    check_saturation: bool = True,
+) -> Trace:
+    """Read, map, convert and validate a recording.
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV, Parquet, HDF5 or MATLAB (v5/v7.3) file.
+    mapping : DriveConfig or dict, optional
+        Column mapping: a configuration (its ``[columns]`` and ``[sampling]``
+        tables) or a dict source name → :class:`~drivelash.io.config.ColumnMap`
+        (or equivalent dict). Without one, columns must already carry the Trace
+        names in SI units.
+    required : iterable of str
+        Trace columns the caller needs (``t`` is always required).
+    resample : bool, optional
+        Override ``[sampling] resample``: resample non-uniform time onto a
+        uniform grid by linear interpolation (recorded in ``meta["warnings"]``).
+    check_saturation : bool
+        Refuse torque/force columns clipped at a constant extreme.
+
+    Returns
+    -------
+    Trace
+        SI columns; ``meta`` holds ``source``, ``format``, ``axis``
+        (``"rotary"``/``"prismatic"``), ``units`` and ``warnings``.
+
+    Raises
+    ------
+    DataError
+        One line naming file, column and first bad row.
+    """
+    p = Path(path)
+    cmap, sampling = _mapping_from(mapping)
+    if resample is not None:
+        sampling = sampling.model_copy(update={"resample": resample})
+    table = read_raw(p)
+    spath = str(p)
+    warnings: list[str] = []
+    cols, kinds, origin = _apply_mapping(table, cmap, sampling, warnings)
+
+    if "t" not in cols:
+        if sampling.sample_rate is None:
+            raise DataError(
+                "missing required column 't' (no time column mapped and no [sampling] sample_rate)",
+                path=spath,
+                column="t",
+            )
+        n = next(iter(cols.values())).size if cols else 0
+        cols = {"t": np.arange(n) / sampling.sample_rate, **cols}
+        origin["t"] = "t"
+    elif cmap is not None and "t" in kinds and sampling.time_unit != "s":
+        pass  # a mapped time column carries its own unit
+    missing = [r for r in required if r not in cols]
+    if missing:
+        raise DataError(
+            f"missing required column (have: {', '.join(cols)}); map it in [columns]",
+            path=spath,
+            column=missing[0],
+        )
+    _check_finite(cols, origin, spath)
+    grid = _check_time(cols["t"], spath, origin.get("t", "t"), sampling, warnings)
+    if grid is not None:
+        t_old = cols["t"]
+        cols = {k: (grid if k == "t" else np.interp(grid, t_old, v)) for k, v in cols.items()}
+    signal_names = list(dict.fromkeys([*SIGNAL_COLUMNS, *required]))
+    if check_saturation:
+        _check_signals(cols, origin, spath, signal_names)
+    else:
+        _check_signals(
+            {k: v for k, v in cols.items() if not k.startswith("torque")}, origin, spath, signal_names
+        )
+    _check_units(cols, origin, spath, kinds)
+
+    prismatic = kinds.get("theta_m") == "length" or kinds.get("omega_m") == "velocity"
+    kinds_m = {kinds.get("theta_m"), kinds.get("omega_m")} - {None, "dimensionless"}
+    if prismatic and kinds_m & {"angle", "angular_velocity"}:
+        raise DataError(
+            "theta_m and omega_m mix a length and an angle unit", path=spath, column=origin.get("omega_m")
+        )
+    meta: dict[str, Any] = dict(table.meta)
+    meta.update(
+        {
+            "source": spath,
+            "format": table.fmt,
+            "axis": "prismatic" if prismatic else meta.get("axis", "rotary"),
+            "warnings": list(meta.get("warnings", [])) + warnings,
+        }
+    )
+    if prismatic:
+        meta["units"] = {
+            "t": "s",
+            "theta_m": "m",
+            "omega_m": "m/s",
+            "torque_m": "N",
+            "theta_l": "m",
+            "omega_l": "m/s",
+        }
+    if table.scalars:
+        meta["scalars"] = {k: float(v) for k, v in table.scalars.items()}
+    if cmap is not None:
+        meta["mapping"] = {k: v.model_dump(exclude_defaults=True) for k, v in cmap.items()}
+    return Trace(cols, meta)
