@@ -1,0 +1,430 @@
+"""Offline drive identification: inverse dynamic model, least squares (IDIM-LS).
+
+Rigid axis (motor side, or a prismatic axis like EMPS)::
+
+    τ = M q̈ + F_v q̇ + F_c sign(q̇) + offset
+
+with τ the measured motor torque [N·m] (force [N]), q the position [rad] ([m]).
+Practice of Gautier and Janot for IDIM-LS (and of the EMPS benchmark):
+
+1. the position is low-passed with a zero-phase Butterworth filter
+   (``scipy.signal.butter`` + ``filtfilt``), then differentiated twice by central
+   differences — no phase lag between q̇, q̈ and τ;
+2. ``n_border`` samples are dropped at each end against filter edge effects;
+3. "parallel filtering": every column of the observation matrix W and the
+   torque τ are decimated by the same factor with the same low-pass
+   (``scipy.signal.decimate``: order-8 Chebyshev I, zero phase — as MATLAB's
+   ``decimate``). This removes the high-frequency torque ripple the rigid
+   model does not explain, identically on both sides of the equation;
+4. ordinary least squares θ̂ = argmin ‖y − Wθ‖; σ̂² = ‖y − Wθ̂‖²/(r − p);
+   cov(θ̂) = σ̂² (WᵀW)⁻¹; relative error ‖y − Wθ̂‖/‖y‖.
+
+Load side of a two-mass drive (J_l ω̇_l = T_l − T_F,l(ω_l), spec 01 eq 3): the
+shaft torque is estimated from the motor side with known motor parameters,
+T̂_l = N (u − J_m ω̇_m − β_m ω_m − T_Cm sign ω_m) (eq 1), and
+T̂_l = J_l ω̇_l + β_l ω_l + T_Cl sign ω_l + offset is solved the same way.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy import signal
+
+from drivelash.errors import DataError, ParameterError
+from drivelash.io.trace import Trace
+
+RIGID_NAMES = ("M", "F_v", "F_c", "offset")
+LOAD_NAMES = ("J_l", "beta_l", "T_Cl", "offset")
+
+
+@dataclass(frozen=True)
+class IdentificationResult:
+    """IDIM-LS estimates and their statistics.
+
+    Attributes
+    ----------
+    names : tuple of str
+        Parameter names, in column order of W.
+    theta : numpy.ndarray
+        Estimates (units: M [kg·m²] or [kg], F_v [N·m·s/rad] or [N·s/m],
+        F_c and offset [N·m] or [N]).
+    std : numpy.ndarray
+        Standard deviations σ̂ √diag((WᵀW)⁻¹), same units as ``theta``.
+    relative_error : float
+        ‖y − Wθ̂‖ / ‖y‖ on the (decimated) identification data [-].
+    sigma : float
+        Residual standard deviation σ̂ [N·m] or [N].
+    condition : float
+        Condition number of the decimated W [-].
+    n_rows : int
+        Rows of the decimated system.
+    options : dict
+        Filter cut-off [Hz], order, decimation factor, border, sample time [s].
+    t, y, y_hat : numpy.ndarray
+        Decimated time [s], measured and predicted torque (for plots).
+    q_dot, q_ddot : numpy.ndarray
+        Decimated velocity and acceleration used in W.
+    axis : str
+        ``"rotary"`` or ``"prismatic"`` (units of the numbers above).
+    side : str
+        ``"motor"`` or ``"load"``.
+    """
+
+    names: tuple[str, ...]
+    theta: np.ndarray
+    std: np.ndarray
+    relative_error: float
+    sigma: float
+    condition: float
+    n_rows: int
+    options: dict[str, Any]
+    t: np.ndarray = field(repr=False)
+    y: np.ndarray = field(repr=False)
+    y_hat: np.ndarray = field(repr=False)
+    q_dot: np.ndarray = field(repr=False)
+    q_ddot: np.ndarray = field(repr=False)
+    axis: str = "rotary"
+    side: str = "motor"
+
+    def __getitem__(self, name: str) -> float:
+        return float(self.theta[self.names.index(name)])
+
+    def std_of(self, name: str) -> float:
+        """Standard deviation of parameter ``name``."""
+        return float(self.std[self.names.index(name)])
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (no arrays)."""
+        return {
+            "side": self.side,
+            "axis": self.axis,
+            "parameters": {
+                n: {
+                    "value": float(v),
+                    "std": float(s),
+                    "rel_std_percent": float(100 * s / abs(v)) if v else None,
+                }
+                for n, v, s in zip(self.names, self.theta, self.std, strict=True)
+            },
+            "relative_error": self.relative_error,
+            "residual_std": self.sigma,
+            "condition_number": self.condition,
+            "n_rows": self.n_rows,
+            "options": self.options,
+        }
+
+    def drivetrain_values(self) -> dict[str, float]:
+        """The identified values under their ``[drivetrain]`` names.
+
+        Motor side: J_m ← M, beta_m ← F_v, T_Cm ← F_c. Load side: J_l, beta_l, T_Cl.
+        A negative friction estimate is clipped to 0 (params require ≥ 0).
+        """
+        if self.side == "motor":
+            return {"J_m": self["M"], "beta_m": max(self["F_v"], 0.0), "T_Cm": max(self["F_c"], 0.0)}
+        return {"J_l": self["J_l"], "beta_l": max(self["beta_l"], 0.0), "T_Cl": max(self["T_Cl"], 0.0)}
+
+
+def central_difference(x: np.ndarray, dt: float) -> np.ndarray:
+    """Central difference (x[k+1] − x[k−1]) / 2dt; one-sided at the two ends.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Samples at constant period.
+    dt : float
+        Sample period [s].
+    """
+    return np.gradient(x, dt, edge_order=1)
+
+
+def lowpass_zero_phase(x: np.ndarray, cutoff_hz: float, fs: float, order: int = 4) -> np.ndarray:
+    """Zero-phase Butterworth low-pass (``butter`` + ``filtfilt``).
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Signal.
+    cutoff_hz : float
+        −3 dB frequency of the single-pass filter [Hz]; must be below fs/2.
+    fs : float
+        Sample rate [Hz].
+    order : int
+        Butterworth order (the forward-backward pass doubles the attenuation).
+    """
+    if not 0 < cutoff_hz < fs / 2:
+        raise ParameterError("identification", "cutoff_hz", f"must lie in (0, fs/2 = {fs / 2:g}) Hz")
+    b, a = signal.butter(order, cutoff_hz / (fs / 2))
+    return signal.filtfilt(b, a, x)
+
+
+def _decimate(x: np.ndarray, q: int) -> np.ndarray:
+    if q == 1:
+        return x.copy()
+    # stages of at most 10 as scipy recommends for IIR decimation
+    out = x
+    while q > 1:
+        step = next(s for s in range(min(q, 10), 0, -1) if q % s == 0)
+        if step == 1:  # prime factor > 10: one stage (scipy warns only for q > 13)
+            step = q
+        out = signal.decimate(out, step, ftype="iir", zero_phase=True)
+        q //= step
+    return out
+
+
+def _prepare(
+    q: np.ndarray, dt: float, cutoff_hz: float, order: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    qf = lowpass_zero_phase(q, cutoff_hz, 1.0 / dt, order)
+    dq = central_difference(qf, dt)
+    ddq = central_difference(dq, dt)
+    return qf, dq, ddq
+
+
+def _solve(
+    W: np.ndarray, y: np.ndarray, names: tuple[str, ...]
+) -> tuple[np.ndarray, np.ndarray, float, float, float]:
+    r, p = W.shape
+    if r <= p:
+        raise DataError(f"only {r} rows after decimation for {p} parameters; record longer")
+    col_norm = np.linalg.norm(W, axis=0)
+    if np.any(col_norm == 0):
+        bad = names[int(np.flatnonzero(col_norm == 0)[0])]
+        raise DataError(f"the recording does not excite parameter {bad} (its regressor column is zero)")
+    theta, *_ = np.linalg.lstsq(W, y, rcond=None)
+    e = y - W @ theta
+    sigma2 = float(e @ e) / (r - p)
+    cov = sigma2 * np.linalg.inv(W.T @ W)
+    std = np.sqrt(np.clip(np.diag(cov), 0, None))
+    rel = float(np.linalg.norm(e) / np.linalg.norm(y)) if np.linalg.norm(y) > 0 else float("inf")
+    return theta, std, rel, float(np.sqrt(sigma2)), float(np.linalg.cond(W))
+
+
+def _regressors(
+    trace: Trace, side: str, cutoff_hz: float, filter_order: int, n_border: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Undecimated (t, q̇, q̈, τ-or-shaft-torque, sign source) after border removal."""
+    dt = trace.sample_time
+    col = "theta_m" if side == "motor" else "theta_l"
+    for need in (col, "torque_m"):
+        if need not in trace:
+            raise DataError("identification needs this column", column=need, path=trace.meta.get("source"))
+    _, dq, ddq = _prepare(trace[col], dt, cutoff_hz, filter_order)
+    y = trace["torque_m"].copy()
+    t = trace["t"]
+    n = len(trace)
+    if 2 * n_border + 20 >= n:
+        raise DataError(f"recording too short ({n} samples) for n_border = {n_border}", column="t")
+    sl = slice(n_border, n - n_border)
+    return t[sl], dq[sl], ddq[sl], y[sl], dq[sl]
+
+
+def identify_rigid(
+    trace: Trace,
+    *,
+    cutoff_hz: float = 100.0,
+    filter_order: int = 4,
+    decimate: int = 10,
+    n_border: int = 50,
+) -> IdentificationResult:
+    """IDIM-LS of τ = M q̈ + F_v q̇ + F_c sign(q̇) + offset on the motor side.
+
+    Parameters
+    ----------
+    trace : Trace
+        Needs ``theta_m`` [rad] or [m] and ``torque_m`` [N·m] or [N].
+    cutoff_hz : float
+        Butterworth cut-off on position [Hz].
+    filter_order : int
+        Butterworth order.
+    decimate : int
+        Decimation factor of W and τ (parallel filtering).
+    n_border : int
+        Samples dropped at each end.
+
+    Returns
+    -------
+    IdentificationResult
+        Names ``M``, ``F_v``, ``F_c``, ``offset``.
+    """
+    t, dq, ddq, y, _ = _regressors(trace, "motor", cutoff_hz, filter_order, n_border)
+    W = np.column_stack([ddq, dq, np.sign(dq), np.ones_like(dq)])
+    return _finish(trace, t, W, y, RIGID_NAMES, "motor", cutoff_hz, filter_order, decimate, n_border)
+
+
+def _finish(
+    trace: Trace,
+    t: np.ndarray,
+    W: np.ndarray,
+    y: np.ndarray,
+    names: tuple[str, ...],
+    side: str,
+    cutoff_hz: float,
+    filter_order: int,
+    decimate: int,
+    n_border: int,
+) -> IdentificationResult:
+    if decimate < 1:
+        raise ParameterError("identification", "decimate", "must be >= 1")
+    Wd = np.column_stack([_decimate(W[:, j], decimate) for j in range(W.shape[1])])
+    yd = _decimate(y, decimate)
+    td = t[::decimate][: yd.size]
+    theta, std, rel, sigma, cond = _solve(Wd, yd, names)
+    return IdentificationResult(
+        names=names,
+        theta=theta,
+        std=std,
+        relative_error=rel,
+        sigma=sigma,
+        condition=cond,
+        n_rows=int(yd.size),
+        options={
+            "cutoff_hz": cutoff_hz,
+            "filter_order": filter_order,
+            "decimate": decimate,
+            "n_border": n_border,
+            "sample_time": trace.sample_time,
+        },
+        t=td,
+        y=yd,
+        y_hat=Wd @ theta,
+        q_dot=Wd[:, 1] if side == "motor" else Wd[:, 1],
+        q_ddot=Wd[:, 0],
+        axis=str(trace.meta.get("axis", "rotary")),
+        side=side,
+    )
+
+
+def shaft_torque_estimate(
+    trace: Trace, J_m: float, beta_m: float, T_Cm: float, N: float, **kw: Any
+) -> np.ndarray:
+    """Shaft torque from the motor side, eq (1): T̂_l = N (u − J_m ω̇_m − β_m ω_m − T_Cm sign ω_m).
+
+    Parameters
+    ----------
+    trace : Trace
+        Needs ``theta_m`` [rad] and ``torque_m`` [N·m].
+    J_m, beta_m, T_Cm, N : float
+        Motor inertia [kg·m²], viscous [N·m·s/rad], Coulomb [N·m], gear ratio [-].
+    **kw
+        ``cutoff_hz``, ``filter_order`` of the position filter.
+
+    Returns
+    -------
+    numpy.ndarray
+        T̂_l [N·m] at every sample.
+    """
+    dt = trace.sample_time
+    _, dq, ddq = _prepare(trace["theta_m"], dt, kw.get("cutoff_hz", 100.0), kw.get("filter_order", 4))
+    return N * (trace["torque_m"] - J_m * ddq - beta_m * dq - T_Cm * np.sign(dq))
+
+
+def identify_load(
+    trace: Trace,
+    *,
+    J_m: float,
+    beta_m: float,
+    T_Cm: float,
+    N: float,
+    cutoff_hz: float = 100.0,
+    filter_order: int = 4,
+    decimate: int = 10,
+    n_border: int = 50,
+) -> IdentificationResult:
+    """IDIM-LS of the load side T̂_l = J_l ω̇_l + β_l ω_l + T_Cl sign ω_l + offset.
+
+    The shaft torque comes from :func:`shaft_torque_estimate` with the given
+    motor parameters; the load encoder ``theta_l`` gives ω_l and ω̇_l.
+
+    Returns
+    -------
+    IdentificationResult
+        Names ``J_l``, ``beta_l``, ``T_Cl``, ``offset`` (side ``"load"``).
+    """
+    if "theta_l" not in trace:
+        raise DataError(
+            "load-side identification needs a load encoder column",
+            column="theta_l",
+            path=trace.meta.get("source"),
+        )
+    T_l = shaft_torque_estimate(trace, J_m, beta_m, T_Cm, N, cutoff_hz=cutoff_hz, filter_order=filter_order)
+    dt = trace.sample_time
+    _, dq, ddq = _prepare(trace["theta_l"], dt, cutoff_hz, filter_order)
+    n = len(trace)
+    sl = slice(n_border, n - n_border)
+    W = np.column_stack([ddq[sl], dq[sl], np.sign(dq[sl]), np.ones(n)[sl]])
+    return _finish(
+        trace, trace["t"][sl], W, T_l[sl], LOAD_NAMES, "load", cutoff_hz, filter_order, decimate, n_border
+    )
+
+
+@dataclass(frozen=True)
+class CrossTest:
+    """Inverse model of one recording applied to another (cross-test).
+
+    Attributes
+    ----------
+    relative_error : float
+        ‖y − Wθ̂‖ / ‖y‖ on the decimated validation data [-].
+    t, y, y_hat : numpy.ndarray
+        Decimated time [s], measured and predicted torque/force.
+    """
+
+    relative_error: float
+    t: np.ndarray = field(repr=False)
+    y: np.ndarray = field(repr=False)
+    y_hat: np.ndarray = field(repr=False)
+
+
+def cross_test(result: IdentificationResult, trace: Trace) -> CrossTest:
+    """Evaluate an identified rigid model on another recording, same preprocessing.
+
+    Parameters
+    ----------
+    result : IdentificationResult
+        From :func:`identify_rigid` (motor side).
+    trace : Trace
+        Validation recording.
+    """
+    o = result.options
+    t, dq, ddq, y, _ = _regressors(trace, "motor", o["cutoff_hz"], o["filter_order"], o["n_border"])
+    W = np.column_stack([ddq, dq, np.sign(dq), np.ones_like(dq)])
+    q = int(o["decimate"])
+    Wd = np.column_stack([_decimate(W[:, j], q) for j in range(W.shape[1])])
+    yd = _decimate(y, q)
+    y_hat = Wd @ result.theta
+    rel = float(np.linalg.norm(yd - y_hat) / np.linalg.norm(yd))
+    return CrossTest(rel, t[::q][: yd.size], yd, y_hat)
+
+
+def identify(trace: Trace, options: Any = None, drivetrain: Any = None) -> IdentificationResult:
+    """Identify by an ``[identification]`` table (side motor or load).
+
+    Parameters
+    ----------
+    trace : Trace
+    options : IdentificationSection, optional
+        Filter/decimation options; defaults when None.
+    drivetrain : DrivetrainSection, optional
+        Known motor parameters (J_m, beta_m, T_Cm, N), needed for ``side = "load"``.
+    """
+    from drivelash.io.config import IdentificationSection
+
+    o = options or IdentificationSection()
+    kw = {
+        "cutoff_hz": o.cutoff_hz,
+        "filter_order": o.filter_order,
+        "decimate": o.decimate,
+        "n_border": o.n_border,
+    }
+    if o.side == "motor":
+        return identify_rigid(trace, **kw)
+    if drivetrain is None:
+        from drivelash.errors import ConfigError
+
+        raise ConfigError("side = 'load' needs the motor parameters in [drivetrain] (J_m, beta_m, T_Cm, N)")
+    return identify_load(
+        trace, J_m=drivetrain.J_m, beta_m=drivetrain.beta_m, T_Cm=drivetrain.T_Cm, N=drivetrain.N, **kw
+    )
