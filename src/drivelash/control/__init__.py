@@ -1,0 +1,20 @@
+"""Discrete cascade position control and reference trajectories (spec 01 §1)."""
+
+from drivelash.control.cascade import CascadeController, gains_from_bandwidth
+from drivelash.control.references import (
+    Reference,
+    constant_velocity_passes,
+    position_sine,
+    sampled,
+    velocity_sine,
+)
+
+__all__ = [
+    "CascadeController",
+    "Reference",
+    "constant_velocity_passes",
+    "gains_from_bandwidth",
+    "position_sine",
+    "sampled",
+    "velocity_sine",
+]

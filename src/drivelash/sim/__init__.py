@@ -1,0 +1,1 @@
+"""Closed-loop drive-train simulation: engine, sensor model and named scenarios."""
