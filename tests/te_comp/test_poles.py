@@ -9,10 +9,10 @@ direct torque feed-through moves them — so the check can fail.
 
 from __future__ import annotations
 
-import control as ct
 import numpy as np
 import pytest
 
+import control as ct
 from drivelash.te.compensation import Compensator, CompensatorParams, build_table
 
 from .analytic import SineTE
