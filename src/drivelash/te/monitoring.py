@@ -1,0 +1,208 @@
+"""Monitoring the compensation while it is active (spec 02 §6, paper §VI).
+
+With the compensation running, the path error that *would* occur without it is
+estimated by applying the disturbance transfer function G_d,CL (3) to the measured
+transmission error TE = x_T − x_M. The part of the TE the model does not explain,
+ε = TE_measured − TE_model, passed through (3), is the path error the compensation
+leaves because of model error. Both are evaluated per section of travel (100 mm);
+sections where the model's path error exceeds a threshold are flagged — a trigger
+for retraining (``update(stage="trees")``) or a condition-monitoring finding.
+
+The threshold adapts to the drive: a section is flagged when its model path error
+(MAE) exceeds ``max(floor, factor × median over all sections)``; a single bad
+section cannot raise the median, so a local defect stands out.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from drivelash.errors import DataError, ParameterError
+
+#: ``path_error(t [s], te [m]) -> e_x [m]``: (3) applied to a TE time series.
+PathErrorFn = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+
+@dataclass(frozen=True)
+class MonitorParams:
+    """Settings of the section monitor; values and reasons in docs/assumptions.md.
+
+    Parameters
+    ----------
+    section_length : float
+        Length of a monitored section of travel [m] (paper: 100 mm).
+    floor : float
+        Smallest threshold of the model path error, MAE per section [m].
+    factor : float
+        Threshold as a multiple of the median section value [-].
+    min_coverage : float
+        Share of a section that must be covered by samples for it to be judged [-].
+    """
+
+    section_length: float = 0.1
+    floor: float = 0.1e-6
+    factor: float = 3.0
+    min_coverage: float = 0.5
+
+    def __post_init__(self) -> None:
+        for n in ("section_length", "floor", "factor", "min_coverage"):
+            v = getattr(self, n)
+            if not (np.isfinite(v) and v > 0):
+                raise ParameterError(type(self).__name__, n, f"must be finite and > 0, got {v!r}")
+
+
+@dataclass(frozen=True)
+class SectionReport:
+    """Per-section monitoring result (arrays of equal length, one entry per section).
+
+    Attributes
+    ----------
+    edges : numpy.ndarray
+        Section boundaries [m], length n + 1.
+    mae_uncompensated : numpy.ndarray
+        Estimated path-error MAE without compensation, (3) applied to measured TE [m].
+    mae_measured : numpy.ndarray
+        Measured path-error MAE with compensation (x_d − x_T) [m].
+    mae_model : numpy.ndarray
+        Path-error MAE caused by model error, (3) applied to TE_meas − TE_model [m].
+    improvement : numpy.ndarray
+        Estimated improvement 1 − mae_measured / mae_uncompensated [-].
+    threshold : float
+        Threshold applied to ``mae_model`` [m].
+    flagged : numpy.ndarray
+        Boolean, True where ``mae_model > threshold``.
+    """
+
+    edges: np.ndarray
+    mae_uncompensated: np.ndarray
+    mae_measured: np.ndarray
+    mae_model: np.ndarray
+    improvement: np.ndarray
+    threshold: float
+    flagged: np.ndarray
+
+    def flagged_intervals(self) -> list[tuple[float, float]]:
+        """Flagged sections as (start, end) [m], adjacent ones merged."""
+        out: list[tuple[float, float]] = []
+        for i in np.flatnonzero(self.flagged):
+            a, b = float(self.edges[i]), float(self.edges[i + 1])
+            if out and abs(out[-1][1] - a) < 1e-12:
+                out[-1] = (out[-1][0], b)
+            else:
+                out.append((a, b))
+        return out
+
+
+def section_mae(x: np.ndarray, values: np.ndarray, edges: np.ndarray, min_count: int = 1) -> np.ndarray:
+    """Mean absolute value of ``values`` per position section [unit of values]; NaN if too few samples.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Positions of the samples [m].
+    values : numpy.ndarray
+        Signal (e.g. path error) [any unit].
+    edges : numpy.ndarray
+        Section boundaries [m], increasing.
+    min_count : int
+        Fewest samples for a section to get a value.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    v = np.abs(np.asarray(values, dtype=np.float64))
+    idx = np.searchsorted(edges, x, side="right") - 1
+    ok = (idx >= 0) & (idx < edges.size - 1)
+    n = np.bincount(idx[ok], minlength=edges.size - 1).astype(np.float64)
+    s = np.bincount(idx[ok], weights=v[ok], minlength=edges.size - 1)
+    out = np.full(edges.size - 1, np.nan)
+    good = n >= max(min_count, 1)
+    out[good] = s[good] / n[good]
+    return out
+
+
+def section_edges(x_min: float, x_max: float, length: float) -> np.ndarray:
+    """Section boundaries from ``x_min`` in steps of ``length`` up to ``x_max`` (last one partial) [m]."""
+    n = int(np.ceil((x_max - x_min) / length - 1e-9))
+    return x_min + length * np.arange(n + 1, dtype=np.float64)
+
+
+def monitor_sections(
+    t: np.ndarray,
+    x_T: np.ndarray,
+    te_measured: np.ndarray,
+    te_model: np.ndarray,
+    path_error_measured: np.ndarray,
+    path_error: PathErrorFn,
+    params: MonitorParams | None = None,
+    edges: np.ndarray | None = None,
+) -> SectionReport:
+    """Judge the compensation per section from one pass recorded with compensation active.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Time [s], constant step.
+    x_T : numpy.ndarray
+        Table position (linear scale) [m].
+    te_measured : numpy.ndarray
+        Measured TE = x_T − x_M [m].
+    te_model : numpy.ndarray
+        The model's TE at the same instants (position, torque, flank) [m].
+    path_error_measured : numpy.ndarray
+        Measured path error x_d − x_T with compensation [m].
+    path_error : callable
+        ``path_error(t, te) -> e_x``: eq (3) applied to a TE time series [m].
+    params : MonitorParams, optional
+        Section length and threshold rule.
+    edges : numpy.ndarray, optional
+        Section boundaries [m]; default: from ``min(x_T)`` in steps of the section length.
+
+    Returns
+    -------
+    SectionReport
+    """
+    p = params or MonitorParams()
+    arrs = [np.asarray(a, dtype=np.float64) for a in (t, x_T, te_measured, te_model, path_error_measured)]
+    n = arrs[0].size
+    if n < 4 or any(a.shape != (n,) for a in arrs):
+        raise DataError("monitoring needs 1-D arrays of equal length (>= 4 samples)")
+    t, x, te_m, te_hat, e_meas = arrs
+    if edges is None:
+        edges = section_edges(float(x.min()), float(x.max()), p.section_length)
+    e_unc = np.asarray(path_error(t, te_m), dtype=np.float64)
+    e_mod = np.asarray(path_error(t, te_m - te_hat), dtype=np.float64)
+    # samples per section needed for a judgement: min_coverage of the samples an even pass would put there
+    span = float(x.max() - x.min())
+    per_m = n / span if span > 0 else float(n)
+    min_count = int(p.min_coverage * per_m * p.section_length)
+    mae_unc = section_mae(x, e_unc, edges, min_count)
+    mae_meas = section_mae(x, e_meas, edges, min_count)
+    mae_mod = section_mae(x, e_mod, edges, min_count)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        impr = 1.0 - mae_meas / mae_unc
+    valid = np.isfinite(mae_mod)
+    med = float(np.median(mae_mod[valid])) if np.any(valid) else 0.0
+    thr = max(p.floor, p.factor * med)
+    flagged = valid & (np.nan_to_num(mae_mod, nan=0.0) > thr)
+    return SectionReport(np.asarray(edges), mae_unc, mae_meas, mae_mod, impr, thr, flagged)
+
+
+def false_sections_per_metre(report: SectionReport, defect: tuple[float, float]) -> float:
+    """Flagged sections that do not overlap the defect interval (start, end) [m], per metre of travel."""
+    a, b = defect
+    lo, hi = report.edges[:-1], report.edges[1:]
+    overlap = (hi > a) & (lo < b)
+    false = int(np.count_nonzero(report.flagged & ~overlap))
+    judged = np.isfinite(report.mae_model)
+    length = float(np.sum((hi - lo)[judged]))
+    return false / length if length > 0 else float("nan")
+
+
+def defect_covered(report: SectionReport, defect: tuple[float, float]) -> bool:
+    """True when every judged section overlapping the defect interval (start, end) [m] is flagged."""
+    a, b = defect
+    lo, hi = report.edges[:-1], report.edges[1:]
+    core = (hi > a) & (lo < b) & np.isfinite(report.mae_model)
+    return bool(np.any(core) and np.all(report.flagged[core]))
