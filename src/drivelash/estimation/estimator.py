@@ -1,0 +1,496 @@
+"""User-facing online deadzone estimator: configuration, tuning rule, :class:`DeadzoneEstimator`.
+
+The numerics live in :mod:`drivelash.estimation.deadzone` (one ``@njit`` kernel with
+explicit state); this module chooses the gains, runs traces (whole or in chunks) and turns
+the kernel outputs into an :class:`EstimationResult` with an excitation verdict.
+
+Tuning rule (``EstimatorConfig.tuned``), all numbers in docs/assumptions.md
+---------------------------------------------------------------------------
+With ω_n = √(K_S/J_l) the shaft resonance of the load side [rad/s], T_s the sample time
+[s] and f_r the excitation (reversal) frequency [Hz]:
+
+* observer: k2 = c2 / (J_l-normalised torque unit)… concretely ρ = K_S/J_l · v_ref with
+  v_ref = 2π f_r · 1 rad/s of relative speed → k2 = 1.1 ρ, k1 = 1.5 √ρ, then k2 capped so
+  that the Euler chattering k2 T_s stays below 2 % of the torque resolution T_thr/J_l.
+* α = 20 / θ_def, θ_def = max(T_C,l, 0.01 K_S·1e-3) / K_S a typical contact deflection,
+  clipped to [1e3, 1e5] 1/rad: the smoothing width 1/α is a small part of a deflection.
+* law: P_max = 4 · 2π f_r (first convergence within a few reversals), λ = 2π f_r / 8,
+  paper γ = 2π f_r · 4; filters: τ_f = 1 / (2π · 40 f_r) (clipped to ≥ 4 T_s),
+  ω_c = 2π · 10 f_r for the position reconstruction.
+* excitation window W = max(2 / f_r, 1 s).
+
+Every constant above is the one that met the acceptance targets on all 15 bench tests and
+``paper-sim``; see docs/assumptions.md, "Backlash estimator (spec 01)".
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field, replace
+from typing import Any, Literal
+
+import numpy as np
+
+from drivelash.errors import DataError, ParameterError
+from drivelash.estimation import deadzone as dz
+from drivelash.io.trace import Trace
+from drivelash.params import BacklashParams, DrivetrainParams
+
+Method = Literal["paper", "default"]
+INPUT_COLUMNS = ("theta_m", "omega_m", "theta_l", "omega_l")
+
+
+@dataclass(frozen=True)
+class EstimatorConfig:
+    """Gains of the online deadzone estimator (never modified by the estimator).
+
+    Parameters
+    ----------
+    k1 : float
+        STSMO proportional gain [rad^½/s^{3/2}].
+    k2 : float
+        STSMO integral gain [rad/s³].
+    gamma : float
+        Adaptation rate of the paper's law [1/s] (``method="paper"``).
+    delta_max : float
+        Radius of the projection ball, upper bound of δ̂ [rad].
+    eps_delta : float
+        Boundary-layer width ε_δ of the projection [-].
+    delta0 : float
+        Initial estimate δ̂(t0) [rad] (0 or an underestimate).
+    alpha : float
+        Smoothness α of the model (11) used by the estimator [1/rad].
+    method : {"paper", "default"}
+        Plain gradient law of the paper, or the improved default law.
+    omega_c : float
+        Cut-off of the Δθ complementary filter [rad/s] (default method; 0 = off).
+    tau_f : float
+        Time constant of the residual/regressor low-pass [s] (default method; 0 = off).
+    lam : float
+        Forgetting rate λ of the least-squares gain [1/s] (default method).
+    P_max : float
+        Initial and largest least-squares gain [1/s] (default method).
+    omega_eps : float
+        Regularisation velocity of the load-friction sign [rad/s] (default method; 0 = sgn).
+    T_thr : float
+        Shaft-torque threshold of a contact for the excitation monitor [N·m].
+    window : float
+        Length of the sliding excitation window [s].
+    """
+
+    k1: float
+    k2: float
+    gamma: float
+    delta_max: float
+    eps_delta: float = 0.1
+    delta0: float = 0.0
+    alpha: float = 1000.0
+    method: Method = "default"
+    omega_c: float = 0.0
+    tau_f: float = 0.0
+    lam: float = 0.5
+    P_max: float = 10.0
+    omega_eps: float = 0.0
+    T_thr: float = 0.01
+    window: float = 2.0
+    estimate_stiffness: bool = True
+    estimate_friction: bool = False
+    omega_ref: float = 1.0
+    theta_def: float = 1e-3
+    q_aux: float = 0.1
+
+    def __post_init__(self) -> None:
+        name = type(self).__name__
+        for f in (
+            "k1",
+            "k2",
+            "gamma",
+            "delta_max",
+            "eps_delta",
+            "alpha",
+            "lam",
+            "P_max",
+            "T_thr",
+            "window",
+            "omega_ref",
+            "theta_def",
+            "q_aux",
+        ):
+            v = getattr(self, f)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ParameterError(name, f, f"must be finite and > 0, got {v!r}")
+        for f in ("delta0", "omega_c", "tau_f", "omega_eps"):
+            v = getattr(self, f)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise ParameterError(name, f, f"must be finite and >= 0, got {v!r}")
+        if self.delta0 > self.delta_max:
+            raise ParameterError(
+                name, "delta0", f"must be <= delta_max = {self.delta_max}, got {self.delta0}"
+            )
+        if self.method not in ("paper", "default"):
+            raise ParameterError(name, "method", f"must be 'paper' or 'default', got {self.method!r}")
+
+    @classmethod
+    def tuned(
+        cls,
+        drivetrain: DrivetrainParams,
+        Ts: float,
+        f_exc: float = 0.5,
+        method: Method = "default",
+        delta_max: float | None = None,
+        **overrides: Any,
+    ) -> EstimatorConfig:
+        """Default gains from the documented scaling rule (module docstring).
+
+        Parameters
+        ----------
+        drivetrain : DrivetrainParams
+            Drive-train parameters as known to the estimator.
+        Ts : float
+            Sample time [s].
+        f_exc : float
+            Excitation (motion reversal) frequency [Hz].
+        method : {"paper", "default"}
+            Law to tune.
+        delta_max : float, optional
+            Upper bound of δ [rad]; default 2 rad.
+        **overrides
+            Any field of :class:`EstimatorConfig` to set explicitly.
+        """
+        if not (Ts > 0 and math.isfinite(Ts)):
+            raise ParameterError(cls.__name__, "Ts", f"sample time must be > 0, got {Ts!r}")
+        if not (f_exc > 0 and math.isfinite(f_exc)):
+            raise ParameterError(cls.__name__, "f_exc", f"must be > 0, got {f_exc!r}")
+        J_l, K_S = drivetrain.J_l, drivetrain.K_S
+        w_r = 2.0 * math.pi * f_exc
+        # contact torque scale: friction, or 1 mrad of shaft deflection if frictionless
+        T_ref = max(drivetrain.T_Cl, 1e-3 * K_S)
+        T_thr = 0.5 * T_ref
+        rho = (K_S / J_l) * w_r * 1.0
+        k2 = 1.1 * rho
+        k2 = min(k2, 0.02 * (T_thr / J_l) / Ts)
+        k1 = 1.5 * math.sqrt(rho)
+        theta_def = T_ref / K_S
+        alpha = min(max(20.0 / theta_def, 1e3), 1e5)
+        values: dict[str, Any] = dict(
+            k1=k1,
+            k2=k2,
+            gamma=4.0 * w_r,
+            delta_max=2.0 if delta_max is None else delta_max,
+            eps_delta=0.1,
+            delta0=0.0,
+            alpha=alpha,
+            method=method,
+            omega_c=10.0 * w_r,
+            tau_f=max(1.0 / (40.0 * w_r), 4.0 * Ts),
+            lam=w_r / 8.0,
+            P_max=16.0 * w_r,
+            omega_eps=0.0,
+            T_thr=T_thr,
+            window=max(2.0 / f_exc, 1.0),
+            omega_ref=w_r,
+            theta_def=theta_def,
+        )
+        values.update({k: v for k, v in overrides.items() if v is not None})
+        return cls(**values)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dict of the fields (JSON output)."""
+        return asdict(self)
+
+
+def build_params(
+    drivetrain: DrivetrainParams, backlash: BacklashParams | float, config: EstimatorConfig, Ts: float
+) -> np.ndarray:
+    """Parameter array of :func:`~drivelash.estimation.deadzone.deadzone_run`.
+
+    Parameters
+    ----------
+    drivetrain : DrivetrainParams
+        Estimator-side drive-train parameters.
+    backlash : BacklashParams or float
+        Known offset δ1 [rad] (a :class:`BacklashParams` contributes its ``delta1``; its
+        ``delta`` is ignored — that is what is estimated).
+    config : EstimatorConfig
+        Gains.
+    Ts : float
+        Sample time [s].
+    """
+    delta1 = backlash.delta1 if isinstance(backlash, BacklashParams) else float(backlash)
+    p = np.zeros(dz.N_PARAMS)
+    p[dz.P_J_L] = drivetrain.J_l
+    p[dz.P_N] = drivetrain.N
+    p[dz.P_K_S] = drivetrain.K_S
+    p[dz.P_D_S] = drivetrain.D_S
+    p[dz.P_T_CL] = drivetrain.T_Cl
+    p[dz.P_BETA_L] = drivetrain.beta_l
+    p[dz.P_DELTA1] = delta1
+    p[dz.P_ALPHA] = config.alpha
+    p[dz.P_K1] = config.k1
+    p[dz.P_K2] = config.k2
+    p[dz.P_GAMMA] = config.gamma
+    p[dz.P_DELTA_MAX] = config.delta_max
+    p[dz.P_EPS_DELTA] = config.eps_delta
+    p[dz.P_TS] = Ts
+    p[dz.P_METHOD] = 1.0 if config.method == "default" else 0.0
+    p[dz.P_OMEGA_C] = config.omega_c
+    p[dz.P_TAU_F] = config.tau_f
+    p[dz.P_LAMBDA] = config.lam
+    p[dz.P_P_MAX] = config.P_max
+    p[dz.P_OMEGA_EPS] = config.omega_eps
+    p[dz.P_T_THR] = config.T_thr
+    p[dz.P_WINDOW] = max(1, int(round(config.window / Ts)))
+    p[dz.P_EST_K] = 1.0 if config.estimate_stiffness else 0.0
+    p[dz.P_EST_F] = 1.0 if config.estimate_friction else 0.0
+    p[dz.P_OMEGA_REF] = config.omega_ref
+    p[dz.P_THETA_DEF] = config.theta_def
+    p[dz.P_Q_AUX] = config.q_aux
+    return p
+
+
+@dataclass
+class EstimationResult:
+    """Outputs of a run and the excitation verdict.
+
+    Attributes
+    ----------
+    t : numpy.ndarray
+        Time [s].
+    delta_hat : numpy.ndarray
+        δ̂(t) [rad].
+    phi_hat : numpy.ndarray
+        φ̂(t) [rad/s²].
+    omega_l_hat : numpy.ndarray
+        ω̂_l(t) [rad/s].
+    sigma_window : numpy.ndarray
+        ∫σ dt over the sliding window ending at t [s].
+    dtheta : numpy.ndarray
+        Δθ used by the law (reconstructed in the default method) [rad].
+    torque_hat : numpy.ndarray
+        T_l(x, δ̂) of the estimator's model [N·m].
+    torque_meas : numpy.ndarray
+        J_l φ̂, the observed shaft torque [N·m].
+    traversals : numpy.ndarray
+        Running count of contact-side changes [-].
+    excitation_ok : bool
+        Enough excitation to trust the estimate.
+    reason : str
+        Plain-language explanation of the verdict.
+    converged : bool
+        ``excitation_ok`` and δ̂ settled over the last window.
+    convergence_time_s : float or None
+        First time after which δ̂ stays in the band around its final value (or the truth,
+        when known) [s].
+    band : float
+        Band used for ``convergence_time_s`` [rad].
+    config : EstimatorConfig
+        Gains used.
+    """
+
+    t: np.ndarray
+    delta_hat: np.ndarray
+    phi_hat: np.ndarray
+    omega_l_hat: np.ndarray
+    sigma_window: np.ndarray
+    dtheta: np.ndarray
+    torque_hat: np.ndarray
+    torque_meas: np.ndarray
+    traversals: np.ndarray
+    excitation_ok: bool
+    reason: str
+    converged: bool
+    convergence_time_s: float | None
+    band: float
+    config: EstimatorConfig
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def delta(self) -> float:
+        """Final estimate δ̂ [rad]."""
+        return float(self.delta_hat[-1]) if self.delta_hat.size else float("nan")
+
+
+def _samples_from_trace(trace: Trace) -> np.ndarray:
+    missing = [c for c in INPUT_COLUMNS if c not in trace]
+    if missing:
+        raise DataError(f"missing column(s) {', '.join(missing)} needed by the estimator", column=missing[0])
+    data = np.column_stack([trace[c] for c in INPUT_COLUMNS])
+    bad = ~np.isfinite(data)
+    if bad.any():
+        row, col = np.argwhere(bad)[0]
+        raise DataError("value is not finite (NaN or inf)", column=INPUT_COLUMNS[col], row=int(row))
+    return np.ascontiguousarray(data)
+
+
+class DeadzoneEstimator:
+    """Online deadzone estimator: STSMO + adaptive law, chunk-able.
+
+    Parameters
+    ----------
+    drivetrain : DrivetrainParams
+        Drive-train parameters as known to the estimator.
+    backlash : BacklashParams or float
+        Known offset δ1 [rad] (``delta`` of a BacklashParams is not used).
+    Ts : float
+        Sample time [s].
+    config : EstimatorConfig, optional
+        Gains; default :meth:`EstimatorConfig.tuned` with ``f_exc``.
+    f_exc : float
+        Excitation frequency for the default tuning [Hz].
+
+    Examples
+    --------
+    >>> est = DeadzoneEstimator(dt, bl, Ts=125e-6)          # doctest: +SKIP
+    >>> result = est.run(trace)                              # doctest: +SKIP
+    >>> result.delta, result.excitation_ok                   # doctest: +SKIP
+    """
+
+    def __init__(
+        self,
+        drivetrain: DrivetrainParams,
+        backlash: BacklashParams | float,
+        Ts: float,
+        config: EstimatorConfig | None = None,
+        f_exc: float = 0.5,
+    ) -> None:
+        self.drivetrain = drivetrain
+        self.delta1 = backlash.delta1 if isinstance(backlash, BacklashParams) else float(backlash)
+        if not (math.isfinite(self.delta1) and self.delta1 >= 0):
+            raise ParameterError("BacklashParams", "delta1", f"must be finite and >= 0, got {self.delta1!r}")
+        self.Ts = float(Ts)
+        self.config = config if config is not None else EstimatorConfig.tuned(drivetrain, Ts, f_exc)
+        self.params = build_params(drivetrain, self.delta1, self.config, self.Ts)
+        self.state = dz.initial_state(self.params, self.config.delta0)
+        self._row = np.empty(dz.N_OUT)
+
+    def reset(self) -> None:
+        """Back to δ̂ = δ0 and zero observer state."""
+        self.state = dz.initial_state(self.params, self.config.delta0)
+
+    def step(self, sample: np.ndarray | tuple[float, float, float, float]) -> np.ndarray:
+        """Process one sample (θ_m, ω_m, θ_l, ω_l); returns the output row (see ``deadzone_run``)."""
+        s = sample
+        dz.deadzone_step(
+            self.state, float(s[0]), float(s[1]), float(s[2]), float(s[3]), self.params, self._row
+        )
+        return self._row.copy()
+
+    def run_samples(self, samples: np.ndarray) -> np.ndarray:
+        """Process a block of samples, shape (n, 4); returns outputs (n, 8) and keeps the state."""
+        samples = np.ascontiguousarray(samples, dtype=np.float64)
+        self.state, out = dz.deadzone_run(self.state, samples, self.params)
+        return out
+
+    def run(
+        self, trace: Trace, chunk: int | None = None, delta_true: np.ndarray | None = None
+    ) -> EstimationResult:
+        """Estimate over a whole trace from the current state (chunked internally if asked).
+
+        Parameters
+        ----------
+        trace : Trace
+            Needs ``theta_m``, ``omega_m``, ``theta_l``, ``omega_l``; ``delta_true`` is used
+            for the convergence time when present.
+        chunk : int, optional
+            Process in blocks of this many samples (same result as one block).
+        delta_true : numpy.ndarray, optional
+            True δ(t) [rad]; default the trace's ``delta_true`` column if any.
+        """
+        samples = _samples_from_trace(trace)
+        t = trace["t"]
+        if t.size >= 2 and not np.all(np.diff(t) > 0):
+            row = int(np.argmax(~(np.diff(t) > 0))) + 1
+            raise DataError("time is not strictly increasing", column="t", row=row)
+        if chunk is None or chunk <= 0:
+            out = self.run_samples(samples)
+        else:
+            out = np.concatenate(
+                [self.run_samples(samples[i : i + chunk]) for i in range(0, len(samples), chunk)]
+            )
+        if delta_true is None and "delta_true" in trace:
+            delta_true = trace["delta_true"]
+        return make_result(t, out, self.config, self.params, delta_true)
+
+
+def make_result(
+    t: np.ndarray,
+    out: np.ndarray,
+    config: EstimatorConfig,
+    params: np.ndarray,
+    delta_true: np.ndarray | None = None,
+    band: float | None = None,
+) -> EstimationResult:
+    """Wrap kernel outputs into an :class:`EstimationResult` with the excitation verdict."""
+    from drivelash.metrics import convergence_time
+
+    Ts = float(params[dz.P_TS])
+    n = out.shape[0]
+    delta_hat = out[:, dz.O_DELTA].copy()
+    sigma_win = out[:, dz.O_SIGMA_WIN].copy()
+    trav = out[:, dz.O_TRAV].copy()
+    n_trav = int(trav[-1]) if n else 0
+    win = config.window
+    duration = n * Ts
+    sigma_frac = float(sigma_win[-1] / win) if n else 0.0
+    tq = out[:, dz.O_TORQUE_MEAS]
+    peak_tq = float(np.max(np.abs(tq[n // 10 :]))) if n else 0.0
+    if n == 0 or duration < win:
+        ok, reason = (
+            False,
+            f"recording of {duration:.3g} s is shorter than the excitation window of {win:.3g} s",
+        )
+    elif n_trav < 2:
+        if peak_tq < config.T_thr:
+            reason = (
+                "no engagement: the shaft torque never exceeded the contact threshold "
+                f"({config.T_thr:.3g} N·m) — the motion seems to stay inside the deadzone"
+            )
+        else:
+            reason = (
+                "the motion never reverses through the deadzone (contact on one side only); "
+                "a reversing motion is needed to see the gap"
+            )
+        ok = False
+    elif sigma_frac < 0.05:
+        ok = False
+        reason = (
+            f"too little excitation in the last {win:.3g} s: the estimate received information "
+            f"during {100 * sigma_frac:.1f} % of it (needs 5 %)"
+        )
+    else:
+        ok = True
+        reason = f"{n_trav} traversals of the deadzone; information during {100 * sigma_frac:.0f} % of the last window"
+    if band is None:
+        band = max(2e-3, 0.02 * float(np.max(delta_hat))) if n else 2e-3
+    ref = delta_true if delta_true is not None else (np.full(n, delta_hat[-1]) if n else delta_hat)
+    conv = convergence_time(t, delta_hat, ref, band) if n else None
+    converged = False
+    if ok and n:
+        k = max(1, int(round(win / Ts)))
+        recent = delta_hat[-k:]
+        converged = bool(np.max(recent) - np.min(recent) <= band)
+    if not ok:
+        conv = None
+    return EstimationResult(
+        t=np.asarray(t),
+        delta_hat=delta_hat,
+        phi_hat=out[:, dz.O_PHI].copy(),
+        omega_l_hat=out[:, dz.O_OMEGA_HAT].copy(),
+        sigma_window=sigma_win,
+        dtheta=out[:, dz.O_DTHETA].copy(),
+        torque_hat=out[:, dz.O_TORQUE_HAT].copy(),
+        torque_meas=tq.copy(),
+        traversals=trav,
+        excitation_ok=ok,
+        reason=reason,
+        converged=converged,
+        convergence_time_s=conv,
+        band=band,
+        config=config,
+        extra={"traversals": n_trav, "sigma_fraction": sigma_frac},
+    )
+
+
+def with_method(config: EstimatorConfig, method: Method) -> EstimatorConfig:
+    """Copy of ``config`` with another ``method``."""
+    return replace(config, method=method)
