@@ -428,3 +428,147 @@ def identify(trace: Trace, options: Any = None, drivetrain: Any = None) -> Ident
     return identify_load(
         trace, J_m=drivetrain.J_m, beta_m=drivetrain.beta_m, T_Cm=drivetrain.T_Cm, N=drivetrain.N, **kw
     )
+
+
+# --------------------------------------------------------------------------- observer on an identified axis
+#: Default bound ρ on |dφ/dt| for the STSMO gains when [estimator] gives no k1, k2
+#: (Levant's rule via STSMOParams.from_rho: k2 = 1.1 ρ, k1 = 1.5 √ρ).
+DEFAULT_RHO = 20.0
+
+
+@dataclass(frozen=True)
+class DisturbanceEstimate:
+    """Output of :func:`observe_disturbance`.
+
+    Attributes
+    ----------
+    t : numpy.ndarray
+        Time [s].
+    velocity : numpy.ndarray
+        Velocity fed to the observer [rad/s] or [m/s].
+    disturbance : numpy.ndarray
+        d̂ = −J φ̂: torque [N·m] (force [N]) not explained by J q̈ + β q̇, i.e.
+        Coulomb friction + offset + external load.
+    constant_velocity : numpy.ndarray
+        Boolean mask of the constant-velocity stretches used for the summary.
+    mean_positive, mean_negative : float
+        Mean of d̂ on constant-velocity stretches moving forward / backward.
+    J, beta : float
+        Inertia and viscous coefficient the observer assumed.
+    k1, k2 : float
+        STSMO gains used.
+    """
+
+    t: np.ndarray = field(repr=False)
+    velocity: np.ndarray = field(repr=False)
+    disturbance: np.ndarray = field(repr=False)
+    constant_velocity: np.ndarray = field(repr=False)
+    mean_positive: float
+    mean_negative: float
+    J: float
+    beta: float
+    k1: float
+    k2: float
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready summary."""
+        return {
+            "J": self.J,
+            "beta": self.beta,
+            "k1": self.k1,
+            "k2": self.k2,
+            "mean_disturbance_forward": self.mean_positive,
+            "mean_disturbance_backward": self.mean_negative,
+            "constant_velocity_samples": int(self.constant_velocity.sum()),
+        }
+
+
+def constant_velocity_mask(
+    velocity: np.ndarray,
+    dt: float,
+    *,
+    accel_fraction: float = 0.05,
+    speed_fraction: float = 0.2,
+    skip: int = 0,
+) -> np.ndarray:
+    """Samples on constant-velocity stretches.
+
+    |q̈| below ``accel_fraction``·max|q̈| and |q̇| above ``speed_fraction``·max|q̇|
+    (away from reversals, where Coulomb friction switches); the first ``skip``
+    samples (observer transient) are excluded.
+    """
+    acc = central_difference(velocity, dt)
+    m = (np.abs(acc) < accel_fraction * np.abs(acc).max()) & (
+        np.abs(velocity) > speed_fraction * np.abs(velocity).max()
+    )
+    m[:skip] = False
+    return m
+
+
+def observe_disturbance(
+    trace: Trace,
+    *,
+    J: float,
+    beta: float = 0.0,
+    k1: float | None = None,
+    k2: float | None = None,
+    cutoff_hz: float = 100.0,
+    filter_order: int = 4,
+    side: str = "m",
+) -> DisturbanceEstimate:
+    """Super-twisting observer of the disturbance on one axis (spec 01 eq 16 on any axis).
+
+    Model J q̈ = u − β q̇ − d with u = ``torque_m``; the STSMO
+    (:class:`drivelash.estimation.stsmo.SuperTwistingObserver`) tracks the velocity
+    with known acceleration (u − β q̇)/J and its perturbation φ̂ gives d̂ = −J φ̂.
+
+    Parameters
+    ----------
+    trace : Trace
+        Needs ``torque_m`` and ``omega_<side>`` or ``theta_<side>`` (then differentiated
+        after a zero-phase low-pass at ``cutoff_hz``).
+    J : float
+        Inertia [kg·m²] (mass [kg] on a prismatic axis).
+    beta : float
+        Viscous coefficient [N·m·s/rad] ([N·s/m]).
+    k1, k2 : float, optional
+        STSMO gains; default from ρ = :data:`DEFAULT_RHO` by Levant's rule.
+    """
+    from drivelash.estimation.stsmo import STSMOParams, SuperTwistingObserver
+
+    if not J > 0:
+        raise ParameterError("observer", "J", f"must be > 0, got {J!r}")
+    dt = trace.sample_time
+    if f"omega_{side}" in trace:
+        v = trace[f"omega_{side}"]
+    elif f"theta_{side}" in trace:
+        v = central_difference(
+            lowpass_zero_phase(trace[f"theta_{side}"], cutoff_hz, 1 / dt, filter_order), dt
+        )
+    else:
+        raise DataError("the observer needs a velocity or position column", column=f"omega_{side}")
+    if "torque_m" not in trace:
+        raise DataError("the observer needs the motor torque/force", column="torque_m")
+    if k1 is None or k2 is None:
+        p = STSMOParams.from_rho(DEFAULT_RHO, dt)
+        k1 = p.k1 if k1 is None else k1
+        k2 = p.k2 if k2 is None else k2
+    params = STSMOParams(k1=k1, k2=k2, Ts=dt)
+    obs = SuperTwistingObserver(params, omega0=float(v[0]))
+    _, phi = obs.run(v, (trace["torque_m"] - beta * v) / J)
+    d = -J * phi
+    skip = min(len(trace) // 10, int(round(0.5 / dt)))
+    cv = constant_velocity_mask(v, dt, skip=skip)
+    pos, neg = cv & (v > 0), cv & (v < 0)
+    return DisturbanceEstimate(
+        t=trace["t"],
+        velocity=v,
+        disturbance=d,
+        constant_velocity=cv,
+        mean_positive=float(d[pos].mean()) if pos.any() else float("nan"),
+        mean_negative=float(d[neg].mean()) if neg.any() else float("nan"),
+        J=float(J),
+        beta=float(beta),
+        k1=float(k1),
+        k2=float(k2),
+    )

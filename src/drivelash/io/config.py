@@ -63,13 +63,19 @@ class _Strict(BaseModel):
 
 
 class DrivetrainSection(_Strict):
-    """``[drivetrain]``: the fields of :class:`~drivelash.params.DrivetrainParams` [SI]."""
+    """``[drivetrain]``: the fields of :class:`~drivelash.params.DrivetrainParams` [SI].
 
-    J_m: float
-    J_l: float
-    N: float
-    K_S: float
-    D_S: float
+    J_m, J_l, N, K_S and D_S have no defaults in ``DrivetrainParams``; here they may
+    be left out at parse time (a rigid axis identified by ``drivelash identify``
+    has only J_m, beta_m, T_Cm), and :meth:`DriveConfig.to_drivetrain_params`
+    names the first missing one.
+    """
+
+    J_m: float | None = None
+    J_l: float | None = None
+    N: float | None = None
+    K_S: float | None = None
+    D_S: float | None = None
     T_Cm: float = 0.0
     T_Cl: float = 0.0
     beta_m: float = 0.0
@@ -230,6 +236,9 @@ class DriveConfig(_Strict):
     def to_drivetrain_params(self) -> DrivetrainParams:
         """The ``[drivetrain]`` table as :class:`~drivelash.params.DrivetrainParams`."""
         sec: DrivetrainSection = self.require("drivetrain")
+        for key in ("J_m", "J_l", "N", "K_S", "D_S"):
+            if getattr(sec, key) is None:
+                raise ConfigError(f"{self.source or '<config>'}: table [drivetrain], key '{key}': missing")
         try:
             return DrivetrainParams(**sec.model_dump())
         except DrivelashError as exc:

@@ -1,0 +1,241 @@
+"""``drivelash identify`` and ``drivelash observe``: real recordings in, parameters out.
+
+Both commands read a recording with :func:`drivelash.io.load_trace` (mapping and
+units from ``--config``), do all the work, and only then write their outputs —
+each atomically — so a bad input (exit code 2, one-line message) leaves no
+partial files behind.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import typer
+
+OUT_HELP = "Write a JSON summary here."
+
+
+def _print_warnings(meta: dict[str, Any]) -> None:
+    for w in meta.get("warnings", []):
+        typer.echo(f"drivelash: warning: {w}", err=True)
+
+
+def _write_text(path: Path, text: str) -> None:
+    from drivelash.io.formats import atomic_path
+
+    with atomic_path(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+
+
+def _check_outputs(*paths: Path | None) -> None:
+    """Refuse output paths whose directory does not exist (before any work is done)."""
+    from drivelash.errors import DrivelashError
+
+    for p in paths:
+        if p is not None and not p.parent.exists():
+            raise DrivelashError(f"{p}: output directory {p.parent} does not exist")
+
+
+def run_identify(
+    trace_path: Path,
+    config_path: Path,
+    *,
+    json_out: Path | None = None,
+    report: Path | None = None,
+    out: Path | None = None,
+    cross: Path | None = None,
+    resample: bool = False,
+    quiet: bool = False,
+) -> dict[str, Any]:
+    """Body of ``drivelash identify`` (callable from Python; returns the JSON summary)."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from drivelash.estimation.identify import cross_test, identify
+    from drivelash.io import load_config, load_trace
+    from drivelash.io.config import drivetrain_fragment
+
+    _check_outputs(json_out, report, out)
+    cfg = load_config(config_path)
+    opts = cfg.identification_or_default()
+    need = ["theta_m", "torque_m"] + (["theta_l"] if opts.side == "load" else [])
+    trace = load_trace(trace_path, cfg, required=need, resample=resample or None)
+    _print_warnings(trace.meta)
+    result = identify(trace, opts, cfg.drivetrain)
+    summary: dict[str, Any] = {"trace": str(trace_path), "config": str(config_path), **result.as_dict()}
+    ct = None
+    vtrace = None
+    if cross is not None:
+        vtrace = load_trace(cross, cfg, required=need, resample=resample or None)
+        _print_warnings(vtrace.meta)
+        ct = cross_test(result, vtrace)
+        summary["cross_test"] = {"trace": str(cross), "relative_error": ct.relative_error}
+
+    values = result.drivetrain_values()
+    merged: dict[str, float] = {}
+    if cfg.drivetrain is not None:
+        merged = {k: v for k, v in cfg.drivetrain.model_dump().items() if v is not None}
+    merged.update(values)
+    unit = "N, N·s/m, kg (prismatic axis)" if result.axis == "prismatic" else "SI (N·m, N·m·s/rad, kg·m²)"
+    comments = [
+        f"drivelash identify {trace_path} ({result.side} side, IDIM-LS, units {unit})",
+        "identified: " + ", ".join(f"{n} = {result[n]:.6g} ± {result.std_of(n):.2g}" for n in result.names),
+        f"relative force error {100 * result.relative_error:.2f} %"
+        + (f"; cross-test {100 * ct.relative_error:.2f} % on {cross}" if ct else ""),
+    ]
+    fragment = drivetrain_fragment(merged, comments)
+    summary["drivetrain"] = merged
+
+    html = None
+    if report is not None:
+        from drivelash.report import render_identify_report
+
+        html = render_identify_report(trace, result, cfg, cross=ct, cross_trace=vtrace)
+
+    # --- all computed: now write outputs
+    if out is not None:
+        _write_text(out, fragment)
+    if json_out is not None:
+        _write_text(json_out, json.dumps(summary, indent=2, default=float) + "\n")
+    if html is not None and report is not None:
+        _write_text(report, html)
+    if not quiet:
+        console = Console(stderr=out is None)
+        table = Table(title=f"IDIM-LS ({result.side} side, {result.axis} axis)")
+        for col in ("parameter", "value", "std", "std %"):
+            table.add_column(col, justify="right")
+        for n, v, s in zip(result.names, result.theta, result.std, strict=True):
+            table.add_row(n, f"{v:.6g}", f"{s:.3g}", f"{100 * s / abs(v):.2f}" if v else "-")
+        console.print(table)
+        console.print(f"relative force error: {100 * result.relative_error:.2f} %")
+        if ct is not None:
+            console.print(f"cross-test on {cross}: {100 * ct.relative_error:.2f} %")
+        if out is None:
+            sys.stdout.write(fragment)
+    return summary
+
+
+def run_observe(
+    trace_path: Path,
+    config_path: Path,
+    *,
+    drivetrain: Path | None = None,
+    json_out: Path | None = None,
+    report: Path | None = None,
+    out: Path | None = None,
+    resample: bool = False,
+    quiet: bool = False,
+) -> dict[str, Any]:
+    """Body of ``drivelash observe`` (returns the JSON summary)."""
+    from drivelash.errors import ConfigError
+    from drivelash.estimation.identify import observe_disturbance
+    from drivelash.io import Trace, load_config, load_trace, write_trace
+
+    _check_outputs(json_out, report, out)
+    cfg = load_config(config_path)
+    dt_sec = cfg.drivetrain
+    if drivetrain is not None:
+        extra = load_config(drivetrain)
+        dt_sec = extra.require("drivetrain")
+    if dt_sec is None or dt_sec.J_m is None:
+        raise ConfigError(
+            f"{drivetrain or config_path}: table [drivetrain], key 'J_m': missing"
+            " (run `drivelash identify … --out FRAGMENT.toml` and pass --drivetrain FRAGMENT.toml)"
+        )
+    opts = cfg.identification_or_default()
+    trace = load_trace(trace_path, cfg, required=["torque_m"], resample=resample or None)
+    _print_warnings(trace.meta)
+    est = cfg.estimator
+    res = observe_disturbance(
+        trace,
+        J=dt_sec.J_m,
+        beta=dt_sec.beta_m,
+        k1=est.k1 if est else None,
+        k2=est.k2 if est else None,
+        cutoff_hz=opts.cutoff_hz,
+        filter_order=opts.filter_order,
+    )
+    summary: dict[str, Any] = {"trace": str(trace_path), **res.as_dict()}
+    if dt_sec.T_Cm:
+        summary["coulomb_friction"] = dt_sec.T_Cm
+    html = None
+    if report is not None:
+        import numpy as np
+
+        from drivelash.report import render_observe_report
+
+        t_c = dt_sec.T_Cm or 0.0
+        expected = (lambda v: t_c * np.sign(v)) if t_c > 0 else None
+        html = render_observe_report(
+            trace, res, cfg, expected=expected, expected_label="T_Cm sign q̇ ([drivetrain])"
+        )
+    if out is not None:
+        write_trace(
+            Trace(
+                {"t": res.t, "velocity": res.velocity, "disturbance": res.disturbance},
+                {"source": str(trace_path), "observer": res.as_dict()},
+            ),
+            out,
+        )
+    if json_out is not None:
+        _write_text(json_out, json.dumps(summary, indent=2, default=float) + "\n")
+    if html is not None and report is not None:
+        _write_text(report, html)
+    if not quiet:
+        unit = "N" if trace.meta.get("axis") == "prismatic" else "N·m"
+        typer.echo(f"mean disturbance, forward constant-velocity stretches:  {res.mean_positive:.4g} {unit}")
+        typer.echo(f"mean disturbance, backward constant-velocity stretches: {res.mean_negative:.4g} {unit}")
+    return summary
+
+
+def register(app: typer.Typer, te_app: typer.Typer) -> None:
+    """Add ``identify`` and ``observe`` to the CLI."""
+
+    @app.command()
+    def identify(
+        trace: Path = typer.Argument(..., help="Recording: .csv, .parquet, .h5, .mat"),
+        config: Path = typer.Option(
+            ..., "--config", "-c", help="TOML configuration ([columns], [identification])."
+        ),
+        json_out: Path | None = typer.Option(None, "--json", help=OUT_HELP),
+        report: Path | None = typer.Option(None, "--report", help="Write a self-contained HTML report here."),
+        out: Path | None = typer.Option(
+            None, "--out", "-o", help="Write the [drivetrain] TOML fragment here (default: stdout)."
+        ),
+        cross: Path | None = typer.Option(None, "--cross", help="Validation recording for a cross-test."),
+        resample: bool = typer.Option(
+            False, "--resample", help="Resample non-uniform time onto a uniform grid."
+        ),
+    ) -> None:
+        """Identify inertia and friction (IDIM-LS) and write a [drivetrain] fragment."""
+        run_identify(trace, config, json_out=json_out, report=report, out=out, cross=cross, resample=resample)
+
+    @app.command()
+    def observe(
+        trace: Path = typer.Argument(..., help="Recording: .csv, .parquet, .h5, .mat"),
+        config: Path = typer.Option(..., "--config", "-c", help="TOML configuration."),
+        drivetrain: Path | None = typer.Option(
+            None, "--drivetrain", help="TOML with [drivetrain] J_m, beta_m (e.g. from `identify --out`)."
+        ),
+        json_out: Path | None = typer.Option(None, "--json", help=OUT_HELP),
+        report: Path | None = typer.Option(None, "--report", help="Write a self-contained HTML report here."),
+        out: Path | None = typer.Option(
+            None, "--out", "-o", help="Write t, velocity, disturbance to a file."
+        ),
+        resample: bool = typer.Option(
+            False, "--resample", help="Resample non-uniform time onto a uniform grid."
+        ),
+    ) -> None:
+        """Estimate the disturbance torque/force of an axis with the super-twisting observer."""
+        run_observe(
+            trace,
+            config,
+            drivetrain=drivetrain,
+            json_out=json_out,
+            report=report,
+            out=out,
+            resample=resample,
+        )

@@ -1,0 +1,430 @@
+"""HTML reports of ``estimate``, ``identify`` and ``observe`` runs.
+
+One self-contained file per run (figures as embedded PNGs, no scripts, no network):
+
+- :func:`write_estimate_report` — deadzone estimation: trace overview, δ̂(t) with the
+  excitation verdict shaded, estimated shaft torque vs Δθ (deadzone picture),
+  motor/load hysteresis and phase portraits, parameter and figure-of-merit tables;
+- :func:`write_identify_report` — IDIM-LS: measured vs predicted force, residual,
+  friction characteristic, parameter table with standard deviations, cross-test;
+- :func:`write_observe_report` — disturbance observer on one axis.
+
+``render_*`` return the HTML text; ``write_*`` also write it atomically.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drivelash.report.html import Figure, Section, render_html
+
+__all__ = [
+    "render_estimate_report",
+    "render_identify_report",
+    "render_observe_report",
+    "write_estimate_report",
+    "write_identify_report",
+    "write_observe_report",
+]
+
+_MAX_POINTS = 6000
+
+
+def _thin(*arrays: np.ndarray, n: int = _MAX_POINTS) -> list[np.ndarray]:
+    """Every k-th sample so plots stay light (PNG size) — plots only, never analysis."""
+    size = len(arrays[0])
+    k = max(1, size // n)
+    return [np.asarray(a)[::k] for a in arrays]
+
+
+def _units(trace: Any) -> dict[str, str]:
+    if trace.meta.get("axis") == "prismatic":
+        return {"pos": "m", "vel": "m/s", "force": "N", "mass": "kg", "visc": "N·s/m"}
+    return {"pos": "rad", "vel": "rad/s", "force": "N·m", "mass": "kg·m²", "visc": "N·m·s/rad"}
+
+
+def _warnings_html(trace: Any) -> list[str]:
+    import html
+
+    return [f'<div class="warn">{html.escape(w)}</div>' for w in trace.meta.get("warnings", [])]
+
+
+def _overview_figure(trace: Any) -> Figure:
+    u = _units(trace)
+    names = [n for n in ("theta_m", "theta_l", "omega_m", "omega_l", "torque_m") if n in trace]
+
+    def draw(fig: Any) -> None:
+        groups = [
+            [n for n in names if n.startswith("theta")],
+            [n for n in names if n.startswith("omega")],
+            [n for n in names if n.startswith("torque")],
+        ]
+        groups = [g for g in groups if g] or [[n for n in trace.names if n != "t"][:1]]
+        axes = fig.subplots(len(groups), 1, sharex=True, squeeze=False)[:, 0]
+        labels = {
+            "theta": f"position [{u['pos']}]",
+            "omega": f"velocity [{u['vel']}]",
+            "torque": f"[{u['force']}]",
+        }
+        for ax, g in zip(axes, groups, strict=True):
+            for n in g:
+                t, y = _thin(trace["t"], trace[n])
+                ax.plot(t, y, lw=0.8, label=n)
+            ax.set_ylabel(labels.get(g[0].split("_")[0], g[0]))
+            ax.grid(alpha=0.3)
+            ax.legend(loc="upper right", fontsize=8)
+        axes[-1].set_xlabel("time [s]")
+
+    return Figure("overview", "Recording overview (SI units after mapping).", draw, (10, 2.2 * 3))
+
+
+# --------------------------------------------------------------------------- estimate
+def _excited_spans(t: np.ndarray, mask: np.ndarray) -> list[tuple[float, float]]:
+    if not mask.any():
+        return []
+    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    return [(float(t[a]), float(t[b])) for a, b in zip(starts, stops, strict=True)]
+
+
+def render_estimate_report(trace: Any, result: Any, config: Any = None, *, title: str | None = None) -> str:
+    """HTML of a deadzone-estimation run.
+
+    Parameters
+    ----------
+    trace : Trace
+        The recording the estimator ran on.
+    result : EstimationResult
+        From :class:`drivelash.estimation.estimator.DeadzoneEstimator` (δ̂(t), φ̂(t), ω̂_l(t),
+        σ-window(t), Δθ, torques, verdict).
+    config : DriveConfig, optional
+        The configuration used (parameter table).
+    """
+    t = np.asarray(result.t)
+    dh = np.asarray(result.delta_hat)
+    sw = np.asarray(getattr(result, "sigma_window", np.zeros_like(t)))
+    excited = sw > 0.05 * float(np.max(sw)) if sw.size and np.max(sw) > 0 else np.zeros(t.size, bool)
+    delta_true = trace["delta_true"] if "delta_true" in trace and len(trace) == t.size else None
+    ok = bool(getattr(result, "excitation_ok", False))
+
+    def draw_delta(fig: Any) -> None:
+        ax = fig.subplots()
+        for a, b in _excited_spans(t, excited):
+            ax.axvspan(a, b, color="#bfe3c6", alpha=0.6, lw=0)
+        tt, yy = _thin(t, dh * 1e3)
+        ax.plot(tt, yy, color="#2a6fb0", lw=1.2, label="δ̂ (estimate)")
+        if delta_true is not None:
+            tt, yy = _thin(t, delta_true * 1e3)
+            ax.plot(tt, yy, "k--", lw=1, label="δ (true)")
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel("deadzone [mrad]")
+        verdict = "excitation sufficient" if ok else "excitation INSUFFICIENT"
+        ax.set_title(f"δ̂(t); shaded: informative samples (σ-window > 5 % of max) — {verdict}", fontsize=10)
+        ax.grid(alpha=0.3)
+        ax.legend(loc="lower right", fontsize=8)
+
+    dtheta = np.asarray(getattr(result, "dtheta", np.zeros_like(t)))
+    tq_meas = np.asarray(getattr(result, "torque_meas", np.zeros_like(t)))
+    tq_hat = np.asarray(getattr(result, "torque_hat", np.zeros_like(t)))
+
+    def draw_deadzone(fig: Any) -> None:
+        ax = fig.subplots()
+        x, y1, y2 = _thin(dtheta * 1e3, tq_meas, tq_hat)
+        ax.plot(x, y1, ".", ms=1.5, alpha=0.35, color="#888", label="J_l φ̂ (observed)")
+        order = np.argsort(x)
+        ax.plot(x[order], y2[order], color="#c0392b", lw=1.2, label="T_l(Δθ, δ̂) (model)")
+        ax.axvline(0, color="k", lw=0.5)
+        ax.set_xlabel("Δθ = θ_m/N − θ_l [mrad]")
+        ax.set_ylabel("shaft torque [N·m]")
+        ax.set_title("Estimated torque vs Δθ (deadzone picture)", fontsize=10)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+
+    n_gear = 1.0
+    if config is not None and getattr(config, "drivetrain", None) is not None and config.drivetrain.N:
+        n_gear = float(config.drivetrain.N)
+
+    def draw_portraits(fig: Any) -> None:
+        axes = fig.subplots(1, 3)
+        if "theta_m" in trace and "theta_l" in trace:
+            x, y = _thin(trace["theta_m"] / n_gear, trace["theta_l"])
+            axes[0].plot(x, y, lw=0.6)
+            axes[0].set_xlabel("θ_m/N [rad]")
+            axes[0].set_ylabel("θ_l [rad]")
+            axes[0].set_title("motor/load hysteresis", fontsize=10)
+        for ax, side in ((axes[1], "m"), (axes[2], "l")):
+            if f"theta_{side}" in trace and f"omega_{side}" in trace:
+                x, y = _thin(trace[f"theta_{side}"], trace[f"omega_{side}"])
+                ax.plot(x, y, lw=0.6, color="#2a6fb0" if side == "m" else "#c0392b")
+                ax.set_xlabel(f"θ_{side} [rad]")
+                ax.set_ylabel(f"ω_{side} [rad/s]")
+                ax.set_title(f"phase portrait, {'motor' if side == 'm' else 'load'}", fontsize=10)
+        for ax in axes:
+            ax.grid(alpha=0.3)
+
+    def draw_observer(fig: Any) -> None:
+        axes = fig.subplots(2, 1, sharex=True)
+        tt, ph = _thin(t, np.asarray(result.phi_hat))
+        axes[0].plot(tt, ph, lw=0.7)
+        axes[0].set_ylabel("φ̂ [rad/s²]")
+        tt, sws = _thin(t, sw)
+        axes[1].plot(tt, sws, lw=0.9, color="#1f7a35")
+        axes[1].set_ylabel("∫σ over window [s]")
+        axes[1].set_xlabel("time [s]")
+        for ax in axes:
+            ax.grid(alpha=0.3)
+
+    sec_over = Section("Recording", raw=_warnings_html(trace), figures=[_overview_figure(trace)])
+    cls = "verdict-ok" if ok else "verdict-bad"
+    verdict_html = (
+        f'<p class="{cls}">Excitation: {"sufficient" if ok else "insufficient"} — '
+        f"{_esc(getattr(result, 'reason', ''))}</p>"
+    )
+    figs_rows: list[list[Any]] = [
+        ["final δ̂ [mrad]", 1e3 * float(dh[-1]) if dh.size else float("nan")],
+        ["converged", str(bool(getattr(result, "converged", False)))],
+        [
+            "convergence time [s]",
+            float(result.convergence_time_s)
+            if getattr(result, "convergence_time_s", None) is not None
+            else "–",
+        ],
+        ["band [mrad]", 1e3 * float(getattr(result, "band", float("nan")))],
+    ]
+    if delta_true is not None:
+        figs_rows.append(["true δ (final) [mrad]", 1e3 * float(delta_true[-1])])
+        figs_rows.append(["error of final δ̂ [%]", 100 * (float(dh[-1]) / float(delta_true[-1]) - 1)])
+    for k, v in (getattr(result, "extra", {}) or {}).items():
+        if isinstance(v, int | float | str | bool):
+            figs_rows.append([k, v])
+    sec_est = Section(
+        "Deadzone estimate",
+        raw=[verdict_html],
+        tables=[("Figures of merit", ["quantity", "value"], figs_rows)],
+        figures=[
+            Figure("delta", "Deadzone estimate over time; green: excitation present.", draw_delta, (10, 3.6)),
+            Figure(
+                "deadzone",
+                "Observed and modelled shaft torque against the deflection.",
+                draw_deadzone,
+                (8, 4.5),
+            ),
+            Figure("portraits", "Hysteresis and phase portraits.", draw_portraits, (12, 3.8)),
+            Figure("observer", "Perturbation estimate and the excitation measure.", draw_observer, (10, 4)),
+        ],
+    )
+    sec_par = Section("Parameters", tables=_param_tables(config, getattr(result, "config", None)))
+    return render_html(
+        title or f"drivelash estimate — {trace.meta.get('source', 'trace')}", [sec_over, sec_est, sec_par]
+    )
+
+
+def _esc(s: Any) -> str:
+    import html
+
+    return html.escape(str(s))
+
+
+def _param_tables(config: Any, est_config: Any = None) -> list[tuple[str, list[str], list[list[Any]]]]:
+    tables: list[tuple[str, list[str], list[list[Any]]]] = []
+    if config is not None:
+        for name in ("drivetrain", "backlash", "estimator", "identification", "sampling"):
+            sec = getattr(config, name, None)
+            if sec is None:
+                continue
+            rows = [[k, v] for k, v in sec.model_dump().items() if v is not None]
+            if rows:
+                tables.append((f"[{name}]", ["key", "value"], rows))
+        if getattr(config, "columns", None):
+            rows = [
+                [src, cm.column, cm.unit, cm.gain if cm.gain is not None else "", cm.counts_per_rev or ""]
+                for src, cm in config.columns.items()
+            ]
+            tables.append(("[columns]", ["source", "Trace column", "unit", "gain", "counts/rev"], rows))
+    if est_config is not None and hasattr(est_config, "to_dict"):
+        rows = [[k, v] for k, v in est_config.to_dict().items() if isinstance(v, int | float | str | bool)]
+        tables.append(("estimator gains used", ["gain", "value"], rows))
+    return tables
+
+
+def write_estimate_report(path: str | Path, trace: Any, result: Any, config: Any = None) -> Path:
+    """Write the estimation report (see :func:`render_estimate_report`) atomically; returns the path."""
+    return _write(path, render_estimate_report(trace, result, config))
+
+
+# --------------------------------------------------------------------------- identify
+def render_identify_report(
+    trace: Any, result: Any, config: Any = None, *, cross: Any = None, cross_trace: Any = None
+) -> str:
+    """HTML of an IDIM-LS run (``result`` from :mod:`drivelash.estimation.identify`)."""
+    u = _units(trace)
+    unit_of = {
+        "M": u["mass"],
+        "J_l": u["mass"],
+        "F_v": u["visc"],
+        "beta_l": u["visc"],
+        "F_c": u["force"],
+        "T_Cl": u["force"],
+        "offset": u["force"],
+    }
+    rows = [
+        [n, unit_of.get(n, ""), float(v), float(s), 100 * float(s) / abs(float(v)) if v else float("nan")]
+        for n, v, s in zip(result.names, result.theta, result.std, strict=True)
+    ]
+    stats = [
+        ["relative force error ‖y − Wθ̂‖/‖y‖ [%]", 100 * result.relative_error],
+        [f"residual std σ̂ [{u['force']}]", result.sigma],
+        ["condition number of W", result.condition],
+        ["rows after decimation", result.n_rows],
+    ]
+    stats += [[f"option {k}", v] for k, v in result.options.items()]
+    if cross is not None:
+        stats.append(
+            [
+                f"cross-test error [%] on {cross_trace.meta.get('source', '') if cross_trace else ''}",
+                100 * cross.relative_error,
+            ]
+        )
+
+    def draw_fit(fig: Any) -> None:
+        axes = fig.subplots(2, 1, sharex=True, height_ratios=[3, 1])
+        axes[0].plot(result.t, result.y, lw=0.9, label="measured (decimated)")
+        axes[0].plot(result.t, result.y_hat, "--", lw=0.9, label="IDIM-LS model Wθ̂")
+        axes[0].set_ylabel(f"force/torque [{u['force']}]")
+        axes[0].legend(fontsize=8, loc="upper right")
+        axes[1].plot(result.t, result.y - result.y_hat, lw=0.7, color="k")
+        axes[1].set_ylabel("residual")
+        axes[1].set_xlabel("time [s]")
+        for ax in axes:
+            ax.grid(alpha=0.3)
+
+    def draw_friction(fig: Any) -> None:
+        ax = fig.subplots()
+        i_m = result.names.index(result.names[0])
+        m = float(result.theta[i_m])
+        # friction part of the measurement: y − M q̈ against q̇
+        fr = result.y - m * result.q_ddot
+        ax.plot(result.q_dot, fr, ".", ms=2, alpha=0.4, color="#888", label="y − M q̈ (data)")
+        v = np.linspace(float(np.min(result.q_dot)), float(np.max(result.q_dot)), 400)
+        model = result.theta[1] * v + result.theta[2] * np.sign(v) + result.theta[3]
+        ax.plot(v, model, color="#c0392b", lw=1.5, label="F_v q̇ + F_c sign q̇ + offset")
+        ax.set_xlabel(f"velocity [{u['vel']}]")
+        ax.set_ylabel(f"[{u['force']}]")
+        ax.set_title("Friction characteristic", fontsize=10)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+
+    figs = [
+        Figure("fit", "Measured and predicted force/torque (decimated) and residual.", draw_fit, (10, 4.5)),
+        Figure("friction", "Identified friction against the data.", draw_friction, (7, 4)),
+    ]
+    if cross is not None:
+
+        def draw_cross(fig: Any) -> None:
+            ax = fig.subplots()
+            ax.plot(cross.t, cross.y, lw=0.9, label="measured")
+            ax.plot(cross.t, cross.y_hat, "--", lw=0.9, label="model with identified parameters")
+            ax.set_xlabel("time [s]")
+            ax.set_ylabel(f"[{u['force']}]")
+            ax.set_title(f"Cross-test: relative error {100 * cross.relative_error:.2f} %", fontsize=10)
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=8)
+
+        figs.append(Figure("cross", "Cross-test on the validation recording.", draw_cross, (10, 3.5)))
+    sections = [
+        Section("Recording", raw=_warnings_html(trace), figures=[_overview_figure(trace)]),
+        Section(
+            f"IDIM-LS, {result.side} side",
+            paragraphs=[
+                "Model τ = M q̈ + F_v q̇ + F_c sign(q̇) + offset; position low-passed with a zero-phase "
+                "Butterworth filter, central differences, parallel decimation of W and τ; "
+                "standard deviations σ̂ √diag((WᵀW)⁻¹)."
+            ],
+            tables=[
+                ("Identified parameters", ["parameter", "unit", "value", "std", "std [%]"], rows),
+                ("Statistics", ["quantity", "value"], stats),
+            ],
+            figures=figs,
+        ),
+        Section("Configuration", tables=_param_tables(config)),
+    ]
+    return render_html(f"drivelash identify — {trace.meta.get('source', 'trace')}", sections)
+
+
+def write_identify_report(path: str | Path, trace: Any, result: Any, config: Any = None, **kw: Any) -> Path:
+    """Write the identification report atomically; returns the path."""
+    return _write(path, render_identify_report(trace, result, config, **kw))
+
+
+# --------------------------------------------------------------------------- observe
+def render_observe_report(
+    trace: Any,
+    est: Any,
+    config: Any = None,
+    *,
+    expected: Any = None,
+    expected_label: str = "identified friction",
+) -> str:
+    """HTML of a disturbance-observer run.
+
+    ``est`` comes from :func:`drivelash.estimation.identify.observe_disturbance`.
+
+    Parameters
+    ----------
+    expected : callable, optional
+        ``expected(velocity) -> array``: a reference disturbance (e.g. identified
+        F_c sign q̇ + offset) drawn for comparison, labelled ``expected_label``.
+    """
+    u = _units(trace)
+    ref = None
+    if expected is not None:
+        ref = expected(est.velocity)
+
+    def draw(fig: Any) -> None:
+        axes = fig.subplots(2, 1, sharex=True)
+        t, d, v, cv = _thin(est.t, est.disturbance, est.velocity, est.constant_velocity)
+        axes[0].plot(t, d, lw=0.6, color="#2a6fb0", label="d̂ (STSMO)")
+        if ref is not None:
+            (r,) = _thin(ref)
+            axes[0].plot(t, r, lw=1.0, color="#c0392b", label=expected_label)
+        axes[0].plot(t[cv], d[cv], ".", ms=1.5, color="#1f7a35", label="constant-velocity samples")
+        axes[0].set_ylabel(f"disturbance [{u['force']}]")
+        axes[0].legend(fontsize=8, loc="upper right")
+        axes[1].plot(t, v, lw=0.8)
+        axes[1].set_ylabel(f"velocity [{u['vel']}]")
+        axes[1].set_xlabel("time [s]")
+        for ax in axes:
+            ax.grid(alpha=0.3)
+
+    rows = [[k, v] for k, v in est.as_dict().items()]
+    sections = [
+        Section("Recording", raw=_warnings_html(trace), figures=[_overview_figure(trace)]),
+        Section(
+            "Disturbance observer (super-twisting)",
+            paragraphs=[
+                "Model J q̈ = u − β q̇ − d; the STSMO estimates d̂ = −J φ̂: Coulomb friction, "
+                "offset and any external load."
+            ],
+            tables=[("Summary", ["quantity", "value"], rows)],
+            figures=[Figure("disturbance", "Estimated disturbance and velocity.", draw, (10, 5))],
+        ),
+        Section("Configuration", tables=_param_tables(config)),
+    ]
+    return render_html(f"drivelash observe — {trace.meta.get('source', 'trace')}", sections)
+
+
+def write_observe_report(path: str | Path, trace: Any, est: Any, config: Any = None, **kw: Any) -> Path:
+    """Write the observer report atomically; returns the path."""
+    return _write(path, render_observe_report(trace, est, config, **kw))
+
+
+def _write(path: str | Path, text: str) -> Path:
+    from drivelash.io.formats import atomic_path
+
+    p = Path(path)
+    with atomic_path(p) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+    return p

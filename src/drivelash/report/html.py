@@ -1,0 +1,135 @@
+"""Self-contained HTML: inline CSS, PNG figures embedded as base64, no scripts, no network.
+
+A report is a list of sections; each holds paragraphs, tables and figures. Figures
+are rendered with matplotlib's Agg backend to PNG bytes; long reports render them
+under a rich progress bar (on stderr, transient).
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from typing import Any
+
+_CSS = """
+body{font-family:system-ui,-apple-system,'Segoe UI',Roboto,sans-serif;margin:2em auto;max-width:1100px;
+color:#1d232a;background:#fff;line-height:1.45;padding:0 1em}
+h1{font-size:1.6em;border-bottom:2px solid #2a6fb0;padding-bottom:.2em}
+h2{font-size:1.25em;margin-top:1.8em;color:#2a6fb0}
+table{border-collapse:collapse;margin:.6em 0 1.2em 0;font-size:.92em}
+th,td{border:1px solid #c9d3dd;padding:.25em .7em;text-align:right}
+th{background:#eef3f8}td:first-child,th:first-child{text-align:left}
+figure{margin:1em 0;text-align:center}figure img{max-width:100%;height:auto;border:1px solid #e3e8ee}
+figcaption{font-size:.88em;color:#4b5966;margin-top:.3em}
+.verdict-ok{color:#1f7a35;font-weight:600}.verdict-bad{color:#b03a2a;font-weight:600}
+.warn{background:#fff6e0;border-left:4px solid #e0a400;padding:.4em .8em;margin:.4em 0}
+footer{margin-top:3em;font-size:.8em;color:#7b8894}
+"""
+
+
+@dataclass
+class Figure:
+    """A figure to render: ``draw(fig)`` fills a matplotlib Figure of ``size`` inches."""
+
+    key: str
+    caption: str
+    draw: Callable[[Any], None]
+    size: tuple[float, float] = (10.0, 4.0)
+
+
+@dataclass
+class Section:
+    """A report section: heading, paragraphs (already-escaped HTML allowed via ``raw``), tables, figures."""
+
+    title: str
+    paragraphs: list[str] = field(default_factory=list)
+    tables: list[tuple[str, Sequence[str], Sequence[Sequence[Any]]]] = field(default_factory=list)
+    figures: list[Figure] = field(default_factory=list)
+    raw: list[str] = field(default_factory=list)
+
+
+def png_bytes(fig_spec: Figure, dpi: int = 90) -> bytes:
+    """Render one figure to PNG bytes (Agg backend, no display)."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    from matplotlib.figure import Figure as MplFigure
+
+    fig = MplFigure(figsize=fig_spec.size, dpi=dpi, layout="constrained")
+    fig_spec.draw(fig)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi, facecolor="white")
+    return buf.getvalue()
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, float):
+        if v != v:  # NaN
+            return "–"
+        return f"{v:.6g}"
+    return html.escape(str(v))
+
+
+def _table(caption: str, header: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
+    head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
+    body = "".join("<tr>" + "".join(f"<td>{_fmt(c)}</td>" for c in r) + "</tr>" for r in rows)
+    cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
+    return f"<table>{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def render_html(title: str, sections: Sequence[Section], *, progress: bool | None = None) -> str:
+    """Assemble the report; renders every figure (progress bar when there are many).
+
+    Parameters
+    ----------
+    title : str
+        Page title and heading.
+    sections : sequence of Section
+        Content in order.
+    progress : bool, optional
+        Show a rich progress bar on stderr; default when more than 4 figures.
+    """
+    figs = [f for s in sections for f in s.figures]
+    show = progress if progress is not None else len(figs) > 4
+    images: dict[int, str] = {}
+    if show:
+        from rich.console import Console
+        from rich.progress import Progress
+
+        with Progress(console=Console(stderr=True), transient=True) as bar:
+            task = bar.add_task("rendering figures", total=len(figs))
+            for f in figs:
+                images[id(f)] = base64.b64encode(png_bytes(f)).decode("ascii")
+                bar.advance(task)
+    else:
+        for f in figs:
+            images[id(f)] = base64.b64encode(png_bytes(f)).decode("ascii")
+    parts = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        '<meta name="viewport" content="width=device-width, initial-scale=1">',
+        f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>",
+        f"<h1>{html.escape(title)}</h1>",
+    ]
+    for s in sections:
+        parts.append(f"<section><h2>{html.escape(s.title)}</h2>")
+        parts.extend(f"<p>{html.escape(p)}</p>" for p in s.paragraphs)
+        parts.extend(s.raw)
+        parts.extend(_table(*t) for t in s.tables)
+        for f in s.figures:
+            parts.append(
+                f'<figure id="fig-{html.escape(f.key)}"><img class="figure" alt="{html.escape(f.caption)}"'
+                f' src="data:image/png;base64,{images[id(f)]}">'
+                f"<figcaption>{html.escape(f.caption)}</figcaption></figure>"
+            )
+        parts.append("</section>")
+    stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
+    parts.append(
+        f"<footer>drivelash report, generated {stamp}. Self-contained: no scripts, no network.</footer>"
+    )
+    parts.append("</body></html>")
+    return "\n".join(parts)
