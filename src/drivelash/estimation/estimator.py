@@ -163,6 +163,7 @@ class EstimatorConfig:
             raise ParameterError(cls.__name__, "f_exc", f"must be > 0, got {f_exc!r}")
         J_l, K_S = drivetrain.J_l, drivetrain.K_S
         w_r = 2.0 * math.pi * f_exc
+        w_n = math.sqrt(K_S / J_l)
         # contact torque scale: friction, or 1 mrad of shaft deflection if frictionless
         T_ref = max(drivetrain.T_Cl, 1e-3 * K_S)
         T_thr = 0.5 * T_ref
@@ -182,8 +183,8 @@ class EstimatorConfig:
             alpha=alpha,
             method=method,
             omega_c=10.0 * w_r,
-            tau_f=max(1.0 / (40.0 * w_r), 4.0 * Ts),
-            lam=w_r / 8.0,
+            tau_f=max(2.0 / w_n, 4.0 * Ts),
+            lam=w_r / 25.0,
             P_max=16.0 * w_r,
             omega_eps=0.0,
             T_thr=T_thr,
@@ -459,7 +460,10 @@ def make_result(
         )
     else:
         ok = True
-        reason = f"{n_trav} traversals of the deadzone; information during {100 * sigma_frac:.0f} % of the last window"
+        reason = (
+            f"{n_trav} traversals of the deadzone; information during "
+            f"{100 * sigma_frac:.0f} % of the last window"
+        )
     if band is None:
         band = max(2e-3, 0.02 * float(np.max(delta_hat))) if n else 2e-3
     ref = delta_true if delta_true is not None else (np.full(n, delta_hat[-1]) if n else delta_hat)

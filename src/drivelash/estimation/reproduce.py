@@ -1,0 +1,237 @@
+"""Reproduce the paper's estimation results on the simulator's scenarios (spec 01 §4).
+
+``run_scenario`` simulates one named scenario and runs both estimator methods on the
+same trace; ``reproduce_table`` does all of them and returns rows with the figures of
+merit next to the paper's reported values.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from drivelash.estimation.estimator import DeadzoneEstimator, EstimationResult, EstimatorConfig, Method
+from drivelash.io.trace import Trace
+from drivelash.metrics import convergence_time, maee, steady_state_peak
+
+#: Paper's reported MAEE [mrad] (§VI, tests 0A/0B/0C; ≤ 4 mrad for every test).
+PAPER_MAEE_MRAD = {"bench-0A": 1.75, "bench-0B": 1.90, "bench-0C": 0.66}
+PAPER_MAEE_BOUND_MRAD = 4.0
+#: Paper's reported convergence time on the bench [s] ("about 40 s").
+PAPER_CONVERGENCE_S = 40.0
+#: Paper's simulation study: convergence < 2 s (start and after the step), |e_ss| < 2.5e-4 rad.
+PAPER_SIM_CONVERGENCE_S = 2.0
+PAPER_SIM_SS_RAD = 2.5e-4
+
+#: Bench figures of merit: MAEE over the last 20 s of a 60 s run, steady-state peak over
+#: the last 10 s, convergence bands 10 mrad and 2 mrad.
+BENCH_MAEE_WINDOW_S = 20.0
+BENCH_SS_WINDOW_S = 10.0
+BANDS_RAD = (10e-3, 2e-3)
+
+
+def excitation_frequency_of(scenario: Any) -> float:
+    """Excitation (reversal) frequency of a scenario's reference [Hz]."""
+    return float(scenario.reference.frequency)
+
+
+def estimator_for(scenario: Any, method: Method, **overrides: Any) -> DeadzoneEstimator:
+    """The default-tuned estimator for a scenario's estimator-side parameters."""
+    cfg = EstimatorConfig.tuned(
+        scenario.estimator_drivetrain,
+        scenario.T_s,
+        f_exc=excitation_frequency_of(scenario),
+        method=method,
+        **overrides,
+    )
+    return DeadzoneEstimator(
+        scenario.estimator_drivetrain, scenario.estimator_backlash.delta1, scenario.T_s, cfg
+    )
+
+
+@dataclass
+class ScenarioOutcome:
+    """Figures of merit of one method on one scenario (errors in rad, times in s)."""
+
+    scenario: str
+    method: str
+    metrics: dict[str, Any]
+    result: EstimationResult | None = None
+    trace: Trace | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def score(name: str, method: str, trace: Trace, res: EstimationResult) -> dict[str, Any]:
+    """Figures of merit of one run (see module constants for windows and bands)."""
+    t = res.t
+    d = res.delta_hat
+    truth = trace["delta_true"]
+    m: dict[str, Any] = {
+        "scenario": name,
+        "method": method,
+        "delta_final_rad": float(d[-1]),
+        "delta_true_final_rad": float(truth[-1]),
+        "excitation_ok": res.excitation_ok,
+        "converged": res.converged,
+    }
+    T = float(t[-1] - t[0])
+    if name == "paper-sim":
+        t_step = 3.0
+        pre = t < t_step
+        c0 = convergence_time(t[pre], d[pre], truth[pre], 2e-3)
+        c1 = convergence_time(t[~pre], d[~pre], truth[~pre], 2e-3, t_start=t_step)
+        ss0 = steady_state_peak(t[pre], d[pre], truth[pre], 0.5)
+        ss1 = steady_state_peak(t, d, truth, 0.5)
+        m.update(
+            conv_2mrad_start_s=c0,
+            conv_2mrad_step_s=c1,
+            ss_error_rad=max(ss0, ss1),
+            maee_rad=maee(t, d, truth, t[0] + T - 2.0),
+            ss_peak_rad=max(ss0, ss1),
+        )
+    else:
+        m.update(
+            maee_rad=maee(t, d, truth, t[0] + T - BENCH_MAEE_WINDOW_S),
+            ss_peak_rad=steady_state_peak(t, d, truth, BENCH_SS_WINDOW_S),
+            conv_10mrad_s=convergence_time(t, d, truth, BANDS_RAD[0]),
+            conv_2mrad_s=convergence_time(t, d, truth, BANDS_RAD[1]),
+        )
+    return m
+
+
+def run_scenario(
+    name: str,
+    methods: Sequence[Method] = ("paper", "default"),
+    duration: float | None = None,
+    keep: bool = False,
+    overrides: dict[str, Any] | None = None,
+) -> list[ScenarioOutcome]:
+    """Simulate scenario ``name`` once and score each method on that trace."""
+    from drivelash.sim.scenarios import get_scenario
+
+    sc = get_scenario(name)
+    trace = sc.simulate(duration=duration)
+    out = []
+    for method in methods:
+        est = estimator_for(sc, method, **(overrides or {}))
+        res = est.run(trace)
+        out.append(
+            ScenarioOutcome(
+                name, method, score(name, method, trace, res), res if keep else None, trace if keep else None
+            )
+        )
+    return out
+
+
+def _run_one(args: tuple[str, tuple[str, ...], float | None, dict[str, Any] | None]) -> list[ScenarioOutcome]:
+    name, methods, duration, overrides = args
+    return run_scenario(name, methods, duration, keep=False, overrides=overrides)
+
+
+def reproduce_table(
+    names: Sequence[str],
+    methods: Sequence[Method] = ("paper", "default"),
+    duration: float | None = None,
+    workers: int = 1,
+    overrides: dict[str, Any] | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> list[dict[str, Any]]:
+    """Rows of figures of merit for each scenario × method, with the paper's values added."""
+    jobs = [(n, tuple(methods), duration, overrides) for n in names]
+    outcomes: list[list[ScenarioOutcome]] = []
+    if workers > 1 and len(jobs) > 1:
+        with ProcessPoolExecutor(max_workers=workers) as ex:
+            for res in ex.map(_run_one, jobs):
+                outcomes.append(res)
+                if progress:
+                    progress(res[0].scenario)
+    else:
+        for j in jobs:
+            res = _run_one(j)
+            outcomes.append(res)
+            if progress:
+                progress(res[0].scenario)
+    rows = []
+    for group in outcomes:
+        for o in group:
+            r = dict(o.metrics)
+            if o.scenario == "paper-sim":
+                r["paper_conv_s"] = PAPER_SIM_CONVERGENCE_S
+                r["paper_ss_rad"] = PAPER_SIM_SS_RAD
+                r["paper_maee_mrad"] = math.nan
+            else:
+                r["paper_maee_mrad"] = PAPER_MAEE_MRAD.get(o.scenario, PAPER_MAEE_BOUND_MRAD)
+                r["paper_conv_s"] = PAPER_CONVERGENCE_S
+            rows.append(r)
+    return rows
+
+
+def _fmt(v: Any, scale: float = 1.0, digits: int = 3) -> str:
+    if v is None:
+        return "—"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            return "—"
+        return f"{v * scale:.{digits}g}"
+    return str(v)
+
+
+TABLE_COLUMNS = (
+    ("scenario", "scenario", 1.0),
+    ("method", "method", 1.0),
+    ("maee_rad", "MAEE [mrad]", 1e3),
+    ("paper_maee_mrad", "paper MAEE [mrad]", 1.0),
+    ("ss_peak_rad", "SS peak [mrad]", 1e3),
+    ("conv_10mrad_s", "t(10 mrad) [s]", 1.0),
+    ("conv_2mrad_s", "t(2 mrad) [s]", 1.0),
+    ("conv_2mrad_start_s", "t(2 mrad) start [s]", 1.0),
+    ("conv_2mrad_step_s", "t(2 mrad) after step [s]", 1.0),
+    ("paper_conv_s", "paper t [s]", 1.0),
+    ("excitation_ok", "excitation ok", 1.0),
+)
+
+
+def table_markdown(rows: list[dict[str, Any]]) -> str:
+    """Markdown table of :func:`reproduce_table` rows."""
+    head = "| " + " | ".join(c[1] for c in TABLE_COLUMNS) + " |"
+    sep = "|" + "|".join("---" for _ in TABLE_COLUMNS) + "|"
+    lines = [head, sep]
+    for r in rows:
+        lines.append("| " + " | ".join(_fmt(r.get(k), s) for k, _, s in TABLE_COLUMNS) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def table_csv(rows: list[dict[str, Any]]) -> str:
+    """CSV of all fields of the rows (SI units, errors in rad)."""
+    keys: list[str] = []
+    for r in rows:
+        for k in r:
+            if k not in keys:
+                keys.append(k)
+    out = [",".join(keys)]
+    for r in rows:
+        vals = []
+        for k in keys:
+            v = r.get(k)
+            vals.append("" if v is None else (repr(v) if isinstance(v, float) else str(v)))
+        out.append(",".join(vals))
+    return "\n".join(out) + "\n"
+
+
+def summary_numbers(rows: list[dict[str, Any]], method: str) -> dict[str, float]:
+    """Worst-case figures over the bench rows of one method."""
+    b = [r for r in rows if r["method"] == method and r["scenario"].startswith("bench-")]
+    if not b:
+        return {}
+    conv = [r["conv_10mrad_s"] if r["conv_10mrad_s"] is not None else np.inf for r in b]
+    return {
+        "max_maee_mrad": 1e3 * max(r["maee_rad"] for r in b),
+        "max_conv_10mrad_s": float(max(conv)),
+    }
