@@ -140,7 +140,7 @@ class RackPinionBench:
     beta_m: float = 2e-4
     F_CT: float = 150.0
     beta_T: float = 500.0
-    zeta_mesh: float = 0.1
+    zeta_mesh: float = 0.3
 
     def __post_init__(self) -> None:
         _check(self)
