@@ -23,6 +23,7 @@ is stable for h·|λ| < 2.78. See :data:`DEFAULT_OMEGA_REG` and
 
 from __future__ import annotations
 
+import math
 from typing import Literal
 
 import numpy as np
@@ -50,20 +51,29 @@ PLANT_FIELDS: tuple[str, ...] = (
     "omega_reg",
     "alpha",
     "model",
+    "inv_J_m",
+    "inv_J_l",
+    "inv_N",
+    "inv_omega_s",
+    "inv_omega_reg",
 )
 P_J_M, P_J_L, P_N, P_K_S, P_D_S, P_T_CM, P_T_CL, P_BETA_M, P_BETA_L = range(9)
 P_T_SM, P_T_SL, P_OMEGA_S, P_OMEGA_REG, P_ALPHA, P_MODEL = range(9, 15)
+# reciprocals precomputed for the engine's hot loop (multiplication instead of division)
+P_INV_J_M, P_INV_J_L, P_INV_N, P_INV_OMEGA_S, P_INV_OMEGA_REG = range(15, 20)
 
 #: Shaft model codes in the parameter array.
 MODEL_DEADZONE = 0.0
 MODEL_SMOOTH = 1.0
 
-#: Regularisation velocity of the friction sign [rad/s]. 5 mrad/s is far below any
-#: velocity of interest in the scenarios (the references move at up to π … 4π rad/s);
-#: the resulting "sticking damper" T_S/ω_reg = 8.8 N·m·s/rad on the rig (T_S = 0.044 N·m)
-#: gives λ = 1.06e4 1/s with J = 8.31e-4 kg·m², i.e. h·λ = 0.66 at the default RK4
-#: substep of 62.5 µs — well inside RK4's stability interval (2.78).
-DEFAULT_OMEGA_REG = 5e-3
+#: Regularisation velocity of the friction sign [rad/s]. 20 mrad/s is below 1 % of the
+#: reference velocities (π … 4π rad/s peak) and below the velocity noise of the rig
+#: (σ = 31.6 mrad/s); the "sticking damper" T_S/ω_reg = 2.2 N·m·s/rad (T_S = 0.044 N·m)
+#: gives λ = 2.6e3 1/s with J = 8.31e-4 kg·m², h·λ = 0.17 at the 62.5 µs RK4 substep —
+#: stable (< 2.78) *and* resolved: the engine then agrees with solve_ivp to ~3e-6 rad over
+#: 5 s of bench-0A, whereas 5 mrad/s gave 4e-5 rad after 1 s (h·λ = 0.66, the tanh
+#: transition at each reversal lasts only ~1e-4 s and is not resolved).
+DEFAULT_OMEGA_REG = 2e-2
 
 
 def plant_params_array(
@@ -114,6 +124,11 @@ def plant_params_array(
             omega_reg,
             backlash.alpha,
             MODEL_DEADZONE if model == "deadzone" else MODEL_SMOOTH,
+            1.0 / d.J_m,
+            1.0 / d.J_l,
+            1.0 / d.N,
+            1.0 / d.omega_s,
+            1.0 / omega_reg if omega_reg > 0 else 0.0,
         ],
         dtype=np.float64,
     )
@@ -179,6 +194,143 @@ def rk4_step_scalar(omega_m, theta_m, omega_l, theta_l, u, delta, delta1, p, h):
         omega_l + s * (c1 + 2.0 * c2 + 2.0 * c3 + c4),
         theta_l + s * (d1 + 2.0 * d2 + 2.0 * d3 + d4),
     )
+
+
+@njit(cache=True, inline="always")
+def contact_mode_scalar(dtheta, delta, delta1):
+    """Contact state of the deadzone model: −1 lower flank (Δθ < −δ1), +1 upper (Δθ > δ − δ1), 0 free."""
+    if dtheta < -delta1:
+        return -1
+    if dtheta > delta - delta1:
+        return 1
+    return 0
+
+
+@njit(cache=True, inline="always")
+def _friction_fast(omega, T_C, beta, T_S, inv_omega_s, inv_omega_reg):
+    """:func:`~drivelash.physics.friction.friction_scalar` with reciprocals (ω_reg > 0)."""
+    if omega == 0.0:  # load at rest in the gap: skip tanh and exp
+        return 0.0
+    x = omega * inv_omega_reg
+    if x > 20.0:
+        s = 1.0
+    elif x < -20.0:
+        s = -1.0
+    else:
+        s = math.tanh(x)
+    level = T_C
+    if T_S > 0.0:
+        r = omega * inv_omega_s
+        r2 = r * r
+        if r2 < 40.0:
+            level = T_C + (T_S - T_C) * math.exp(-r2)
+    return level * s + beta * omega
+
+
+@njit(cache=True, inline="always")
+def rhs_mode_scalar(omega_m, theta_m, omega_l, theta_l, u, delta, delta1, p, mode):
+    """:func:`rhs_scalar` with the deadzone branch fixed to ``mode`` (−1, 0, +1).
+
+    The branch formula of (10) is extended beyond its region, so that an RK4 step
+    which straddles a contact point integrates one smooth vector field; the engine
+    locates the contact instant and switches the mode there (event handling). For the
+    smooth model (12) ``mode`` is ignored. Same equations as :func:`rhs_scalar`, written
+    with precomputed reciprocals for speed (requires ω_reg > 0); the two are
+    cross-checked in the tests.
+    """
+    inv_N = p[P_INV_N]
+    dtheta = theta_m * inv_N - theta_l
+    domega = omega_m * inv_N - omega_l
+    if p[P_MODEL] != MODEL_DEADZONE:
+        T_l = smooth_torque_scalar(dtheta, domega, p[P_K_S], p[P_D_S], delta, delta1, p[P_ALPHA])
+    elif mode < 0:
+        T_l = p[P_K_S] * (dtheta + delta1) + p[P_D_S] * domega
+    elif mode > 0:
+        T_l = p[P_K_S] * (dtheta + delta1 - delta) + p[P_D_S] * domega
+    else:
+        T_l = 0.0
+    inv_ws = p[P_INV_OMEGA_S]
+    inv_wr = p[P_INV_OMEGA_REG]
+    T_Fm = _friction_fast(omega_m, p[P_T_CM], p[P_BETA_M], p[P_T_SM], inv_ws, inv_wr)
+    T_Fl = _friction_fast(omega_l, p[P_T_CL], p[P_BETA_L], p[P_T_SL], inv_ws, inv_wr)
+    return (u - T_Fm - T_l * inv_N) * p[P_INV_J_M], omega_m, (T_l - T_Fl) * p[P_INV_J_L], omega_l
+
+
+@njit(cache=True, inline="always")
+def rk4_mode_scalar(omega_m, theta_m, omega_l, theta_l, u, delta, delta1, p, h, mode):
+    """One RK4 step of length ``h`` [s] on the vector field of contact ``mode``."""
+    a1, b1, c1, d1 = rhs_mode_scalar(omega_m, theta_m, omega_l, theta_l, u, delta, delta1, p, mode)
+    hh = 0.5 * h
+    a2, b2, c2, d2 = rhs_mode_scalar(
+        omega_m + hh * a1, theta_m + hh * b1, omega_l + hh * c1, theta_l + hh * d1, u, delta, delta1, p, mode
+    )
+    a3, b3, c3, d3 = rhs_mode_scalar(
+        omega_m + hh * a2, theta_m + hh * b2, omega_l + hh * c2, theta_l + hh * d2, u, delta, delta1, p, mode
+    )
+    a4, b4, c4, d4 = rhs_mode_scalar(
+        omega_m + h * a3, theta_m + h * b3, omega_l + h * c3, theta_l + h * d3, u, delta, delta1, p, mode
+    )
+    s = h / 6.0
+    return (
+        omega_m + s * (a1 + 2.0 * a2 + 2.0 * a3 + a4),
+        theta_m + s * (b1 + 2.0 * b2 + 2.0 * b3 + b4),
+        omega_l + s * (c1 + 2.0 * c2 + 2.0 * c3 + c4),
+        theta_l + s * (d1 + 2.0 * d2 + 2.0 * d3 + d4),
+    )
+
+
+@njit(cache=True)
+def rk4_event_step_scalar(omega_m, theta_m, omega_l, theta_l, u, delta, delta1, p, h):
+    """RK4 step of length ``h`` [s] that locates contact events of the deadzone model.
+
+    The deadzone torque (10) jumps by D_S Δω when a flank is reached, so a plain RK4
+    step across the contact loses its order (error ∝ h · D_S Δω / J per contact). Here
+    the step is taken on the vector field of the contact mode at its start; if the mode
+    at the end differs, the crossing instant s of Δθ through the contact point is found
+    by Illinois regula falsi on s ↦ Δθ(RK4(s)) (6 iterations), the step is split at s and
+    finished with the new mode. For the smooth model this is a plain RK4 step.
+    """
+    if p[P_MODEL] != MODEL_DEADZONE:
+        return rk4_mode_scalar(omega_m, theta_m, omega_l, theta_l, u, delta, delta1, p, h, 0)
+    N = p[P_N]
+    mode0 = contact_mode_scalar(theta_m / N - theta_l, delta, delta1)
+    a, b, c, d = rk4_mode_scalar(omega_m, theta_m, omega_l, theta_l, u, delta, delta1, p, h, mode0)
+    mode1 = contact_mode_scalar(b / N - d, delta, delta1)
+    if mode1 == mode0:
+        return a, b, c, d
+    # contact point crossed: the flank of the mode we leave or enter
+    side = mode1 if mode0 == 0 else mode0
+    bound = -delta1 if side < 0 else delta - delta1
+    s0 = 0.0
+    g0 = theta_m / N - theta_l - bound
+    s1 = h
+    g1 = b / N - d - bound
+    side0 = 0
+    for _ in range(6):
+        if g1 == g0:
+            break
+        sm = (s0 * g1 - s1 * g0) / (g1 - g0)
+        a, b, c, d = rk4_mode_scalar(omega_m, theta_m, omega_l, theta_l, u, delta, delta1, p, sm, mode0)
+        gm = b / N - d - bound
+        if gm == 0.0:
+            s0 = sm
+            s1 = sm
+            break
+        if (gm > 0.0) == (g1 > 0.0):
+            s1 = sm
+            g1 = gm
+            if side0 == 1:
+                g0 *= 0.5
+            side0 = 1
+        else:
+            s0 = sm
+            g0 = gm
+            if side0 == -1:
+                g1 *= 0.5
+            side0 = -1
+    s = 0.5 * (s0 + s1)
+    a, b, c, d = rk4_mode_scalar(omega_m, theta_m, omega_l, theta_l, u, delta, delta1, p, s, mode0)
+    return rk4_mode_scalar(a, b, c, d, u, delta, delta1, p, h - s, mode1)
 
 
 @njit(cache=True)

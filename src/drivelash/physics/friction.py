@@ -37,14 +37,24 @@ def friction_scalar(omega, T_C, beta, T_S, omega_s, omega_reg):
     omega_reg : float
         Regularisation velocity [rad/s]; 0 selects the exact sign function.
     """
+    # Fast paths: tanh(x) rounds to ±1 in float64 for |x| > 19.1 (exact), and for
+    # (ω/ω_s)² > 40 the Stribeck term is below 5e-18·(T_S − T_C) (negligible).
     if omega_reg > 0.0:
-        s = math.tanh(omega / omega_reg)
+        x = omega / omega_reg
+        if x > 20.0:
+            s = 1.0
+        elif x < -20.0:
+            s = -1.0
+        else:
+            s = math.tanh(x)
     else:
         s = 1.0 if omega > 0.0 else (-1.0 if omega < 0.0 else 0.0)
     level = T_C
     if T_S > 0.0:
         r = omega / omega_s
-        level = T_C + (T_S - T_C) * math.exp(-r * r)
+        r2 = r * r
+        if r2 < 40.0:
+            level = T_C + (T_S - T_C) * math.exp(-r2)
     return level * s + beta * omega
 
 
