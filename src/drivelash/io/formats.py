@@ -43,6 +43,7 @@ FORMATS = ("csv", "parquet", "hdf5", "mat", "mat73")
 
 _HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 _META_KEY = "drivelash_meta"
+_ORDER_KEY = "drivelash_columns"
 
 
 @dataclass
@@ -220,15 +221,22 @@ def _read_csv(p: Path) -> RawTable:
         else:
             if " " in header.strip():
                 sep = r"\s+"
-    n_fields = len(header.split(sep)) if sep != r"\s+" else len(header.split())
+    tokens = [h.strip() for h in (header.split(sep) if sep != r"\s+" else header.split())]
+    n_fields = len(tokens)
+    dup = next((h for i, h in enumerate(tokens) if h in tokens[:i]), None)
+    if dup is not None:
+        raise DataError("duplicated column name in the header", path=str(p), column=dup)
     if len(body_nonblank) < 2:
         raise DataError("no data rows below the header", path=str(p))
     # truncation: last data line with fewer fields than the header, file not ending in newline
     last = body_nonblank[-1]
     last_fields = len(last.split(sep)) if sep != r"\s+" else len(last.split())
-    if last_fields < n_fields and not text.endswith("\n"):
+    typical = float(np.median([len(ln) for ln in body_nonblank[1:][-200:]]))
+    short = len(last) < 0.6 * typical
+    if (last_fields < n_fields or short) and not text.endswith(("\n", "\r")):
         raise DataError(
-            f"last row has {last_fields} of {n_fields} fields and the file ends mid-line (truncated file?)",
+            f"last row is incomplete ({last_fields} of {n_fields} fields, {len(last)} characters)"
+            " and the file ends mid-line (truncated file?)",
             path=str(p),
             row=len(body_nonblank) - 2,
         )
@@ -237,7 +245,6 @@ def _read_csv(p: Path) -> RawTable:
             io.StringIO("\n".join(body)),
             sep=sep,
             engine="c" if sep != r"\s+" else "python",
-            float_precision="round_trip",
             skipinitialspace=True,
             dtype=str,
             keep_default_na=False,
@@ -252,20 +259,18 @@ def _read_csv(p: Path) -> RawTable:
         if name in seen:
             raise DataError("duplicated column name in the header", path=str(p), column=name)
         seen.add(name)
-        s = df[c].str.strip()
-        num = pd.to_numeric(s, errors="coerce")
-        lower = s.str.lower()
-        special = lower.isin(["nan", "inf", "+inf", "-inf", "infinity", "-infinity", ""])
-        bad = num.isna() & ~special
-        if bool(bad.any()):
-            row = int(np.flatnonzero(bad.to_numpy())[0])
-            raise DataError(f"not a number: {str(s.iloc[row])[:40]!r}", path=str(p), column=name, row=row)
-        vals = num.to_numpy(dtype=np.float64, na_value=np.nan)
-        vals[lower.isin(["inf", "+inf", "infinity"]).to_numpy()] = np.inf
-        vals[lower.isin(["-inf", "-infinity"]).to_numpy()] = -np.inf
-        empty = (lower == "").to_numpy()
-        if empty.any():
-            raise DataError("empty field", path=str(p), column=name, row=int(np.flatnonzero(empty)[0]))
+        s = df[c].fillna("").astype(str).str.strip()
+        obj = s.to_numpy(dtype=object)
+        try:
+            vals = np.array(obj, dtype=np.float64)  # Python float(): exact, accepts nan/inf
+        except (ValueError, TypeError, OverflowError):
+            for row, text in enumerate(obj):
+                try:
+                    float(text)
+                except (ValueError, TypeError, OverflowError):
+                    what = "empty field" if text == "" else f"not a number: {str(text)[:40]!r}"
+                    raise DataError(what, path=str(p), column=name, row=row) from None
+            raise DataError("unparseable values", path=str(p), column=name) from None
         cols[name] = vals
     if not cols or len(next(iter(cols.values()))) == 0:
         raise DataError("no data rows below the header", path=str(p))
@@ -346,12 +351,20 @@ def _read_hdf5(p: Path) -> RawTable:
 
     items: dict[str, Any] = {}
     meta: dict[str, Any] = {}
+    order: list[str] = []
     with _h5_open(p) as f:
         try:
             if _META_KEY in f.attrs:
                 meta = _parse_meta(f.attrs[_META_KEY])
+            if _ORDER_KEY in f.attrs:
+                got = json.loads(str(f.attrs[_ORDER_KEY]))
+                order = [str(x) for x in got] if isinstance(got, list) else []
             for k, v in f.attrs.items():
-                if k != _META_KEY and np.asarray(v).dtype.kind in "biuf" and np.asarray(v).size == 1:
+                if (
+                    k not in (_META_KEY, _ORDER_KEY)
+                    and np.asarray(v).dtype.kind in "biuf"
+                    and np.asarray(v).size == 1
+                ):
                     items[str(k)] = v
 
             frames: list[Any] = []
@@ -386,6 +399,8 @@ def _read_hdf5(p: Path) -> RawTable:
     base = [k.rsplit("/", 1)[-1] for k in cols]
     if len(set(base)) == len(base):
         cols = {b: v for b, v in zip(base, cols.values(), strict=True)}
+    if order:  # column order as written by drivelash
+        cols = {k: cols[k] for k in order if k in cols} | {k: v for k, v in cols.items() if k not in order}
     return RawTable(cols, scalars, meta, str(p), "hdf5")
 
 
@@ -479,6 +494,7 @@ def _write_hdf5(trace: Trace, path: Path, userblock: int = 0) -> None:
             else:
                 f.create_dataset(name, data=arr)
         f.attrs[_META_KEY] = json.dumps(trace.meta)
+        f.attrs[_ORDER_KEY] = json.dumps(trace.names)
     if userblock:
         header = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created by: drivelash HDF5 schema 1.00 ."
         block = header.ljust(116, b" ") + b"\x00" * 8 + b"\x00\x02" + b"IM"

@@ -365,6 +365,12 @@ def load_trace(
     warnings: list[str] = []
     cols, kinds, origin = _apply_mapping(table, cmap, sampling, warnings)
 
+    if "t" not in cols and sampling.sample_rate is None:
+        for name in ("t", "time"):  # an unmapped time column in [sampling] time_unit
+            if name in table.columns:
+                cols = {"t": table.columns[name] * _TO_SI[sampling.time_unit], **cols}
+                origin["t"] = name
+                break
     if "t" not in cols:
         if sampling.sample_rate is None:
             raise DataError(

@@ -1,0 +1,131 @@
+"""File formats: round trips, pandas-style HDF5, MATLAB v5/v7.3, the EMPS file."""
+
+from __future__ import annotations
+
+import json
+
+import h5py
+import numpy as np
+import pytest
+import scipy.io
+
+from drivelash.errors import DataError
+from drivelash.io import load_trace, read_raw, write_trace
+from drivelash.io.formats import detect_format
+from identify.helpers import emps_file, simulated_trace
+
+
+@pytest.fixture(scope="module")
+def sim_trace():
+    return simulated_trace(2.0)
+
+
+@pytest.mark.parametrize(
+    ("fmt", "name"),
+    [("csv", "x.csv"), ("parquet", "x.parquet"), ("hdf5", "x.h5"), ("mat", "x.mat"), ("mat73", "x.mat")],
+)
+def test_round_trip_identical(tmp_path, sim_trace, fmt, name):
+    """Simulated Trace → file → load_trace: every column bit-identical, meta preserved."""
+    path = write_trace(sim_trace, tmp_path / name, fmt=fmt)
+    back = load_trace(path)
+    assert back.names == sim_trace.names
+    for col in sim_trace.names:
+        # CSV uses 17 significant digits: exact float64 round trip; binary formats are exact.
+        np.testing.assert_array_equal(back[col], sim_trace[col], err_msg=f"{fmt}: {col}")
+    assert back.meta["scenario"] == sim_trace.meta["scenario"]
+    assert back.meta["format"] == ("mat73" if fmt == "mat73" else fmt)
+    assert not list(tmp_path.glob("*.part")), "temporary files left behind"
+
+
+def test_mat73_is_hdf5_with_matlab_header(tmp_path, sim_trace):
+    path = write_trace(sim_trace, tmp_path / "x.mat", fmt="mat73")
+    assert path.read_bytes()[:10] == b"MATLAB 7.3"
+    assert detect_format(path) == "mat73"
+    with h5py.File(path, "r") as f:  # MATLAB layout: a column vector is stored 1×N
+        assert f["theta_m"].shape == (1, len(sim_trace))
+
+
+def test_pandas_fixed_hdf5_frame(tmp_path):
+    """A pandas HDFStore 'fixed' frame (axis0/blockN_items/blockN_values, transposed) — built by hand
+    with h5py since PyTables is not a dependency."""
+    n = 50
+    t = np.arange(n) * 0.01
+    x = np.sin(t)
+    tq = np.cos(3 * t) + 0.1 * t
+    path = tmp_path / "store.h5"
+    with h5py.File(path, "w") as f:
+        g = f.create_group("df")
+        g.attrs["pandas_type"] = np.bytes_("frame")
+        g.create_dataset("axis0", data=np.array([b"t", b"theta_m", b"torque_m"]))
+        g.create_dataset("axis1", data=np.arange(n))
+        g.create_dataset("block0_items", data=np.array([b"t", b"theta_m", b"torque_m"]))
+        ds = g.create_dataset("block0_values", data=np.column_stack([t, x, tq]))  # rows × items
+        ds.attrs["transposed"] = True
+    tr = load_trace(path)
+    np.testing.assert_array_equal(tr["theta_m"], x)
+    np.testing.assert_array_equal(tr["torque_m"], tq)
+
+
+def test_hdf5_compound_table(tmp_path):
+    """A compound-dtype table (pandas 'table' format with data_columns): fields become columns."""
+    n = 40
+    arr = np.zeros(n, dtype=[("index", "i8"), ("t", "f8"), ("theta_m", "f8")])
+    arr["index"] = np.arange(n)
+    arr["t"] = np.arange(n) * 1e-3
+    arr["theta_m"] = np.sin(arr["t"] * 50)
+    path = tmp_path / "table.h5"
+    with h5py.File(path, "w") as f:
+        f.create_group("df").create_dataset("table", data=arr)
+    raw = read_raw(path)
+    np.testing.assert_array_equal(raw.columns["theta_m"], arr["theta_m"])
+
+
+def test_mat_v5_scalars_and_column_vectors(tmp_path):
+    n = 30
+    t = np.arange(n) * 1e-3
+    scipy.io.savemat(tmp_path / "r.mat", {"t": t[:, None], "pos": np.sin(t)[:, None] * 1e-2, "k": 2.5})
+    raw = read_raw(tmp_path / "r.mat")
+    assert raw.scalars == {"k": 2.5}
+    np.testing.assert_array_equal(raw.columns["t"], t)
+
+
+def test_emps_mat_is_read_with_gtau_from_the_file():
+    """The committed example config maps EMPS: force = gtau · vir, gtau read from the file."""
+    from drivelash.io import load_config
+    from identify.helpers import EMPS_CONFIG
+
+    path = emps_file("DATA_EMPS.mat")
+    tr = load_trace(path, load_config(EMPS_CONFIG))
+    d = scipy.io.loadmat(path)
+    gtau = float(d["gtau"][0, 0])
+    assert gtau == pytest.approx(35.15, abs=0.01)
+    np.testing.assert_allclose(tr["torque_m"], gtau * d["vir"].ravel(), rtol=1e-15)
+    np.testing.assert_array_equal(tr["theta_m"], d["qm"].ravel())
+    assert len(tr) == 24841
+    assert tr.sample_time == pytest.approx(1e-3, rel=1e-4)
+    assert tr.meta["axis"] == "prismatic" and tr.meta["units"]["torque_m"] == "N"
+
+
+def test_write_is_atomic_on_failure(tmp_path, sim_trace, monkeypatch):
+    """A writer that fails half-way leaves no file at all."""
+    import drivelash.io.formats as formats
+
+    def boom(trace, path, userblock=0):
+        path.write_bytes(b"partial")
+        raise OSError("disk full")
+
+    monkeypatch.setattr(formats, "_write_hdf5", boom)
+    with pytest.raises(OSError):
+        write_trace(sim_trace, tmp_path / "x.h5")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_csv_meta_line_is_json(tmp_path, sim_trace):
+    path = write_trace(sim_trace, tmp_path / "x.csv")
+    first = path.read_text().splitlines()[0]
+    assert json.loads(first.removeprefix("# drivelash.meta "))["scenario"] == "bench-0A"
+
+
+def test_unknown_format_name(tmp_path, sim_trace):
+    with pytest.raises(DataError, match="unknown format"):
+        write_trace(sim_trace, tmp_path / "x.bin", fmt="xlsx")
