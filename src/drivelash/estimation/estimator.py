@@ -311,6 +311,41 @@ class EstimationResult:
         return float(self.delta_hat[-1]) if self.delta_hat.size else float("nan")
 
 
+def excitation_frequency(trace: Trace, default: float = 0.5) -> float:
+    """Motion-reversal frequency of a recording [Hz], from the motor velocity.
+
+    Counts sign changes of ω_m with a hysteresis of 10 % of its 99th-percentile magnitude
+    (so that noise at standstill does not count) and returns reversals / (2 · duration).
+    ``default`` when fewer than two reversals are found.
+
+    Parameters
+    ----------
+    trace : Trace
+        Needs ``t`` and ``omega_m``.
+    default : float
+        Value returned for (nearly) unidirectional motion [Hz].
+    """
+    w = np.asarray(trace["omega_m"], dtype=np.float64)
+    t = trace["t"]
+    if w.size < 3:
+        return default
+    thr = 0.1 * float(np.percentile(np.abs(w), 99))
+    if not thr > 0:
+        return default
+    # vectorised hysteresis: only samples beyond ±thr decide the side
+    idx = np.nonzero(np.abs(w) > thr)[0]
+    s = np.sign(w[idx])
+    changes = np.nonzero(np.diff(s) != 0)[0]
+    flips = int(changes.size)
+    if flips < 2:
+        return default
+    t_first = float(t[idx[changes[0] + 1]])
+    t_last = float(t[idx[changes[-1] + 1]])
+    if t_last <= t_first:
+        return default
+    return float((flips - 1) / (2.0 * (t_last - t_first)))
+
+
 def _samples_from_trace(trace: Trace) -> np.ndarray:
     missing = [c for c in INPUT_COLUMNS if c not in trace]
     if missing:
@@ -410,7 +445,22 @@ class DeadzoneEstimator:
             )
         if delta_true is None and "delta_true" in trace:
             delta_true = trace["delta_true"]
-        return make_result(t, out, self.config, self.params, delta_true)
+        return make_result(t, out, self.config, self.params, delta_true, samples=samples)
+
+
+def _kinematics(samples: np.ndarray, N: float, Ts: float) -> dict[str, float]:
+    """Load and motor travel (load-side units) and number of motor-velocity reversals."""
+    th_m = samples[:, 0] / N
+    th_l = samples[:, 2]
+    w_m = samples[:, 1]
+    motor_range = float(np.ptp(th_m)) if th_m.size else 0.0
+    load_range = float(np.ptp(th_l)) if th_l.size else 0.0
+    thr = 0.1 * float(np.percentile(np.abs(w_m), 99)) if w_m.size else 0.0
+    rev = 0
+    if thr > 0:
+        s = np.sign(w_m[np.abs(w_m) > thr])
+        rev = int(np.count_nonzero(np.diff(s) != 0))
+    return {"motor_range": motor_range, "load_range": load_range, "reversals": float(rev)}
 
 
 def make_result(
@@ -420,6 +470,7 @@ def make_result(
     params: np.ndarray,
     delta_true: np.ndarray | None = None,
     band: float | None = None,
+    samples: np.ndarray | None = None,
 ) -> EstimationResult:
     """Wrap kernel outputs into an :class:`EstimationResult` with the excitation verdict."""
     from drivelash.metrics import convergence_time
@@ -435,10 +486,23 @@ def make_result(
     sigma_frac = float(sigma_win[-1] / win) if n else 0.0
     tq = out[:, dz.O_TORQUE_MEAS]
     peak_tq = float(np.max(np.abs(tq[n // 10 :]))) if n else 0.0
+    kin = _kinematics(samples, float(params[dz.P_N]), Ts) if samples is not None else {}
     if n == 0 or duration < win:
         ok, reason = (
             False,
             f"recording of {duration:.3g} s is shorter than the excitation window of {win:.3g} s",
+        )
+    elif kin and kin["load_range"] < 0.1 * kin["motor_range"] and kin["motor_range"] > 0:
+        ok = False
+        reason = (
+            f"no engagement: the load moved {kin['load_range']:.3g} rad while the motor moved "
+            f"{kin['motor_range']:.3g} rad (load side) — the motion stays inside the deadzone"
+        )
+    elif kin and kin["reversals"] < 2:
+        ok = False
+        reason = (
+            "the motion never reverses (unidirectional): only one contact side is seen, "
+            "so the gap cannot be measured; a back-and-forth motion is needed"
         )
     elif n_trav < 2:
         if peak_tq < config.T_thr:
@@ -491,7 +555,7 @@ def make_result(
         convergence_time_s=conv,
         band=band,
         config=config,
-        extra={"traversals": n_trav, "sigma_fraction": sigma_frac},
+        extra={"traversals": n_trav, "sigma_fraction": sigma_frac, **kin},
     )
 
 

@@ -1,0 +1,143 @@
+"""Adaptive deadzone law: exactness (chunks, step, py_func), bounds, excitation verdict."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from drivelash.estimation import deadzone as dz
+from drivelash.estimation.estimator import (
+    INPUT_COLUMNS,
+    DeadzoneEstimator,
+    EstimatorConfig,
+    build_params,
+    excitation_frequency,
+)
+from drivelash.physics import backlash as bk
+
+from .conftest import RIG_ESTIMATOR, TS
+
+
+def _samples(trace, n=None):
+    return np.column_stack([trace[c][:n] for c in INPUT_COLUMNS])
+
+
+@pytest.mark.parametrize("method", ["paper", "default"])
+def test_chunked_equals_single_and_step_equals_run(short_bench_trace, method):
+    trace, bl = short_bench_trace
+    cfg = EstimatorConfig.tuned(RIG_ESTIMATOR, TS, 0.5, method=method)
+    x = _samples(trace, 20000)
+    one = DeadzoneEstimator(RIG_ESTIMATOR, bl, TS, cfg)
+    out1 = one.run_samples(x)
+    chunked = DeadzoneEstimator(RIG_ESTIMATOR, bl, TS, cfg)
+    parts = [chunked.run_samples(x[a : a + 3001]) for a in range(0, len(x), 3001)]
+    np.testing.assert_array_equal(np.concatenate(parts), out1)
+    np.testing.assert_array_equal(chunked.state, one.state)
+    stepper = DeadzoneEstimator(RIG_ESTIMATOR, bl, TS, cfg)
+    rows = np.array([stepper.step(x[i]) for i in range(3000)])
+    np.testing.assert_array_equal(rows, out1[:3000])
+    # Trace-level run with internal chunking equals the unchunked one
+    r1 = DeadzoneEstimator(RIG_ESTIMATOR, bl, TS, cfg).run(trace.slice(0, 20000))
+    r2 = DeadzoneEstimator(RIG_ESTIMATOR, bl, TS, cfg).run(trace.slice(0, 20000), chunk=777)
+    np.testing.assert_array_equal(r1.delta_hat, r2.delta_hat)
+    np.testing.assert_array_equal(r1.delta_hat, out1[:, dz.O_DELTA])
+
+
+@pytest.mark.parametrize("method", ["paper", "default"])
+def test_jitted_equals_pure_python(short_bench_trace, method, monkeypatch):
+    trace, bl = short_bench_trace
+    cfg = EstimatorConfig.tuned(RIG_ESTIMATOR, TS, 0.5, method=method)
+    p = build_params(RIG_ESTIMATOR, bl, cfg, TS)
+    x = np.ascontiguousarray(_samples(trace, 4000))
+    s0 = dz.initial_state(p)
+    s_jit, out_jit = dz.deadzone_run(s0, x, p)
+    # replace every jitted callee by its Python function, so nothing below runs compiled
+    for mod, names in (
+        (dz, ("deadzone_step", "projection", "_sgn", "smooth_torque_scalar", "dtorque_ddelta_scalar")),
+        (bk, ("_sgn", "smooth_stiffness_scalar", "chi1_scalar", "chi2_scalar")),
+    ):
+        for n in names:
+            monkeypatch.setattr(mod, n, getattr(mod, n).py_func)
+    s_py, out_py = dz.deadzone_run.py_func(s0, x, p)
+    # same operations in the same order; 1e-12 allows for libm vs numba intrinsics (atan, exp)
+    np.testing.assert_allclose(out_py, out_jit, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(s_py, s_jit, rtol=0, atol=1e-12)
+
+
+def test_projection_keeps_inside_and_stops_outside():
+    dmax, eps = 0.5, 0.1
+    assert dz.projection(0.1, 3.0, dmax, eps) == 3.0
+    # on the outer edge (h = 1) an outward update is cancelled, an inward one kept
+    assert dz.projection(dmax, 3.0, dmax, eps) == pytest.approx(0.0, abs=1e-12)
+    assert dz.projection(dmax, -3.0, dmax, eps) == -3.0
+    # in the boundary layer the outward update is scaled by 1 − h ∈ (0, 1)
+    d = 0.49
+    h = ((eps + 1) * d * d - dmax * dmax) / (eps * dmax * dmax)
+    assert 0 < h < 1
+    assert dz.projection(d, 2.0, dmax, eps) == pytest.approx(2.0 * (1 - h))
+
+
+finite = st.floats(-50.0, 50.0, allow_nan=False, allow_infinity=False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    x=arrays(np.float64, (300, 4), elements=finite),
+    method=st.sampled_from(["paper", "default"]),
+    delta_max=st.floats(0.01, 3.0),
+    eps_delta=st.floats(0.01, 1.0),
+    gamma=st.floats(0.1, 1e4),
+)
+def test_estimate_bounded_and_finite(x, method, delta_max, eps_delta, gamma):
+    cfg = EstimatorConfig.tuned(
+        RIG_ESTIMATOR, TS, 0.5, method=method, delta_max=delta_max, eps_delta=eps_delta, gamma=gamma
+    )
+    est = DeadzoneEstimator(RIG_ESTIMATOR, 0.05, TS, cfg)
+    out = est.run_samples(x)
+    d = out[:, dz.O_DELTA]
+    assert np.all(np.isfinite(d))
+    assert d.min() >= 0.0
+    assert d.max() <= delta_max * np.sqrt(1 + eps_delta)
+
+
+def test_no_engagement_is_not_excitation(inside_trace):
+    trace, bl = inside_trace
+    for method in ("paper", "default"):
+        cfg = EstimatorConfig.tuned(RIG_ESTIMATOR, TS, excitation_frequency(trace), method=method)
+        r = DeadzoneEstimator(RIG_ESTIMATOR, bl, TS, cfg).run(trace)
+        assert not r.excitation_ok
+        assert not r.converged
+        assert r.convergence_time_s is None
+        assert "deadzone" in r.reason
+
+
+def test_unidirectional_is_not_excitation(unidirectional_trace):
+    trace, bl = unidirectional_trace
+    for method in ("paper", "default"):
+        cfg = EstimatorConfig.tuned(RIG_ESTIMATOR, TS, excitation_frequency(trace), method=method)
+        r = DeadzoneEstimator(RIG_ESTIMATOR, bl, TS, cfg).run(trace)
+        assert not r.excitation_ok
+        assert not r.converged
+        assert "reverse" in r.reason
+
+
+def test_reversing_motion_is_excitation(short_bench_trace):
+    trace, bl = short_bench_trace
+    r = DeadzoneEstimator(RIG_ESTIMATOR, bl, TS).run(trace)
+    assert r.excitation_ok, r.reason
+    assert abs(r.delta - bl.delta) < 2e-3
+
+
+def test_excitation_frequency_of_sine(short_bench_trace):
+    trace, _ = short_bench_trace
+    assert excitation_frequency(trace) == pytest.approx(0.5, rel=0.05)
+
+
+def test_bad_config_field():
+    from drivelash.errors import ParameterError
+
+    with pytest.raises(ParameterError, match="gamma"):
+        EstimatorConfig.tuned(RIG_ESTIMATOR, TS, 0.5, gamma=-1.0)
