@@ -23,15 +23,17 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 
 from drivelash.control.cascade import gains_from_bandwidth
 from drivelash.control.references import Reference, position_sine, velocity_sine
-from drivelash.errors import DrivelashError, ParameterError
+from drivelash.errors import ConfigError, DrivelashError, ParameterError
 from drivelash.io.trace import Trace
 from drivelash.params import BacklashParams, CascadeGains, DrivetrainParams, SensorParams
 from drivelash.physics.drivetrain import DEFAULT_OMEGA_REG
@@ -369,3 +371,123 @@ def get_scenario(name: str) -> Scenario:
     except KeyError:
         names = ", ".join(_REGISTRY)
         raise UnknownScenarioError(f"unknown scenario {name!r}; valid: {names}") from None
+
+
+# --------------------------------------------------------------------------------------
+# TOML configuration
+# --------------------------------------------------------------------------------------
+_TOP_KEYS = {"base", "name", "description", "duration", "seed", "model", "omega_reg", "n_sub", "feedback"}
+_TABLES = {
+    "plant": DrivetrainParams,
+    "estimator": DrivetrainParams,
+    "backlash": BacklashParams,
+    "gains": CascadeGains,
+    "sensors": SensorParams,
+    "reference": ReferenceSpec,
+    "deadzone": DeadzoneProfile,
+}
+
+
+def scenario_from_toml(path: str | Path) -> Scenario:
+    """A scenario from a TOML file: a registered ``base`` scenario plus overrides.
+
+    Keys: ``base`` (default ``"bench-0A"``), ``name``, ``description``, ``duration`` [s],
+    ``seed``, ``model``, ``omega_reg`` [rad/s], ``n_sub``, ``feedback``; tables
+    ``[plant]`` and ``[estimator]`` (DrivetrainParams fields), ``[backlash]``,
+    ``[gains]``, ``[sensors]``, ``[reference]`` (kind, amplitude, frequency) and
+    ``[deadzone]`` (kind, delta_end, t0, t1). Example::
+
+        base = "bench-0B"
+        duration = 20.0
+        [backlash]
+        delta = 0.25
+        delta1 = 0.125
+        [deadzone]
+        kind = "ramp"
+        delta_end = 0.3
+        t0 = 5.0
+        t1 = 15.0
+
+    Raises
+    ------
+    ConfigError
+        Unreadable file, unknown key, wrong type; one line naming the key.
+    ParameterError
+        A value out of range (from the parameter classes).
+    """
+    path = Path(path)
+    try:
+        with path.open("rb") as fh:
+            cfg = tomllib.load(fh)
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: no such file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: invalid TOML: {exc}") from None
+    for key, value in cfg.items():
+        if key in _TABLES:
+            if not isinstance(value, dict):
+                raise ConfigError(f"{path}: [{key}] must be a table")
+            allowed = {f.name for f in dataclasses.fields(_TABLES[key])}
+            for sub in value:
+                if sub not in allowed:
+                    raise ConfigError(
+                        f"{path}: unknown key '{key}.{sub}'; allowed: {', '.join(sorted(allowed))}"
+                    )
+        elif key not in _TOP_KEYS:
+            allowed = sorted(_TOP_KEYS | set(_TABLES))
+            raise ConfigError(f"{path}: unknown key '{key}'; allowed: {', '.join(allowed)}")
+    base = get_scenario(str(cfg.get("base", "bench-0A")))
+    try:
+        plant = replace(base.plant_drivetrain, **cfg.get("plant", {}))
+        est = replace(base.estimator_drivetrain, **cfg.get("estimator", {}))
+        backlash = replace(base.plant_backlash, **cfg.get("backlash", {}))
+        est_bl = replace(base.estimator_backlash, delta=backlash.delta, delta1=backlash.delta1)
+        gains = replace(base.gains, **cfg.get("gains", {}))
+        sensors = replace(base.sensors, **cfg.get("sensors", {}))
+        reference = replace(base.reference, **cfg.get("reference", {}))
+        profile = replace(base.deadzone_profile, **cfg.get("deadzone", {}))
+        top = {k: cfg[k] for k in _TOP_KEYS - {"base"} if k in cfg}
+        for k, typ in (
+            ("duration", (int, float)),
+            ("seed", int),
+            ("n_sub", int),
+            ("omega_reg", (int, float)),
+        ):
+            if k in top and (isinstance(top[k], bool) or not isinstance(top[k], typ)):
+                raise ConfigError(f"{path}: '{k}' has the wrong type ({type(top[k]).__name__})")
+        for k in ("name", "description", "model", "feedback"):
+            if k in top and not isinstance(top[k], str):
+                raise ConfigError(f"{path}: '{k}' must be a string")
+        if top.get("model", base.model) not in ("deadzone", "smooth"):
+            raise ConfigError(f"{path}: 'model' must be 'deadzone' or 'smooth'")
+        if top.get("feedback", base.feedback) not in ("measured", "true"):
+            raise ConfigError(f"{path}: 'feedback' must be 'measured' or 'true'")
+        if "duration" in top and not top["duration"] > 0:
+            raise ConfigError(f"{path}: 'duration' must be > 0")
+        if "n_sub" in top and not top["n_sub"] >= 1:
+            raise ConfigError(f"{path}: 'n_sub' must be >= 1")
+        if "omega_reg" in top and not top["omega_reg"] > 0:
+            raise ConfigError(f"{path}: 'omega_reg' must be > 0")
+        return replace(
+            base,
+            name=top.pop("name", path.stem),
+            description=top.pop("description", f"{base.name} with overrides from {path.name}"),
+            plant_drivetrain=plant,
+            plant_backlash=backlash,
+            estimator_drivetrain=est,
+            estimator_backlash=est_bl,
+            gains=gains,
+            sensors=sensors,
+            reference=reference,
+            deadzone_profile=profile,
+            **{k: (float(v) if k in ("duration", "omega_reg") else v) for k, v in top.items()},
+        )
+    except TypeError as exc:  # wrong value type inside a parameter class
+        raise ConfigError(f"{path}: {exc}") from None
+
+
+def load_scenario(name_or_path: str) -> Scenario:
+    """A registered scenario by name, or one from a ``.toml`` file."""
+    if name_or_path.lower().endswith(".toml"):
+        return scenario_from_toml(name_or_path)
+    return get_scenario(name_or_path)
