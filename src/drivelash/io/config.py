@@ -342,7 +342,8 @@ def parse_config(data: dict[str, Any], source: str = "<config>") -> DriveConfig:
         cfg = DriveConfig.model_validate(data)
     except ValidationError as exc:
         errors = exc.errors()
-        # show the first, most specific error
+        # an unknown key first: a misspelt key also shows up as the missing one
+        errors.sort(key=lambda e: e.get("type") != "extra_forbidden")
         raise ConfigError(_format_error(source, errors[0])) from None
     except (TypeError, ValueError, RecursionError) as exc:  # pragma: no cover - defensive
         raise ConfigError(f"{source}: invalid configuration ({type(exc).__name__})") from None
