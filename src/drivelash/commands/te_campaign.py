@@ -1,0 +1,29 @@
+"""``drivelash te campaign``: record the measurement campaign on the virtual bench (spec 02)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+
+def register(app: typer.Typer, te_app: typer.Typer) -> None:
+    """Add ``te campaign`` to the CLI."""
+
+    @te_app.command("campaign")
+    def campaign(
+        out: Path = typer.Option(..., "-o", "--out", help="Output directory (created)."),
+        seed: int = typer.Option(0, "--seed", help="Seed of the simulated drive (TE generator)."),
+        quick: bool = typer.Option(False, "--quick", help="Reduced campaign: 0.4 m stroke, 3 loads."),
+        workers: int = typer.Option(2, "--workers", min=1, help="Parallel simulation threads."),
+    ) -> None:
+        """Simulate the campaign (geometric, load and sine runs) and write traces + manifest.json."""
+        from drivelash.te.campaign import CampaignConfig, run_campaign
+
+        cfg = CampaignConfig.quick() if quick else CampaignConfig()
+        m = run_campaign(out, seed=seed, config=cfg, workers=workers)
+        tm = m["timing"]
+        typer.echo(
+            f"{len(m['runs'])} runs, {tm['simulated_s']:.0f} s simulated in {tm['wall_s']:.1f} s "
+            f"(real-time factor {tm['real_time_factor']:.0f}) -> {out}/manifest.json"
+        )
