@@ -1,0 +1,286 @@
+"""Baselines for the stacked TE model, and the comparison table / figure.
+
+Every baseline predicts TE_def [µm] from the same design matrix
+``[x_T [m], torque [N·m], M_1 … M_nt]`` and is trained on the same rows as the
+stacked model:
+
+* :class:`GeometricOnly` — the geometric lookup table alone: TE = TE_geo, so the
+  deformation prediction is 0;
+* stage 1 only — the stacked model's own network (``stacked.nn_``), i.e. the stack
+  without its trees (:class:`StageOne`);
+* :func:`fit_trees_only` — bagged trees on (x_T, torque) fitted to TE_def directly,
+  with the same grid search and position-blocked folds as stage 2;
+* :func:`fit_hgb` — one ``HistGradientBoostingRegressor`` on all inputs.
+
+:func:`compare` scores any set of predictors per run; :func:`mae_table` groups the
+scores by direction and load; :func:`plot_fig6` draws a figure like the paper's Fig. 6.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from sklearn.base import BaseEstimator, RegressorMixin, clone
+from sklearn.ensemble import HistGradientBoostingRegressor
+
+from drivelash.te.model import (
+    DEFAULT_TREE_GRID,
+    STAGE1_COLS,
+    STAGE2_COLS,
+    StackedTERegressor,
+    _check_xy,
+    default_trees,
+    grid_search_trees,
+    position_blocks,
+)
+from drivelash.te.preprocess import RunData, TEPipeline
+
+Predictor = Callable[[np.ndarray], np.ndarray]
+
+
+class GeometricOnly(RegressorMixin, BaseEstimator):
+    """Geometric lookup table only: TE_def prediction ≡ 0 µm."""
+
+    def fit(self, X: Any, y: Any) -> GeometricOnly:
+        """Nothing to learn; returns ``self``."""
+        X, _ = _check_xy(X, y)
+        self.n_features_in_ = X.shape[1]
+        return self
+
+    def predict(self, X: Any) -> np.ndarray:
+        """Zeros [µm]."""
+        X, _ = _check_xy(X)
+        return np.zeros(X.shape[0])
+
+
+class StageOne:
+    """The network of a fitted stacked model used alone (predicts TE_def [µm])."""
+
+    def __init__(self, stacked: StackedTERegressor) -> None:
+        self.stacked = stacked
+
+    def predict(self, X: np.ndarray) -> np.ndarray:
+        """Stage-1 output [µm]."""
+        return self.stacked.nn_.predict(np.asarray(X)[:, STAGE1_COLS])
+
+
+class ColumnModel:
+    """A regressor applied to selected design-matrix columns."""
+
+    def __init__(self, est: Any, cols: Any) -> None:
+        self.est = est
+        self.cols = cols
+
+    def predict(self, X: np.ndarray) -> np.ndarray:
+        """Prediction [µm]."""
+        return self.est.predict(np.asarray(X)[:, self.cols])
+
+
+def fit_trees_only(
+    X: np.ndarray,
+    y: np.ndarray,
+    grid: Mapping[str, list[Any]] | None = None,
+    block_length: float = 2e-3,
+    folds: int = 4,
+    search_stride: int = 4,
+    n_jobs: int = 2,
+    random_state: int = 0,
+) -> tuple[ColumnModel, dict[str, Any]]:
+    """Bagged trees on (x_T, torque) fitted to TE_def [µm] directly (stage 2 alone).
+
+    Same grid, blocked folds and subsampling as stage 2 of the stacked model.
+    """
+    X2 = X[:, STAGE2_COLS]
+    base = default_trees(random_state)
+    g = position_blocks(X[::search_stride, 0], block_length)
+    info = grid_search_trees(
+        base, X2[::search_stride], y[::search_stride], g, grid or DEFAULT_TREE_GRID, folds, n_jobs
+    )
+    est = clone(base).set_params(**info["best_params"]).fit(X2, y)
+    return ColumnModel(est, STAGE2_COLS), info
+
+
+def fit_hgb(X: np.ndarray, y: np.ndarray, random_state: int = 0) -> ColumnModel:
+    """One ``HistGradientBoostingRegressor`` on all inputs (x_T, torque, M_j).
+
+    ``max_iter=500``, ``max_leaf_nodes=63``, learning rate 0.1, early stopping on
+    an internal 10 % validation split (scikit-learn default for > 10 000 rows).
+    """
+    est = HistGradientBoostingRegressor(
+        max_iter=500, max_leaf_nodes=63, learning_rate=0.1, random_state=random_state
+    ).fit(X, y)
+    return ColumnModel(est, slice(None))
+
+
+# ---------------------------------------------------------------------------
+# scoring
+# ---------------------------------------------------------------------------
+def compare(
+    predictors: Mapping[str, Mapping[str, Any]],
+    runs: Mapping[str, Sequence[RunData]],
+    pipeline: TEPipeline,
+    split_of: Callable[[RunData], str],
+) -> list[dict[str, Any]]:
+    """MAE [µm] of every predictor on every run.
+
+    Parameters
+    ----------
+    predictors : mapping
+        ``{name: {"pos": predictor, "neg": predictor}}``; a predictor has ``predict(X) -> µm``.
+    runs : mapping
+        ``{"pos": [RunData…], "neg": […]}``.
+    pipeline : TEPipeline
+        Builds the design matrix.
+    split_of : callable
+        ``split_of(run) -> "train" | "held-out" | "extrapolation"``.
+
+    Returns
+    -------
+    list of dict
+        One row per run: direction, load [N], velocity [m/s], split, n, rms [µm] of
+        the target, and ``mae[name]`` [µm].
+    """
+    rows: list[dict[str, Any]] = []
+    for key, rr in runs.items():
+        for run in rr:
+            X = pipeline.design_matrix(run.x, run.torque)
+            y = run.te_def_um
+            row = {
+                "direction": key,
+                "load": float(run.meta.get("load", np.nan)),
+                "velocity": float(run.meta.get("velocity", np.nan)),
+                "run": run.meta.get("name", ""),
+                "split": split_of(run),
+                "n": int(y.size),
+                "rms": float(np.sqrt(np.mean(y**2))),
+                "mae": {
+                    name: float(np.mean(np.abs(p[key].predict(X) - y))) for name, p in predictors.items()
+                },
+            }
+            rows.append(row)
+    return rows
+
+
+def mae_table(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """Rows grouped by (direction, load): point-weighted MAE and RMS over the velocities."""
+    groups: dict[tuple[str, float], list[Mapping[str, Any]]] = {}
+    for r in rows:
+        groups.setdefault((r["direction"], r["load"]), []).append(r)
+    out = []
+    for (d, load), rr in sorted(groups.items(), key=lambda kv: (kv[0][0] != "pos", kv[0][1])):
+        n = np.array([r["n"] for r in rr], dtype=float)
+        names = list(rr[0]["mae"])
+        out.append(
+            {
+                "direction": d,
+                "load": load,
+                "split": rr[0]["split"],
+                "n": int(n.sum()),
+                "rms": float(np.sqrt(np.sum(n * np.array([r["rms"] for r in rr]) ** 2) / n.sum())),
+                "mae": {m: float(np.sum(n * np.array([r["mae"][m] for r in rr])) / n.sum()) for m in names},
+            }
+        )
+    return out
+
+
+def split_summary(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Per split: point-weighted MAE [µm] of every model, target RMS [µm], MAE/RMS ratios."""
+    out: dict[str, dict[str, Any]] = {}
+    for split in ("train", "held-out", "extrapolation"):
+        rr = [r for r in rows if r["split"] == split]
+        if not rr:
+            continue
+        n = np.array([r["n"] for r in rr], dtype=float)
+        rms = float(np.sqrt(np.sum(n * np.array([r["rms"] for r in rr]) ** 2) / n.sum()))
+        mae = {m: float(np.sum(n * np.array([r["mae"][m] for r in rr])) / n.sum()) for m in rr[0]["mae"]}
+        out[split] = {
+            "rms": rms,
+            "mae": mae,
+            "ratio": {m: v / rms for m, v in mae.items()},
+            "n": int(n.sum()),
+        }
+    return out
+
+
+def format_table(table: Sequence[Mapping[str, Any]], summary: Mapping[str, Mapping[str, Any]]) -> str:
+    """Plain-text table: MAE [µm] per direction and load, stacked vs baselines, then per split."""
+    names = list(table[0]["mae"]) if table else []
+    head = f"{'dir':>4} {'load N':>7} {'split':>13} {'RMS um':>8} " + " ".join(f"{n:>10}" for n in names)
+    lines = ["MAE of TE_def [um] per direction and load (mean over velocities)", head]
+    for r in table:
+        lines.append(
+            f"{r['direction']:>4} {r['load']:>7.0f} {r['split']:>13} {r['rms']:>8.3f} "
+            + " ".join(f"{r['mae'][n]:>10.4f}" for n in names)
+        )
+    lines.append("")
+    lines.append(
+        f"{'split':>13} {'RMS um':>8} " + " ".join(f"{n:>10}" for n in names) + "   (MAE um; % of RMS)"
+    )
+    for split, s in summary.items():
+        lines.append(f"{split:>13} {s['rms']:>8.3f} " + " ".join(f"{s['mae'][n]:>10.4f}" for n in names))
+        lines.append(f"{'':>13} {'':>8} " + " ".join(f"{100 * s['ratio'][n]:>9.1f}%" for n in names))
+    return "\n".join(lines)
+
+
+def plot_fig6(
+    path: str | Path,
+    run: RunData,
+    stacked: StackedTERegressor,
+    pipeline: TEPipeline,
+    table: Sequence[Mapping[str, Any]],
+    direction: str = "pos",
+    span: float = 0.4,
+) -> Path:
+    """A figure like the paper's Fig. 6 plus the MAE-per-load comparison.
+
+    Top: measured TE_def of one training run against the stacked prediction and
+    the stage-1 (network) contribution over ``span`` [m] of travel. Bottom: MAE [µm]
+    per load of every model for ``direction`` (log scale; training limit marked).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    X = pipeline.design_matrix(run.x, run.torque)
+    p1, p2 = stacked.predict_stages(X)
+    sel = run.x <= run.x[0] + span
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 7.5), constrained_layout=True)
+    xm = run.x[sel] * 1e3
+    ax1.plot(xm, run.te_def_um[sel], color="0.2", lw=2.2, label="TE_def (processed measurement)")
+    ax1.plot(xm, (p1 + p2)[sel], color="tab:orange", lw=1.2, ls="--", label="stacked model (NN + trees)")
+    ax1.plot(xm, p1[sel], color="tab:blue", lw=1.0, label="stage 1 (NN) contribution")
+    ax1.plot(xm, p2[sel], color="tab:green", lw=0.8, alpha=0.8, label="stage 2 (trees) contribution")
+    mae = float(np.mean(np.abs(p1 + p2 - run.te_def_um)))
+    ax1.set_title(
+        f"Training run {run.meta.get('name', '')}: load {run.meta.get('load', float('nan')):.0f} N, "
+        f"direction {direction}; MAE {mae:.4f} µm, stage-1 share {100 * stacked.stage1_share_:.0f} %"
+    )
+    ax1.set_xlabel("table position x_T [mm]")
+    ax1.set_ylabel("TE_def [µm]")
+    ax1.grid(alpha=0.3)
+    ax1.legend(loc="best", fontsize=8)
+    rows = [r for r in table if r["direction"] == direction]
+    loads = np.array([r["load"] for r in rows])
+    names = list(rows[0]["mae"]) if rows else []
+    for n in names:
+        ax2.semilogy(loads, [r["mae"][n] for r in rows], marker="o", label=n)
+    ax2.semilogy(loads, [0.1 * r["rms"] for r in rows], color="k", ls=":", label="10 % of TE_def RMS")
+    held = [r["load"] for r in rows if r["split"] == "held-out"]
+    for h in held:
+        ax2.axvline(h, color="0.8", lw=6, zorder=0)
+    tr = [r["load"] for r in rows if r["split"] == "train"]
+    if tr:
+        ax2.axvline(max(tr) + 250, color="r", ls="--", lw=1, label="training load limit")
+    ax2.set_xlabel("load F_load [N] (grey: held-out loads)")
+    ax2.set_ylabel("MAE of TE_def [µm]")
+    ax2.set_title(f"Direction {direction}: MAE per load, stacked vs baselines")
+    ax2.grid(alpha=0.3, which="both")
+    ax2.legend(fontsize=8, ncol=2)
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -1,0 +1,647 @@
+"""Safe persistence of transmission-error models and a NumPy/numba predictor.
+
+A model directory holds exactly two files that are read:
+
+* ``model.json`` — metadata (format version, units, geometry, preprocessing,
+  hyperparameters, training record, array shapes);
+* ``weights.safetensors`` (default) or ``weights.npz`` — plain numeric arrays:
+  geometric curves, network weights and biases, standardisation, and the bagged
+  trees as flat arrays (``children_left``, ``children_right``, ``feature``,
+  ``threshold``, ``value`` of every ``tree_``, concatenated, with root offsets).
+
+Loading never unpickles: JSON via :mod:`json`, arrays via ``safetensors.numpy``
+or ``numpy.load(allow_pickle=False)``. A directory that contains a
+pickle-capable file (``.pkl``, ``.pickle``, ``.joblib``, ``.npy``, ``.pt``, ``.pth``,
+``.ckpt``, ``.dill``) or whose arrays are not plain numbers is refused with
+:class:`ModelFileError` — nothing in it is executed. Tree arrays are checked so
+that traversal always terminates (children after their parent).
+
+The loaded :class:`TEModel` predicts with numba kernels only (torch is never imported):
+
+* ``TEModel.predict(x_T [m], torque [N·m], direction ±1) -> TE [m]`` (NumPy arrays),
+* ``TEModel.predict_def_um(...) -> TE_def [µm]``,
+* ``TEModel.predict_one(x_T, torque, direction) -> TE [m]`` (one point, float),
+* ``TEModel.kernel_arrays(direction) -> (fbuf, ibuf)`` — two flat arrays per
+  direction that :func:`te_point` ``(x_T, torque, fbuf, ibuf) -> TE [m]`` and
+  :func:`te_def_point` (µm) accept inside the caller's own ``@njit`` code.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numba import njit, prange
+
+from drivelash.errors import DrivelashError
+from drivelash.te.preprocess import UM, TEPipeline, direction_key
+
+FORMAT_NAME = "drivelash.te-model"
+FORMAT_VERSION = 1
+META_FILE = "model.json"
+WEIGHT_FILES = ("weights.safetensors", "weights.npz")
+#: Suffixes of files that can carry executable pickle payloads; their presence is refused.
+PICKLE_SUFFIXES = (".pkl", ".pickle", ".joblib", ".npy", ".pt", ".pth", ".ckpt", ".dill", ".bin")
+
+_F_HDR = 6  # geo_x0, geo_step, d_p, eps, y_mean, y_scale
+_I_NAMES = (
+    "n_t",
+    "n_in",
+    "hidden",
+    "n_geo",
+    "n_trees",
+    "n_nodes",
+    "o_geo",
+    "o_xmean",
+    "o_xscale",
+    "o_W1",
+    "o_b1",
+    "o_W2",
+    "o_b2",
+    "o_W3",
+    "o_b3",
+    "o_thr",
+    "o_val",
+    "o_left",
+    "o_right",
+    "o_feat",
+    "o_roots",
+)
+_I_HDR = len(_I_NAMES)
+
+
+class ModelFileError(DrivelashError):
+    """A model directory that is missing, malformed, or not safe to load."""
+
+
+# ---------------------------------------------------------------------------
+# numba kernels on the packed per-direction buffers
+# ---------------------------------------------------------------------------
+@njit(cache=True)
+def _def_um(
+    x: float, torque: float, f: np.ndarray, ib: np.ndarray, z: np.ndarray, h1: np.ndarray, h2: np.ndarray
+) -> float:  # pragma: no cover - njit
+    n_t = ib[0]
+    n_in = ib[1]
+    hid = ib[2]
+    n_trees = ib[4]
+    d_p = f[2]
+    eps = f[3]
+    # stage 1 inputs: torque, M_1..M_nt, standardised
+    z[0] = torque
+    u = x * n_t / (np.pi * d_p)
+    for j in range(n_t):
+        m = (u - (j + 1)) % n_t
+        eta = (2.0 / eps) * m - 1.0
+        if -1.0 < eta < 1.0:
+            e2 = eta * eta
+            z[j + 1] = np.exp(e2 / (e2 - 1.0))
+        else:
+            z[j + 1] = 0.0
+    o_xm = ib[7]
+    o_xs = ib[8]
+    for i in range(n_in):
+        z[i] = (z[i] - f[o_xm + i]) / f[o_xs + i]
+    o_W1 = ib[9]
+    o_b1 = ib[10]
+    for k in range(hid):
+        h1[k] = 0.0
+    for i in range(n_in):
+        zi = z[i]
+        row = o_W1 + i * hid
+        for k in range(hid):
+            h1[k] += zi * f[row + k]
+    for k in range(hid):
+        v = h1[k] + f[o_b1 + k]
+        h1[k] = v if v > 0.0 else 0.0
+    o_W2 = ib[11]
+    o_b2 = ib[12]
+    for k in range(hid):
+        h2[k] = 0.0
+    for i in range(hid):
+        hi = h1[i]
+        row = o_W2 + i * hid
+        for k in range(hid):
+            h2[k] += hi * f[row + k]
+    o_W3 = ib[13]
+    acc = 0.0
+    for k in range(hid):
+        v = h2[k] + f[o_b2 + k]
+        if v > 0.0:
+            acc += v * f[o_W3 + k]
+    y1 = (acc + f[ib[14]]) * f[5] + f[4]
+    # stage 2: bagged trees on (x_T, torque); sklearn compares float32(X) <= threshold
+    o_thr = ib[15]
+    o_val = ib[16]
+    o_left = ib[17]
+    o_right = ib[18]
+    o_feat = ib[19]
+    o_roots = ib[20]
+    xf = np.float64(np.float32(x))
+    tf = np.float64(np.float32(torque))
+    s = 0.0
+    for t in range(n_trees):
+        node = ib[o_roots + t]
+        while ib[o_left + node] != -1:
+            v = xf if ib[o_feat + node] == 0 else tf
+            if v <= f[o_thr + node]:
+                node = ib[o_left + node]
+            else:
+                node = ib[o_right + node]
+        s += f[o_val + node]
+    return y1 + s / n_trees
+
+
+@njit(cache=True)
+def _geo(x: float, f: np.ndarray, ib: np.ndarray) -> float:  # pragma: no cover - njit
+    n = ib[3]
+    o = ib[6]
+    x0 = f[0]
+    step = f[1]
+    u = (x - x0) / step
+    if u <= 0.0:
+        return f[o]
+    if u >= n - 1:
+        return f[o + n - 1]
+    k = int(np.floor(u))
+    if k >= n - 1:
+        k = n - 2
+    xk = x0 + step * k
+    a = f[o + k]
+    b = f[o + k + 1]
+    return a + (b - a) / step * (x - xk)
+
+
+@njit(cache=True)
+def te_def_point(x_T: float, torque: float, fbuf: np.ndarray, ibuf: np.ndarray) -> float:  # pragma: no cover
+    """TE_def [µm] at one point: position ``x_T`` [m], motor torque [N·m] (njit-callable)."""
+    n_in = ibuf[1]
+    hid = ibuf[2]
+    z = np.empty(n_in)
+    h1 = np.empty(hid)
+    h2 = np.empty(hid)
+    return _def_um(x_T, torque, fbuf, ibuf, z, h1, h2)
+
+
+@njit(cache=True)
+def te_point(x_T: float, torque: float, fbuf: np.ndarray, ibuf: np.ndarray) -> float:  # pragma: no cover
+    """Full TE [m] = TE_geo + TE_def at one point (njit-callable; buffers of one direction)."""
+    return _geo(x_T, fbuf, ibuf) + te_def_point(x_T, torque, fbuf, ibuf) / 1e6
+
+
+@njit(cache=True, parallel=True)
+def _batch(
+    x: np.ndarray, tq: np.ndarray, f: np.ndarray, ib: np.ndarray, with_geo: bool, out: np.ndarray
+) -> None:  # pragma: no cover - njit
+    n = x.size
+    n_in = ib[1]
+    hid = ib[2]
+    chunk = 4096
+    n_chunks = (n + chunk - 1) // chunk
+    for c in prange(n_chunks):
+        z = np.empty(n_in)
+        h1 = np.empty(hid)
+        h2 = np.empty(hid)
+        stop = min(n, (c + 1) * chunk)
+        for i in range(c * chunk, stop):
+            d = _def_um(x[i], tq[i], f, ib, z, h1, h2)
+            if with_geo:
+                out[i] = _geo(x[i], f, ib) + d / 1e6
+            else:
+                out[i] = d
+
+
+# ---------------------------------------------------------------------------
+# packing
+# ---------------------------------------------------------------------------
+def _pack(
+    arrays: Mapping[str, np.ndarray],
+    geo_x0: float,
+    geo_step: float,
+    geometry: Mapping[str, Any],
+) -> tuple[np.ndarray, np.ndarray]:
+    """Flatten one direction's arrays into the (fbuf, ibuf) layout of the kernels."""
+    W1, b1, W2, b2, W3, b3 = (arrays[k] for k in ("W1", "b1", "W2", "b2", "W3", "b3"))
+    n_in, hid = W1.shape
+    f_parts = [
+        np.array(
+            [
+                geo_x0,
+                geo_step,
+                geometry["d_p"],
+                geometry["eps"],
+                float(arrays["y_mean"][0]),
+                float(arrays["y_scale"][0]),
+            ]
+        ),
+    ]
+    offs: dict[str, int] = {}
+    pos = _F_HDR
+    for name, a in (
+        ("o_geo", arrays["geo_te"]),
+        ("o_xmean", arrays["x_mean"]),
+        ("o_xscale", arrays["x_scale"]),
+        ("o_W1", W1),
+        ("o_b1", b1),
+        ("o_W2", W2),
+        ("o_b2", b2),
+        ("o_W3", W3),
+        ("o_b3", b3),
+        ("o_thr", arrays["threshold"]),
+        ("o_val", arrays["value"]),
+    ):
+        offs[name] = pos
+        flat = np.ascontiguousarray(a, dtype=np.float64).reshape(-1)
+        f_parts.append(flat)
+        pos += flat.size
+    fbuf = np.concatenate(f_parts)
+    n_nodes = arrays["threshold"].size
+    i_parts: list[np.ndarray] = []
+    ipos = _I_HDR
+    for name, a in (
+        ("o_left", arrays["children_left"]),
+        ("o_right", arrays["children_right"]),
+        ("o_feat", arrays["feature"]),
+        ("o_roots", arrays["roots"]),
+    ):
+        offs[name] = ipos
+        flat = np.ascontiguousarray(a, dtype=np.int64).reshape(-1)
+        i_parts.append(flat)
+        ipos += flat.size
+    hdr = {
+        "n_t": int(geometry["n_t"]),
+        "n_in": n_in,
+        "hidden": hid,
+        "n_geo": arrays["geo_te"].size,
+        "n_trees": arrays["roots"].size,
+        "n_nodes": n_nodes,
+        **offs,
+    }
+    ibuf = np.concatenate([np.array([hdr[k] for k in _I_NAMES], dtype=np.int64), *i_parts])
+    return fbuf, ibuf
+
+
+def flatten_trees(bagging: Any) -> dict[str, np.ndarray]:
+    """Concatenate the trees of a fitted ``BaggingRegressor`` into flat arrays.
+
+    Child indices become global (offset by the tree's first node), leaves keep −1;
+    ``feature`` is mapped through ``estimators_features_`` to the input column
+    (0 = x_T, 1 = torque); ``value`` is the leaf mean.
+    """
+    left, right, feat, thr, val, roots = [], [], [], [], [], []
+    off = 0
+    for est, feats in zip(bagging.estimators_, bagging.estimators_features_, strict=True):
+        t = est.tree_
+        n = t.node_count
+        cl = t.children_left.astype(np.int64)
+        cr = t.children_right.astype(np.int64)
+        leaf = cl == -1
+        left.append(np.where(leaf, -1, cl + off))
+        right.append(np.where(leaf, -1, cr + off))
+        fmap = np.asarray(feats, dtype=np.int64)
+        feat.append(np.where(leaf, -1, fmap[np.clip(t.feature, 0, None)]))
+        thr.append(np.asarray(t.threshold, dtype=np.float64))
+        val.append(np.asarray(t.value, dtype=np.float64).reshape(n))
+        roots.append(off)
+        off += n
+    return {
+        "children_left": np.concatenate(left),
+        "children_right": np.concatenate(right),
+        "feature": np.concatenate(feat),
+        "threshold": np.concatenate(thr),
+        "value": np.concatenate(val),
+        "roots": np.asarray(roots, dtype=np.int64),
+    }
+
+
+# ---------------------------------------------------------------------------
+# the loaded model
+# ---------------------------------------------------------------------------
+class TEModel:
+    """A loaded transmission-error model: geometric curves + stacked deformation model per direction.
+
+    Predicts with NumPy/numba only. Units: positions in metres, torque in N·m,
+    ``predict``/``predict_one`` return TE in **metres**, ``predict_def_um`` returns
+    TE_def in **micrometres**.
+
+    Parameters
+    ----------
+    meta : dict
+        Contents of ``model.json``.
+    arrays : dict
+        ``{"pos": {...}, "neg": {...}}`` of validated float64/int64 arrays.
+    """
+
+    def __init__(self, meta: dict[str, Any], arrays: dict[str, dict[str, np.ndarray]]) -> None:
+        self.meta = meta
+        self.pipeline = TEPipeline.from_dict(meta["pipeline"])
+        self.directions = tuple(meta["directions"])
+        self._buf: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        for key in self.directions:
+            dm = meta["models"][key]
+            self._buf[key] = _pack(
+                arrays[key], float(dm["geo_x0"]), float(dm["geo_step"]), meta["pipeline"]["geometry"]
+            )
+
+    @property
+    def info(self) -> dict[str, Any]:
+        """The training record from ``model.json``."""
+        return dict(self.meta.get("info", {}))
+
+    def kernel_arrays(self, direction: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(fbuf float64, ibuf int64)`` of one direction for :func:`te_point` in njit code."""
+        key = direction_key(direction)
+        if key not in self._buf:
+            raise ModelFileError(f"model has no direction {key!r}")
+        return self._buf[key]
+
+    def _run(self, x_T: Any, torque: Any, direction: int, with_geo: bool) -> np.ndarray:
+        x = np.ascontiguousarray(np.asarray(x_T, dtype=np.float64).reshape(-1))
+        tq = np.ascontiguousarray(np.broadcast_to(np.asarray(torque, dtype=np.float64), x.shape))
+        f, ib = self.kernel_arrays(direction)
+        out = np.empty(x.size)
+        _batch(x, tq, f, ib, with_geo, out)
+        return out
+
+    def predict(self, x_T: Any, torque: Any, direction: int) -> np.ndarray:
+        """TE [m] = TE_geo(x_T) + TE_def(x_T, torque) for direction +1/−1 (torque broadcast to x_T)."""
+        return self._run(x_T, torque, direction, True)
+
+    def predict_def_um(self, x_T: Any, torque: Any, direction: int) -> np.ndarray:
+        """Deformation TE_def [µm] (stage 1 + stage 2)."""
+        return self._run(x_T, torque, direction, False)
+
+    def predict_one(self, x_T: float, torque: float, direction: int) -> float:
+        """TE [m] at one operating point."""
+        f, ib = self._buf["pos" if direction > 0 else "neg"]
+        return te_point(float(x_T), float(torque), f, ib)
+
+    def backlash(self, x_T: Any, torque: Any = 0.0) -> np.ndarray:
+        """Gap between the direction curves TE_neg − TE_pos [m] at ``x_T`` (same torque for both)."""
+        return self.predict(x_T, torque, -1) - self.predict(x_T, torque, +1)
+
+
+# ---------------------------------------------------------------------------
+# save / load
+# ---------------------------------------------------------------------------
+def _jsonable(o: Any) -> Any:
+    if isinstance(o, dict):
+        return {str(k): _jsonable(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_jsonable(v) for v in o]
+    if isinstance(o, np.integer):
+        return int(o)
+    if isinstance(o, np.floating):
+        return float(o)
+    if isinstance(o, np.ndarray):
+        return _jsonable(o.tolist())
+    if o is None or isinstance(o, (bool, int, float, str)):
+        return o
+    return repr(o)
+
+
+def model_arrays(trained: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """Metadata and flat named arrays of a :class:`~drivelash.te.model.TrainedTEModel`."""
+    meta: dict[str, Any] = {
+        "format": FORMAT_NAME,
+        "version": FORMAT_VERSION,
+        "units": {
+            "x_T": "m",
+            "torque": "N*m",
+            "TE (predict)": "m",
+            "TE_def (targets, stage outputs, tree values)": "um",
+            "geo_te": "m",
+        },
+        "pipeline": trained.pipeline.to_dict(),
+        "directions": sorted(trained.models),
+        "models": {},
+        "info": _jsonable(trained.info),
+    }
+    flat: dict[str, np.ndarray] = {}
+    for key in sorted(trained.models):
+        st = trained.models[key]
+        geo = trained.geo[key]
+        W = st.nn_.weights()
+        names = ("W1", "b1", "W2", "b2", "W3", "b3")
+        arrs: dict[str, np.ndarray] = dict(zip(names, W, strict=True))
+        arrs["x_mean"] = np.asarray(st.nn_.x_mean_, dtype=np.float64)
+        arrs["x_scale"] = np.asarray(st.nn_.x_scale_, dtype=np.float64)
+        arrs["y_mean"] = np.array([st.nn_.y_mean_])
+        arrs["y_scale"] = np.array([st.nn_.y_scale_])
+        arrs["geo_te"] = np.asarray(geo.te, dtype=np.float64)
+        arrs.update(flatten_trees(st.trees_))
+        for n, a in arrs.items():
+            flat[f"{key}.{n}"] = np.ascontiguousarray(a)
+        meta["models"][key] = {
+            "geo_x0": geo.x0,
+            "geo_step": geo.step,
+            "hidden": int(W[0].shape[1]),
+            "n_inputs": int(W[0].shape[0]),
+            "n_trees": len(st.trees_.estimators_),
+            "n_nodes": int(arrs["threshold"].size),
+            "nn_params": _jsonable({k: v for k, v in st.nn_.get_params().items()}),
+            "tree_params": _jsonable(st.tree_info_.get("best_params", {})),
+            "stage1_share": st.stage1_share_,
+            "train_mae_um": st.train_mae_,
+            "nn_info": _jsonable(st.nn_info_),
+            "tree_info": _jsonable(st.tree_info_),
+            "fit_time_s": _jsonable(getattr(st, "fit_time_", {})),
+        }
+    return meta, flat
+
+
+def save_model(trained: Any, directory: str | Path, fmt: str = "safetensors") -> Path:
+    """Write a trained model to ``directory`` (created) as ``model.json`` + weights.
+
+    Parameters
+    ----------
+    trained : TrainedTEModel
+        The fitted model.
+    directory : str or Path
+        Target directory.
+    fmt : {"safetensors", "npz"}
+        Weight file format.
+
+    Returns
+    -------
+    Path
+        The directory.
+    """
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    meta, flat = model_arrays(trained)
+    if fmt == "safetensors":
+        from safetensors.numpy import save_file
+
+        save_file(flat, str(d / WEIGHT_FILES[0]))
+        (d / WEIGHT_FILES[1]).unlink(missing_ok=True)
+    elif fmt == "npz":
+        np.savez(d / WEIGHT_FILES[1], **flat)
+        (d / WEIGHT_FILES[0]).unlink(missing_ok=True)
+    else:
+        raise ModelFileError(f"unknown weight format {fmt!r} (use 'safetensors' or 'npz')")
+    meta["weights"] = WEIGHT_FILES[0] if fmt == "safetensors" else WEIGHT_FILES[1]
+    (d / META_FILE).write_text(json.dumps(meta, indent=1, allow_nan=True), encoding="utf-8")
+    return d
+
+
+def _read_arrays(path: Path) -> dict[str, np.ndarray]:
+    try:
+        if path.suffix == ".safetensors":
+            from safetensors.numpy import load_file
+
+            return dict(load_file(str(path)))
+        with np.load(path, allow_pickle=False) as z:
+            return {k: z[k] for k in z.files}
+    except Exception as exc:  # noqa: BLE001 - any parse failure is a bad file, never executed
+        raise ModelFileError(f"{path}: not a valid weight file ({type(exc).__name__})") from None
+
+
+def _need(arrs: Mapping[str, np.ndarray], key: str, name: str, kind: str, ndim: int) -> np.ndarray:
+    full = f"{key}.{name}"
+    if full not in arrs:
+        raise ModelFileError(f"weights: missing array {full!r}")
+    a = np.asarray(arrs[full])
+    if a.dtype.kind not in kind or a.ndim != ndim:
+        raise ModelFileError(f"weights: array {full!r} has dtype {a.dtype} and {a.ndim} dims")
+    a = np.ascontiguousarray(a, dtype=np.float64 if "f" in kind else np.int64)
+    if a.dtype.kind == "f" and not np.all(np.isfinite(a)):
+        raise ModelFileError(f"weights: array {full!r} contains NaN or inf")
+    return a
+
+
+def _validate_direction(
+    arrs: Mapping[str, np.ndarray],
+    key: str,
+    meta_dir: Mapping[str, Any],
+    n_t: int,
+) -> dict[str, np.ndarray]:
+    out: dict[str, np.ndarray] = {}
+    for n, nd in (
+        ("W1", 2),
+        ("b1", 1),
+        ("W2", 2),
+        ("b2", 1),
+        ("W3", 2),
+        ("b3", 1),
+        ("x_mean", 1),
+        ("x_scale", 1),
+        ("y_mean", 1),
+        ("y_scale", 1),
+        ("geo_te", 1),
+        ("threshold", 1),
+        ("value", 1),
+    ):
+        out[n] = _need(arrs, key, n, "f", nd)
+    for n in ("children_left", "children_right", "feature", "roots"):
+        out[n] = _need(arrs, key, n, "iu", 1)
+    n_in, hid = out["W1"].shape
+    ok = (
+        n_in == n_t + 1
+        and out["b1"].shape == (hid,)
+        and out["W2"].shape == (hid, hid)
+        and out["b2"].shape == (hid,)
+        and out["W3"].shape == (hid, 1)
+        and out["b3"].shape == (1,)
+        and out["x_mean"].shape == (n_in,)
+        and out["x_scale"].shape == (n_in,)
+        and out["y_mean"].shape == (1,)
+        and out["y_scale"].shape == (1,)
+        and out["geo_te"].size >= 2
+        and np.all(out["x_scale"] != 0)
+    )
+    if not ok:
+        raise ModelFileError(f"weights: network arrays of direction {key!r} have inconsistent shapes")
+    n_nodes = out["threshold"].size
+    L, R, F, roots = out["children_left"], out["children_right"], out["feature"], out["roots"]
+    if not (out["value"].size == L.size == R.size == F.size == n_nodes and roots.size >= 1 and n_nodes >= 1):
+        raise ModelFileError(f"weights: tree arrays of direction {key!r} have inconsistent sizes")
+    idx = np.arange(n_nodes)
+    leaf = L == -1
+    internal = ~leaf
+    if not (
+        np.all(R[leaf] == -1)
+        and np.all(L[internal] > idx[internal])
+        and np.all(R[internal] > idx[internal])
+        and np.all(L[internal] < n_nodes)
+        and np.all(R[internal] < n_nodes)
+        and np.all((F[internal] == 0) | (F[internal] == 1))
+        and np.all((roots >= 0) & (roots < n_nodes))
+    ):
+        raise ModelFileError(f"weights: tree arrays of direction {key!r} are not valid trees")
+    if int(meta_dir.get("n_trees", roots.size)) != roots.size:
+        raise ModelFileError(f"model.json: n_trees of direction {key!r} does not match the weights")
+    return out
+
+
+def load_model(directory: str | Path) -> TEModel:
+    """Load a model directory written by :func:`save_model`, without executing anything in it.
+
+    Parameters
+    ----------
+    directory : str or Path
+        The model directory.
+
+    Returns
+    -------
+    TEModel
+        NumPy/numba predictor (no torch import).
+
+    Raises
+    ------
+    ModelFileError
+        Missing or malformed files, unsupported version, pickle-capable files present,
+        or arrays that are not plain numbers of the expected shapes.
+    """
+    d = Path(directory)
+    if not d.is_dir():
+        raise ModelFileError(f"{d}: model directory not found")
+    for p in sorted(d.iterdir()):
+        if p.suffix.lower() in PICKLE_SUFFIXES:
+            raise ModelFileError(f"{p}: refusing to load a model directory with a pickle-capable file")
+    mpath = d / META_FILE
+    if not mpath.is_file():
+        raise ModelFileError(f"{mpath}: missing")
+    try:
+        meta = json.loads(mpath.read_text(encoding="utf-8"))
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise ModelFileError(f"{mpath}: not valid JSON ({exc.__class__.__name__})") from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT_NAME:
+        raise ModelFileError(f"{mpath}: not a drivelash transmission-error model")
+    if meta.get("version") != FORMAT_VERSION:
+        raise ModelFileError(f"{mpath}: unsupported format version {meta.get('version')!r}")
+    wname = meta.get("weights")
+    if wname not in WEIGHT_FILES:
+        raise ModelFileError(f"{mpath}: 'weights' must be one of {', '.join(WEIGHT_FILES)}")
+    wpath = d / wname
+    if not wpath.is_file():
+        raise ModelFileError(f"{wpath}: missing")
+    try:
+        pipe = TEPipeline.from_dict(meta["pipeline"])
+        dirs = list(meta["directions"])
+        models = meta["models"]
+        if not dirs or any(k not in ("pos", "neg") or k not in models for k in dirs):
+            raise ValueError("directions")
+        for k in dirs:
+            float(models[k]["geo_x0"])
+            if not float(models[k]["geo_step"]) > 0:
+                raise ValueError("geo_step")
+    except (KeyError, TypeError, ValueError, DrivelashError) as exc:
+        raise ModelFileError(f"{mpath}: malformed metadata ({exc})") from None
+    arrs = _read_arrays(wpath)
+    arrays = {k: _validate_direction(arrs, k, models[k], int(pipe.geometry.n_t)) for k in dirs}
+    return TEModel(meta, arrays)
+
+
+__all__ = [
+    "ModelFileError",
+    "TEModel",
+    "UM",
+    "load_model",
+    "save_model",
+    "te_def_point",
+    "te_point",
+]

@@ -1,0 +1,516 @@
+"""Preprocessing of rack-and-pinion recordings for transmission-error learning (spec 02 §3).
+
+Each step is one plain function with one job, testable on its own:
+
+1. :func:`monotone_part` / :func:`resample_on_grid` — keep the samples of one
+   direction of travel and interpolate every column over table position on a
+   fixed grid (50 µm) aligned to multiples of the step, so all runs share grid
+   points;
+2. :func:`transmission_error` — TE (1) = x_T − θ_M d_p / (2 i_PG);
+3. :func:`geometric_curve` — the no-load TE per direction (averaged over the
+   no-load runs) as a uniform-grid lookup table :class:`GeometricCurve`;
+4. :func:`deformation` — TE_def = TE − TE_geo;
+5. :func:`remove_offset` — constant offset removal;
+6. :func:`lowpass` — zero-phase Butterworth low-pass over position, cut-off
+   :func:`mesh_cutoff` = 3 × tooth-meshing spatial frequency;
+7. :func:`bump_features` — tooth-meshing features M_j, eqs (4)–(5).
+
+:class:`TEPipeline` chains them (a composite of small replaceable parts, like
+pysindy): ``pipeline.geometric(no_load_traces)`` then
+``pipeline.process(trace, geo)`` → :class:`RunData`, and
+``pipeline.design_matrix(x_T, torque)`` → the model inputs
+``[x_T, torque, M_1 … M_nt]``.
+
+Units: positions in metres, torque in N·m, TE in metres everywhere in this module
+except :attr:`RunData.te_def_um`, the learning target, in micrometres.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from drivelash.errors import DataError, ParameterError
+
+#: Resampling step over table position [m] (paper §IV: 50 µm).
+GRID_STEP = 50e-6
+
+#: Conversion factor metres → micrometres.
+UM = 1e6
+
+
+def direction_key(direction: int | float) -> str:
+    """``"pos"`` for direction +1, ``"neg"`` for −1 (the keys of per-direction models)."""
+    if direction > 0:
+        return "pos"
+    if direction < 0:
+        return "neg"
+    raise DataError(f"direction must be +1 or -1, got {direction!r}", column="direction")
+
+
+# ---------------------------------------------------------------------------
+# 1. resampling
+# ---------------------------------------------------------------------------
+def monotone_part(x: np.ndarray, direction: int) -> np.ndarray:
+    """Indices of the samples where the position strictly advances in ``direction``.
+
+    A sample is kept if its position exceeds (direction +1) or undercuts (−1) all
+    earlier kept samples: standstill, jitter and backward creep are dropped.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Table position x_T [m], time-ordered.
+    direction : int
+        +1 or −1.
+
+    Returns
+    -------
+    numpy.ndarray
+        Integer indices into ``x`` (increasing).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    s = x * (1.0 if direction > 0 else -1.0)
+    if s.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    prev = np.maximum.accumulate(np.concatenate(([-np.inf], s[:-1])))
+    return np.flatnonzero(s > prev)
+
+
+def resample_on_grid(
+    x: np.ndarray, columns: Mapping[str, np.ndarray], step: float = GRID_STEP
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Linear interpolation of ``columns`` over position on the grid ``k · step``.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Strictly monotone table position [m] (increasing or decreasing).
+    columns : Mapping[str, numpy.ndarray]
+        Columns sampled at ``x`` (any units; interpolated linearly).
+    step : float
+        Grid step [m].
+
+    Returns
+    -------
+    grid : numpy.ndarray
+        Increasing grid positions [m], integer multiples of ``step`` inside ``[min x, max x]``.
+    resampled : dict
+        Each column on ``grid``.
+    """
+    if not step > 0:
+        raise ParameterError("resample_on_grid", "step", f"must be > 0, got {step!r}")
+    x = np.asarray(x, dtype=np.float64)
+    if x.size < 2:
+        raise DataError("fewer than two samples to resample over position", column="x_T")
+    order = np.argsort(x, kind="stable")
+    xs = x[order]
+    if np.any(np.diff(xs) <= 0):
+        raise DataError("position must be strictly monotone to resample", column="x_T")
+    k0 = int(np.ceil(xs[0] / step - 1e-9))
+    k1 = int(np.floor(xs[-1] / step + 1e-9))
+    grid = np.arange(k0, k1 + 1, dtype=np.float64) * step
+    grid = grid[(grid >= xs[0]) & (grid <= xs[-1])]
+    out = {name: np.interp(grid, xs, np.asarray(v, dtype=np.float64)[order]) for name, v in columns.items()}
+    return grid, out
+
+
+def trim_ends(grid: np.ndarray, columns: Mapping[str, np.ndarray], length: float) -> tuple[np.ndarray, dict]:
+    """Drop ``length`` [m] of travel at both ends (backlash traversal, acceleration)."""
+    if length <= 0:
+        return grid, dict(columns)
+    keep = (grid >= grid[0] + length) & (grid <= grid[-1] - length)
+    return grid[keep], {k: np.asarray(v)[keep] for k, v in columns.items()}
+
+
+# ---------------------------------------------------------------------------
+# 2.–5. transmission error, geometric curve, deformation, offset
+# ---------------------------------------------------------------------------
+def transmission_error(x_T: np.ndarray, theta_m: np.ndarray, d_p: float, i_pg: float) -> np.ndarray:
+    """TE (1) = x_T − x_M with x_M = θ_M d_p / (2 i_PG).
+
+    Parameters
+    ----------
+    x_T : numpy.ndarray
+        Table position from the linear scale [m].
+    theta_m : numpy.ndarray
+        Motor angle [rad].
+    d_p : float
+        Pinion pitch diameter [m].
+    i_pg : float
+        Gearbox ratio (motor turns per pinion turn) [-].
+
+    Returns
+    -------
+    numpy.ndarray
+        TE [m].
+    """
+    return np.asarray(x_T, dtype=np.float64) - np.asarray(theta_m, dtype=np.float64) * d_p / (2.0 * i_pg)
+
+
+@dataclass(frozen=True)
+class GeometricCurve:
+    """No-load transmission error of one direction on a uniform position grid.
+
+    Parameters
+    ----------
+    x0 : float
+        Position of the first value [m].
+    step : float
+        Grid step [m].
+    te : numpy.ndarray
+        TE_geo [m] at ``x0 + k·step``; outside the grid the end values hold.
+    """
+
+    x0: float
+    step: float
+    te: np.ndarray
+
+    def __call__(self, x: np.ndarray | float) -> np.ndarray:
+        """TE_geo [m] at positions ``x`` [m] (linear interpolation, clamped)."""
+        xs = self.x0 + self.step * np.arange(self.te.size)
+        return np.interp(np.asarray(x, dtype=np.float64), xs, self.te)
+
+    @property
+    def x(self) -> np.ndarray:
+        """Grid positions [m]."""
+        return self.x0 + self.step * np.arange(self.te.size)
+
+
+def geometric_curve(
+    grids: Sequence[np.ndarray], tes: Sequence[np.ndarray], step: float = GRID_STEP
+) -> GeometricCurve:
+    """Average of no-load TE curves (one direction) on their common grid.
+
+    Parameters
+    ----------
+    grids : sequence of numpy.ndarray
+        Grid positions [m] of each no-load run (multiples of ``step``).
+    tes : sequence of numpy.ndarray
+        TE [m] of each run on its grid.
+    step : float
+        Grid step [m].
+
+    Returns
+    -------
+    GeometricCurve
+        The mean over runs at every grid point covered by at least one run.
+    """
+    if len(grids) == 0:
+        raise DataError("no no-load run for a direction: cannot build the geometric curve")
+    k = [np.rint(g / step).astype(np.int64) for g in grids]
+    k0 = min(int(a[0]) for a in k)
+    k1 = max(int(a[-1]) for a in k)
+    acc = np.zeros(k1 - k0 + 1)
+    cnt = np.zeros(k1 - k0 + 1)
+    for ki, te in zip(k, tes, strict=True):
+        acc[ki - k0] += te
+        cnt[ki - k0] += 1
+    ok = cnt > 0
+    xs = (np.arange(k0, k1 + 1) * step)[ok]
+    te = acc[ok] / cnt[ok]
+    full = np.interp(np.arange(k0, k1 + 1) * step, xs, te)
+    return GeometricCurve(float(k0 * step), float(step), full)
+
+
+def deformation(grid: np.ndarray, te: np.ndarray, geo: GeometricCurve) -> np.ndarray:
+    """TE_def = TE − TE_geo(x) [m] on ``grid`` [m]."""
+    return np.asarray(te, dtype=np.float64) - geo(grid)
+
+
+def remove_offset(values: np.ndarray, mode: str = "mean") -> np.ndarray:
+    """Remove a constant offset: ``"mean"`` subtracts the mean, ``"none"`` returns a copy."""
+    v = np.asarray(values, dtype=np.float64)
+    if mode == "mean":
+        return v - v.mean()
+    if mode == "none":
+        return v.copy()
+    raise ParameterError("remove_offset", "mode", f"must be 'mean' or 'none', got {mode!r}")
+
+
+# ---------------------------------------------------------------------------
+# 6. zero-phase low-pass over position
+# ---------------------------------------------------------------------------
+def mesh_frequency(d_p: float, n_t: int) -> float:
+    """Tooth-meshing spatial frequency n_t / (π d_p) [1/m] (one per tooth pitch)."""
+    return n_t / (np.pi * d_p)
+
+
+def mesh_cutoff(d_p: float, n_t: int, factor: float = 3.0) -> float:
+    """Low-pass cut-off = ``factor`` × tooth-meshing spatial frequency [1/m] (paper: 3)."""
+    return factor * mesh_frequency(d_p, n_t)
+
+
+def lowpass(values: np.ndarray, step: float, cutoff: float, order: int = 4) -> np.ndarray:
+    """Zero-phase Butterworth low-pass of a signal sampled over position.
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        Signal on a uniform grid.
+    step : float
+        Grid step [m].
+    cutoff : float
+        Cut-off spatial frequency [1/m] (−3 dB of each pass; forward-backward doubles the order).
+    order : int
+        Butterworth order of one pass.
+
+    Returns
+    -------
+    numpy.ndarray
+        Filtered signal, no phase shift (``scipy.signal.sosfiltfilt``).
+    """
+    from scipy.signal import butter, sosfiltfilt
+
+    nyq = 0.5 / step
+    if not 0 < cutoff < nyq:
+        raise ParameterError("lowpass", "cutoff", f"must be in (0, {nyq:g}) 1/m for step {step:g} m")
+    sos = butter(order, cutoff / nyq, output="sos")
+    v = np.asarray(values, dtype=np.float64)
+    padlen = min(3 * (2 * len(sos) + 1) * 10, v.size - 1)
+    if v.size < 8:
+        raise DataError(f"only {v.size} grid points: too short to filter")
+    return sosfiltfilt(sos, v, padlen=padlen)
+
+
+# ---------------------------------------------------------------------------
+# 7. tooth-meshing bump features (4)–(5)
+# ---------------------------------------------------------------------------
+@njit(cache=True)
+def bump_row(x: float, n_t: int, d_p: float, eps: float, out: np.ndarray) -> None:  # pragma: no cover - njit
+    """Bump features M_1 … M_nt at one position ``x`` [m] into ``out`` (njit)."""
+    u = x * n_t / (np.pi * d_p)
+    for j in range(n_t):
+        m = (u - (j + 1)) % n_t
+        eta = (2.0 / eps) * m - 1.0
+        if -1.0 < eta < 1.0:
+            e2 = eta * eta
+            out[j] = np.exp(e2 / (e2 - 1.0))
+        else:
+            out[j] = 0.0
+
+
+def bump_features(x: np.ndarray, n_t: int, d_p: float, eps: float) -> np.ndarray:
+    """Tooth-meshing features, eqs (4)–(5).
+
+    η_j = (2/ε)·mod(x n_t/(π d_p) − j, n_t) − 1,  M_j = exp(η_j²/(η_j² − 1)) for |η_j| < 1 else 0,
+    for pinion teeth j = 1 … n_t.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Table position [m].
+    n_t : int
+        Number of pinion teeth.
+    d_p : float
+        Pitch diameter [m].
+    eps : float
+        Contact ratio ε [-].
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(len(x), n_t)``; values in [0, e⁻¹].
+    """
+    x = np.asarray(x, dtype=np.float64).reshape(-1)
+    u = x[:, None] * n_t / (np.pi * d_p) - np.arange(1, n_t + 1)[None, :]
+    eta = (2.0 / eps) * np.mod(u, n_t) - 1.0
+    inside = np.abs(eta) < 1.0
+    e2 = np.where(inside, eta * eta, 0.0)
+    return np.where(inside, np.exp(e2 / np.where(inside, e2 - 1.0, -1.0)), 0.0)
+
+
+# ---------------------------------------------------------------------------
+# the composite
+# ---------------------------------------------------------------------------
+@dataclass(frozen=True)
+class GearGeometry:
+    """The numbers of the drive that preprocessing needs.
+
+    Parameters
+    ----------
+    d_p : float
+        Pinion pitch diameter [m].
+    n_t : int
+        Pinion teeth [-].
+    i_pg : float
+        Gearbox ratio [-].
+    eps : float
+        Contact ratio ε [-] (used in the bump features).
+    """
+
+    d_p: float
+    n_t: int
+    i_pg: float
+    eps: float
+
+    def __post_init__(self) -> None:
+        for name in ("d_p", "i_pg", "eps"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
+                raise ParameterError("GearGeometry", name, f"must be finite and > 0, got {v!r}")
+        if not (isinstance(self.n_t, (int, np.integer)) and self.n_t >= 2):
+            raise ParameterError("GearGeometry", "n_t", f"must be an integer >= 2, got {self.n_t!r}")
+
+    @classmethod
+    def from_bench(cls, bench: Any) -> GearGeometry:
+        """Read ``d_p``, ``n_t``, ``i_PG``/``i_pg`` and ``eps``/``contact_ratio`` from a bench object."""
+
+        def pick(*names: str) -> Any:
+            for n in names:
+                if hasattr(bench, n):
+                    v = getattr(bench, n)
+                    return v() if callable(v) else v
+            raise ParameterError(type(bench).__name__, names[0], "missing on the bench object")
+
+        return cls(
+            d_p=float(pick("d_p")),
+            n_t=int(pick("n_t")),
+            i_pg=float(pick("i_PG", "i_pg")),
+            eps=float(pick("eps", "contact_ratio", "epsilon")),
+        )
+
+    def to_dict(self) -> dict[str, float | int]:
+        """JSON-serialisable form."""
+        return {"d_p": self.d_p, "n_t": int(self.n_t), "i_pg": self.i_pg, "eps": self.eps}
+
+
+@dataclass
+class RunData:
+    """One processed run of one direction on the position grid.
+
+    Attributes
+    ----------
+    x : numpy.ndarray
+        Grid positions [m].
+    torque : numpy.ndarray
+        Motor torque [N·m], low-passed like the target.
+    te_def_um : numpy.ndarray
+        Deformation TE_def [µm] (offset removed, low-passed): the learning target.
+    direction : int
+        +1 or −1.
+    meta : dict
+        Provenance (load [N], velocity [m/s], run name, …).
+    """
+
+    x: np.ndarray
+    torque: np.ndarray
+    te_def_um: np.ndarray
+    direction: int
+    meta: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class TEPipeline:
+    """Chains the preprocessing steps; every number is a field (all replaceable).
+
+    Parameters
+    ----------
+    geometry : GearGeometry
+        Drive geometry.
+    step : float
+        Resampling grid step [m] (paper: 50 µm).
+    cutoff_factor : float
+        Low-pass cut-off in multiples of the tooth-meshing spatial frequency (paper: 3).
+    filter_order : int
+        Butterworth order per pass.
+    offset : str
+        ``"mean"`` (remove each run's mean TE_def) or ``"none"``.
+    trim : float
+        Travel [m] dropped at both ends of each run (flank change, acceleration).
+    """
+
+    geometry: GearGeometry
+    step: float = GRID_STEP
+    cutoff_factor: float = 3.0
+    filter_order: int = 4
+    offset: str = "mean"
+    trim: float = 5e-3
+
+    @property
+    def cutoff(self) -> float:
+        """Low-pass cut-off [1/m]."""
+        return mesh_cutoff(self.geometry.d_p, self.geometry.n_t, self.cutoff_factor)
+
+    def _grid_run(self, columns: Mapping[str, np.ndarray], direction: int) -> tuple[np.ndarray, dict]:
+        x = np.asarray(columns["x_T"], dtype=np.float64)
+        idx = monotone_part(x, direction)
+        if "direction" in columns:
+            d = np.asarray(columns["direction"])[idx]
+            idx = idx[np.sign(d) == np.sign(direction)]
+        if idx.size < 16:
+            raise DataError(f"fewer than 16 moving samples in direction {direction:+d}", column="x_T")
+        te = transmission_error(
+            x[idx], np.asarray(columns["theta_m"])[idx], self.geometry.d_p, self.geometry.i_pg
+        )
+        grid, cols = resample_on_grid(
+            x[idx], {"te": te, "torque": np.asarray(columns["torque_m"], dtype=np.float64)[idx]}, self.step
+        )
+        return trim_ends(grid, cols, self.trim)
+
+    def geometric(self, no_load: Sequence[Mapping[str, np.ndarray]], direction: int) -> GeometricCurve:
+        """TE_geo of one direction from its no-load runs (low-passed like the target).
+
+        Parameters
+        ----------
+        no_load : sequence of column mappings
+            Each needs ``x_T`` [m], ``theta_m`` [rad], ``torque_m`` [N·m] (and optionally ``direction``).
+        direction : int
+            +1 or −1.
+        """
+        grids, tes = [], []
+        for cols in no_load:
+            g, c = self._grid_run(cols, direction)
+            grids.append(g)
+            tes.append(c["te"])
+        geo = geometric_curve(grids, tes, self.step)
+        return GeometricCurve(geo.x0, geo.step, lowpass(geo.te, self.step, self.cutoff, self.filter_order))
+
+    def process(
+        self,
+        columns: Mapping[str, np.ndarray],
+        direction: int,
+        geo: GeometricCurve,
+        meta: Mapping[str, Any] | None = None,
+    ) -> RunData:
+        """Resample → TE → TE_def → offset removal → low-pass, for one run and direction."""
+        grid, c = self._grid_run(columns, direction)
+        te_def = remove_offset(deformation(grid, c["te"], geo), self.offset)
+        te_def = lowpass(te_def, self.step, self.cutoff, self.filter_order)
+        torque = lowpass(c["torque"], self.step, self.cutoff, self.filter_order)
+        return RunData(grid, torque, te_def * UM, int(np.sign(direction)), dict(meta or {}))
+
+    def design_matrix(self, x_T: np.ndarray, torque: np.ndarray) -> np.ndarray:
+        """Model inputs ``[x_T [m], torque [N·m], M_1 … M_nt]``, shape ``(n, 2 + n_t)``."""
+        x_T = np.asarray(x_T, dtype=np.float64).reshape(-1)
+        torque = np.broadcast_to(np.asarray(torque, dtype=np.float64), x_T.shape)
+        g = self.geometry
+        return np.column_stack([x_T, torque, bump_features(x_T, g.n_t, g.d_p, g.eps)])
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-serialisable configuration."""
+        return {
+            "geometry": self.geometry.to_dict(),
+            "step": self.step,
+            "cutoff_factor": self.cutoff_factor,
+            "filter_order": self.filter_order,
+            "offset": self.offset,
+            "trim": self.trim,
+        }
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> TEPipeline:
+        """Inverse of :meth:`to_dict`."""
+        g = d["geometry"]
+        return cls(
+            GearGeometry(float(g["d_p"]), int(g["n_t"]), float(g["i_pg"]), float(g["eps"])),
+            step=float(d["step"]),
+            cutoff_factor=float(d["cutoff_factor"]),
+            filter_order=int(d["filter_order"]),
+            offset=str(d["offset"]),
+            trim=float(d["trim"]),
+        )
