@@ -445,7 +445,10 @@ class DeadzoneEstimator:
             )
         if delta_true is None and "delta_true" in trace:
             delta_true = trace["delta_true"]
-        return make_result(t, out, self.config, self.params, delta_true, samples=samples)
+        res = make_result(t, out, self.config, self.params, delta_true, samples=samples)
+        if self.config.method == "default":
+            res.extra["stiffness_scale"] = float(self.state[dz.S_TH + 1])
+        return res
 
 
 def _kinematics(samples: np.ndarray, N: float, Ts: float) -> dict[str, float]:

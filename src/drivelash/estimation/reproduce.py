@@ -91,7 +91,7 @@ def score(name: str, method: str, trace: Trace, res: EstimationResult) -> dict[s
             conv_2mrad_start_s=c0,
             conv_2mrad_step_s=c1,
             ss_error_rad=max(ss0, ss1),
-            maee_rad=maee(t, d, truth, t[0] + T - 2.0),
+            maee_rad=maee(t, d, truth, t_step + 2.0),
             ss_peak_rad=max(ss0, ss1),
         )
     else:
@@ -104,6 +104,10 @@ def score(name: str, method: str, trace: Trace, res: EstimationResult) -> dict[s
     return m
 
 
+#: Points kept of δ̂(t) per run for the figures (decimated series).
+SERIES_POINTS = 6000
+
+
 def run_scenario(
     name: str,
     methods: Sequence[Method] = ("paper", "default"),
@@ -111,7 +115,11 @@ def run_scenario(
     keep: bool = False,
     overrides: dict[str, Any] | None = None,
 ) -> list[ScenarioOutcome]:
-    """Simulate scenario ``name`` once and score each method on that trace."""
+    """Simulate scenario ``name`` once and score each method on that trace.
+
+    Each outcome carries ``extra["series"] = (t, δ̂, δ*)`` decimated to about
+    :data:`SERIES_POINTS` points (for figures); ``keep`` also keeps the full result and trace.
+    """
     from drivelash.sim.scenarios import get_scenario
 
     sc = get_scenario(name)
@@ -120,17 +128,24 @@ def run_scenario(
     for method in methods:
         est = estimator_for(sc, method, **(overrides or {}))
         res = est.run(trace)
-        out.append(
-            ScenarioOutcome(
-                name, method, score(name, method, trace, res), res if keep else None, trace if keep else None
-            )
+        step = max(1, len(res.t) // SERIES_POINTS)
+        series = (res.t[::step].copy(), res.delta_hat[::step].copy(), trace["delta_true"][::step].copy())
+        o = ScenarioOutcome(
+            name, method, score(name, method, trace, res), res if keep else None, trace if keep else None
         )
+        o.extra["series"] = series
+        o.extra["stiffness_scale"] = res.extra.get("stiffness_scale")
+        out.append(o)
     return out
 
 
 def _run_one(args: tuple[str, tuple[str, ...], float | None, dict[str, Any] | None]) -> list[ScenarioOutcome]:
     name, methods, duration, overrides = args
     return run_scenario(name, methods, duration, keep=False, overrides=overrides)
+
+
+def _dur(name: str, duration: float | None, bench_duration: float | None) -> float | None:
+    return bench_duration if (bench_duration and name.startswith("bench-")) else duration
 
 
 def reproduce_table(
@@ -140,9 +155,22 @@ def reproduce_table(
     workers: int = 1,
     overrides: dict[str, Any] | None = None,
     progress: Callable[[str], None] | None = None,
+    bench_duration: float | None = None,
 ) -> list[dict[str, Any]]:
-    """Rows of figures of merit for each scenario × method, with the paper's values added."""
-    jobs = [(n, tuple(methods), duration, overrides) for n in names]
+    """Rows of figures of merit for each scenario × method, with the paper's values added.
+
+    ``duration`` applies to every scenario, ``bench_duration`` (if given) to the bench
+    tests only. Each row has a ``_series`` entry (decimated t, δ̂, δ*) for the figures.
+    """
+    jobs = [
+        (
+            n,
+            tuple(methods),
+            bench_duration if (bench_duration and n.startswith("bench-")) else duration,
+            overrides,
+        )
+        for n in names
+    ]
     outcomes: list[list[ScenarioOutcome]] = []
     if workers > 1 and len(jobs) > 1:
         with ProcessPoolExecutor(max_workers=workers) as ex:
@@ -160,6 +188,8 @@ def reproduce_table(
     for group in outcomes:
         for o in group:
             r = dict(o.metrics)
+            r["stiffness_scale"] = o.extra.get("stiffness_scale")
+            r["_series"] = o.extra.get("series")
             if o.scenario == "paper-sim":
                 r["paper_conv_s"] = PAPER_SIM_CONVERGENCE_S
                 r["paper_ss_rad"] = PAPER_SIM_SS_RAD
@@ -213,7 +243,7 @@ def table_csv(rows: list[dict[str, Any]]) -> str:
     keys: list[str] = []
     for r in rows:
         for k in r:
-            if k not in keys:
+            if k not in keys and not k.startswith("_"):
                 keys.append(k)
     out = [",".join(keys)]
     for r in rows:
