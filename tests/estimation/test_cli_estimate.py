@@ -1,0 +1,145 @@
+"""``drivelash estimate``: JSON contract and one-line errors (exit code 2) naming file and field."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from drivelash.cli import main
+from drivelash.control.references import position_sine
+
+from .conftest import TS, rig_trace
+
+GOOD_TOML = """
+[drivetrain]
+J_m = 8.31e-4
+J_l = 8.31e-4
+N = 1.0
+K_S = 32.94
+D_S = 0.0548
+T_Cm = 0.0223
+T_Cl = 0.0232
+beta_m = 0.0016
+beta_l = 0.0016
+
+[backlash]
+delta1 = 0.093
+"""
+
+
+def _run(argv: list[str], capsys) -> tuple[int, str, str]:
+    old = sys.argv
+    sys.argv = ["drivelash", *argv]
+    try:
+        main()
+        code = 0
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    finally:
+        sys.argv = old
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture(scope="module")
+def bench_csv(tmp_path_factory) -> Path:
+    trace, _ = rig_trace(position_sine(6.0, TS, 1.0, 0.5))
+    p = tmp_path_factory.mktemp("est") / "bench.csv"
+    trace.select(["theta_m", "omega_m", "theta_l", "omega_l", "torque_m", "delta_true"]).to_csv(p)
+    return p
+
+
+def _toml(tmp_path: Path, text: str) -> Path:
+    p = tmp_path / "drive.toml"
+    p.write_text(text, encoding="utf-8")
+    return p
+
+
+def test_estimate_json_contract(bench_csv, tmp_path, capsys):
+    cfg = _toml(tmp_path, GOOD_TOML)
+    out = tmp_path / "o.json"
+    code, stdout, err = _run(["estimate", str(bench_csv), "--config", str(cfg), "--json", str(out)], capsys)
+    assert code == 0, err
+    d = json.loads(out.read_text())
+    for key in (
+        "delta",
+        "delta1",
+        "excitation_ok",
+        "converged",
+        "convergence_time_s",
+        "maee_rad",
+        "steady_state_peak_rad",
+        "samples",
+        "sample_time_s",
+    ):
+        assert key in d
+    assert d["excitation_ok"] and d["converged"]
+    assert abs(d["delta"] - 0.186) < 2e-3
+    assert d["samples"] == 48000
+    assert d["sample_time_s"] == pytest.approx(TS)
+    assert "δ̂" in stdout
+
+
+def _bad_csv(tmp_path: Path, src: Path, edit) -> Path:
+    import pandas as pd
+
+    df = pd.read_csv(src, comment="#")
+    df = edit(df)
+    p = tmp_path / "bad.csv"
+    df.to_csv(p, index=False)
+    return p
+
+
+@pytest.mark.parametrize(
+    ("edit", "field"),
+    [
+        (lambda df: df.drop(columns=["omega_l"]), "omega_l"),
+        (lambda df: df.assign(theta_m=np.where(np.arange(len(df)) == 100, np.nan, df["theta_m"])), "theta_m"),
+        (lambda df: df.assign(t=np.where(np.arange(len(df)) == 200, df["t"] - 1.0, df["t"])), "t"),
+    ],
+    ids=["missing-column", "nan", "time-not-increasing"],
+)
+def test_bad_trace_one_line(bench_csv, tmp_path, capsys, edit, field):
+    cfg = _toml(tmp_path, GOOD_TOML)
+    bad = _bad_csv(tmp_path, bench_csv, edit)
+    code, _, err = _run(["estimate", str(bad), "--config", str(cfg)], capsys)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert str(bad) in lines[0] or bad.name in lines[0]
+    assert field in lines[0]
+
+
+@pytest.mark.parametrize(
+    ("text", "field"),
+    [
+        (GOOD_TOML.replace("K_S = 32.94\n", ""), "K_S"),
+        (GOOD_TOML.replace("K_S = 32.94", "K_s = 32.94"), "K_s"),
+        (GOOD_TOML.replace("J_l = 8.31e-4", "J_l = -8.31e-4"), "J_l"),
+        (GOOD_TOML.replace("delta1 = 0.093", "delta1 = -0.093"), "delta1"),
+        (GOOD_TOML + "\n[estimator]\ngamma = -3.0\n", "gamma"),
+        (GOOD_TOML + "\n[estimator]\nk1 = 'fast'\n", "k1"),
+        (GOOD_TOML.replace("[backlash]\ndelta1 = 0.093\n", ""), "backlash"),
+    ],
+    ids=[
+        "missing-key",
+        "mistyped-key",
+        "negative-J_l",
+        "negative-delta1",
+        "negative-gamma",
+        "string-k1",
+        "no-table",
+    ],
+)
+def test_bad_config_one_line(bench_csv, tmp_path, capsys, text, field):
+    cfg = _toml(tmp_path, text)
+    code, _, err = _run(["estimate", str(bench_csv), "--config", str(cfg)], capsys)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert str(cfg) in lines[0]
+    assert field in lines[0]
