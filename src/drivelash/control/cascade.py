@@ -6,11 +6,12 @@ At each control instant k (period T_s, torque held by a zero-order hold):
     e_ω   = ω_cmd − ω_m                                  velocity error [rad/s]
     u_un  = K_p e_ω + x_i                                unlimited torque [N·m]
     u     = clip(u_un, −T_max, T_max)                     applied torque [N·m]
-    x_i  ← x_i + (K_p/T_n) T_s e_ω + (u − u_un)          integrator with anti-windup
+    x_i  ← x_i + (K_p/T_n) T_s [e_ω + (u − u_un)/K_p]   integrator with anti-windup
 
-The anti-windup is back-calculation with unit gain: while the torque is limited the
-integrator is realigned so that the unlimited output equals the applied one plus the
-current integral increment; it never winds up. The electrical loop is taken as ideal
+The anti-windup is back-calculation with tracking gain 1/K_p (motulator's PI form,
+tracking time constant T_n): without limitation u = u_un and this is the plain PI;
+while limited, x_i ← x_i + (T_s/T_n)(u − x_i), i.e. the integrator relaxes towards the
+applied torque and can never exceed the torque limit in magnitude. The electrical loop is taken as ideal
 (u = commanded torque) and there is no computational delay: the torque computed from
 the samples at t_k is applied over [t_k, t_k + T_s).
 
@@ -90,7 +91,7 @@ def gains_from_bandwidth(
     )
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def cascade_output_scalar(x_i, theta_ref, omega_ref, theta_m, omega_m, c):
     """Controller output at one instant.
 
@@ -122,10 +123,10 @@ def cascade_output_scalar(x_i, theta_ref, omega_ref, theta_m, omega_m, c):
     return u, u_un, e_w
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def cascade_update_scalar(x_i, e_w, u_realized, u_un, c):
     """Integrator update with back-calculation anti-windup; returns the new x_i [N·m]."""
-    return x_i + c[C_K_P] / c[C_T_N] * c[C_T_S] * e_w + (u_realized - u_un)
+    return x_i + c[C_T_S] / c[C_T_N] * (c[C_K_P] * e_w + (u_realized - u_un))
 
 
 @dataclass

@@ -134,7 +134,7 @@ def plant_params_array(
     )
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def shaft_torque_scalar(dtheta, domega, p, delta, delta1):
     """Shaft torque T_l [N·m] by the model selected in ``p`` (deadzone (10) or smooth (12))."""
     if p[P_MODEL] == MODEL_DEADZONE:
@@ -142,7 +142,7 @@ def shaft_torque_scalar(dtheta, domega, p, delta, delta1):
     return smooth_torque_scalar(dtheta, domega, p[P_K_S], p[P_D_S], delta, delta1, p[P_ALPHA])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def rhs_scalar(omega_m, theta_m, omega_l, theta_l, u, delta, delta1, p):
     """Right-hand side of (1)–(4).
 
@@ -173,7 +173,7 @@ def rhs_scalar(omega_m, theta_m, omega_l, theta_l, u, delta, delta1, p):
     return domega_m, omega_m, domega_l, omega_l
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def rk4_step_scalar(omega_m, theta_m, omega_l, theta_l, u, delta, delta1, p, h):
     """One classical RK4 step of length ``h`` [s] with constant ``u``, δ, δ1 (no allocation)."""
     a1, b1, c1, d1 = rhs_scalar(omega_m, theta_m, omega_l, theta_l, u, delta, delta1, p)
@@ -196,7 +196,7 @@ def rk4_step_scalar(omega_m, theta_m, omega_l, theta_l, u, delta, delta1, p, h):
     )
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def contact_mode_scalar(dtheta, delta, delta1):
     """Contact state of the deadzone model: −1 lower flank (Δθ < −δ1), +1 upper (Δθ > δ − δ1), 0 free."""
     if dtheta < -delta1:
@@ -206,7 +206,7 @@ def contact_mode_scalar(dtheta, delta, delta1):
     return 0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _friction_fast(omega, T_C, beta, T_S, inv_omega_s, inv_omega_reg):
     """:func:`~drivelash.physics.friction.friction_scalar` with reciprocals (ω_reg > 0)."""
     if omega == 0.0:  # load at rest in the gap: skip tanh and exp
@@ -227,7 +227,7 @@ def _friction_fast(omega, T_C, beta, T_S, inv_omega_s, inv_omega_reg):
     return level * s + beta * omega
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def rhs_mode_scalar(omega_m, theta_m, omega_l, theta_l, u, delta, delta1, p, mode):
     """:func:`rhs_scalar` with the deadzone branch fixed to ``mode`` (−1, 0, +1).
 
@@ -256,7 +256,7 @@ def rhs_mode_scalar(omega_m, theta_m, omega_l, theta_l, u, delta, delta1, p, mod
     return (u - T_Fm - T_l * inv_N) * p[P_INV_J_M], omega_m, (T_l - T_Fl) * p[P_INV_J_L], omega_l
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def rk4_mode_scalar(omega_m, theta_m, omega_l, theta_l, u, delta, delta1, p, h, mode):
     """One RK4 step of length ``h`` [s] on the vector field of contact ``mode``."""
     a1, b1, c1, d1 = rhs_mode_scalar(omega_m, theta_m, omega_l, theta_l, u, delta, delta1, p, mode)

@@ -58,7 +58,7 @@ from drivelash.physics.friction import friction_scalar
 from drivelash.physics.rack_pinion import RackPinionBench, TransmissionErrorModel
 
 # state vector layout
-S_THETA, S_OMEGA, S_X, S_V, S_XI, S_FBAR, S_DIR, S_T = range(8)
+S_THETA, S_OMEGA, S_X, S_V, S_XI, S_FBAR, S_DIR, S_K = range(8)
 STATE_SIZE = 8
 
 # output columns of the kernel (one row per sample, values at t_k)
@@ -169,7 +169,7 @@ def axis_chunk(state, x_d, v_d, F_load, v_c, p, table, out):
     ----------
     state : numpy.ndarray, shape (STATE_SIZE,)
         θ_M [rad], ω_M [rad/s], x_T [m], v_T [m/s], PI integrator [N·m], F̄ [N],
-        last direction [±1], time [s]. Not modified.
+        last direction [±1], sample counter k (t = k T_s, exact). Not modified.
     x_d, v_d : numpy.ndarray
         Set position [m] and set velocity (feed-forward) [m/s] per sample.
     F_load : numpy.ndarray
@@ -195,7 +195,7 @@ def axis_chunk(state, x_d, v_d, F_load, v_c, p, table, out):
     xi = state[S_XI]
     Fbar = state[S_FBAR]
     dirm = state[S_DIR]
-    t = state[S_T]
+    kk = state[S_K]
     r = p[P_R]
     Ts = p[P_TS]
     nsub = int(p[P_NSUB])
@@ -247,7 +247,7 @@ def axis_chunk(state, x_d, v_d, F_load, v_c, p, table, out):
             v += h / 6.0 * (k1d + 2.0 * k2d + 2.0 * k3d + k4d)
         Fc1 = _mesh_force(th, w, x, v, Fbar, p, table)
         Fbar += a_f * (abs(Fc1) - Fbar)
-        t += Ts
+        kk += 1.0
     new = np.empty(STATE_SIZE)
     new[S_THETA] = th
     new[S_OMEGA] = w
@@ -256,7 +256,7 @@ def axis_chunk(state, x_d, v_d, F_load, v_c, p, table, out):
     new[S_XI] = xi
     new[S_FBAR] = Fbar
     new[S_DIR] = dirm
-    new[S_T] = t
+    new[S_K] = kk
     return new
 
 
@@ -414,9 +414,9 @@ class RackAxisSimulator:
         vc = np.zeros(n) if v_c is None else np.broadcast_to(np.asarray(v_c, dtype=np.float64), (n,))
         vc = np.ascontiguousarray(vc)
         out = np.empty((n, len(OUT_NAMES)))
-        t0 = float(state[S_T])
+        k0 = float(state[S_K])
         new = axis_chunk(np.asarray(state, dtype=np.float64), x_d, v_d, F, vc, self._p, self._table, out)
-        outputs = {"t": t0 + self.T_s * np.arange(n)}
+        outputs = {"t": (k0 + np.arange(n)) * self.T_s}
         for j, name in enumerate(OUT_NAMES):
             outputs[name] = out[:, j].copy()
         return new, outputs

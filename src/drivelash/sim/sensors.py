@@ -79,7 +79,7 @@ def draw_noise(rng: np.random.Generator, n: int, enabled: bool = True) -> np.nda
     return rng.standard_normal((n, N_NOISE))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def quantise_scalar(theta, counts):
     """Mid-tread encoder quantisation of ``theta`` [rad] to ``counts`` per revolution (0 = none)."""
     if counts <= 0.0:
