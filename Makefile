@@ -20,6 +20,7 @@ demo: $(STAMP)
 	$(VENV)/bin/drivelash demo -o demo-output
 
 test: $(STAMP)
+	@command -v chromium >/dev/null 2>&1 || { [ "$$(id -u)" = 0 ] && apt-get update -qq && apt-get install -y -qq chromium >/dev/null; } || echo "chromium unavailable: browser test will skip"
 	$(PY) -m pytest -q -n $(PYTEST_WORKERS) -m "not slow"
 
 test-slow: $(STAMP)

@@ -67,7 +67,7 @@ def _overview_figure(trace: Any) -> Figure:
         labels = {
             "theta": f"position [{u['pos']}]",
             "omega": f"velocity [{u['vel']}]",
-            "torque": f"[{u['force']}]",
+            "torque": f"{'force' if u['force'] == 'N' else 'torque'} [{u['force']}]",
         }
         for ax, g in zip(axes, groups, strict=True):
             for n in g:
@@ -130,12 +130,32 @@ def render_estimate_report(trace: Any, result: Any, config: Any = None, *, title
     tq_meas = np.asarray(getattr(result, "torque_meas", np.zeros_like(t)))
     tq_hat = np.asarray(getattr(result, "torque_hat", np.zeros_like(t)))
 
+    k_s, delta1 = None, None
+    if config is not None and getattr(config, "drivetrain", None) is not None:
+        k_s = config.drivetrain.K_S
+    if config is not None and getattr(config, "backlash", None) is not None:
+        delta1 = config.backlash.delta1
+
     def draw_deadzone(fig: Any) -> None:
         ax = fig.subplots()
-        x, y1, y2 = _thin(dtheta * 1e3, tq_meas, tq_hat)
+        half = slice(t.size // 2, None)  # second half: δ̂ has settled
+        x, y1 = _thin(dtheta * 1e3, tq_meas)
         ax.plot(x, y1, ".", ms=1.5, alpha=0.35, color="#888", label="J_l φ̂ (observed)")
-        order = np.argsort(x)
-        ax.plot(x[order], y2[order], color="#c0392b", lw=1.2, label="T_l(Δθ, δ̂) (model)")
+        xh, yh = _thin(dtheta[half] * 1e3, tq_hat[half])
+        ax.plot(xh, yh, ".", ms=1.5, alpha=0.5, color="#e67e22", label="T_l(x, δ̂), second half")
+        if k_s is not None and delta1 is not None and dh.size:
+            d_fin = float(dh[-1])
+            grid = np.linspace(float(np.min(dtheta)), float(np.max(dtheta)), 800)
+            static = np.where(
+                grid < -delta1,
+                k_s * (grid + delta1),
+                np.where(grid > d_fin - delta1, k_s * (grid + delta1 - d_fin), 0.0),
+            )
+            ax.plot(grid * 1e3, static, color="#c0392b", lw=1.5, label="deadzone with final δ̂ (K_S, δ1)")
+            ax.axvspan(-delta1 * 1e3, (d_fin - delta1) * 1e3, color="#f3e5c8", alpha=0.4, lw=0)
+        lo, hi = np.percentile(np.concatenate([y1, yh]), [0.5, 99.5]) if y1.size else (0.0, 1.0)
+        pad = 0.15 * (hi - lo) + 1e-9
+        ax.set_ylim(lo - pad, hi + pad)
         ax.axvline(0, color="k", lw=0.5)
         ax.set_xlabel("Δθ = θ_m/N − θ_l [mrad]")
         ax.set_ylabel("shaft torque [N·m]")
