@@ -163,3 +163,13 @@ def test_cli_observe_uses_identified_fragment(tmp_path, result):
     assert summary["mean_disturbance_forward"] == pytest.approx(fwd, rel=0.15)
     back = load_trace(out)
     assert set(back.names) == {"t", "velocity", "disturbance"}
+
+
+def test_pulses_example_config_maps_the_pulse_column():
+    from identify.helpers import REPO
+
+    cfg = load_config(REPO / "examples" / "emps_pulses.toml")
+    tr = load_trace(emps_file("DATA_EMPS_PULSES.mat"), cfg)
+    assert set(np.unique(tr["pulse_V"])) == {0.0, 5.0}
+    first_rise = tr["t"][np.flatnonzero(np.diff(tr["pulse_V"]) > 0)[0] + 1]
+    assert first_rise == pytest.approx(0.343, abs=0.002)  # as the data README states
