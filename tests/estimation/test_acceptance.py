@@ -96,7 +96,7 @@ def test_full_bench_sweep_meets_targets():
     names = [s.name for s in list_scenarios()]
     rows = reproduce_table(names, methods=("default",), workers=2)
     bench = [r for r in rows if r["scenario"].startswith("bench-")]
-    assert len(bench) == 15
+    assert len(bench) == 18  # tests 0…5 × deadzones A, B, C
     for r in bench:
         assert r["maee_rad"] <= 1e-3, r["scenario"]
         assert r["conv_10mrad_s"] is not None and r["conv_10mrad_s"] <= 10.0, r["scenario"]
