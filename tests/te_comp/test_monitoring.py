@@ -14,6 +14,7 @@ from drivelash.te.monitoring import (
     monitor_sections,
     section_edges,
     section_mae,
+    section_peak,
 )
 
 K_V, K_P, T_N, J_S = 231.0, 12.4, 3.05e-3, 3.5e-3
@@ -35,6 +36,23 @@ def _pass(defect_center=0.6, width=0.03, amp=6e-6, v=0.1, seed=0):
     te_true = te_model + bump + 0.05e-6 * rng.standard_normal(t.size)
     e_meas = path_error(t, te_true - te_model)  # an ideal compensation of the modelled part
     return t, x, te_true, te_model, e_meas
+
+
+def test_section_peak_against_loop_reference():
+    rng = np.random.default_rng(4)
+    x = rng.uniform(0, 1, 1000)
+    v = rng.standard_normal(1000)
+    edges = section_edges(0.0, 1.0, 0.1)
+    ref = [np.max(np.abs(v[(x >= a) & (x < b)])) for a, b in zip(edges[:-1], edges[1:], strict=True)]
+    np.testing.assert_allclose(section_peak(x, v, edges), ref, rtol=0)
+
+
+def test_mae_statistic_also_flags_a_large_defect():
+    t, x, te_true, te_model, e_meas = _pass(amp=12e-6)
+    rep = monitor_sections(t, x, te_true, te_model, e_meas, path_error, MonitorParams(statistic="mae"))
+    assert rep.statistic == "mae"
+    assert defect_covered(rep, (0.585, 0.615))
+    assert np.count_nonzero(rep.flagged) == 1
 
 
 def test_section_mae_against_loop_reference():
@@ -67,7 +85,7 @@ def test_no_defect_no_flags():
     t, x, te_true, te_model, e_meas = _pass(amp=0.0)
     rep = monitor_sections(t, x, te_true, te_model, e_meas, path_error)
     assert not np.any(rep.flagged)
-    assert rep.threshold == pytest.approx(3.0 * np.median(rep.mae_model))  # noise level × factor
+    assert rep.threshold == pytest.approx(3.0 * np.median(rep.peak_model))  # noise level × factor
 
 
 def test_defect_straddling_a_section_boundary_is_covered():
@@ -84,3 +102,5 @@ def test_monitor_rejects_bad_input():
         monitor_sections(np.zeros(10), np.zeros(9), np.zeros(10), np.zeros(10), np.zeros(10), path_error)
     with pytest.raises(ParameterError):
         MonitorParams(section_length=0.0)
+    with pytest.raises(ParameterError):
+        MonitorParams(statistic="rms")
