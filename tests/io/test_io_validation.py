@@ -271,3 +271,33 @@ def test_unit_requirements_are_reported(tmp_path):
         load_trace(path, {"theta_m": {"column": "theta_m", "unit": "rpm"}})
     with pytest.raises(DataError, match="scalar 'gtau'"):
         load_trace(path, {"torque_m": {"column": "torque_m", "unit": "V", "gain": "gtau"}})
+
+
+def test_cli_prints_the_wraparound_warning(tmp_path, monkeypatch, capsys):
+    """`identify` on a wrapped 12-bit encoder: exit 0, the unwrapping is said on stderr."""
+    t = np.arange(6000) * DT
+    turns = 1.5 * (1 - np.cos(2 * np.pi * t / 3.0))  # back and forth over 3 revolutions
+    counts = np.mod(np.round(turns * 4096), 4096)
+    omega = np.gradient(2 * np.pi * turns, DT)
+    tq = 0.01 * np.gradient(omega, DT) + 0.05 * omega + 0.2 * np.sign(omega)
+    path = write_trace(Trace({"t": t, "enc": counts, "tq": tq}), tmp_path / "enc.csv")
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(
+        '[columns.enc]\ncolumn = "theta_m"\nunit = "counts"\ncounts_per_rev = 4096\n'
+        '[columns.tq]\ncolumn = "torque_m"\nunit = "N·m"\n'
+    )
+    out = tmp_path / "dt.toml"
+    from drivelash import cli
+
+    monkeypatch.setattr(
+        sys, "argv", ["drivelash", "identify", str(path), "--config", str(cfg), "--out", str(out)]
+    )
+    try:
+        cli.main()
+        code = 0
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    err = capsys.readouterr().err
+    assert code == 0
+    assert "drivelash: warning:" in err and "column 'enc'" in err and "encoder wrap-around" in err
+    assert out.exists()
