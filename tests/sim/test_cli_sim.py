@@ -1,4 +1,8 @@
-"""CLI: ``drivelash scenarios`` and ``drivelash simulate`` (real entry point, subprocess)."""
+"""CLI: ``drivelash scenarios`` and ``drivelash simulate``.
+
+One test runs the real console entry point in a subprocess; the others call
+:func:`drivelash.cli.main` in-process (same code path: argv → typer → one-line errors).
+"""
 
 from __future__ import annotations
 
@@ -8,30 +12,51 @@ from pathlib import Path
 
 import pytest
 
+from drivelash.cli import main
 from drivelash.io.trace import Trace
 
 
-def _cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-c", "from drivelash.cli import main; main()", *args],
+def _main(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture, *args: str) -> tuple[int, str, str]:
+    monkeypatch.setattr(sys, "argv", ["drivelash", *args])
+    code = 0
+    try:
+        main()
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_unknown_scenario_subprocess(tmp_path: Path) -> None:
+    entry = "from drivelash.cli import main; main()"
+    r = subprocess.run(
+        [sys.executable, "-c", entry, "simulate", "bench-9Z", "-o", "x.parquet"],
         capture_output=True,
         text=True,
-        cwd=cwd,
+        cwd=tmp_path,
         timeout=300,
     )
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("drivelash: error: unknown scenario 'bench-9Z'")
 
 
-def test_scenarios_lists_all(tmp_path: Path) -> None:
-    r = _cli("scenarios", cwd=tmp_path)
-    assert r.returncode == 0, r.stderr
+def test_scenarios_lists_all(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture) -> None:
+    code, out, _ = _main(monkeypatch, capsys, "scenarios")
+    assert code == 0
     for name in ("paper-sim", "bench-0A", "bench-5C"):
-        assert name in r.stdout
+        assert name in out
 
 
-def test_simulate_writes_trace(tmp_path: Path) -> None:
+def test_simulate_writes_trace(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture
+) -> None:
     out = tmp_path / "run.parquet"
-    r = _cli("simulate", "bench-0C", "-o", str(out), "--duration", "0.5", "--seed", "4", cwd=tmp_path)
-    assert r.returncode == 0, r.stderr
+    code, stdout, err = _main(
+        monkeypatch, capsys, "simulate", "bench-0C", "-o", str(out), "--duration", "0.5", "--seed", "4"
+    )
+    assert code == 0, err
+    assert "4000 samples" in stdout
     tr = Trace.from_parquet(out)
     assert len(tr) == 4000 and tr.meta["scenario"] == "bench-0C" and tr.meta["seed"] == 4
 
@@ -46,11 +71,17 @@ def test_simulate_writes_trace(tmp_path: Path) -> None:
         (("simulate", "missing.toml", "-o", "x.parquet"), "no such file"),
     ],
 )
-def test_user_errors_are_one_line(tmp_path: Path, args: tuple[str, ...], needle: str) -> None:
+def test_user_errors_are_one_line(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture,
+    args: tuple[str, ...],
+    needle: str,
+) -> None:
     (tmp_path / "bad.toml").write_text("[plant]\nJ_m = -1.0\n")
-    r = _cli(*args, cwd=tmp_path)
-    assert r.returncode == 2
-    lines = r.stderr.strip().splitlines()
-    assert len(lines) == 1, r.stderr
+    monkeypatch.chdir(tmp_path)
+    code, _, err = _main(monkeypatch, capsys, *args)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
     assert lines[0].startswith("drivelash: error:") and needle in lines[0]
-    assert "Traceback" not in r.stderr
