@@ -88,7 +88,7 @@ def predict_path_error(
     Returns
     -------
     numpy.ndarray
-        Predicted e_x(t) [m] (zero-order-hold discretisation of (3), scipy lsim).
+        Predicted e_x(t) [m] (Tustin discretisation of (3) at the sample rate of ``t``).
     """
     from scipy import signal
 
@@ -104,13 +104,10 @@ def predict_path_error(
     Kv, Kp, Tn = gains.K_v, gains.K_p, gains.T_n
     a = J_s * Tn / Kp
     u = te - te[0] if remove_initial else te
-    # the numerator has the degree of the denominator: split off the direct term −1
-    num = np.array([-a, -Tn, -1.0, 0.0])
-    den = np.array([a, Tn, 1.0 + Kv * Tn, Kv])
-    sysd = signal.cont2discrete(signal.tf2ss(num, den), float(dt.mean()), method="bilinear")
-    A, B, C, D, _ = sysd
-    _, y, _ = signal.dlsim((A, B, C, D, float(dt.mean())), u)
-    return np.asarray(y).ravel()
+    # bilinear (Tustin) discretisation of (3) in zero-pole-gain form, run as second-order sections
+    z, p, k = signal.tf2zpk([-a, -Tn, -1.0, 0.0], [a, Tn, 1.0 + Kv * Tn, Kv])
+    zd, pd, kd = signal.bilinear_zpk(z, p, k, fs=1.0 / float(dt.mean()))
+    return signal.sosfilt(signal.zpk2sos(zd, pd, kd), u)
 
 
 def bode_figure(J_s: float, gains: CascadeGains, f_min: float = 0.1, f_max: float = 2000.0):  # noqa: ANN201

@@ -139,8 +139,8 @@ class RackPinionBench:
     T_Cm: float = 0.5
     beta_m: float = 2e-4
     F_CT: float = 150.0
-    beta_T: float = 500.0
-    zeta_mesh: float = 0.3
+    beta_T: float = 1000.0
+    zeta_mesh: float = 2.0
 
     def __post_init__(self) -> None:
         _check(self)

@@ -10,8 +10,8 @@ a compliant contact with backlash whose flank positions are the true transmissio
 error (see :mod:`drivelash.physics.rack_pinion`)::
 
     u = x_T − r θ_M                                   (the TE, eq (1))
-    positive flank in contact if u < TE_s,+(x_T):  F_+ = (TE_s,+ − u)/c_+(x_T) − d u̇  (≥ 0)
-    negative flank in contact if u > TE_s,−(x_T):  F_− = (u − TE_s,−)/c_−(x_T) + d u̇  (≥ 0)
+    positive flank in contact if u < TE_s,+(x_T):  F_+ = p_+/c_+(x_T) + d ṗ_+,  p_+ = TE_s,+ − u  (F_+ ≥ 0)
+    negative flank in contact if u > TE_s,−(x_T):  F_− = p_−/c_−(x_T) + d ṗ_−,  p_− = u − TE_s,−  (F_− ≥ 0)
     F_c = F_+ − F_−,   TE_s,d = S_d(x_T) + M_d(x_T) / (1 + F̄/F_h)
 
 so at constant velocity u = TE(x_T, |F_c|, d) of the TE model exactly. F̄ is the mesh
@@ -106,15 +106,19 @@ def bench_gains(torque_limit: float = 60.0) -> CascadeGains:
 
 @njit(cache=True, nogil=True, inline="always")
 def _lookup(table, x, x0, dx):
-    """Linear interpolation of the 6 table rows at x (clamped at the ends)."""
+    """Linear interpolation of the 6 table rows at x (clamped at the ends), and the
+    slopes dS/dx, dM/dx of both flanks (of the interpolant, 0 beyond the ends)."""
     n = table.shape[1]
     s = (x - x0) / dx
+    g = 1.0 / dx
     if s <= 0.0:
         i = 0
         w = 0.0
+        g = 0.0
     elif s >= n - 1:
         i = n - 2
         w = 1.0
+        g = 0.0
     else:
         i = int(s)
         w = s - i
@@ -126,6 +130,10 @@ def _lookup(table, x, x0, dx):
         a * table[3, i] + w * table[3, i + 1],
         a * table[4, i] + w * table[4, i + 1],
         a * table[5, i] + w * table[5, i + 1],
+        g * (table[0, i + 1] - table[0, i]),
+        g * (table[1, i + 1] - table[1, i]),
+        g * (table[3, i + 1] - table[3, i]),
+        g * (table[4, i + 1] - table[4, i]),
     )
 
 
@@ -133,19 +141,21 @@ def _lookup(table, x, x0, dx):
 def _mesh_force(theta, omega, x, v, Fbar, p, table):
     """Mesh force on the table F_c [N] (positive pushes the table towards +x)."""
     r = p[P_R]
-    Sp, Mp, cp, Sm, Mm, cm = _lookup(table, x, p[P_X0], p[P_DX])
+    Sp, Mp, cp, Sm, Mm, cm, dSp, dMp, dSm, dMm = _lookup(table, x, p[P_X0], p[P_DX])
     lf = 1.0 / (1.0 + Fbar / p[P_FH])
     u = x - r * theta
     du = v - r * omega
     F = 0.0
+    # penetration (elastic deflection) of each flank and its rate; the damper acts on the
+    # deflection rate, not on the rate of the geometric error itself
     pen_p = Sp + Mp * lf - u
     if pen_p > 0.0:
-        f = pen_p / cp - p[P_DMESH] * du
+        f = pen_p / cp + p[P_DMESH] * ((dSp + dMp * lf) * v - du)
         if f > 0.0:
             F += f
     pen_m = u - (Sm + Mm * lf)
     if pen_m > 0.0:
-        f = pen_m / cm + p[P_DMESH] * du
+        f = pen_m / cm + p[P_DMESH] * (du - (dSm + dMm * lf) * v)
         if f > 0.0:
             F -= f
     return F
