@@ -141,7 +141,11 @@ def test_cli_identify_writes_fragment_json_and_report(tmp_path):
     assert set(data["parameters"]) == {"M", "F_v", "F_c", "offset"}
     assert all(p["std"] > 0 for p in data["parameters"].values())
     assert data["cross_test"]["relative_error"] <= 0.07
+    obs = data["observer"]  # the observer runs with the identified M, F_v and is plotted
+    assert obs["mean_disturbance_forward"] == pytest.approx(obs["identified_forward"], rel=0.15)
+    assert obs["mean_disturbance_backward"] == pytest.approx(obs["identified_backward"], rel=0.15)
     html = rep.read_text()
+    assert 'id="fig-observer"' in html
     assert html.count("data:image/png;base64,") >= 3 and "http" not in html.lower().replace("http-equiv", "")
 
 

@@ -89,11 +89,30 @@ def run_identify(
     fragment = drivetrain_fragment(merged, comments)
     summary["drivetrain"] = merged
 
+    obs = None
+    if result.side == "motor" and result["M"] > 0:
+        from drivelash.estimation.identify import observe_disturbance
+
+        est = cfg.estimator
+        obs = observe_disturbance(
+            trace,
+            J=result["M"],
+            beta=result["F_v"],
+            k1=est.k1 if est else None,
+            k2=est.k2 if est else None,
+            cutoff_hz=opts.cutoff_hz,
+            filter_order=opts.filter_order,
+        )
+        summary["observer"] = {
+            **obs.as_dict(),
+            "identified_forward": result["F_c"] + result["offset"],
+            "identified_backward": -result["F_c"] + result["offset"],
+        }
     html = None
     if report is not None:
         from drivelash.report import render_identify_report
 
-        html = render_identify_report(trace, result, cfg, cross=ct, cross_trace=vtrace)
+        html = render_identify_report(trace, result, cfg, cross=ct, cross_trace=vtrace, observer=obs)
 
     # --- all computed: now write outputs
     if out is not None:

@@ -277,9 +277,24 @@ def write_estimate_report(path: str | Path, trace: Any, result: Any, config: Any
 
 # --------------------------------------------------------------------------- identify
 def render_identify_report(
-    trace: Any, result: Any, config: Any = None, *, cross: Any = None, cross_trace: Any = None
+    trace: Any,
+    result: Any,
+    config: Any = None,
+    *,
+    cross: Any = None,
+    cross_trace: Any = None,
+    observer: Any = None,
 ) -> str:
-    """HTML of an IDIM-LS run (``result`` from :mod:`drivelash.estimation.identify`)."""
+    """HTML of an IDIM-LS run (``result`` from :mod:`drivelash.estimation.identify`).
+
+    Parameters
+    ----------
+    cross, cross_trace : optional
+        Cross-test result and its recording.
+    observer : DisturbanceEstimate, optional
+        STSMO disturbance on the same recording with the identified M and F_v; drawn
+        against the identified F_c sign q̇ + offset.
+    """
     u = _units(trace)
     unit_of = {
         "M": u["mass"],
@@ -354,6 +369,37 @@ def render_identify_report(
             ax.legend(fontsize=8)
 
         figs.append(Figure("cross", "Cross-test on the validation recording.", draw_cross, (10, 3.5)))
+    if observer is not None and result.side == "motor":
+        f_c, off = float(result["F_c"]), float(result["offset"])
+
+        def draw_obs(fig: Any) -> None:
+            ax = fig.subplots()
+            t, d, v, cv = _thin(
+                observer.t, observer.disturbance, observer.velocity, observer.constant_velocity
+            )
+            ax.plot(t, d, lw=0.6, color="#2a6fb0", label="d̂ = −M φ̂ (STSMO)")
+            ax.plot(
+                t, f_c * np.sign(v) + off, lw=1.2, color="#c0392b", label="identified F_c sign q̇ + offset"
+            )
+            ax.plot(t[cv], d[cv], ".", ms=1.2, color="#1f7a35", label="constant-velocity samples")
+            ax.set_xlabel("time [s]")
+            ax.set_ylabel(f"disturbance [{u['force']}]")
+            ax.set_title(
+                f"Observer: mean {observer.mean_positive:.3g} / {observer.mean_negative:.3g} {u['force']}"
+                f" at constant velocity vs {f_c + off:.3g} / {-f_c + off:.3g} identified",
+                fontsize=10,
+            )
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=8, loc="upper right")
+
+        figs.append(
+            Figure(
+                "observer",
+                "Super-twisting disturbance observer against identified friction.",
+                draw_obs,
+                (10, 3.8),
+            )
+        )
     sections = [
         Section("Recording", raw=_warnings_html(trace), figures=[_overview_figure(trace)]),
         Section(
