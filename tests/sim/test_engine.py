@@ -143,3 +143,17 @@ def test_invalid_arguments_raise_parameter_error(kw: dict, field: str) -> None:
     with pytest.raises(ParameterError) as ei:
         _run(duration=0.01, **kw)
     assert field in str(ei.value) and "\n" not in str(ei.value)
+
+
+def test_position_and_torque_noise() -> None:
+    sens = SensorParams(sigma_theta_m=1e-3, sigma_theta_l=2e-3, sigma_torque=0.01)
+    res = _run(duration=5.0, sensors=sens, feedback="true", seed=11)
+    n = res.t.size  # 40 000 samples: σ̂ within 1 % (standard error 0.35 %)
+    assert np.std(res.column("theta_m") - res.column("theta_m_true")) == pytest.approx(1e-3, rel=0.015)
+    assert np.std(res.column("theta_l") - res.column("theta_l_true")) == pytest.approx(2e-3, rel=0.015)
+    tq = res.column("torque_m") - res.column("u")
+    assert np.std(tq) == pytest.approx(0.01, rel=0.015) and abs(np.mean(tq)) < 4 * 0.01 / math.sqrt(n)
+    # velocities are untouched (σ_ω = 0) and the noise channels are independent
+    np.testing.assert_array_equal(res.column("omega_l"), res.column("omega_l_true"))
+    r = np.corrcoef(res.column("theta_m") - res.column("theta_m_true"), tq)[0, 1]
+    assert abs(r) < 4 / math.sqrt(n)
