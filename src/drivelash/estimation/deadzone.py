@@ -49,14 +49,16 @@ import math
 import numpy as np
 from numba import njit
 
-from drivelash.physics.backlash import dtorque_ddelta_scalar, smooth_torque_scalar
-
 # -- parameter array layout ---------------------------------------------------------
 P_J_L, P_N, P_K_S, P_D_S, P_T_CL, P_BETA_L, P_DELTA1, P_ALPHA = 0, 1, 2, 3, 4, 5, 6, 7
 P_K1, P_K2, P_GAMMA, P_DELTA_MAX, P_EPS_DELTA, P_TS, P_METHOD = 8, 9, 10, 11, 12, 13, 14
 P_OMEGA_C, P_TAU_F, P_LAMBDA, P_P_MAX, P_OMEGA_EPS, P_T_THR, P_WINDOW = 15, 16, 17, 18, 19, 20, 21
 P_EST_K, P_EST_F, P_OMEGA_REF, P_THETA_DEF, P_Q_AUX = 22, 23, 24, 25, 26
-N_PARAMS = 27
+#: derived entries (filled by :func:`derive_params`): per-sample filter constants and the
+#: diagonal P0 of the least-squares gain
+P_C_POS, P_A_F, P_A_Q, P_P0 = 27, 28, 29, 30
+P_INV_N, P_INV_J, P_D_OVER_K, P_K_OVER_PI, P_INV_K, P_PROJ_C1, P_PROJ_C0 = 34, 35, 36, 37, 38, 39, 40
+N_PARAMS = 41
 
 # -- state array layout (followed by the σ ring buffer of W samples) -----------------
 S_OMEGA_HAT, S_Z, S_DELTA, S_P, S_XHAT, S_INIT, S_EF, S_GF = 0, 1, 2, 3, 4, 5, 6, 7
@@ -64,8 +66,8 @@ S_TQF, S_SIDE, S_TRAV, S_SIGSUM, S_RING_IDX, S_COUNT = 8, 9, 10, 11, 12, 13
 #: extended least squares (default method): θ = [δ, κ, a, b] at S_TH, filtered regressors at
 #: S_HF, 4×4 gain matrix (row-major) at S_PM
 NTH = 4
-S_TH, S_HF, S_PM = 16, 20, 24
-N_STATE = 40
+S_TH, S_HF, S_PM, S_PH = 16, 20, 24, 40
+N_STATE = 44
 
 # -- output columns -----------------------------------------------------------------
 O_DELTA, O_PHI, O_OMEGA_HAT, O_SIGMA_WIN, O_DTHETA, O_TORQUE_HAT, O_TORQUE_MEAS, O_TRAV = range(8)
@@ -109,28 +111,53 @@ def projection(delta, tau, delta_max, eps_delta):
     return tau * (1.0 - h)
 
 
+@njit(cache=True, inline="always")
+def _projection_fast(delta, tau, c1, c0):
+    """:func:`projection` with h = c1 δ² − c0, c1 = (ε_δ+1)/(ε_δ δ_max²), c0 = 1/ε_δ precomputed."""
+    h = c1 * delta * delta - c0
+    if h < 0.0:
+        return tau
+    if delta * tau <= 0.0:  # h'(δ) = 2 c1 δ has the sign of δ
+        return tau
+    return tau * (1.0 - h)
+
+
+@njit(cache=True, inline="always")
+def _atan_diff(z, w):
+    """atan(z) − atan(w) for z ≤ w with a single atan (branch-corrected addition formula)."""
+    den = 1.0 + z * w
+    if den > 0.0:
+        return math.atan((z - w) / den)
+    if den < 0.0:
+        return math.atan((z - w) / den) - math.pi
+    return -0.5 * math.pi
+
+
 @njit(cache=True)
-def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out):
-    """One sample of the estimator, in place on ``state``; writes ``out`` (length N_OUT)."""
+def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
+    """One sample of the estimator, in place on ``state``; writes row ``i_out`` of ``out`` (n, N_OUT).
+
+    ``p`` must come from :func:`~drivelash.estimation.estimator.build_params` (its derived
+    entries P_C_POS, P_A_F, P_A_Q hold the per-sample filter constants).
+    """
     J_l = p[P_J_L]
-    K_S = p[P_K_S]
-    D_S = p[P_D_S]
     delta1 = p[P_DELTA1]
     alpha = p[P_ALPHA]
     Ts = p[P_TS]
     default = p[P_METHOD] > 0.5
     delta_max = p[P_DELTA_MAX]
+    thr = p[P_T_THR]
 
     # relative coordinates (8)–(9), load side
-    dtheta_meas = theta_m / p[P_N] - theta_l
-    domega = omega_m / p[P_N] - omega_l
+    inv_N = p[P_INV_N]
+    dtheta_meas = theta_m * inv_N - theta_l
+    domega = omega_m * inv_N - omega_l
     if state[S_INIT] < 0.5:
         state[S_XHAT] = dtheta_meas
         state[S_INIT] = 1.0
     if default and p[P_OMEGA_C] > 0.0:
-        c = 1.0 - math.exp(-p[P_OMEGA_C] * Ts)
         xhat = state[S_XHAT]
-        xhat = xhat + c * (dtheta_meas - xhat)
+        xhat = xhat + p[P_C_POS] * (dtheta_meas - xhat)
         dtheta = xhat
         state[S_XHAT] = xhat + Ts * domega  # prediction for the next sample
     else:
@@ -142,7 +169,7 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out):
         sg = math.tanh(omega_l / p[P_OMEGA_EPS])
     else:
         sg = _sgn(omega_l)
-    a_known = -(p[P_T_CL] * sg + p[P_BETA_L] * omega_l) / J_l
+    a_known = -(p[P_T_CL] * sg + p[P_BETA_L] * omega_l) * p[P_INV_J]
     w_hat = state[S_OMEGA_HAT]
     err = omega_l - w_hat
     s = _sgn(err)
@@ -150,72 +177,100 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out):
     state[S_OMEGA_HAT] = w_hat + Ts * (a_known + phi)
     state[S_Z] = state[S_Z] + Ts * p[P_K2] * s
 
-    # adaptive law (49)–(50)
+    # model torque (12) and sensitivity (46)–(50), sharing the bracket of (11):
+    # B = π + atan(α(Δθ − δ + δ1)) − atan(α(Δθ + δ1)),  K_BL = K_S B / π,  χ1 = ½(1 + sgn Δθ) B
     delta = state[S_DELTA]
-    T_hat = smooth_torque_scalar(dtheta, domega, K_S, D_S, delta, delta1, alpha)
-    g = dtorque_ddelta_scalar(dtheta, domega, K_S, D_S, delta, delta1, alpha) / K_S
+    inv_K = p[P_INV_K]
+    z = alpha * (dtheta - delta + delta1)
+    bracket = math.pi + _atan_diff(z, alpha * (dtheta + delta1))
+    pos = 0.5 * (1.0 + _sgn(dtheta))
+    arg = dtheta + delta1 - delta * pos + p[P_D_OVER_K] * domega
+    T_hat = arg * p[P_K_OVER_PI] * bracket
+    chi1 = pos * bracket
+    chi2 = arg * alpha / (1.0 + z * z)
+    g = -(chi1 + chi2) * (1.0 / math.pi)  # ∂T_l/∂δ / K_S
     T_meas = J_l * phi
     if default:
         kappa = state[S_TH + 1]
-        h = np.empty(NTH)
-        h[0] = kappa * g
-        # κ learns only from confirmed contact (measured and model torque agree in sign and
-        # exceed the threshold); friction terms only where the model says "free" (|T̂| small)
-        thr = p[P_T_THR]
+        # κ learns only from confirmed contact (measured and model torque agree in sign, exceed
+        # the threshold and lie within a factor 2); friction terms only where the model says
+        # "free" (|T̂| small)
         tqf = state[S_TQF]
         gate_k = 0.0
         if tqf * T_hat > 0.0 and abs(tqf) > thr and abs(T_hat) > thr:
             r = tqf / (kappa * T_hat)
             if 0.5 < r < 2.0:
-                gate_k = 1.0
-        gate_f = 1.0 if abs(T_hat) < 0.1 * thr else 0.0
-        h[1] = (T_hat / K_S) * p[P_EST_K] * gate_k
-        h[2] = sg * p[P_EST_F] * gate_f
-        h[3] = (omega_l / p[P_OMEGA_REF]) * p[P_EST_F] * gate_f
-        y_hat = kappa * T_hat / K_S + state[S_TH + 2] * sg + state[S_TH + 3] * omega_l / p[P_OMEGA_REF]
-        e = T_meas / K_S - y_hat
-        a_f = 1.0
-        if p[P_TAU_F] > 0.0:
-            a_f = 1.0 - math.exp(-Ts / p[P_TAU_F])
-        state[S_EF] = state[S_EF] + a_f * (e - state[S_EF])
-        for i in range(NTH):
-            state[S_HF + i] = state[S_HF + i] + a_f * (h[i] - state[S_HF + i])
-        ef = state[S_EF]
-        # Ph = P h_f
-        Ph = np.zeros(NTH)
-        for i in range(NTH):
-            acc = 0.0
-            for j in range(NTH):
-                acc += state[S_PM + NTH * i + j] * state[S_HF + j]
-            Ph[i] = acc
-        rate = projection(delta, Ph[0] * ef, delta_max, p[P_EPS_DELTA])
+                gate_k = p[P_EST_K]
+        gate_f = p[P_EST_F] if abs(T_hat) < 0.1 * thr else 0.0
+        w_n = omega_l / p[P_OMEGA_REF]
+        h0 = kappa * g
+        h1 = (T_hat * inv_K) * gate_k
+        h2 = sg * gate_f
+        h3 = w_n * gate_f
+        y_hat = kappa * T_hat * inv_K + state[S_TH + 2] * sg + state[S_TH + 3] * w_n
+        e = T_meas * inv_K - y_hat
+        a_f = p[P_A_F]
+        ef = state[S_EF] + a_f * (e - state[S_EF])
+        f0 = state[S_HF] + a_f * (h0 - state[S_HF])
+        f1 = state[S_HF + 1] + a_f * (h1 - state[S_HF + 1])
+        f2 = state[S_HF + 2] + a_f * (h2 - state[S_HF + 2])
+        f3 = state[S_HF + 3] + a_f * (h3 - state[S_HF + 3])
+        state[S_EF] = ef
+        state[S_HF] = f0
+        state[S_HF + 1] = f1
+        state[S_HF + 2] = f2
+        state[S_HF + 3] = f3
+        # P h_f (P symmetric 4×4, row-major at S_PM). Without friction terms (P_EST_F = 0)
+        # h2 = h3 = 0 forever, the coupling entries stay 0 and the 2×2 block is exact.
+        q = S_PM
+        full = p[P_EST_F] > 0.5
+        if full:
+            ph0 = state[q] * f0 + state[q + 1] * f1 + state[q + 2] * f2 + state[q + 3] * f3
+            ph1 = state[q + 4] * f0 + state[q + 5] * f1 + state[q + 6] * f2 + state[q + 7] * f3
+            ph2 = state[q + 8] * f0 + state[q + 9] * f1 + state[q + 10] * f2 + state[q + 11] * f3
+            ph3 = state[q + 12] * f0 + state[q + 13] * f1 + state[q + 14] * f2 + state[q + 15] * f3
+        else:
+            ph0 = state[q] * f0 + state[q + 1] * f1
+            ph1 = state[q + 4] * f0 + state[q + 5] * f1
+            ph2 = 0.0
+            ph3 = 0.0
+        rate = _projection_fast(delta, ph0 * ef, p[P_PROJ_C1], p[P_PROJ_C0])
         if ef == ef:
-            kappa = kappa + Ts * Ph[1] * ef
+            kappa = kappa + Ts * ph1 * ef
             kappa = min(max(kappa, 0.25), 4.0)
             state[S_TH + 1] = kappa
-            lim = 20.0 * p[P_THETA_DEF]
-            a_ = state[S_TH + 2] + Ts * Ph[2] * ef
-            b_ = state[S_TH + 3] + Ts * Ph[3] * ef
-            state[S_TH + 2] = min(max(a_, -lim), lim)
-            state[S_TH + 3] = min(max(b_, -lim), lim)
+            if full:
+                lim = 20.0 * p[P_THETA_DEF]
+                a_ = state[S_TH + 2] + Ts * ph2 * ef
+                b_ = state[S_TH + 3] + Ts * ph3 * ef
+                state[S_TH + 2] = min(max(a_, -lim), lim)
+                state[S_TH + 3] = min(max(b_, -lim), lim)
         # dP/dt = λ (P0 − P) − P h hᵀ P  (leakage towards P0 keeps P bounded and alive)
-        lam = p[P_LAMBDA]
-        pm = p[P_P_MAX]
-        td = p[P_THETA_DEF]
-        for i in range(NTH):
-            for j in range(NTH):
-                k = S_PM + NTH * i + j
-                p0 = 0.0
-                if i == j:
-                    p0 = pm * p[P_Q_AUX] / (td * td) if i == 1 else (pm if i == 0 else pm * p[P_Q_AUX])
-                v = state[k] + Ts * (lam * (p0 - state[k]) - Ph[i] * Ph[j])
-                if v == v:
-                    state[k] = v
-        tq_in = T_meas
+        lam_ts = p[P_LAMBDA] * Ts
+        if full:
+            state[S_PH] = ph0
+            state[S_PH + 1] = ph1
+            state[S_PH + 2] = ph2
+            state[S_PH + 3] = ph3
+            for i in range(NTH):
+                for j in range(NTH):
+                    k = S_PM + NTH * i + j
+                    p0 = p[P_P0 + i] if i == j else 0.0
+                    v = state[k] + lam_ts * (p0 - state[k]) - Ts * state[S_PH + i] * state[S_PH + j]
+                    if v == v:
+                        state[k] = v
+        else:
+            v00 = state[q] + lam_ts * (p[P_P0] - state[q]) - Ts * ph0 * ph0
+            v01 = state[q + 1] - lam_ts * state[q + 1] - Ts * ph0 * ph1
+            v11 = state[q + 5] + lam_ts * (p[P_P0 + 1] - state[q + 5]) - Ts * ph1 * ph1
+            if v00 == v00 and v01 == v01 and v11 == v11:
+                state[q] = v00
+                state[q + 1] = v01
+                state[q + 4] = v01
+                state[q + 5] = v11
     else:
-        e = (T_meas - T_hat) / K_S
-        rate = projection(delta, p[P_GAMMA] * g * e, delta_max, p[P_EPS_DELTA])
-        tq_in = T_meas
+        e = (T_meas - T_hat) * inv_K
+        rate = _projection_fast(delta, p[P_GAMMA] * g * e, p[P_PROJ_C1], p[P_PROJ_C0])
     if rate == rate:  # skip a NaN update (keeps δ̂ finite)
         delta = delta + Ts * rate
     if delta < 0.0:
@@ -225,16 +280,14 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out):
     state[S_DELTA] = delta
 
     # excitation monitor
-    a_q = 1.0
-    if p[P_TAU_F] > 0.0:
-        a_q = 1.0 - math.exp(-Ts / max(p[P_TAU_F], 2e-3))
-    state[S_TQF] = state[S_TQF] + a_q * (tq_in - state[S_TQF])
+    tq = state[S_TQF] + p[P_A_Q] * (T_meas - state[S_TQF])
+    state[S_TQF] = tq
     side = state[S_SIDE]
-    if state[S_TQF] > p[P_T_THR] and side < 0.5:
+    if tq > thr and side < 0.5:
         if side < -0.5:
             state[S_TRAV] += 1.0
         state[S_SIDE] = 1.0
-    elif state[S_TQF] < -p[P_T_THR] and side > -0.5:
+    elif tq < -thr and side > -0.5:
         if side > 0.5:
             state[S_TRAV] += 1.0
         state[S_SIDE] = -1.0
@@ -251,14 +304,14 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out):
     state[S_RING_IDX] = idx
     state[S_COUNT] += 1.0
 
-    out[O_DELTA] = delta
-    out[O_PHI] = phi
-    out[O_OMEGA_HAT] = w_hat
-    out[O_SIGMA_WIN] = state[S_SIGSUM] * Ts
-    out[O_DTHETA] = dtheta
-    out[O_TORQUE_HAT] = T_hat
-    out[O_TORQUE_MEAS] = T_meas
-    out[O_TRAV] = state[S_TRAV]
+    out[i_out, O_DELTA] = delta
+    out[i_out, O_PHI] = phi
+    out[i_out, O_OMEGA_HAT] = w_hat
+    out[i_out, O_SIGMA_WIN] = state[S_SIGSUM] * Ts
+    out[i_out, O_DTHETA] = dtheta
+    out[i_out, O_TORQUE_HAT] = T_hat
+    out[i_out, O_TORQUE_MEAS] = T_meas
+    out[i_out, O_TRAV] = state[S_TRAV]
 
 
 @njit(cache=True)
@@ -282,15 +335,50 @@ def deadzone_run(state, samples, params):
         Shape (n, 8): δ̂ [rad], φ̂ [rad/s²], ω̂_l [rad/s], σ-window integral [s], Δθ used [rad],
         T_l(x, δ̂) [N·m], J_l φ̂ [N·m], traversal count [-].
     """
+    out = np.empty((samples.shape[0], N_OUT))
+    st = deadzone_run_into(state, samples, params, out)
+    return st, out
+
+
+@njit(cache=True)
+def deadzone_run_into(state, samples, params, out):
+    """As :func:`deadzone_run`, writing into a caller-provided ``out`` (n, N_OUT); returns the new state.
+
+    For streaming use: a reused output buffer avoids allocating (and page-faulting) fresh
+    memory for every block.
+    """
     st = state.copy()
     n = samples.shape[0]
-    out = np.empty((n, N_OUT))
-    row = np.empty(N_OUT)
     for i in range(n):
-        deadzone_step(st, samples[i, 0], samples[i, 1], samples[i, 2], samples[i, 3], params, row)
-        for j in range(N_OUT):
-            out[i, j] = row[j]
-    return st, out
+        deadzone_step(st, samples[i, 0], samples[i, 1], samples[i, 2], samples[i, 3], params, out, i)
+    return st
+
+
+def derive_params(p: np.ndarray) -> np.ndarray:
+    """Fill the derived entries of a parameter array in place (and return it).
+
+    P_C_POS = 1 − exp(−ω_c T_s) (complementary filter), P_A_F = 1 − exp(−T_s/τ_f) (residual
+    filter), P_A_Q = 1 − exp(−T_s/max(τ_f, 2 ms)) (torque filter of the excitation monitor),
+    P_P0 … P_P0+3 = diagonal of P0: [P_max, q P_max/θ_def², q P_max, q P_max].
+    """
+    Ts = p[P_TS]
+    p[P_C_POS] = 1.0 - math.exp(-p[P_OMEGA_C] * Ts) if p[P_OMEGA_C] > 0 else 1.0
+    p[P_A_F] = 1.0 - math.exp(-Ts / p[P_TAU_F]) if p[P_TAU_F] > 0 else 1.0
+    p[P_A_Q] = 1.0 - math.exp(-Ts / max(p[P_TAU_F], 2e-3)) if p[P_TAU_F] > 0 else 1.0
+    p[P_INV_N] = 1.0 / p[P_N]
+    p[P_INV_J] = 1.0 / p[P_J_L]
+    p[P_D_OVER_K] = p[P_D_S] / p[P_K_S]
+    p[P_K_OVER_PI] = p[P_K_S] / math.pi
+    p[P_INV_K] = 1.0 / p[P_K_S]
+    eps, dmax = p[P_EPS_DELTA], p[P_DELTA_MAX]
+    p[P_PROJ_C1] = (eps + 1.0) / (eps * dmax * dmax)
+    p[P_PROJ_C0] = 1.0 / eps
+    pm, q, td = p[P_P_MAX], p[P_Q_AUX], p[P_THETA_DEF]
+    p[P_P0] = pm
+    p[P_P0 + 1] = q * pm / (td * td)
+    p[P_P0 + 2] = q * pm
+    p[P_P0 + 3] = q * pm
+    return p
 
 
 def initial_state(params: np.ndarray, delta0: float = 0.0) -> np.ndarray:
@@ -300,8 +388,6 @@ def initial_state(params: np.ndarray, delta0: float = 0.0) -> np.ndarray:
     st[S_DELTA] = min(max(delta0, 0.0), params[P_DELTA_MAX])
     st[S_P] = params[P_P_MAX] if params[P_METHOD] > 0.5 else 0.0
     st[S_TH + 1] = 1.0
-    td = params[P_THETA_DEF]
     for i in range(NTH):
-        q = 1.0 if i == 0 else params[P_Q_AUX]
-        st[S_PM + NTH * i + i] = q * params[P_P_MAX] / (td * td if i == 1 else 1.0)
+        st[S_PM + NTH * i + i] = params[P_P0 + i]
     return st

@@ -246,7 +246,7 @@ def build_params(
     p[dz.P_OMEGA_REF] = config.omega_ref
     p[dz.P_THETA_DEF] = config.theta_def
     p[dz.P_Q_AUX] = config.q_aux
-    return p
+    return dz.derive_params(p)
 
 
 @dataclass
@@ -397,7 +397,7 @@ class DeadzoneEstimator:
         self.config = config if config is not None else EstimatorConfig.tuned(drivetrain, Ts, f_exc)
         self.params = build_params(drivetrain, self.delta1, self.config, self.Ts)
         self.state = dz.initial_state(self.params, self.config.delta0)
-        self._row = np.empty(dz.N_OUT)
+        self._row = np.empty((1, dz.N_OUT))
 
     def reset(self) -> None:
         """Back to δ̂ = δ0 and zero observer state."""
@@ -407,9 +407,9 @@ class DeadzoneEstimator:
         """Process one sample (θ_m, ω_m, θ_l, ω_l); returns the output row (see ``deadzone_run``)."""
         s = sample
         dz.deadzone_step(
-            self.state, float(s[0]), float(s[1]), float(s[2]), float(s[3]), self.params, self._row
+            self.state, float(s[0]), float(s[1]), float(s[2]), float(s[3]), self.params, self._row, 0
         )
-        return self._row.copy()
+        return self._row[0].copy()
 
     def run_samples(self, samples: np.ndarray) -> np.ndarray:
         """Process a block of samples, shape (n, 4); returns outputs (n, 8) and keeps the state."""
