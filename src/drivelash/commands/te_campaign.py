@@ -16,9 +16,10 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         seed: int = typer.Option(0, "--seed", help="Seed of the simulated drive (TE generator)."),
         quick: bool = typer.Option(False, "--quick", help="Reduced campaign: 0.4 m stroke, 3 loads."),
         workers: int = typer.Option(2, "--workers", min=1, help="Parallel simulation threads."),
+        plot: bool = typer.Option(True, "--plot/--no-plot", help="Write fig2_te.png (TE over position)."),
     ) -> None:
         """Simulate the campaign (geometric, load and sine runs) and write traces + manifest.json."""
-        from drivelash.te.campaign import CampaignConfig, run_campaign
+        from drivelash.te.campaign import CampaignConfig, load_campaign, plot_te_over_position, run_campaign
 
         cfg = CampaignConfig.quick() if quick else CampaignConfig()
         m = run_campaign(out, seed=seed, config=cfg, workers=workers)
@@ -27,3 +28,6 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
             f"{len(m['runs'])} runs, {tm['simulated_s']:.0f} s simulated in {tm['wall_s']:.1f} s "
             f"(real-time factor {tm['real_time_factor']:.0f}) -> {out}/manifest.json"
         )
+        if plot:
+            png = plot_te_over_position(load_campaign(out), out / "fig2_te.png")
+            typer.echo(f"TE over position -> {png}")

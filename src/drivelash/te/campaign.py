@@ -25,6 +25,7 @@ Reading::
     camp.true_te_model()       # TransmissionErrorModel for scoring
     camp.simulator()           # RackAxisSimulator of the same drive
     camp.select(kind="load", direction=1, velocity=0.05)
+    plot_te_over_position(camp, "fig2.png")   # the paper's Fig. 2 from the recording
 """
 
 from __future__ import annotations
@@ -379,3 +380,75 @@ def load_campaign(directory: str | Path) -> Campaign:
             )
         )
     return Campaign(d, manifest, runs)
+
+
+def measured_te(trace: Trace, bench: RackPinionBench) -> np.ndarray:
+    """TE = x_T − θ_M d_p/(2 i_PG) along a recorded run [m], eq (1)."""
+    return bench.te_from_measurement(trace["x_T"], trace["theta_m"])
+
+
+def plot_te_over_position(
+    campaign: Campaign, path: str | Path, velocity: float | None = None, step: float = 200e-6
+) -> Path:
+    """Fig. 2 of the paper from a campaign: TE over position, both directions, all loads.
+
+    Parameters
+    ----------
+    campaign : Campaign
+        The recording.
+    path : str or Path
+        PNG to write.
+    velocity : float, optional
+        Velocity of the load runs to show [m/s]; default the lowest recorded.
+    step : float
+        Plot resolution over position [m].
+
+    Returns
+    -------
+    Path
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    bench = campaign.bench
+    loads = campaign.select(kind="load")
+    if velocity is None and loads:
+        velocity = min(r.velocity for r in loads)
+    fig, ax = plt.subplots(2, 1, figsize=(11, 8), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
+    cmap = plt.get_cmap("viridis")
+    F_max = max([r.load for r in loads] + [1.0])
+    geo = {}
+    for r in campaign.select(kind="geometric"):
+        tr = r.trace()
+        x, te = tr["x_T"], measured_te(tr, bench)
+        grid = np.arange(x.min(), x.max(), step)
+        order = np.argsort(x)
+        geo[r.direction] = (grid, np.interp(grid, x[order], te[order]))
+        ax[0].plot(grid, geo[r.direction][1] * 1e6, color="k", lw=0.8)
+    for r in campaign.select(kind="load", velocity=velocity):
+        tr = r.trace()
+        x, te = tr["x_T"], measured_te(tr, bench)
+        grid = np.arange(x.min(), x.max(), step)
+        order = np.argsort(x)
+        ax[0].plot(grid, np.interp(grid, x[order], te[order]) * 1e6, color=cmap(r.load / F_max), lw=0.5)
+    if 1 in geo and -1 in geo:
+        g = geo[1][0]
+        lo = np.interp(g, *geo[1])
+        hi = np.interp(g, *geo[-1])
+        ax[0].fill_between(g, lo * 1e6, hi * 1e6, color="tab:orange", alpha=0.25, label="backlash (no load)")
+        ax[1].plot(g, (hi - lo) * 1e6, color="tab:orange")
+    ax[0].set_ylabel("TE = x_T − x_M [µm]")
+    v_txt = f"{velocity * 1e3:g} mm/s" if velocity else ""
+    ax[0].set_title(
+        f"Transmission error, both directions, loads 0…{F_max:g} N (colour) {v_txt}; black: 10 mm/s, no load"
+    )
+    ax[0].legend(loc="upper right")
+    ax[1].set_ylabel("gap [µm]")
+    ax[1].set_xlabel("table position x_T [m]")
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
