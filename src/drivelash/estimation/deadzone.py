@@ -133,7 +133,7 @@ def _atan_diff(z, w):
     return -0.5 * math.pi
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
     """One sample of the estimator, in place on ``state``; writes row ``i_out`` of ``out`` (n, N_OUT).
 
@@ -340,7 +340,7 @@ def deadzone_run(state, samples, params):
     return st, out
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def deadzone_run_into(state, samples, params, out):
     """As :func:`deadzone_run`, writing into a caller-provided ``out`` (n, N_OUT); returns the new state.
 
