@@ -39,7 +39,8 @@ would vanish for every physically reachable Δθ) — is summed over a sliding w
 samples: ``sigma_window`` = ∫σ dt over the last W T_s seconds [s]. A *contact* is a
 filtered shaft torque J_l φ̂ beyond ±T_thr; a *traversal* is a change of contact side
 (positive ↔ negative). Excitation is sufficient when at least two traversals have been seen
-and the σ-window integral exceeds ε_σ = 5 % of the window length.
+and the σ-window integral exceeds ε_σ = 1 % of the window length
+(:data:`drivelash.estimation.estimator.SIGMA_FRACTION_MIN`).
 """
 
 from __future__ import annotations

@@ -38,6 +38,9 @@ from drivelash.params import BacklashParams, DrivetrainParams
 
 Method = Literal["paper", "default"]
 INPUT_COLUMNS = ("theta_m", "omega_m", "theta_l", "omega_l")
+#: Least share of the excitation window in which the law must receive information
+#: (∫σ dt / window ≥ ε_σ) for ``excitation_ok``.
+SIGMA_FRACTION_MIN = 0.01
 
 
 @dataclass(frozen=True)
@@ -176,7 +179,7 @@ class EstimatorConfig:
         values: dict[str, Any] = dict(
             k1=k1,
             k2=k2,
-            gamma=4.0 * w_r,
+            gamma=w_n / 16.0,
             delta_max=2.0 if delta_max is None else delta_max,
             eps_delta=0.1,
             delta0=0.0,
@@ -519,11 +522,11 @@ def make_result(
                 "a reversing motion is needed to see the gap"
             )
         ok = False
-    elif sigma_frac < 0.05:
+    elif sigma_frac < SIGMA_FRACTION_MIN:
         ok = False
         reason = (
             f"too little excitation in the last {win:.3g} s: the estimate received information "
-            f"during {100 * sigma_frac:.1f} % of it (needs 5 %)"
+            f"during {100 * sigma_frac:.1f} % of it (needs {100 * SIGMA_FRACTION_MIN:g} %)"
         )
     else:
         ok = True

@@ -165,14 +165,23 @@ def fig15_torque(path: Path, scenario: str = "bench-0B", duration: float | None 
     return path
 
 
-def fig10_data(scales: tuple[float, ...]) -> list[tuple[float, float, float]]:
-    """(scale, bound on J_l|φ̃| [N·m], steady-state |δ̂ − δ*| [rad]) on paper-sim, paper law.
+#: Averaging window of φ̃ for the Fig. 10 bound [s] (the adaptive law integrates; chattering
+#: of the Euler-discretised STSMO above ~100 Hz does not bias δ̂).
+FIG10_AVERAGE_S = 0.01
 
-    k1 and k2 of the default tuning are scaled by s and s² (the STSMO's homogeneity: the
-    same shape, faster or slower). The bound is the 95th percentile of J_l|φ − φ̂| over
-    [2, 3) s — the maximum is set by the impacts at contact, not by the observer; the
-    steady-state error is max |δ̂ − δ*| over [2.5, 3) s (before the step).
+
+def fig10_data(scales: tuple[float, ...]) -> list[tuple[float, float, float, float]]:
+    """(s, bound on J_l|φ̃| [N·m], steady-state |δ̂ − δ*| [rad], raw sup J_l|φ̃| [N·m]), paper-sim.
+
+    Paper law; k1 and k2 of the default tuning scaled by s and s² (the STSMO's homogeneity:
+    the same shape, faster or slower). The bound is sup over [2, 3) s of J_l|φ − φ̂| averaged
+    over :data:`FIG10_AVERAGE_S` — the part of the perturbation error the integrating law
+    acts on. The raw sup (last entry) grows with the gains through chattering while the
+    steady-state error falls, so it shows no such relation. The steady-state error is
+    max |δ̂ − δ*| over [2.5, 3) s (before the step).
     """
+    from scipy.ndimage import uniform_filter1d
+
     from drivelash.estimation.reproduce import estimator_for
     from drivelash.physics.backlash import deadzone_torque
     from drivelash.sim.scenarios import get_scenario
@@ -191,10 +200,12 @@ def fig10_data(scales: tuple[float, ...]) -> list[tuple[float, float, float]]:
         est = estimator_for(sc, "paper", k1=base.config.k1 * s, k2=base.config.k2 * s * s)
         res = est.run(trace)
         m = (t >= 2.0) & (t < 3.0)
-        bound = float(np.percentile(np.abs(T_true[m] - res.torque_meas[m]), 95))
+        e = T_true[m] - res.torque_meas[m]
+        k = max(1, int(round(FIG10_AVERAGE_S / sc.T_s)))
+        bound = float(np.max(np.abs(uniform_filter1d(e, k))))
         m2 = t >= 2.5
         err = float(np.max(np.abs(res.delta_hat[m2] - trace["delta_true"][m2])))
-        out.append((s, bound, err))
+        out.append((s, bound, err, float(np.max(np.abs(e)))))
     return out
 
 
@@ -207,12 +218,12 @@ def fig10_ss_vs_phi(path: Path, scales: tuple[float, ...]) -> tuple[Path, float]
     slope, icpt = np.polyfit(x, y, 1)
     fig, ax = plt.subplots(figsize=(7, 4.5))
     ax.plot(x, 1e3 * y, "o", label="paper-sim, paper law, k1·s, k2·s²")
-    for s, xi, yi in data:
+    for s, xi, yi, _ in data:
         ax.annotate(f"s={s:g}", (xi, 1e3 * yi), textcoords="offset points", xytext=(4, 4), fontsize=7)
     xx = np.linspace(0, x.max() * 1.05, 50)
     ax.plot(xx, 1e3 * (slope * xx + icpt), "-", label=f"fit: slope {slope:.4f} rad/(N·m)")
     ax.plot(xx, 1e3 * PAPER_FIG10_SLOPE * xx, "k:", label=f"paper: slope ≈ {PAPER_FIG10_SLOPE}")
-    ax.set_xlabel("bound on J_l|φ̃| (95th percentile, 2–3 s) [N·m]")
+    ax.set_xlabel(f"bound on J_l|φ̃|: sup over 2–3 s of its {1e3 * FIG10_AVERAGE_S:g} ms average [N·m]")
     ax.set_ylabel("steady-state |δ̂ − δ*| [mrad]")
     ax.set_title("steady-state error vs perturbation-estimate error (cf. paper Fig. 10)", fontsize=10)
     ax.grid(alpha=0.3)
