@@ -154,6 +154,22 @@ def test_eq3_predicts_the_simulated_path_error(sim, te_model, v, record_property
     assert np.mean(np.abs(e - e_mod)[sel]) < 0.1e-6
 
 
+@pytest.mark.parametrize("seed", [1, 3, 5])
+def test_no_hunting_after_no_load_reversals(seed):
+    """The backlash must not start a limit cycle at a slow no-load reversal (the table
+    sticks, the motor crosses the gap): after each reversal the error settles again."""
+    model = TransmissionErrorModel.generate(BENCH, seed)
+    s = RackAxisSimulator(BENCH, model)
+    t, xd, vd = sine_trajectory(1.1, 0.1, 0.25, periods=1.0)
+    tr = s.run(xd, vd, 0.0)
+    e = tr["x_d"] - tr["x_T"]
+    for t_rev in (2.1,):
+        late = (tr["t"] > t_rev + 0.4) & (tr["t"] < t_rev + 1.5)
+        assert np.max(np.abs(e[late])) < 3e-6
+    peak = (tr["t"] > 2.1) & (tr["t"] < 2.2)
+    assert np.max(np.abs(e[peak])) > 5e-6  # the reversal error itself is there
+
+
 def test_sine_trajectory_reverses_and_shows_backlash(sim, te_model):
     t, xd, vd = sine_trajectory(1.1, 0.1, 0.25, periods=1.0)
     tr = sim.run(xd, vd, 0.0)
