@@ -207,12 +207,47 @@ def test_flank_from_mesh_torque_not_from_set_point_direction():
     comp.run(x_d, np.full(n, -1.5), np.full(n, 30.0), np.zeros(n))
     assert comp.flank == -1
     # friction estimate is subtracted: 0.3 N·m Coulomb at positive speed masks −0.25 N·m
-    p = CompensatorParams(v_max=1.0, T_C=0.3, omega_reg=0.1, hysteresis=0.5)
+    p = CompensatorParams(v_max=1.0, T_C=0.3, omega_reg=0.1, hysteresis=0.5, release=0.0)
     comp = Compensator(_table(m), p, flank=1)
     comp.run(x_d, np.full(n, -0.25), np.full(n, -30.0), np.zeros(n))  # mesh = −0.25 + 0.3 > −0.5
     assert comp.flank == 1
     comp.run(x_d, np.full(n, -0.25), np.full(n, 30.0), np.zeros(n))  # mesh = −0.55
     assert comp.flank == -1
+
+
+def test_release_with_planned_reversal_starts_the_step_early():
+    m = SineTE()
+    p = CompensatorParams(v_max=1.0, hysteresis=0.5, release=0.2)
+    x_d, _, _, al = _reversal_inputs()  # plan reverses at cycle 40
+    n = al.size
+    # mesh torque ≈ 0 (gap being traversed): the flank changes exactly when the plan reverses
+    comp = Compensator(_table(m), p, flank=1)
+    _, _, vbl = comp.run(x_d, np.full(n, 0.05), np.zeros(n), al)
+    assert comp.flank == -1 and np.flatnonzero(vbl)[0] == 40
+    # same torque but the plan keeps its direction: no change (standstill, creeping)
+    comp = Compensator(_table(m), p, flank=1)
+    comp.run(0.4 + 1e-4 * np.arange(n + 1), np.full(n, 0.05), np.zeros(n), al)
+    assert comp.flank == 1
+    comp.run(np.full(n + 1, 0.4), np.full(n, 0.05), np.zeros(n), al)
+    assert comp.flank == 1
+    # the plan reverses but the flank still carries torque: no change
+    comp = Compensator(_table(m), p, flank=1)
+    comp.run(x_d, np.full(n, 0.3), np.zeros(n), al)
+    assert comp.flank == 1
+
+
+def test_lockout_ignores_impact_spikes_after_a_flank_change():
+    m = SineTE()
+    p = CompensatorParams(v_max=1.0, hysteresis=0.1, t_lock=0.05)
+    n = 40
+    tq = np.array([2.0] * 5 + [-2.0] + [3.0, -3.0] * 4 + [-2.0] * (n - 14))  # spikes for 40 ms
+    comp = Compensator(_table(m), p, flank=1)
+    _, _, vbl = comp.run(np.full(n + 1, 0.25), tq, np.zeros(n), np.zeros(n))
+    assert comp.flank == -1
+    assert np.sum(vbl) * T_SC == pytest.approx(comp.state[S_B], rel=1e-12)  # one single step
+    comp = Compensator(_table(m), CompensatorParams(v_max=1.0, hysteresis=0.1, t_lock=0.0), flank=1)
+    _, _, vbl0 = comp.run(np.full(8, 0.25), tq[:7], np.zeros(7), np.zeros(7))
+    assert comp.flank == 1  # without the lockout the spike toggles the flank back
 
 
 def test_hysteresis_rejects_torque_noise():
@@ -227,7 +262,7 @@ def test_hysteresis_rejects_torque_noise():
 
 def test_flank_change_during_running_step_keeps_the_net_jump():
     m = SineTE()
-    comp = Compensator(_table(m), CompensatorParams(v_max=1.0, hysteresis=0.1), flank=1)
+    comp = Compensator(_table(m), CompensatorParams(v_max=1.0, hysteresis=0.1, t_lock=0.0), flank=1)
     n = 40
     x = np.full(n + 1, 0.25)
     tq = np.array([2.0] * 5 + [-2.0] * 3 + [2.0] * (n - 8))

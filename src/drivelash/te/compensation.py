@@ -68,7 +68,9 @@ P_OMEGA_REG = 5
 P_HYST = 6
 P_J_MODEL = 7
 P_V_MAX = 8
-PARAM_SIZE = 9
+P_RELEASE = 9
+P_T_LOCK = 10
+PARAM_SIZE = 11
 
 
 class TEPredictor(Protocol):
@@ -109,6 +111,14 @@ class CompensatorParams:
         velocity, where motor torque = friction + load).
     v_max : float
         Symmetric limit of |v_c| [m/s] (drive limit).
+    release : float
+        Mesh torque [N·m] below which the contact with the current flank counts as
+        released when the *planned* motion (look-ahead) points towards the other
+        flank: the flank change is then taken at the start of the gap traverse, not
+        at the impact on the other flank (where the torque sign confirms it). 0 disables.
+    t_lock : float
+        Time after a flank change during which no further change is accepted [s]:
+        the torque spikes of the impact on the new flank must not toggle the flank.
     """
 
     t_sc: float = 5e-3
@@ -120,6 +130,8 @@ class CompensatorParams:
     hysteresis: float = 0.2
     J_model: float = 0.0
     v_max: float = 0.05
+    release: float = 0.0
+    t_lock: float = 50e-3
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -129,7 +141,7 @@ class CompensatorParams:
         for n in ("t_sc", "t_ss", "omega_reg", "v_max"):
             if not getattr(self, n) > 0:
                 raise ParameterError(type(self).__name__, n, f"must be > 0, got {getattr(self, n)!r}")
-        for n in ("J_flank", "T_C", "beta", "hysteresis", "J_model"):
+        for n in ("J_flank", "T_C", "beta", "hysteresis", "J_model", "release", "t_lock"):
             if not getattr(self, n) >= 0:
                 raise ParameterError(type(self).__name__, n, f"must be >= 0, got {getattr(self, n)!r}")
 
@@ -389,14 +401,17 @@ def compensation_cycle(state, te, x0, dx, torque0, dtorque, p, x_d_n, x_d_next, 
         Motor acceleration [rad/s²].
     """
     t_sc = p[P_T_SC]
-    # flank in contact from the mesh torque, with hysteresis
+    # flank in contact from the mesh torque: (a) its sign, beyond the hysteresis band, or
+    # (b) its release (below `release`) while the planned motion reverses
     tm = mesh_torque(torque_m, omega_m, alpha_m, p)
     flank = state[S_FLANK]
     new_flank = flank
-    if flank > 0.0 and tm < -p[P_HYST]:
-        new_flank = -1.0
-    elif flank < 0.0 and tm > p[P_HYST]:
-        new_flank = 1.0
+    s_tm = tm * flank
+    planned = (x_d_next - x_d_n) * flank
+    locked = state[S_T_SINCE] < p[P_T_LOCK]
+    released = p[P_RELEASE] > 0.0 and planned < 0.0 and s_tm < p[P_RELEASE]
+    if not locked and (s_tm < -p[P_HYST] or released):
+        new_flank = -flank
     # model torque: motor torque minus acceleration torque (trained at constant velocity)
     tq = torque_m - p[P_J_MODEL] * alpha_m
     d_new = 0 if new_flank > 0.0 else 1

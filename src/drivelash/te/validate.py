@@ -136,6 +136,8 @@ def compensator_for(bench: Any, table: TETable, base: CompensatorParams | None =
         hysteresis=b.hysteresis,
         J_model=float(bench.J_s),
         v_max=b.v_max,
+        release=b.release,
+        t_lock=b.t_lock,
     )
 
 
@@ -176,7 +178,7 @@ def run_pass(
     n = (x_d.size // nc) * nc
     nz = np.flatnonzero(np.abs(v_d) > 1e-9)
     d0 = int(np.sign(v_d[nz[0]])) if nz.size else 1
-    state = sim.initial_state(float(x_d[0]), d0, F_load)
+    state = sim.initial_state(float(x_d[0]), d0)  # at rest the load force is zero (tanh(v_d))
     if compensator is not None:
         compensator.reset(d0)
     cols: dict[str, list[np.ndarray]] = {k: [] for k in ("t", "x_T", "theta_m", "omega_m", "torque_m")}
