@@ -217,19 +217,19 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
     def identify(
         trace: Path = typer.Argument(..., help="Recording: .csv, .parquet, .h5, .mat"),
         config: Path = typer.Option(
-            ..., "--config", "-c", help="TOML configuration ([columns], [identification])."
+            ..., "--config", "-c", help="TOML configuration: columns, sampling, identification tables."
         ),
         json_out: Path | None = typer.Option(None, "--json", help=OUT_HELP),
         report: Path | None = typer.Option(None, "--report", help="Write a self-contained HTML report here."),
         out: Path | None = typer.Option(
-            None, "--out", "-o", help="Write the [drivetrain] TOML fragment here (default: stdout)."
+            None, "--out", "-o", help="Write the drivetrain TOML fragment here (default: stdout)."
         ),
         cross: Path | None = typer.Option(None, "--cross", help="Validation recording for a cross-test."),
         resample: bool = typer.Option(
             False, "--resample", help="Resample non-uniform time onto a uniform grid."
         ),
     ) -> None:
-        """Identify inertia and friction (IDIM-LS) and write a [drivetrain] fragment."""
+        """Identify inertia and friction (IDIM-LS); write a drivetrain TOML fragment."""
         run_identify(trace, config, json_out=json_out, report=report, out=out, cross=cross, resample=resample)
 
     @app.command()
@@ -237,7 +237,9 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         trace: Path = typer.Argument(..., help="Recording: .csv, .parquet, .h5, .mat"),
         config: Path = typer.Option(..., "--config", "-c", help="TOML configuration."),
         drivetrain: Path | None = typer.Option(
-            None, "--drivetrain", help="TOML with [drivetrain] J_m, beta_m (e.g. from `identify --out`)."
+            None,
+            "--drivetrain",
+            help="TOML with a drivetrain table: J_m, beta_m (e.g. from `identify --out`).",
         ),
         json_out: Path | None = typer.Option(None, "--json", help=OUT_HELP),
         report: Path | None = typer.Option(None, "--report", help="Write a self-contained HTML report here."),

@@ -290,7 +290,7 @@ def _finish(
         t=td,
         y=yd,
         y_hat=Wd @ theta,
-        q_dot=Wd[:, 1] if side == "motor" else Wd[:, 1],
+        q_dot=Wd[:, 1],
         q_ddot=Wd[:, 0],
         axis=str(trace.meta.get("axis", "rotary")),
         side=side,
