@@ -73,4 +73,4 @@ def small_trained(pipe: TEPipeline, train_xy: tuple[np.ndarray, np.ndarray]):
         "pos": GeometricCurve(0.0, 50e-6, 20e-6 * np.sin(2 * np.pi * xg / (GEOM.n_t * PITCH))),
         "neg": GeometricCurve(0.0, 50e-6, 40e-6 + 20e-6 * np.sin(2 * np.pi * xg / (GEOM.n_t * PITCH))),
     }
-    return TrainedTEModel(pipe, geo, models, {"note": "synthetic"})
+    return TrainedTEModel(pipe, geo, models, {"note": "synthetic"}, {"pos": (-1.0, -0.5), "neg": (1.0, 0.4)})

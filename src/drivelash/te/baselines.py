@@ -103,15 +103,19 @@ def fit_trees_only(
     return ColumnModel(est, STAGE2_COLS), info
 
 
-def fit_hgb(X: np.ndarray, y: np.ndarray, random_state: int = 0) -> ColumnModel:
+def fit_hgb(X: np.ndarray, y: np.ndarray, max_iter: int = 300, random_state: int = 0) -> ColumnModel:
     """One ``HistGradientBoostingRegressor`` on all inputs (x_T, torque, M_j).
 
-    ``max_iter=500``, ``max_leaf_nodes=63``, learning rate 0.1, early stopping on
-    an internal 10 % validation split (scikit-learn default for > 10 000 rows).
+    ``max_iter`` boosting rounds (300), ``max_leaf_nodes=63``, learning rate 0.1,
+    early stopping on an internal 10 % validation split (scikit-learn default for
+    > 10 000 rows); OpenMP limited to 2 threads.
     """
-    est = HistGradientBoostingRegressor(
-        max_iter=500, max_leaf_nodes=63, learning_rate=0.1, random_state=random_state
-    ).fit(X, y)
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(2):
+        est = HistGradientBoostingRegressor(
+            max_iter=max_iter, max_leaf_nodes=63, learning_rate=0.1, random_state=random_state
+        ).fit(X, y)
     return ColumnModel(est, slice(None))
 
 
@@ -228,25 +232,39 @@ def format_table(table: Sequence[Mapping[str, Any]], summary: Mapping[str, Mappi
 def plot_fig6(
     path: str | Path,
     run: RunData,
-    stacked: StackedTERegressor,
-    pipeline: TEPipeline,
+    p_stage1: np.ndarray,
+    p_total: np.ndarray,
+    stage1_share: float,
     table: Sequence[Mapping[str, Any]],
     direction: str = "pos",
     span: float = 0.4,
 ) -> Path:
     """A figure like the paper's Fig. 6 plus the MAE-per-load comparison.
 
-    Top: measured TE_def of one training run against the stacked prediction and
-    the stage-1 (network) contribution over ``span`` [m] of travel. Bottom: MAE [µm]
-    per load of every model for ``direction`` (log scale; training limit marked).
+    Parameters
+    ----------
+    path : str or Path
+        PNG to write.
+    run : RunData
+        A training run (target TE_def [µm] over position [m]).
+    p_stage1, p_total : numpy.ndarray
+        Stage-1 and stacked predictions [µm] on ``run.x``.
+    stage1_share : float
+        Stage-1 share of the output over the training data [-].
+    table : sequence of dict
+        :func:`mae_table` rows.
+    direction : str
+        ``"pos"`` or ``"neg"`` (rows of the bottom panel).
+    span : float
+        Travel shown in the top panel [m].
     """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    X = pipeline.design_matrix(run.x, run.torque)
-    p1, p2 = stacked.predict_stages(X)
+    p1 = np.asarray(p_stage1)
+    p2 = np.asarray(p_total) - p1
     sel = run.x <= run.x[0] + span
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 7.5), constrained_layout=True)
     xm = run.x[sel] * 1e3
@@ -257,7 +275,7 @@ def plot_fig6(
     mae = float(np.mean(np.abs(p1 + p2 - run.te_def_um)))
     ax1.set_title(
         f"Training run {run.meta.get('name', '')}: load {run.meta.get('load', float('nan')):.0f} N, "
-        f"direction {direction}; MAE {mae:.4f} µm, stage-1 share {100 * stacked.stage1_share_:.0f} %"
+        f"direction {direction}; MAE {mae:.4f} µm, stage-1 share {100 * stage1_share:.0f} %"
     )
     ax1.set_xlabel("table position x_T [mm]")
     ax1.set_ylabel("TE_def [µm]")

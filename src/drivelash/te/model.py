@@ -28,6 +28,7 @@ import copy
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -37,7 +38,7 @@ from sklearn.model_selection import GridSearchCV, GroupKFold
 from sklearn.tree import DecisionTreeRegressor
 
 from drivelash.errors import DataError, ParameterError
-from drivelash.te.preprocess import UM, GeometricCurve, TEPipeline, direction_key
+from drivelash.te.preprocess import UM, GearGeometry, GeometricCurve, RunData, TEPipeline, direction_key
 
 #: Column indices of the design matrix used by each stage.
 STAGE1_COLS = slice(1, None)  # torque, M_1 … M_nt
@@ -46,8 +47,8 @@ STAGE2_COLS = [0, 1]  # x_T, torque
 #: Default stage-2 grid (number of trees, depth, leaf size); reasons in docs/assumptions.md.
 DEFAULT_TREE_GRID: dict[str, list[Any]] = {
     "n_estimators": [8, 16],
-    "estimator__max_depth": [12, 18, 24],
-    "estimator__min_samples_leaf": [1, 4, 16],
+    "estimator__max_depth": [20, None],
+    "estimator__min_samples_leaf": [1, 5],
 }
 
 #: Default Hyperband search space of stage 1.
@@ -126,7 +127,7 @@ class MLPRegressor(RegressorMixin, BaseEstimator):
         lr: float = 5e-3,
         max_epochs: int = 60,
         patience: int = 8,
-        batch_size: int = 512,
+        batch_size: int = 1024,
         val_fraction: float = 0.15,
         random_state: int = 0,
     ) -> None:
@@ -288,6 +289,7 @@ def tune_mlp(
     n_trials: int = 10,
     space: Mapping[str, tuple[Any, ...]] | None = None,
     seed: int = 0,
+    torch_threads: int = 1,
 ) -> tuple[MLPRegressor, dict[str, Any]]:
     """Choose hidden width, dropout and learning rate with Optuna's Hyperband pruner.
 
@@ -306,6 +308,9 @@ def tune_mlp(
         ``{"hidden": choices, "dropout": (lo, hi), "lr": (lo, hi)}`` (lr log-uniform).
     seed : int
         Seed of the TPE sampler.
+    torch_threads : int
+        ``torch.set_num_threads`` during the study (1: the network is small, per-op
+        threading costs more than it gains; the second core fits the other direction).
 
     Returns
     -------
@@ -317,7 +322,7 @@ def tune_mlp(
     import optuna
     import torch
 
-    torch.set_num_threads(2)
+    torch.set_num_threads(int(torch_threads))
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     sp = dict(DEFAULT_NN_SPACE if space is None else space)
     pruner = optuna.pruners.HyperbandPruner(
@@ -429,7 +434,11 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         Every ``nn_stride``-th row trains stage 1 (the low-passed target is
         oversampled on the 50 µm grid).
     search_stride : int
-        Every ``search_stride``-th row enters the grid search (final fit uses all rows).
+        Every ``search_stride``-th row enters the grid search.
+    tree_stride : int
+        Every ``tree_stride``-th row enters the final stage-2 fit.
+    torch_threads : int
+        Threads of torch while training stage 1.
     n_jobs : int
         Parallel jobs of the grid search.
     random_state : int
@@ -445,10 +454,12 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         tune_trees: bool = True,
         tree_grid: dict[str, list[Any]] | None = None,
         block_length: float = 2e-3,
-        cv_folds: int = 4,
-        nn_stride: int = 4,
-        search_stride: int = 4,
-        n_jobs: int = 2,
+        cv_folds: int = 3,
+        nn_stride: int = 8,
+        search_stride: int = 16,
+        tree_stride: int = 2,
+        n_jobs: int = 1,
+        torch_threads: int = 1,
         random_state: int = 0,
     ) -> None:
         self.nn = nn
@@ -461,7 +472,9 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         self.cv_folds = cv_folds
         self.nn_stride = nn_stride
         self.search_stride = search_stride
+        self.tree_stride = tree_stride
         self.n_jobs = n_jobs
+        self.torch_threads = torch_threads
         self.random_state = random_state
 
     def get_params(self, deep: bool = True) -> dict[str, Any]:
@@ -515,7 +528,7 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         """
         X, y = _check_xy(X, y)
         assert y is not None
-        for name in ("nn_stride", "search_stride", "cv_folds"):
+        for name in ("nn_stride", "search_stride", "tree_stride", "cv_folds"):
             v = getattr(self, name)
             if not (isinstance(v, (int, np.integer)) and v >= 1):
                 raise ParameterError("StackedTERegressor", name, f"must be a positive integer, got {v!r}")
@@ -525,9 +538,17 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         X1 = X[:, STAGE1_COLS]
         if self.tune_nn:
             self.nn_, self.nn_info_ = tune_mlp(
-                self._nn_template(), X1[::s], y[::s], n_trials=self.n_trials, seed=self.random_state
+                self._nn_template(),
+                X1[::s],
+                y[::s],
+                n_trials=self.n_trials,
+                seed=self.random_state,
+                torch_threads=self.torch_threads,
             )
         else:
+            import torch
+
+            torch.set_num_threads(int(self.torch_threads))
             self.nn_ = clone(self._nn_template()).fit(X1[::s], y[::s])
             self.nn_info_ = {"best_params": {}, "best_val_mae": self.nn_.best_val_mae_}
         t1 = time.perf_counter()
@@ -563,7 +584,8 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         else:
             self.trees_ = clone(base)
             self.tree_info_ = {"best_params": {}, "best_cv_mae": float("nan")}
-        self.trees_.fit(X2, r)
+        ts = int(self.tree_stride)
+        self.trees_.fit(X2[::ts], r[::ts])
 
     def _score_train(self, X: np.ndarray, y: np.ndarray) -> None:
         p1 = self.nn_.predict(X[:, STAGE1_COLS])
@@ -634,20 +656,183 @@ class TrainedTEModel:
         ``{"pos": StackedTERegressor, "neg": …}``, TE_def in micrometres.
     info : dict
         JSON-serialisable training record (loads used, held-out runs, timings, scores).
+    offset : dict
+        ``{"pos": (a [µm], b [µm/(N·m)]), …}``: line through the per-run constants that the
+        offset step removed (mean elastic deflection against mean torque), so that
+        :meth:`predict` returns the absolute TE under load.
     """
 
     pipeline: TEPipeline
     geo: dict[str, GeometricCurve]
     models: dict[str, StackedTERegressor]
     info: dict[str, Any] = field(default_factory=dict)
+    offset: dict[str, tuple[float, float]] = field(default_factory=dict)
 
     def predict_def_um(self, x_T: Any, torque: Any, direction: int) -> np.ndarray:
-        """Deformation TE_def [µm] at positions ``x_T`` [m] and motor torque [N·m]."""
+        """Deformation TE_def [µm] (offset-free, the learning target) at ``x_T`` [m], motor torque [N·m]."""
         X = self.pipeline.design_matrix(x_T, torque)
         return self.models[direction_key(direction)].predict(X)
 
+    def offset_um(self, torque: Any, direction: int) -> np.ndarray:
+        """Mean deformation a + b·torque [µm] removed by the offset step (0 if none was fitted)."""
+        a, b = self.offset.get(direction_key(direction), (0.0, 0.0))
+        return a + b * np.asarray(torque, dtype=np.float64)
+
     def predict(self, x_T: Any, torque: Any, direction: int) -> np.ndarray:
-        """Transmission error TE [m] = TE_geo(x_T) + TE_def(x_T, torque), for one direction (+1/−1)."""
+        """TE [m] = TE_geo(x_T) + (offset(torque) + TE_def(x_T, torque))·1e-6, direction +1/−1."""
         key = direction_key(direction)
         x = np.asarray(x_T, dtype=np.float64).reshape(-1)
-        return self.geo[key](x) + self.predict_def_um(x, torque, direction) / UM
+        tq = np.broadcast_to(np.asarray(torque, dtype=np.float64), x.shape)
+        return self.geo[key](x) + (self.offset_um(tq, direction) + self.predict_def_um(x, tq, direction)) / UM
+
+
+# ---------------------------------------------------------------------------
+# from a campaign to a trained model
+# ---------------------------------------------------------------------------
+def prepare_campaign(
+    campaign: Any, pipeline: TEPipeline | None = None
+) -> tuple[TEPipeline, dict[str, GeometricCurve], dict[str, list[RunData]]]:
+    """Geometric curves and processed load runs of a campaign (:func:`drivelash.te.campaign.load_campaign`).
+
+    Parameters
+    ----------
+    campaign : Campaign
+        Needs ``bench`` (with ``d_p``, ``n_t``, ``i_PG``, ``epsilon``) and
+        ``select(kind=…, direction=…)`` returning runs with ``trace()``, ``load``,
+        ``velocity``, ``path``.
+    pipeline : TEPipeline, optional
+        Default: :class:`TEPipeline` with the bench geometry.
+
+    Returns
+    -------
+    pipeline, geo, runs
+        ``geo[key]`` from the ``geometric`` runs, ``runs[key]`` the ``load`` runs of
+        each direction as :class:`RunData` (meta: load [N], velocity [m/s], name).
+    """
+    if pipeline is None:
+        pipeline = TEPipeline(GearGeometry.from_bench(campaign.bench))
+    geo: dict[str, GeometricCurve] = {}
+    runs: dict[str, list[RunData]] = {}
+    for d in (1, -1):
+        key = direction_key(d)
+        gruns = campaign.select(kind="geometric", direction=d)
+        if not gruns:
+            raise DataError(f"campaign has no geometric (no-load) run in direction {d:+d}")
+        geo[key] = pipeline.geometric([r.trace().columns for r in gruns], d)
+        runs[key] = [
+            pipeline.process(
+                r.trace().columns,
+                d,
+                geo[key],
+                meta={"load": float(r.load), "velocity": float(r.velocity), "name": Path(r.path).stem},
+            )
+            for r in campaign.select(kind="load", direction=d)
+        ]
+        if not runs[key]:
+            raise DataError(f"campaign has no load run in direction {d:+d}")
+    return pipeline, geo, runs
+
+
+def split_of(load: float, max_load: float, holdout_loads: tuple[float, ...]) -> str:
+    """``"train"``, ``"held-out"`` (in range, left out) or ``"extrapolation"`` (above ``max_load``)."""
+    if load > max_load + 1e-9:
+        return "extrapolation"
+    if any(abs(load - h) < 1e-6 for h in holdout_loads):
+        return "held-out"
+    return "train"
+
+
+def stack_runs(runs: list[RunData], pipeline: TEPipeline) -> tuple[np.ndarray, np.ndarray]:
+    """Design matrix and TE_def [µm] of several runs, concatenated."""
+    if not runs:
+        raise DataError("no runs to stack")
+    X = np.vstack([pipeline.design_matrix(r.x, r.torque) for r in runs])
+    y = np.concatenate([r.te_def_um for r in runs])
+    return X, y
+
+
+def _fit_one(est: StackedTERegressor, X: np.ndarray, y: np.ndarray) -> StackedTERegressor:
+    return est.fit(X, y)
+
+
+def fit_te_model(
+    pipeline: TEPipeline,
+    geo: dict[str, GeometricCurve],
+    runs: dict[str, list[RunData]],
+    max_load: float = 3000.0,
+    holdout_loads: tuple[float, ...] = (1000.0, 2500.0),
+    estimator: StackedTERegressor | None = None,
+    log: Callable[[str], None] | None = None,
+    n_jobs: int = 2,
+) -> TrainedTEModel:
+    """Fit one stacked model per direction on the training runs (load ≤ ``max_load``, not held out).
+
+    Parameters
+    ----------
+    pipeline, geo, runs
+        From :func:`prepare_campaign`.
+    max_load : float
+        Largest training load [N] (paper: 3000 N).
+    holdout_loads : tuple of float
+        Loads [N] ≤ ``max_load`` whose runs are left out to score in-range generalisation.
+    estimator : StackedTERegressor, optional
+        Template (cloned per direction); default ``StackedTERegressor()``.
+    log : callable, optional
+        Progress messages.
+    n_jobs : int
+        Processes: with 2 the two directions are fitted at the same time (one core each).
+
+    Returns
+    -------
+    TrainedTEModel
+        With ``info``: loads, splits, per-direction fit times [s], stage-1 shares, training MAE [µm].
+    """
+    template = estimator if estimator is not None else StackedTERegressor()
+    models: dict[str, StackedTERegressor] = {}
+    info: dict[str, Any] = {"max_load": max_load, "holdout_loads": list(holdout_loads), "directions": {}}
+    t0 = time.perf_counter()
+    keys = list(runs)
+    trains = {
+        k: [r for r in runs[k] if split_of(r.meta["load"], max_load, holdout_loads) == "train"] for k in keys
+    }
+    data = {k: stack_runs(trains[k], pipeline) for k in keys}
+    if n_jobs > 1 and len(keys) > 1:
+        from joblib import Parallel, delayed
+
+        fitted = Parallel(n_jobs=min(n_jobs, len(keys)), backend="loky")(
+            delayed(_fit_one)(clone(template), *data[k]) for k in keys
+        )
+    else:
+        fitted = [_fit_one(clone(template), *data[k]) for k in keys]
+    for key, st in zip(keys, fitted, strict=True):
+        train, y = trains[key], data[key][1]
+        models[key] = st
+        info["directions"][key] = {
+            "train_runs": [r.meta.get("name", "") for r in train],
+            "n_rows": int(y.size),
+            "fit_time_s": st.fit_time_,
+            "stage1_share": st.stage1_share_,
+            "train_mae_um": st.train_mae_,
+            "nn": st.nn_info_,
+            "trees": st.tree_info_,
+        }
+        if log:
+            log(
+                f"{key}: {len(train)} runs, {y.size} rows, fit {st.fit_time_['total']:.1f} s, "
+                f"train MAE {st.train_mae_:.4f} um, stage-1 share {100 * st.stage1_share_:.0f} %"
+            )
+    info["fit_time_total_s"] = time.perf_counter() - t0
+    offset = {k: fit_offset_line(trains[k]) for k in keys}
+    info["offset_line_um"] = {k: list(v) for k, v in offset.items()}
+    return TrainedTEModel(pipeline, geo, models, info, offset)
+
+
+def fit_offset_line(runs: list[RunData]) -> tuple[float, float]:
+    """Least-squares line offset_um = a + b · torque_mean over runs ([µm], [µm/(N·m)])."""
+    tq = np.array([r.meta.get("torque_mean", np.nan) for r in runs])
+    off = np.array([r.meta.get("offset_um", 0.0) for r in runs])
+    ok = np.isfinite(tq)
+    if ok.sum() < 2 or np.ptp(tq[ok]) == 0:
+        return (float(np.mean(off)) if off.size else 0.0, 0.0)
+    b, a = np.polyfit(tq[ok], off[ok], 1)
+    return float(a), float(b)

@@ -46,7 +46,7 @@ WEIGHT_FILES = ("weights.safetensors", "weights.npz")
 #: Suffixes of files that can carry executable pickle payloads; their presence is refused.
 PICKLE_SUFFIXES = (".pkl", ".pickle", ".joblib", ".npy", ".pt", ".pth", ".ckpt", ".dill", ".bin")
 
-_F_HDR = 6  # geo_x0, geo_step, d_p, eps, y_mean, y_scale
+_F_HDR = 8  # geo_x0, geo_step, d_p, eps, y_mean, y_scale, offset a [µm], offset b [µm/(N·m)]
 _I_NAMES = (
     "n_t",
     "n_in",
@@ -152,6 +152,8 @@ def _def_um(
             else:
                 node = ib[o_right + node]
         s += f[o_val + node]
+    if n_trees == 0:  # stage 1 only (see TEModel.predict_stage1_um)
+        return y1
     return y1 + s / n_trees
 
 
@@ -188,8 +190,9 @@ def te_def_point(x_T: float, torque: float, fbuf: np.ndarray, ibuf: np.ndarray) 
 
 @njit(cache=True)
 def te_point(x_T: float, torque: float, fbuf: np.ndarray, ibuf: np.ndarray) -> float:  # pragma: no cover
-    """Full TE [m] = TE_geo + TE_def at one point (njit-callable; buffers of one direction)."""
-    return _geo(x_T, fbuf, ibuf) + te_def_point(x_T, torque, fbuf, ibuf) / 1e6
+    """Full TE [m] = TE_geo + offset(torque) + TE_def at one point (njit-callable; one direction)."""
+    off = fbuf[6] + fbuf[7] * torque
+    return _geo(x_T, fbuf, ibuf) + (off + te_def_point(x_T, torque, fbuf, ibuf)) / 1e6
 
 
 @njit(cache=True, parallel=True)
@@ -209,7 +212,7 @@ def _batch(
         for i in range(c * chunk, stop):
             d = _def_um(x[i], tq[i], f, ib, z, h1, h2)
             if with_geo:
-                out[i] = _geo(x[i], f, ib) + d / 1e6
+                out[i] = _geo(x[i], f, ib) + (f[6] + f[7] * tq[i] + d) / 1e6
             else:
                 out[i] = d
 
@@ -235,6 +238,8 @@ def _pack(
                 geometry["eps"],
                 float(arrays["y_mean"][0]),
                 float(arrays["y_scale"][0]),
+                float(arrays["offset"][0]),
+                float(arrays["offset"][1]),
             ]
         ),
     ]
@@ -374,6 +379,17 @@ class TEModel:
         """Deformation TE_def [µm] (stage 1 + stage 2)."""
         return self._run(x_T, torque, direction, False)
 
+    def predict_stage1_um(self, x_T: Any, torque: Any, direction: int) -> np.ndarray:
+        """Stage-1 (network) part of TE_def [µm] alone."""
+        f, ib = self.kernel_arrays(direction)
+        ib1 = ib.copy()
+        ib1[4] = 0  # no trees
+        x = np.ascontiguousarray(np.asarray(x_T, dtype=np.float64).reshape(-1))
+        tq = np.ascontiguousarray(np.broadcast_to(np.asarray(torque, dtype=np.float64), x.shape))
+        out = np.empty(x.size)
+        _batch(x, tq, f, ib1, False, out)
+        return out
+
     def predict_one(self, x_T: float, torque: float, direction: int) -> float:
         """TE [m] at one operating point."""
         f, ib = self._buf["pos" if direction > 0 else "neg"]
@@ -414,6 +430,7 @@ def model_arrays(trained: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
             "TE (predict)": "m",
             "TE_def (targets, stage outputs, tree values)": "um",
             "geo_te": "m",
+            "offset (a, b)": "um, um/(N*m)",
         },
         "pipeline": trained.pipeline.to_dict(),
         "directions": sorted(trained.models),
@@ -432,6 +449,7 @@ def model_arrays(trained: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         arrs["y_mean"] = np.array([st.nn_.y_mean_])
         arrs["y_scale"] = np.array([st.nn_.y_scale_])
         arrs["geo_te"] = np.asarray(geo.te, dtype=np.float64)
+        arrs["offset"] = np.asarray(getattr(trained, "offset", {}).get(key, (0.0, 0.0)), dtype=np.float64)
         arrs.update(flatten_trees(st.trees_))
         for n, a in arrs.items():
             flat[f"{key}.{n}"] = np.ascontiguousarray(a)
@@ -531,6 +549,7 @@ def _validate_direction(
         ("x_scale", 1),
         ("y_mean", 1),
         ("y_scale", 1),
+        ("offset", 1),
         ("geo_te", 1),
         ("threshold", 1),
         ("value", 1),
@@ -550,6 +569,7 @@ def _validate_direction(
         and out["x_scale"].shape == (n_in,)
         and out["y_mean"].shape == (1,)
         and out["y_scale"].shape == (1,)
+        and out["offset"].shape == (2,)
         and out["geo_te"].size >= 2
         and np.all(out["x_scale"] != 0)
     )

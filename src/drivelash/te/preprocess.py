@@ -314,7 +314,7 @@ def bump_features(x: np.ndarray, n_t: int, d_p: float, eps: float) -> np.ndarray
     Returns
     -------
     numpy.ndarray
-        Shape ``(len(x), n_t)``; values in [0, e⁻¹].
+        Shape ``(len(x), n_t)``; values in [0, 1] (1 at η_j = 0).
     """
     x = np.asarray(x, dtype=np.float64).reshape(-1)
     u = x[:, None] * n_t / (np.pi * d_p) - np.arange(1, n_t + 1)[None, :]
@@ -394,7 +394,8 @@ class RunData:
     direction : int
         +1 or −1.
     meta : dict
-        Provenance (load [N], velocity [m/s], run name, …).
+        Provenance (load [N], velocity [m/s], run name, …), plus ``offset_um``: the
+        constant removed from TE_def [µm], and ``torque_mean`` [N·m].
     """
 
     x: np.ndarray
@@ -479,10 +480,14 @@ class TEPipeline:
     ) -> RunData:
         """Resample → TE → TE_def → offset removal → low-pass, for one run and direction."""
         grid, c = self._grid_run(columns, direction)
-        te_def = remove_offset(deformation(grid, c["te"], geo), self.offset)
+        raw = deformation(grid, c["te"], geo)
+        te_def = remove_offset(raw, self.offset)
         te_def = lowpass(te_def, self.step, self.cutoff, self.filter_order)
         torque = lowpass(c["torque"], self.step, self.cutoff, self.filter_order)
-        return RunData(grid, torque, te_def * UM, int(np.sign(direction)), dict(meta or {}))
+        m = dict(meta or {})
+        m["offset_um"] = float(np.mean(raw) * UM) if self.offset == "mean" else 0.0
+        m["torque_mean"] = float(np.mean(torque))
+        return RunData(grid, torque, te_def * UM, int(np.sign(direction)), m)
 
     def design_matrix(self, x_T: np.ndarray, torque: np.ndarray) -> np.ndarray:
         """Model inputs ``[x_T [m], torque [N·m], M_1 … M_nt]``, shape ``(n, 2 + n_t)``."""
