@@ -31,6 +31,10 @@ def _csv(path: Path, cols: dict[str, np.ndarray]) -> Path:
 
 
 CONFIG = """
+[drivetrain]
+J_m = 0.01
+beta_m = 0.001
+
 [identification]
 decimate = 2
 n_border = 10
@@ -137,14 +141,15 @@ def _cli(args: list[str], monkeypatch, capsys) -> tuple[int, str]:
     return int(ei.value.code or 0), capsys.readouterr().err
 
 
+@pytest.mark.parametrize("command", ["identify", "observe"])
 @pytest.mark.parametrize("name", CASE_NAMES)
-def test_cli_identify_exit_2_and_no_outputs(cases, name, tmp_path, monkeypatch, capsys):
+def test_cli_exit_2_and_no_outputs(cases, name, command, tmp_path, monkeypatch, capsys):
     path, fragment, _, _ = cases[name]
     cfg = tmp_path / "c.toml"
     cfg.write_text(CONFIG)
-    outs = [tmp_path / "o.json", tmp_path / "o.html", tmp_path / "frag.toml"]
+    outs = [tmp_path / "o.json", tmp_path / "o.html", tmp_path / "out.csv"]
     code, err = _cli(
-        ["identify", str(path), "--config", str(cfg), "--json", str(outs[0]), "--report", str(outs[1]),
+        [command, str(path), "--config", str(cfg), "--json", str(outs[0]), "--report", str(outs[1]),
          "--out", str(outs[2])],
         monkeypatch,
         capsys,
@@ -301,3 +306,11 @@ def test_cli_prints_the_wraparound_warning(tmp_path, monkeypatch, capsys):
     assert code == 0
     assert "drivelash: warning:" in err and "column 'enc'" in err and "encoder wrap-around" in err
     assert out.exists()
+
+
+def test_valid_csv_without_final_newline_loads(tmp_path):
+    """Control for the truncation rule: a complete last row without a newline is fine."""
+    p = tmp_path / "ok.csv"
+    p.write_text("t,theta_m,torque_m\n0,0,0.5\n0.001,0.01,0.7\n0.002,0.03,0.2")
+    tr = load_trace(p)
+    np.testing.assert_array_equal(tr["torque_m"], [0.5, 0.7, 0.2])
