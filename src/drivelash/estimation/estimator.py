@@ -13,8 +13,8 @@ reversal) frequency f_r — ``estimate`` detects f_r from the recording
 * contact torque scale T_ref = max(T_C,l, 10⁻³ rad · K_S); contact threshold T_thr = T_ref/2;
   typical deflection θ_def = T_ref/K_S; model smoothness α = clip(20/θ_def, 10³, 10⁵) 1/rad;
 * STSMO: ρ = (K_S/J_l) · ω_r · 1 rad (rate of change of φ in contact),
-  k1 = 1.5 √ρ, k2 = min(1.1 ρ, 0.02 T_thr/(J_l T_s)) — the cap keeps the Euler chattering
-  of the integral state, k2 T_s, at 2 % of the contact threshold;
+  k1 = 1.5 √ρ, k2 = 1.1 ρ (Levant's rule; the chattering this leaves in φ̂ is removed by
+  the default law's residual filter);
 * paper law: γ = ω_n/16;
 * default law: τ_f = max(2/ω_n, 4 T_s), P_max = 16 ω_r, λ = ω_r/25, ω_c = 10 ω_r,
   stiffness-scale gain q = 0.1, friction terms off;
@@ -174,7 +174,6 @@ class EstimatorConfig:
         T_thr = 0.5 * T_ref
         rho = (K_S / J_l) * w_r * 1.0
         k2 = 1.1 * rho
-        k2 = min(k2, 0.02 * (T_thr / J_l) / Ts)
         k1 = 1.5 * math.sqrt(rho)
         theta_def = T_ref / K_S
         alpha = min(max(20.0 / theta_def, 1e3), 1e5)
