@@ -143,7 +143,7 @@ def test_eq3_predicts_the_simulated_path_error(sim, te_model, v, record_property
     te_meas = BENCH.te_from_measurement(tr["x_T"], tr["theta_m"])
     e_hat = predict_path_error(te_meas, tr["t"], BENCH.J_s, sim.gains)
     mae = np.mean(np.abs(e - e_hat)[sel])
-    record_property("mae_um", mae * 1e6)
+    record_property("mae_um", float(mae * 1e6))
     mean_e = np.mean(np.abs(e[sel]))
     print(f"v = {v * 1e3:g} mm/s: MAE = {mae * 1e6:.5f} µm, mean |e_x| = {mean_e * 1e6:.3f} µm")
     assert mae < 0.1e-6
