@@ -278,9 +278,7 @@ def _check_signals(
                     )
 
 
-def _check_units(
-    cols: Mapping[str, np.ndarray], origin: Mapping[str, str], path: str, kinds: Mapping[str, str]
-) -> None:
+def _check_units(cols: Mapping[str, np.ndarray], origin: Mapping[str, str], path: str) -> None:
     """Velocity against the derivative of position: factor ≈ 57.3 / 9.55 means deg or rpm."""
     t = cols["t"]
     for side in ("m", "l"):
@@ -381,8 +379,6 @@ def load_trace(
         n = next(iter(cols.values())).size if cols else 0
         cols = {"t": np.arange(n) / sampling.sample_rate, **cols}
         origin["t"] = "t"
-    elif cmap is not None and "t" in kinds and sampling.time_unit != "s":
-        pass  # a mapped time column carries its own unit
     missing = [r for r in required if r not in cols]
     if missing:
         raise DataError(
@@ -402,7 +398,7 @@ def load_trace(
         _check_signals(
             {k: v for k, v in cols.items() if not k.startswith("torque")}, origin, spath, signal_names
         )
-    _check_units(cols, origin, spath, kinds)
+    _check_units(cols, origin, spath)
 
     prismatic = kinds.get("theta_m") == "length" or kinds.get("omega_m") == "velocity"
     kinds_m = {kinds.get("theta_m"), kinds.get("omega_m")} - {None, "dimensionless"}
