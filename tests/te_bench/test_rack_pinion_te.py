@@ -172,3 +172,14 @@ def test_invalid_parameters_raise_parameter_error():
         TransmissionErrorModel.generate(BENCH, 0, TEGeneratorParams(b_min=30e-6, b_max=32e-6))
     with pytest.raises(ParameterError, match="direction"):
         TransmissionErrorModel.generate(BENCH, 0).te(0.1, 0.0, 0)
+
+
+def test_vectorised_over_direction_and_force():
+    m = TransmissionErrorModel.generate(BENCH, 6)
+    x = np.linspace(0.1, 2.0, 101)
+    d = np.where(np.arange(101) % 2 == 0, 1, -1)
+    F = np.linspace(0.0, 5000.0, 101)
+    te = m.te(x, F, d)
+    ref = np.array([float(m.te(xi, Fi, int(di))) for xi, Fi, di in zip(x, F, d, strict=True)])
+    np.testing.assert_allclose(te, ref, rtol=0, atol=1e-15)
+    assert BENCH.table_friction(-0.1) == pytest.approx(BENCH.F_CT + 0.1 * BENCH.beta_T)

@@ -82,6 +82,11 @@ def test_tiny_campaign_files_manifest_and_reproducibility(tmp_path):
         assert np.array_equal(ta["x_d"], tc["x_d"])
         te_a, te_c = measured_te(ta, camp_a.bench), measured_te(tc, camp_c.bench)
         assert np.sqrt(np.mean((te_a - te_c) ** 2)) > 2e-6
+    # the true TE along a run: quasi-static model at the transmitted force
+    run = camp_a.select(kind="geometric", direction=-1)[0]
+    tr = run.trace()
+    m = (tr["x_d"] > tr["x_d"].min() + 0.03) & (tr["x_d"] < tr["x_d"].max() - 0.03)
+    assert np.max(np.abs(camp_a.true_te(run)[m] - measured_te(tr, camp_a.bench)[m])) < 0.05e-6
     # the true model is regenerated exactly
     x = np.linspace(0.0, 2.2, 1001)
     ref = TransmissionErrorModel.generate(camp_a.bench, 3)

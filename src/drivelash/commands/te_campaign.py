@@ -16,7 +16,7 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         seed: int = typer.Option(0, "--seed", help="Seed of the simulated drive (TE generator)."),
         quick: bool = typer.Option(False, "--quick", help="Reduced campaign: 0.4 m stroke, 3 loads."),
         workers: int = typer.Option(2, "--workers", min=1, help="Parallel simulation threads."),
-        plot: bool = typer.Option(True, "--plot/--no-plot", help="Write fig2_te.png (TE over position)."),
+        plot: bool = typer.Option(True, "--plot/--no-plot", help="Write fig2_te.png and a Bode plot."),
     ) -> None:
         """Simulate the campaign (geometric, load and sine runs) and write traces + manifest.json."""
         from drivelash.te.campaign import CampaignConfig, load_campaign, plot_te_over_position, run_campaign
@@ -30,4 +30,9 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         )
         if plot:
             png = plot_te_over_position(load_campaign(out), out / "fig2_te.png")
-            typer.echo(f"TE over position -> {png}")
+            from drivelash.control.path_error import bode_figure
+
+            camp = load_campaign(out)
+            fig = bode_figure(camp.bench.J_s, camp.gains)
+            fig.savefig(out / "bode_path_error.png", dpi=110)
+            typer.echo(f"TE over position -> {png}; Bode plot of (2)-(3) -> {out / 'bode_path_error.png'}")

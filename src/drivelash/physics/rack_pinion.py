@@ -235,6 +235,11 @@ class RackPinionBench:
         """Measured transmission error (1): TE = x_T − θ_M d_p / (2 i_PG) [m]."""
         return np.asarray(x_T, dtype=np.float64) - self.x_M(theta_M)
 
+    def table_friction(self, v_T: ArrayLike) -> np.ndarray:
+        """Friction force of the table guides at velocity ``v_T`` [N] (magnitude, ≥ 0):
+        F_CT + β_T |v_T|. At constant velocity the mesh transmits F_load + this."""
+        return self.F_CT + self.beta_T * np.abs(np.asarray(v_T, dtype=np.float64))
+
     def d_mesh(self, c_mesh: float) -> float:
         """Drive-train damping coefficient [N·s/m] for compliance ``c_mesh`` [m/N].
 
@@ -411,7 +416,7 @@ def _dir_index(direction: ArrayLike) -> np.ndarray:
     return d
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class TransmissionErrorModel:
     """The true, seeded transmission error of one drive (spec 02 §1).
 

@@ -23,6 +23,7 @@ Reading::
     camp.runs                  # list[CampaignRun]; run.trace() loads the Trace
     camp.bench, camp.gains     # RackPinionBench, CascadeGains
     camp.true_te_model()       # TransmissionErrorModel for scoring
+    camp.true_te(run)          # the true TE along a run (quasi-static, at the transmitted force)
     camp.simulator()           # RackAxisSimulator of the same drive
     camp.select(kind="load", direction=1, velocity=0.05)
     plot_te_over_position(camp, "fig2.png")   # the paper's Fig. 2 from the recording
@@ -323,6 +324,28 @@ class Campaign:
     def true_te_model(self) -> TransmissionErrorModel:
         """Regenerate the true transmission-error model (for scoring)."""
         return TransmissionErrorModel.from_dict(self.manifest["te_model"])
+
+    def true_te(self, run: CampaignRun, trace: Trace | None = None) -> np.ndarray:
+        """The true TE along a recorded run [m], quasi-static.
+
+        TE(x_T, F, d) of :meth:`true_te_model` with d the commanded direction and F the
+        force the mesh transmits at constant velocity, F_load + F_CT + β_T |v_T|
+        (v_T from the recorded x_T). Accurate to the dynamics of the run (inertia during
+        ramps and reversals, damping: ≲ 0.01 µm at 10 mm/s at constant speed).
+
+        Parameters
+        ----------
+        run : CampaignRun
+            The run.
+        trace : Trace, optional
+            Its trace if already loaded.
+        """
+        tr = trace if trace is not None else run.trace()
+        bench = self.bench
+        v = np.gradient(tr["x_T"], tr["t"])
+        F = tr["F_load"] + bench.table_friction(v)
+        d = np.where(tr["direction"] >= 0, 1, -1)
+        return self.true_te_model().te(tr["x_T"], F, d)
 
     def simulator(self) -> RackAxisSimulator:
         """A simulator of the same drive, gains and engine settings."""
