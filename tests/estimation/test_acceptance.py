@@ -101,3 +101,24 @@ def test_full_bench_sweep_meets_targets():
         assert r["maee_rad"] <= 1e-3, r["scenario"]
         assert r["conv_10mrad_s"] is not None and r["conv_10mrad_s"] <= 10.0, r["scenario"]
         assert r["excitation_ok"], r["scenario"]
+
+
+@pytest.mark.parametrize("offset", [0.02, -0.03])
+def test_encoder_offset_or_wrong_delta1_is_detected(offset):
+    """An offset between the encoders (equivalently a wrong δ1 in the configuration) shifts
+    both contact points; the anchored law would be off by about the offset, the joint δ/δ1
+    law takes over when the data disagree with δ1 and explain the torque better."""
+    from drivelash.estimation.reproduce import estimator_for
+    from drivelash.sim.scenarios import get_scenario
+
+    sc = get_scenario("bench-0B")
+    trace = sc.simulate()
+    shifted = trace.with_columns({"theta_l": trace["theta_l"] + offset})
+    res = estimator_for(sc, "default").run(shifted)
+    assert res.extra.get("offset_switched") is True
+    assert abs(res.delta - sc.plant_backlash.delta) < 1e-3
+    # the configured δ1 = 93 mrad, the data's lower contact is at 93 mrad + offset
+    assert res.extra["delta1_estimate"] == pytest.approx(sc.plant_backlash.delta1 + offset, abs=1e-3)
+    assert "jointly" in res.reason
+    plain = estimator_for(sc, "default").run(trace)
+    assert not plain.extra.get("offset_switched")

@@ -64,7 +64,7 @@ from numba import njit
 P_J_L, P_N, P_K_S, P_D_S, P_T_CL, P_BETA_L, P_DELTA1, P_ALPHA = 0, 1, 2, 3, 4, 5, 6, 7
 P_K1, P_K2, P_GAMMA, P_DELTA_MAX, P_EPS_DELTA, P_TS, P_METHOD = 8, 9, 10, 11, 12, 13, 14
 P_OMEGA_C, P_TAU_F, P_LAMBDA, P_P_MAX, P_OMEGA_EPS, P_T_THR, P_WINDOW = 15, 16, 17, 18, 19, 20, 21
-P_EST_K, P_EST_F, P_OMEGA_REF, P_THETA_DEF, P_Q_AUX = 22, 23, 24, 25, 26
+P_EST_K, P_EST_D1, P_Q_D1, P_THETA_DEF, P_Q_AUX = 22, 23, 24, 25, 26
 #: derived entries (filled by :func:`derive_params`): per-sample filter constants and the
 #: diagonal P0 of the least-squares gain
 P_C_POS, P_A_F, P_A_Q, P_P0 = 27, 28, 29, 30
@@ -159,6 +159,10 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
     delta_max = p[P_DELTA_MAX]
     thr = p[P_T_THR]
 
+    est_d1 = default and p[P_EST_D1] > 0.5
+    if est_d1:
+        delta1 = state[S_TH + 2]
+
     # relative coordinates (8)–(9), load side
     inv_N = p[P_INV_N]
     dtheta_meas = theta_m * inv_N - theta_l
@@ -193,7 +197,8 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
     delta = state[S_DELTA]
     inv_K = p[P_INV_K]
     z = alpha * (dtheta - delta + delta1)
-    bracket = math.pi + _atan_diff(z, alpha * (dtheta + delta1))
+    w = alpha * (dtheta + delta1)
+    bracket = math.pi + _atan_diff(z, w)
     pos = 0.5 * (1.0 + _sgn(dtheta))
     arg = dtheta + delta1 - delta * pos + p[P_D_OVER_K] * domega
     T_hat = arg * p[P_K_OVER_PI] * bracket
@@ -204,21 +209,20 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
     if default:
         kappa = state[S_TH + 1]
         # κ learns only from confirmed contact (measured and model torque agree in sign, exceed
-        # the threshold and lie within a factor 2); friction terms only where the model says
-        # "free" (|T̂| small)
+        # the threshold and lie within a factor 2)
         tqf = state[S_TQF]
         gate_k = 0.0
         if tqf * T_hat > 0.0 and abs(tqf) > thr and abs(T_hat) > thr:
             r = tqf / (kappa * T_hat)
             if 0.5 < r < 2.0:
                 gate_k = p[P_EST_K]
-        gate_f = p[P_EST_F] if abs(T_hat) < 0.1 * thr else 0.0
-        w_n = omega_l / p[P_OMEGA_REF]
         h0 = kappa * g
         h1 = (T_hat * inv_K) * gate_k
-        h2 = sg * gate_f
-        h3 = w_n * gate_f
-        y_hat = kappa * T_hat * inv_K + state[S_TH + 2] * sg + state[S_TH + 3] * w_n
+        h2 = 0.0
+        if est_d1:  # κ ∂T_l/∂δ1 / K_S = κ [B + arg α (1/(1+z²) − 1/(1+w²))] / π
+            h2 = kappa * (bracket + arg * (alpha / (1.0 + z * z) - alpha / (1.0 + w * w))) * (1.0 / math.pi)
+        h3 = 0.0
+        y_hat = kappa * T_hat * inv_K
         e = T_meas * inv_K - y_hat
         a_f = p[P_A_F]
         ef = state[S_EF] + a_f * (e - state[S_EF])
@@ -231,10 +235,11 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
         state[S_HF + 1] = f1
         state[S_HF + 2] = f2
         state[S_HF + 3] = f3
-        # P h_f (P symmetric 4×4, row-major at S_PM). Without friction terms (P_EST_F = 0)
-        # h2 = h3 = 0 forever, the coupling entries stay 0 and the 2×2 block is exact.
+        # P h_f (P symmetric 4×4, row-major at S_PM; slot 3 unused, h3 = 0). Without the
+        # offset (P_EST_D1 = 0) h2 = 0 forever, the coupling entries stay 0 and the 2×2
+        # block is exact.
         q = S_PM
-        full = p[P_EST_F] > 0.5
+        full = est_d1
         if full:
             ph0 = state[q] * f0 + state[q + 1] * f1 + state[q + 2] * f2 + state[q + 3] * f3
             ph1 = state[q + 4] * f0 + state[q + 5] * f1 + state[q + 6] * f2 + state[q + 7] * f3
@@ -251,11 +256,8 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
             kappa = min(max(kappa, 0.25), 4.0)
             state[S_TH + 1] = kappa
             if full:
-                lim = 20.0 * p[P_THETA_DEF]
-                a_ = state[S_TH + 2] + Ts * ph2 * ef
-                b_ = state[S_TH + 3] + Ts * ph3 * ef
-                state[S_TH + 2] = min(max(a_, -lim), lim)
-                state[S_TH + 3] = min(max(b_, -lim), lim)
+                d1 = state[S_TH + 2] + Ts * ph2 * ef
+                state[S_TH + 2] = min(max(d1, -delta_max), delta_max)
         # dP/dt = λ (P0 − P) − P h hᵀ P  (leakage towards P0 keeps P bounded and alive)
         lam_ts = p[P_LAMBDA] * Ts
         if full:
@@ -387,8 +389,8 @@ def derive_params(p: np.ndarray) -> np.ndarray:
     pm, q, td = p[P_P_MAX], p[P_Q_AUX], p[P_THETA_DEF]
     p[P_P0] = pm
     p[P_P0 + 1] = q * pm / (td * td)
-    p[P_P0 + 2] = q * pm
-    p[P_P0 + 3] = q * pm
+    p[P_P0 + 2] = p[P_Q_D1] * pm
+    p[P_P0 + 3] = 0.0
     return p
 
 
@@ -399,6 +401,7 @@ def initial_state(params: np.ndarray, delta0: float = 0.0) -> np.ndarray:
     st[S_DELTA] = min(max(delta0, 0.0), params[P_DELTA_MAX])
     st[S_P] = params[P_P_MAX] if params[P_METHOD] > 0.5 else 0.0
     st[S_TH + 1] = 1.0
+    st[S_TH + 2] = params[P_DELTA1]
     for i in range(NTH):
         st[S_PM + NTH * i + i] = params[P_P0 + i]
     return st

@@ -43,6 +43,13 @@ INPUT_COLUMNS = ("theta_m", "omega_m", "theta_l", "omega_l")
 #: Least share of the excitation window in which the law must receive information
 #: (∫σ dt / window ≥ ε_σ) for ``excitation_ok``.
 SIGMA_FRACTION_MIN = 0.01
+#: The joint δ/δ1 law replaces the anchored one only if its torque residual (RMS over the
+#: last third of the run) is below this fraction of the anchored law's.
+OFFSET_RESIDUAL_RATIO = 0.8
+
+
+def _rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(x * x))) if x.size else float("nan")
 
 
 @dataclass(frozen=True)
@@ -99,8 +106,10 @@ class EstimatorConfig:
     T_thr: float = 0.01
     window: float = 2.0
     estimate_stiffness: bool = True
-    estimate_friction: bool = False
-    omega_ref: float = 1.0
+    estimate_offset: bool = False
+    q_offset: float = 1.0
+    offset_check: bool = True
+    offset_switch: float = 5e-3
     theta_def: float = 1e-3
     q_aux: float = 0.1
 
@@ -117,7 +126,8 @@ class EstimatorConfig:
             "P_max",
             "T_thr",
             "window",
-            "omega_ref",
+            "q_offset",
+            "offset_switch",
             "theta_def",
             "q_aux",
         ):
@@ -193,7 +203,6 @@ class EstimatorConfig:
             omega_eps=0.0,
             T_thr=T_thr,
             window=max(2.0 / f_exc, 1.0),
-            omega_ref=w_r,
             theta_def=theta_def,
         )
         values.update({k: v for k, v in overrides.items() if v is not None})
@@ -246,8 +255,8 @@ def build_params(
     p[dz.P_T_THR] = config.T_thr
     p[dz.P_WINDOW] = max(1, int(round(config.window / Ts)))
     p[dz.P_EST_K] = 1.0 if config.estimate_stiffness else 0.0
-    p[dz.P_EST_F] = 1.0 if config.estimate_friction else 0.0
-    p[dz.P_OMEGA_REF] = config.omega_ref
+    p[dz.P_EST_D1] = 1.0 if config.estimate_offset else 0.0
+    p[dz.P_Q_D1] = config.q_offset
     p[dz.P_THETA_DEF] = config.theta_def
     p[dz.P_Q_AUX] = config.q_aux
     return dz.derive_params(p)
@@ -401,11 +410,21 @@ class DeadzoneEstimator:
         self.config = config if config is not None else EstimatorConfig.tuned(drivetrain, Ts, f_exc)
         self.params = build_params(drivetrain, self.delta1, self.config, self.Ts)
         self.state = dz.initial_state(self.params, self.config.delta0)
+        self._check_params: np.ndarray | None = None
+        self._check_state: np.ndarray | None = None
+        c = self.config
+        if c.method == "default" and not c.estimate_offset and c.offset_check:
+            self._check_params = build_params(
+                drivetrain, self.delta1, replace(c, estimate_offset=True), self.Ts
+            )
+            self._check_state = dz.initial_state(self._check_params, c.delta0)
         self._row = np.empty((1, dz.N_OUT))
 
     def reset(self) -> None:
         """Back to δ̂ = δ0 and zero observer state."""
         self.state = dz.initial_state(self.params, self.config.delta0)
+        if self._check_params is not None:
+            self._check_state = dz.initial_state(self._check_params, self.config.delta0)
 
     def step(self, sample: np.ndarray | tuple[float, float, float, float]) -> np.ndarray:
         """Process one sample (θ_m, ω_m, θ_l, ω_l); returns the output row (see ``deadzone_run``)."""
@@ -452,7 +471,59 @@ class DeadzoneEstimator:
         res = make_result(t, out, self.config, self.params, delta_true, samples=samples)
         if self.config.method == "default":
             res.extra["stiffness_scale"] = float(self.state[dz.S_TH + 1])
+            if self.config.estimate_offset:
+                res.extra["delta1_estimate"] = float(self.state[dz.S_TH + 2])
+        if self._check_params is not None and self._check_state is not None:
+            res = self._offset_check(res, samples, t, delta_true)
         return res
+
+    def _offset_check(
+        self, res: EstimationResult, samples: np.ndarray, t: np.ndarray, delta_true: np.ndarray | None
+    ) -> EstimationResult:
+        """Run the joint δ/δ1 law alongside; switch to it when the data disagree with δ1.
+
+        The anchored law (δ1 from the configuration) is the more accurate one when δ1 is right
+        (a friction or stiffness error shifts both contact points and the joint law follows);
+        when δ1 is wrong — or the two encoders' zeros are offset — its δ̂ is off by the same
+        amount. If the joint law's δ̂1 differs from the configured δ1 by more than
+        ``offset_switch`` the result is the joint law's, with the reason saying so.
+        """
+        from scipy.ndimage import uniform_filter1d
+
+        assert self._check_params is not None and self._check_state is not None
+        self._check_state, out_j = dz.deadzone_run(self._check_state, samples, self._check_params)
+        d1_joint = float(self._check_state[dz.S_TH + 2])
+        diff = d1_joint - self.delta1
+        res.extra["delta1_check"] = d1_joint
+        if abs(diff) <= self.config.offset_switch:
+            return res
+        cfg_j = replace(self.config, estimate_offset=True)
+        res_j = make_result(t, out_j, cfg_j, self._check_params, delta_true, samples=samples)
+        # model selection: the joint law must also explain the shaft torque clearly better
+        # over the last third (same observed torque, so the difference is the model's)
+        k0 = 2 * len(t) // 3
+        kap_a = float(self.state[dz.S_TH + 1])
+        kap_j = float(self._check_state[dz.S_TH + 1])
+        m = max(1, int(round(max(self.config.tau_f, 4 * self.Ts) / self.Ts)))  # chattering out
+        r_a = _rms(uniform_filter1d(res.torque_meas[k0:] - kap_a * res.torque_hat[k0:], m))
+        r_j = _rms(uniform_filter1d(res_j.torque_meas[k0:] - kap_j * res_j.torque_hat[k0:], m))
+        res.extra["residual_rms_anchored"] = r_a
+        res.extra["residual_rms_joint"] = r_j
+        if not res_j.excitation_ok or not r_j < OFFSET_RESIDUAL_RATIO * r_a:
+            return res
+        res_j.extra.update(
+            stiffness_scale=float(self._check_state[dz.S_TH + 1]),
+            delta1_estimate=d1_joint,
+            delta1_check=d1_joint,
+            offset_switched=True,
+            residual_rms_anchored=r_a,
+            residual_rms_joint=r_j,
+        )
+        res_j.reason += (
+            f"; the data put the lower contact {1e3 * diff:+.1f} mrad from the configured δ1 "
+            "(wrong δ1 or an offset between the encoders), so δ and δ1 were estimated jointly"
+        )
+        return res_j
 
 
 def _kinematics(samples: np.ndarray, N: float, Ts: float) -> dict[str, float]:
