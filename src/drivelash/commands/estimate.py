@@ -95,6 +95,8 @@ def run_estimate(
         "sample_time_s": Ts,
         "excitation_frequency_hz": f_exc,
         "stiffness_scale": res.extra.get("stiffness_scale"),
+        "delta1_estimate": res.extra.get("delta1_estimate", res.extra.get("delta1_check")),
+        "offset_switched": bool(res.extra.get("offset_switched", False)),
         "gains": ecfg.to_dict(),
     }
     if "delta_true" in trace:

@@ -32,9 +32,14 @@ Two methods share one kernel, :func:`deadzone_run`:
    alongside δ (θ = [δ, κ], regressor h = [κ ∂T_l/∂δ, T_l]/K_S, ∂/∂κ gated to confirmed
    contact where measured and model torque agree in sign and within a factor 2, κ ∈ [¼, 4],
    gain q·P0). A wrong K_S otherwise biases δ̂ by about half the contact deflection times
-   the relative error (3.6 mrad on bench-1A with the paper's law). Optional further
-   regressors sgn ω_l and ω_l (load-friction errors; ``estimate_friction``, off by default)
-   give a 4×4 P.
+   the relative error (3.6 mrad on bench-1A with the paper's law).
+
+Option ``estimate_offset`` (P_EST_D1): δ1 joins θ (regressor κ ∂T_l/∂δ1 / K_S, gain
+q_δ1·P_max, δ̂1 ∈ [−δ_max, δ_max]), for recordings where δ1 — the position of the lower
+contact in Δθ — is not known (encoder zeros). Less accurate when δ1 is known (a friction
+error shifts both contact points and the joint law follows); see
+:meth:`~drivelash.estimation.estimator.DeadzoneEstimator.run` for the automatic check.
+Slot 3 of θ and P is unused (a friction-error regressor was tried and dropped).
 
 Output row k: δ̂ after the update, the other
 columns at the sample (φ̂_k, ω̂_l,k before its update, Δθ used, T_l(x_k, δ̂_k) with δ̂ before
