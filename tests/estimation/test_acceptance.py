@@ -122,3 +122,21 @@ def test_encoder_offset_or_wrong_delta1_is_detected(offset):
     assert "jointly" in res.reason
     plain = estimator_for(sc, "default").run(trace)
     assert not plain.extra.get("offset_switched")
+
+
+def test_coarser_sample_time():
+    """The same bench recording decimated to 1 kHz (ω_n T_s = 0.2): the rule slows the observer."""
+    from drivelash.estimation.reproduce import estimator_for
+    from drivelash.io.trace import Trace
+    from drivelash.sim.scenarios import get_scenario
+
+    sc = get_scenario("bench-5C")
+    full = sc.simulate()
+    trace = Trace({k: v[::8] for k, v in full.columns.items()})
+    Ts = trace.sample_time
+    assert Ts == pytest.approx(1e-3)
+    cfg = EstimatorConfig.tuned(sc.estimator_drivetrain, Ts, excitation_frequency(trace))
+    res = DeadzoneEstimator(sc.estimator_drivetrain, sc.estimator_backlash, Ts, cfg).run(trace)
+    assert res.excitation_ok and res.converged
+    assert maee(res.t, res.delta_hat, sc.plant_backlash.delta, 40.0) <= 1e-3
+    del estimator_for

@@ -13,8 +13,9 @@ reversal) frequency f_r — ``estimate`` detects f_r from the recording
 * contact torque scale T_ref = max(T_C,l, 10⁻³ rad · K_S); contact threshold T_thr = T_ref/2;
   typical deflection θ_def = T_ref/K_S; model smoothness α = clip(20/θ_def, 10³, 10⁵) 1/rad;
 * STSMO: ρ = (K_S/J_l) · ω_r · 1 rad (rate of change of φ in contact),
-  k1 = 1.5 √ρ, k2 = 1.1 ρ (Levant's rule; the chattering this leaves in φ̂ is removed by
-  the default law's residual filter);
+  k1 = 1.5 s √ρ, k2 = 1.1 s² ρ (Levant's rule; the chattering this leaves in φ̂ is removed
+  by the default law's residual filter), s = min(1, 0.1/(ω_n T_s)) slows the observer when
+  the sampling is coarse against the shaft resonance;
 * paper law: γ = ω_n/16;
 * default law: τ_f = max(2/ω_n, 4 T_s), P_max = 16 ω_r, λ = ω_r/25, ω_c = 10 ω_r,
   stiffness-scale gain q = 0.1, friction terms off;
@@ -183,8 +184,10 @@ class EstimatorConfig:
         T_ref = max(drivetrain.T_Cl, 1e-3 * K_S)
         T_thr = 0.5 * T_ref
         rho = (K_S / J_l) * w_r * 1.0
-        k2 = 1.1 * rho
-        k1 = 1.5 * math.sqrt(rho)
+        # slower observer when the sample time is coarse against the shaft resonance
+        s_ts = min(1.0, 0.1 / (w_n * Ts))
+        k2 = 1.1 * rho * s_ts * s_ts
+        k1 = 1.5 * math.sqrt(rho) * s_ts
         theta_def = T_ref / K_S
         alpha = min(max(20.0 / theta_def, 1e3), 1e5)
         values: dict[str, Any] = dict(
