@@ -80,15 +80,30 @@ class EstimatorConfig:
     tau_f : float
         Time constant of the residual/regressor low-pass [s] (default method; 0 = off).
     lam : float
-        Forgetting rate λ of the least-squares gain [1/s] (default method).
+        Leakage rate λ of the least-squares gain towards P0 [1/s] (default method).
     P_max : float
-        Initial and largest least-squares gain [1/s] (default method).
+        Initial least-squares gain P0 of δ [1/s] (default method).
     omega_eps : float
         Regularisation velocity of the load-friction sign [rad/s] (default method; 0 = sgn).
     T_thr : float
         Shaft-torque threshold of a contact for the excitation monitor [N·m].
     window : float
         Length of the sliding excitation window [s].
+    estimate_stiffness : bool
+        Learn the stiffness scale κ = K_S,true/K_S (default method).
+    estimate_offset : bool
+        Learn δ1 jointly instead of taking it from the configuration (default method).
+    q_offset : float
+        Gain of δ1 relative to δ's [-] (``estimate_offset``).
+    offset_check : bool
+        Run the joint δ/δ1 law alongside in :meth:`DeadzoneEstimator.run` and switch to it
+        when the data contradict δ1 (default method).
+    offset_switch : float
+        |δ̂1 − δ1| above which the check may switch [rad].
+    theta_def : float
+        Typical contact deflection [rad]: scales the initial gain of κ, P0 = q_aux P_max/θ_def².
+    q_aux : float
+        Gain of κ relative to δ's [-].
     """
 
     k1: float
