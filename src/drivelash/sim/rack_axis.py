@@ -35,7 +35,7 @@ The process load ``F_load`` [N, ≥ 0] is a force-controlled linear direct drive
 Interfaces::
 
     sim = RackAxisSimulator(bench, te_model, gains=None, seed=0, n_sub=4)
-    trace = sim.run(x_d, v_d, F_load, v_c=None)                   # -> Trace
+    trace = sim.run(x_d, v_d, F_load, v_c=None)                   # -> Trace (measured signals)
     state = sim.initial_state(x0, direction)
     state, out = sim.step_chunk(state, x_d, v_d, F_load, v_c)    # out: dict of arrays
 
@@ -89,8 +89,37 @@ O_THETA, O_OMEGA, O_X, O_V, O_TORQUE, O_WCMD, O_FMESH, O_DIR = range(8)
     P_VLD,
     P_X0,
     P_DX,
-) = range(22)
-PARAM_SIZE = 22
+    P_SX,
+    P_STH,
+    P_SW,
+    P_STQ,
+) = range(26)
+PARAM_SIZE = 26
+
+# counter-based Gaussian noise (SplitMix64 of seed, sample index and channel): the noise of
+# sample k does not depend on how the run is chunked
+_G = np.uint64(0x9E3779B97F4A7C15)
+_M1 = np.uint64(0xBF58476D1CE4E5B9)
+_M2 = np.uint64(0x94D049BB133111EB)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _mix64(z):
+    z = z + _G
+    z = (z ^ (z >> np.uint64(30))) * _M1
+    z = (z ^ (z >> np.uint64(27))) * _M2
+    return z ^ (z >> np.uint64(31))
+
+
+@njit(cache=True, nogil=True)
+def counter_gauss(seed, k, channel):
+    """Standard normal number for (seed ≥ 0, sample k ≥ 0, channel), Box–Muller of two
+    SplitMix64 outputs; a pure function, so chunked runs see identical noise."""
+    z = _mix64(_mix64(np.uint64(seed)) ^ (np.uint64(k) * np.uint64(8) + np.uint64(channel)))
+    z2 = _mix64(z)
+    u1 = ((z >> np.uint64(11)) + np.uint64(1)) * (1.0 / 9007199254740992.0)
+    u2 = (z2 >> np.uint64(11)) * (1.0 / 9007199254740992.0)
+    return math.sqrt(-2.0 * math.log(u1)) * math.cos(2.0 * math.pi * u2)
 
 
 def bench_gains(torque_limit: float = 60.0) -> CascadeGains:
@@ -172,7 +201,7 @@ def _rhs(theta, omega, x, v, T_M, F_ext, Fbar, p, table):
 
 
 @njit(cache=True, nogil=True)
-def axis_chunk(state, x_d, v_d, F_load, v_c, p, table, out):
+def axis_chunk(state, x_d, v_d, F_load, v_c, p, table, out, seed):
     """Advance the closed-loop axis over ``x_d.size`` samples.
 
     Parameters
@@ -191,7 +220,10 @@ def axis_chunk(state, x_d, v_d, F_load, v_c, p, table, out):
     table : numpy.ndarray, shape (6, n)
         TE tables of :meth:`TransmissionErrorModel.tables`.
     out : numpy.ndarray, shape (n_samples, 8)
-        Filled with the samples at t_k (layout ``O_*``).
+        Filled with the samples at t_k (layout ``O_*``): the *measured* θ_M, ω_M, x_T
+        and torque (true values when the noise levels ``P_S*`` are 0).
+    seed : int
+        Seed of the sensor noise (≥ 0).
 
     Returns
     -------
@@ -219,8 +251,19 @@ def axis_chunk(state, x_d, v_d, F_load, v_c, p, table, out):
         elif v_d[k] < -1e-9:
             dirm = -1.0
         # cascade: P position on the linear scale, PI velocity on the motor encoder
-        w_cmd = (p[P_KFF] * v_d[k] + p[P_KV] * (x_d[k] - x) - v_c[k]) / r
-        e_w = w_cmd - w
+        # sensors: linear scale, motor encoder (angle, velocity); white noise if configured
+        x_m = x
+        w_m = w
+        th_m = th
+        ks = int(kk)
+        if p[P_SX] > 0.0:
+            x_m = x + p[P_SX] * counter_gauss(seed, ks, 0)
+        if p[P_STH] > 0.0:
+            th_m = th + p[P_STH] * counter_gauss(seed, ks, 1)
+        if p[P_SW] > 0.0:
+            w_m = w + p[P_SW] * counter_gauss(seed, ks, 2)
+        w_cmd = (p[P_KFF] * v_d[k] + p[P_KV] * (x_d[k] - x_m) - v_c[k]) / r
+        e_w = w_cmd - w_m
         u_un = p[P_KP] * e_w + xi
         T_M = u_un
         if T_M > lim:
@@ -229,11 +272,13 @@ def axis_chunk(state, x_d, v_d, F_load, v_c, p, table, out):
             T_M = -lim
         xi = xi + p[P_KP] / p[P_TN] * Ts * e_w + (T_M - u_un)
         Fc0 = _mesh_force(th, w, x, v, Fbar, p, table)
-        out[k, O_THETA] = th
-        out[k, O_OMEGA] = w
-        out[k, O_X] = x
+        out[k, O_THETA] = th_m
+        out[k, O_OMEGA] = w_m
+        out[k, O_X] = x_m
         out[k, O_V] = v
         out[k, O_TORQUE] = T_M
+        if p[P_STQ] > 0.0:
+            out[k, O_TORQUE] = T_M + p[P_STQ] * counter_gauss(seed, ks, 3)
         out[k, O_WCMD] = w_cmd
         out[k, O_FMESH] = Fc0
         out[k, O_DIR] = dirm
@@ -286,6 +331,14 @@ class AxisSimConfig:
         Velocity scale of the load direction, tanh(v_d / v_load) [m/s].
     table_dx : float
         Grid step of the TE tables [m].
+    sigma_x : float
+        Std of white noise of the linear scale [m] (0: ideal; the controller sees it).
+    sigma_theta : float
+        Std of white noise of the motor encoder angle [rad] (recorded only).
+    sigma_omega : float
+        Std of white noise of the motor velocity [rad/s] (the velocity loop sees it).
+    sigma_torque : float
+        Std of white noise of the *recorded* motor torque [N·m] (the control is not affected).
     """
 
     n_sub: int = 4
@@ -293,6 +346,10 @@ class AxisSimConfig:
     v_reg: float = 1e-4
     v_load: float = 1e-3
     table_dx: float = 10e-6
+    sigma_x: float = 0.0
+    sigma_theta: float = 0.0
+    sigma_omega: float = 0.0
+    sigma_torque: float = 0.0
 
     def __post_init__(self) -> None:
         for n in ("n_sub", "tau_F", "v_reg", "v_load", "table_dx"):
@@ -301,6 +358,10 @@ class AxisSimConfig:
                 raise ParameterError(type(self).__name__, n, f"must be finite and > 0, got {v!r}")
         if int(self.n_sub) != self.n_sub:
             raise ParameterError(type(self).__name__, "n_sub", "must be a whole number")
+        for n in ("sigma_x", "sigma_theta", "sigma_omega", "sigma_torque"):
+            v = getattr(self, n)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise ParameterError(type(self).__name__, n, f"must be finite and >= 0, got {v!r}")
 
 
 class RackAxisSimulator:
@@ -315,7 +376,7 @@ class RackAxisSimulator:
     gains : CascadeGains, optional
         Cascade tuning; default :func:`bench_gains` (spec 02 §2).
     seed : int
-        Reserved for sensor noise (the engine is deterministic; kept in ``meta``).
+        Seed of the sensor noise (≥ 0; only used when ``config`` sets noise levels).
     config : AxisSimConfig, optional
         Numerical settings.
     """
@@ -332,6 +393,8 @@ class RackAxisSimulator:
         self.te_model = te_model
         self.gains = gains if gains is not None else bench_gains()
         self.seed = int(seed)
+        if self.seed < 0:
+            raise ParameterError("RackAxisSimulator", "seed", f"must be >= 0, got {seed!r}")
         self.config = config if config is not None else AxisSimConfig()
         self.T_s = self.gains.T_s
         x0, dx, table = te_model.tables(dx=self.config.table_dx)
@@ -361,6 +424,10 @@ class RackAxisSimulator:
         p[P_VLD] = c.v_load
         p[P_X0] = x0
         p[P_DX] = dx
+        p[P_SX] = c.sigma_x
+        p[P_STH] = c.sigma_theta
+        p[P_SW] = c.sigma_omega
+        p[P_STQ] = c.sigma_torque
         self._p = p
 
     def initial_state(self, x0: float, direction: int = 1, F0: float = 0.0) -> np.ndarray:
@@ -425,7 +492,9 @@ class RackAxisSimulator:
         vc = np.ascontiguousarray(vc)
         out = np.empty((n, len(OUT_NAMES)))
         k0 = float(state[S_K])
-        new = axis_chunk(np.asarray(state, dtype=np.float64), x_d, v_d, F, vc, self._p, self._table, out)
+        new = axis_chunk(
+            np.asarray(state, dtype=np.float64), x_d, v_d, F, vc, self._p, self._table, out, self.seed
+        )
         outputs = {"t": (k0 + np.arange(n)) * self.T_s}
         for j, name in enumerate(OUT_NAMES):
             outputs[name] = out[:, j].copy()
