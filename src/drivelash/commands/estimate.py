@@ -178,7 +178,7 @@ def run_reproduce(out: Path, quick: bool = False, workers: int = 2, quiet: bool 
     head = (
         "# Deadzone estimation: paper vs this implementation\n\n"
         + ("**Quick run** (subset, 30 s bench runs).\n\n" if quick else "")
-        + "MAEE: max |δ̂ − δ*| over the last 20 s of each bench run (last 2 s for paper-sim); "
+        + "MAEE: max |δ̂ − δ*| over the last 20 s of each bench run (paper-sim: from 2 s after the step); "
         "SS peak: last 10 s (bench) / last 0.5 s before the step and at the end (paper-sim); "
         "t(band): first time after which |δ̂ − δ*| stays within the band (after the step for "
         "paper-sim). Paper values: §V–VI (MAEE 1.75/1.90/0.66 mrad for 0A/0B/0C, ≤ 4 mrad "

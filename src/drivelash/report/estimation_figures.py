@@ -244,7 +244,9 @@ def reproduce_figures(out: Path, rows: list[dict[str, Any]], quick: bool = False
         if f is not None:
             files.append(f)
     files.append(fig15_torque(out / "fig15_torque_vs_dtheta.png", duration=20.0 if quick else None))
-    scales = (0.5, 1.0, 2.0) if quick else (0.35, 0.5, 0.7, 1.0, 1.4, 2.0, 2.8)
+    # k1·s, k2·s² up to the default gains; above them the Euler chattering (k2 T_s) adds an
+    # error the averaged bound does not capture (docs/assumptions.md)
+    scales = (0.1, 0.3, 1.0) if quick else (0.07, 0.1, 0.15, 0.2, 0.3, 0.5, 0.7, 1.0)
     p, slope = fig10_ss_vs_phi(out / "fig10_ss_vs_phi_error.png", scales)
     (out / "fig10_slope.txt").write_text(f"{slope!r}\n", encoding="utf-8")
     files.append(p)
