@@ -169,7 +169,7 @@ def _reversal_inputs(n=120, k_flip=40, x_flip=0.4):
 
 def test_backlash_step_sums_to_b_and_follows_smooth_step():
     m = SineTE()
-    p = CompensatorParams(v_max=1.0, hysteresis=0.5)
+    p = CompensatorParams(v_max=1.0, hysteresis=0.5, t_ss=35e-3, release=0.0)
     comp = Compensator(_table(m, dx=0.05e-3), p, flank=1)
     x_d, tq, om, al = _reversal_inputs()
     vc, vte, vbl = comp.run(x_d, tq, om, al)
@@ -191,13 +191,13 @@ def test_backlash_step_sums_to_b_and_follows_smooth_step():
 def test_flank_from_mesh_torque_not_from_set_point_direction():
     m = SineTE()
     # load pulls the table along: set point reverses, mesh torque stays positive
-    comp = Compensator(_table(m), CompensatorParams(v_max=1.0), flank=1)
+    comp = Compensator(_table(m), CompensatorParams(v_max=1.0, release=0.0), flank=1)
     x_d, _, om, al = _reversal_inputs()
     n = om.size
     vc, _, vbl = comp.run(x_d, np.full(n, 2.0), om, al)
     assert comp.flank == 1 and np.all(vbl == 0)
     # negative motor torque that is only deceleration torque: no flank change
-    p = CompensatorParams(v_max=1.0, J_flank=1e-3, hysteresis=0.2)
+    p = CompensatorParams(v_max=1.0, J_flank=1e-3, hysteresis=0.2, release=0.0)
     comp = Compensator(_table(m), p, flank=1)
     alpha = np.full(n, -2000.0)  # J α = −2 N·m
     comp.run(x_d, np.full(n, -1.5), np.full(n, 30.0), alpha)

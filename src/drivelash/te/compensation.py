@@ -122,7 +122,7 @@ class CompensatorParams:
     """
 
     t_sc: float = 5e-3
-    t_ss: float = 35e-3
+    t_ss: float = 5e-3
     J_flank: float = 0.0
     T_C: float = 0.0
     beta: float = 0.0
@@ -130,7 +130,7 @@ class CompensatorParams:
     hysteresis: float = 0.2
     J_model: float = 0.0
     v_max: float = 0.05
-    release: float = 0.0
+    release: float = 0.6
     t_lock: float = 50e-3
 
     def __post_init__(self) -> None:

@@ -20,6 +20,7 @@ for the cycle and subtracted from the velocity command (:mod:`drivelash.sim.rack
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import time
@@ -71,7 +72,9 @@ class ValidationConfig:
     section_length : float
         Length of the scored sections [m] (paper: 100 mm).
     sine_amplitude, sine_frequency, sine_periods : float
-        Sinusoidal trajectory x_c − A cos(2π f t) [m], [Hz], [-].
+        Sinusoidal trajectory x_c − A cos(2π f t) [m], [Hz], [-] (no load, as in the paper).
+    sine_load : float
+        Load [N] of the additional loaded sine (robustness check, not in the acceptance).
     reversal_window : tuple of float
         Window around each reversal in which the reversal error is taken [s] (before, after).
     table_dx : float
@@ -96,11 +99,12 @@ class ValidationConfig:
     sine_amplitude: float = 0.25
     sine_frequency: float = 0.1
     sine_periods: float = 2.0
+    sine_load: float = 2000.0
     reversal_window: tuple[float, float] = (0.1, 0.3)
     table_dx: float = 0.2e-3
     table_torque_max: float = 18.0
     table_n_torque: int = 19
-    defect_center: float = 1.25
+    defect_center: float = 1.30
     defect_width: float = 0.003
     defect_amplitude: float = 15e-6
     monitor_velocity: float = 0.1
@@ -111,7 +115,7 @@ class ValidationConfig:
     def quick(cls) -> ValidationConfig:
         """Few loads, one direction, a 0.6 m stroke: for tests and the demo."""
         return cls(loads=(0.0, 2000.0, 4000.0), directions=(1,), stroke=0.6, sine_amplitude=0.1,
-                   sine_periods=1.0, defect_center=0.35)  # fmt: skip
+                   sine_periods=1.0, defect_center=0.30)  # fmt: skip
 
 
 # ---------------------------------------------------------------------------
@@ -219,6 +223,15 @@ def run_pass(
 # (b) constant-velocity passes, Fig. 9
 
 
+def pass_range(sim: Any, cfg: ValidationConfig) -> tuple[float, float]:
+    """Travel range [m] of the passes: [margin, travel − margin], shortened to ``stroke``."""
+    lo = cfg.margin
+    hi = sim.bench.travel - cfg.margin
+    if cfg.stroke is not None:
+        hi = min(hi, lo + cfg.stroke)
+    return lo, hi
+
+
 def pass_trajectory(sim: Any, lo: float, hi: float, v: float, direction: int, a_max: float = 0.5):
     """(t, x_d, v_d) of a constant-velocity pass over [lo, hi] in ``direction``."""
     from drivelash.sim.rack_axis import constant_velocity_pass
@@ -253,9 +266,7 @@ def constant_velocity_validation(
     list of dict
         Keys ``direction, velocity, load, x_start, x_end, mae_uncomp_um, mae_comp_um, improvement``.
     """
-    lo = cfg.margin
-    hi = sim.bench.travel - cfg.margin if cfg.stroke is None else min(sim.bench.travel - cfg.margin,
-                                                                      lo + cfg.stroke)  # fmt: skip
+    lo, hi = pass_range(sim, cfg)
     edges = section_edges(lo, hi, cfg.section_length)
     rows: list[dict[str, Any]] = []
     for d in cfg.directions:
@@ -356,8 +367,10 @@ def sine_validation(
     """Protocol (a): figures and both runs (uncompensated, compensated)."""
     from drivelash.sim.rack_axis import sine_trajectory
 
-    xc = 0.5 * sim.bench.travel
-    _, x_d, v_d = sine_trajectory(xc, cfg.sine_amplitude, cfg.sine_frequency, cfg.sine_periods, sim.T_s)
+    lo, hi = pass_range(sim, cfg)
+    xc = 0.5 * (lo + hi)
+    amp = min(cfg.sine_amplitude, 0.5 * (hi - lo))
+    _, x_d, v_d = sine_trajectory(xc, amp, cfg.sine_frequency, cfg.sine_periods, sim.T_s)
     unc = run_pass(sim, x_d, v_d, load, None)
     comp = run_pass(sim, x_d, v_d, load, Compensator(table, params, 1))
     ru = reversal_errors(unc, cfg.reversal_window)
@@ -494,8 +507,10 @@ def _fig_heatmaps(rows: list[dict[str, Any]], train_max_load: float, path: Path)
     vels = sorted({r["velocity"] for r in rows})
     loads = sorted({r["load"] for r in rows})
     xs = sorted({r["x_start"] for r in rows})
-    fig, axes = plt.subplots(len(dirs), len(vels) + 1, figsize=(4 * (len(vels) + 1), 3.6 * len(dirs)),
-                             squeeze=False)  # fmt: skip
+    fig, axes = plt.subplots(
+        len(dirs), len(vels) + 1, figsize=(4.2 * (len(vels) + 1), 4.2 * len(dirs)), squeeze=False,
+        layout="constrained",
+    )  # fmt: skip
     for i, d in enumerate(dirs):
         summary = np.full((len(vels), len(loads)), np.nan)
         for j, v in enumerate(vels):
@@ -695,6 +710,15 @@ def validate(
     sine, unc, comp = sine_validation(sim, table, params, cfg)
     _fig_sine(unc, comp, float(bench.r_eff), out / "fig8_sine.png")
     summary["sine"] = sine
+    # the paper's settings (t_ss = 35 ms, flank change on the torque sign only) for comparison,
+    # and a loaded sine (load drive reversing with the motion) as a robustness check
+    paper = dataclasses.replace(params, t_ss=35e-3, release=0.0)
+    sine_p, _, comp_p = sine_validation(sim, table, paper, cfg)
+    _fig_sine(unc, comp_p, float(bench.r_eff), out / "fig8_sine_paper_settings.png")
+    summary["sine_paper_settings"] = sine_p
+    sine_l, unc_l, comp_l = sine_validation(sim, table, params, cfg, load=cfg.sine_load)
+    _fig_sine(unc_l, comp_l, float(bench.r_eff), out / "fig8_sine_loaded.png")
+    summary["sine_loaded"] = sine_l
 
     say("(b) constant-velocity passes")
     rows = constant_velocity_validation(sim, table, params, velocities, cfg, progress)
@@ -729,9 +753,7 @@ def monitoring_demo(
 
     worn = sim.te_model.with_local_defect(cfg.defect_center, cfg.defect_width, cfg.defect_amplitude)
     sim_w = RackAxisSimulator(sim.bench, worn, gains=sim.gains, seed=sim.seed, config=sim.config)
-    lo = cfg.margin
-    hi = sim.bench.travel - cfg.margin if cfg.stroke is None else min(sim.bench.travel - cfg.margin,
-                                                                      lo + cfg.stroke)  # fmt: skip
+    lo, hi = pass_range(sim, cfg)
     edges = section_edges(lo, hi, cfg.section_length)
     v, F = cfg.monitor_velocity, cfg.monitor_load
     _, x_d, v_d = pass_trajectory(sim_w, lo, hi, v, 1)
