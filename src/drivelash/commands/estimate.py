@@ -208,7 +208,7 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
     def estimate(
         trace: Path = typer.Argument(..., help="Recording (CSV, Parquet, HDF5, MAT)."),
         config: Path = typer.Option(
-            ..., "--config", "-c", help="DRIVE.toml: [drivetrain], [backlash], [estimator]."
+            ..., "--config", "-c", help="DRIVE.toml: tables drivetrain, backlash, estimator (optional)."
         ),
         json_out: Path | None = typer.Option(None, "--json", help="Write a JSON summary here."),
         plot: Path | None = typer.Option(None, "--plot", help="Write a PNG of δ̂(t) and torque vs Δθ here."),
