@@ -143,3 +143,26 @@ def test_bad_config_one_line(bench_csv, tmp_path, capsys, text, field):
     assert len(lines) == 1, err
     assert str(cfg) in lines[0]
     assert field in lines[0]
+
+
+def test_estimate_plot_and_report(bench_csv, tmp_path, capsys):
+    cfg = _toml(tmp_path, GOOD_TOML)
+    png, html = tmp_path / "e.png", tmp_path / "e.html"
+    code, _, err = _run(
+        ["estimate", str(bench_csv), "--config", str(cfg), "--plot", str(png), "--report", str(html)], capsys
+    )
+    assert code == 0, err
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "<html" in html.read_text(encoding="utf-8").lower()
+
+
+def test_estimate_paper_method_and_bad_method(bench_csv, tmp_path, capsys):
+    cfg = _toml(tmp_path, GOOD_TOML)
+    out = tmp_path / "p.json"
+    code, _, _ = _run(
+        ["estimate", str(bench_csv), "-c", str(cfg), "--method", "paper", "--json", str(out)], capsys
+    )
+    assert code == 0
+    assert json.loads(out.read_text())["method"] == "paper"
+    code, _, err = _run(["estimate", str(bench_csv), "-c", str(cfg), "--method", "fast"], capsys)
+    assert code == 2 and "--method" in err
