@@ -471,7 +471,10 @@ def _fig_sine(unc: dict, comp: dict, r_eff: float, path: Path) -> None:
 
     dec = 8
     t = unc["t"][::dec]
-    fig, ax = plt.subplots(4, 1, figsize=(9, 9), sharex=True)
+    fig = plt.figure(figsize=(10, 11), layout="constrained")
+    gs = fig.add_gridspec(5, 1)
+    ax = [fig.add_subplot(gs[0])]
+    ax += [fig.add_subplot(gs[i], sharex=ax[0]) for i in (1, 2, 3)]
     ax[0].plot(t, unc["x_d"][::dec] * 1e3, "k")
     ax[0].set_ylabel("x_d [mm]")
     te_u = (unc["x_T"] - r_eff * unc["theta_m"])[::dec]
@@ -489,11 +492,24 @@ def _fig_sine(unc: dict, comp: dict, r_eff: float, path: Path) -> None:
     ax[3].set_ylabel("v_c [mm/s]")
     ax[3].set_xlabel("t [s]")
     ax[3].legend(loc="upper right", fontsize=8)
-    for a in ax:
+    # zoom on the first reversal
+    z = fig.add_subplot(gs[4])
+    tr = reversal_times(unc["t"], unc["v_d"])
+    if tr.size:
+        m = (unc["t"] > tr[0] - 0.05) & (unc["t"] < tr[0] + 0.2)
+        z.plot(unc["t"][m], unc["e"][m] * 1e6, color="tab:red", label="without compensation")
+        z.plot(comp["t"][m], comp["e"][m] * 1e6, color="tab:green", label="with compensation")
+        z2 = z.twinx()
+        z2.plot(comp["t"][m], comp["v_c"][m] * 1e3, color="tab:blue", lw=0.8, alpha=0.6)
+        z2.set_ylabel("v_c [mm/s]", color="tab:blue")
+        z.axvline(tr[0], color="k", ls=":", lw=0.8)
+        z.legend(loc="upper right", fontsize=8)
+    z.set_xlabel("t [s] (zoom on the first reversal, dotted: set-point reversal)")
+    z.set_ylabel("path error [µm]")
+    for a in [*ax, z]:
         a.grid(alpha=0.3)
     fig.suptitle("Sinusoidal trajectory: compensation of TE and backlash (cf. paper Fig. 8)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=100)
     plt.close(fig)
 
 
