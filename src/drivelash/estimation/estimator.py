@@ -33,6 +33,7 @@ from dataclasses import asdict, dataclass, field, replace
 from typing import Any, Literal
 
 import numpy as np
+from numba import njit
 
 from drivelash.errors import DataError, ParameterError
 from drivelash.estimation import deadzone as dz
@@ -342,39 +343,105 @@ class EstimationResult:
         return float(self.delta_hat[-1]) if self.delta_hat.size else float("nan")
 
 
-def excitation_frequency(trace: Trace, default: float = 0.5) -> float:
-    """Motion-reversal frequency of a recording [Hz], from the motor velocity.
+@njit(cache=True)
+def _reversals(x, h):
+    """Schmitt-trigger reversal detector on a position signal.
 
-    Counts sign changes of ω_m with a hysteresis of 10 % of its 99th-percentile magnitude
-    (so that noise at standstill does not count) and returns reversals / (2 · duration).
-    ``default`` when fewer than two reversals are found.
+    A reversal is counted when ``x`` retreats by more than ``h`` from its running extreme
+    in the current direction. Returns (count, index of the first reversal's extreme,
+    index of the last one's); −1 indices when there is none.
+    """
+    n = x.shape[0]
+    if n == 0:
+        return 0, -1, -1
+    direction = 0  # +1 rising, −1 falling, 0 not yet known
+    i_ext = 0
+    x_ext = x[0]
+    x_min = x[0]
+    x_max = x[0]
+    i_min = 0
+    i_max = 0
+    count = 0
+    first = -1
+    last = -1
+    for i in range(1, n):
+        v = x[i]
+        if direction == 0:
+            if v > x_max:
+                x_max = v
+                i_max = i
+            if v < x_min:
+                x_min = v
+                i_min = i
+            if x_max - x_min > h:
+                if i_max > i_min:
+                    direction = 1
+                    x_ext = x_max
+                    i_ext = i_max
+                else:
+                    direction = -1
+                    x_ext = x_min
+                    i_ext = i_min
+            continue
+        if direction > 0:
+            if v > x_ext:
+                x_ext = v
+                i_ext = i
+            elif x_ext - v > h:
+                count += 1
+                if first < 0:
+                    first = i_ext
+                last = i_ext
+                direction = -1
+                x_ext = v
+                i_ext = i
+        else:
+            if v < x_ext:
+                x_ext = v
+                i_ext = i
+            elif v - x_ext > h:
+                count += 1
+                if first < 0:
+                    first = i_ext
+                last = i_ext
+                direction = 1
+                x_ext = v
+                i_ext = i
+    return count, first, last
+
+
+#: Hysteresis of the reversal detector, as a fraction of the motor's total travel.
+REVERSAL_HYSTERESIS = 0.1
+
+
+def excitation_frequency(trace: Trace, default: float = 0.5, N: float = 1.0) -> float:
+    """Motion-reversal frequency of a recording [Hz], from the motor position.
+
+    Reversals of θ_m are detected with a hysteresis of :data:`REVERSAL_HYSTERESIS` of its
+    total travel (position, not velocity: noise at standstill does not count), and the
+    frequency is (reversals − 1) / (2 · time between the first and the last). ``default``
+    when fewer than three reversals are found.
 
     Parameters
     ----------
     trace : Trace
-        Needs ``t`` and ``omega_m``.
+        Needs ``t`` and ``theta_m``.
     default : float
         Value returned for (nearly) unidirectional motion [Hz].
+    N : float
+        Gear ratio (the result does not depend on it; kept for symmetry with the estimator).
     """
-    w = np.asarray(trace["omega_m"], dtype=np.float64)
+    x = np.ascontiguousarray(trace["theta_m"], dtype=np.float64) / N
     t = trace["t"]
-    if w.size < 3:
+    if x.size < 3:
         return default
-    thr = 0.1 * float(np.percentile(np.abs(w), 99))
-    if not thr > 0:
+    h = REVERSAL_HYSTERESIS * float(np.ptp(x))
+    if not h > 0:
         return default
-    # vectorised hysteresis: only samples beyond ±thr decide the side
-    idx = np.nonzero(np.abs(w) > thr)[0]
-    s = np.sign(w[idx])
-    changes = np.nonzero(np.diff(s) != 0)[0]
-    flips = int(changes.size)
-    if flips < 2:
+    count, first, last = _reversals(x, h)
+    if count < 3 or last <= first:
         return default
-    t_first = float(t[idx[changes[0] + 1]])
-    t_last = float(t[idx[changes[-1] + 1]])
-    if t_last <= t_first:
-        return default
-    return float((flips - 1) / (2.0 * (t_last - t_first)))
+    return float((count - 1) / (2.0 * (t[last] - t[first])))
 
 
 def _samples_from_trace(trace: Trace) -> np.ndarray:
@@ -551,11 +618,10 @@ def _kinematics(samples: np.ndarray, N: float, Ts: float) -> dict[str, float]:
     w_m = samples[:, 1]
     motor_range = float(np.ptp(th_m)) if th_m.size else 0.0
     load_range = float(np.ptp(th_l)) if th_l.size else 0.0
-    thr = 0.1 * float(np.percentile(np.abs(w_m), 99)) if w_m.size else 0.0
+    del w_m
     rev = 0
-    if thr > 0:
-        s = np.sign(w_m[np.abs(w_m) > thr])
-        rev = int(np.count_nonzero(np.diff(s) != 0))
+    if motor_range > 0:
+        rev = int(_reversals(np.ascontiguousarray(th_m), REVERSAL_HYSTERESIS * motor_range)[0])
     return {"motor_range": motor_range, "load_range": load_range, "reversals": float(rev)}
 
 
