@@ -1,0 +1,80 @@
+"""Random drive trains outside the scenarios: the default tuning rule, unchanged (slow).
+
+Each case draws gear ratio, inertias, shaft resonance, damping, friction, deadzone, offset,
+encoder resolution, velocity noise and motion profile, simulates 40 s with the simulator's
+engine, and runs both laws with ``EstimatorConfig.tuned`` and the detected reversal
+frequency. The numbers quoted in docs/assumptions.md come from this sweep (seeds 0–3).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from drivelash.control.cascade import gains_from_bandwidth
+from drivelash.control.references import constant_velocity_passes, position_sine, velocity_sine
+from drivelash.estimation.estimator import DeadzoneEstimator, EstimatorConfig, excitation_frequency
+from drivelash.metrics import convergence_time, maee
+from drivelash.params import BacklashParams, DrivetrainParams, SensorParams
+from drivelash.sim.engine import simulate
+
+TS = 125e-6
+DURATION = 40.0
+
+
+def random_drive(rng: np.random.Generator, seed: int):
+    """One random drive, its true deadzone and a simulated trace."""
+    N = float(rng.choice([1, 2, 5, 10]))
+    J_l = 10 ** rng.uniform(-4, -2)
+    J_m = 10 ** rng.uniform(-4, -3)
+    wn = 10 ** rng.uniform(np.log10(60), np.log10(600))  # load-side shaft resonance [rad/s]
+    K_S = J_l * wn**2
+    D_S = 2 * 0.02 * np.sqrt(K_S * J_l) * rng.uniform(0.5, 3)
+    T_Cl = K_S * 10 ** rng.uniform(-4, -2.5)
+    dt = DrivetrainParams(
+        J_m=J_m, J_l=J_l, N=N, K_S=K_S, D_S=D_S, T_Cm=0.02 * J_m / 8e-4, T_Cl=T_Cl,
+        beta_m=0.001, beta_l=T_Cl * 0.05, T_Sl=T_Cl * 1.5, T_Sm=0.0, omega_s=0.05,
+    )  # fmt: skip
+    delta = 10 ** rng.uniform(-2, np.log10(0.5))
+    bl = BacklashParams(delta, delta * rng.uniform(0.1, 0.9))
+    counts = int(rng.choice([0, 1024, 2048, 8192, 65536]))
+    sig = float(rng.choice([0.0, 0.01, 0.03]))
+    sens = SensorParams(counts_m=counts, counts_l=counts, sigma_omega_m=sig, sigma_omega_l=sig)
+    kind = rng.choice(["sine", "passes", "vsine"])
+    f = float(rng.uniform(0.3, 2.0))
+    amp = max(3 * delta, rng.uniform(0.3, 2.0))  # load-side travel [rad]
+    if kind == "sine":
+        ref = position_sine(DURATION, TS, amp * N, f)
+    elif kind == "vsine":
+        ref = velocity_sine(DURATION, TS, amp * N * 2 * np.pi * f, f)
+    else:
+        ref = constant_velocity_passes(
+            DURATION,
+            TS,
+            velocity=amp * N * 3 * f,
+            stroke=amp * N,
+            acceleration=amp * N * 30 * f * f,
+            dwell=0.1,
+        )
+    g = replace(gains_from_bandwidth(dt, float(min(0.5 * wn, 300.0))), torque_limit=max(0.5 * K_S, 1.0))
+    trace = simulate(dt, bl, g, ref, sensors=sens, seed=seed).to_trace()
+    return replace(dt, T_Sm=0.0, T_Sl=0.0), bl, trace
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_random_drives(seed):
+    rng = np.random.default_rng(seed)
+    for case in range(12):
+        dt, bl, trace = random_drive(rng, case)
+        f = excitation_frequency(trace)
+        cfg = EstimatorConfig.tuned(dt, TS, f)
+        res = DeadzoneEstimator(dt, bl, TS, cfg).run(trace)
+        t, d = res.t, res.delta_hat
+        where = f"seed {seed} case {case}"
+        assert res.excitation_ok and res.converged, where
+        assert maee(t, d, bl.delta, t[-1] - 20.0) <= 1.5e-3, where  # measured worst 1.34 mrad
+        c = convergence_time(t, d, bl.delta, 10e-3)
+        assert c is not None and c <= 10.0, where
