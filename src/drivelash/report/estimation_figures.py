@@ -59,7 +59,9 @@ def _torque_panel(ax: Any, res: Any, tail: float = 0.5) -> None:
     sl = _thin(x.size, 15000)
     ax.plot(x[sl], res.torque_meas[k0:][sl], ".", ms=1.5, alpha=0.35, color="#777", label="J_l φ̂ (observed)")
     o = np.argsort(x)
-    ax.plot(x[o], res.torque_hat[k0:][o], color="#c0392b", lw=1.4, label="T_l(Δθ, δ̂) (model)")
+    kappa = float(res.extra.get("stiffness_scale", 1.0) or 1.0)
+    label = "T_l(Δθ, δ̂) (model)" if kappa == 1.0 else f"κ T_l(Δθ, δ̂) (model, κ = {kappa:.2f})"
+    ax.plot(x[o], kappa * res.torque_hat[k0:][o], color="#c0392b", lw=1.4, label=label)
     ax.set_xlabel("Δθ = θ_m/N − θ_l [mrad]")
     ax.set_ylabel("shaft torque [N·m]")
     ax.set_title("estimated shaft torque vs Δθ", fontsize=10)
