@@ -36,15 +36,14 @@ def run_fit(
     echo: Any = print,
 ) -> dict[str, Any]:
     """Fit both directions on a campaign and save the model; returns the training record."""
-    import torch
-
     from drivelash.te.campaign import load_campaign
+
+    t0 = time.perf_counter()
+    camp = load_campaign(campaign_dir)  # fails early, before the heavy imports
+
     from drivelash.te.model import MLPRegressor, StackedTERegressor, fit_te_model, prepare_campaign
     from drivelash.te.persist import save_model
 
-    torch.set_num_threads(2)
-    t0 = time.perf_counter()
-    camp = load_campaign(campaign_dir)
     pipeline, geo, runs = prepare_campaign(camp)
     t_prep = time.perf_counter() - t0
     echo(f"preprocessed {sum(len(r) for r in runs.values())} load runs in {t_prep:.1f} s")
@@ -62,13 +61,21 @@ def run_fit(
     return trained.info
 
 
+def _fit_baselines(X: Any, y: Any) -> tuple[Any, Any, Any]:
+    """Geometric-only, trees-only (grid search as stage 2) and HGB (every 4th row) on one direction."""
+    from drivelash.te.baselines import GeometricOnly, fit_hgb, fit_trees_only
+
+    return GeometricOnly().fit(X, y), fit_trees_only(X, y)[0], fit_hgb(X[::4], y[::4])
+
+
 def run_evaluate(model_dir: Path, campaign_dir: Path, out_dir: Path | None = None, echo: Any = print) -> dict:
     """Score the saved model and the baselines per load and direction; write table, JSON and figure."""
+    from drivelash.te.persist import load_model
+
+    model = load_model(model_dir)  # fails early (and safely) on a bad model directory
+
     from drivelash.te.baselines import (
-        GeometricOnly,
         compare,
-        fit_hgb,
-        fit_trees_only,
         format_table,
         mae_table,
         plot_fig6,
@@ -76,9 +83,7 @@ def run_evaluate(model_dir: Path, campaign_dir: Path, out_dir: Path | None = Non
     )
     from drivelash.te.campaign import load_campaign
     from drivelash.te.model import prepare_campaign, split_of, stack_runs
-    from drivelash.te.persist import load_model
 
-    model = load_model(model_dir)
     info = model.info
     max_load = float(info.get("max_load", 3000.0))
     holdout = tuple(float(v) for v in info.get("holdout_loads", ()))
@@ -101,12 +106,18 @@ def run_evaluate(model_dir: Path, campaign_dir: Path, out_dir: Path | None = Non
         "hgb": {},
     }
     t0 = time.perf_counter()
-    for key, rr in runs.items():
-        train = [r for r in rr if split_of(r.meta["load"], max_load, holdout) == "train"]
-        X, y = stack_runs(train, pipeline)
-        predictors["geo-only"][key] = GeometricOnly().fit(X, y)
-        predictors["trees-only"][key], _ = fit_trees_only(X, y)
-        predictors["hgb"][key] = fit_hgb(X, y)
+    from joblib import Parallel, delayed
+
+    keys = list(runs)
+    data = {}
+    for key in keys:
+        train = [r for r in runs[key] if split_of(r.meta["load"], max_load, holdout) == "train"]
+        data[key] = stack_runs(train, pipeline)
+    fitted = Parallel(n_jobs=2, backend="loky")(delayed(_fit_baselines)(*data[k]) for k in keys)
+    for key, (geo_only, trees, hgb) in zip(keys, fitted, strict=True):
+        predictors["geo-only"][key] = geo_only
+        predictors["trees-only"][key] = trees
+        predictors["hgb"][key] = hgb
     echo(f"fitted the baselines in {time.perf_counter() - t0:.1f} s")
     rows = compare(predictors, runs, pipeline, lambda r: split_of(r.meta["load"], max_load, holdout))
     table = mae_table(rows)

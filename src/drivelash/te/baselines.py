@@ -84,9 +84,10 @@ def fit_trees_only(
     y: np.ndarray,
     grid: Mapping[str, list[Any]] | None = None,
     block_length: float = 2e-3,
-    folds: int = 4,
-    search_stride: int = 4,
-    n_jobs: int = 2,
+    folds: int = 3,
+    search_stride: int = 16,
+    tree_stride: int = 4,
+    n_jobs: int = 1,
     random_state: int = 0,
 ) -> tuple[ColumnModel, dict[str, Any]]:
     """Bagged trees on (x_T, torque) fitted to TE_def [µm] directly (stage 2 alone).
@@ -99,7 +100,7 @@ def fit_trees_only(
     info = grid_search_trees(
         base, X2[::search_stride], y[::search_stride], g, grid or DEFAULT_TREE_GRID, folds, n_jobs
     )
-    est = clone(base).set_params(**info["best_params"]).fit(X2, y)
+    est = clone(base).set_params(**info["best_params"]).fit(X2[::tree_stride], y[::tree_stride])
     return ColumnModel(est, STAGE2_COLS), info
 
 

@@ -116,6 +116,8 @@ class MLPRegressor(RegressorMixin, BaseEstimator):
         Mini-batch size.
     val_fraction : float
         Share of the rows drawn at random as validation set (paper §IV).
+    weight_decay : float
+        L2 penalty of Adam (on standardised inputs and target).
     random_state : int
         Seed of torch and of the split.
     """
@@ -129,6 +131,7 @@ class MLPRegressor(RegressorMixin, BaseEstimator):
         patience: int = 8,
         batch_size: int = 1024,
         val_fraction: float = 0.15,
+        weight_decay: float = 0.0,
         random_state: int = 0,
     ) -> None:
         self.hidden = hidden
@@ -138,6 +141,7 @@ class MLPRegressor(RegressorMixin, BaseEstimator):
         self.patience = patience
         self.batch_size = batch_size
         self.val_fraction = val_fraction
+        self.weight_decay = weight_decay
         self.random_state = random_state
 
     def _check_params(self) -> None:
@@ -229,7 +233,7 @@ class MLPRegressor(RegressorMixin, BaseEstimator):
         ys = ((y - self.y_mean_) / self.y_scale_).astype(np.float32)
         xt, yt = torch.from_numpy(Xs[it]), torch.from_numpy(ys[it])
         xv, yv = torch.from_numpy(Xs[iv]), torch.from_numpy(ys[iv])
-        opt = torch.optim.Adam(net.parameters(), lr=lr)
+        opt = torch.optim.Adam(net.parameters(), lr=lr, weight_decay=float(self.weight_decay))
         gen = torch.Generator().manual_seed(int(self.random_state))
         best = np.inf
         best_state = copy.deepcopy(net.state_dict())
@@ -457,7 +461,7 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         cv_folds: int = 3,
         nn_stride: int = 8,
         search_stride: int = 16,
-        tree_stride: int = 2,
+        tree_stride: int = 4,
         n_jobs: int = 1,
         torch_threads: int = 1,
         random_state: int = 0,

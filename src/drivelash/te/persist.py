@@ -63,11 +63,7 @@ _I_NAMES = (
     "o_b2",
     "o_W3",
     "o_b3",
-    "o_thr",
-    "o_val",
-    "o_left",
-    "o_right",
-    "o_feat",
+    "o_nodes",
     "o_roots",
 )
 _I_HDR = len(_I_NAMES)
@@ -133,25 +129,26 @@ def _def_um(
         if v > 0.0:
             acc += v * f[o_W3 + k]
     y1 = (acc + f[ib[14]]) * f[5] + f[4]
-    # stage 2: bagged trees on (x_T, torque); sklearn compares float32(X) <= threshold
-    o_thr = ib[15]
-    o_val = ib[16]
-    o_left = ib[17]
-    o_right = ib[18]
-    o_feat = ib[19]
-    o_roots = ib[20]
+    # stage 2: bagged trees on (x_T, torque); sklearn compares float32(X) <= threshold.
+    # Compact depth-first layout, 16 bytes per node in ibuf: [threshold or leaf value (float64
+    # bits), 2·right + feature (−1 for a leaf)]; the left child is the next node.
+    o_nodes = ib[15]
+    o_roots = ib[16]
+    fv = ib.view(np.float64)
     xf = np.float64(np.float32(x))
     tf = np.float64(np.float32(torque))
     s = 0.0
     for t in range(n_trees):
-        node = ib[o_roots + t]
-        while ib[o_left + node] != -1:
-            v = xf if ib[o_feat + node] == 0 else tf
-            if v <= f[o_thr + node]:
-                node = ib[o_left + node]
+        k = o_nodes + 2 * ib[o_roots + t]
+        w = ib[k + 1]
+        while w >= 0:
+            v = xf if (w & 1) == 0 else tf
+            if v <= fv[k]:
+                k += 2
             else:
-                node = ib[o_right + node]
-        s += f[o_val + node]
+                k = o_nodes + 2 * (w >> 1)
+            w = ib[k + 1]
+        s += fv[k]
     if n_trees == 0:  # stage 1 only (see TEModel.predict_stage1_um)
         return y1
     return y1 + s / n_trees
@@ -255,8 +252,6 @@ def _pack(
         ("o_b2", b2),
         ("o_W3", W3),
         ("o_b3", b3),
-        ("o_thr", arrays["threshold"]),
-        ("o_val", arrays["value"]),
     ):
         offs[name] = pos
         flat = np.ascontiguousarray(a, dtype=np.float64).reshape(-1)
@@ -267,9 +262,7 @@ def _pack(
     i_parts: list[np.ndarray] = []
     ipos = _I_HDR
     for name, a in (
-        ("o_left", arrays["children_left"]),
-        ("o_right", arrays["children_right"]),
-        ("o_feat", arrays["feature"]),
+        ("o_nodes", _compact_nodes(arrays)),
         ("o_roots", arrays["roots"]),
     ):
         offs[name] = ipos
@@ -287,6 +280,16 @@ def _pack(
     }
     ibuf = np.concatenate([np.array([hdr[k] for k in _I_NAMES], dtype=np.int64), *i_parts])
     return fbuf, ibuf
+
+
+def _compact_nodes(arrays: Mapping[str, np.ndarray]) -> np.ndarray:
+    """Interleave the validated flat tree arrays into the kernel's 2-int64-per-node layout."""
+    left = arrays["children_left"]
+    leaf = left == -1
+    nodes = np.empty(2 * left.size, dtype=np.int64)
+    nodes[0::2] = np.where(leaf, arrays["value"], arrays["threshold"]).astype(np.float64).view(np.int64)
+    nodes[1::2] = np.where(leaf, -1, 2 * arrays["children_right"] + arrays["feature"])
+    return nodes
 
 
 def flatten_trees(bagging: Any) -> dict[str, np.ndarray]:
@@ -584,7 +587,7 @@ def _validate_direction(
     internal = ~leaf
     if not (
         np.all(R[leaf] == -1)
-        and np.all(L[internal] > idx[internal])
+        and np.all(L[internal] == idx[internal] + 1)  # depth-first order (scikit-learn's builder)
         and np.all(R[internal] > idx[internal])
         and np.all(L[internal] < n_nodes)
         and np.all(R[internal] < n_nodes)

@@ -422,7 +422,10 @@ class TEPipeline:
     offset : str
         ``"mean"`` (remove each run's mean TE_def) or ``"none"``.
     trim : float
-        Travel [m] dropped at both ends of each run (flank change, acceleration).
+        Travel [m] dropped at both ends of each load run (acceleration ramps, flank
+        change, filter edges).
+    geo_trim : float
+        Travel [m] dropped at both ends of each no-load (geometric) run.
     """
 
     geometry: GearGeometry
@@ -430,7 +433,8 @@ class TEPipeline:
     cutoff_factor: float = 3.0
     filter_order: int = 4
     offset: str = "mean"
-    trim: float = 5e-3
+    trim: float = 30e-3
+    geo_trim: float = 5e-3
 
     @property
     def cutoff(self) -> float:
@@ -451,7 +455,7 @@ class TEPipeline:
         grid, cols = resample_on_grid(
             x[idx], {"te": te, "torque": np.asarray(columns["torque_m"], dtype=np.float64)[idx]}, self.step
         )
-        return trim_ends(grid, cols, self.trim)
+        return grid, cols
 
     def geometric(self, no_load: Sequence[Mapping[str, np.ndarray]], direction: int) -> GeometricCurve:
         """TE_geo of one direction from its no-load runs (low-passed like the target).
@@ -466,6 +470,7 @@ class TEPipeline:
         grids, tes = [], []
         for cols in no_load:
             g, c = self._grid_run(cols, direction)
+            g, c = trim_ends(g, c, self.geo_trim)
             grids.append(g)
             tes.append(c["te"])
         geo = geometric_curve(grids, tes, self.step)
@@ -478,14 +483,21 @@ class TEPipeline:
         geo: GeometricCurve,
         meta: Mapping[str, Any] | None = None,
     ) -> RunData:
-        """Resample → TE → TE_def → offset removal → low-pass, for one run and direction."""
+        """Resample → TE → TE_def → low-pass → trim → offset removal, for one run and direction."""
         grid, c = self._grid_run(columns, direction)
-        raw = deformation(grid, c["te"], geo)
-        te_def = remove_offset(raw, self.offset)
-        te_def = lowpass(te_def, self.step, self.cutoff, self.filter_order)
-        torque = lowpass(c["torque"], self.step, self.cutoff, self.filter_order)
+        # low-pass the whole pass, then drop the ends (ramps, flank change, filter edges);
+        # the offset is removed over the kept part (a constant passes the low-pass unchanged)
+        filt = {
+            "def": lowpass(deformation(grid, c["te"], geo), self.step, self.cutoff, self.filter_order),
+            "torque": lowpass(c["torque"], self.step, self.cutoff, self.filter_order),
+        }
+        grid, filt = trim_ends(grid, filt, self.trim)
+        if grid.size < 8:
+            raise DataError("run shorter than twice the trim length", column="x_T")
+        te_def = remove_offset(filt["def"], self.offset)
+        torque = filt["torque"]
         m = dict(meta or {})
-        m["offset_um"] = float(np.mean(raw) * UM) if self.offset == "mean" else 0.0
+        m["offset_um"] = float(np.mean(filt["def"]) * UM) if self.offset == "mean" else 0.0
         m["torque_mean"] = float(np.mean(torque))
         return RunData(grid, torque, te_def * UM, int(np.sign(direction)), m)
 
@@ -505,6 +517,7 @@ class TEPipeline:
             "filter_order": self.filter_order,
             "offset": self.offset,
             "trim": self.trim,
+            "geo_trim": self.geo_trim,
         }
 
     @classmethod
@@ -518,4 +531,5 @@ class TEPipeline:
             filter_order=int(d["filter_order"]),
             offset=str(d["offset"]),
             trim=float(d["trim"]),
+            geo_trim=float(d.get("geo_trim", 5e-3)),
         )

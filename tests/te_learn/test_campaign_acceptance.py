@@ -1,0 +1,41 @@
+"""Issue 6 acceptance on the full virtual-bench campaign (slow: simulate, fit, evaluate)."""
+
+from __future__ import annotations
+
+import pytest
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def evaluated(tmp_path_factory):
+    from drivelash.commands.te_model import run_evaluate, run_fit
+    from drivelash.te.campaign import run_campaign
+
+    tmp = tmp_path_factory.mktemp("te_acceptance")
+    run_campaign(tmp / "camp", seed=0)
+    info = run_fit(tmp / "camp", tmp / "model", 3000.0, (1000.0, 2500.0), echo=lambda s: None)
+    ev = run_evaluate(tmp / "model", tmp / "camp", echo=lambda s: None)
+    return info, ev
+
+
+def test_training_mae_below_50_nm(evaluated):
+    info, ev = evaluated
+    for d in info["directions"].values():
+        assert d["train_mae_um"] <= 0.05
+    assert ev["summary"]["train"]["mae"]["stacked"] <= 0.05
+
+
+def test_held_out_and_extrapolation_relative_errors(evaluated):
+    _, ev = evaluated
+    s = ev["summary"]
+    assert s["held-out"]["ratio"]["stacked"] <= 0.10
+    assert s["extrapolation"]["ratio"]["stacked"] <= 0.25
+
+
+def test_stacked_beats_the_table_baselines(evaluated):
+    _, ev = evaluated
+    for split in ("held-out", "extrapolation"):
+        mae = ev["summary"][split]["mae"]
+        for base in ("geo-only", "trees-only", "hgb"):
+            assert mae["stacked"] < mae[base], (split, base, mae)
