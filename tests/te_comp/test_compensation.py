@@ -169,7 +169,7 @@ def _reversal_inputs(n=120, k_flip=40, x_flip=0.4):
 
 def test_backlash_step_sums_to_b_and_follows_smooth_step():
     m = SineTE()
-    p = CompensatorParams(v_max=1.0, hysteresis=0.5, t_ss=35e-3, release=0.0)
+    p = CompensatorParams(v_max=1.0, hysteresis=0.5, t_ss_sign=35e-3, release=0.0, bl_gain=1.0)
     comp = Compensator(_table(m, dx=0.05e-3), p, flank=1)
     x_d, tq, om, al = _reversal_inputs()
     vc, vte, vbl = comp.run(x_d, tq, om, al)
@@ -180,12 +180,24 @@ def test_backlash_step_sums_to_b_and_follows_smooth_step():
     assert np.sum(vbl) * T_SC == pytest.approx(b, rel=1e-12)
     # profile: cycle j after the flip holds b·(s((j+1)t/t_ss) − s(j t/t_ss))/t_sc
     j = np.arange(vbl.size - k_flip)
-    tau0, tau1 = j * T_SC / p.t_ss, (j + 1) * T_SC / p.t_ss
+    tau0, tau1 = j * T_SC / p.t_ss_sign, (j + 1) * T_SC / p.t_ss_sign
     s = lambda z: np.clip(3 * np.clip(z, 0, 1) ** 2 - 2 * np.clip(z, 0, 1) ** 3, 0, 1)  # noqa: E731
     np.testing.assert_allclose(vbl[k_flip:], comp.state[S_B] * (s(tau1) - s(tau0)) / T_SC, rtol=1e-12)
-    assert np.count_nonzero(vbl) == 7  # t_ss / t_sc cycles
+    assert np.count_nonzero(vbl) == 7  # t_ss_sign / t_sc cycles (change found from the torque sign)
     # peak of the continuous derivative is 1.5 b / t_ss
-    assert np.max(np.abs(vbl)) <= 1.5 * abs(b) / p.t_ss + 1e-12
+    assert np.max(np.abs(vbl)) <= 1.5 * abs(b) / p.t_ss_sign + 1e-12
+
+
+def test_bl_gain_scales_the_step():
+    m = SineTE()
+    x_d, tq, om, al = _reversal_inputs()
+    sums = []
+    for g in (1.0, 0.95):
+        comp = Compensator(_table(m), CompensatorParams(v_max=1.0, bl_gain=g), flank=1)
+        _, _, vbl = comp.run(x_d, tq, om, al)
+        sums.append(np.sum(vbl) * T_SC)
+    assert sums[1] == pytest.approx(0.95 * sums[0], rel=1e-12)
+    assert sums[0] == pytest.approx(m.backlash(0.4), rel=0.02)  # plus the small |T| term of the model
 
 
 def test_flank_from_mesh_torque_not_from_set_point_direction():

@@ -56,7 +56,8 @@ S_B = 2  # signed backlash step b of the last flank change [m]
 S_T_LAST = 3  # model torque of the previous cycle [N·m]
 S_INIT = 4  # 0 before the first cycle, 1 afterwards
 S_TE_HAT = 5  # integral of v_c: the compensator's running TE estimate (offset-free) [m]
-STATE_SIZE = 6
+S_TSS = 6  # duration of the running backlash step [s]
+STATE_SIZE = 7
 
 # Layout of the parameter vector of the kernels.
 P_T_SC = 0
@@ -70,7 +71,9 @@ P_J_MODEL = 7
 P_V_MAX = 8
 P_RELEASE = 9
 P_T_LOCK = 10
-PARAM_SIZE = 11
+P_T_SS_SIGN = 11
+P_BL_GAIN = 12
+PARAM_SIZE = 13
 
 
 class TEPredictor(Protocol):
@@ -92,7 +95,16 @@ class CompensatorParams:
     t_sc : float
         Compensation period t_s,c [s] (paper: 5 ms).
     t_ss : float
-        Duration of the smooth backlash step t_ss [s] (paper: 35 ms).
+        Duration of the smooth backlash step t_ss [s] when the flank change is found
+        at the start of the gap traverse (release with planned reversal).
+    t_ss_sign : float
+        Duration of the step when the change is found only from the torque sign, i.e.
+        after the impact on the new flank, when the loop has already absorbed most of
+        the jump [s] (paper: 35 ms for its single detection rule).
+    bl_gain : float
+        Share of the modelled backlash b applied by the step [-]; below 1 the motor
+        approaches the new flank and the loop makes the last part of the contact
+        (a soft landing instead of an impact that makes the table bounce).
     J_flank : float
         Inertia of motor + gearbox + pinion, motor side [kg·m²], whose acceleration
         torque is subtracted from the motor torque for flank detection.
@@ -132,22 +144,26 @@ class CompensatorParams:
     v_max: float = 0.05
     release: float = 0.6
     t_lock: float = 50e-3
+    t_ss_sign: float = 35e-3
+    bl_gain: float = 0.95
 
     def __post_init__(self) -> None:
         for f in fields(self):
             v = getattr(self, f.name)
             if not math.isfinite(v):
                 raise ParameterError(type(self).__name__, f.name, f"must be finite, got {v!r}")
-        for n in ("t_sc", "t_ss", "omega_reg", "v_max"):
+        for n in ("t_sc", "t_ss", "t_ss_sign", "omega_reg", "v_max"):
             if not getattr(self, n) > 0:
                 raise ParameterError(type(self).__name__, n, f"must be > 0, got {getattr(self, n)!r}")
-        for n in ("J_flank", "T_C", "beta", "hysteresis", "J_model", "release", "t_lock"):
+        for n in ("J_flank", "T_C", "beta", "hysteresis", "J_model", "release", "t_lock", "bl_gain"):
             if not getattr(self, n) >= 0:
                 raise ParameterError(type(self).__name__, n, f"must be >= 0, got {getattr(self, n)!r}")
 
     def as_array(self) -> np.ndarray:
-        """Parameters in kernel order (see ``P_*`` constants)."""
-        return np.array([getattr(self, f.name) for f in fields(self)], dtype=np.float64)
+        """Parameters in kernel order (see ``P_*`` constants; field order = kernel order)."""
+        a = np.array([getattr(self, f.name) for f in fields(self)], dtype=np.float64)
+        assert a.size == PARAM_SIZE
+        return a
 
 
 # ---------------------------------------------------------------------------
@@ -376,6 +392,7 @@ def init_state(flank):
     s = np.zeros(STATE_SIZE)
     s[S_FLANK] = 1.0 if flank >= 0 else -1.0
     s[S_T_SINCE] = 1e9
+    s[S_TSS] = 1.0
     return s
 
 
@@ -410,7 +427,8 @@ def compensation_cycle(state, te, x0, dx, torque0, dtorque, p, x_d_n, x_d_next, 
     planned = (x_d_next - x_d_n) * flank
     locked = state[S_T_SINCE] < p[P_T_LOCK]
     released = p[P_RELEASE] > 0.0 and planned < 0.0 and s_tm < p[P_RELEASE]
-    if not locked and (s_tm < -p[P_HYST] or released):
+    by_sign = s_tm < -p[P_HYST]
+    if not locked and (by_sign or released):
         new_flank = -flank
     # model torque: motor torque minus acceleration torque (trained at constant velocity)
     tq = torque_m - p[P_J_MODEL] * alpha_m
@@ -418,15 +436,17 @@ def compensation_cycle(state, te, x0, dx, torque0, dtorque, p, x_d_n, x_d_next, 
     if new_flank != flank:
         d_old = 1 - d_new
         t_old = state[S_T_LAST] if state[S_INIT] > 0.0 else tq
-        b = table_te(te, x0, dx, torque0, dtorque, d_new, x_d_n, tq) - table_te(
-            te, x0, dx, torque0, dtorque, d_old, x_d_n, t_old
+        b = p[P_BL_GAIN] * (
+            table_te(te, x0, dx, torque0, dtorque, d_new, x_d_n, tq)
+            - table_te(te, x0, dx, torque0, dtorque, d_old, x_d_n, t_old)
         )
         # a flank change during a running step: the unfinished part of the previous
         # step is carried over so that the sum of v_c,BL still equals the net jump
-        tau = state[S_T_SINCE] / p[P_T_SS]
+        tau = state[S_T_SINCE] / state[S_TSS]
         rest = state[S_B] * (1.0 - smooth_step(tau))
         state[S_B] = b + rest
         state[S_T_SINCE] = 0.0
+        state[S_TSS] = p[P_T_SS_SIGN] if by_sign else p[P_T_SS]
         state[S_FLANK] = new_flank
     # (6): rate of the model error along the planned trajectory at constant torque
     v_te = (
@@ -435,7 +455,8 @@ def compensation_cycle(state, te, x0, dx, torque0, dtorque, p, x_d_n, x_d_next, 
     ) / t_sc
     # (7): exact discrete derivative of b·s(t/t_ss) over this cycle
     t0 = state[S_T_SINCE]
-    v_bl = state[S_B] * (smooth_step((t0 + t_sc) / p[P_T_SS]) - smooth_step(t0 / p[P_T_SS])) / t_sc
+    tss = state[S_TSS]
+    v_bl = state[S_B] * (smooth_step((t0 + t_sc) / tss) - smooth_step(t0 / tss)) / t_sc
     v = v_te + v_bl
     vmax = p[P_V_MAX]
     if v > vmax:

@@ -133,6 +133,8 @@ def compensator_for(bench: Any, table: TETable, base: CompensatorParams | None =
     return CompensatorParams(
         t_sc=b.t_sc,
         t_ss=b.t_ss,
+        t_ss_sign=b.t_ss_sign,
+        bl_gain=b.bl_gain,
         J_flank=float(bench.J_M),
         T_C=float(bench.T_Cm),
         beta=float(bench.beta_m),
@@ -728,7 +730,7 @@ def validate(
     summary["sine"] = sine
     # the paper's settings (t_ss = 35 ms, flank change on the torque sign only) for comparison,
     # and a loaded sine (load drive reversing with the motion) as a robustness check
-    paper = dataclasses.replace(params, t_ss=35e-3, release=0.0)
+    paper = dataclasses.replace(params, t_ss=35e-3, t_ss_sign=35e-3, release=0.0)
     sine_p, _, comp_p = sine_validation(sim, table, paper, cfg)
     _fig_sine(unc, comp_p, float(bench.r_eff), out / "fig8_sine_paper_settings.png")
     summary["sine_paper_settings"] = sine_p
