@@ -12,7 +12,7 @@ Two methods share one kernel, :func:`deadzone_run`:
   (γ (J_l/K_S²) ∂T_l/∂δ [φ̂ − T_l/J_l] = γ g e, so γ is a rate [1/s]), Δθ = θ_m/N − θ_l
   straight from the (quantised) encoders.
 
-``method="default"`` — four improvements, each switchable by its parameter:
+``method="default"`` — five improvements, each switchable by its parameter:
 
 1. *Sub-count position reconstruction*: Δθ̂ from a complementary filter that fuses the
    quantised Δθ (low frequencies, cut-off ω_c) with the integral of the measured
@@ -33,6 +33,10 @@ Two methods share one kernel, :func:`deadzone_run`:
    contact where measured and model torque agree in sign and within a factor 2, κ ∈ [¼, 4],
    gain q·P0). A wrong K_S otherwise biases δ̂ by about half the contact deflection times
    the relative error (3.6 mrad on bench-1A with the paper's law).
+5. *Gain reset*: when the filtered residual exceeds P_RESET_E·θ_def in informative samples
+   (g_f² > ¼) without interruption for P_RESET_T, δ (or κ) has changed and P restarts at
+   P0 — the least-squares gain had shrunk to its low-noise steady level (wear step, first
+   convergence from a far-off δ0).
 
 Option ``estimate_offset`` (P_EST_D1): δ1 joins θ (regressor κ ∂T_l/∂δ1 / K_S, gain
 q_δ1·P_max, δ̂1 ∈ [−δ_max, δ_max]), for recordings where δ1 — the position of the lower
@@ -74,7 +78,9 @@ P_EST_K, P_EST_D1, P_Q_D1, P_THETA_DEF, P_Q_AUX = 22, 23, 24, 25, 26
 #: diagonal P0 of the least-squares gain
 P_C_POS, P_A_F, P_A_Q, P_P0 = 27, 28, 29, 30
 P_INV_N, P_INV_J, P_D_OVER_K, P_K_OVER_PI, P_INV_K, P_PROJ_C1, P_PROJ_C0 = 34, 35, 36, 37, 38, 39, 40
-N_PARAMS = 41
+#: gain reset on a persistent residual: threshold (multiple of θ_def; 0 = off) and duration [s]
+P_RESET_E, P_RESET_T = 41, 42
+N_PARAMS = 43
 
 # -- state array layout (followed by the σ ring buffer of W samples) -----------------
 S_OMEGA_HAT, S_Z, S_DELTA, S_P, S_XHAT, S_INIT, S_EF, S_GF = 0, 1, 2, 3, 4, 5, 6, 7
@@ -82,8 +88,8 @@ S_TQF, S_SIDE, S_TRAV, S_SIGSUM, S_RING_IDX, S_COUNT = 8, 9, 10, 11, 12, 13
 #: extended least squares (default method): θ = [δ, κ, a, b] at S_TH, filtered regressors at
 #: S_HF, 4×4 gain matrix (row-major) at S_PM
 NTH = 4
-S_TH, S_HF, S_PM, S_PH = 16, 20, 24, 40
-N_STATE = 44
+S_TH, S_HF, S_PM, S_PH, S_RESET = 16, 20, 24, 40, 44
+N_STATE = 45
 
 # -- output columns -----------------------------------------------------------------
 O_DELTA, O_PHI, O_OMEGA_HAT, O_SIGMA_WIN, O_DTHETA, O_TORQUE_HAT, O_TORQUE_MEAS, O_TRAV = range(8)
@@ -255,6 +261,22 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
             ph1 = state[q + 4] * f0 + state[q + 5] * f1
             ph2 = 0.0
             ph3 = 0.0
+        # gain reset: a residual beyond P_RESET_E·θ_def that persists for P_RESET_T in
+        # informative samples means δ (or κ) has changed — restart from P0 (wear, a swap)
+        if p[P_RESET_E] > 0.0:
+            if abs(ef) > p[P_RESET_E] * p[P_THETA_DEF] and f0 * f0 > 0.25:
+                state[S_RESET] += Ts
+            else:
+                state[S_RESET] = 0.0
+            if state[S_RESET] > p[P_RESET_T]:
+                state[S_RESET] = 0.0
+                for i in range(NTH):
+                    for j in range(NTH):
+                        state[S_PM + NTH * i + j] = p[P_P0 + i] if i == j else 0.0
+                ph0 = state[q] * f0 + state[q + 1] * f1 + state[q + 2] * f2 + state[q + 3] * f3
+                ph1 = state[q + 4] * f0 + state[q + 5] * f1 + state[q + 6] * f2 + state[q + 7] * f3
+                ph2 = state[q + 8] * f0 + state[q + 9] * f1 + state[q + 10] * f2 + state[q + 11] * f3
+                ph3 = 0.0
         rate = _projection_fast(delta, ph0 * ef, p[P_PROJ_C1], p[P_PROJ_C0])
         if ef == ef:
             kappa = kappa + Ts * ph1 * ef

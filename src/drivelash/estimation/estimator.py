@@ -18,7 +18,8 @@ reversal) frequency f_r — ``estimate`` detects f_r from the recording
   the sampling is coarse against the shaft resonance;
 * paper law: γ = ω_n/16;
 * default law: τ_f = max(2/ω_n, 4 T_s), P_max = 16 ω_r, λ = ω_r/25, ω_c = 10 ω_r,
-  stiffness-scale gain q = 0.1, friction terms off;
+  stiffness-scale gain q = 0.1; gain reset when the residual stays above 3 θ_def for
+  2 τ_f in informative samples;
 * excitation window max(2/f_r, 1 s); δ_max = 2 rad, ε_δ = 0.1, δ0 = 0.
 
 Chosen on ``paper-sim`` and the 18 bench scenarios and checked, unchanged, on drives outside
@@ -105,6 +106,10 @@ class EstimatorConfig:
         Typical contact deflection [rad]: scales the initial gain of κ, P0 = q_aux P_max/θ_def².
     q_aux : float
         Gain of κ relative to δ's [-].
+    reset_e : float
+        Gain reset threshold on the filtered residual, in units of θ_def [-]; 0 = off.
+    reset_t : float
+        Time the residual must stay beyond it (in informative samples) [s].
     """
 
     k1: float
@@ -129,6 +134,8 @@ class EstimatorConfig:
     offset_switch: float = 5e-3
     theta_def: float = 1e-3
     q_aux: float = 0.1
+    reset_e: float = 0.0
+    reset_t: float = 0.02
 
     def __post_init__(self) -> None:
         name = type(self).__name__
@@ -223,6 +230,8 @@ class EstimatorConfig:
             T_thr=T_thr,
             window=max(2.0 / f_exc, 1.0),
             theta_def=theta_def,
+            reset_e=3.0,
+            reset_t=max(2.0 * (2.0 / w_n), 4.0 * Ts),
         )
         values.update({k: v for k, v in overrides.items() if v is not None})
         return cls(**values)
@@ -278,6 +287,8 @@ def build_params(
     p[dz.P_Q_D1] = config.q_offset
     p[dz.P_THETA_DEF] = config.theta_def
     p[dz.P_Q_AUX] = config.q_aux
+    p[dz.P_RESET_E] = config.reset_e
+    p[dz.P_RESET_T] = config.reset_t
     return dz.derive_params(p)
 
 
