@@ -152,13 +152,14 @@ class EstimatorConfig:
             "window",
             "q_offset",
             "offset_switch",
+            "reset_t",
             "theta_def",
             "q_aux",
         ):
             v = getattr(self, f)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ParameterError(name, f, f"must be finite and > 0, got {v!r}")
-        for f in ("delta0", "omega_c", "tau_f", "omega_eps"):
+        for f in ("delta0", "omega_c", "tau_f", "omega_eps", "reset_e"):
             v = getattr(self, f)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ParameterError(name, f, f"must be finite and >= 0, got {v!r}")
