@@ -246,6 +246,12 @@ def test_release_with_planned_reversal_starts_the_step_early():
     comp = Compensator(_table(m), p, flank=1)
     comp.run(x_d, np.full(n, 0.3), np.zeros(n), al)
     assert comp.flank == 1
+    # a load that fades only in the last cycle before the reversal: no release (the
+    # torque sign reports the change later, with the slow step)
+    tq = np.where(np.arange(n) < 39, 3.0, 0.05)
+    comp = Compensator(_table(m), p, flank=1)
+    comp.run(x_d[:42], tq[:41], np.zeros(41), al[:41])
+    assert comp.flank == 1
 
 
 def test_lockout_ignores_impact_spikes_after_a_flank_change():

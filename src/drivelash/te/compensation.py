@@ -57,7 +57,9 @@ S_T_LAST = 3  # model torque of the previous cycle [N·m]
 S_INIT = 4  # 0 before the first cycle, 1 afterwards
 S_TE_HAT = 5  # integral of v_c: the compensator's running TE estimate (offset-free) [m]
 S_TSS = 6  # duration of the running backlash step [s]
-STATE_SIZE = 7
+S_TM1 = 7  # mesh torque of the previous cycle [N·m]
+S_TM2 = 8  # mesh torque two cycles back [N·m]
+STATE_SIZE = 9
 
 # Layout of the parameter vector of the kernels.
 P_T_SC = 0
@@ -124,10 +126,11 @@ class CompensatorParams:
     v_max : float
         Symmetric limit of |v_c| [m/s] (drive limit).
     release : float
-        Mesh torque [N·m] below which the contact with the current flank counts as
-        released when the *planned* motion (look-ahead) points towards the other
-        flank: the flank change is then taken at the start of the gap traverse, not
-        at the impact on the other flank (where the torque sign confirms it). 0 disables.
+        Mesh torque [N·m] below which (in this and the two previous cycles) the
+        contact with the current flank counts as released when the *planned* motion
+        (look-ahead) points towards the other flank: the flank change is then taken
+        at the start of the gap traverse, not at the impact on the other flank (where
+        the torque sign confirms it). 0 disables.
     t_lock : float
         Time after a flank change during which no further change is accepted [s]:
         the torque spikes of the impact on the new flank must not toggle the flank.
@@ -393,6 +396,8 @@ def init_state(flank):
     s[S_FLANK] = 1.0 if flank >= 0 else -1.0
     s[S_T_SINCE] = 1e9
     s[S_TSS] = 1.0
+    s[S_TM1] = 1e9 if flank >= 0 else -1e9  # no release before two cycles of history
+    s[S_TM2] = s[S_TM1]
     return s
 
 
@@ -426,7 +431,12 @@ def compensation_cycle(state, te, x0, dx, torque0, dtorque, p, x_d_n, x_d_next, 
     s_tm = tm * flank
     planned = (x_d_next - x_d_n) * flank
     locked = state[S_T_SINCE] < p[P_T_LOCK]
-    released = p[P_RELEASE] > 0.0 and planned < 0.0 and s_tm < p[P_RELEASE]
+    # release: low mesh torque for three cycles (15 ms) — a process load that fades only
+    # as the set velocity passes zero (and then throws the table across the gap) is excluded
+    s_max = max(s_tm, state[S_TM1] * flank, state[S_TM2] * flank)
+    released = p[P_RELEASE] > 0.0 and planned < 0.0 and s_max < p[P_RELEASE]
+    state[S_TM2] = state[S_TM1]
+    state[S_TM1] = tm
     by_sign = s_tm < -p[P_HYST]
     if not locked and (by_sign or released):
         new_flank = -flank
