@@ -43,8 +43,8 @@ class NumpyDeadzoneEstimator:
 
     Written from the equations (module docstring of :mod:`drivelash.estimation.deadzone`),
     not from the kernel: complementary filter on Δθ, STSMO, model (12) and sensitivity (50)
-    with two ``np.arctan``, filtered residual/regressor, least squares with leakage on
-    θ = [δ, κ], projection (65), σ ring buffer.
+    with two ``np.arctan``, filtered residual/regressor, least squares with leakage and
+    gain reset on θ = [δ, κ], projection (65), σ ring buffer.
     """
 
     def __init__(self, params: np.ndarray) -> None:
@@ -64,6 +64,7 @@ class NumpyDeadzoneEstimator:
         self.P = np.diag([p[dz.P_P0], p[dz.P_P0 + 1]])
         self.P0 = self.P.copy()
         self.tqf = 0.0
+        self.reset_timer = 0.0
 
     def step(self, theta_m: float, omega_m: float, theta_l: float, omega_l: float) -> float:
         p = self.p
@@ -105,6 +106,12 @@ class NumpyDeadzoneEstimator:
         af = 1.0 - np.exp(-Ts / p[dz.P_TAU_F])
         self.ef += af * (e - self.ef)
         self.hf += af * (h - self.hf)
+        if p[dz.P_RESET_E] > 0:  # gain reset on a persistent residual
+            big = abs(self.ef) > p[dz.P_RESET_E] * p[dz.P_THETA_DEF] and self.hf[0] ** 2 > 0.25
+            self.reset_timer = self.reset_timer + Ts if big else 0.0
+            if self.reset_timer > p[dz.P_RESET_T]:
+                self.reset_timer = 0.0
+                self.P = self.P0.copy()
         Ph = self.P @ self.hf
         eps, dmax = p[dz.P_EPS_DELTA], p[dz.P_DELTA_MAX]
         tau = Ph[0] * self.ef
