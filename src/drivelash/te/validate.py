@@ -639,8 +639,13 @@ class TreesUpdater:
         self.fit_time_s = float("nan")
         self.update_time_s = float("nan")
 
-    def fit(self, campaign: Any, max_load: float = 3000.0) -> TEPredictor:
-        """Fit on the campaign's training runs (load ≤ ``max_load``); returns the model."""
+    def fit(self, campaign: Any, max_load: float = 3000.0, reference: Any = None) -> TEPredictor:
+        """Fit on the campaign's training runs (load ≤ ``max_load``); returns the model.
+
+        With a ``reference`` (the loaded model being validated) its network and tree
+        hyperparameters are reused and no search is run — the same architecture,
+        refitted in minutes; otherwise ``n_trials`` Hyperband trials and the grid search.
+        """
         import torch
 
         from drivelash.te.model import MLPRegressor, StackedTERegressor, fit_te_model, prepare_campaign
@@ -648,7 +653,22 @@ class TreesUpdater:
         torch.set_num_threads(2)
         t0 = time.perf_counter()
         pipeline, geo, runs = prepare_campaign(campaign)
-        est = StackedTERegressor(nn=MLPRegressor(max_epochs=self.max_epochs), n_trials=self.n_trials)
+        meta = getattr(reference, "meta", None) or {}
+        pos = meta.get("models", {}).get("pos", {})
+        nn_p = {k: v for k, v in pos.get("nn_params", {}).items() if k in ("hidden", "dropout", "lr")}
+        tree_p = pos.get("tree_params") or {}
+        if nn_p:
+            from sklearn.base import clone
+
+            from drivelash.te.model import default_trees
+
+            trees = clone(default_trees())
+            if tree_p:
+                trees.set_params(**tree_p)
+            est = StackedTERegressor(nn=MLPRegressor(max_epochs=self.max_epochs, **nn_p), trees=trees,
+                                     tune_nn=False, tune_trees=False)  # fmt: skip
+        else:
+            est = StackedTERegressor(nn=MLPRegressor(max_epochs=self.max_epochs), n_trials=self.n_trials)
         self.trained = fit_te_model(pipeline, geo, runs, max_load, (), est, log=self.echo)
         self.fit_time_s = time.perf_counter() - t0
         return self.trained
@@ -745,7 +765,7 @@ def validate(
     summary["passes"] = summarize_passes(rows, cfg.train_max_load)
 
     say("(c) monitoring with a local rack defect")
-    summary["monitoring"] = monitoring_demo(campaign, sim, table, params, cfg, out, updater, say)
+    summary["monitoring"] = monitoring_demo(campaign, sim, table, params, cfg, out, updater, say, model)
     summary["acceptance"] = acceptance(summary)
     summary["wall_time_s"] = time.perf_counter() - t_start
     (out / "summary.json").write_text(json.dumps(_jsonable(summary), indent=1), encoding="utf-8")
@@ -761,6 +781,7 @@ def monitoring_demo(
     out: Path,
     updater: TreesUpdater | None,
     say: Callable[[str], None],
+    reference: Any = None,
 ) -> dict[str, Any]:
     """Protocol (c): flag the defect with the old model, then update stage 2 and re-check.
 
@@ -786,8 +807,8 @@ def monitoring_demo(
         return rep, float(np.nanmean(imp)), imp
 
     if updater is not None:
-        say(f"    fitting a trainable model on the campaign ({updater.n_trials} Hyperband trials)")
-        table = table_for(updater.fit(campaign, cfg.train_max_load), sim.bench, cfg)
+        say("    fitting a trainable model on the campaign (hyperparameters of the validated model)")
+        table = table_for(updater.fit(campaign, cfg.train_max_load, reference), sim.bench, cfg)
     rep0, imp0_mean, imp0 = judge(table)
     k_def = int(np.searchsorted(edges, cfg.defect_center, side="right") - 1)
     res: dict[str, Any] = {
