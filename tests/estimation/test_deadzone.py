@@ -150,7 +150,8 @@ def test_bad_config_field():
 def test_model_torque_and_gradient_match_physics_module(short_bench_trace):
     """The kernel's fused (one-atan) T_l and ∂T_l/∂δ equal physics.backlash's (12), (50)."""
     trace, bl = short_bench_trace
-    cfg = EstimatorConfig.tuned(RIG_ESTIMATOR, TS, 0.5, method="paper")
+    # a 0.5 s window (4000 samples) so that the σ ring buffer wraps within the 20000 samples
+    cfg = EstimatorConfig.tuned(RIG_ESTIMATOR, TS, 0.5, method="paper", window=0.5)
     est = DeadzoneEstimator(RIG_ESTIMATOR, bl, TS, cfg)
     x = _samples(trace, 20000)
     out = est.run_samples(x)
