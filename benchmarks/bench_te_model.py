@@ -10,8 +10,8 @@
 3. **Wear update**: a local rack deviation (Gaussian, 3 µm, σ 10 mm at x = 1.1 m) is
    added to the drive; the positive-direction training runs are simulated again and
    the held-out runs too. ``update(stage="trees")`` is compared with a full refit
-   (Hyperband + grid search) on the same new data: held-out MAE within 20 % of the
-   refit's, in ≤ 10 % of its time.
+   (Hyperband + grid search) on the same new data, both with ``n_jobs=2``: held-out MAE
+   within 20 % of the refit's, in ≤ 10 % of its time.
 
 Environment: ``DRIVELASH_TE_CAMPAIGN=DIR`` reuses a campaign (default: simulate one
 with seed 0 into a temporary directory). Wall times are printed with the load
@@ -137,11 +137,12 @@ def main() -> None:
             trained.predict(x[i : i + 1], tq[i : i + 1], 1)
             base_one.append(time.perf_counter() - t)
         base_one_t = float(np.median(base_one))
-        best = np.inf
+        best, best_cpu = np.inf, np.inf
         for _ in range(3):
-            t = time.perf_counter()
+            t, c = time.perf_counter(), time.process_time()
             got = model.predict(x, tq, 1)
             best = min(best, time.perf_counter() - t)
+            best_cpu = min(best_cpu, time.process_time() - c)
         nb = 200_000
         t = time.perf_counter()
         ref = trained.predict(x[:nb], tq[:nb], 1)
@@ -152,7 +153,8 @@ def main() -> None:
             f"trained (sklearn+torch) {base_one_t * 1e6:.0f} us; ratio {base_one_t / one:.0f}x"
         )
         print(
-            f"PREDICT batch of 1 M: loaded {n / best / 1e6:.2f} M points/s (goal >= 1 M/s); "
+            f"PREDICT batch of 1 M: loaded {n / best / 1e6:.2f} M points/s wall "
+            f"({n / best_cpu / 1e6:.2f} M points per CPU-second; goal >= 1 M/s); "
             f"trained {n / base_batch / 1e6:.3f} M points/s; ratio {base_batch / best:.1f}x; "
             f"max |diff| {diff_um:.2e} um (goal <= 1e-9)"
         )
@@ -167,13 +169,13 @@ def main() -> None:
         Xh, yh = stack_runs(ho_new, pipeline)
         old = trained.models["pos"]
         mae_old = float(np.mean(np.abs(old.predict(Xh) - yh)))
-        upd = copy.deepcopy(old)
+        upd = copy.deepcopy(old).set_params(n_jobs=2)  # one direction: both cores for its trees
         t = time.perf_counter()
         upd.update(Xn, yn, stage="trees")
         t_upd = time.perf_counter() - t
         mae_upd = float(np.mean(np.abs(upd.predict(Xh) - yh)))
         t = time.perf_counter()
-        full = copy.deepcopy(est).fit(Xn, yn)
+        full = copy.deepcopy(est).set_params(n_jobs=2).fit(Xn, yn)  # grid search on both cores too
         t_full = time.perf_counter() - t
         mae_full = float(np.mean(np.abs(full.predict(Xh) - yh)))
         print(

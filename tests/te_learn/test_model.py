@@ -142,7 +142,7 @@ def test_baselines_and_split(train_xy):
         n_jobs=1,
     )
     assert np.mean(np.abs(trees.predict(X) - y)) < 0.1 * np.mean(np.abs(y))
-    hgb = fit_hgb(X[::4], y[::4], max_iter=100)
+    hgb = fit_hgb(X[::4], y[::4], max_iter=40)
     assert np.mean(np.abs(hgb.predict(X) - y)) < 0.2 * np.mean(np.abs(y))
     assert split_of(1000.0, 3000.0, (1000.0,)) == "held-out"
     assert split_of(3500.0, 3000.0, (1000.0,)) == "extrapolation"

@@ -25,6 +25,7 @@ torch and optuna are imported only inside the training code paths.
 from __future__ import annotations
 
 import copy
+import math
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -563,12 +564,16 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
 
     def _fit_trees(self, X: np.ndarray, y: np.ndarray, mode: str) -> None:
         """Fit stage 2 on the stage-1 residual: ``mode`` "search" (grid search), "template", "keep"."""
-        r = y - self.nn_.predict(X[:, STAGE1_COLS])
-        X2 = X[:, STAGE2_COLS]
+        ts = int(self.tree_stride)
+        ss = int(self.search_stride)
+        g = math.gcd(ts, ss) if mode == "search" else ts
+        Xg = X[::g]  # the stage-1 residual is needed on these rows only
+        r = y[::g] - self.nn_.predict(Xg[:, STAGE1_COLS])
+        X2 = Xg[:, STAGE2_COLS]
         base = self._trees_template()
+        ts, ss = ts // g, ss // g
         if mode == "search":
-            ss = int(self.search_stride)
-            groups = position_blocks(X[::ss, 0], float(self.block_length))
+            groups = position_blocks(Xg[::ss, 0], float(self.block_length))
             n_groups = np.unique(groups).size
             folds = min(int(self.cv_folds), n_groups)
             if folds < 2:
@@ -588,8 +593,10 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         else:
             self.trees_ = clone(base)
             self.tree_info_ = {"best_params": {}, "best_cv_mae": float("nan")}
-        ts = int(self.tree_stride)
+        n_jobs = self.trees_.n_jobs
+        self.trees_.set_params(n_jobs=int(self.n_jobs))  # the trees of the bag in parallel
         self.trees_.fit(X2[::ts], r[::ts])
+        self.trees_.set_params(n_jobs=n_jobs)
 
     def _score_train(self, X: np.ndarray, y: np.ndarray) -> None:
         p1 = self.nn_.predict(X[:, STAGE1_COLS])
@@ -612,7 +619,8 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         Returns
         -------
         StackedTERegressor
-            ``self``; ``update_time_`` [s].
+            ``self``; ``update_time_`` [s]. ``train_mae_`` and ``stage1_share_`` keep the
+            values of the last ``fit`` (not re-scored, to keep the update fast).
         """
         if stage not in ("trees", "both"):
             raise ParameterError(
@@ -628,7 +636,6 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
             self.nn_.fine_tune(X[::s, STAGE1_COLS], y[::s])
         self._fit_trees(X, y, mode="keep")
         self.update_time_ = time.perf_counter() - t0
-        self._score_train(X, y)
         return self
 
     # -- prediction ----------------------------------------------------------

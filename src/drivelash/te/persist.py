@@ -16,14 +16,21 @@ pickle-capable file (``.pkl``, ``.pickle``, ``.joblib``, ``.npy``, ``.pt``, ``.p
 :class:`ModelFileError` — nothing in it is executed. Tree arrays are checked so
 that traversal always terminates (children after their parent).
 
-The loaded :class:`TEModel` predicts with numba kernels only (torch is never imported):
+The loaded :class:`TEModel` predicts with numba kernels only (torch is never imported).
+Interface for the compensation (units!):
 
-* ``TEModel.predict(x_T [m], torque [N·m], direction ±1) -> TE [m]`` (NumPy arrays),
-* ``TEModel.predict_def_um(...) -> TE_def [µm]``,
-* ``TEModel.predict_one(x_T, torque, direction) -> TE [m]`` (one point, float),
-* ``TEModel.kernel_arrays(direction) -> (fbuf, ibuf)`` — two flat arrays per
-  direction that :func:`te_point` ``(x_T, torque, fbuf, ibuf) -> TE [m]`` and
+* ``TEModel.predict(x_T [m], torque [N·m], direction ±1) -> TE [m]`` (NumPy arrays,
+  torque broadcast): TE = TE_geo(x_T) + [a + b·torque + TE_def(x_T, torque)]·1e-6, the
+  absolute transmission error (1) of that flank, as ``x_T − θ_M d_p/(2 i_PG)``;
+* ``TEModel.predict_def_um(...) -> TE_def [µm]`` — the offset-free learned deformation
+  (stage 1 + stage 2), ``predict_stage1_um`` the network part alone;
+* ``TEModel.predict_one(x_T, torque, direction) -> TE [m]`` (one point, float);
+* ``TEModel.backlash(x_T, torque) -> TE_neg − TE_pos [m]``;
+* ``TEModel.kernel_arrays(direction) -> (fbuf float64, ibuf int64)`` — two flat arrays
+  per direction that :func:`te_point` ``(x_T, torque, fbuf, ibuf) -> TE [m]`` and
   :func:`te_def_point` (µm) accept inside the caller's own ``@njit`` code.
+
+``direction`` is the flank in contact: +1 moving in +x (positive torque), −1 in −x.
 """
 
 from __future__ import annotations
@@ -67,6 +74,8 @@ _I_NAMES = (
     "o_roots",
 )
 _I_HDR = len(_I_NAMES)
+#: Batches at least this long are evaluated in position order (cache-friendly tree walks).
+SORT_MIN = 4096
 
 
 class ModelFileError(DrivelashError):
@@ -81,37 +90,31 @@ def _def_um(
     x: float, torque: float, f: np.ndarray, ib: np.ndarray, z: np.ndarray, h1: np.ndarray, h2: np.ndarray
 ) -> float:  # pragma: no cover - njit
     n_t = ib[0]
-    n_in = ib[1]
     hid = ib[2]
     n_trees = ib[4]
     d_p = f[2]
     eps = f[3]
-    # stage 1 inputs: torque, M_1..M_nt, standardised
-    z[0] = torque
-    u = x * n_t / (np.pi * d_p)
-    for j in range(n_t):
-        m = (u - (j + 1)) % n_t
-        eta = (2.0 / eps) * m - 1.0
-        if -1.0 < eta < 1.0:
-            e2 = eta * eta
-            z[j + 1] = np.exp(e2 / (e2 - 1.0))
-        else:
-            z[j + 1] = 0.0
-    o_xm = ib[7]
-    o_xs = ib[8]
-    for i in range(n_in):
-        z[i] = (z[i] - f[o_xm + i]) / f[o_xs + i]
+    # stage 1: layer 1 with the standardisation folded into W1/b1 at packing time
+    # (W1s = W1/σ, b1s = b1 − Σ μ/σ·W1), so only torque and the ⌈ε⌉ teeth in mesh contribute
     o_W1 = ib[9]
     o_b1 = ib[10]
     for k in range(hid):
-        h1[k] = 0.0
-    for i in range(n_in):
-        zi = z[i]
-        row = o_W1 + i * hid
-        for k in range(hid):
-            h1[k] += zi * f[row + k]
+        h1[k] = f[o_b1 + k] + torque * f[o_W1 + k]
+    u = x * n_t / (np.pi * d_p)
+    fu = np.floor(u)
+    for q in range(int(np.ceil(eps)) + 1):
+        j1 = fu - q  # tooth number j (1-based) modulo n_t
+        m = u - j1  # = mod(u − j, n_t) of eq (5), in [q, q + 1)
+        eta = (2.0 / eps) * m - 1.0
+        if -1.0 < eta < 1.0:
+            e2 = eta * eta
+            mj = np.exp(e2 / (e2 - 1.0))
+            j0 = int(j1 - 1.0) % n_t  # 0-based tooth index
+            row = o_W1 + (j0 + 1) * hid
+            for k in range(hid):
+                h1[k] += mj * f[row + k]
     for k in range(hid):
-        v = h1[k] + f[o_b1 + k]
+        v = h1[k]
         h1[k] = v if v > 0.0 else 0.0
     o_W2 = ib[11]
     o_b2 = ib[12]
@@ -119,6 +122,8 @@ def _def_um(
         h2[k] = 0.0
     for i in range(hid):
         hi = h1[i]
+        if hi == 0.0:
+            continue
         row = o_W2 + i * hid
         for k in range(hid):
             h2[k] += hi * f[row + k]
@@ -226,6 +231,9 @@ def _pack(
     """Flatten one direction's arrays into the (fbuf, ibuf) layout of the kernels."""
     W1, b1, W2, b2, W3, b3 = (arrays[k] for k in ("W1", "b1", "W2", "b2", "W3", "b3"))
     n_in, hid = W1.shape
+    mu, sd = arrays["x_mean"], arrays["x_scale"]
+    W1 = W1 / sd[:, None]  # standardisation folded into layer 1
+    b1 = b1 - (mu / sd) @ (W1 * sd[:, None])
     f_parts = [
         np.array(
             [
@@ -371,7 +379,14 @@ class TEModel:
         tq = np.ascontiguousarray(np.broadcast_to(np.asarray(torque, dtype=np.float64), x.shape))
         f, ib = self.kernel_arrays(direction)
         out = np.empty(x.size)
-        _batch(x, tq, f, ib, with_geo, out)
+        if x.size >= SORT_MIN:
+            # neighbouring positions walk the same tree paths: sorted, the nodes stay in cache
+            order = np.argsort(x)
+            tmp = np.empty(x.size)
+            _batch(x[order], tq[order], f, ib, with_geo, tmp)
+            out[order] = tmp
+        else:
+            _batch(x, tq, f, ib, with_geo, out)
         return out
 
     def predict(self, x_T: Any, torque: Any, direction: int) -> np.ndarray:
@@ -552,12 +567,13 @@ def _validate_direction(
         ("x_scale", 1),
         ("y_mean", 1),
         ("y_scale", 1),
-        ("offset", 1),
         ("geo_te", 1),
         ("threshold", 1),
         ("value", 1),
     ):
         out[n] = _need(arrs, key, n, "f", nd)
+    # the offset line (a, b) is optional (directories written before it existed: zero)
+    out["offset"] = _need(arrs, key, "offset", "f", 1) if f"{key}.offset" in arrs else np.zeros(2)
     for n in ("children_left", "children_right", "feature", "roots"):
         out[n] = _need(arrs, key, n, "iu", 1)
     n_in, hid = out["W1"].shape
