@@ -20,7 +20,8 @@ import numpy as np
 from drivelash.errors import ParameterError
 
 
-def _check_finite(obj: object) -> None:
+def require_finite(obj: object) -> None:
+    """Raise :class:`ParameterError` naming the first non-finite numeric field of ``obj``."""
     for f in fields(obj):  # type: ignore[arg-type]
         v = getattr(obj, f.name)
         if isinstance(v, bool) or not isinstance(v, (int, float)):
@@ -29,14 +30,16 @@ def _check_finite(obj: object) -> None:
             raise ParameterError(type(obj).__name__, f.name, f"must be finite, got {v!r}")
 
 
-def _positive(obj: object, *names: str) -> None:
+def require_positive(obj: object, *names: str) -> None:
+    """Raise :class:`ParameterError` naming the first of ``names`` that is not > 0."""
     for n in names:
         v = getattr(obj, n)
         if not v > 0:
             raise ParameterError(type(obj).__name__, n, f"must be > 0, got {v!r}")
 
 
-def _non_negative(obj: object, *names: str) -> None:
+def require_non_negative(obj: object, *names: str) -> None:
+    """Raise :class:`ParameterError` naming the first of ``names`` that is not >= 0."""
     for n in names:
         v = getattr(obj, n)
         if not v >= 0:
@@ -84,9 +87,9 @@ class DrivetrainParams:
     omega_s: float = 0.01
 
     def __post_init__(self) -> None:
-        _check_finite(self)
-        _positive(self, "J_m", "J_l", "N", "K_S", "omega_s")
-        _non_negative(self, "D_S", "T_Cm", "T_Cl", "beta_m", "beta_l", "T_Sm", "T_Sl")
+        require_finite(self)
+        require_positive(self, "J_m", "J_l", "N", "K_S", "omega_s")
+        require_non_negative(self, "D_S", "T_Cm", "T_Cl", "beta_m", "beta_l", "T_Sm", "T_Sl")
         for s, c in (("T_Sm", "T_Cm"), ("T_Sl", "T_Cl")):
             if getattr(self, s) and getattr(self, s) < getattr(self, c):
                 raise ParameterError(type(self).__name__, s, f"static friction must be 0 or >= {c}")
@@ -121,9 +124,9 @@ class BacklashParams:
     alpha: float = 1000.0
 
     def __post_init__(self) -> None:
-        _check_finite(self)
-        _non_negative(self, "delta")
-        _positive(self, "alpha")
+        require_finite(self)
+        require_non_negative(self, "delta")
+        require_positive(self, "alpha")
         if not 0.0 <= self.delta1 <= self.delta:
             raise ParameterError(
                 type(self).__name__,
@@ -160,8 +163,8 @@ class CascadeGains:
     T_s: float = 125e-6
 
     def __post_init__(self) -> None:
-        _check_finite(self)
-        _positive(self, "K_v", "K_p", "T_n", "torque_limit", "T_s")
+        require_finite(self)
+        require_positive(self, "K_v", "K_p", "T_n", "torque_limit", "T_s")
         if not 0.0 <= self.k_ff <= 1.0:
             raise ParameterError(type(self).__name__, "k_ff", f"must lie in [0, 1], got {self.k_ff!r}")
 
@@ -196,8 +199,8 @@ class SensorParams:
     velocity_source: Literal["measured", "differentiated"] = "measured"
 
     def __post_init__(self) -> None:
-        _check_finite(self)
-        _non_negative(
+        require_finite(self)
+        require_non_negative(
             self,
             "counts_m",
             "counts_l",

@@ -69,6 +69,8 @@ import math
 import numpy as np
 from numba import njit
 
+from drivelash.physics.backlash import sgn
+
 # -- parameter array layout ---------------------------------------------------------
 P_J_L, P_N, P_K_S, P_D_S, P_T_CL, P_BETA_L, P_DELTA1, P_ALPHA = 0, 1, 2, 3, 4, 5, 6, 7
 P_K1, P_K2, P_GAMMA, P_DELTA_MAX, P_EPS_DELTA, P_TS, P_METHOD = 8, 9, 10, 11, 12, 13, 14
@@ -98,15 +100,6 @@ N_OUT = 8
 # -- input columns ------------------------------------------------------------------
 I_THETA_M, I_OMEGA_M, I_THETA_L, I_OMEGA_L = 0, 1, 2, 3
 N_IN = 4
-
-
-@njit(cache=True, inline="always")
-def _sgn(x: float) -> float:
-    if x > 0.0:
-        return 1.0
-    if x < 0.0:
-        return -1.0
-    return 0.0
 
 
 @njit(cache=True)
@@ -194,11 +187,11 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
     if default and p[P_OMEGA_EPS] > 0.0:
         sg = math.tanh(omega_l / p[P_OMEGA_EPS])
     else:
-        sg = _sgn(omega_l)
+        sg = sgn(omega_l)
     a_known = -(p[P_T_CL] * sg + p[P_BETA_L] * omega_l) * p[P_INV_J]
     w_hat = state[S_OMEGA_HAT]
     err = omega_l - w_hat
-    s = _sgn(err)
+    s = sgn(err)
     phi = p[P_K1] * math.sqrt(abs(err)) * s + state[S_Z]
     state[S_OMEGA_HAT] = w_hat + Ts * (a_known + phi)
     state[S_Z] = state[S_Z] + Ts * p[P_K2] * s
@@ -210,7 +203,7 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
     z = alpha * (dtheta - delta + delta1)
     w = alpha * (dtheta + delta1)
     bracket = math.pi + _atan_diff(z, w)
-    pos = 0.5 * (1.0 + _sgn(dtheta))
+    pos = 0.5 * (1.0 + sgn(dtheta))
     arg = dtheta + delta1 - delta * pos + p[P_D_OVER_K] * domega
     T_hat = arg * p[P_K_OVER_PI] * bracket
     chi1 = pos * bracket

@@ -38,17 +38,9 @@ import numpy as np
 from numba import njit
 
 from drivelash.errors import ParameterError
+from drivelash.physics.backlash import sgn
 
 STATE_SIZE = 2
-
-
-@njit(cache=True, inline="always")
-def _sgn(x: float) -> float:
-    if x > 0.0:
-        return 1.0
-    if x < 0.0:
-        return -1.0
-    return 0.0
 
 
 @njit(cache=True)
@@ -79,7 +71,7 @@ def stsmo_step(state, omega_meas, known_accel, k1, k2, Ts):
     """
     w_hat = state[0]
     err = omega_meas - w_hat
-    s = _sgn(err)
+    s = sgn(err)
     v = k1 * math.sqrt(abs(err)) * s + state[1]
     state[0] = w_hat + Ts * (known_accel + v)
     state[1] = state[1] + Ts * k2 * s

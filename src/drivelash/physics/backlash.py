@@ -18,7 +18,8 @@ _F8 = "float64"
 
 
 @njit(cache=True, inline="always")
-def _sgn(x: float) -> float:
+def sgn(x: float) -> float:
+    """Sign function with sgn(0) = 0 (the paper's convention), for kernels."""
     if x > 0.0:
         return 1.0
     if x < 0.0:
@@ -47,7 +48,7 @@ def smooth_stiffness_scalar(dtheta, K_S, delta, delta1, alpha):
 @njit(cache=True)
 def smooth_torque_scalar(dtheta, domega, K_S, D_S, delta, delta1, alpha):
     """Smooth shaft torque T_l(x, δ), eq (12) [N·m]."""
-    arg = dtheta + delta1 - 0.5 * delta * (1.0 + _sgn(dtheta)) + (D_S / K_S) * domega
+    arg = dtheta + delta1 - 0.5 * delta * (1.0 + sgn(dtheta)) + (D_S / K_S) * domega
     return arg * smooth_stiffness_scalar(dtheta, K_S, delta, delta1, alpha)
 
 
@@ -56,7 +57,7 @@ def chi1_scalar(dtheta, delta, delta1, alpha):
     """χ1(x, δ), eq (46) [-]."""
     return (
         0.5
-        * (1.0 + _sgn(dtheta))
+        * (1.0 + sgn(dtheta))
         * (math.pi + math.atan(alpha * (dtheta - delta + delta1)) - math.atan(alpha * (dtheta + delta1)))
     )
 
@@ -64,7 +65,7 @@ def chi1_scalar(dtheta, delta, delta1, alpha):
 @njit(cache=True)
 def chi2_scalar(dtheta, domega, K_S, D_S, delta, delta1, alpha):
     """χ2(x, δ), eq (47) [-]."""
-    arg = dtheta + delta1 - 0.5 * delta * (1.0 + _sgn(dtheta)) + (D_S / K_S) * domega
+    arg = dtheta + delta1 - 0.5 * delta * (1.0 + sgn(dtheta)) + (D_S / K_S) * domega
     z = alpha * (dtheta + delta1 - delta)
     return arg * alpha / (1.0 + z * z)
 

@@ -53,35 +53,15 @@ a fine position grid (linear interpolation in the ``@njit`` engine).
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
 from drivelash.errors import ParameterError
+from drivelash.params import require_finite, require_non_negative, require_positive
 
 ArrayLike = float | np.ndarray
-
-
-def _check(obj: object) -> None:
-    for f in fields(obj):  # type: ignore[arg-type]
-        v = getattr(obj, f.name)
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            continue
-        if not math.isfinite(v):
-            raise ParameterError(type(obj).__name__, f.name, f"must be finite, got {v!r}")
-
-
-def _pos(obj: object, *names: str) -> None:
-    for n in names:
-        if not getattr(obj, n) > 0:
-            raise ParameterError(type(obj).__name__, n, f"must be > 0, got {getattr(obj, n)!r}")
-
-
-def _nonneg(obj: object, *names: str) -> None:
-    for n in names:
-        if not getattr(obj, n) >= 0:
-            raise ParameterError(type(obj).__name__, n, f"must be >= 0, got {getattr(obj, n)!r}")
 
 
 @dataclass(frozen=True)
@@ -143,9 +123,9 @@ class RackPinionBench:
     zeta_mesh: float = 2.0
 
     def __post_init__(self) -> None:
-        _check(self)
-        _pos(self, "m_n", "n_t", "face_width", "i_PG", "m_T", "J_motor", "zeta_mesh")
-        _nonneg(self, "J_gearbox", "J_pinion", "T_Cm", "beta_m", "F_CT", "beta_T", "helix_angle")
+        require_finite(self)
+        require_positive(self, "m_n", "n_t", "face_width", "i_PG", "m_T", "J_motor", "zeta_mesh")
+        require_non_negative(self, "J_gearbox", "J_pinion", "T_Cm", "beta_m", "F_CT", "beta_T", "helix_angle")
         if int(self.n_t) != self.n_t or self.n_t < 8:
             raise ParameterError(type(self).__name__, "n_t", f"must be a whole number >= 8, got {self.n_t!r}")
         if not 0 < self.alpha_n < math.pi / 4:
@@ -339,9 +319,9 @@ class TEGeneratorParams:
     b_pinion: float = 2e-6
 
     def __post_init__(self) -> None:
-        _check(self)
-        _pos(self, "A_runout", "A_mesh_min", "F_h", "c0", "segment_length", "joint_width")
-        _nonneg(
+        require_finite(self)
+        require_positive(self, "A_runout", "A_mesh_min", "F_h", "c0", "segment_length", "joint_width")
+        require_non_negative(
             self,
             "runout_spread",
             "runout_flank_spread",
@@ -403,8 +383,8 @@ class LocalDefect:
     direction: int = 0
 
     def __post_init__(self) -> None:
-        _check(self)
-        _pos(self, "width")
+        require_finite(self)
+        require_positive(self, "width")
         if self.direction not in (-1, 0, 1):
             raise ParameterError(type(self).__name__, "direction", "must be -1, 0 or +1")
 
