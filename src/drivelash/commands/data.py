@@ -15,12 +15,9 @@ from typing import Any
 
 import typer
 
+from drivelash.commands import print_warnings
+
 OUT_HELP = "Write a JSON summary here."
-
-
-def _print_warnings(meta: dict[str, Any]) -> None:
-    for w in meta.get("warnings", []):
-        typer.echo(f"drivelash: warning: {w}", err=True)
 
 
 def _write_text(path: Path, text: str) -> None:
@@ -63,14 +60,14 @@ def run_identify(
     opts = cfg.identification_or_default()
     need = ["theta_m", "torque_m"] + (["theta_l"] if opts.side == "load" else [])
     trace = load_trace(trace_path, cfg, required=need, resample=resample or None)
-    _print_warnings(trace.meta)
+    print_warnings(trace.meta)
     result = identify(trace, opts, cfg.drivetrain)
     summary: dict[str, Any] = {"trace": str(trace_path), "config": str(config_path), **result.as_dict()}
     ct = None
     vtrace = None
     if cross is not None:
         vtrace = load_trace(cross, cfg, required=need, resample=resample or None)
-        _print_warnings(vtrace.meta)
+        print_warnings(vtrace.meta)
         ct = cross_test(result, vtrace)
         summary["cross_test"] = {"trace": str(cross), "relative_error": ct.relative_error}
 
@@ -166,7 +163,7 @@ def run_observe(
         )
     opts = cfg.identification_or_default()
     trace = load_trace(trace_path, cfg, required=["torque_m"], resample=resample or None)
-    _print_warnings(trace.meta)
+    print_warnings(trace.meta)
     est = cfg.estimator
     res = observe_disturbance(
         trace,

@@ -20,6 +20,8 @@ from typing import Any
 
 import typer
 
+from drivelash.commands import print_warnings
+
 #: Fractions of a recording used for MAEE and steady-state peak when the truth is known
 #: (for a 60 s bench run: the last 20 s and the last 10 s, as in ``reproduce``).
 MAEE_FRACTION = 1.0 / 3.0
@@ -74,6 +76,8 @@ def run_estimate(
             f"{src}: table [backlash], key 'delta1': must be finite and >= 0, got {bl.delta1!r}"
         )
     trace = load_trace(trace_path, cfg, required=INPUT_COLUMNS)
+    if not quiet:
+        print_warnings(trace.meta)
     Ts = trace.sample_time
     f_exc = excitation_frequency(trace)
     ecfg = _estimator_config(cfg, dt, Ts, f_exc, method)

@@ -27,6 +27,7 @@ import numpy as np
 from drivelash.errors import DataError
 from drivelash.io.config import UNIT_KIND, ColumnMap, DriveConfig, SamplingSection
 from drivelash.io.formats import RawTable, read_raw
+from drivelash.io.trace import UNITS as TRACE_UNITS
 from drivelash.io.trace import Trace
 
 #: Signal columns that are checked for constant and saturated values.
@@ -139,6 +140,19 @@ def unwrap_encoder(x: np.ndarray, modulus: float) -> tuple[np.ndarray, int, int 
     return np.unwrap(x, period=modulus), int(jumps.sum()), int(np.flatnonzero(jumps)[0] + 1)
 
 
+def _unwrapped(
+    raw: np.ndarray, modulus: float, path: str, source: str, jump: str, warnings: list[str]
+) -> np.ndarray:
+    """``raw`` with encoder wrap-arounds of ``modulus`` removed; each unwrapping is reported."""
+    x, n_wraps, row = unwrap_encoder(raw, modulus)
+    if not n_wraps:
+        return raw
+    warnings.append(
+        f"{path}, column '{source}', row {row}: encoder wrap-around ({n_wraps} jump(s) of {jump}) unwrapped"
+    )
+    return x
+
+
 def _mapping_from(mapping: Any) -> tuple[dict[str, ColumnMap] | None, SamplingSection]:
     if mapping is None:
         return None, SamplingSection()
@@ -167,13 +181,7 @@ def _apply_mapping(
             cols["t"] = cols["t"] * _TO_SI[sampling.time_unit]
         for k in cols:
             if k.startswith("theta"):
-                x, n_wraps, row = unwrap_encoder(cols[k], 2 * math.pi)
-                if n_wraps:
-                    cols[k] = x
-                    warnings.append(
-                        f"{path}, column '{k}', row {row}: encoder wrap-around"
-                        f" ({n_wraps} jump(s) of one revolution) unwrapped"
-                    )
+                cols[k] = _unwrapped(cols[k], 2 * math.pi, path, k, "one revolution", warnings)
         return cols, kinds, origin
     for source, cm in cmap.items():
         if source not in table.columns:
@@ -193,15 +201,18 @@ def _apply_mapping(
         raw = table.columns[source]
         modulus = cm.wrap if cm.wrap is not None else (_one_rev(cm) if kind == "angle" else None)
         if modulus is not None and cm.column.startswith("theta"):
-            raw, n_wraps, row = unwrap_encoder(raw, modulus)
-            if n_wraps:
-                warnings.append(
-                    f"{path}, column '{source}', row {row}: encoder wrap-around"
-                    f" ({n_wraps} jump(s) of {modulus:g} {cm.unit}) unwrapped"
-                )
+            raw = _unwrapped(raw, modulus, path, source, f"{modulus:g} {cm.unit}", warnings)
         cols[cm.column] = raw * _factor(cm, table, source) * cm.scale + cm.offset
         kinds[cm.column] = kind
         origin[cm.column] = source
+    # Unmapped source columns that already carry a Trace name pass through as SI, so a
+    # [columns] table need only name what must be renamed or converted.
+    for name, raw in table.columns.items():
+        if name in TRACE_UNITS and name != "t" and name not in cols and name not in cmap:
+            if name.startswith("theta"):
+                raw = _unwrapped(raw, 2 * math.pi, path, name, "one revolution", warnings)
+            cols[name] = raw
+            origin[name] = name
     return cols, kinds, origin
 
 
