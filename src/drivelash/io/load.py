@@ -345,7 +345,8 @@ def load_trace(
         Column mapping: a configuration (its ``[columns]`` and ``[sampling]``
         tables) or a dict source name → :class:`~drivelash.io.config.ColumnMap`
         (or equivalent dict). Without one, columns must already carry the Trace
-        names in SI units.
+        names in SI units; with one, unmapped columns that carry a Trace name are
+        taken as SI as they are.
     required : iterable of str
         Trace columns the caller needs (``t`` is always required).
     resample : bool, optional
