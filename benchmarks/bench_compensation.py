@@ -28,7 +28,7 @@ import numpy as np
 from drivelash.te.compensation import Compensator, build_table, compensate_run, init_state
 from drivelash.te.demo import small_model
 from drivelash.te.persist import load_model
-from drivelash.te.validate import ValidationConfig, compensator_for
+from drivelash.te.validate import ValidationConfig, compensator_for, training_torque_max
 
 N_CYCLES = 20_000
 REPEATS = 5
@@ -56,11 +56,13 @@ def main() -> None:
     camp_dir, model_dir = small_model(cache, print)
     from drivelash.te.campaign import load_campaign
 
-    bench = load_campaign(camp_dir).bench
+    camp = load_campaign(camp_dir)
+    bench = camp.bench
     model = load_model(model_dir)
     cfg = ValidationConfig()
     t0 = time.perf_counter()
-    table = build_table(model, 0.0, bench.travel, cfg.table_dx, cfg.table_torque_max, cfg.table_n_torque)
+    tq_max = training_torque_max(camp, 3000.0)
+    table = build_table(model, 0.0, bench.travel, cfg.table_dx, tq_max, int(np.ceil(tq_max / 0.5)) + 1)
     t_table = time.perf_counter() - t0
     params = compensator_for(bench, table, cfg.compensator)
     # a sinusoidal plan with reversals, torque following the flank

@@ -29,7 +29,7 @@ def stub_model(monkeypatch):
 def test_export_writes_documented_table(tmp_path, stub_model, suffix):
     out = tmp_path / f"table{suffix}"
     r = CliRunner().invoke(app, ["te", "export", str(tmp_path), "-o", str(out), "--dx-mm", "1.0",
-                                 "--x-max", "0.5", "--n-torque", "4", "--torque-max", "9"])  # fmt: skip
+                                 "--x-max", "0.5", "--torque-step", "3", "--torque-max", "9"])  # fmt: skip
     assert r.exit_code == 0, r.output
     tab = load_table(out)
     assert tab.te.shape == (2, 501, 4)
@@ -46,9 +46,17 @@ def test_export_writes_documented_table(tmp_path, stub_model, suffix):
 
 
 def test_export_rejects_unknown_suffix(tmp_path, stub_model):
-    r = CliRunner().invoke(app, ["te", "export", str(tmp_path), "-o", str(tmp_path / "t.xlsx")])
+    r = CliRunner().invoke(
+        app, ["te", "export", str(tmp_path), "-o", str(tmp_path / "t.xlsx"), "--torque-max", "9"]
+    )
     assert r.exit_code != 0
     assert "use .csv or .json" in str(r.exception) or "use .csv or .json" in r.output
+
+
+def test_export_needs_torque_range_without_campaign(tmp_path, stub_model):
+    r = CliRunner().invoke(app, ["te", "export", str(tmp_path), "-o", str(tmp_path / "t.csv")])
+    assert r.exit_code != 0
+    assert "--torque-max" in str(r.exception) or "--torque-max" in r.output
 
 
 def test_validate_needs_a_campaign(tmp_path, stub_model):

@@ -10,7 +10,6 @@ import pytest
 from drivelash.errors import DataError
 from drivelash.te.compensation import Compensator, CompensatorParams, build_table
 from drivelash.te.validate import (
-    ValidationConfig,
     band_rms,
     compensator_for,
     pass_trajectory,
@@ -84,8 +83,7 @@ class _TrueTE:
 @pytest.mark.parametrize("direction", [1, -1])
 def test_ideal_model_removes_most_of_the_path_error(bench_sim, direction):
     sim = bench_sim
-    cfg = ValidationConfig()
-    table = build_table(_TrueTE(sim), 0.0, 0.6, 0.1e-3, cfg.table_torque_max, cfg.table_n_torque)
+    table = build_table(_TrueTE(sim), 0.0, 0.6, 0.1e-3, 10.0, 21)
     params = compensator_for(sim.bench, table)
     v = 0.1
     _, x_d, v_d = pass_trajectory(sim, 0.1, 0.45, v, direction)

@@ -6,6 +6,7 @@ Heavy imports (numba kernels, the simulator, matplotlib) happen inside the comma
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import typer
@@ -45,10 +46,12 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         model_dir: Path = typer.Argument(..., help="Model directory (drivelash te fit)."),
         out: Path = typer.Option(..., "-o", "--out", help="Table file, .csv or .json."),
         dx_mm: float = typer.Option(0.2, "--dx-mm", help="Position step of the table [mm]."),
-        torque_max: float = typer.Option(
-            18.0, "--torque-max", help="Largest motor torque of the grid [N·m]."
+        torque_max: float | None = typer.Option(
+            None, "--torque-max", help="Largest motor torque of the grid [N·m]; default: the training range."
         ),
-        n_torque: int = typer.Option(19, "--n-torque", min=1, help="Torque grid points per direction."),
+        torque_step: float = typer.Option(
+            0.5, "--torque-step", min=1e-3, help="Torque step of the grid [N·m]."
+        ),
         x_min: float | None = typer.Option(None, "--x-min", help="First position [m]; default 0."),
         x_max: float | None = typer.Option(None, "--x-max", help="Last position [m]; default: the travel."),
     ) -> None:
@@ -59,7 +62,9 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         model = load_model(model_dir)
         lo = 0.0 if x_min is None else x_min
         hi = x_max if x_max is not None else _travel(model)
-        table = build_table(model, lo, hi, dx_mm * 1e-3, torque_max, n_torque,
+        tmax = torque_max if torque_max is not None else _training_torque(model)
+        n_torque = int(math.ceil(tmax / torque_step - 1e-9)) + 1
+        table = build_table(model, lo, hi, dx_mm * 1e-3, tmax, n_torque,
                             meta={"model_dir": str(model_dir)})  # fmt: skip
         export_table(table, out, CompensatorParams())
         n = table.te.shape
@@ -75,6 +80,21 @@ def _travel(model: object) -> float:
         man = json.loads((Path(cand) / "manifest.json").read_text())
         return float(man["bench"]["travel"])
     return 2.2
+
+
+def _training_torque(model: object) -> float:
+    """Largest training motor torque [N·m] from the model's campaign (see ``training_torque_max``)."""
+    from drivelash.errors import DataError
+    from drivelash.te.campaign import load_campaign
+    from drivelash.te.validate import training_torque_max
+
+    info = getattr(model, "info", {}) or {}
+    cand = info.get("campaign")
+    if not cand or not (Path(cand) / "manifest.json").is_file():
+        raise DataError(
+            "the model's campaign is not available to find the training torque; pass --torque-max"
+        )
+    return training_torque_max(load_campaign(cand), float(info.get("max_load", 3000.0)))
 
 
 def format_summary(summary: dict) -> str:

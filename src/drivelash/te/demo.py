@@ -80,7 +80,14 @@ def demo_compensate(out_dir: Path, console: Any) -> None:
     from drivelash.te.campaign import load_campaign
     from drivelash.te.compensation import Compensator, export_table
     from drivelash.te.persist import load_model
-    from drivelash.te.validate import ValidationConfig, compensator_for, pass_trajectory, run_pass, table_for
+    from drivelash.te.validate import (
+        ValidationConfig,
+        compensator_for,
+        pass_trajectory,
+        run_pass,
+        table_for,
+        training_torque_max,
+    )
 
     console.print("[bold]Transmission-error compensation[/bold] (virtual rack-and-pinion bench)")
     t0 = time.perf_counter()
@@ -90,7 +97,7 @@ def demo_compensate(out_dir: Path, console: Any) -> None:
     model = load_model(model_dir)
     sim = camp.simulator()
     cfg = ValidationConfig()
-    table = table_for(model, sim.bench, cfg)
+    table = table_for(model, sim.bench, cfg, torque_max=training_torque_max(camp, 3000.0))
     params = compensator_for(sim.bench, table, cfg.compensator)
     export_table(table, work / "te_table.json", params)
     lo, hi = 0.05, 0.45

@@ -79,10 +79,12 @@ class ValidationConfig:
         Window around each reversal in which the reversal error is taken [s] (before, after).
     table_dx : float
         Position step of the compensation table [m].
-    table_torque_max : float
-        Largest torque magnitude of the table [N·m].
-    table_n_torque : int
-        Torque grid points per flank.
+    table_torque_max : float or None
+        Largest torque magnitude of the table [N·m]; None = the largest motor torque of
+        the training runs, so that beyond the trained load range the model is held at
+        its edge instead of extrapolated.
+    table_torque_step : float
+        Torque step of the table [N·m].
     defect_center, defect_width, defect_amplitude : float
         Local rack defect of the monitoring demo: centre [m], Gaussian σ [m], peak [m].
     monitor_velocity, monitor_load : float
@@ -102,8 +104,8 @@ class ValidationConfig:
     sine_load: float = 2000.0
     reversal_window: tuple[float, float] = (0.1, 0.3)
     table_dx: float = 0.2e-3
-    table_torque_max: float = 18.0
-    table_n_torque: int = 19
+    table_torque_max: float | None = None
+    table_torque_step: float = 0.5
     defect_center: float = 1.30
     defect_width: float = 0.003
     defect_amplitude: float = 15e-6
@@ -455,10 +457,39 @@ def drive_for_model(model: Any, campaign_dir: Path | None) -> Any:
     return load_campaign(campaign_dir)
 
 
-def table_for(model: TEPredictor, bench: Any, cfg: ValidationConfig, meta: dict | None = None) -> TETable:
-    """The runtime table of ``model`` over the whole travel (see :func:`build_table`)."""
-    return build_table(model, 0.0, float(bench.travel), cfg.table_dx, cfg.table_torque_max,
-                       cfg.table_n_torque, meta=meta)  # fmt: skip
+def training_torque_max(campaign: Any, max_load: float) -> float:
+    """Largest motor torque magnitude [N·m] of the campaign's load runs with load ≤ ``max_load``.
+
+    The 99.9th percentile over the constant-velocity part of each run (robust to the
+    start transient).
+    """
+    out = 0.0
+    for r in campaign.select(kind="load"):
+        if r.load > max_load + 1e-9:
+            continue
+        tr = r.trace()
+        v = np.gradient(tr["x_T"], tr["t"])
+        m = np.abs(np.abs(v) - r.velocity) < 0.05 * r.velocity
+        if np.count_nonzero(m) > 10:
+            out = max(out, float(np.percentile(np.abs(tr["torque_m"][m]), 99.9)))
+    if out <= 0.0:
+        raise DataError(f"no load run with load <= {max_load:g} N in the campaign")
+    return out
+
+
+def table_for(model: TEPredictor, bench: Any, cfg: ValidationConfig, meta: dict | None = None,
+              torque_max: float | None = None) -> TETable:  # fmt: skip
+    """The runtime table of ``model`` over the whole travel (see :func:`build_table`).
+
+    ``torque_max`` [N·m] overrides ``cfg.table_torque_max``; one of them must be given.
+    """
+    tmax = cfg.table_torque_max if cfg.table_torque_max is not None else torque_max
+    if tmax is None:
+        raise ParameterError("ValidationConfig", "table_torque_max", "needs a value or the training range")
+    n_t = int(math.ceil(tmax / cfg.table_torque_step - 1e-9)) + 1
+    m = dict(meta or {})
+    m["torque_max_Nm"] = tmax
+    return build_table(model, 0.0, float(bench.travel), cfg.table_dx, tmax, n_t, meta=m)
 
 
 # ---------------------------------------------------------------------------
@@ -739,7 +770,10 @@ def validate(
     sim = campaign.simulator()
     bench = sim.bench
     velocities = cfg.velocities or tuple(campaign.manifest["campaign"]["velocities"])
-    table = table_for(model, bench, cfg, meta={"axis": "rack-and-pinion table", "seed": campaign.seed})
+    tq_max = training_torque_max(campaign, cfg.train_max_load)
+    say(f"table torque range 0 … {tq_max:.2f} N·m (training runs up to {cfg.train_max_load:g} N)")
+    table = table_for(model, bench, cfg, meta={"axis": "rack-and-pinion table", "seed": campaign.seed},
+                      torque_max=tq_max)  # fmt: skip
     params = compensator_for(bench, table, cfg.compensator)
     export_table(table, out / "te_table.json", params)
     summary: dict[str, Any] = {"config": _jsonable(asdict(cfg)), "compensator": asdict(params)}
@@ -806,9 +840,11 @@ def monitoring_demo(
         imp = 1.0 - mc / mu
         return rep, float(np.nanmean(imp)), imp
 
+    tq_max = float(table.torque_grid(1)[-1])
     if updater is not None:
         say("    fitting a trainable model on the campaign (hyperparameters of the validated model)")
-        table = table_for(updater.fit(campaign, cfg.train_max_load, reference), sim.bench, cfg)
+        table = table_for(updater.fit(campaign, cfg.train_max_load, reference), sim.bench, cfg,
+                          torque_max=tq_max)  # fmt: skip
     rep0, imp0_mean, imp0 = judge(table)
     k_def = int(np.searchsorted(edges, cfg.defect_center, side="right") - 1)
     res: dict[str, Any] = {
@@ -832,7 +868,7 @@ def monitoring_demo(
         new_model = updater.update(sim_w, lo, hi)
         res["fit_time_s"] = updater.fit_time_s
         res["update_time_s"] = updater.update_time_s
-        tab1 = table_for(new_model, sim.bench, cfg)
+        tab1 = table_for(new_model, sim.bench, cfg, torque_max=tq_max)
         rep1, imp1_mean, imp1 = judge(tab1)
         res.update({
             "flagged_after_update_mm": [(a * 1e3, b * 1e3) for a, b in rep1.flagged_intervals()],
