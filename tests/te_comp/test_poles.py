@@ -100,3 +100,19 @@ def test_compensated_response_cancels_modelled_te():
     np.testing.assert_allclose(e_unc[-1], -k * v / K_V, rtol=1e-3)
     # after the start transient of the velocity step (no acceleration feed-forward)
     assert np.max(np.abs(e[-100:])) < 1e-12
+
+
+def test_block_built_loop_matches_the_bench_transfer_functions():
+    # cross-check of two implementations: the block-built cascade vs control.path_error (2)–(3)
+    from drivelash.control.path_error import g_d_cl, g_pc_ol
+    from drivelash.physics.rack_pinion import RackPinionBench
+    from drivelash.sim.rack_axis import bench_gains
+
+    J_s = RackPinionBench().J_s
+    sys0 = _loop(J_s, 0.0, 0.0, 0.0)
+    w = np.logspace(0, 4, 40)
+    np.testing.assert_allclose(ct.ss2tf(sys0[0, 2])(1j * w), g_d_cl(J_s, bench_gains())(1j * w), rtol=1e-9)
+    # (2) is the loop transfer function L = x_T / e: closed loop x_T/x_d = L/(1+L) without feed-forward
+    L = g_pc_ol(J_s, bench_gains())
+    cl = ct.feedback(L, 1)
+    np.testing.assert_allclose(np.sort_complex(cl.poles()), np.sort_complex(sys0.poles()), rtol=1e-9)
