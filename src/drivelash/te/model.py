@@ -595,7 +595,10 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
             self.tree_info_ = {"best_params": {}, "best_cv_mae": float("nan")}
         n_jobs = self.trees_.n_jobs
         self.trees_.set_params(n_jobs=int(self.n_jobs))  # the trees of the bag in parallel
-        self.trees_.fit(X2[::ts], r[::ts])
+        from joblib import parallel_backend
+
+        with parallel_backend("threading"):  # tree building releases the GIL: no process start-up
+            self.trees_.fit(X2[::ts], r[::ts])
         self.trees_.set_params(n_jobs=n_jobs)
 
     def _score_train(self, X: np.ndarray, y: np.ndarray) -> None:

@@ -85,6 +85,13 @@ class ModelFileError(DrivelashError):
 # ---------------------------------------------------------------------------
 # numba kernels on the packed per-direction buffers
 # ---------------------------------------------------------------------------
+@njit(cache=True, inline="always")
+def _child(k: int, w: int, xf: float, tf: float, fv: np.ndarray, o_nodes: int) -> int:  # pragma: no cover
+    """Index of the child of node slot ``k`` (packed word ``w`` = 2·right + feature)."""
+    v = xf if (w & 1) == 0 else tf
+    return k + 2 if v <= fv[k] else o_nodes + 2 * (w >> 1)
+
+
 @njit(cache=True)
 def _def_um(
     x: float, torque: float, f: np.ndarray, ib: np.ndarray, z: np.ndarray, h1: np.ndarray, h2: np.ndarray
@@ -143,17 +150,43 @@ def _def_um(
     xf = np.float64(np.float32(x))
     tf = np.float64(np.float32(torque))
     s = 0.0
-    for t in range(n_trees):
+    t = 0
+    # four trees walked side by side: independent load chains overlap in the CPU
+    while t + 4 <= n_trees:
+        k0 = o_nodes + 2 * ib[o_roots + t]
+        k1 = o_nodes + 2 * ib[o_roots + t + 1]
+        k2 = o_nodes + 2 * ib[o_roots + t + 2]
+        k3 = o_nodes + 2 * ib[o_roots + t + 3]
+        w0 = ib[k0 + 1]
+        w1 = ib[k1 + 1]
+        w2 = ib[k2 + 1]
+        w3 = ib[k3 + 1]
+        while (w0 >= 0) or (w1 >= 0) or (w2 >= 0) or (w3 >= 0):
+            if w0 >= 0:
+                k0 = _child(k0, w0, xf, tf, fv, o_nodes)
+                w0 = ib[k0 + 1]
+            if w1 >= 0:
+                k1 = _child(k1, w1, xf, tf, fv, o_nodes)
+                w1 = ib[k1 + 1]
+            if w2 >= 0:
+                k2 = _child(k2, w2, xf, tf, fv, o_nodes)
+                w2 = ib[k2 + 1]
+            if w3 >= 0:
+                k3 = _child(k3, w3, xf, tf, fv, o_nodes)
+                w3 = ib[k3 + 1]
+        s += fv[k0]
+        s += fv[k1]
+        s += fv[k2]
+        s += fv[k3]
+        t += 4
+    while t < n_trees:
         k = o_nodes + 2 * ib[o_roots + t]
         w = ib[k + 1]
         while w >= 0:
-            v = xf if (w & 1) == 0 else tf
-            if v <= fv[k]:
-                k += 2
-            else:
-                k = o_nodes + 2 * (w >> 1)
+            k = _child(k, w, xf, tf, fv, o_nodes)
             w = ib[k + 1]
         s += fv[k]
+        t += 1
     if n_trees == 0:  # stage 1 only (see TEModel.predict_stage1_um)
         return y1
     return y1 + s / n_trees
