@@ -66,7 +66,7 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         n_torque = int(math.ceil(tmax / torque_step - 1e-9)) + 1
         table = build_table(model, lo, hi, dx_mm * 1e-3, tmax, n_torque,
                             meta={"model_dir": str(model_dir)})  # fmt: skip
-        export_table(table, out, CompensatorParams())
+        export_table(table, out, _params_for(model, CompensatorParams()))
         n = table.te.shape
         typer.echo(f"wrote {out}: {n[1]} positions x {n[2]} torques x 2 directions "
                    f"(x_T in mm, torque in N*m, TE in um)")  # fmt: skip
@@ -80,6 +80,18 @@ def _travel(model: object) -> float:
         man = json.loads((Path(cand) / "manifest.json").read_text())
         return float(man["bench"]["travel"])
     return 2.2
+
+
+def _params_for(model: object, default: object) -> object:
+    """Compensator settings with the drive's friction/inertia if the model's campaign is at hand."""
+    info = getattr(model, "info", {}) or {}
+    cand = info.get("campaign")
+    if not cand or not (Path(cand) / "manifest.json").is_file():
+        return default
+    from drivelash.te.campaign import load_campaign
+    from drivelash.te.validate import compensator_for
+
+    return compensator_for(load_campaign(cand).bench, None, default)
 
 
 def _training_torque(model: object) -> float:

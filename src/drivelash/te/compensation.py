@@ -629,12 +629,16 @@ def _grid_doc(table: TETable, params: CompensatorParams | None) -> dict[str, Any
                 for d, sgn in enumerate(DIRECTIONS)
             },
         },
-        "usage": "every t_sc: v_c = (TE(x_d[n+1],T)-TE(x_d[n],T))/t_sc + d/dt[b*s(t/t_ss)]; "
+        "usage": "every t_sc: v_c = (TE(x_d[n+1],T)-TE(x_d[n],T))/t_sc + d/dt[b*s(t/t_ss)] with T = motor "
+        "torque - J_model*alpha and TE of the flank in contact; flank from the mesh torque T_M - friction - "
+        "J_flank*alpha (sign beyond 'hysteresis': step over t_ss_sign; below 'release' for three "
+        "cycles while the plan reverses: step over t_ss); b = bl_gain*(TE_new - TE_old) at x_d[n]; "
         "subtract v_c from the table velocity command",
         "meta": table.meta,
     }
     if params is not None:
         doc["compensator"] = asdict(params)
+        doc["compensator_units"] = "SI: times s, torques N*m, inertias kg*m^2, omega_reg rad/s, v_max m/s"
     return doc
 
 

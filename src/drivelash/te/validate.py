@@ -124,7 +124,9 @@ class ValidationConfig:
 # one pass with the compensator in the loop
 
 
-def compensator_for(bench: Any, table: TETable, base: CompensatorParams | None = None) -> CompensatorParams:
+def compensator_for(
+    bench: Any, table: TETable | None, base: CompensatorParams | None = None
+) -> CompensatorParams:
     """Compensator settings with the drive-train estimates of ``bench`` filled in.
 
     Friction T_C, β and the inertia J_flank = J_M (motor + gearbox + pinion) for flank
