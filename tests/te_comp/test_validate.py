@@ -113,3 +113,38 @@ def test_compensator_for_fills_drive_estimates(bench_sim):
     table = build_table(_TrueTE(bench_sim), 0.0, 0.2, 1e-3, 10.0, 3)
     p = compensator_for(b, table, CompensatorParams(t_ss=0.02))
     assert p.t_ss == 0.02 and p.J_flank == b.J_M and p.T_C == b.T_Cm and p.J_model == b.J_s
+
+
+class _Run:
+    def __init__(self, load, velocity, torque):
+        self.load, self.velocity, self._tq = load, velocity, torque
+
+    def trace(self):
+        t = np.arange(2000) * 1e-3
+        v = np.where(t < 0.1, 0.8 * self.velocity * t / 0.1, self.velocity)  # start ramp below 0.8 v
+        x = np.concatenate([[0.0], np.cumsum(v[1:] * 1e-3)])
+        tq = np.full(t.size, self._tq)
+        tq[:100] = 50.0  # start transient, must not count
+        return {"t": t, "x_T": x, "torque_m": tq}
+
+
+class _Campaign:
+    def __init__(self):
+        self.runs = [
+            _Run(0.0, 0.05, 0.6),
+            _Run(3000.0, 0.05, 8.9),
+            _Run(3000.0, 0.1, -9.1),
+            _Run(5000.0, 0.05, 14.0),
+        ]
+
+    def select(self, kind=None):
+        return self.runs
+
+
+def test_training_torque_max_from_constant_velocity_part():
+    from drivelash.te.validate import training_torque_max
+
+    assert training_torque_max(_Campaign(), 3000.0) == pytest.approx(9.1)
+    assert training_torque_max(_Campaign(), 5000.0) == pytest.approx(14.0)
+    with pytest.raises(DataError):
+        training_torque_max(_Campaign(), -1.0)
