@@ -442,6 +442,8 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         Every ``search_stride``-th row enters the grid search.
     tree_stride : int
         Every ``tree_stride``-th row enters the final stage-2 fit.
+    update_stride : int
+        Every ``update_stride``-th row enters the stage-2 refit of :meth:`update`.
     torch_threads : int
         Threads of torch while training stage 1.
     n_jobs : int
@@ -463,6 +465,7 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         nn_stride: int = 8,
         search_stride: int = 16,
         tree_stride: int = 4,
+        update_stride: int = 8,
         n_jobs: int = 1,
         torch_threads: int = 1,
         random_state: int = 0,
@@ -478,6 +481,7 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         self.nn_stride = nn_stride
         self.search_stride = search_stride
         self.tree_stride = tree_stride
+        self.update_stride = update_stride
         self.n_jobs = n_jobs
         self.torch_threads = torch_threads
         self.random_state = random_state
@@ -533,7 +537,7 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         """
         X, y = _check_xy(X, y)
         assert y is not None
-        for name in ("nn_stride", "search_stride", "tree_stride", "cv_folds"):
+        for name in ("nn_stride", "search_stride", "tree_stride", "update_stride", "cv_folds"):
             v = getattr(self, name)
             if not (isinstance(v, (int, np.integer)) and v >= 1):
                 raise ParameterError("StackedTERegressor", name, f"must be a positive integer, got {v!r}")
@@ -564,7 +568,7 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
 
     def _fit_trees(self, X: np.ndarray, y: np.ndarray, mode: str) -> None:
         """Fit stage 2 on the stage-1 residual: ``mode`` "search" (grid search), "template", "keep"."""
-        ts = int(self.tree_stride)
+        ts = int(self.update_stride if mode == "keep" else self.tree_stride)
         ss = int(self.search_stride)
         g = math.gcd(ts, ss) if mode == "search" else ts
         Xg = X[::g]  # the stage-1 residual is needed on these rows only
