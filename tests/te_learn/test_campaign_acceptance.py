@@ -33,9 +33,11 @@ def test_held_out_and_extrapolation_relative_errors(evaluated):
     assert s["extrapolation"]["ratio"]["stacked"] <= 0.25
 
 
-def test_stacked_beats_the_table_baselines(evaluated):
+def test_stacked_beats_every_baseline(evaluated):
+    """Pooled over loads, directions and velocities, as the issue's acceptance asks (per
+    load the margin to stage-1-only is small and can invert; see the closing note)."""
     _, ev = evaluated
     for split in ("held-out", "extrapolation"):
         mae = ev["summary"][split]["mae"]
-        for base in ("geo-only", "trees-only", "hgb"):
+        for base in ("geo-only", "stage1-only", "trees-only", "hgb"):
             assert mae["stacked"] < mae[base], (split, base, mae)
