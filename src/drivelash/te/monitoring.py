@@ -244,3 +244,10 @@ def defect_covered(report: SectionReport, defect: tuple[float, float]) -> bool:
     lo, hi = report.edges[:-1], report.edges[1:]
     core = (hi > a) & (lo < b) & np.isfinite(report.mae_model)
     return bool(np.any(core) and np.all(report.flagged[core]))
+
+
+def defect_flagged(report: SectionReport, defect: tuple[float, float]) -> bool:
+    """True when any section overlapping the defect interval (start, end) [m] is flagged."""
+    a, b = defect
+    lo, hi = report.edges[:-1], report.edges[1:]
+    return bool(np.any(report.flagged & (hi > a) & (lo < b)))
