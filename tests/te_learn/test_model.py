@@ -49,8 +49,9 @@ def test_sklearn_contract():
 
 
 def test_fit_returns_self_and_stage2_fits_the_residual(train_xy):
+    """With torque among its inputs, stage 2 takes out most of the network's training residual."""
     X, y = train_xy
-    est = _fast()
+    est = _fast(stage2_inputs="position+torque")
     assert est.fit(X, y) is est
     fitted = [k for k in vars(est) if k.endswith("_") and not k.startswith("_")]
     assert {"nn_", "trees_", "stage1_share_", "train_mae_"} <= set(fitted)
@@ -159,3 +160,22 @@ def test_offset_line_recovers_mean_compliance():
     ]
     a, b = fit_offset_line(runs)
     assert a == pytest.approx(0.3, abs=1e-12) and b == pytest.approx(-1.5, abs=1e-12)
+
+
+def test_position_only_stage2_ignores_torque(train_xy):
+    """The default stage 2 sees position only: its output does not change with torque, and
+    it still reduces the network's training residual (the part common to all loads)."""
+    X, y = train_xy
+    est = _fast().fit(X, y)
+    assert est.stage2_inputs == "position"
+    X2 = X.copy()
+    X2[:, 1] = X2[:, 1] * 3.0 + 1.0
+    np.testing.assert_array_equal(est.predict_stages(X)[1], est.predict_stages(X2)[1])
+    p1, _ = est.predict_stages(X)
+    assert est.train_mae_ < np.mean(np.abs(p1 - y))
+
+
+def test_unknown_stage2_inputs_is_a_parameter_error(train_xy):
+    X, y = train_xy
+    with pytest.raises(ParameterError, match="stage2_inputs"):
+        _fast(stage2_inputs="torque").fit(X[:500], y[:500])

@@ -44,6 +44,8 @@ from drivelash.te.preprocess import UM, GearGeometry, GeometricCurve, RunData, T
 #: Column indices of the design matrix used by each stage.
 STAGE1_COLS = slice(1, None)  # torque, M_1 … M_nt
 STAGE2_COLS = [0, 1]  # x_T, torque
+#: Stage-2 input columns by :attr:`StackedTERegressor.stage2_inputs`.
+STAGE2_INPUTS = {"position": [0], "position+torque": [0, 1]}
 
 #: Default stage-2 grid (number of trees, depth, leaf size); reasons in docs/assumptions.md.
 DEFAULT_TREE_GRID: dict[str, list[Any]] = {
@@ -415,7 +417,7 @@ def grid_search_trees(
 
 
 class StackedTERegressor(RegressorMixin, BaseEstimator):
-    """Stage 1 network (torque, M_j) + stage 2 bagged trees (x_T, torque) on its residual.
+    """Stage 1 network (torque, M_j) + stage 2 bagged trees (x_T [, torque]) on its residual.
 
     Parameters
     ----------
@@ -444,6 +446,13 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         Every ``tree_stride``-th row enters the final stage-2 fit.
     update_stride : int
         Every ``update_stride``-th row enters the stage-2 refit of :meth:`update`.
+    stage2_inputs : {"position", "position+torque"}
+        Inputs of the trees. ``"position"`` (default): stage 2 learns the residual that
+        is common to all loads at a position (local rack deviations, wear) and leaves
+        the load dependence to the network; with ``"position+torque"`` the trees can
+        also split on torque, which replays the residual of the nearest *training*
+        load at unseen loads (measured: worse on held-out and extrapolated loads,
+        see docs/assumptions.md).
     torch_threads : int
         Threads of torch while training stage 1.
     n_jobs : int
@@ -466,6 +475,7 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         search_stride: int = 16,
         tree_stride: int = 4,
         update_stride: int = 8,
+        stage2_inputs: str = "position",
         n_jobs: int = 1,
         torch_threads: int = 1,
         random_state: int = 0,
@@ -482,6 +492,7 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         self.search_stride = search_stride
         self.tree_stride = tree_stride
         self.update_stride = update_stride
+        self.stage2_inputs = stage2_inputs
         self.n_jobs = n_jobs
         self.torch_threads = torch_threads
         self.random_state = random_state
@@ -511,6 +522,16 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         if nested["trees"]:
             self.trees = clone(self._trees_template()).set_params(**nested["trees"])
         return self
+
+    def _stage2_cols(self) -> list[int]:
+        try:
+            return STAGE2_INPUTS[self.stage2_inputs]
+        except KeyError:
+            raise ParameterError(
+                "StackedTERegressor",
+                "stage2_inputs",
+                f"must be one of {', '.join(STAGE2_INPUTS)}, got {self.stage2_inputs!r}",
+            ) from None
 
     def _nn_template(self) -> MLPRegressor:
         return self.nn if self.nn is not None else MLPRegressor(random_state=self.random_state)
@@ -573,7 +594,7 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         g = math.gcd(ts, ss) if mode == "search" else ts
         Xg = X[::g]  # the stage-1 residual is needed on these rows only
         r = y[::g] - self.nn_.predict(Xg[:, STAGE1_COLS])
-        X2 = Xg[:, STAGE2_COLS]
+        X2 = Xg[:, self._stage2_cols()]
         base = self._trees_template()
         ts, ss = ts // g, ss // g
         if mode == "search":
@@ -607,7 +628,7 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
 
     def _score_train(self, X: np.ndarray, y: np.ndarray) -> None:
         p1 = self.nn_.predict(X[:, STAGE1_COLS])
-        p2 = self.trees_.predict(X[:, STAGE2_COLS])
+        p2 = self.trees_.predict(X[:, self._stage2_cols()])
         a1, a2 = np.abs(p1).sum(), np.abs(p2).sum()
         self.stage1_share_ = float(a1 / (a1 + a2)) if a1 + a2 > 0 else float("nan")
         self.train_mae_ = float(np.mean(np.abs(p1 + p2 - y)))
@@ -649,7 +670,7 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
     def predict_stages(self, X: Any) -> tuple[np.ndarray, np.ndarray]:
         """Stage-1 and stage-2 outputs [µm] separately."""
         X, _ = _check_xy(X)
-        return self.nn_.predict(X[:, STAGE1_COLS]), self.trees_.predict(X[:, STAGE2_COLS])
+        return self.nn_.predict(X[:, STAGE1_COLS]), self.trees_.predict(X[:, self._stage2_cols()])
 
     def predict(self, X: Any) -> np.ndarray:
         """TE_def [µm] = stage 1 + stage 2."""
