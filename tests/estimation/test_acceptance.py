@@ -89,6 +89,9 @@ def test_demo_step(tmp_path):
     text = console.export_text()
     assert "true δ" in text and "default" in text
     assert (tmp_path / "estimate-bench-0A.json").exists()
+    html = (tmp_path / "estimate-bench-0A.html").read_text(encoding="utf-8")
+    assert html.count("data:image/png;base64,") >= 3  # self-contained figures
+    assert "http://" not in html and "https://" not in html  # no network
 
 
 @pytest.mark.slow

@@ -14,10 +14,12 @@ def demo_estimate(out_dir: Path, console: Console) -> None:
     """Run both estimator methods on ``out_dir/bench-0A.parquet`` and print them next to the truth.
 
     Simulates the scenario itself when the simulation step did not write the file. Writes
-    ``estimate-bench-0A.json`` and ``estimate-bench-0A.png``.
+    ``estimate-bench-0A.json``, ``estimate-bench-0A.png`` and the self-contained HTML report
+    ``estimate-bench-0A.html`` of the default method.
     """
     from drivelash.estimation.reproduce import estimator_for, score
     from drivelash.io.trace import Trace
+    from drivelash.report import write_estimate_report
     from drivelash.report.estimation_figures import estimate_figure
     from drivelash.sim.scenarios import get_scenario
 
@@ -40,6 +42,8 @@ def demo_estimate(out_dir: Path, console: Console) -> None:
         )
         if method == "default":
             estimate_figure(trace, res, out_dir / f"estimate-{DEMO_SCENARIO}.png")
+            report = write_estimate_report(out_dir / f"estimate-{DEMO_SCENARIO}.html", trace, res)
+            console.print(f"  report: {report}")
     (out_dir / f"estimate-{DEMO_SCENARIO}.json").write_text(
         json.dumps(summary, indent=2, default=float) + "\n", encoding="utf-8"
     )
