@@ -471,7 +471,7 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         tree_grid: dict[str, list[Any]] | None = None,
         block_length: float = 2e-3,
         cv_folds: int = 3,
-        nn_stride: int = 8,
+        nn_stride: int = 2,
         search_stride: int = 16,
         tree_stride: int = 4,
         update_stride: int = 8,
