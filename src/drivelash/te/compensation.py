@@ -333,36 +333,24 @@ def build_table(
 
 
 @njit(cache=True)
+def _cell(u, n):
+    """Cell index and fraction of grid coordinate ``u`` on ``n`` nodes, clamped to the grid."""
+    if u <= 0.0:
+        return 0, 0.0
+    if u >= n - 1:
+        return n - 2, 1.0
+    i = min(int(u), n - 2)
+    return i, u - i
+
+
+@njit(cache=True, inline="always")
 def table_te(te, x0, dx, torque0, dtorque, d, x, torque):
     """TE [m] at position ``x`` [m] and ``torque`` [N·m] on flank index ``d`` (bilinear, clamped)."""
-    n_x = te.shape[1]
     n_t = te.shape[2]
-    u = (x - x0) / dx
-    if u <= 0.0:
-        i = 0
-        fu = 0.0
-    elif u >= n_x - 1:
-        i = n_x - 2
-        fu = 1.0
-    else:
-        i = int(u)
-        if i > n_x - 2:
-            i = n_x - 2
-        fu = u - i
+    i, fu = _cell((x - x0) / dx, te.shape[1])
     if n_t == 1:
         return te[d, i, 0] * (1.0 - fu) + te[d, i + 1, 0] * fu
-    w = (torque - torque0[d]) / dtorque[d]
-    if w <= 0.0:
-        j = 0
-        fw = 0.0
-    elif w >= n_t - 1:
-        j = n_t - 2
-        fw = 1.0
-    else:
-        j = int(w)
-        if j > n_t - 2:
-            j = n_t - 2
-        fw = w - j
+    j, fw = _cell((torque - torque0[d]) / dtorque[d], n_t)
     a = te[d, i, j] * (1.0 - fw) + te[d, i, j + 1] * fw
     b = te[d, i + 1, j] * (1.0 - fw) + te[d, i + 1, j + 1] * fw
     return a * (1.0 - fu) + b * fu
