@@ -23,7 +23,6 @@ is stable for h·|λ| < 2.78. See :data:`DEFAULT_OMEGA_REG` and
 
 from __future__ import annotations
 
-import math
 from typing import Literal
 
 import numpy as np
@@ -32,7 +31,7 @@ from numba import njit
 from drivelash.errors import ParameterError
 from drivelash.params import BacklashParams, DrivetrainParams
 from drivelash.physics.backlash import deadzone_torque_scalar, smooth_torque_scalar
-from drivelash.physics.friction import friction_scalar
+from drivelash.physics.friction import friction_inv_scalar, friction_scalar
 
 #: Layout of the plant parameter array used by the kernels.
 PLANT_FIELDS: tuple[str, ...] = (
@@ -207,27 +206,6 @@ def contact_mode_scalar(dtheta, delta, delta1):
 
 
 @njit(cache=True)
-def _friction_fast(omega, T_C, beta, T_S, inv_omega_s, inv_omega_reg):
-    """:func:`~drivelash.physics.friction.friction_scalar` with reciprocals (ω_reg > 0)."""
-    if omega == 0.0:  # load at rest in the gap: skip tanh and exp
-        return 0.0
-    x = omega * inv_omega_reg
-    if x > 20.0:
-        s = 1.0
-    elif x < -20.0:
-        s = -1.0
-    else:
-        s = math.tanh(x)
-    level = T_C
-    if T_S > 0.0:
-        r = omega * inv_omega_s
-        r2 = r * r
-        if r2 < 40.0:
-            level = T_C + (T_S - T_C) * math.exp(-r2)
-    return level * s + beta * omega
-
-
-@njit(cache=True)
 def rhs_mode_scalar(omega_m, theta_m, omega_l, theta_l, u, delta, delta1, p, mode):
     """:func:`rhs_scalar` with the deadzone branch fixed to ``mode`` (−1, 0, +1).
 
@@ -251,8 +229,8 @@ def rhs_mode_scalar(omega_m, theta_m, omega_l, theta_l, u, delta, delta1, p, mod
         T_l = 0.0
     inv_ws = p[P_INV_OMEGA_S]
     inv_wr = p[P_INV_OMEGA_REG]
-    T_Fm = _friction_fast(omega_m, p[P_T_CM], p[P_BETA_M], p[P_T_SM], inv_ws, inv_wr)
-    T_Fl = _friction_fast(omega_l, p[P_T_CL], p[P_BETA_L], p[P_T_SL], inv_ws, inv_wr)
+    T_Fm = friction_inv_scalar(omega_m, p[P_T_CM], p[P_BETA_M], p[P_T_SM], inv_ws, inv_wr)
+    T_Fl = friction_inv_scalar(omega_l, p[P_T_CL], p[P_BETA_L], p[P_T_SL], inv_ws, inv_wr)
     return (u - T_Fm - T_l * inv_N) * p[P_INV_J_M], omega_m, (T_l - T_Fl) * p[P_INV_J_L], omega_l
 
 

@@ -18,6 +18,35 @@ from numba import njit, vectorize
 
 
 @njit(cache=True)
+def friction_inv_scalar(omega, T_C, beta, T_S, inv_omega_s, inv_omega_reg):
+    """:func:`friction_scalar` with the reciprocals 1/ω_s and 1/ω_reg [s/rad] (hot loops).
+
+    ``inv_omega_reg = 0`` selects the exact sign function.
+    """
+    if omega == 0.0:  # at rest: sign, tanh and the viscous term are all zero
+        return 0.0
+    # Fast paths: tanh(x) rounds to ±1 in float64 for |x| > 19.1 (exact), and for
+    # (ω/ω_s)² > 40 the Stribeck term is below 5e-18·(T_S − T_C) (negligible).
+    if inv_omega_reg > 0.0:
+        x = omega * inv_omega_reg
+        if x > 20.0:
+            s = 1.0
+        elif x < -20.0:
+            s = -1.0
+        else:
+            s = math.tanh(x)
+    else:
+        s = 1.0 if omega > 0.0 else -1.0
+    level = T_C
+    if T_S > 0.0:
+        r = omega * inv_omega_s
+        r2 = r * r
+        if r2 < 40.0:
+            level = T_C + (T_S - T_C) * math.exp(-r2)
+    return level * s + beta * omega
+
+
+@njit(cache=True)
 def friction_scalar(omega, T_C, beta, T_S, omega_s, omega_reg):
     """Friction torque [N·m] at velocity ``omega`` [rad/s].
 
@@ -37,25 +66,8 @@ def friction_scalar(omega, T_C, beta, T_S, omega_s, omega_reg):
     omega_reg : float
         Regularisation velocity [rad/s]; 0 selects the exact sign function.
     """
-    # Fast paths: tanh(x) rounds to ±1 in float64 for |x| > 19.1 (exact), and for
-    # (ω/ω_s)² > 40 the Stribeck term is below 5e-18·(T_S − T_C) (negligible).
-    if omega_reg > 0.0:
-        x = omega / omega_reg
-        if x > 20.0:
-            s = 1.0
-        elif x < -20.0:
-            s = -1.0
-        else:
-            s = math.tanh(x)
-    else:
-        s = 1.0 if omega > 0.0 else (-1.0 if omega < 0.0 else 0.0)
-    level = T_C
-    if T_S > 0.0:
-        r = omega / omega_s
-        r2 = r * r
-        if r2 < 40.0:
-            level = T_C + (T_S - T_C) * math.exp(-r2)
-    return level * s + beta * omega
+    inv_omega_reg = 1.0 / omega_reg if omega_reg > 0.0 else 0.0
+    return friction_inv_scalar(omega, T_C, beta, T_S, 1.0 / omega_s, inv_omega_reg)
 
 
 friction = vectorize(["float64(float64,float64,float64,float64,float64,float64)"], cache=True)(
