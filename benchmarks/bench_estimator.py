@@ -68,22 +68,22 @@ class NumpyDeadzoneEstimator:
 
     def step(self, theta_m: float, omega_m: float, theta_l: float, omega_l: float) -> float:
         p = self.p
-        Ts, N, J_l, K_S, D_S = p[dz.P_TS], p[dz.P_N], p[dz.P_J_L], p[dz.P_K_S], p[dz.P_D_S]
+        T_s, N, J_l, K_S, D_S = p[dz.P_TS], p[dz.P_N], p[dz.P_J_L], p[dz.P_K_S], p[dz.P_D_S]
         d1, a = p[dz.P_DELTA1], p[dz.P_ALPHA]
         dth_meas = theta_m / N - theta_l
         dom = omega_m / N - omega_l
-        c = 1.0 - np.exp(-p[dz.P_OMEGA_C] * Ts)
+        c = 1.0 - np.exp(-p[dz.P_OMEGA_C] * T_s)
         x = dth_meas if self.x_pred is None else self.x_pred
         x = x + c * (dth_meas - x)
-        self.x_pred = x + Ts * dom
+        self.x_pred = x + T_s * dom
         dth = x
         sg = np.sign(omega_l)
         err = omega_l - self.w_hat
         s = np.sign(err)
         phi = p[dz.P_K1] * np.sqrt(abs(err)) * s + self.z
         w_prev = self.w_hat
-        self.w_hat = w_prev + Ts * (-(p[dz.P_T_CL] * sg + p[dz.P_BETA_L] * omega_l) / J_l + phi)
-        self.z += Ts * p[dz.P_K2] * s
+        self.w_hat = w_prev + T_s * (-(p[dz.P_T_CL] * sg + p[dz.P_BETA_L] * omega_l) / J_l + phi)
+        self.z += T_s * p[dz.P_K2] * s
         d = self.delta
         B = np.pi + np.arctan(a * (dth - d + d1)) - np.arctan(a * (dth + d1))
         arg = dth + d1 - 0.5 * d * (1 + np.sign(dth)) + D_S / K_S * dom
@@ -103,12 +103,12 @@ class NumpyDeadzoneEstimator:
             gate = 1.0
         h = np.array([self.kappa * g, T_hat / K_S * gate])
         e = T_meas / K_S - self.kappa * T_hat / K_S
-        af = 1.0 - np.exp(-Ts / p[dz.P_TAU_F])
+        af = 1.0 - np.exp(-T_s / p[dz.P_TAU_F])
         self.ef += af * (e - self.ef)
         self.hf += af * (h - self.hf)
         if p[dz.P_RESET_E] > 0:  # gain reset on a persistent residual
             big = abs(self.ef) > p[dz.P_RESET_E] * p[dz.P_THETA_DEF] and self.hf[0] ** 2 > 0.25
-            self.reset_timer = self.reset_timer + Ts if big else 0.0
+            self.reset_timer = self.reset_timer + T_s if big else 0.0
             if self.reset_timer > p[dz.P_RESET_T]:
                 self.reset_timer = 0.0
                 self.P = self.P0.copy()
@@ -117,10 +117,10 @@ class NumpyDeadzoneEstimator:
         tau = Ph[0] * self.ef
         hh = ((eps + 1) * d * d - dmax**2) / (eps * dmax**2)
         rate = tau if (hh < 0 or 2 * (eps + 1) * d * tau <= 0) else tau * (1 - hh)
-        self.kappa = float(np.clip(self.kappa + Ts * Ph[1] * self.ef, 0.25, 4.0))
-        self.P = self.P + Ts * p[dz.P_LAMBDA] * (self.P0 - self.P) - Ts * np.outer(Ph, Ph)
-        self.delta = float(np.clip(d + Ts * rate, 0.0, dmax))
-        aq = 1.0 - np.exp(-Ts / max(p[dz.P_TAU_F], 2e-3))
+        self.kappa = float(np.clip(self.kappa + T_s * Ph[1] * self.ef, 0.25, 4.0))
+        self.P = self.P + T_s * p[dz.P_LAMBDA] * (self.P0 - self.P) - T_s * np.outer(Ph, Ph)
+        self.delta = float(np.clip(d + T_s * rate, 0.0, dmax))
+        aq = 1.0 - np.exp(-T_s / max(p[dz.P_TAU_F], 2e-3))
         self.tqf += aq * (T_meas - self.tqf)
         self.sig_sum += g * g - self.ring[self.ring_i]
         self.ring[self.ring_i] = g * g

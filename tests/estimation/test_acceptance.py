@@ -32,32 +32,32 @@ def test_paper_sim_default_meets_paper_figures():
 def _off_scenario(kind: str):
     """Drives that are not among the scenarios: gear ratio, inertias, stiffness, encoders, motion."""
     if kind == "gear5":
-        dt = DrivetrainParams(
+        drivetrain = DrivetrainParams(
             J_m=2e-4, J_l=5e-3, N=5.0, K_S=120.0, D_S=0.2, T_Cm=0.01, T_Cl=0.08, beta_m=5e-4,
             beta_l=0.01, T_Sm=0.015, T_Sl=0.12, omega_s=0.05,
         )  # fmt: skip
         bl = BacklashParams(0.02, 0.005)
         sens = SensorParams(counts_m=4096, counts_l=4096, sigma_omega_m=0.05, sigma_omega_l=0.01)
-        ref = position_sine(40.0, TS, 0.3 * dt.N, 1.0)
-        g = gains_from_bandwidth(dt, 100.0)
+        ref = position_sine(40.0, TS, 0.3 * drivetrain.N, 1.0)
+        g = gains_from_bandwidth(drivetrain, 100.0)
     else:  # trapezoidal passes with dwell, N = 3, 1024/8192 counts, offset δ1 = δ/3
-        dt = DrivetrainParams(
+        drivetrain = DrivetrainParams(
             J_m=8.31e-4, J_l=1.6e-3, N=3.0, K_S=20.0, D_S=0.05, T_Cm=0.02, T_Cl=0.03, beta_m=0.001,
             beta_l=0.002,
         )  # fmt: skip
         bl = BacklashParams(0.3, 0.1)
         sens = SensorParams(counts_m=8192, counts_l=1024, sigma_omega_m=0.03, sigma_omega_l=0.03)
         ref = constant_velocity_passes(40.0, TS, velocity=9.0, stroke=6.0, acceleration=90.0, dwell=0.2)
-        g = gains_from_bandwidth(dt, 100.0)
-    trace = simulate(dt, bl, g, ref, sensors=sens, seed=7).to_trace()
-    return replace(dt, T_Sm=0.0, T_Sl=0.0), bl, trace
+        g = gains_from_bandwidth(drivetrain, 100.0)
+    trace = simulate(drivetrain, bl, g, ref, sensors=sens, seed=7).to_trace()
+    return replace(drivetrain, T_Sm=0.0, T_Sl=0.0), bl, trace
 
 
 @pytest.mark.parametrize("kind", ["gear5", "passes"])
 def test_off_scenario_drive(kind):
-    dt, bl, trace = _off_scenario(kind)
-    cfg = EstimatorConfig.tuned(dt, TS, excitation_frequency(trace))
-    res = DeadzoneEstimator(dt, bl, TS, cfg).run(trace)
+    drivetrain, bl, trace = _off_scenario(kind)
+    cfg = EstimatorConfig.tuned(drivetrain, TS, excitation_frequency(trace))
+    res = DeadzoneEstimator(drivetrain, bl, TS, cfg).run(trace)
     t, d = res.t, res.delta_hat
     assert res.excitation_ok and res.converged, res.reason
     # the bench targets, transferred: ≤ 1 mrad over the last 20 s, into 10 mrad within 10 s
@@ -136,10 +136,10 @@ def test_coarser_sample_time():
     sc = get_scenario("bench-5C")
     full = sc.simulate()
     trace = Trace({k: v[::8] for k, v in full.columns.items()})
-    Ts = trace.sample_time
-    assert Ts == pytest.approx(1e-3)
-    cfg = EstimatorConfig.tuned(sc.estimator_drivetrain, Ts, excitation_frequency(trace))
-    res = DeadzoneEstimator(sc.estimator_drivetrain, sc.estimator_backlash, Ts, cfg).run(trace)
+    T_s = trace.T_s
+    assert T_s == pytest.approx(1e-3)
+    cfg = EstimatorConfig.tuned(sc.estimator_drivetrain, T_s, excitation_frequency(trace))
+    res = DeadzoneEstimator(sc.estimator_drivetrain, sc.estimator_backlash, T_s, cfg).run(trace)
     assert res.excitation_ok and res.converged
     assert maee(res.t, res.delta_hat, sc.plant_backlash.delta, 40.0) <= 1e-3
     del estimator_for

@@ -74,13 +74,13 @@ def test_estimate_json_contract(bench_csv, tmp_path, capsys):
         "maee_rad",
         "steady_state_peak_rad",
         "samples",
-        "sample_time_s",
+        "T_s",
     ):
         assert key in d
     assert d["excitation_ok"] and d["converged"]
     assert abs(d["delta"] - 0.186) < 2e-3
     assert d["samples"] == 48000
-    assert d["sample_time_s"] == pytest.approx(TS)
+    assert d["T_s"] == pytest.approx(TS)
     assert "δ̂" in stdout
 
 

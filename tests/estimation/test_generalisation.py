@@ -33,7 +33,7 @@ def random_drive(rng: np.random.Generator, seed: int):
     K_S = J_l * wn**2
     D_S = 2 * 0.02 * np.sqrt(K_S * J_l) * rng.uniform(0.5, 3)
     T_Cl = K_S * 10 ** rng.uniform(-4, -2.5)
-    dt = DrivetrainParams(
+    drivetrain = DrivetrainParams(
         J_m=J_m, J_l=J_l, N=N, K_S=K_S, D_S=D_S, T_Cm=0.02 * J_m / 8e-4, T_Cl=T_Cl,
         beta_m=0.001, beta_l=T_Cl * 0.05, T_Sl=T_Cl * 1.5, T_Sm=0.0, omega_s=0.05,
     )  # fmt: skip
@@ -58,9 +58,11 @@ def random_drive(rng: np.random.Generator, seed: int):
             acceleration=amp * N * 30 * f * f,
             dwell=0.1,
         )
-    g = replace(gains_from_bandwidth(dt, float(min(0.5 * wn, 300.0))), torque_limit=max(0.5 * K_S, 1.0))
-    trace = simulate(dt, bl, g, ref, sensors=sens, seed=seed).to_trace()
-    return replace(dt, T_Sm=0.0, T_Sl=0.0), bl, trace
+    g = replace(
+        gains_from_bandwidth(drivetrain, float(min(0.5 * wn, 300.0))), torque_limit=max(0.5 * K_S, 1.0)
+    )
+    trace = simulate(drivetrain, bl, g, ref, sensors=sens, seed=seed).to_trace()
+    return replace(drivetrain, T_Sm=0.0, T_Sl=0.0), bl, trace
 
 
 @pytest.mark.slow
@@ -68,10 +70,10 @@ def random_drive(rng: np.random.Generator, seed: int):
 def test_random_drives(seed):
     rng = np.random.default_rng(seed)
     for case in range(12):
-        dt, bl, trace = random_drive(rng, case)
+        drivetrain, bl, trace = random_drive(rng, case)
         f = excitation_frequency(trace)
-        cfg = EstimatorConfig.tuned(dt, TS, f)
-        res = DeadzoneEstimator(dt, bl, TS, cfg).run(trace)
+        cfg = EstimatorConfig.tuned(drivetrain, TS, f)
+        res = DeadzoneEstimator(drivetrain, bl, TS, cfg).run(trace)
         t, d = res.t, res.delta_hat
         where = f"seed {seed} case {case}"
         assert res.excitation_ok and res.converged, where

@@ -29,16 +29,16 @@ def simulated_trace(duration: float = 2.0) -> Trace:
     return get_scenario("bench-0A").simulate(duration=duration)
 
 
-def synthetic_trace(n: int = 2000, dt: float = 1e-3, seed: int = 0) -> Trace:
+def synthetic_trace(n: int = 2000, T_s: float = 1e-3, seed: int = 0) -> Trace:
     """A small rotary trace with smooth motion (no simulator needed)."""
     rng = np.random.default_rng(seed)
-    t = np.arange(n) * dt
+    t = np.arange(n) * T_s
     theta_m = 0.8 * np.sin(2 * np.pi * 1.3 * t) + 0.1 * np.sin(2 * np.pi * 3.1 * t)
     omega_m = 0.8 * 2 * np.pi * 1.3 * np.cos(2 * np.pi * 1.3 * t) + 0.1 * 2 * np.pi * 3.1 * np.cos(
         2 * np.pi * 3.1 * t
     )
     theta_l = 0.5 * theta_m + 1e-3 * np.sin(2 * np.pi * 0.7 * t)
-    omega_l = np.gradient(theta_l, dt)
+    omega_l = np.gradient(theta_l, T_s)
     torque = 2.0 * np.sin(2 * np.pi * 1.3 * t + 0.4) + 0.05 * rng.standard_normal(n)
     return Trace(
         {

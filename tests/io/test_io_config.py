@@ -45,8 +45,10 @@ def test_full_config_maps_to_params(tmp_path):
     p = tmp_path / "c.toml"
     p.write_text(FULL)
     cfg = load_config(p)
-    dt = cfg.to_drivetrain_params()
-    assert dt == DrivetrainParams(J_m=0.01, J_l=0.05, N=2.0, K_S=800.0, D_S=0.5, T_Cm=0.1, beta_l=0.02)
+    drivetrain = cfg.to_drivetrain_params()
+    assert drivetrain == DrivetrainParams(
+        J_m=0.01, J_l=0.05, N=2.0, K_S=800.0, D_S=0.5, T_Cm=0.1, beta_l=0.02
+    )
     assert cfg.to_backlash_params(delta=0.01) == BacklashParams(delta=0.01, delta1=0.002, alpha=2000.0)
     assert cfg.estimator.k1 == 30.0 and cfg.estimator.k2 is None
     assert cfg.columns["enc"].counts_per_rev == 4096

@@ -102,7 +102,7 @@ def test_emps_mat_is_read_with_gtau_from_the_file():
     np.testing.assert_allclose(tr["torque_m"], gtau * d["vir"].ravel(), rtol=1e-15)
     np.testing.assert_array_equal(tr["theta_m"], d["qm"].ravel())
     assert len(tr) == 24841
-    assert tr.sample_time == pytest.approx(1e-3, rel=1e-4)
+    assert tr.T_s == pytest.approx(1e-3, rel=1e-4)
     assert tr.meta["axis"] == "prismatic" and tr.meta["units"]["torque_m"] == "N"
 
 

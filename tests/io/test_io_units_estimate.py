@@ -78,8 +78,8 @@ def test_units_mapped_by_config_give_the_same_estimate(tmp_path, recording):
     # estimator's own resolution (its convergence band is ~mrad)
     assert b["delta"] == pytest.approx(a["delta"], rel=1e-9)
     assert b["excitation_ok"] == a["excitation_ok"]
-    assert b["sample_time_s"] == pytest.approx(a["sample_time_s"], rel=1e-12)
+    assert b["T_s"] == pytest.approx(a["T_s"], rel=1e-12)
     if a["convergence_time_s"] is None:
         assert b["convergence_time_s"] is None
     else:
-        assert b["convergence_time_s"] == pytest.approx(a["convergence_time_s"], abs=2 * a["sample_time_s"])
+        assert b["convergence_time_s"] == pytest.approx(a["convergence_time_s"], abs=2 * a["T_s"])

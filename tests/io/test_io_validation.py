@@ -182,8 +182,8 @@ def test_cli_subprocess_exit_code_2(cases, tmp_path):
 def test_resampling_only_when_asked(cases):
     path = cases["non_uniform"][0]
     tr = load_trace(path, resample=True)
-    dt = np.diff(tr["t"])
-    np.testing.assert_allclose(dt, DT, rtol=1e-9)
+    steps = np.diff(tr["t"])
+    np.testing.assert_allclose(steps, DT, rtol=1e-9)
     assert any("resampled" in w and "row 250" in w for w in tr.meta["warnings"])
     # linear interpolation of a linear-in-t column is exact: theta_m has a 0.2·t ramp + sine;
     # compare with the analytic signal at the new grid, within the interpolation error of the sine
@@ -263,7 +263,7 @@ def test_constant_sample_rate_without_time_column(tmp_path):
     )
     tr = load_trace(tmp_path / "r.csv", cfg)
     np.testing.assert_allclose(tr["t"], np.arange(50) / 4000.0)
-    assert tr.sample_time == pytest.approx(2.5e-4)
+    assert tr.T_s == pytest.approx(2.5e-4)
 
 
 def test_unit_requirements_are_reported(tmp_path):

@@ -43,10 +43,12 @@ def estimate_run():
     from identify.helpers import simulated_trace
 
     tr = simulated_trace(2.0)
-    dt = DrivetrainParams(**tr.meta["estimator_drivetrain"])
+    drivetrain = DrivetrainParams(**tr.meta["estimator_drivetrain"])
     bl = BacklashParams(**tr.meta["estimator_backlash"])
-    result = DeadzoneEstimator(dt, bl, Ts=tr.sample_time).run(tr)
-    cfg = parse_config({"drivetrain": dt.to_dict(), "backlash": {"delta1": bl.delta1, "alpha": bl.alpha}})
+    result = DeadzoneEstimator(drivetrain, bl, T_s=tr.T_s).run(tr)
+    cfg = parse_config(
+        {"drivetrain": drivetrain.to_dict(), "backlash": {"delta1": bl.delta1, "alpha": bl.alpha}}
+    )
     return tr, result, cfg
 
 

@@ -58,7 +58,7 @@ def test_bench_trace_contract_and_meta(tmp_path: Path) -> None:
     tr = sc.simulate(duration=0.5)
     for c in ("t", "theta_m", "omega_m", "theta_l", "omega_l", "torque_m", "delta_true", "theta_ref"):
         assert c in tr
-    assert len(tr) == 4000 and tr.sample_time == pytest.approx(125e-6)
+    assert len(tr) == 4000 and tr.T_s == pytest.approx(125e-6)
     assert tr.meta["scenario"] == "bench-3B" and tr.meta["seed"] == sc.seed
     assert tr.meta["estimator_drivetrain"]["T_Cl"] == pytest.approx(2 * 0.0232)
     json.dumps(tr.meta)

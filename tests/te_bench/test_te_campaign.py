@@ -73,7 +73,7 @@ def test_tiny_campaign_files_manifest_and_reproducibility(tmp_path):
     for ra, rb, rc in zip(camp_a.runs, camp_b.runs, camp_c.runs, strict=True):
         ta, tb, tc = ra.trace(), rb.trace(), rc.trace()
         assert tuple(ta.names) == STORED_COLUMNS
-        assert ta.sample_time == pytest.approx(1e-3)
+        assert ta.T_s == pytest.approx(1e-3)
         assert set(np.unique(ta["direction"])) <= {-1.0, 1.0}
         assert np.all(ta["F_load"] == ra.load)
         for col in STORED_COLUMNS:  # same seed ⇒ identical

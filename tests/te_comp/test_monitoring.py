@@ -28,8 +28,8 @@ def path_error(t, te):
 
 def _pass(defect_center=0.6, width=0.03, amp=6e-6, v=0.1, seed=0):
     rng = np.random.default_rng(seed)
-    dt = 1e-3
-    t = np.arange(0, 1.6 / v, dt)
+    T_s = 1e-3
+    t = np.arange(0, 1.6 / v, T_s)
     x = 0.05 + v * t
     te_model = 5e-6 * np.sin(2 * np.pi * x / 0.013333) + 20e-6 * np.sin(2 * np.pi * x / 0.2667)
     bump = amp * np.exp(-0.5 * ((x - defect_center) / (width / 4)) ** 2) * np.sin(2 * np.pi * x / 0.006)

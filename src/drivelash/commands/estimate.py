@@ -28,7 +28,7 @@ MAEE_FRACTION = 1.0 / 3.0
 SS_FRACTION = 1.0 / 6.0
 
 
-def _estimator_config(cfg: Any, dt: Any, Ts: float, f_exc: float, method: str) -> Any:
+def _estimator_config(cfg: Any, drivetrain: Any, T_s: float, f_exc: float, method: str) -> Any:
     from drivelash.errors import ConfigError, ParameterError
     from drivelash.estimation.estimator import EstimatorConfig
 
@@ -40,7 +40,7 @@ def _estimator_config(cfg: Any, dt: Any, Ts: float, f_exc: float, method: str) -
     if bl is not None and "alpha" in bl.model_fields_set:
         over["alpha"] = bl.alpha
     try:
-        return EstimatorConfig.tuned(dt, Ts, f_exc, method=method, **over)  # type: ignore[arg-type]
+        return EstimatorConfig.tuned(drivetrain, T_s, f_exc, method=method, **over)  # type: ignore[arg-type]
     except ParameterError as exc:
         table = "backlash" if exc.field == "alpha" else "estimator"
         raise ConfigError(f"{src}: table [{table}], key '{exc.field}': {exc.problem}") from None
@@ -69,7 +69,7 @@ def run_estimate(
             raise DrivelashError(f"{p}: output directory {p.parent} does not exist")
     cfg = load_config(config_path)
     src = cfg.source or str(config_path)
-    dt = cfg.to_drivetrain_params()
+    drivetrain = cfg.to_drivetrain_params()
     bl = cfg.require("backlash")
     if not (math.isfinite(bl.delta1) and bl.delta1 >= 0):
         raise ConfigError(
@@ -78,10 +78,10 @@ def run_estimate(
     trace = load_trace(trace_path, cfg, required=INPUT_COLUMNS)
     if not quiet:
         print_warnings(trace.meta)
-    Ts = trace.sample_time
+    T_s = trace.T_s
     f_exc = excitation_frequency(trace)
-    ecfg = _estimator_config(cfg, dt, Ts, f_exc, method)
-    est = DeadzoneEstimator(dt, bl.delta1, Ts, ecfg)
+    ecfg = _estimator_config(cfg, drivetrain, T_s, f_exc, method)
+    est = DeadzoneEstimator(drivetrain, bl.delta1, T_s, ecfg)
     res = est.run(trace)
     t = res.t
     summary: dict[str, Any] = {
@@ -96,7 +96,7 @@ def run_estimate(
         "convergence_time_s": res.convergence_time_s,
         "convergence_band_rad": res.band,
         "samples": len(trace),
-        "sample_time_s": Ts,
+        "T_s": T_s,
         "excitation_frequency_hz": f_exc,
         "stiffness_scale": res.extra.get("stiffness_scale"),
         "delta1_estimate": res.extra.get("delta1_estimate", res.extra.get("delta1_check")),
@@ -132,8 +132,7 @@ def _print_summary(s: dict[str, Any]) -> None:
     c = Console()
     verdict = "[green]sufficient[/green]" if s["excitation_ok"] else "[red]INSUFFICIENT[/red]"
     c.print(
-        f"[bold]deadzone estimate[/bold] ({s['method']} method, "
-        f"{s['samples']} samples at {s['sample_time_s']:.3g} s)"
+        f"[bold]deadzone estimate[/bold] ({s['method']} method, {s['samples']} samples at {s['T_s']:.3g} s)"
     )
     c.print(f"  δ̂ = {1e3 * s['delta']:.3f} mrad   (δ1 = {1e3 * s['delta1']:.3f} mrad)")
     if "delta_true" in s:

@@ -98,15 +98,15 @@ def predict_path_error(
         raise DataError("te and t must be 1-D arrays of equal length", column="te")
     if t.size < 2:
         raise DataError("need at least two samples", column="t")
-    dt = np.diff(t)
-    if np.ptp(dt) > 1e-6 * dt.mean():
+    steps = np.diff(t)
+    if np.ptp(steps) > 1e-6 * steps.mean():
         raise DataError("samples must be uniformly spaced", column="t")
     Kv, Kp, Tn = gains.K_v, gains.K_p, gains.T_n
     a = J_s * Tn / Kp
     u = te - te[0] if remove_initial else te
     # bilinear (Tustin) discretisation of (3) in zero-pole-gain form, run as second-order sections
     z, p, k = signal.tf2zpk([-a, -Tn, -1.0, 0.0], [a, Tn, 1.0 + Kv * Tn, Kv])
-    zd, pd, kd = signal.bilinear_zpk(z, p, k, fs=1.0 / float(dt.mean()))
+    zd, pd, kd = signal.bilinear_zpk(z, p, k, fs=1.0 / float(steps.mean()))
     return signal.sosfilt(signal.zpk2sos(zd, pd, kd), u)
 
 

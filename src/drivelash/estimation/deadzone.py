@@ -158,7 +158,7 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
     J_l = p[P_J_L]
     delta1 = p[P_DELTA1]
     alpha = p[P_ALPHA]
-    Ts = p[P_TS]
+    T_s = p[P_TS]
     default = p[P_METHOD] > 0.5
     delta_max = p[P_DELTA_MAX]
     thr = p[P_T_THR]
@@ -178,7 +178,7 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
         xhat = state[S_XHAT]
         xhat = xhat + p[P_C_POS] * (dtheta_meas - xhat)
         dtheta = xhat
-        state[S_XHAT] = xhat + Ts * domega  # prediction for the next sample
+        state[S_XHAT] = xhat + T_s * domega  # prediction for the next sample
     else:
         dtheta = dtheta_meas
         state[S_XHAT] = dtheta_meas
@@ -193,8 +193,8 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
     err = omega_l - w_hat
     s = sgn(err)
     phi = p[P_K1] * math.sqrt(abs(err)) * s + state[S_Z]
-    state[S_OMEGA_HAT] = w_hat + Ts * (a_known + phi)
-    state[S_Z] = state[S_Z] + Ts * p[P_K2] * s
+    state[S_OMEGA_HAT] = w_hat + T_s * (a_known + phi)
+    state[S_Z] = state[S_Z] + T_s * p[P_K2] * s
 
     # model torque (12) and sensitivity (46)–(50), sharing the bracket of (11):
     # B = π + atan(α(Δθ − δ + δ1)) − atan(α(Δθ + δ1)),  K_BL = K_S B / π,  χ1 = ½(1 + sgn Δθ) B
@@ -258,7 +258,7 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
         # informative samples means δ (or κ) has changed — restart from P0 (wear, a swap)
         if p[P_RESET_E] > 0.0:
             if abs(ef) > p[P_RESET_E] * p[P_THETA_DEF] and f0 * f0 > 0.25:
-                state[S_RESET] += Ts
+                state[S_RESET] += T_s
             else:
                 state[S_RESET] = 0.0
             if state[S_RESET] > p[P_RESET_T]:
@@ -272,14 +272,14 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
                 ph3 = 0.0
         rate = _projection_fast(delta, ph0 * ef, p[P_PROJ_C1], p[P_PROJ_C0])
         if ef == ef:
-            kappa = kappa + Ts * ph1 * ef
+            kappa = kappa + T_s * ph1 * ef
             kappa = min(max(kappa, 0.25), 4.0)
             state[S_TH + 1] = kappa
             if full:
-                d1 = state[S_TH + 2] + Ts * ph2 * ef
+                d1 = state[S_TH + 2] + T_s * ph2 * ef
                 state[S_TH + 2] = min(max(d1, -delta_max), delta_max)
         # dP/dt = λ (P0 − P) − P h hᵀ P  (leakage towards P0 keeps P bounded and alive)
-        lam_ts = p[P_LAMBDA] * Ts
+        lam_ts = p[P_LAMBDA] * T_s
         if full:
             state[S_PH] = ph0
             state[S_PH + 1] = ph1
@@ -289,13 +289,13 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
                 for j in range(NTH):
                     k = S_PM + NTH * i + j
                     p0 = p[P_P0 + i] if i == j else 0.0
-                    v = state[k] + lam_ts * (p0 - state[k]) - Ts * state[S_PH + i] * state[S_PH + j]
+                    v = state[k] + lam_ts * (p0 - state[k]) - T_s * state[S_PH + i] * state[S_PH + j]
                     if v == v:
                         state[k] = v
         else:
-            v00 = state[q] + lam_ts * (p[P_P0] - state[q]) - Ts * ph0 * ph0
-            v01 = state[q + 1] - lam_ts * state[q + 1] - Ts * ph0 * ph1
-            v11 = state[q + 5] + lam_ts * (p[P_P0 + 1] - state[q + 5]) - Ts * ph1 * ph1
+            v00 = state[q] + lam_ts * (p[P_P0] - state[q]) - T_s * ph0 * ph0
+            v01 = state[q + 1] - lam_ts * state[q + 1] - T_s * ph0 * ph1
+            v11 = state[q + 5] + lam_ts * (p[P_P0 + 1] - state[q + 5]) - T_s * ph1 * ph1
             if v00 == v00 and v01 == v01 and v11 == v11:
                 state[q] = v00
                 state[q + 1] = v01
@@ -305,7 +305,7 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
         e = (T_meas - T_hat) * inv_K
         rate = _projection_fast(delta, p[P_GAMMA] * g * e, p[P_PROJ_C1], p[P_PROJ_C0])
     if rate == rate:  # skip a NaN update (keeps δ̂ finite)
-        delta = delta + Ts * rate
+        delta = delta + T_s * rate
     if delta < 0.0:
         delta = 0.0
     if delta > delta_max:
@@ -340,7 +340,7 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
     out[i_out, O_DELTA] = delta
     out[i_out, O_PHI] = phi
     out[i_out, O_OMEGA_HAT] = w_hat
-    out[i_out, O_SIGMA_WIN] = state[S_SIGSUM] * Ts
+    out[i_out, O_SIGMA_WIN] = state[S_SIGSUM] * T_s
     out[i_out, O_DTHETA] = dtheta
     out[i_out, O_TORQUE_HAT] = T_hat
     out[i_out, O_TORQUE_MEAS] = T_meas
@@ -394,10 +394,10 @@ def derive_params(p: np.ndarray) -> np.ndarray:
     filter), P_A_Q = 1 − exp(−T_s/max(τ_f, 2 ms)) (torque filter of the excitation monitor),
     P_P0 … P_P0+3 = diagonal of P0: [P_max, q P_max/θ_def², q P_max, q P_max].
     """
-    Ts = p[P_TS]
-    p[P_C_POS] = 1.0 - math.exp(-p[P_OMEGA_C] * Ts) if p[P_OMEGA_C] > 0 else 1.0
-    p[P_A_F] = 1.0 - math.exp(-Ts / p[P_TAU_F]) if p[P_TAU_F] > 0 else 1.0
-    p[P_A_Q] = 1.0 - math.exp(-Ts / max(p[P_TAU_F], 2e-3)) if p[P_TAU_F] > 0 else 1.0
+    T_s = p[P_TS]
+    p[P_C_POS] = 1.0 - math.exp(-p[P_OMEGA_C] * T_s) if p[P_OMEGA_C] > 0 else 1.0
+    p[P_A_F] = 1.0 - math.exp(-T_s / p[P_TAU_F]) if p[P_TAU_F] > 0 else 1.0
+    p[P_A_Q] = 1.0 - math.exp(-T_s / max(p[P_TAU_F], 2e-3)) if p[P_TAU_F] > 0 else 1.0
     p[P_INV_N] = 1.0 / p[P_N]
     p[P_INV_J] = 1.0 / p[P_J_L]
     p[P_D_OVER_K] = p[P_D_S] / p[P_K_S]

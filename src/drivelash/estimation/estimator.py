@@ -174,7 +174,7 @@ class EstimatorConfig:
     def tuned(
         cls,
         drivetrain: DrivetrainParams,
-        Ts: float,
+        T_s: float,
         f_exc: float = 0.5,
         method: Method = "default",
         delta_max: float | None = None,
@@ -186,7 +186,7 @@ class EstimatorConfig:
         ----------
         drivetrain : DrivetrainParams
             Drive-train parameters as known to the estimator.
-        Ts : float
+        T_s : float
             Sample time [s].
         f_exc : float
             Excitation (motion reversal) frequency [Hz].
@@ -197,8 +197,8 @@ class EstimatorConfig:
         **overrides
             Any field of :class:`EstimatorConfig` to set explicitly.
         """
-        if not (Ts > 0 and math.isfinite(Ts)):
-            raise ParameterError(cls.__name__, "Ts", f"sample time must be > 0, got {Ts!r}")
+        if not (T_s > 0 and math.isfinite(T_s)):
+            raise ParameterError(cls.__name__, "T_s", f"sample time must be > 0, got {T_s!r}")
         if not (f_exc > 0 and math.isfinite(f_exc)):
             raise ParameterError(cls.__name__, "f_exc", f"must be > 0, got {f_exc!r}")
         J_l, K_S = drivetrain.J_l, drivetrain.K_S
@@ -209,7 +209,7 @@ class EstimatorConfig:
         T_thr = 0.5 * T_ref
         rho = (K_S / J_l) * w_r * 1.0
         # slower observer when the sample time is coarse against the shaft resonance
-        s_ts = min(1.0, 0.1 / (w_n * Ts))
+        s_ts = min(1.0, 0.1 / (w_n * T_s))
         k2 = 1.1 * rho * s_ts * s_ts
         k1 = 1.5 * math.sqrt(rho) * s_ts
         theta_def = T_ref / K_S
@@ -224,7 +224,7 @@ class EstimatorConfig:
             alpha=alpha,
             method=method,
             omega_c=10.0 * w_r,
-            tau_f=max(2.0 / w_n, 4.0 * Ts),
+            tau_f=max(2.0 / w_n, 4.0 * T_s),
             lam=w_r / 25.0,
             P_max=16.0 * w_r,
             omega_eps=0.0,
@@ -232,7 +232,7 @@ class EstimatorConfig:
             window=max(2.0 / f_exc, 1.0),
             theta_def=theta_def,
             reset_e=3.0,
-            reset_t=max(2.0 * (2.0 / w_n), 4.0 * Ts),
+            reset_t=max(2.0 * (2.0 / w_n), 4.0 * T_s),
         )
         values.update({k: v for k, v in overrides.items() if v is not None})
         return cls(**values)
@@ -243,7 +243,7 @@ class EstimatorConfig:
 
 
 def build_params(
-    drivetrain: DrivetrainParams, backlash: BacklashParams | float, config: EstimatorConfig, Ts: float
+    drivetrain: DrivetrainParams, backlash: BacklashParams | float, config: EstimatorConfig, T_s: float
 ) -> np.ndarray:
     """Parameter array of :func:`~drivelash.estimation.deadzone.deadzone_run`.
 
@@ -256,7 +256,7 @@ def build_params(
         ``delta`` is ignored — that is what is estimated).
     config : EstimatorConfig
         Gains.
-    Ts : float
+    T_s : float
         Sample time [s].
     """
     delta1 = backlash.delta1 if isinstance(backlash, BacklashParams) else float(backlash)
@@ -274,7 +274,7 @@ def build_params(
     p[dz.P_GAMMA] = config.gamma
     p[dz.P_DELTA_MAX] = config.delta_max
     p[dz.P_EPS_DELTA] = config.eps_delta
-    p[dz.P_TS] = Ts
+    p[dz.P_TS] = T_s
     p[dz.P_METHOD] = 1.0 if config.method == "default" else 0.0
     p[dz.P_OMEGA_C] = config.omega_c
     p[dz.P_TAU_F] = config.tau_f
@@ -282,7 +282,7 @@ def build_params(
     p[dz.P_P_MAX] = config.P_max
     p[dz.P_OMEGA_EPS] = config.omega_eps
     p[dz.P_T_THR] = config.T_thr
-    p[dz.P_WINDOW] = max(1, int(round(config.window / Ts)))
+    p[dz.P_WINDOW] = max(1, int(round(config.window / T_s)))
     p[dz.P_EST_K] = 1.0 if config.estimate_stiffness else 0.0
     p[dz.P_EST_D1] = 1.0 if config.estimate_offset else 0.0
     p[dz.P_Q_D1] = config.q_offset
@@ -477,7 +477,7 @@ class DeadzoneEstimator:
         Drive-train parameters as known to the estimator.
     backlash : BacklashParams or float
         Known offset δ1 [rad] (``delta`` of a BacklashParams is not used).
-    Ts : float
+    T_s : float
         Sample time [s].
     config : EstimatorConfig, optional
         Gains; default :meth:`EstimatorConfig.tuned` with ``f_exc``.
@@ -486,7 +486,7 @@ class DeadzoneEstimator:
 
     Examples
     --------
-    >>> est = DeadzoneEstimator(dt, bl, Ts=125e-6)          # doctest: +SKIP
+    >>> est = DeadzoneEstimator(drivetrain, bl, T_s=125e-6)          # doctest: +SKIP
     >>> result = est.run(trace)                              # doctest: +SKIP
     >>> result.delta, result.excitation_ok                   # doctest: +SKIP
     """
@@ -495,7 +495,7 @@ class DeadzoneEstimator:
         self,
         drivetrain: DrivetrainParams,
         backlash: BacklashParams | float,
-        Ts: float,
+        T_s: float,
         config: EstimatorConfig | None = None,
         f_exc: float = 0.5,
     ) -> None:
@@ -503,16 +503,16 @@ class DeadzoneEstimator:
         self.delta1 = backlash.delta1 if isinstance(backlash, BacklashParams) else float(backlash)
         if not (math.isfinite(self.delta1) and self.delta1 >= 0):
             raise ParameterError("BacklashParams", "delta1", f"must be finite and >= 0, got {self.delta1!r}")
-        self.Ts = float(Ts)
-        self.config = config if config is not None else EstimatorConfig.tuned(drivetrain, Ts, f_exc)
-        self.params = build_params(drivetrain, self.delta1, self.config, self.Ts)
+        self.T_s = float(T_s)
+        self.config = config if config is not None else EstimatorConfig.tuned(drivetrain, T_s, f_exc)
+        self.params = build_params(drivetrain, self.delta1, self.config, self.T_s)
         self.state = dz.initial_state(self.params, self.config.delta0)
         self._check_params: np.ndarray | None = None
         self._check_state: np.ndarray | None = None
         c = self.config
         if c.method == "default" and not c.estimate_offset and c.offset_check:
             self._check_params = build_params(
-                drivetrain, self.delta1, replace(c, estimate_offset=True), self.Ts
+                drivetrain, self.delta1, replace(c, estimate_offset=True), self.T_s
             )
             self._check_state = dz.initial_state(self._check_params, c.delta0)
         self._row = np.empty((1, dz.N_OUT))
@@ -601,7 +601,7 @@ class DeadzoneEstimator:
         k0 = 2 * len(t) // 3
         kap_a = float(self.state[dz.S_TH + 1])
         kap_j = float(self._check_state[dz.S_TH + 1])
-        m = max(1, int(round(max(self.config.tau_f, 4 * self.Ts) / self.Ts)))  # chattering out
+        m = max(1, int(round(max(self.config.tau_f, 4 * self.T_s) / self.T_s)))  # chattering out
         r_a = _rms(uniform_filter1d(res.torque_meas[k0:] - kap_a * res.torque_hat[k0:], m))
         r_j = _rms(uniform_filter1d(res_j.torque_meas[k0:] - kap_j * res_j.torque_hat[k0:], m))
         res.extra["residual_rms_anchored"] = r_a
@@ -623,7 +623,7 @@ class DeadzoneEstimator:
         return res_j
 
 
-def _kinematics(samples: np.ndarray, N: float, Ts: float) -> dict[str, float]:
+def _kinematics(samples: np.ndarray, N: float, T_s: float) -> dict[str, float]:
     """Load and motor travel (load-side units) and number of motor-velocity reversals."""
     th_m = samples[:, 0] / N
     th_l = samples[:, 2]
@@ -649,18 +649,18 @@ def make_result(
     """Wrap kernel outputs into an :class:`EstimationResult` with the excitation verdict."""
     from drivelash.metrics import convergence_time
 
-    Ts = float(params[dz.P_TS])
+    T_s = float(params[dz.P_TS])
     n = out.shape[0]
     delta_hat = out[:, dz.O_DELTA].copy()
     sigma_win = out[:, dz.O_SIGMA_WIN].copy()
     trav = out[:, dz.O_TRAV].copy()
     n_trav = int(trav[-1]) if n else 0
     win = config.window
-    duration = n * Ts
+    duration = n * T_s
     sigma_frac = float(sigma_win[-1] / win) if n else 0.0
     tq = out[:, dz.O_TORQUE_MEAS]
     peak_tq = float(np.max(np.abs(tq[n // 10 :]))) if n else 0.0
-    kin = _kinematics(samples, float(params[dz.P_N]), Ts) if samples is not None else {}
+    kin = _kinematics(samples, float(params[dz.P_N]), T_s) if samples is not None else {}
     if n == 0 or duration < win:
         ok, reason = (
             False,
@@ -708,7 +708,7 @@ def make_result(
     conv = convergence_time(t, delta_hat, ref, band) if n else None
     converged = False
     if ok and n:
-        k = max(1, int(round(win / Ts)))
+        k = max(1, int(round(win / T_s)))
         recent = delta_hat[-k:]
         converged = bool(np.max(recent) - np.min(recent) <= band)
     if not ok:

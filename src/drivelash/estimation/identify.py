@@ -127,17 +127,17 @@ class IdentificationResult:
         return {"J_l": self["J_l"], "beta_l": max(self["beta_l"], 0.0), "T_Cl": max(self["T_Cl"], 0.0)}
 
 
-def central_difference(x: np.ndarray, dt: float) -> np.ndarray:
+def central_difference(x: np.ndarray, T_s: float) -> np.ndarray:
     """Central difference (x[k+1] − x[k−1]) / 2dt; one-sided at the two ends.
 
     Parameters
     ----------
     x : numpy.ndarray
         Samples at constant period.
-    dt : float
+    T_s : float
         Sample period [s].
     """
-    return np.gradient(x, dt, edge_order=1)
+    return np.gradient(x, T_s, edge_order=1)
 
 
 def lowpass_zero_phase(x: np.ndarray, cutoff_hz: float, fs: float, order: int = 4) -> np.ndarray:
@@ -175,11 +175,11 @@ def _decimate(x: np.ndarray, q: int) -> np.ndarray:
 
 
 def _prepare(
-    q: np.ndarray, dt: float, cutoff_hz: float, order: int
+    q: np.ndarray, T_s: float, cutoff_hz: float, order: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    qf = lowpass_zero_phase(q, cutoff_hz, 1.0 / dt, order)
-    dq = central_difference(qf, dt)
-    ddq = central_difference(dq, dt)
+    qf = lowpass_zero_phase(q, cutoff_hz, 1.0 / T_s, order)
+    dq = central_difference(qf, T_s)
+    ddq = central_difference(dq, T_s)
     return qf, dq, ddq
 
 
@@ -206,12 +206,12 @@ def _regressors(
     trace: Trace, side: str, cutoff_hz: float, filter_order: int, n_border: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Undecimated (t, q̇, q̈, τ-or-shaft-torque, sign source) after border removal."""
-    dt = trace.sample_time
+    T_s = trace.T_s
     col = "theta_m" if side == "motor" else "theta_l"
     for need in (col, "torque_m"):
         if need not in trace:
             raise DataError("identification needs this column", column=need, path=trace.meta.get("source"))
-    _, dq, ddq = _prepare(trace[col], dt, cutoff_hz, filter_order)
+    _, dq, ddq = _prepare(trace[col], T_s, cutoff_hz, filter_order)
     y = trace["torque_m"].copy()
     t = trace["t"]
     n = len(trace)
@@ -285,7 +285,7 @@ def _finish(
             "filter_order": filter_order,
             "decimate": decimate,
             "n_border": n_border,
-            "sample_time": trace.sample_time,
+            "T_s": trace.T_s,
         },
         t=td,
         y=yd,
@@ -316,8 +316,8 @@ def shaft_torque_estimate(
     numpy.ndarray
         T̂_l [N·m] at every sample.
     """
-    dt = trace.sample_time
-    _, dq, ddq = _prepare(trace["theta_m"], dt, kw.get("cutoff_hz", 100.0), kw.get("filter_order", 4))
+    T_s = trace.T_s
+    _, dq, ddq = _prepare(trace["theta_m"], T_s, kw.get("cutoff_hz", 100.0), kw.get("filter_order", 4))
     return N * (trace["torque_m"] - J_m * ddq - beta_m * dq - T_Cm * np.sign(dq))
 
 
@@ -350,8 +350,8 @@ def identify_load(
             path=trace.meta.get("source"),
         )
     T_l = shaft_torque_estimate(trace, J_m, beta_m, T_Cm, N, cutoff_hz=cutoff_hz, filter_order=filter_order)
-    dt = trace.sample_time
-    _, dq, ddq = _prepare(trace["theta_l"], dt, cutoff_hz, filter_order)
+    T_s = trace.T_s
+    _, dq, ddq = _prepare(trace["theta_l"], T_s, cutoff_hz, filter_order)
     n = len(trace)
     sl = slice(n_border, n - n_border)
     W = np.column_stack([ddq[sl], dq[sl], np.sign(dq[sl]), np.ones(n)[sl]])
@@ -485,7 +485,7 @@ class DisturbanceEstimate:
 
 def constant_velocity_mask(
     velocity: np.ndarray,
-    dt: float,
+    T_s: float,
     *,
     accel_fraction: float = 0.05,
     speed_fraction: float = 0.2,
@@ -497,7 +497,7 @@ def constant_velocity_mask(
     (away from reversals, where Coulomb friction switches); the first ``skip``
     samples (observer transient) are excluded.
     """
-    acc = central_difference(velocity, dt)
+    acc = central_difference(velocity, T_s)
     m = (np.abs(acc) < accel_fraction * np.abs(acc).max()) & (
         np.abs(velocity) > speed_fraction * np.abs(velocity).max()
     )
@@ -538,27 +538,27 @@ def observe_disturbance(
 
     if not J > 0:
         raise ParameterError("observer", "J", f"must be > 0, got {J!r}")
-    dt = trace.sample_time
+    T_s = trace.T_s
     if f"omega_{side}" in trace:
         v = trace[f"omega_{side}"]
     elif f"theta_{side}" in trace:
         v = central_difference(
-            lowpass_zero_phase(trace[f"theta_{side}"], cutoff_hz, 1 / dt, filter_order), dt
+            lowpass_zero_phase(trace[f"theta_{side}"], cutoff_hz, 1 / T_s, filter_order), T_s
         )
     else:
         raise DataError("the observer needs a velocity or position column", column=f"omega_{side}")
     if "torque_m" not in trace:
         raise DataError("the observer needs the motor torque/force", column="torque_m")
     if k1 is None or k2 is None:
-        p = STSMOParams.from_rho(DEFAULT_RHO, dt)
+        p = STSMOParams.from_rho(DEFAULT_RHO, T_s)
         k1 = p.k1 if k1 is None else k1
         k2 = p.k2 if k2 is None else k2
-    params = STSMOParams(k1=k1, k2=k2, Ts=dt)
+    params = STSMOParams(k1=k1, k2=k2, T_s=T_s)
     obs = SuperTwistingObserver(params, omega0=float(v[0]))
     _, phi = obs.run(v, (trace["torque_m"] - beta * v) / J)
     d = -J * phi
-    skip = min(len(trace) // 10, int(round(0.5 / dt)))
-    cv = constant_velocity_mask(v, dt, skip=skip)
+    skip = min(len(trace) // 10, int(round(0.5 / T_s)))
+    cv = constant_velocity_mask(v, T_s, skip=skip)
     pos, neg = cv & (v > 0), cv & (v < 0)
     return DisturbanceEstimate(
         t=trace["t"],

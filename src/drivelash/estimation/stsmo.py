@@ -44,7 +44,7 @@ STATE_SIZE = 2
 
 
 @njit(cache=True)
-def stsmo_step(state, omega_meas, known_accel, k1, k2, Ts):
+def stsmo_step(state, omega_meas, known_accel, k1, k2, T_s):
     """Advance the STSMO by one sample, in place.
 
     Parameters
@@ -59,7 +59,7 @@ def stsmo_step(state, omega_meas, known_accel, k1, k2, Ts):
         Proportional gain [rad^½/s^{3/2}].
     k2 : float
         Integral gain [rad/s³].
-    Ts : float
+    T_s : float
         Sample time [s].
 
     Returns
@@ -73,8 +73,8 @@ def stsmo_step(state, omega_meas, known_accel, k1, k2, Ts):
     err = omega_meas - w_hat
     s = sgn(err)
     v = k1 * math.sqrt(abs(err)) * s + state[1]
-    state[0] = w_hat + Ts * (known_accel + v)
-    state[1] = state[1] + Ts * k2 * s
+    state[0] = w_hat + T_s * (known_accel + v)
+    state[1] = state[1] + T_s * k2 * s
     return w_hat, v
 
 
@@ -108,9 +108,9 @@ def stsmo_run(state, omega_meas, known_accel, params):
     phi_hat = np.empty(n)
     k1 = params[0]
     k2 = params[1]
-    Ts = params[2]
+    T_s = params[2]
     for i in range(n):
-        w, v = stsmo_step(st, omega_meas[i], known_accel[i], k1, k2, Ts)
+        w, v = stsmo_step(st, omega_meas[i], known_accel[i], k1, k2, T_s)
         omega_hat[i] = w
         phi_hat[i] = v
     return st, omega_hat, phi_hat
@@ -126,36 +126,36 @@ class STSMOParams:
         Proportional gain [rad^½/s^{3/2}], > 0.
     k2 : float
         Integral gain [rad/s³], > 0.
-    Ts : float
+    T_s : float
         Sample time [s], > 0.
     """
 
     k1: float
     k2: float
-    Ts: float
+    T_s: float
 
     def __post_init__(self) -> None:
-        for n in ("k1", "k2", "Ts"):
+        for n in ("k1", "k2", "T_s"):
             v = getattr(self, n)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ParameterError(type(self).__name__, n, f"must be finite and > 0, got {v!r}")
 
     @classmethod
-    def from_rho(cls, rho: float, Ts: float) -> STSMOParams:
+    def from_rho(cls, rho: float, T_s: float) -> STSMOParams:
         """Gains from a bound ρ on |dφ/dt| [rad/s³] (Levant's rule k2 = 1.1 ρ, k1 = 1.5 √ρ).
 
         Parameters
         ----------
         rho : float
             Bound on the rate of change of the perturbation [rad/s³].
-        Ts : float
+        T_s : float
             Sample time [s].
         """
-        return cls(k1=1.5 * math.sqrt(rho), k2=1.1 * rho, Ts=Ts)
+        return cls(k1=1.5 * math.sqrt(rho), k2=1.1 * rho, T_s=T_s)
 
     def as_array(self) -> np.ndarray:
         """``[k1, k2, T_s]`` for :func:`stsmo_run`."""
-        return np.array([self.k1, self.k2, self.Ts], dtype=np.float64)
+        return np.array([self.k1, self.k2, self.T_s], dtype=np.float64)
 
 
 class SuperTwistingObserver:

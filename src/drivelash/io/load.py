@@ -233,18 +233,18 @@ def _check_time(
     """Validate the time column; return a uniform grid to resample onto, or None."""
     if t.size < 3:
         raise DataError(f"only {t.size} sample(s); need at least 3", path=path, column=column)
-    dt = np.diff(t)
-    if np.any(dt <= 0):
-        i = int(np.flatnonzero(dt <= 0)[0])
-        what = "duplicated time stamp" if dt[i] == 0 else "time goes backwards (non-increasing)"
+    steps = np.diff(t)
+    if np.any(steps <= 0):
+        i = int(np.flatnonzero(steps <= 0)[0])
+        what = "duplicated time stamp" if steps[i] == 0 else "time goes backwards (non-increasing)"
         raise DataError(f"{what}: t={t[i + 1]!r} after t={t[i]!r}", path=path, column=column, row=i + 1)
-    med = float(np.median(dt))
-    dev = np.abs(dt - med) / med
+    med = float(np.median(steps))
+    dev = np.abs(steps - med) / med
     if np.any(dev > sampling.tolerance):
         i = int(np.flatnonzero(dev > sampling.tolerance)[0])
         if not sampling.resample:
             raise DataError(
-                f"non-uniform sampling: interval {dt[i]:.6g} s vs median {med:.6g} s"
+                f"non-uniform sampling: interval {steps[i]:.6g} s vs median {med:.6g} s"
                 f" (deviation {dev[i]:.1%} > tolerance {sampling.tolerance:.1%});"
                 " resample explicitly with --resample or [sampling] resample = true",
                 path=path,

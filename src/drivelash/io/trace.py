@@ -85,7 +85,7 @@ class Trace:
         return list(self.columns)
 
     @property
-    def sample_time(self) -> float:
+    def T_s(self) -> float:
         """Sample period [s] (median of time differences)."""
         t = self.columns["t"]
         if t.size < 2:

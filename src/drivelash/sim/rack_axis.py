@@ -239,10 +239,10 @@ def axis_chunk(state, x_d, v_d, F_load, v_c, p, table, out, seed):
     dirm = state[S_DIR]
     kk = state[S_K]
     r = p[P_R]
-    Ts = p[P_TS]
+    T_s = p[P_TS]
     nsub = int(p[P_NSUB])
-    h = Ts / nsub
-    a_f = 1.0 - math.exp(-Ts / p[P_TAUF])
+    h = T_s / nsub
+    a_f = 1.0 - math.exp(-T_s / p[P_TAUF])
     lim = p[P_TLIM]
     for k in range(x_d.size):
         # direction of travel from the set velocity (kept through standstill)
@@ -270,7 +270,7 @@ def axis_chunk(state, x_d, v_d, F_load, v_c, p, table, out, seed):
             T_M = lim
         elif T_M < -lim:
             T_M = -lim
-        xi = xi + p[P_KP] / p[P_TN] * Ts * e_w + (T_M - u_un)
+        xi = xi + p[P_KP] / p[P_TN] * T_s * e_w + (T_M - u_un)
         Fc0 = _mesh_force(th, w, x, v, Fbar, p, table)
         out[k, O_THETA] = th_m
         out[k, O_OMEGA] = w_m

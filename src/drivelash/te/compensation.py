@@ -231,12 +231,12 @@ class TETable:
         if not self.dx > 0:
             raise DataError(f"position step must be > 0, got {self.dx}")
         t0 = np.ascontiguousarray(np.asarray(self.torque0, dtype=np.float64).reshape(2))
-        dt = np.ascontiguousarray(np.asarray(self.dtorque, dtype=np.float64).reshape(2))
-        if te.shape[2] > 1 and not np.all(dt > 0):
-            raise DataError(f"torque steps must be > 0, got {dt}")
+        dtq = np.ascontiguousarray(np.asarray(self.dtorque, dtype=np.float64).reshape(2))
+        if te.shape[2] > 1 and not np.all(dtq > 0):
+            raise DataError(f"torque steps must be > 0, got {dtq}")
         object.__setattr__(self, "te", te)
         object.__setattr__(self, "torque0", t0)
-        object.__setattr__(self, "dtorque", dt)
+        object.__setattr__(self, "dtorque", dtq)
 
     @property
     def x_grid(self) -> np.ndarray:
