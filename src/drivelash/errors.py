@@ -70,3 +70,11 @@ class DataError(DrivelashError, ValueError):
 
 class ConfigError(DrivelashError, ValueError):
     """A problem in a TOML configuration file (missing, unknown or invalid key)."""
+
+
+class OutputError(DrivelashError, ValueError):
+    """A problem with an output path: ``OPTION PATH: problem`` (see :mod:`drivelash.io.outputs`)."""
+
+
+class ResourceError(DrivelashError, ValueError):
+    """A request that would exceed the memory or time budget (see :mod:`drivelash.io.budget`)."""

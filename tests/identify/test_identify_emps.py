@@ -137,6 +137,7 @@ def test_cli_identify_writes_fragment_json_and_report(tmp_path):
     assert got.drivetrain.beta_m == pytest.approx(PUBLISHED["F_v"], rel=0.02)
     assert got.drivetrain.T_Cm == pytest.approx(PUBLISHED["F_c"], rel=0.02)
     data = json.loads(js.read_text())
+    assert data.pop("generator").startswith("drivelash ")  # the write_json signature
     assert data == json.loads(json.dumps(summary, default=float))
     assert set(data["parameters"]) == {"M", "F_v", "F_c", "offset"}
     assert all(p["std"] > 0 for p in data["parameters"].values())

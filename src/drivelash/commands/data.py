@@ -8,7 +8,6 @@ partial files behind.
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -16,14 +15,15 @@ from typing import Any
 import typer
 
 from drivelash.commands import print_warnings
+from drivelash.io.outputs import write_json
 
 OUT_HELP = "Write a JSON summary here."
 
 
 def _write_text(path: Path, text: str) -> None:
-    from drivelash.io.formats import atomic_path
+    from drivelash.io.outputs import atomic_write
 
-    with atomic_path(path) as tmp:
+    with atomic_write(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
 
 
@@ -115,7 +115,7 @@ def run_identify(
     if out is not None:
         _write_text(out, fragment)
     if json_out is not None:
-        _write_text(json_out, json.dumps(summary, indent=2, default=float) + "\n")
+        write_json(json_out, summary)
     if html is not None and report is not None:
         _write_text(report, html)
     if not quiet:
@@ -197,7 +197,7 @@ def run_observe(
             out,
         )
     if json_out is not None:
-        _write_text(json_out, json.dumps(summary, indent=2, default=float) + "\n")
+        write_json(json_out, summary)
     if html is not None and report is not None:
         _write_text(report, html)
     if not quiet:

@@ -13,7 +13,6 @@ values, and the figures (paper's Fig. 8, 13/19, 15, 10).
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Any
@@ -21,6 +20,7 @@ from typing import Any
 import typer
 
 from drivelash.commands import print_warnings
+from drivelash.io.outputs import write_json
 
 #: Fractions of a recording used for MAEE and steady-state peak when the truth is known
 #: (for a 60 s bench run: the last 20 s and the last 10 s, as in ``reproduce``).
@@ -110,7 +110,7 @@ def run_estimate(
         summary["maee_rad"] = maee(t, res.delta_hat, truth, float(t[-1]) - MAEE_FRACTION * T)
         summary["steady_state_peak_rad"] = steady_state_peak(t, res.delta_hat, truth, SS_FRACTION * T)
     if json_out is not None:
-        json_out.write_text(json.dumps(summary, indent=2, default=float) + "\n", encoding="utf-8")
+        write_json(json_out, summary)
     if plot is not None:
         from drivelash.report.estimation_figures import estimate_figure
 

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from rich.console import Console
+
+from drivelash.io.outputs import write_json
 
 DEMO_SCENARIO = "bench-0A"
 
@@ -44,6 +45,4 @@ def demo_estimate(out_dir: Path, console: Console) -> None:
             estimate_figure(trace, res, out_dir / f"estimate-{DEMO_SCENARIO}.png")
             report = write_estimate_report(out_dir / f"estimate-{DEMO_SCENARIO}.html", trace, res)
             console.print(f"  report: {report}")
-    (out_dir / f"estimate-{DEMO_SCENARIO}.json").write_text(
-        json.dumps(summary, indent=2, default=float) + "\n", encoding="utf-8"
-    )
+    write_json(out_dir / f"estimate-{DEMO_SCENARIO}.json", summary)

@@ -3,8 +3,8 @@
 Readers return a :class:`RawTable` — source columns as float64 arrays plus the
 scalars stored next to them (e.g. ``gtau`` in the EMPS ``.mat`` files) — before
 any unit conversion or validation; :func:`drivelash.io.load_trace` does those.
-Writers take a :class:`~drivelash.io.trace.Trace` and write atomically (a
-temporary file renamed into place), so a failed write leaves nothing behind.
+Writers take a :class:`~drivelash.io.trace.Trace`; commands write through
+:class:`drivelash.io.outputs.Outputs` (temporary names, renamed together at the end).
 
 The format is chosen by extension and then checked against the content (magic
 bytes): a ``.parquet`` file that is really CSV is a "wrong file type" error, a
@@ -13,12 +13,9 @@ Parquet file without its footer is "truncated". Nothing is ever unpickled.
 
 from __future__ import annotations
 
-import contextlib
 import io
 import json
 import os
-import tempfile
-from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -26,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from drivelash.errors import DataError
-from drivelash.io.trace import Trace
+from drivelash.io.trace import Trace, meta_json
 
 #: extension → format name
 EXTENSIONS: dict[str, str] = {
@@ -460,29 +457,6 @@ def read_raw(path: str | Path) -> RawTable:
 
 
 # --------------------------------------------------------------------------- writers
-@contextlib.contextmanager
-def atomic_path(path: str | Path) -> Iterator[Path]:
-    """Yield a temporary path next to ``path``; rename it into place on success.
-
-    On any exception the temporary file is removed, so no partial output remains.
-    """
-    dst = Path(path)
-    dst.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{dst.name}.", suffix=".part", dir=dst.parent)
-    os.close(fd)
-    tmp_path = Path(tmp)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp_path, 0o666 & ~umask)  # mkstemp creates 0600; give the usual permissions
-    try:
-        yield tmp_path
-        os.replace(tmp_path, dst)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            tmp_path.unlink()
-        raise
-
-
 def _write_hdf5(trace: Trace, path: Path, userblock: int = 0) -> None:
     import h5py
 
@@ -493,7 +467,7 @@ def _write_hdf5(trace: Trace, path: Path, userblock: int = 0) -> None:
                 ds.attrs["MATLAB_class"] = np.bytes_("double")
             else:
                 f.create_dataset(name, data=arr)
-        f.attrs[_META_KEY] = json.dumps(trace.meta)
+        f.attrs[_META_KEY] = meta_json(trace.meta)
         f.attrs[_ORDER_KEY] = json.dumps(trace.names)
     if userblock:
         header = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created by: drivelash HDF5 schema 1.00 ."
@@ -503,46 +477,58 @@ def _write_hdf5(trace: Trace, path: Path, userblock: int = 0) -> None:
 
 
 def write_trace(trace: Trace, path: str | Path, fmt: str | None = None) -> Path:
-    """Write ``trace`` to ``path`` atomically.
+    """Write ``trace`` to ``path``.
 
     Parameters
     ----------
     trace : Trace
         The recording (SI columns).
     path : str or Path
-        Output file.
+        Output file: a staging path from :meth:`drivelash.io.outputs.Outputs.staging`
+        (written in place; the command renames it with the rest of its outputs) or any
+        other path (written under a temporary name and renamed, so a failed write leaves
+        nothing behind).
     fmt : {"csv", "parquet", "hdf5", "mat", "mat73"}, optional
-        Format; by extension when omitted (``.mat`` → v5). ``"mat73"`` writes an
-        HDF5-based MATLAB v7.3 file.
+        Format; by the (final) extension when omitted (``.mat`` → v5). ``"mat73"`` writes
+        an HDF5-based MATLAB v7.3 file.
 
     Returns
     -------
     Path
         The written file.
     """
+    from drivelash.io.outputs import atomic_write, final_suffix, is_staging_path
+
     p = Path(path)
     if fmt is None:
-        fmt = EXTENSIONS.get(p.suffix.lower())
+        fmt = EXTENSIONS.get(final_suffix(p))
         if fmt is None:
             raise DataError(
-                f"unsupported extension '{p.suffix}' (use .csv, .parquet, .h5, .mat)", path=str(p)
+                f"unsupported extension '{final_suffix(p)}' (use .csv, .parquet, .h5, .mat)", path=str(p)
             )
     if fmt not in FORMATS:
         raise DataError(f"unknown format '{fmt}' (one of {', '.join(FORMATS)})", path=str(p))
-    with atomic_path(p) as tmp:
-        if fmt == "csv":
-            trace.to_csv(tmp)
-        elif fmt == "parquet":
-            trace.to_parquet(tmp)
-        elif fmt == "hdf5":
-            _write_hdf5(trace, tmp)
-        elif fmt == "mat73":
-            _write_hdf5(trace, tmp, userblock=512)
-        else:
-            import scipy.io
-
-            data: dict[str, Any] = {k: v.reshape(-1, 1) for k, v in trace.columns.items()}
-            data[_META_KEY] = json.dumps(trace.meta)
-            with tmp.open("wb") as fh:
-                scipy.io.savemat(fh, data, do_compression=True)
+    if is_staging_path(p):
+        _write(trace, p, fmt)
+        return p
+    with atomic_write(p) as tmp:
+        _write(trace, tmp, fmt)
     return p
+
+
+def _write(trace: Trace, path: Path, fmt: str) -> None:
+    if fmt == "csv":
+        trace.to_csv(path)
+    elif fmt == "parquet":
+        trace.to_parquet(path)
+    elif fmt == "hdf5":
+        _write_hdf5(trace, path)
+    elif fmt == "mat73":
+        _write_hdf5(trace, path, userblock=512)
+    else:
+        import scipy.io
+
+        data: dict[str, Any] = {k: v.reshape(-1, 1) for k, v in trace.columns.items()}
+        data[_META_KEY] = meta_json(trace.meta)
+        with path.open("wb") as fh:
+            scipy.io.savemat(fh, data, do_compression=True)

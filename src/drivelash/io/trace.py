@@ -21,6 +21,14 @@ from drivelash.errors import DataError
 
 TWO_MASS_COLUMNS = ("t", "theta_m", "omega_m", "theta_l", "omega_l", "torque_m")
 
+
+def meta_json(meta: Mapping[str, Any]) -> str:
+    """``meta`` as strict one-line JSON (numpy types converted, non-finite floats → null)."""
+    from drivelash.io.outputs import jsonable
+
+    return json.dumps(jsonable(dict(meta)), allow_nan=False)
+
+
 UNITS: dict[str, str] = {
     "t": "s",
     "theta_m": "rad",
@@ -127,7 +135,7 @@ class Trace:
 
         path = Path(path)
         table = pa.table(self.columns)
-        table = table.replace_schema_metadata({b"drivelash.meta": json.dumps(self.meta).encode()})
+        table = table.replace_schema_metadata({b"drivelash.meta": meta_json(self.meta).encode()})
         pq.write_table(table, path)
         return path
 
@@ -150,7 +158,7 @@ class Trace:
         names = self.names
         data = np.column_stack([self.columns[n] for n in names])
         header = ",".join(names)
-        meta_line = "# drivelash.meta " + json.dumps(self.meta)
+        meta_line = "# drivelash.meta " + meta_json(self.meta)
         with path.open("w", encoding="utf-8", newline="\n") as fh:
             fh.write(meta_line + "\n")
             np.savetxt(fh, data, delimiter=",", header=header, comments="", fmt="%.17g")
@@ -171,11 +179,7 @@ class Trace:
         return cls({c: df[c].to_numpy(dtype=np.float64) for c in df.columns}, meta)
 
     def save(self, path: str | Path) -> Path:
-        """Write by extension: ``.parquet``/``.pq`` or ``.csv``."""
-        path = Path(path)
-        ext = path.suffix.lower()
-        if ext in (".parquet", ".pq"):
-            return self.to_parquet(path)
-        if ext == ".csv":
-            return self.to_csv(path)
-        raise DataError(f"unsupported extension {ext!r} (use .parquet or .csv)", path=str(path))
+        """Write by extension (any format :func:`drivelash.io.formats.write_trace` knows)."""
+        from drivelash.io.formats import write_trace
+
+        return write_trace(self, path)

@@ -20,11 +20,13 @@ from typing import Any
 import numpy as np
 
 from drivelash.report.html import Figure, Section, render_html
+from drivelash.report.save import save_figure
 
 __all__ = [
     "render_estimate_report",
     "render_identify_report",
     "render_observe_report",
+    "save_figure",
     "write_estimate_report",
     "write_identify_report",
     "write_observe_report",
@@ -488,9 +490,12 @@ def write_observe_report(path: str | Path, trace: Any, est: Any, config: Any = N
 
 
 def _write(path: str | Path, text: str) -> Path:
-    from drivelash.io.formats import atomic_path
+    from drivelash.io.outputs import atomic_write, is_staging_path
 
     p = Path(path)
-    with atomic_path(p) as tmp:
+    if is_staging_path(p):
+        p.write_text(text, encoding="utf-8")
+        return p
+    with atomic_write(p) as tmp:
         tmp.write_text(text, encoding="utf-8")
     return p

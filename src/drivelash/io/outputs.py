@@ -1,0 +1,705 @@
+"""Outputs of a command: validated before any work, staged, and put in place together.
+
+Every command that writes files does it through :class:`Outputs`::
+
+    with Outputs("estimate", inputs=[trace_path, config_path], force=force) as out:
+        j = out.file(json_out, option="--json", kinds=JSON_EXTENSIONS)   # None stays None
+        p = out.file(plot, option="--plot", kinds=PLOT_EXTENSIONS)
+        d = out.directory(model_dir, option="-o")                       # written as a whole
+        ...                                                              # the work
+        write_json(out.staging(j), summary)                              # temp name next to j
+        save_figure(fig, out.staging(p))                                 # drivelash.report
+    # a clean exit renames every staged output into place, together, under a lock;
+    # an exception (or SIGTERM, see drivelash.cli) removes the staged files and leaves
+    # every target as it was.
+
+What a user can rely on (each point is tested in ``tests/io/test_outputs.py``):
+
+- **Validation before any work**: the parent directory exists, is a directory and is
+  writable; a file output is not an existing directory (nor a device or FIFO); its
+  extension is one the output kind accepts; it is not an input of the command (same
+  resolved path or the same file through a hard link), not inside an input directory
+  (a model or campaign), and not the path of another output of the same command.
+  Each problem is one line: ``--json run.parquet: is an input of this command; choose
+  another path``.
+- **Never lose a user's file**: an existing file or directory at an output path is
+  replaced only if it is recognisably a drivelash output (:func:`is_own_output`) or
+  with ``force=True`` (``--force``); the check is repeated under the lock at commit.
+- **Atomic as a set**: files are written under hidden temporary names next to their
+  targets (``.NAME.drivelash-PID-RAND.part``), directories as a hidden sibling
+  directory; the final renames run under an exclusive :func:`fcntl.flock` on each
+  target's parent directory (taken in sorted order, no lock files) with SIGTERM/SIGINT
+  blocked, so two concurrent runs never leave a mixed set. A directory is swapped in
+  with ``renameat2(RENAME_EXCHANGE)`` where the kernel offers it (else two renames;
+  the old copy is removed last). A killed process (SIGKILL) can leave only hidden
+  ``….part`` names, which no reader accepts as a recording; they are swept by the next
+  commit to the same target once their process is gone.
+
+Signatures (how a drivelash output is recognised) are listed in
+``docs/assumptions.md`` ("Outputs and bad input").
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import ctypes.util
+import errno
+import fcntl
+import json
+import math
+import os
+import re
+import shutil
+import signal
+import struct
+import tempfile
+import threading
+from collections.abc import Iterable, Iterator, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drivelash import __version__
+from drivelash.errors import OutputError
+
+__all__ = [
+    "DIRECTORY_MARKER",
+    "GENERATOR",
+    "HTML_EXTENSIONS",
+    "JSON_EXTENSIONS",
+    "PLOT_EXTENSIONS",
+    "TEXT_EXTENSIONS",
+    "TOML_EXTENSIONS",
+    "TRACE_EXTENSIONS",
+    "Outputs",
+    "atomic_write",
+    "dumps_json",
+    "final_suffix",
+    "is_own_output",
+    "is_staging_path",
+    "jsonable",
+    "write_json",
+]
+
+#: The signature our outputs carry (JSON ``generator`` key, image metadata, HTML meta tag).
+GENERATOR = f"drivelash {__version__}"
+
+#: Plot formats: what matplotlib writes *and* where we can stamp our signature.
+PLOT_EXTENSIONS: tuple[str, ...] = (".png", ".pdf", ".svg")
+#: HTML reports.
+HTML_EXTENSIONS: tuple[str, ...] = (".html",)
+#: JSON documents (written with :func:`write_json`).
+JSON_EXTENSIONS: tuple[str, ...] = (".json",)
+#: TOML fragments (first line ``# drivelash …``).
+TOML_EXTENSIONS: tuple[str, ...] = (".toml",)
+#: Plain text tables (first line ``# drivelash …`` or ``<!-- drivelash … -->``).
+TEXT_EXTENSIONS: tuple[str, ...] = (".csv", ".txt", ".md")
+#: Recordings (the extensions :mod:`drivelash.io.formats` writes).
+TRACE_EXTENSIONS: tuple[str, ...] = (".csv", ".txt", ".parquet", ".pq", ".h5", ".hdf5", ".hdf", ".mat")
+
+#: Marker file written into every output directory (JSON, with the generator key).
+DIRECTORY_MARKER = ".drivelash-output"
+
+_STAGE_RE = re.compile(
+    r"^\.(?P<name>.+)\.drivelash-(?P<pid>\d+)-(?P<rand>[A-Za-z0-9_]+)\.(?P<kind>part|old)$"
+)
+_HEAD = 8192
+
+
+# =========================================================================== JSON
+def jsonable(obj: Any) -> Any:
+    """``obj`` as plain JSON types: numpy scalars/arrays converted, non-finite floats → ``None``.
+
+    Dict keys become strings; tuples and sets become lists; :class:`~pathlib.Path` becomes
+    its string; dataclasses their fields. Anything else raises :class:`TypeError`.
+    """
+    if obj is None or isinstance(obj, bool | str):
+        return obj
+    if isinstance(obj, int):
+        return int(obj)
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, np.generic):
+        return jsonable(obj.item())
+    if isinstance(obj, np.ndarray):
+        return jsonable(obj.tolist())
+    if isinstance(obj, Mapping):
+        return {str(k): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple | set | frozenset):
+        return [jsonable(v) for v in obj]
+    if isinstance(obj, os.PathLike):
+        return os.fspath(obj)
+    import dataclasses
+
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return jsonable(dataclasses.asdict(obj))
+    raise TypeError(f"not JSON-serialisable: {type(obj).__name__}")
+
+
+def dumps_json(obj: Mapping[str, Any], *, indent: int | None = 2) -> str:
+    """Strict JSON text of a mapping with ``"generator": "drivelash <version>"`` first.
+
+    Non-finite floats become ``null`` (JSON has no NaN/Infinity); numpy types are
+    converted (:func:`jsonable`). The text ends with a newline.
+    """
+    if not isinstance(obj, Mapping):
+        raise TypeError(f"write_json needs a mapping at the top level, got {type(obj).__name__}")
+    doc = {"generator": GENERATOR, **{k: v for k, v in jsonable(obj).items() if k != "generator"}}
+    return json.dumps(doc, indent=indent, allow_nan=False, ensure_ascii=False) + "\n"
+
+
+def write_json(path: str | Path, obj: Mapping[str, Any], *, indent: int | None = 2) -> Path:
+    """Write ``obj`` as strict JSON (see :func:`dumps_json`); the one JSON writer of the project.
+
+    Parameters
+    ----------
+    path : str or Path
+        A staging path from :meth:`Outputs.staging` (written directly) or any other path
+        (written atomically: temporary name, then renamed).
+    obj : Mapping
+        The document; a ``"generator"`` key is put first.
+    indent : int, optional
+        Indentation (``None``: one line).
+    """
+    text = dumps_json(obj, indent=indent)
+    p = Path(path)
+    if is_staging_path(p):
+        p.write_text(text, encoding="utf-8")
+        return p
+    with atomic_write(p) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+    return p
+
+
+# =========================================================================== names
+def is_staging_path(path: str | Path) -> bool:
+    """Whether ``path`` is a temporary name made by :class:`Outputs` (``.NAME.drivelash-….part``)."""
+    m = _STAGE_RE.match(Path(path).name)
+    return bool(m and m["kind"] == "part")
+
+
+def final_name(path: str | Path) -> str:
+    """File name the output at ``path`` will have (the target's name for a staging path)."""
+    name = Path(path).name
+    m = _STAGE_RE.match(name)
+    return m["name"] if m else name
+
+
+def final_suffix(path: str | Path) -> str:
+    """Lower-case extension of the output's final name (works on staging paths)."""
+    return Path(final_name(path)).suffix.lower()
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _new_stage(target: Path, directory: bool) -> Path:
+    """Create a hidden temporary file or directory next to ``target``."""
+    prefix = f".{target.name}.drivelash-{os.getpid()}-"
+    if directory:
+        tmp = Path(tempfile.mkdtemp(prefix=prefix, suffix=".part", dir=target.parent))
+        os.chmod(tmp, 0o777 & ~_umask())
+    else:
+        fd, name = tempfile.mkstemp(prefix=prefix, suffix=".part", dir=target.parent)
+        os.close(fd)
+        tmp = Path(name)
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp creates 0600; give the usual permissions
+    return tmp
+
+
+def _remove(path: Path) -> None:
+    with contextlib.suppress(FileNotFoundError):
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path, ignore_errors=True)
+        else:
+            path.unlink()
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def _sweep_stale(target: Path) -> None:
+    """Remove temporary names of ``target`` left by processes that no longer exist."""
+    try:
+        names = os.listdir(target.parent)
+    except OSError:
+        return
+    for n in names:
+        m = _STAGE_RE.match(n)
+        if m and m["name"] == target.name and not _pid_alive(int(m["pid"])):
+            _remove(target.parent / n)
+
+
+# =========================================================================== signatures
+def _head(path: Path, n: int = _HEAD) -> bytes:
+    with path.open("rb") as fh:
+        return fh.read(n)
+
+
+def _png_signed(path: Path) -> bool:
+    with path.open("rb") as fh:
+        if fh.read(8) != b"\x89PNG\r\n\x1a\n":
+            return False
+        while True:
+            hdr = fh.read(8)
+            if len(hdr) < 8:
+                return False
+            n, kind = struct.unpack(">I4s", hdr)
+            if kind in (b"IDAT", b"IEND"):
+                return False
+            if kind == b"tEXt" and n < 65536:
+                key, _, value = fh.read(n).partition(b"\x00")
+                if key == b"Software" and value.startswith(b"drivelash"):
+                    return True
+                fh.seek(4, os.SEEK_CUR)
+            else:
+                fh.seek(n + 4, os.SEEK_CUR)
+
+
+def _pdf_signed(path: Path) -> bool:
+    size = path.stat().st_size
+    with path.open("rb") as fh:
+        if fh.read(5) != b"%PDF-":
+            return False
+        fh.seek(max(0, size - 65536))
+        tail = fh.read()
+    return b"/Creator (drivelash" in tail
+
+
+def _first_line(path: Path) -> bytes:
+    return _head(path, 512).split(b"\n", 1)[0].strip()
+
+
+def _hdf5_signed(path: Path) -> bool:
+    import h5py
+
+    try:
+        with h5py.File(path, "r") as f:
+            return "drivelash_meta" in f.attrs
+    except (OSError, ValueError):
+        return False
+
+
+def _mat_signed(path: Path) -> bool:
+    head = _head(path, 128)
+    if head.startswith(b"MATLAB 7.3"):
+        return _hdf5_signed(path)
+    import scipy.io
+
+    try:
+        return any(name == "drivelash_meta" for name, _, _ in scipy.io.whosmat(path))
+    except Exception:  # noqa: BLE001 - any unreadable file is simply "not ours"
+        return False
+
+
+def _parquet_signed(path: Path) -> bool:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    try:
+        md = pq.read_schema(path).metadata or {}
+    except (pa.ArrowException, OSError, ValueError):
+        return False
+    return b"drivelash.meta" in md
+
+
+def is_own_output(path: str | Path) -> bool:
+    """Whether the existing file or directory at ``path`` is recognisably a drivelash output.
+
+    Rules (by the extension of ``path``; see ``docs/assumptions.md``):
+
+    - directory: contains the marker file :data:`DIRECTORY_MARKER`, or is empty;
+    - ``.json``: the document starts with ``{"generator": "drivelash …"``;
+    - ``.html``: ``<meta name="generator" content="drivelash…">`` in its head;
+    - ``.png``: a ``tEXt`` chunk ``Software`` starting with ``drivelash`` (before the image data);
+      ``.pdf``: ``/Creator (drivelash…)``; ``.svg``: ``<dc:title>drivelash…`` in its metadata;
+    - ``.parquet``/``.pq``: schema metadata key ``drivelash.meta``;
+    - ``.csv``/``.txt``/``.toml``: first line starts with ``# drivelash``; ``.md``: first line
+      ``<!-- drivelash``;
+    - ``.h5``/``.hdf5``/``.hdf``, MAT v7.3: root attribute ``drivelash_meta``; MAT v5: a
+      variable ``drivelash_meta``.
+
+    Anything else (and anything unreadable) is not ours.
+    """
+    p = Path(path)
+    try:
+        if p.is_dir():
+            return (p / DIRECTORY_MARKER).is_file() or not any(p.iterdir())
+        if not p.is_file():
+            return False
+        ext = p.suffix.lower()
+        if ext == ".json":
+            return re.match(rb'\s*\{\s*"generator"\s*:\s*"drivelash', _head(p, 512)) is not None
+        if ext in (".html", ".htm"):
+            return b'<meta name="generator" content="drivelash' in _head(p)
+        if ext == ".png":
+            return _png_signed(p)
+        if ext == ".pdf":
+            return _pdf_signed(p)
+        if ext == ".svg":
+            return re.search(rb"<dc:creator>\s*<cc:Agent>\s*<dc:title>drivelash", _head(p)) is not None
+        if ext in (".parquet", ".pq"):
+            return _parquet_signed(p)
+        if ext in (".csv", ".txt", ".toml"):
+            return _first_line(p).startswith(b"# drivelash")
+        if ext == ".md":
+            return _first_line(p).startswith(b"<!-- drivelash")
+        if ext in (".h5", ".hdf5", ".hdf"):
+            return _hdf5_signed(p)
+        if ext == ".mat":
+            return _mat_signed(p)
+    except OSError:
+        return False
+    return False
+
+
+# =========================================================================== renames
+_RENAME_EXCHANGE = 2
+_AT_FDCWD = -100
+_renameat2: Any = None
+_renameat2_checked = False
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Swap two paths atomically with Linux ``renameat2(RENAME_EXCHANGE)``; False if unsupported."""
+    global _renameat2, _renameat2_checked
+    if not _renameat2_checked:
+        _renameat2_checked = True
+        try:
+            libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+            fn = libc.renameat2
+            fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
+            fn.restype = ctypes.c_int
+            _renameat2 = fn
+        except (OSError, AttributeError):
+            _renameat2 = None
+    if _renameat2 is None:
+        return False
+    rc = _renameat2(_AT_FDCWD, os.fsencode(a), _AT_FDCWD, os.fsencode(b), _RENAME_EXCHANGE)
+    if rc == 0:
+        return True
+    err = ctypes.get_errno()
+    if err in (errno.EINVAL, errno.ENOSYS, errno.EOPNOTSUPP, errno.EXDEV, errno.EPERM):
+        return False
+    raise OSError(err, os.strerror(err), str(b))
+
+
+def _fsync_path(path: Path) -> None:
+    with contextlib.suppress(OSError):
+        fd = os.open(path, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+@contextlib.contextmanager
+def _locked(dirs: Iterable[Path]) -> Iterator[None]:
+    """Exclusive ``flock`` on each directory (sorted order), signals held off meanwhile."""
+    block = threading.current_thread() is threading.main_thread()
+    sigs = {signal.SIGTERM, signal.SIGINT}
+    if block:
+        old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, sigs)
+    fds: list[int] = []
+    try:
+        for d in sorted({str(x) for x in dirs}):
+            fd = os.open(d, os.O_RDONLY | os.O_DIRECTORY)
+            fds.append(fd)
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        for fd in reversed(fds):
+            with contextlib.suppress(OSError):
+                fcntl.flock(fd, fcntl.LOCK_UN)
+            os.close(fd)
+        if block:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
+
+
+@contextlib.contextmanager
+def atomic_write(path: str | Path) -> Iterator[Path]:
+    """Library helper: yield a temporary name next to ``path``; rename it into place on success.
+
+    No ownership checks (a library call replaces its target, as ``pandas.to_parquet``
+    does); commands use :class:`Outputs`. On an exception the temporary file is removed.
+    """
+    dst = Path(os.path.abspath(path))
+    tmp = _new_stage(dst, directory=False)
+    try:
+        yield tmp
+        with _locked([dst.parent]):
+            os.replace(tmp, dst)
+    except BaseException:
+        _remove(tmp)
+        raise
+
+
+# =========================================================================== Outputs
+@dataclass
+class _Target:
+    path: Path  # absolute; parent resolved, last component as given
+    option: str
+    directory: bool
+    stage: Path | None = None
+
+
+def _display(path: str | Path) -> str:
+    return os.fspath(path)
+
+
+def _resolved(p: Path) -> Path:
+    return Path(os.path.realpath(p))
+
+
+def _inside(child: Path, parent: Path) -> bool:
+    return child != parent and child.is_relative_to(parent)
+
+
+class Outputs:
+    """The outputs of one command: validated up front, staged, committed as a set.
+
+    Parameters
+    ----------
+    command : str or None
+        Command name (recorded in the marker file of output directories).
+    inputs : iterable of path
+        Every file or directory the command reads. No output may be one of them, nor lie
+        inside an input directory (a model, a campaign).
+    force : bool
+        Replace existing files/directories that are not drivelash outputs (``--force``).
+    allow_inside : iterable of path
+        Locations inside an input directory where outputs are allowed (e.g. a model's
+        ``evaluation/`` sub-directory).
+    """
+
+    def __init__(
+        self,
+        command: str | None = None,
+        *,
+        inputs: Iterable[str | Path | None] = (),
+        force: bool = False,
+        allow_inside: Iterable[str | Path] = (),
+    ) -> None:
+        self.command = command
+        self.force = force
+        self.inputs = [Path(p) for p in inputs if p is not None and os.fspath(p) != ""]
+        self.allow_inside = [_resolved(Path(p)) for p in allow_inside]
+        self._targets: list[_Target] = []
+        self._done = False
+
+    # ------------------------------------------------------------ context
+    def __enter__(self) -> Outputs:
+        return self
+
+    def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
+        if exc_type is None:
+            self.commit()
+        else:
+            self.abort()
+
+    # ------------------------------------------------------------ validation
+    def _fail(self, option: str, path: str | Path, problem: str) -> OutputError:
+        return OutputError(f"{option} {_display(path)}: {problem}")
+
+    def _common(self, path: str | Path, option: str) -> tuple[Path, Path]:
+        raw = os.fspath(path)
+        if raw.strip() == "":
+            raise OutputError(f"{option}: empty path")
+        p = Path(raw)
+        if _STAGE_RE.match(p.name):
+            raise self._fail(option, raw, "name is reserved for drivelash temporary files")
+        parent = p.parent if str(p.parent) else Path(".")
+        if not parent.exists():
+            raise self._fail(option, raw, f"directory {_display(parent)} does not exist")
+        if not parent.is_dir():
+            raise self._fail(option, raw, f"{_display(parent)} is not a directory")
+        mode = parent.stat().st_mode
+        if not os.access(parent, os.W_OK | os.X_OK) or not (mode & 0o222):
+            raise self._fail(option, raw, f"directory {_display(parent)} is not writable")
+        target = _resolved(parent) / p.name
+        if p.name in ("", ".", ".."):
+            target = _resolved(p)
+        return p, target
+
+    def _check_inputs(self, option: str, raw: Path, target: Path, directory: bool) -> None:
+        rt = _resolved(target)
+        for q in self.inputs:
+            if not q.exists():
+                continue
+            rq = _resolved(q)
+            same = rt == rq
+            if not same and target.exists():
+                with contextlib.suppress(OSError):
+                    same = os.path.samefile(target, q)
+            if same:
+                raise self._fail(option, raw, "is an input of this command; choose another path")
+            allowed = any(rt == a or _inside(rt, a) for a in self.allow_inside)
+            if q.is_dir() and _inside(rt, rq) and not allowed:
+                raise self._fail(
+                    option, raw, f"is inside the input directory {_display(q)}; choose another path"
+                )
+            if directory and _inside(rq, rt):
+                raise self._fail(
+                    option, raw, f"contains {_display(q)}, an input of this command; choose another path"
+                )
+        for t in self._targets:
+            rt2 = _resolved(t.path)
+            if rt2 == rt:
+                raise self._fail(option, raw, f"is also the output of {t.option}; choose another path")
+            if t.directory and _inside(rt, rt2):
+                raise self._fail(option, raw, f"is inside the output directory of {t.option}")
+            if directory and _inside(rt2, rt):
+                raise self._fail(option, raw, f"contains the output of {t.option}")
+
+    def _check_existing(self, option: str, raw: Path, target: Path) -> None:
+        if (target.exists() or target.is_symlink()) and not self.force and not is_own_output(target):
+            what = "directory" if target.is_dir() else "file"
+            raise self._fail(
+                option,
+                raw,
+                f"an existing {what} that is not a drivelash output; use --force to replace it"
+                " or choose another path",
+            )
+
+    def file(
+        self, path: str | Path | None, *, option: str, kinds: Iterable[str] | None = None
+    ) -> Path | None:
+        """Validate one output file; returns its absolute target path (``None`` passes through).
+
+        Parameters
+        ----------
+        path : path or None
+            The output file as the user gave it.
+        option : str
+            The command-line option that named it (used in error messages), e.g. ``"--json"``.
+        kinds : iterable of str, optional
+            Accepted extensions (lower case, with the dot), e.g. :data:`PLOT_EXTENSIONS`.
+        """
+        if path is None:
+            return None
+        raw, target = self._common(path, option)
+        if kinds is not None:
+            kinds = tuple(kinds)
+            ext = raw.suffix.lower()
+            if ext not in kinds:
+                shown = f"'{raw.suffix}'" if raw.suffix else "(none)"
+                raise self._fail(option, raw, f"unsupported extension {shown} (use {', '.join(kinds)})")
+        if target.is_dir():
+            raise self._fail(option, raw, "is a directory; give a file name")
+        if target.exists() and not target.is_file():
+            raise self._fail(option, raw, "exists and is not a regular file")
+        self._check_inputs(option, raw, target, directory=False)
+        self._check_existing(option, raw, target)
+        self._targets.append(_Target(target, option, directory=False))
+        return target
+
+    def directory(self, path: str | Path | None, *, option: str) -> Path | None:
+        """Validate an output directory written as a whole; returns its absolute target path."""
+        if path is None:
+            return None
+        raw, target = self._common(path, option)
+        if target.exists() and not target.is_dir():
+            raise self._fail(option, raw, "exists and is not a directory")
+        cwd = Path.cwd().resolve()
+        if target.exists() and (_resolved(target) == cwd or _inside(cwd, _resolved(target))):
+            raise self._fail(option, raw, "contains the current directory; choose another path")
+        self._check_inputs(option, raw, target, directory=True)
+        self._check_existing(option, raw, target)
+        self._targets.append(_Target(target, option, directory=True))
+        return target
+
+    # ------------------------------------------------------------ staging
+    def _target(self, target: str | Path) -> _Target:
+        t = Path(target)
+        for x in self._targets:
+            if x.path == t:
+                return x
+        raise ValueError(f"{target} is not a declared output of this command")
+
+    def staging(self, target: str | Path) -> Path:
+        """The temporary path to write ``target`` to (created on first call; same path after).
+
+        For a file: an empty hidden file next to the target whose name keeps the target's
+        name (:func:`final_suffix` gives its extension). For a directory: an empty hidden
+        sibling directory.
+        """
+        if self._done:
+            raise RuntimeError("outputs already committed or aborted")
+        t = self._target(target)
+        if t.stage is None:
+            t.stage = _new_stage(t.path, t.directory)
+        return t.stage
+
+    def staged(self, target: str | Path | None) -> bool:
+        """Whether ``target`` has been staged (``None`` → False)."""
+        return target is not None and self._target(target).stage is not None
+
+    # ------------------------------------------------------------ commit / abort
+    def abort(self) -> None:
+        """Remove every staged file/directory; targets stay as they were."""
+        self._done = True
+        for t in self._targets:
+            if t.stage is not None:
+                _remove(t.stage)
+                t.stage = None
+
+    def commit(self) -> list[Path]:
+        """Put every staged output in place, together; returns the written targets."""
+        if self._done:
+            return []
+        staged = [t for t in self._targets if t.stage is not None]
+        old: list[Path] = []
+        try:
+            for t in staged:
+                assert t.stage is not None
+                if t.directory:
+                    marker = {"command": self.command or "", "output": t.option}
+                    write_json(t.stage / DIRECTORY_MARKER, marker)
+                else:
+                    _fsync_path(t.stage)
+            with _locked(t.path.parent for t in staged):
+                for t in staged:  # the target may have changed since validation
+                    self._check_existing(t.option, t.path, t.path)
+                    if t.directory and t.path.exists() and not t.path.is_dir():
+                        raise self._fail(t.option, t.path, "exists and is not a directory")
+                    if not t.directory and t.path.is_dir():
+                        raise self._fail(t.option, t.path, "is a directory; give a file name")
+                for t in staged:
+                    _sweep_stale(t.path)
+                    assert t.stage is not None
+                    if not t.directory:
+                        os.replace(t.stage, t.path)
+                    elif not t.path.exists():
+                        os.rename(t.stage, t.path)
+                    elif _exchange(t.stage, t.path):
+                        old.append(t.stage)  # the previous directory now lives at the stage name
+                    else:
+                        aside = t.stage.with_name(t.stage.name[: -len(".part")] + ".old")
+                        os.rename(t.path, aside)
+                        os.rename(t.stage, t.path)
+                        old.append(aside)
+                    t.stage = None
+                for d in {t.path.parent for t in staged}:
+                    _fsync_path(d)
+        except BaseException:
+            self.abort()
+            raise
+        self._done = True
+        for o in old:  # the old copies go last, after every new output is in place
+            _remove(o)
+        return [t.path for t in staged]

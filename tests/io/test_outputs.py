@@ -1,0 +1,368 @@
+"""``drivelash.io.outputs``: validation before work, signatures, atomic sets, concurrency."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from drivelash.errors import DataError, OutputError
+from drivelash.io import Trace, load_trace, write_trace
+from drivelash.io.outputs import (
+    DIRECTORY_MARKER,
+    GENERATOR,
+    JSON_EXTENSIONS,
+    PLOT_EXTENSIONS,
+    TRACE_EXTENSIONS,
+    Outputs,
+    dumps_json,
+    final_suffix,
+    is_own_output,
+    is_staging_path,
+    write_json,
+)
+
+
+def _trace(n: int = 200) -> Trace:
+    t = np.arange(n) * 1e-3
+    return Trace(
+        {"t": t, "theta_m": np.sin(7 * t), "omega_m": 7 * np.cos(7 * t), "torque_m": np.cos(3 * t)},
+        {"scenario": "unit", "x": float("nan")},
+    )
+
+
+def _tree(d: Path) -> dict[str, bytes]:
+    """Every file under ``d`` (hidden ones included) with its content."""
+    return {str(p.relative_to(d)): p.read_bytes() for p in sorted(d.rglob("*")) if p.is_file()}
+
+
+def _figure():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(2, 2))
+    fig.add_subplot().plot([0, 1], [1, 0])
+    return fig
+
+
+# --------------------------------------------------------------------------- write_json
+def test_write_json_is_strict_and_signed(tmp_path):
+    doc = {
+        "a": float("nan"),
+        "b": [np.float32(1.5), np.inf, -np.inf],
+        "c": np.arange(3),
+        "d": {1: np.int64(7), "p": tmp_path},
+        "e": np.bool_(True),
+        "generator": "someone else",
+    }
+    p = write_json(tmp_path / "x.json", doc)
+    text = p.read_text()
+
+    def _reject(name):  # json.loads accepts NaN/Infinity unless told otherwise
+        raise AssertionError(f"non-strict JSON constant {name}")
+
+    got = json.loads(text, parse_constant=_reject)
+    assert list(got)[0] == "generator" and got["generator"] == GENERATOR
+    assert got["a"] is None and got["b"] == [1.5, None, None]
+    assert got["c"] == [0, 1, 2] and got["d"] == {"1": 7, "p": str(tmp_path)} and got["e"] is True
+    assert is_own_output(p)
+    # negative control: the standard library writes NaN, which our parse rejects
+    with pytest.raises(AssertionError):
+        json.loads(json.dumps({"a": float("nan")}), parse_constant=_reject)
+
+
+def test_dumps_json_refuses_unknown_objects():
+    with pytest.raises(TypeError):
+        dumps_json({"x": object()})
+
+
+# --------------------------------------------------------------------------- signatures
+@pytest.mark.parametrize("ext", [".csv", ".parquet", ".h5", ".mat", ".mat73"])
+def test_traces_we_write_are_signed_and_foreign_ones_are_not(tmp_path, ext):
+    tr = _trace()
+    if ext == ".mat73":
+        p = write_trace(tr, tmp_path / "x.mat", fmt="mat73")
+    else:
+        p = write_trace(tr, tmp_path / f"x{ext}")
+    assert is_own_output(p)
+    foreign = tmp_path / f"foreign{p.suffix}"
+    df = tr.to_pandas()
+    if ext == ".csv":
+        df.to_csv(foreign, index=False)
+    elif ext == ".parquet":
+        df.to_parquet(foreign)
+    elif ext == ".h5":
+        import h5py
+
+        with h5py.File(foreign, "w") as f:
+            f["t"] = tr["t"]
+    elif ext == ".mat":
+        import scipy.io
+
+        scipy.io.savemat(foreign, {"t": tr["t"]})
+    else:  # an HDF5 file with a MATLAB 7.3 header, written by someone else
+        import h5py
+
+        with h5py.File(foreign, "w", userblock_size=512) as f:
+            f["t"] = tr["t"]
+        with foreign.open("r+b") as fh:
+            fh.write(b"MATLAB 7.3 MAT-file".ljust(128, b" "))
+    assert not is_own_output(foreign)
+
+
+@pytest.mark.parametrize("ext", PLOT_EXTENSIONS)
+def test_save_figure_signs_plots(tmp_path, ext):
+    from drivelash.report import save_figure
+
+    fig = _figure()
+    ours = save_figure(fig, tmp_path / f"a{ext}")
+    assert is_own_output(ours)
+    fig.savefig(tmp_path / f"b{ext}")  # plain matplotlib: not ours
+    assert not is_own_output(tmp_path / f"b{ext}")
+
+
+def test_html_report_and_toml_fragment_are_signed(tmp_path):
+    from drivelash.io.config import drivetrain_fragment
+    from drivelash.report.html import Section, render_html
+
+    (tmp_path / "r.html").write_text(render_html("t", [Section("s", paragraphs=["p"])]))
+    assert is_own_output(tmp_path / "r.html")
+    (tmp_path / "u.html").write_text("<html><head></head></html>")
+    assert not is_own_output(tmp_path / "u.html")
+    (tmp_path / "d.toml").write_text(drivetrain_fragment({"J_m": 1.0}, ["drivelash identify x"]))
+    assert is_own_output(tmp_path / "d.toml")
+    (tmp_path / "e.toml").write_text("[drivetrain]\nJ_m = 1.0\n")
+    assert not is_own_output(tmp_path / "e.toml")
+    (tmp_path / "plain.json").write_text('{"a": 1, "generator": "drivelash"}')  # not first: not ours
+    assert not is_own_output(tmp_path / "plain.json")
+
+
+# --------------------------------------------------------------------------- validation
+def test_refusals_name_option_path_and_problem(tmp_path):
+    inp = tmp_path / "run.parquet"
+    write_trace(_trace(), inp)
+    (tmp_path / "adir").mkdir()
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o555)
+    (tmp_path / "user.json").write_text('{"mine": 1}')
+    (tmp_path / "model").mkdir()
+    (tmp_path / "model" / "model.json").write_text("{}")
+    os.link(inp, tmp_path / "hard.parquet")
+    (tmp_path / "sym.json").symlink_to(inp)
+    cases = [
+        ("--json", tmp_path / "missing" / "x.json", "does not exist"),
+        ("--json", inp / "x.json", "is not a directory"),
+        ("--json", ro / "x.json", "is not writable"),
+        ("--json", tmp_path / "adir", "unsupported extension"),
+        ("--plot", tmp_path / "adir.png", None),  # fine (does not exist)
+        ("--plot", tmp_path / "p.txt", "unsupported extension '.txt' (use .png, .pdf, .svg)"),
+        ("--plot", inp, "unsupported extension '.parquet'"),
+        ("--json", tmp_path / "run.json", None),
+        ("-o", inp, "is an input of this command; choose another path"),
+        ("-o", tmp_path / "hard.parquet", "is an input of this command"),
+        ("--json", tmp_path / "user.json", "not a drivelash output; use --force"),
+        ("--json", tmp_path / "model" / "out.json", "is inside the input directory"),
+        ("--json", tmp_path / ".x.json.drivelash-1-ab.part", "reserved"),
+    ]
+    for option, path, problem in cases:
+        kinds = {"--json": JSON_EXTENSIONS, "--plot": PLOT_EXTENSIONS, "-o": TRACE_EXTENSIONS}[option]
+        with Outputs("t", inputs=[inp, tmp_path / "model"]) as out:
+            if problem is None:
+                assert out.file(path, option=option, kinds=kinds) is not None
+                continue
+            with pytest.raises(OutputError) as ei:
+                out.file(path, option=option, kinds=kinds)
+        msg = str(ei.value)
+        assert "\n" not in msg and msg.startswith(f"{option} {path}: ") and problem in msg, msg
+    # a directory where a file is expected
+    (tmp_path / "d.json").mkdir()
+    with pytest.raises(OutputError, match="is a directory"), Outputs() as out:
+        out.file(tmp_path / "d.json", option="--json", kinds=JSON_EXTENSIONS)
+    # a symlink to an input is the input
+    with pytest.raises(OutputError, match="is an input"), Outputs(inputs=[inp]) as out:
+        out.file(tmp_path / "sym.json", option="--json", kinds=JSON_EXTENSIONS)
+    # a device is never a target
+    with pytest.raises(OutputError, match="not a regular file"), Outputs() as out:
+        out.file("/dev/null", option="--json")
+    # two outputs of one command
+    with pytest.raises(OutputError, match="is also the output of --json"), Outputs() as out:
+        out.file(tmp_path / "a.json", option="--json")
+        out.file(tmp_path / "adir" / ".." / "a.json", option="--report")
+    assert sorted(os.listdir(ro)) == []
+
+
+def test_allow_inside_opens_a_subdirectory_of_an_input_directory(tmp_path):
+    model = tmp_path / "model"
+    (model / "evaluation").mkdir(parents=True)
+    with Outputs(inputs=[model], allow_inside=[model / "evaluation"]) as out:
+        out.directory(model / "evaluation", option="-o")
+        with pytest.raises(OutputError, match="inside the input directory"):
+            out.file(model / "model.json", option="--json")
+
+
+def test_existing_files_replaced_only_when_ours_or_forced(tmp_path):
+    user = tmp_path / "out.json"
+    user.write_text('{"precious": true}')
+    with pytest.raises(OutputError), Outputs() as out:
+        out.file(user, option="--json")
+    assert user.read_text() == '{"precious": true}'
+    with Outputs(force=True) as out:
+        write_json(out.staging(out.file(user, option="--json")), {"v": 1})
+    assert json.loads(user.read_text())["v"] == 1
+    with Outputs() as out:  # now it is ours: no --force needed
+        write_json(out.staging(out.file(user, option="--json")), {"v": 2})
+    assert json.loads(user.read_text())["v"] == 2
+
+
+# --------------------------------------------------------------------------- atomic set
+def test_exception_leaves_targets_as_they_were_and_no_litter(tmp_path):
+    a, b = tmp_path / "a.json", tmp_path / "b.csv"
+    write_json(a, {"v": "old"})
+    write_trace(_trace(), b)
+    before = _tree(tmp_path)
+    with pytest.raises(RuntimeError), Outputs() as out:
+        ja, jb = out.file(a, option="--json"), out.file(b, option="-o")
+        write_json(out.staging(ja), {"v": "new"})
+        stage = out.staging(jb)
+        assert is_staging_path(stage) and stage.name.startswith(".b.csv.drivelash-")
+        assert final_suffix(stage) == ".csv"
+        write_trace(_trace(50), stage)
+        raise RuntimeError("plot failed")
+    assert _tree(tmp_path) == before
+
+
+def test_staging_names_are_not_accepted_as_recordings(tmp_path):
+    with Outputs() as out:
+        t = out.file(tmp_path / "x.parquet", option="-o")
+        s = out.staging(t)
+        write_trace(_trace(), s)
+        with pytest.raises(DataError, match="unsupported file type '.part'"):
+            load_trace(s)
+    assert load_trace(tmp_path / "x.parquet").names[0] == "t"
+
+
+def test_only_staged_outputs_are_written(tmp_path):
+    with Outputs() as out:
+        out.file(tmp_path / "never.json", option="--json")
+        write_json(out.staging(out.file(tmp_path / "yes.json", option="--x")), {})
+    assert sorted(os.listdir(tmp_path)) == ["yes.json"]
+
+
+@pytest.mark.parametrize("exchange", [True, False], ids=["renameat2", "two-renames"])
+def test_directory_swapped_in_whole(tmp_path, monkeypatch, exchange):
+    from drivelash.io import outputs as mod
+
+    if not exchange:
+        monkeypatch.setattr(mod, "_exchange", lambda a, b: False)
+    d = tmp_path / "camp"
+    with Outputs("c") as out:
+        s = out.staging(out.directory(d, option="-o"))
+        (s / "run1.csv").write_text("old")
+        (s / "run2.csv").write_text("old")
+    assert (d / DIRECTORY_MARKER).is_file() and is_own_output(d)
+    with Outputs("c") as out:
+        s = out.staging(out.directory(d, option="-o"))
+        (s / "run1.csv").write_text("new")
+    assert sorted(os.listdir(d)) == [DIRECTORY_MARKER, "run1.csv"]  # no file of the old set
+    assert sorted(os.listdir(tmp_path)) == ["camp"]  # old copy removed, no litter
+    # failure during the work: old directory intact
+    before = _tree(tmp_path)
+    with pytest.raises(KeyError), Outputs("c") as out:
+        s = out.staging(out.directory(d, option="-o"))
+        (s / "run1.csv").write_text("half")
+        raise KeyError("x")
+    assert _tree(tmp_path) == before
+
+
+def test_directory_refusals(tmp_path, monkeypatch):
+    user = tmp_path / "photos"
+    user.mkdir()
+    (user / "cat.jpg").write_bytes(b"x")
+    inp = tmp_path / "data" / "run.csv"
+    inp.parent.mkdir()
+    inp.write_text("t\n1\n")
+    with pytest.raises(OutputError, match="not a drivelash output; use --force"), Outputs() as out:
+        out.directory(user, option="-o")
+    with pytest.raises(OutputError, match="contains .*run.csv, an input"), Outputs(inputs=[inp]) as out:
+        out.directory(tmp_path / "data", option="-o")
+    monkeypatch.chdir(user)
+    with pytest.raises(OutputError, match="contains the current directory"), Outputs(force=True) as out:
+        out.directory(tmp_path, option="-o")
+    with pytest.raises(OutputError, match="exists and is not a directory"), Outputs() as out:
+        out.directory(inp, option="-o")
+    assert (user / "cat.jpg").read_bytes() == b"x"
+    (tmp_path / "empty").mkdir()  # an empty directory holds nothing to lose
+    with Outputs() as out:
+        out.directory(tmp_path / "empty", option="-o")
+
+
+def test_stale_staging_of_dead_processes_is_swept(tmp_path):
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True)
+    pid = int(dead.stdout)
+    stale = tmp_path / f".a.json.drivelash-{pid}-abc.part"
+    stale.write_text("half")
+    live = tmp_path / f".a.json.drivelash-{os.getppid()}-abc.part"
+    live.write_text("running")
+    other = tmp_path / f".b.json.drivelash-{pid}-abc.part"
+    other.write_text("other target")
+    with Outputs() as out:
+        write_json(out.staging(out.file(tmp_path / "a.json", option="--json")), {})
+    assert not stale.exists() and live.exists() and other.exists()
+
+
+# --------------------------------------------------------------------------- concurrency
+_WRITER = textwrap.dedent(
+    """
+    import random, sys, time
+    from pathlib import Path
+    from drivelash.io.outputs import Outputs, write_json
+    d, me, n = Path(sys.argv[1]), sys.argv[2], int(sys.argv[3])
+    rng = random.Random(me)
+    for i in range(n):
+        with Outputs("w") as out:
+            a = out.file(d / "a.json", option="--json")
+            b = out.file(d / "b.csv", option="--csv")
+            write_json(out.staging(a), {"who": me, "i": i})
+            with out.staging(b).open("w") as fh:
+                fh.write("# drivelash test\\n")
+                for k in range(200):
+                    fh.write(f"{me},{i},{k}\\n")
+                    if k % 50 == 0:
+                        fh.flush()
+                        time.sleep(rng.random() * 1e-3)
+    """
+)
+
+
+def test_two_processes_commit_whole_sets_never_mixed(tmp_path):
+    import fcntl
+
+    procs = [
+        subprocess.Popen([sys.executable, "-c", _WRITER, str(tmp_path), who, "25"]) for who in ("p1", "p2")
+    ]
+    seen = set()
+    while any(p.poll() is None for p in procs):
+        fd = os.open(tmp_path, os.O_RDONLY)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX)  # a reader taking the same lock sees whole sets
+            if (tmp_path / "a.json").exists():
+                a = json.loads((tmp_path / "a.json").read_text())
+                rows = (tmp_path / "b.csv").read_text().splitlines()[1:]
+                assert len(rows) == 200 and {r.rsplit(",", 1)[0] for r in rows} == {f"{a['who']},{a['i']}"}
+                seen.add(a["who"])
+        finally:
+            os.close(fd)
+    assert [p.returncode for p in procs] == [0, 0] and seen
+    a = json.loads((tmp_path / "a.json").read_text())
+    rows = (tmp_path / "b.csv").read_text().splitlines()[1:]
+    assert {r.rsplit(",", 1)[0] for r in rows} == {f"{a['who']},{a['i']}"} and a["i"] == 24
+    assert sorted(os.listdir(tmp_path)) == ["a.json", "b.csv"]
