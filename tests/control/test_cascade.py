@@ -116,15 +116,43 @@ def test_controller_class_and_anti_windup() -> None:
     # unlimited step: e_ω = 25·(0.01) + 0.5 − 0.4 = 0.35, u = 0.2·0.35 = 0.07
     u = c.compute_output(0.01, 0.5, 0.0, 0.4)
     assert u == pytest.approx(0.07)
-    c.update(u)
+    c.update(g.T_s, u)
     assert c.x_i == pytest.approx(0.2 / 0.04 * 1e-3 * 0.35)  # plain PI increment
     # large error: limited output, integrator tends to +limit
     for _ in range(2000):
         u = c.compute_output(1.0, 0.0, 0.0, 0.0)
         assert u == pytest.approx(0.1)
-        c.update(u)
+        c.update(g.T_s, u)
         assert c.x_i <= 0.1 + 1e-15
     assert c.x_i == pytest.approx(0.1, rel=1e-6)  # relaxed with time constant T_n = 40 ms over 2 s
     # error reverses: the torque reverses at once (no wound-up integral to unwind)
     u = c.compute_output(0.0, 0.0, 0.01, 0.0)  # e_ω = −0.25 → u = 0.1 − 0.05
     assert u == pytest.approx(0.05)
+
+
+@pytest.mark.parametrize("torque_limit", [60.0, 8.0])
+def test_rack_axis_runs_the_one_cascade_controller(torque_limit: float) -> None:
+    """The rack bench's kernel torque equals CascadeController fed with its measurements,
+    sample by sample (bit for bit), unlimited (60 N·m) and repeatedly limited (8 N·m):
+    both simulators share one controller and one anti-windup law."""
+    from drivelash.physics.rack_pinion import RackPinionBench, TransmissionErrorModel
+    from drivelash.sim.rack_axis import RackAxisSimulator, bench_gains, sine_trajectory
+
+    bench = RackPinionBench()
+    g = bench_gains(torque_limit=torque_limit)
+    sim = RackAxisSimulator(bench, TransmissionErrorModel.generate(bench, seed=3), gains=g)
+    _, xd, vd = sine_trajectory(1.0, 0.05, 1.0, periods=1.0, dwell=0.02)
+    n = 6000
+    xd, vd = xd[:n], vd[:n]
+    vc = 2e-4 * np.sin(np.arange(n) / 200.0)
+    _, out = sim.step_chunk(sim.initial_state(xd[0], 1), xd, vd, 2000.0, vc)
+    ctrl = CascadeController(g, r=bench.r_eff)
+    for k in range(n):
+        u = ctrl.compute_output(xd[k], vd[k], out["x_T"][k], out["omega_m"][k], vc[k])
+        assert u == out["torque_m"][k], k
+        ctrl.update(g.T_s, u)
+    limited = np.mean(np.abs(out["torque_m"]) >= torque_limit)
+    if torque_limit < 10:
+        assert limited > 0.05  # the limit does act in this run
+    else:
+        assert limited == 0.0

@@ -47,7 +47,7 @@ def test_kernel_equals_python_loop_with_controller_class() -> None:
         for _ in range(2):
             x = rk4_event_step_scalar(*x, u, BL.delta, BL.delta1, p, RIG_GAINS.T_s / 2)
         x = tuple(0.0 if (i in (0, 2) and abs(v) < 1e-150) else v for i, v in enumerate(x))
-        ctrl.update(u)
+        ctrl.update(RIG_GAINS.T_s, u)
 
 
 def test_seed_reproducible_and_distinct() -> None:

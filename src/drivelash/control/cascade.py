@@ -1,23 +1,32 @@
-"""Discrete P position / PI velocity cascade with velocity feed-forward (spec 01 §1).
+"""Discrete P position / PI velocity cascade with velocity feed-forward (spec 01 §1, spec 02 §2).
 
+The one cascade controller of drivelash: the simulation engine (:mod:`drivelash.sim.engine`)
+and the rack-and-pinion bench (:mod:`drivelash.sim.rack_axis`) both call the kernels below.
 At each control instant k (period T_s, torque held by a zero-order hold):
 
-    ω_cmd = K_v (θ_r − θ_m) + k_ff ω_r                  velocity command [rad/s]
+    ω_cmd = (K_v (x_r − x) + k_ff v_r − v_c) / r        velocity command [rad/s]
     e_ω   = ω_cmd − ω_m                                  velocity error [rad/s]
     u_un  = K_p e_ω + x_i                                unlimited torque [N·m]
     u     = clip(u_un, −T_max, T_max)                     applied torque [N·m]
-    x_i  ← x_i + (K_p/T_n) T_s [e_ω + (u − u_un)/K_p]   integrator with anti-windup
+    x_i  ← x_i + (T_s/T_n) [K_p e_ω + (u − u_un)]         integrator with anti-windup
 
-The anti-windup is back-calculation with tracking gain 1/K_p (motulator's PI form,
-tracking time constant T_n): without limitation u = u_un and this is the plain PI;
-while limited, x_i ← x_i + (T_s/T_n)(u − x_i), i.e. the integrator relaxes towards the
-applied torque and can never exceed the torque limit in magnitude. The electrical loop is taken as ideal
-(u = commanded torque) and there is no computational delay: the torque computed from
-the samples at t_k is applied over [t_k, t_k + T_s).
+The position loop closes on the position x that the drive uses for it, in that
+measuring system's unit: the motor encoder (x = θ_m [rad], r = 1) or a load-side scale
+(rack bench: x = x_T [m], r = d_p/(2 i) [m/rad] turns the table velocity into motor
+velocity). v_c is a correction velocity subtracted from the command (TE compensation;
+0 otherwise). With r = 1 and v_c = 0 the arithmetic is exactly K_v (θ_r − θ_m) + k_ff ω_r.
+
+**Anti-windup: back-calculation with tracking time constant T_n** (tracking gain 1/K_p,
+motulator's PI form). Without limitation u = u_un and this is the plain PI; while limited,
+x_i ← x_i + (T_s/T_n)(u − x_i + …), i.e. the integrator relaxes towards the applied torque
+with time constant T_n and never exceeds the torque limit in magnitude. The electrical
+loop is taken as ideal (u = commanded torque) and there is no computational delay: the
+torque computed from the samples at t_k is applied over [t_k, t_k + T_s).
 
 The split :meth:`CascadeController.compute_output` / :meth:`CascadeController.update`
-follows motulator: ``update`` receives the torque that was actually realised.
-The same arithmetic is available as scalar ``@njit`` kernels for the simulation engine.
+follows motulator: ``update(T_s, u_realized)`` receives the torque that was actually
+realised. The kernels :func:`cascade_output` / :func:`cascade_update` carry the same
+arithmetic with explicit state (x_i in, x_i out) for compiled simulation loops.
 """
 
 from __future__ import annotations
@@ -91,27 +100,35 @@ def gains_from_bandwidth(
     )
 
 
-@njit(cache=True)
-def cascade_output_scalar(x_i, theta_ref, omega_ref, theta_m, omega_m, c):
-    """Controller output at one instant.
+@njit(cache=True, nogil=True)
+def cascade_output(x_i, x_ref, v_ref, x_meas, omega_m, v_corr, r, c):
+    """Controller output at one instant (no state change).
 
     Parameters
     ----------
     x_i : float
         Integrator state [N·m].
-    theta_ref, omega_ref : float
-        Position reference [rad] and its velocity (feed-forward) [rad/s].
-    theta_m, omega_m : float
-        Measured motor position [rad] and velocity [rad/s].
+    x_ref, v_ref : float
+        Position reference and its velocity (feed-forward), in the position loop's
+        unit [rad, rad/s] or [m, m/s].
+    x_meas : float
+        Measured position of the position loop, same unit.
+    omega_m : float
+        Measured motor velocity [rad/s].
+    v_corr : float
+        Correction velocity subtracted from the velocity command, position-loop unit
+        per second (0: none).
+    r : float
+        Position-loop unit per motor radian (1 when the loop closes on the motor encoder).
     c : numpy.ndarray
         Gains, layout :data:`CTRL_FIELDS`.
 
     Returns
     -------
     tuple of float
-        (u [N·m] limited, u_unlimited [N·m], e_ω [rad/s]).
+        (u [N·m] limited, u_unlimited [N·m], e_ω [rad/s], ω_cmd [rad/s]).
     """
-    omega_cmd = c[C_K_V] * (theta_ref - theta_m) + c[C_K_FF] * omega_ref
+    omega_cmd = (c[C_K_V] * (x_ref - x_meas) + c[C_K_FF] * v_ref - v_corr) / r
     e_w = omega_cmd - omega_m
     u_un = c[C_K_P] * e_w + x_i
     lim = c[C_LIMIT]
@@ -120,13 +137,32 @@ def cascade_output_scalar(x_i, theta_ref, omega_ref, theta_m, omega_m, c):
         u = lim
     elif u < -lim:
         u = -lim
-    return u, u_un, e_w
+    return u, u_un, e_w, omega_cmd
 
 
-@njit(cache=True)
-def cascade_update_scalar(x_i, e_w, u_realized, u_un, c):
-    """Integrator update with back-calculation anti-windup; returns the new x_i [N·m]."""
-    return x_i + c[C_T_S] / c[C_T_N] * (c[C_K_P] * e_w + (u_realized - u_un))
+@njit(cache=True, nogil=True)
+def cascade_update(x_i, e_w, u_realized, u_un, T_s, c):
+    """Integrator update with back-calculation anti-windup (tracking time constant T_n).
+
+    Parameters
+    ----------
+    x_i : float
+        Integrator state [N·m].
+    e_w, u_un : float
+        Velocity error [rad/s] and unlimited torque [N·m] from :func:`cascade_output`.
+    u_realized : float
+        Torque actually applied over the period [N·m].
+    T_s : float
+        Period the torque was held [s].
+    c : numpy.ndarray
+        Gains, layout :data:`CTRL_FIELDS`.
+
+    Returns
+    -------
+    float
+        The new integrator state [N·m].
+    """
+    return x_i + T_s / c[C_T_N] * (c[C_K_P] * e_w + (u_realized - u_un))
 
 
 @dataclass
@@ -137,16 +173,21 @@ class CascadeController:
     ----------
     gains : CascadeGains
         Loop gains, torque limit, feed-forward and control period.
+    r : float
+        Unit of the position loop per motor radian: 1 when it closes on the motor
+        encoder [rad/rad], d_p/(2 i) [m/rad] on a rack drive with a linear scale.
     x_i : float
         Initial integrator state [N·m].
 
     Examples
     --------
-    >>> u = ctrl.compute_output(theta_ref, omega_ref, theta_m, omega_m)   # doctest: +SKIP
-    >>> ctrl.update(u)                                                      # doctest: +SKIP
+    >>> ctrl = CascadeController(gains)                                            # doctest: +SKIP
+    >>> u = ctrl.compute_output(theta_ref, omega_ref, theta_m, omega_m)            # doctest: +SKIP
+    >>> ctrl.update(gains.T_s, u)   # the torque that was actually applied         # doctest: +SKIP
     """
 
     gains: CascadeGains
+    r: float = 1.0
     x_i: float = 0.0
 
     def __post_init__(self) -> None:
@@ -154,13 +195,36 @@ class CascadeController:
         self._u_un = 0.0
         self._e_w = 0.0
 
-    def compute_output(self, theta_ref: float, omega_ref: float, theta_m: float, omega_m: float) -> float:
-        """Limited torque command u [N·m] from references [rad, rad/s] and measurements [rad, rad/s]."""
-        u, self._u_un, self._e_w = cascade_output_scalar(
-            self.x_i, theta_ref, omega_ref, theta_m, omega_m, self._c
+    def compute_output(
+        self, x_ref: float, v_ref: float, x_meas: float, omega_m: float, v_corr: float = 0.0
+    ) -> float:
+        """Limited torque command u [N·m].
+
+        Parameters
+        ----------
+        x_ref, v_ref : float
+            Position reference [rad or m] and feed-forward velocity [rad/s or m/s].
+        x_meas : float
+            Measured position of the position loop [rad or m].
+        omega_m : float
+            Measured motor velocity [rad/s].
+        v_corr : float
+            Correction velocity subtracted from the command [rad/s or m/s].
+        """
+        u, self._u_un, self._e_w, _ = cascade_output(
+            self.x_i, x_ref, v_ref, x_meas, omega_m, v_corr, self.r, self._c
         )
         return float(u)
 
-    def update(self, u_realized: float) -> None:
-        """Advance the integrator by one period given the torque actually applied [N·m]."""
-        self.x_i = float(cascade_update_scalar(self.x_i, self._e_w, u_realized, self._u_un, self._c))
+    def update(self, T_s: float, u_realized: float) -> None:
+        """Advance the integrator by one period.
+
+        Parameters
+        ----------
+        T_s : float
+            Period over which ``u_realized`` was applied [s].
+        u_realized : float
+            Torque actually applied [N·m] (the limited output, or less if a further
+            limit acted).
+        """
+        self.x_i = float(cascade_update(self.x_i, self._e_w, u_realized, self._u_un, T_s, self._c))

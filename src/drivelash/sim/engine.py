@@ -32,7 +32,7 @@ from typing import Literal
 import numpy as np
 from numba import njit
 
-from drivelash.control.cascade import cascade_output_scalar, cascade_update_scalar, gains_array
+from drivelash.control.cascade import C_T_S, cascade_output, cascade_update, gains_array
 from drivelash.control.references import Reference
 from drivelash.errors import ParameterError
 from drivelash.io.trace import Trace
@@ -120,7 +120,7 @@ def run_closed_loop(
     thq_m_prev = state[5]
     thq_l_prev = state[6]
     kk = state[7]
-    T_s = ctrl_p[5]
+    T_s = ctrl_p[C_T_S]
     h = T_s / n_sub
     cm = sens_p[S_COUNTS_M]
     cl = sens_p[S_COUNTS_L]
@@ -141,9 +141,9 @@ def run_closed_loop(
             wq_l = w_l + sens_p[S_SIG_OM_L] * noise[k, NOISE_OMEGA_L]
         # 2. controller
         if fb == 1:
-            u, u_un, e_w = cascade_output_scalar(x_i, theta_ref[k], omega_ref[k], thq_m, wq_m, ctrl_p)
+            u, u_un, e_w, _ = cascade_output(x_i, theta_ref[k], omega_ref[k], thq_m, wq_m, 0.0, 1.0, ctrl_p)
         else:
-            u, u_un, e_w = cascade_output_scalar(x_i, theta_ref[k], omega_ref[k], th_m, w_m, ctrl_p)
+            u, u_un, e_w, _ = cascade_output(x_i, theta_ref[k], omega_ref[k], th_m, w_m, 0.0, 1.0, ctrl_p)
         out[k, 0] = thq_m
         out[k, 1] = wq_m
         out[k, 2] = thq_l
@@ -166,7 +166,7 @@ def run_closed_loop(
         if abs(w_l) < _TINY:
             w_l = 0.0
         # 4. controller update
-        x_i = cascade_update_scalar(x_i, e_w, u, u_un, ctrl_p)
+        x_i = cascade_update(x_i, e_w, u, u_un, T_s, ctrl_p)
         thq_m_prev = thq_m
         thq_l_prev = thq_l
         kk += 1.0

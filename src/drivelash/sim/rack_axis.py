@@ -25,6 +25,10 @@ so the measured motor torque ``torque_m`` equals the command)::
     ω_cmd = ( k_ff v_d + K_v (x_d − x_T) − v_c ) / r          x_T from the linear scale
     T_M   = K_p (ω_cmd − ω_M) + x_i,   clipped to ±torque_limit, back-calculation anti-windup
 
+This is the one cascade controller of :mod:`drivelash.control.cascade` (kernels
+``cascade_output`` / ``cascade_update``, tracking time constant T_n), with its position
+loop on the linear scale [m] and r [m/rad] as the scale-to-motor factor.
+
 **Correction velocity v_c** [m/s, table side] is *subtracted* from the velocity command,
 with the paper's sign (eq (6): v_c = dTE/dt; the motor must slow down when the TE
 grows). It enters only the velocity feed-forward path: the loop gains are unchanged.
@@ -51,6 +55,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from drivelash.control.cascade import C_T_S, cascade_output, cascade_update, gains_array
 from drivelash.errors import ParameterError
 from drivelash.io.trace import Trace
 from drivelash.params import CascadeGains
@@ -77,12 +82,6 @@ O_THETA, O_OMEGA, O_X, O_V, O_TORQUE, O_WCMD, O_FMESH, O_DIR = range(8)
     P_BT,
     P_VREG,
     P_DMESH,
-    P_KV,
-    P_KP,
-    P_TN,
-    P_TLIM,
-    P_KFF,
-    P_TS,
     P_NSUB,
     P_TAUF,
     P_FH,
@@ -93,8 +92,8 @@ O_THETA, O_OMEGA, O_X, O_V, O_TORQUE, O_WCMD, O_FMESH, O_DIR = range(8)
     P_STH,
     P_SW,
     P_STQ,
-) = range(26)
-PARAM_SIZE = 26
+) = range(20)
+PARAM_SIZE = 20
 
 # counter-based Gaussian noise (SplitMix64 of seed, sample index and channel): the noise of
 # sample k does not depend on how the run is chunked
@@ -201,7 +200,7 @@ def _rhs(theta, omega, x, v, T_M, F_ext, Fbar, p, table):
 
 
 @njit(cache=True, nogil=True)
-def axis_chunk(state, x_d, v_d, F_load, v_c, p, table, out, seed):
+def axis_chunk(state, x_d, v_d, F_load, v_c, p, ctrl, table, out, seed):
     """Advance the closed-loop axis over ``x_d.size`` samples.
 
     Parameters
@@ -216,7 +215,9 @@ def axis_chunk(state, x_d, v_d, F_load, v_c, p, table, out, seed):
     v_c : numpy.ndarray
         Correction velocity [m/s] per sample (subtracted from the command).
     p : numpy.ndarray, shape (PARAM_SIZE,)
-        Parameters (layout ``P_*``).
+        Plant and numerical parameters (layout ``P_*``).
+    ctrl : numpy.ndarray
+        Cascade gains (layout :data:`drivelash.control.cascade.CTRL_FIELDS`).
     table : numpy.ndarray, shape (6, n)
         TE tables of :meth:`TransmissionErrorModel.tables`.
     out : numpy.ndarray, shape (n_samples, 8)
@@ -239,11 +240,10 @@ def axis_chunk(state, x_d, v_d, F_load, v_c, p, table, out, seed):
     dirm = state[S_DIR]
     kk = state[S_K]
     r = p[P_R]
-    T_s = p[P_TS]
+    T_s = ctrl[C_T_S]
     nsub = int(p[P_NSUB])
     h = T_s / nsub
     a_f = 1.0 - math.exp(-T_s / p[P_TAUF])
-    lim = p[P_TLIM]
     for k in range(x_d.size):
         # direction of travel from the set velocity (kept through standstill)
         if v_d[k] > 1e-9:
@@ -262,15 +262,7 @@ def axis_chunk(state, x_d, v_d, F_load, v_c, p, table, out, seed):
             th_m = th + p[P_STH] * counter_gauss(seed, ks, 1)
         if p[P_SW] > 0.0:
             w_m = w + p[P_SW] * counter_gauss(seed, ks, 2)
-        w_cmd = (p[P_KFF] * v_d[k] + p[P_KV] * (x_d[k] - x_m) - v_c[k]) / r
-        e_w = w_cmd - w_m
-        u_un = p[P_KP] * e_w + xi
-        T_M = u_un
-        if T_M > lim:
-            T_M = lim
-        elif T_M < -lim:
-            T_M = -lim
-        xi = xi + p[P_KP] / p[P_TN] * T_s * e_w + (T_M - u_un)
+        T_M, u_un, e_w, w_cmd = cascade_output(xi, x_d[k], v_d[k], x_m, w_m, v_c[k], r, ctrl)
         Fc0 = _mesh_force(th, w, x, v, Fbar, p, table)
         out[k, O_THETA] = th_m
         out[k, O_OMEGA] = w_m
@@ -300,6 +292,7 @@ def axis_chunk(state, x_d, v_d, F_load, v_c, p, table, out, seed):
             w += h / 6.0 * (k1b + 2.0 * k2b + 2.0 * k3b + k4b)
             x += h / 6.0 * (k1c + 2.0 * k2c + 2.0 * k3c + k4c)
             v += h / 6.0 * (k1d + 2.0 * k2d + 2.0 * k3d + k4d)
+        xi = cascade_update(xi, e_w, T_M, u_un, T_s, ctrl)
         Fc1 = _mesh_force(th, w, x, v, Fbar, p, table)
         Fbar += a_f * (abs(Fc1) - Fbar)
         kk += 1.0
@@ -412,12 +405,6 @@ class RackAxisSimulator:
         p[P_BT] = b.beta_T
         p[P_VREG] = c.v_reg
         p[P_DMESH] = b.d_mesh(c_mean)
-        p[P_KV] = g.K_v
-        p[P_KP] = g.K_p
-        p[P_TN] = g.T_n
-        p[P_TLIM] = g.torque_limit
-        p[P_KFF] = g.k_ff
-        p[P_TS] = g.T_s
         p[P_NSUB] = c.n_sub
         p[P_TAUF] = c.tau_F
         p[P_FH] = te_model.params.F_h
@@ -429,6 +416,7 @@ class RackAxisSimulator:
         p[P_SW] = c.sigma_omega
         p[P_STQ] = c.sigma_torque
         self._p = p
+        self._ctrl = gains_array(g)
 
     def initial_state(self, x0: float, direction: int = 1, F0: float = 0.0) -> np.ndarray:
         """State at rest at table position ``x0`` [m], flank ``direction`` in contact.
@@ -493,7 +481,16 @@ class RackAxisSimulator:
         out = np.empty((n, len(OUT_NAMES)))
         k0 = float(state[S_K])
         new = axis_chunk(
-            np.asarray(state, dtype=np.float64), x_d, v_d, F, vc, self._p, self._table, out, self.seed
+            np.asarray(state, dtype=np.float64),
+            x_d,
+            v_d,
+            F,
+            vc,
+            self._p,
+            self._ctrl,
+            self._table,
+            out,
+            self.seed,
         )
         outputs = {"t": (k0 + np.arange(n)) * self.T_s}
         for j, name in enumerate(OUT_NAMES):
