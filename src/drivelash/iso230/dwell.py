@@ -1,0 +1,379 @@
+"""Dwell detection: the stationary stops of an ISO 230-2 test in a raw time series.
+
+Input: time t, commanded position P_cmd, reference measurement P_actual (laser or linear
+scale at the tool) and optionally the axis's own position P_axis. Only P_cmd decides
+where the dwells are, so noise and drift of the measurement cannot move them.
+
+The rule (numbers in :class:`DwellParams`, defaults in ``docs/assumptions.md``):
+
+1. Velocity of the commanded position by a central difference over ±``T_v``:
+   v_k = (P_cmd[k+w] − P_cmd[k−w]) / (t[k+w] − t[k−w]), w = round(T_v / T_s).
+2. Feed speed v_feed = 99th percentile of |v|; a sample is *still* when
+   |v_k| ≤ ``v_rel`` · v_feed.
+3. A dwell is a run of still samples lasting at least ``T_dwell_min``. Shorter stops
+   (the turn-around of an overshoot) are motion.
+4. The first ``T_settle`` of the dwell (settling of the axis after the stop) and the
+   last ``T_guard`` (before the next move) are skipped; the deviation is the mean of
+   P_actual − P_cmd over the remainder (and of P_actual − P_axis when P_axis is given).
+   The commanded position must be constant over that remainder (range ≤ the target
+   tolerance), else the stop is ambiguous (a slow move) and refused.
+5. Approach direction: the sign of the commanded velocity at the last moving sample
+   before the dwell (so an overshoot-and-return counts as the direction of the return).
+   A dwell with no motion before it (the recording starts at rest) has no approach
+   direction and is skipped with a warning.
+6. Targets: the dwells' commanded positions are clustered (gaps larger than
+   ``target_tolerance`` × the travel separate targets); with a nominal target list each
+   cluster must match one nominal target within that tolerance. Every target must have
+   the same number of dwells in each direction; run j is the j-th dwell in time order.
+   Any violation is refused with a one-line message naming the target.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+from typing import Any
+
+import numpy as np
+
+from drivelash.errors import DataError, ParameterError
+from drivelash.iso230.evaluate import DOWN, UP, Approaches, _fmt_pos, approaches_from_rows
+
+__all__ = ["DwellParams", "Dwells", "detect_dwells"]
+
+
+@dataclass(frozen=True)
+class DwellParams:
+    """How dwells are found in a time series (the rule in the module docstring).
+
+    Parameters
+    ----------
+    T_dwell_min : float
+        Shortest stop counted as a dwell [s].
+    T_settle : float
+        Settling time skipped at the start of each dwell [s].
+    T_guard : float
+        Time skipped at the end of each dwell, before the next move [s].
+    T_avg_min : float
+        Shortest averaging window left after the skips [s].
+    T_v : float
+        Half-width of the central difference for the commanded velocity [s].
+    v_rel : float
+        Still threshold as a fraction of the feed speed (99th percentile of |v|) [-].
+    target_tolerance : float
+        Dwell positions closer than this fraction of the travel are one target; also
+        the largest distance to a nominal target [-].
+    """
+
+    T_dwell_min: float = 0.5
+    T_settle: float = 0.25
+    T_guard: float = 0.05
+    T_avg_min: float = 0.1
+    T_v: float = 0.01
+    v_rel: float = 0.01
+    target_tolerance: float = 1e-4
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if not (isinstance(v, int | float) and math.isfinite(v)):
+                raise ParameterError("DwellParams", f.name, f"must be a finite number, got {v!r}")
+        for name in ("T_dwell_min", "T_avg_min", "T_v", "v_rel", "target_tolerance"):
+            if not getattr(self, name) > 0:
+                raise ParameterError("DwellParams", name, f"must be > 0, got {getattr(self, name)!r}")
+        for name in ("T_settle", "T_guard"):
+            if getattr(self, name) < 0:
+                raise ParameterError("DwellParams", name, f"must be >= 0, got {getattr(self, name)!r}")
+        if not self.v_rel < 1:
+            raise ParameterError("DwellParams", "v_rel", f"must be < 1, got {self.v_rel!r}")
+        need = self.T_settle + self.T_guard + self.T_avg_min
+        if self.T_dwell_min < need:
+            raise ParameterError(
+                "DwellParams",
+                "T_dwell_min",
+                f"must be >= T_settle + T_guard + T_avg_min = {need:g} s, got {self.T_dwell_min:g}",
+            )
+
+
+@dataclass(frozen=True)
+class Dwells:
+    """The dwells found, one row per approach, and the approaches they make.
+
+    Attributes
+    ----------
+    t_start, t_end : numpy.ndarray
+        Start and end of each dwell (still samples) [s].
+    t_avg_start, t_avg_end : numpy.ndarray
+        The averaging window after the settling and guard skips [s].
+    P_cmd : numpy.ndarray
+        Commanded position during the dwell [m or rad].
+    target : numpy.ndarray
+        Target position the dwell belongs to [m or rad].
+    direction : numpy.ndarray
+        +1 (↑) or −1 (↓).
+    run : numpy.ndarray
+        Run number within its target and direction (1, 2, …).
+    deviation : numpy.ndarray
+        Mean of P_actual − P_cmd over the window [m or rad].
+    deviation_axis : numpy.ndarray or None
+        Mean of P_actual − P_axis over the window, when P_axis is given.
+    approaches : Approaches
+        The reference deviations arranged by target, direction and run.
+    approaches_axis : Approaches or None
+        The same for P_actual − P_axis.
+    v_feed, v_threshold : float
+        Feed speed and still threshold [m/s or rad/s].
+    warnings : list of str
+        Dwells skipped and why.
+    """
+
+    t_start: np.ndarray
+    t_end: np.ndarray
+    t_avg_start: np.ndarray
+    t_avg_end: np.ndarray
+    P_cmd: np.ndarray
+    target: np.ndarray
+    direction: np.ndarray
+    run: np.ndarray
+    deviation: np.ndarray
+    deviation_axis: np.ndarray | None
+    approaches: Approaches
+    approaches_axis: Approaches | None
+    v_feed: float
+    v_threshold: float
+    warnings: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The dwell table as JSON-ready lists (SI units)."""
+        out: dict[str, Any] = {
+            "count": int(self.t_start.size),
+            "v_feed": self.v_feed,
+            "v_threshold": self.v_threshold,
+        }
+        for k in ("t_start", "t_end", "t_avg_start", "t_avg_end", "P_cmd", "target", "deviation"):
+            out[k] = getattr(self, k).tolist()
+        out["direction"] = self.direction.astype(int).tolist()
+        out["run"] = self.run.astype(int).tolist()
+        if self.deviation_axis is not None:
+            out["deviation_axis"] = self.deviation_axis.tolist()
+        return out
+
+
+def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start and stop (exclusive) indices of the runs of True in ``mask``."""
+    edges = np.diff(np.concatenate(([0], mask.view(np.int8), [0])))
+    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+
+
+def _velocity(t: np.ndarray, P: np.ndarray, w: int) -> np.ndarray:
+    idx = np.arange(t.size)
+    hi = np.minimum(idx + w, t.size - 1)
+    lo = np.maximum(idx - w, 0)
+    return (P[hi] - P[lo]) / (t[hi] - t[lo])
+
+
+def _assign(
+    arr: np.ndarray, nominal: np.ndarray | None, tol: float, travel: float, p: DwellParams
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Target label of every dwell, the target positions and which dwells match none."""
+    from drivelash.iso230.evaluate import cluster_targets
+
+    pos = arr[:, 4]
+    if nominal is None:
+        span = max(float(np.ptp(pos)), 1e-300)
+        centres, labels = cluster_targets(pos, tol / span)
+        return labels, centres, np.zeros(pos.size, dtype=bool)
+    idx = np.clip(np.searchsorted(nominal, pos), 1, max(nominal.size - 1, 1))
+    cand = np.stack([idx - 1, np.minimum(idx, nominal.size - 1)], axis=1)
+    dist = np.abs(nominal[cand] - pos[:, None])
+    labels = cand[np.arange(pos.size), np.argmin(dist, axis=1)]
+    return labels, nominal, np.abs(nominal[labels] - pos) > tol
+
+
+def detect_dwells(
+    t: np.ndarray,
+    P_cmd: np.ndarray,
+    P_actual: np.ndarray,
+    P_axis: np.ndarray | None = None,
+    *,
+    params: DwellParams | None = None,
+    nominal: np.ndarray | None = None,
+    unit: str = "m",
+    source: str = "",
+) -> Dwells:
+    """Find the dwells of a bidirectional positioning test and arrange its approaches.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Time, increasing [s].
+    P_cmd : numpy.ndarray
+        Commanded position [m or rad].
+    P_actual : numpy.ndarray
+        Reference measurement of the position reached [m or rad].
+    P_axis : numpy.ndarray, optional
+        The axis's own position feedback [m or rad].
+    params : DwellParams, optional
+        Detection parameters (defaults when omitted).
+    nominal : numpy.ndarray, optional
+        Nominal target positions [m or rad]; every dwell must match one, every one
+        must be reached.
+    unit : str
+        ``"m"`` or ``"rad"`` (messages and the result).
+    source : str
+        File name for messages.
+
+    Returns
+    -------
+    Dwells
+
+    Raises
+    ------
+    DataError
+        No motion, no dwell, a slow move taken for a dwell, a dwell matching no nominal
+        target, a target without dwells, or unequal dwell counts — one line naming the
+        target (or the time) and the problem.
+    """
+    p = params or DwellParams()
+    t = np.asarray(t, dtype=np.float64)
+    P_cmd = np.asarray(P_cmd, dtype=np.float64)
+    P_actual = np.asarray(P_actual, dtype=np.float64)
+    if t.size < 3:
+        raise DataError(f"only {t.size} samples", path=source, column="t")
+    T_s = float(np.median(np.diff(t)))
+    travel = float(np.ptp(P_cmd))
+    if travel <= 0:
+        raise DataError("the commanded position never changes: no positioning test", path=source)
+    w = max(1, int(round(p.T_v / T_s)))
+    v = _velocity(t, P_cmd, w)
+    v_feed = float(np.percentile(np.abs(v), 99.0))
+    v_th = p.v_rel * v_feed
+    still = np.abs(v) <= v_th
+    starts, stops = _runs(still)
+    dur = t[np.maximum(stops - 1, starts)] - t[starts]
+    keep = dur >= p.T_dwell_min - 0.5 * T_s
+    starts, stops = starts[keep], stops[keep]
+    if starts.size == 0:
+        raise DataError(
+            f"no dwell found: no stop of the commanded position lasts {p.T_dwell_min:g} s"
+            f" (still = |v| <= {v_th:.3g} {unit}/s, {p.v_rel:g} of the feed speed {v_feed:.3g} {unit}/s)",
+            path=source,
+        )
+    tol = p.target_tolerance * travel
+    moving = ~still
+    warnings: list[str] = []
+    rows: list[tuple[float, float, float, float, float, int, float, float]] = []
+    for a, b in zip(starts, stops, strict=True):
+        prev = np.flatnonzero(moving[:a])
+        if prev.size == 0:
+            warnings.append(
+                f"dwell at t = {t[a]:.6g} s (P_cmd = {_fmt_pos(float(P_cmd[a]), unit)}) has no motion"
+                " before it (no approach direction): skipped"
+            )
+            continue
+        direction = UP if v[prev[-1]] > 0 else DOWN
+        t0 = t[a] + p.T_settle
+        t1 = t[b - 1] - p.T_guard
+        win = slice(int(np.searchsorted(t, t0, side="left")), int(np.searchsorted(t, t1, side="right")))
+        if win.stop - win.start < 2:
+            raise DataError(
+                f"dwell at t = {t[a]:.6g} s has fewer than 2 samples after the settling"
+                f" ({p.T_settle:g} s) and guard ({p.T_guard:g} s) skips",
+                path=source,
+            )
+        cmd = P_cmd[win]
+        if float(np.ptp(cmd)) > tol:
+            raise DataError(
+                f"ambiguous dwell at t = {t[a]:.6g}…{t[b - 1]:.6g} s: the commanded position moves by"
+                f" {_fmt_pos(float(np.ptp(cmd)), unit)} while nearly still (a slow move?);"
+                " lower [iso230] v_rel or raise target_tolerance",
+                path=source,
+            )
+        dev = float(np.mean(P_actual[win] - cmd))
+        dev_axis = float(np.mean(P_actual[win] - P_axis[win])) if P_axis is not None else math.nan
+        rows.append((t[a], t[b - 1], t[win.start], t[win.stop - 1], float(np.median(cmd)), direction, dev, dev_axis))
+    if not rows:
+        raise DataError("no dwell with an approach direction found", path=source)
+    arr = np.array(rows, dtype=np.float64)
+    nominal_sorted = None if nominal is None else np.sort(np.asarray(nominal, dtype=np.float64))
+    labels, centres, far = _assign(arr, nominal_sorted, tol, travel, p)
+    # the rest before and after the test (e.g. the overshoot position where the cycle
+    # starts and ends) is not a target: drop the first and the last dwell when they
+    # match no target approached from both sides (or no nominal target)
+    drop = []
+    for k in sorted({0, arr.shape[0] - 1}):
+        lab = labels[k]
+        dirs_there = set(arr[labels == lab, 5].astype(int)) if not far[k] else set()
+        if far[k] or len(dirs_there) < 2:
+            drop.append(k)
+            warnings.append(
+                f"dwell at t = {arr[k, 0]:.6g} s (P_cmd = {_fmt_pos(float(arr[k, 4]), unit)}) is the"
+                f" {'first' if k == 0 else 'last'} of the recording and matches no target: taken as the"
+                " rest position before or after the test, skipped"
+            )
+    if drop:
+        arr = np.delete(arr, drop, axis=0)
+        if arr.shape[0] == 0:
+            raise DataError("no dwell left after the rest positions", path=source)
+        labels, centres, far = _assign(arr, nominal_sorted, tol, travel, p)
+    pos = arr[:, 4]
+    if far.any():
+        k = int(np.argmax(far))
+        raise DataError(
+            f"dwell at t = {arr[k, 0]:.6g} s (P_cmd = {_fmt_pos(pos[k], unit)}) matches no nominal target"
+            f" (nearest {_fmt_pos(float(centres[labels[k]]), unit)})",
+            path=source,
+        )
+    m = centres.size
+    dirs = arr[:, 5].astype(np.int64)
+    n_up = np.bincount(labels[dirs == UP], minlength=m)
+    n_dn = np.bincount(labels[dirs == DOWN], minlength=m)
+    n_ref = int(np.bincount(np.concatenate([n_up, n_dn])).argmax())
+    for i in range(m):
+        for sign, cnt in ((UP, n_up[i]), (DOWN, n_dn[i])):
+            if cnt == n_ref:
+                continue
+            if n_up[i] + n_dn[i] == 0:
+                raise DataError(f"target {_fmt_pos(float(centres[i]), unit)}: no dwell found", path=source)
+            arrow = "+" if sign == UP else "-"
+            other = "+" if sign == DOWN else "-"
+            cnt_other = n_dn[i] if sign == UP else n_up[i]
+            sel = np.flatnonzero(labels == i)
+            when = f"; dwells there at t = {', '.join(f'{x:.4g}' for x in arr[sel, 0][:8])} s" if sel.size else ""
+            raise DataError(
+                f"target {_fmt_pos(float(centres[i]), unit)}: {cnt} dwell(s) approached in direction {arrow}"
+                f" but {cnt_other} in direction {other}, {n_ref} at the other targets"
+                f" (missing or extra dwell){when}",
+                path=source,
+            )
+    run = np.zeros(pos.size)
+    for i in range(m):
+        for sign in (UP, DOWN):
+            sel = np.flatnonzero((labels == i) & (dirs == sign))
+            run[sel[np.argsort(arr[sel, 0])]] = np.arange(1, sel.size + 1)
+    target = centres[labels]
+    ap = approaches_from_rows(
+        target, run, dirs, arr[:, 6], unit=unit, source=source, target_tolerance=1e-12
+    )
+    ap_axis = None
+    if P_axis is not None:
+        ap_axis = approaches_from_rows(
+            target, run, dirs, arr[:, 7], unit=unit, source=source, target_tolerance=1e-12
+        )
+    return Dwells(
+        t_start=arr[:, 0],
+        t_end=arr[:, 1],
+        t_avg_start=arr[:, 2],
+        t_avg_end=arr[:, 3],
+        P_cmd=pos,
+        target=target,
+        direction=dirs.astype(np.float64),
+        run=run,
+        deviation=arr[:, 6],
+        deviation_axis=arr[:, 7] if P_axis is not None else None,
+        approaches=ap,
+        approaches_axis=ap_axis,
+        v_feed=v_feed,
+        v_threshold=v_th,
+        warnings=warnings,
+    )

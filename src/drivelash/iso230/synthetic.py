@@ -1,0 +1,257 @@
+"""Synthetic ISO 230-2 tests of an axis with known lost motion, pitch error and noise.
+
+Two forms, both with the truth attached:
+
+- :func:`synthetic_table` — the approaches directly:
+  x_ij↑ = e(P_i) − δ/2 + ε_ij↑,  x_ij↓ = e(P_i) + δ/2 + ε_ij↓, ε ~ N(0, σ²), so the true
+  reversal value is B_i = −δ at every target (the load lags the motor by half the gap
+  in the direction of motion) and the true axis reversal value is δ.
+- :func:`synthetic_recording` — a raw time series of the standard test cycle: trapezoid
+  moves between the targets with an overshoot at each end of a run, a dwell at every
+  target, a second-order servo response of the motor (settling), a play operator of
+  width δ between motor and load, the pitch error of the load position, a per-approach
+  stopping scatter, a slow drift of the reference and white measurement noise.
+
+The pitch error e(x) is a linear (cumulative lead) error plus a periodic one, which
+the standard's non-uniform target spacing is meant to sample.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+__all__ = ["SyntheticAxis", "iso_targets", "synthetic_recording", "synthetic_table"]
+
+
+@dataclass(frozen=True)
+class SyntheticAxis:
+    """A linear axis for synthetic tests (SI units).
+
+    Parameters
+    ----------
+    travel : float
+        Measured travel [m].
+    delta : float
+        Lost motion (deadzone at the load) [m].
+    slope : float
+        Cumulative lead error [m/m].
+    pitch_amp : float
+        Amplitude of the periodic pitch error [m].
+    pitch_period : float
+        Its period (e.g. the screw lead) [m].
+    sigma : float
+        Run-to-run scatter of the stopping position, per approach [m].
+    """
+
+    travel: float = 0.5
+    delta: float = 12e-6
+    slope: float = 20e-6
+    pitch_amp: float = 3e-6
+    pitch_period: float = 0.02
+    sigma: float = 0.8e-6
+
+    def pitch(self, x: np.ndarray) -> np.ndarray:
+        """Positional error of the load at position ``x`` [m]."""
+        return self.slope * x + self.pitch_amp * np.sin(2 * math.pi * x / self.pitch_period)
+
+
+def iso_targets(travel: float, m: int, rng: np.random.Generator) -> np.ndarray:
+    """Target positions P_i = (i−1)·p + r_i with p = travel/(m−1) and random r_i.
+
+    ISO 230-2 spaces the targets non-uniformly so that periodic errors are sampled;
+    r_i is drawn uniformly in ±p/5 for the inner targets, the end targets stay at
+    0 and ``travel`` [m].
+    """
+    p = travel / (m - 1)
+    P = np.arange(m) * p
+    P[1:-1] += rng.uniform(-p / 5, p / 5, m - 2)
+    return P
+
+
+def synthetic_table(
+    axis: SyntheticAxis, m: int = 11, n: int = 5, seed: int = 0
+) -> dict[str, np.ndarray]:
+    """Approach table of an ISO test: columns P_target, run, direction, x_dev (SI).
+
+    Parameters
+    ----------
+    axis : SyntheticAxis
+    m : int
+        Number of targets.
+    n : int
+        Runs per direction.
+    seed : int
+        Random seed (targets and scatter).
+    """
+    rng = np.random.default_rng(seed)
+    P = iso_targets(axis.travel, m, rng)
+    rows = []
+    for j in range(1, n + 1):
+        for sign in (1, -1):
+            eps = rng.normal(0.0, axis.sigma, m)
+            x = axis.pitch(P) - sign * axis.delta / 2 + eps
+            for i in range(m):
+                rows.append((P[i], j, sign, x[i]))
+    a = np.array(rows)
+    return {"P_target": a[:, 0], "run": a[:, 1], "direction": a[:, 2], "x_dev": a[:, 3]}
+
+
+@njit(cache=True)
+def _play(motor: np.ndarray, h: float) -> np.ndarray:  # pragma: no cover - numba
+    """Play (backlash) operator of half-width ``h``: the load is dragged by the nearer flank."""
+    load = np.empty_like(motor)
+    y = motor[0] - h
+    for k in range(motor.size):
+        y = min(max(y, motor[k] - h), motor[k] + h)
+        load[k] = y
+    return load
+
+
+def _move(x0: float, x1: float, v: float, acc: float, T_s: float) -> np.ndarray:
+    """Positions of a trapezoidal (or triangular) move from x0 to x1, sampled at T_s."""
+    d = abs(x1 - x0)
+    if d == 0:
+        return np.empty(0)
+    t_acc = v / acc
+    if acc * t_acc**2 > d:  # triangular
+        t_acc = math.sqrt(d / acc)
+        v = acc * t_acc
+    t_flat = (d - acc * t_acc**2) / v
+    T = 2 * t_acc + t_flat
+    t = np.arange(1, int(math.ceil(T / T_s)) + 1) * T_s
+    t = np.minimum(t, T)
+    s = np.where(
+        t < t_acc,
+        0.5 * acc * t**2,
+        np.where(
+            t < t_acc + t_flat,
+            0.5 * acc * t_acc**2 + v * (t - t_acc),
+            d - 0.5 * acc * np.maximum(T - t, 0.0) ** 2,
+        ),
+    )
+    return x0 + math.copysign(1.0, x1 - x0) * s
+
+
+def synthetic_recording(
+    axis: SyntheticAxis,
+    m: int = 21,
+    n: int = 5,
+    seed: int = 0,
+    *,
+    T_s: float = 1e-3,
+    feed: float = 0.2,
+    acc: float = 2.0,
+    dwell: float = 1.0,
+    overshoot: float = 0.005,
+    omega_servo: float = 60.0,
+    zeta: float = 1.0,
+    drift: float = 2e-8,
+    noise: float = 0.3e-6,
+    skip: tuple[tuple[int, int, int], ...] = (),
+) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """A raw recording of the ISO 230-2 standard test cycle, and its truth.
+
+    Parameters
+    ----------
+    axis : SyntheticAxis
+    m, n : int
+        Targets and runs per direction.
+    seed : int
+        Random seed.
+    T_s : float
+        Sample period [s].
+    feed, acc : float
+        Feed speed [m/s] and acceleration [m/s²] of the moves.
+    dwell : float
+        Dwell at each target [s].
+    overshoot : float
+        Overtravel beyond the end targets before each reversal [m].
+    omega_servo, zeta : float
+        Natural frequency [rad/s] and damping [-] of the motor's response to the command;
+        with zeta >= 1 the impulse response is positive, so the motor never overshoots a
+        target (an overshoot would make the last approach come from the other side).
+    drift : float
+        Drift rate of the reference measurement (thermal) [m/s].
+    noise : float
+        White noise of the reference measurement per sample [m].
+    skip : tuple of (target index, direction, run)
+        Approaches whose dwell is left out (the axis passes through), for tests of
+        refused recordings.
+
+    Returns
+    -------
+    columns : dict
+        ``t``, ``P_cmd``, ``P_actual`` (reference), ``P_axis`` (motor encoder) [s, m].
+    truth : dict
+        Per approach: ``P_target``, ``direction``, ``run``, ``t_dwell`` (start of the
+        dwell), ``x_dev`` (noise-free deviation of the load at the end of the dwell).
+    """
+    from scipy import signal
+
+    rng = np.random.default_rng(seed)
+    P = iso_targets(axis.travel, m, rng)
+    skip_set = set(skip)
+    pieces: list[np.ndarray] = []
+    offsets: list[np.ndarray] = []
+    marks: list[tuple[int, int, int, int, int]] = []  # (start sample, length, i, direction, run)
+    x = P[0] - overshoot
+    rest = int(round(dwell / T_s))
+    pieces.append(np.full(rest, x))  # start at rest below the first target
+    offsets.append(np.zeros(rest))
+    count = rest
+    for j in range(1, n + 1):
+        for sign, order in ((1, range(m)), (-1, range(m - 1, -1, -1))):
+            start = P[0] - overshoot if sign > 0 else P[-1] + overshoot
+            seg = _move(x, start, feed, acc, T_s)
+            pieces.append(seg)
+            offsets.append(np.zeros(seg.size))
+            count += seg.size
+            x = start
+            for i in order:
+                seg = _move(x, P[i], feed, acc, T_s)
+                eps = rng.normal(0.0, axis.sigma)
+                pieces.append(seg)
+                offsets.append(np.full(seg.size, eps))
+                count += seg.size
+                x = P[i]
+                if (i, sign, j) in skip_set:
+                    continue
+                pieces.append(np.full(rest, x))
+                offsets.append(np.full(rest, eps))
+                marks.append((count, rest, i, sign, j))
+                count += rest
+    end = _move(x, P[0] - overshoot, feed, acc, T_s)
+    pieces += [end, np.full(rest, P[0] - overshoot)]
+    offsets += [np.zeros(end.size), np.zeros(rest)]
+    P_cmd = np.concatenate(pieces)
+    eps = np.concatenate(offsets)
+    t = np.arange(P_cmd.size) * T_s
+    # motor: second-order servo response to the command plus the stopping scatter
+    num = [omega_servo**2]
+    den = [1.0, 2 * zeta * omega_servo, omega_servo**2]
+    b, a = signal.bilinear(num, den, fs=1.0 / T_s)
+    u = P_cmd + eps
+    zi = signal.lfilter_zi(b, a) * u[0]
+    motor, _ = signal.lfilter(b, a, u, zi=zi)
+    # load: play operator of width delta, starting at the lower flank (moved up last)
+    load = _play(motor, axis.delta / 2)
+    err = axis.pitch(load)
+    ref = load + err + drift * t + rng.normal(0.0, noise, t.size)
+    truth_rows = []
+    for s0, length, i, sign, j in marks:
+        k = s0 + length - 1
+        truth_rows.append((P[i], sign, j, t[s0], load[k] + err[k] + drift * t[k] - P[i]))
+    tr = np.array(truth_rows)
+    truth = {
+        "P_target": tr[:, 0],
+        "direction": tr[:, 1],
+        "run": tr[:, 2],
+        "t_dwell": tr[:, 3],
+        "x_dev": tr[:, 4],
+        "targets": P,
+    }
+    return {"t": t, "P_cmd": P_cmd, "P_actual": ref, "P_axis": motor}, truth
