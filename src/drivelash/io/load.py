@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -49,6 +50,9 @@ _TO_SI: dict[str, float] = {
     "mm": 1e-3,
     "um": 1e-6,
     "µm": 1e-6,
+    "arcsec": math.pi / 648000.0,
+    "mrad": 1e-3,
+    "urad": 1e-6,
     "m/s": 1.0,
     "mm/s": 1e-3,
     "N·m": 1.0,
@@ -66,6 +70,15 @@ _ACCEPTS: dict[str, tuple[str, ...]] = {
     "omega_m": ("angular_velocity", "velocity", "dimensionless"),
     "omega_l": ("angular_velocity", "velocity", "dimensionless"),
     "torque_m": ("torque", "force", "current", "voltage", "dimensionless"),
+    # ISO 230-2 positioning tests (drivelash.iso230): positions and deviations of a
+    # linear (length) or rotary (angle) axis; run number and approach direction
+    "P_target": ("length", "angle"),
+    "P_cmd": ("length", "angle"),
+    "P_actual": ("length", "angle"),
+    "P_axis": ("length", "angle"),
+    "x_dev": ("length", "angle"),
+    "run": ("dimensionless",),
+    "direction": ("dimensionless",),
 }
 
 #: Relative tolerance for recognising a unit-factor mix-up (deg↔rad 57.3, rpm↔rad/s 9.55).
@@ -325,6 +338,77 @@ def _check_units(cols: Mapping[str, np.ndarray], origin: Mapping[str, str], path
                     column=src,
                     row=row,
                 )
+
+
+@dataclass(frozen=True)
+class MappedTable:
+    """Columns of a table that is not a time series, mapped and converted to SI.
+
+    Attributes
+    ----------
+    columns : dict
+        Mapped column name → values in SI units.
+    kinds : dict
+        Mapped column name → unit kind of its declared unit (``"length"``, ``"angle"``,
+        …; absent for columns taken as they are).
+    units : dict
+        Mapped column name → the unit declared in ``[columns]`` (absent when unmapped).
+    origin : dict
+        Mapped column name → source column in the file.
+    meta : dict
+        ``source``, ``format`` and the file's own metadata.
+    """
+
+    columns: dict[str, np.ndarray]
+    kinds: dict[str, str]
+    units: dict[str, str]
+    origin: dict[str, str]
+    meta: dict[str, Any]
+
+
+def load_table(
+    path: str | Path,
+    mapping: DriveConfig | Mapping[str, Any] | None = None,
+    *,
+    required: Iterable[str] = (),
+) -> MappedTable:
+    """Read a table (rows are records, not samples in time), map and convert its columns.
+
+    The same readers and ``[columns]`` mapping as :func:`load_trace`, without the time
+    checks: e.g. the approaches of an ISO 230-2 test (target, run, direction, deviation).
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV, Parquet, HDF5 or MATLAB file.
+    mapping : DriveConfig or dict, optional
+        Column mapping, as for :func:`load_trace`.
+    required : iterable of str
+        Mapped column names the caller needs.
+
+    Raises
+    ------
+    DataError
+        Unreadable file, missing column, unit that does not fit, NaN or infinite value —
+        one line naming file, column and row.
+    """
+    p = Path(path)
+    cmap, sampling = _mapping_from(mapping)
+    table = read_raw(p)
+    warnings: list[str] = []
+    cols, kinds, origin = _apply_mapping(table, cmap, sampling, warnings)
+    missing = [r for r in required if r not in cols]
+    if missing:
+        raise DataError(
+            f"missing required column (have: {', '.join(cols) or 'none'}); map it in [columns]",
+            path=str(p),
+            column=missing[0],
+        )
+    _check_finite(cols, origin, str(p))
+    units = {cm.column: cm.unit for cm in (cmap or {}).values()}
+    meta: dict[str, Any] = dict(table.meta)
+    meta.update({"source": str(p), "format": table.fmt, "warnings": warnings})
+    return MappedTable(cols, kinds, units, origin, meta)
 
 
 def load_trace(

@@ -40,6 +40,14 @@ UNITS: dict[str, str] = {
     "x_T": "m",
     "x_d": "m",
     "F_load": "N",
+    # ISO 230-2 positioning tests (drivelash.iso230); positions in rad on a rotary axis
+    "P_target": "m",
+    "P_cmd": "m",
+    "P_actual": "m",
+    "P_axis": "m",
+    "x_dev": "m",
+    "run": "1",
+    "direction": "1",
 }
 
 

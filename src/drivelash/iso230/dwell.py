@@ -291,7 +291,9 @@ def detect_dwells(
             )
         dev = float(np.mean(P_actual[win] - cmd))
         dev_axis = float(np.mean(P_actual[win] - P_axis[win])) if P_axis is not None else math.nan
-        rows.append((t[a], t[b - 1], t[win.start], t[win.stop - 1], float(np.median(cmd)), direction, dev, dev_axis))
+        rows.append(
+            (t[a], t[b - 1], t[win.start], t[win.stop - 1], float(np.median(cmd)), direction, dev, dev_axis)
+        )
     if not rows:
         raise DataError("no dwell with an approach direction found", path=source)
     arr = np.array(rows, dtype=np.float64)
@@ -339,7 +341,11 @@ def detect_dwells(
             other = "+" if sign == DOWN else "-"
             cnt_other = n_dn[i] if sign == UP else n_up[i]
             sel = np.flatnonzero(labels == i)
-            when = f"; dwells there at t = {', '.join(f'{x:.4g}' for x in arr[sel, 0][:8])} s" if sel.size else ""
+            when = (
+                f"; dwells there at t = {', '.join(f'{x:.4g}' for x in arr[sel, 0][:8])} s"
+                if sel.size
+                else ""
+            )
             raise DataError(
                 f"target {_fmt_pos(float(centres[i]), unit)}: {cnt} dwell(s) approached in direction {arrow}"
                 f" but {cnt_other} in direction {other}, {n_ref} at the other targets"
@@ -352,9 +358,7 @@ def detect_dwells(
             sel = np.flatnonzero((labels == i) & (dirs == sign))
             run[sel[np.argsort(arr[sel, 0])]] = np.arange(1, sel.size + 1)
     target = centres[labels]
-    ap = approaches_from_rows(
-        target, run, dirs, arr[:, 6], unit=unit, source=source, target_tolerance=1e-12
-    )
+    ap = approaches_from_rows(target, run, dirs, arr[:, 6], unit=unit, source=source, target_tolerance=1e-12)
     ap_axis = None
     if P_axis is not None:
         ap_axis = approaches_from_rows(

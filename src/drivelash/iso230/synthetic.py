@@ -72,9 +72,7 @@ def iso_targets(travel: float, m: int, rng: np.random.Generator) -> np.ndarray:
     return P
 
 
-def synthetic_table(
-    axis: SyntheticAxis, m: int = 11, n: int = 5, seed: int = 0
-) -> dict[str, np.ndarray]:
+def synthetic_table(axis: SyntheticAxis, m: int = 11, n: int = 5, seed: int = 0) -> dict[str, np.ndarray]:
     """Approach table of an ISO test: columns P_target, run, direction, x_dev (SI).
 
     Parameters
