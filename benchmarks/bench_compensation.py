@@ -25,10 +25,11 @@ from pathlib import Path
 
 import numpy as np
 
-from drivelash.te.compensation import Compensator, build_table, compensate_run, init_state
 from drivelash.te.demo import small_model
-from drivelash.te.persist import load_model
-from drivelash.te.validate import ValidationConfig, compensator_for, training_torque_max
+from drivelash.te.protocol.bench import ValidationConfig, compensator_for, training_torque_max
+from drivelash.te.runtime.compensator import Compensator, compensate_run, init_state
+from drivelash.te.runtime.persist import load_model
+from drivelash.te.runtime.table import build_table
 
 N_CYCLES = 20_000
 REPEATS = 5
@@ -54,7 +55,7 @@ def baseline_cycle(model, st, x_n, x_next, tq, flank, t_sc=5e-3, t_ss=35e-3):
 def main() -> None:
     cache = Path(os.environ.get("DRIVELASH_CACHE", ".venv/drivelash-cache")) / "te-demo"
     camp_dir, model_dir = small_model(cache, print)
-    from drivelash.te.campaign import load_campaign
+    from drivelash.te.protocol.campaign import load_campaign
 
     camp = load_campaign(camp_dir)
     bench = camp.bench

@@ -24,7 +24,7 @@ import numpy as np
 from drivelash.control.path_error import predict_path_error
 from drivelash.physics.rack_pinion import RackPinionBench, TransmissionErrorModel
 from drivelash.sim.rack_axis import RackAxisSimulator, constant_velocity_pass
-from drivelash.te.campaign import CampaignConfig, run_campaign
+from drivelash.sim.rack_campaign import CampaignConfig, run_campaign
 
 BUDGET_S = 300.0
 

@@ -43,7 +43,7 @@ def _campaign(tmp: Path) -> Path:
     env = os.environ.get("DRIVELASH_TE_CAMPAIGN")
     if env:
         return Path(env)
-    from drivelash.te.campaign import run_campaign
+    from drivelash.sim.rack_campaign import run_campaign
 
     t = time.perf_counter()
     run_campaign(tmp / "campaign", seed=0)
@@ -54,7 +54,7 @@ def _campaign(tmp: Path) -> Path:
 def _defect_runs(camp, pipeline, geo, direction: int):
     """Load runs (≤ MAX_LOAD) of one direction on the same drive with a local defect, processed."""
     from drivelash.sim.rack_axis import AxisSimConfig, RackAxisSimulator
-    from drivelash.te.campaign import CampaignConfig, RunSpec, run_trajectory
+    from drivelash.sim.rack_campaign import CampaignConfig, RunSpec, run_trajectory
 
     cfg = CampaignConfig.from_dict(camp.manifest["campaign"])
     te = camp.true_te_model().with_local_defect(**DEFECT)
@@ -79,16 +79,11 @@ def _defect_runs(camp, pipeline, geo, direction: int):
 def main() -> None:
     import torch
 
-    from drivelash.te.campaign import load_campaign
-    from drivelash.te.model import (
-        MLPRegressor,
-        StackedTERegressor,
-        fit_te_model,
-        prepare_campaign,
-        split_of,
-        stack_runs,
-    )
-    from drivelash.te.persist import load_model, save_model
+    from drivelash.te.learn.fit import fit_te_model, prepare_campaign, split_of, stack_runs
+    from drivelash.te.learn.network import MLPRegressor
+    from drivelash.te.learn.stacked import StackedTERegressor
+    from drivelash.te.protocol.campaign import load_campaign
+    from drivelash.te.runtime.persist import load_model, save_model
 
     torch.set_num_threads(1)
     print(_load())

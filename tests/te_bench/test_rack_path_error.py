@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from drivelash.control.path_error import (
-    bode_figure,
     g_d_cl,
     g_d_cl_closed_form,
     g_pc_ol,
@@ -15,6 +14,7 @@ from drivelash.control.path_error import (
 )
 from drivelash.errors import DataError
 from drivelash.physics.rack_pinion import RackPinionBench
+from drivelash.report.te_figures import bode_figure
 from drivelash.sim.rack_axis import bench_gains
 
 J_S = RackPinionBench().J_s

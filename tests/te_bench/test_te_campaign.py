@@ -9,15 +9,9 @@ import pytest
 
 from drivelash.errors import DataError
 from drivelash.physics.rack_pinion import TransmissionErrorModel
-from drivelash.te.campaign import (
-    STORED_COLUMNS,
-    CampaignConfig,
-    load_campaign,
-    measured_te,
-    plan_runs,
-    plot_te_over_position,
-    run_campaign,
-)
+from drivelash.report.te_figures import plot_te_over_position
+from drivelash.sim.rack_campaign import STORED_COLUMNS, CampaignConfig, plan_runs, run_campaign
+from drivelash.te.protocol.campaign import load_campaign, measured_te
 
 from .helpers import spectrum_over_position
 

@@ -9,7 +9,7 @@ import pytest
 from typer.testing import CliRunner
 
 from drivelash.cli import app
-from drivelash.te.compensation import load_table
+from drivelash.te.runtime.export import load_table
 
 from .analytic import SineTE
 
@@ -20,7 +20,7 @@ class _Model(SineTE):
 
 @pytest.fixture
 def stub_model(monkeypatch):
-    import drivelash.te.persist as persist
+    import drivelash.te.runtime.persist as persist
 
     monkeypatch.setattr(persist, "load_model", lambda d: _Model())
 

@@ -6,19 +6,17 @@ import numpy as np
 import pytest
 
 from drivelash.errors import DataError, ParameterError
-from drivelash.te.compensation import (
+from drivelash.te.runtime.compensator import (
     S_B,
     S_FLANK,
     S_TE_HAT,
     Compensator,
     CompensatorParams,
-    TETable,
-    build_table,
-    export_table,
-    load_table,
     smooth_step,
     smooth_step_rate,
 )
+from drivelash.te.runtime.export import export_table, load_table
+from drivelash.te.runtime.table import TETable, build_table
 
 from .analytic import BilinearTE, SineTE
 

@@ -7,7 +7,7 @@ import pytest
 
 import control as ct
 from drivelash.errors import DataError, ParameterError
-from drivelash.te.monitoring import (
+from drivelash.te.protocol.monitoring import (
     MonitorParams,
     defect_covered,
     false_sections_per_metre,

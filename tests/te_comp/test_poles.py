@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 import control as ct
-from drivelash.te.compensation import Compensator, CompensatorParams, build_table
+from drivelash.te.runtime.compensator import Compensator, CompensatorParams
+from drivelash.te.runtime.table import build_table
 
 from .analytic import SineTE
 

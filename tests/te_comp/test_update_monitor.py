@@ -16,9 +16,11 @@ import numpy as np
 import pytest
 
 from drivelash.errors import ParameterError
-from drivelash.te.compensation import build_table
-from drivelash.te.monitoring import MonitorParams, defect_flagged, monitor_sections, section_edges
-from drivelash.te.validate import TreesUpdater, ValidationConfig, acceptance
+from drivelash.te.protocol.bench import ValidationConfig
+from drivelash.te.protocol.monitoring import MonitorParams, defect_flagged, monitor_sections, section_edges
+from drivelash.te.protocol.validate import acceptance
+from drivelash.te.protocol.wear_demo import TreesUpdater
+from drivelash.te.runtime.table import build_table
 
 A, SIGMA, X0 = 15e-6, 3e-3, 0.30  # the demo defect (ValidationConfig, quick centre)
 

@@ -8,17 +8,11 @@ import numpy as np
 import pytest
 
 from drivelash.errors import DataError
-from drivelash.te.compensation import Compensator, CompensatorParams, build_table
-from drivelash.te.validate import (
-    band_rms,
-    compensator_for,
-    pass_trajectory,
-    reversal_errors,
-    reversal_times,
-    run_pass,
-    score_pass,
-    summarize_passes,
-)
+from drivelash.te.protocol.bench import compensator_for
+from drivelash.te.protocol.passes import pass_trajectory, run_pass, score_pass
+from drivelash.te.protocol.validate import band_rms, reversal_errors, reversal_times, summarize_passes
+from drivelash.te.runtime.compensator import Compensator, CompensatorParams
+from drivelash.te.runtime.table import build_table
 
 
 def test_band_rms_of_sines_closed_form():
@@ -142,7 +136,7 @@ class _Campaign:
 
 
 def test_training_torque_max_from_constant_velocity_part():
-    from drivelash.te.validate import training_torque_max
+    from drivelash.te.protocol.bench import training_torque_max
 
     assert training_torque_max(_Campaign(), 3000.0) == pytest.approx(9.1)
     assert training_torque_max(_Campaign(), 5000.0) == pytest.approx(14.0)

@@ -19,17 +19,26 @@ pytestmark = pytest.mark.slow
 
 @pytest.fixture(scope="module")
 def summary(tmp_path_factory):
-    from drivelash.te.campaign import load_campaign
     from drivelash.te.demo import small_model
-    from drivelash.te.persist import load_model
-    from drivelash.te.validate import TreesUpdater, ValidationConfig, validate
+    from drivelash.te.protocol.bench import ValidationConfig
+    from drivelash.te.protocol.campaign import load_campaign
+    from drivelash.te.protocol.validate import validate
+    from drivelash.te.protocol.wear_demo import TreesUpdater
+    from drivelash.te.runtime.persist import load_model
 
     cache = Path(os.environ.get("DRIVELASH_CACHE", tmp_path_factory.mktemp("cache"))) / "te-demo"
     camp_dir, model_dir = small_model(cache)
     out = tmp_path_factory.mktemp("validate")
     cfg = ValidationConfig(stroke=0.4, sine_amplitude=0.1, sine_periods=1.0, defect_center=0.30)
+    from drivelash.report import te_figures
+
     s = validate(
-        load_model(model_dir), load_campaign(camp_dir), out, cfg, TreesUpdater(n_trials=1, max_epochs=10)
+        load_model(model_dir),
+        load_campaign(camp_dir),
+        out,
+        cfg,
+        TreesUpdater(n_trials=1, max_epochs=10),
+        figures=te_figures,
     )
     assert json.loads((out / "summary.json").read_text())["acceptance"]
     for name in ("fig8_sine.png", "fig9_improvement.png", "monitoring.png", "improvement_sections.csv",

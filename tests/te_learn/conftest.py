@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from drivelash.te.preprocess import GearGeometry, GeometricCurve, TEPipeline
+from drivelash.te.learn.preprocess import GearGeometry, GeometricCurve, TEPipeline
 
 GEOM = GearGeometry(d_p=0.084882, n_t=20, i_pg=16.0, eps=2.68)
 PITCH = np.pi * GEOM.d_p / GEOM.n_t
@@ -55,7 +55,9 @@ def train_xy(pipe: TEPipeline, grid_x: np.ndarray) -> tuple[np.ndarray, np.ndarr
 @pytest.fixture(scope="session")
 def small_trained(pipe: TEPipeline, train_xy: tuple[np.ndarray, np.ndarray]):
     """A quickly fitted trained model (no tuning) for persistence tests."""
-    from drivelash.te.model import MLPRegressor, StackedTERegressor, TrainedTEModel, default_trees
+    from drivelash.te.learn.fit import TrainedTEModel
+    from drivelash.te.learn.network import MLPRegressor
+    from drivelash.te.learn.stacked import StackedTERegressor, default_trees
 
     X, y = train_xy
     models = {}

@@ -10,7 +10,7 @@ pytestmark = pytest.mark.slow
 @pytest.fixture(scope="module")
 def evaluated(tmp_path_factory):
     from drivelash.commands.te_model import run_evaluate, run_fit
-    from drivelash.te.campaign import run_campaign
+    from drivelash.sim.rack_campaign import run_campaign
 
     tmp = tmp_path_factory.mktemp("te_acceptance")
     run_campaign(tmp / "camp", seed=0)

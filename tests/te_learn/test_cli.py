@@ -33,7 +33,7 @@ def test_evaluate_refuses_a_pickle_model_dir(tmp_path):
 
 @pytest.mark.slow
 def test_fit_and_evaluate_on_a_quick_campaign(tmp_path):
-    from drivelash.te.campaign import CampaignConfig, run_campaign
+    from drivelash.sim.rack_campaign import CampaignConfig, run_campaign
 
     camp = tmp_path / "camp"
     cfg = CampaignConfig.quick()

@@ -8,14 +8,10 @@ from sklearn.base import clone
 from sklearn.model_selection import GridSearchCV, GroupKFold
 
 from drivelash.errors import DataError, ParameterError
-from drivelash.te.baselines import GeometricOnly, StageOne, fit_hgb, fit_trees_only
-from drivelash.te.model import (
-    MLPRegressor,
-    StackedTERegressor,
-    default_trees,
-    position_blocks,
-    split_of,
-)
+from drivelash.te.learn.baselines import GeometricOnly, StageOne, fit_hgb, fit_trees_only
+from drivelash.te.learn.fit import split_of
+from drivelash.te.learn.network import MLPRegressor
+from drivelash.te.learn.stacked import StackedTERegressor, default_trees, position_blocks
 
 from .conftest import design, te_def_um
 
@@ -151,8 +147,8 @@ def test_baselines_and_split(train_xy):
 
 
 def test_offset_line_recovers_mean_compliance():
-    from drivelash.te.model import fit_offset_line
-    from drivelash.te.preprocess import RunData
+    from drivelash.te.learn.fit import fit_offset_line
+    from drivelash.te.learn.preprocess import RunData
 
     runs = [
         RunData(np.zeros(3), np.zeros(3), np.zeros(3), 1, {"torque_mean": t, "offset_um": 0.3 - 1.5 * t})

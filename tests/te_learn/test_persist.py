@@ -14,7 +14,8 @@ import pytest
 from numba import njit
 
 from drivelash.errors import DrivelashError
-from drivelash.te.persist import ModelFileError, load_model, save_model, te_point
+from drivelash.te.runtime.persist import ModelFileError, load_model, save_model
+from drivelash.te.runtime.predictor import te_point
 
 
 @pytest.fixture(scope="module")
@@ -66,7 +67,7 @@ def test_load_and_predict_without_torch(model_dir):
         f"""
         import sys
         import numpy as np
-        from drivelash.te.persist import load_model
+        from drivelash.te.runtime.persist import load_model
         m = load_model({str(model_dir)!r})
         v = m.predict(np.linspace(0, 0.3, 100), 2.0, 1)
         o = m.predict_one(0.1, 2.0, -1)

@@ -7,12 +7,11 @@ import pytest
 from scipy.signal import butter, sosfreqz
 
 from drivelash.errors import DataError, ParameterError
-from drivelash.te.preprocess import (
+from drivelash.te.learn.features import bump_features, bump_row
+from drivelash.te.learn.preprocess import (
     GearGeometry,
     GeometricCurve,
     TEPipeline,
-    bump_features,
-    bump_row,
     deformation,
     geometric_curve,
     lowpass,

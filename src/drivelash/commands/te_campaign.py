@@ -19,7 +19,9 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         plot: bool = typer.Option(True, "--plot/--no-plot", help="Write fig2_te.png and a Bode plot."),
     ) -> None:
         """Simulate the campaign (geometric, load and sine runs) and write traces + manifest.json."""
-        from drivelash.te.campaign import CampaignConfig, load_campaign, plot_te_over_position, run_campaign
+        from drivelash.report.te_figures import plot_te_over_position
+        from drivelash.sim.rack_campaign import CampaignConfig, run_campaign
+        from drivelash.te.protocol.campaign import load_campaign
 
         cfg = CampaignConfig.quick() if quick else CampaignConfig()
         m = run_campaign(out, seed=seed, config=cfg, workers=workers)
@@ -30,7 +32,7 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         )
         if plot:
             png = plot_te_over_position(load_campaign(out), out / "fig2_te.png")
-            from drivelash.control.path_error import bode_figure
+            from drivelash.report.te_figures import bode_figure
 
             camp = load_campaign(out)
             fig = bode_figure(camp.bench.J_s, camp.gains)

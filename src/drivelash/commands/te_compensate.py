@@ -30,14 +30,18 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         ),
     ) -> None:
         """Validate the compensation on the virtual bench (paper Figs 8-9, monitoring) and write DIR."""
-        from drivelash.te.persist import load_model
-        from drivelash.te.validate import TreesUpdater, ValidationConfig, drive_for_model, validate
+        from drivelash.te.protocol.bench import ValidationConfig, drive_for_model
+        from drivelash.te.protocol.validate import validate
+        from drivelash.te.protocol.wear_demo import TreesUpdater
+        from drivelash.te.runtime.persist import load_model
 
         model = load_model(model_dir)
         camp = drive_for_model(model, campaign)
         cfg = ValidationConfig.quick() if quick else ValidationConfig()
         upd = None if no_update else TreesUpdater(echo=typer.echo)
-        summary = validate(model, camp, out, cfg, updater=upd, progress=typer.echo)
+        from drivelash.report import te_figures
+
+        summary = validate(model, camp, out, cfg, updater=upd, progress=typer.echo, figures=te_figures)
         typer.echo(format_summary(summary))
         typer.echo(f"outputs in {out}/")
 
@@ -56,8 +60,10 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         x_max: float | None = typer.Option(None, "--x-max", help="Last position [m]; default: the travel."),
     ) -> None:
         """Sample the model on a position x torque grid per direction and write it for a CNC."""
-        from drivelash.te.compensation import CompensatorParams, build_table, export_table
-        from drivelash.te.persist import load_model
+        from drivelash.te.runtime.compensator import CompensatorParams
+        from drivelash.te.runtime.export import export_table
+        from drivelash.te.runtime.persist import load_model
+        from drivelash.te.runtime.table import build_table
 
         model = load_model(model_dir)
         lo = 0.0 if x_min is None else x_min
@@ -88,8 +94,8 @@ def _params_for(model: object, default: object) -> object:
     cand = info.get("campaign")
     if not cand or not (Path(cand) / "manifest.json").is_file():
         return default
-    from drivelash.te.campaign import load_campaign
-    from drivelash.te.validate import compensator_for
+    from drivelash.te.protocol.bench import compensator_for
+    from drivelash.te.protocol.campaign import load_campaign
 
     return compensator_for(load_campaign(cand).bench, None, default)
 
@@ -97,8 +103,8 @@ def _params_for(model: object, default: object) -> object:
 def _training_torque(model: object) -> float:
     """Largest training motor torque [N·m] from the model's campaign (see ``training_torque_max``)."""
     from drivelash.errors import DataError
-    from drivelash.te.campaign import load_campaign
-    from drivelash.te.validate import training_torque_max
+    from drivelash.te.protocol.bench import training_torque_max
+    from drivelash.te.protocol.campaign import load_campaign
 
     info = getattr(model, "info", {}) or {}
     cand = info.get("campaign")

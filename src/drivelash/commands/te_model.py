@@ -36,13 +36,15 @@ def run_fit(
     echo: Any = print,
 ) -> dict[str, Any]:
     """Fit both directions on a campaign and save the model; returns the training record."""
-    from drivelash.te.campaign import load_campaign
+    from drivelash.te.protocol.campaign import load_campaign
 
     t0 = time.perf_counter()
     camp = load_campaign(campaign_dir)  # fails early, before the heavy imports
 
-    from drivelash.te.model import MLPRegressor, StackedTERegressor, fit_te_model, prepare_campaign
-    from drivelash.te.persist import save_model
+    from drivelash.te.learn.fit import fit_te_model, prepare_campaign
+    from drivelash.te.learn.network import MLPRegressor
+    from drivelash.te.learn.stacked import StackedTERegressor
+    from drivelash.te.runtime.persist import save_model
 
     pipeline, geo, runs = prepare_campaign(camp)
     t_prep = time.perf_counter() - t0
@@ -63,26 +65,21 @@ def run_fit(
 
 def _fit_baselines(X: Any, y: Any) -> tuple[Any, Any, Any]:
     """Geometric-only, trees-only (grid search as stage 2) and HGB (every 4th row) on one direction."""
-    from drivelash.te.baselines import GeometricOnly, fit_hgb, fit_trees_only
+    from drivelash.te.learn.baselines import GeometricOnly, fit_hgb, fit_trees_only
 
     return GeometricOnly().fit(X, y), fit_trees_only(X, y)[0], fit_hgb(X[::4], y[::4])
 
 
 def run_evaluate(model_dir: Path, campaign_dir: Path, out_dir: Path | None = None, echo: Any = print) -> dict:
     """Score the saved model and the baselines per load and direction; write table, JSON and figure."""
-    from drivelash.te.persist import load_model
+    from drivelash.te.runtime.persist import load_model
 
     model = load_model(model_dir)  # fails early (and safely) on a bad model directory
 
-    from drivelash.te.baselines import (
-        compare,
-        format_table,
-        mae_table,
-        plot_fig6,
-        split_summary,
-    )
-    from drivelash.te.campaign import load_campaign
-    from drivelash.te.model import prepare_campaign, split_of, stack_runs
+    from drivelash.report.te_figures import plot_fig6
+    from drivelash.te.learn.baselines import compare, format_table, mae_table, split_summary
+    from drivelash.te.learn.fit import prepare_campaign, split_of, stack_runs
+    from drivelash.te.protocol.campaign import load_campaign
 
     info = model.info
     max_load = float(info.get("max_load", 3000.0))

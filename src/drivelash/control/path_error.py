@@ -14,7 +14,7 @@ Functions
 ``g_pc_ol(J_s, gains)``, ``g_d_cl(J_s, gains)``: :class:`control.TransferFunction`;
 ``g_pc_ol_closed_form`` / ``g_d_cl_closed_form``: the same evaluated directly (for tests);
 ``predict_path_error(te, t, J_s, gains)``: e_x(t) predicted from a TE time series;
-``bode_figure(J_s, gains)``: magnitude/phase of both.
+The Bode plot of both is :func:`drivelash.report.te_figures.bode_figure`.
 """
 
 from __future__ import annotations
@@ -108,26 +108,3 @@ def predict_path_error(
     z, p, k = signal.tf2zpk([-a, -Tn, -1.0, 0.0], [a, Tn, 1.0 + Kv * Tn, Kv])
     zd, pd, kd = signal.bilinear_zpk(z, p, k, fs=1.0 / float(steps.mean()))
     return signal.sosfilt(signal.zpk2sos(zd, pd, kd), u)
-
-
-def bode_figure(J_s: float, gains: CascadeGains, f_min: float = 0.1, f_max: float = 2000.0):  # noqa: ANN201
-    """Bode plot of (2) and (3) as a matplotlib figure (frequency in Hz)."""
-    import matplotlib.pyplot as plt
-
-    f = np.logspace(np.log10(f_min), np.log10(f_max), 600)
-    s = 2j * np.pi * f
-    fig, ax = plt.subplots(2, 1, sharex=True, figsize=(7, 6))
-    for G, name in (
-        (g_pc_ol_closed_form(s, J_s, gains), "G_pc,OL (2)"),
-        (g_d_cl_closed_form(s, J_s, gains), "G_d,CL (3)"),
-    ):
-        ax[0].semilogx(f, 20 * np.log10(np.abs(G)), label=name)
-        ax[1].semilogx(f, np.degrees(np.unwrap(np.angle(G))), label=name)
-    ax[0].set_ylabel("magnitude [dB]")
-    ax[1].set_ylabel("phase [deg]")
-    ax[1].set_xlabel("frequency [Hz]")
-    ax[0].legend()
-    ax[0].grid(True, which="both", alpha=0.3)
-    ax[1].grid(True, which="both", alpha=0.3)
-    fig.tight_layout()
-    return fig

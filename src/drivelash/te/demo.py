@@ -30,7 +30,7 @@ def small_model(work_dir: Path, echo: Any = None) -> tuple[Path, Path]:
     echo : callable, optional
         Progress messages.
     """
-    from drivelash.te.campaign import CampaignConfig, run_campaign
+    from drivelash.sim.rack_campaign import CampaignConfig, run_campaign
 
     say = echo or (lambda s: None)
     work_dir = Path(work_dir)
@@ -45,9 +45,11 @@ def small_model(work_dir: Path, echo: Any = None) -> tuple[Path, Path]:
     if not (model_dir / "model.json").is_file():
         import torch
 
-        from drivelash.te.campaign import load_campaign
-        from drivelash.te.model import MLPRegressor, StackedTERegressor, fit_te_model, prepare_campaign
-        from drivelash.te.persist import save_model
+        from drivelash.te.learn.fit import fit_te_model, prepare_campaign
+        from drivelash.te.learn.network import MLPRegressor
+        from drivelash.te.learn.stacked import StackedTERegressor
+        from drivelash.te.protocol.campaign import load_campaign
+        from drivelash.te.runtime.persist import save_model
 
         torch.set_num_threads(2)
         t0 = time.perf_counter()
@@ -77,17 +79,12 @@ def demo_compensate(out_dir: Path, console: Any) -> None:
     console : rich.console.Console
         Where to print.
     """
-    from drivelash.te.campaign import load_campaign
-    from drivelash.te.compensation import Compensator, export_table
-    from drivelash.te.persist import load_model
-    from drivelash.te.validate import (
-        ValidationConfig,
-        compensator_for,
-        pass_trajectory,
-        run_pass,
-        table_for,
-        training_torque_max,
-    )
+    from drivelash.te.protocol.bench import ValidationConfig, compensator_for, table_for, training_torque_max
+    from drivelash.te.protocol.campaign import load_campaign
+    from drivelash.te.protocol.passes import pass_trajectory, run_pass
+    from drivelash.te.runtime.compensator import Compensator
+    from drivelash.te.runtime.export import export_table
+    from drivelash.te.runtime.persist import load_model
 
     console.print("[bold]Transmission-error compensation[/bold] (virtual rack-and-pinion bench)")
     t0 = time.perf_counter()

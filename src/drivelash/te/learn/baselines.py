@@ -13,30 +13,42 @@ stacked model:
 * :func:`fit_hgb` — one ``HistGradientBoostingRegressor`` on all inputs.
 
 :func:`compare` scores any set of predictors per run; :func:`mae_table` groups the
-scores by direction and load; :func:`plot_fig6` draws a figure like the paper's Fig. 6.
+scores by direction and load (the figure like the paper's Fig. 6 is
+:func:`drivelash.report.te_figures.plot_fig6`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.ensemble import HistGradientBoostingRegressor
 
-from drivelash.te.model import (
+from drivelash.te.learn.network import check_xy
+from drivelash.te.learn.preprocess import RunData, TEPipeline
+from drivelash.te.learn.stacked import (
     DEFAULT_TREE_GRID,
     STAGE1_COLS,
     STAGE2_COLS,
     StackedTERegressor,
-    _check_xy,
     default_trees,
     grid_search_trees,
     position_blocks,
 )
-from drivelash.te.preprocess import RunData, TEPipeline
+
+__all__ = [
+    "ColumnModel",
+    "GeometricOnly",
+    "StageOne",
+    "compare",
+    "fit_hgb",
+    "fit_trees_only",
+    "format_table",
+    "mae_table",
+    "split_summary",
+]
 
 Predictor = Callable[[np.ndarray], np.ndarray]
 
@@ -46,13 +58,13 @@ class GeometricOnly(RegressorMixin, BaseEstimator):
 
     def fit(self, X: Any, y: Any) -> GeometricOnly:
         """Nothing to learn; returns ``self``."""
-        X, _ = _check_xy(X, y)
+        X, _ = check_xy(X, y)
         self.n_features_in_ = X.shape[1]
         return self
 
     def predict(self, X: Any) -> np.ndarray:
         """Zeros [µm]."""
-        X, _ = _check_xy(X)
+        X, _ = check_xy(X)
         return np.zeros(X.shape[0])
 
 
@@ -228,78 +240,3 @@ def format_table(table: Sequence[Mapping[str, Any]], summary: Mapping[str, Mappi
         lines.append(f"{split:>13} {s['rms']:>8.3f} " + " ".join(f"{s['mae'][n]:>10.4f}" for n in names))
         lines.append(f"{'':>13} {'':>8} " + " ".join(f"{100 * s['ratio'][n]:>9.1f}%" for n in names))
     return "\n".join(lines)
-
-
-def plot_fig6(
-    path: str | Path,
-    run: RunData,
-    p_stage1: np.ndarray,
-    p_total: np.ndarray,
-    stage1_share: float,
-    table: Sequence[Mapping[str, Any]],
-    direction: str = "pos",
-    span: float = 0.4,
-) -> Path:
-    """A figure like the paper's Fig. 6 plus the MAE-per-load comparison.
-
-    Parameters
-    ----------
-    path : str or Path
-        PNG to write.
-    run : RunData
-        A training run (target TE_def [µm] over position [m]).
-    p_stage1, p_total : numpy.ndarray
-        Stage-1 and stacked predictions [µm] on ``run.x``.
-    stage1_share : float
-        Stage-1 share of the output over the training data [-].
-    table : sequence of dict
-        :func:`mae_table` rows.
-    direction : str
-        ``"pos"`` or ``"neg"`` (rows of the bottom panel).
-    span : float
-        Travel shown in the top panel [m].
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    p1 = np.asarray(p_stage1)
-    p2 = np.asarray(p_total) - p1
-    sel = run.x <= run.x[0] + span
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 7.5), constrained_layout=True)
-    xm = run.x[sel] * 1e3
-    ax1.plot(xm, run.te_def_um[sel], color="0.2", lw=2.2, label="TE_def (processed measurement)")
-    ax1.plot(xm, (p1 + p2)[sel], color="tab:orange", lw=1.2, ls="--", label="stacked model (NN + trees)")
-    ax1.plot(xm, p1[sel], color="tab:blue", lw=1.0, label="stage 1 (NN) contribution")
-    ax1.plot(xm, p2[sel], color="tab:green", lw=0.8, alpha=0.8, label="stage 2 (trees) contribution")
-    mae = float(np.mean(np.abs(p1 + p2 - run.te_def_um)))
-    ax1.set_title(
-        f"Training run {run.meta.get('name', '')}: load {run.meta.get('load', float('nan')):.0f} N, "
-        f"direction {direction}; MAE {mae:.4f} µm, stage-1 share {100 * stage1_share:.0f} %"
-    )
-    ax1.set_xlabel("table position x_T [mm]")
-    ax1.set_ylabel("TE_def [µm]")
-    ax1.grid(alpha=0.3)
-    ax1.legend(loc="best", fontsize=8)
-    rows = [r for r in table if r["direction"] == direction]
-    loads = np.array([r["load"] for r in rows])
-    names = list(rows[0]["mae"]) if rows else []
-    for n in names:
-        ax2.semilogy(loads, [r["mae"][n] for r in rows], marker="o", label=n)
-    ax2.semilogy(loads, [0.1 * r["rms"] for r in rows], color="k", ls=":", label="10 % of TE_def RMS")
-    held = [r["load"] for r in rows if r["split"] == "held-out"]
-    for h in held:
-        ax2.axvline(h, color="0.8", lw=6, zorder=0)
-    tr = [r["load"] for r in rows if r["split"] == "train"]
-    if tr:
-        ax2.axvline(max(tr) + 250, color="r", ls="--", lw=1, label="training load limit")
-    ax2.set_xlabel("load F_load [N] (grey: held-out loads)")
-    ax2.set_ylabel("MAE of TE_def [µm]")
-    ax2.set_title(f"Direction {direction}: MAE per load, stacked vs baselines")
-    ax2.grid(alpha=0.3, which="both")
-    ax2.legend(fontsize=8, ncol=2)
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path

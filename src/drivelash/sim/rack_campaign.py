@@ -1,4 +1,4 @@
-"""The measurement campaign on the virtual rack-and-pinion bench (spec 02 §1, §6).
+"""Simulating the measurement campaign on the virtual rack-and-pinion bench (spec 02 §1, §6).
 
 What a commissioning engineer records (``drivelash te campaign -o DIR``):
 
@@ -17,16 +17,7 @@ needed). ``manifest.json`` lists the runs (file, kind, load, velocity, direction
 seed) and everything needed to regenerate the true drive: bench, TE-generator
 parameters, seed, gains and engine settings.
 
-Reading::
-
-    camp = load_campaign(DIR)
-    camp.runs                  # list[CampaignRun]; run.trace() loads the Trace
-    camp.bench, camp.gains     # RackPinionBench, CascadeGains
-    camp.true_te_model()       # TransmissionErrorModel for scoring
-    camp.true_te(run)          # the true TE along a run (quasi-static, at the transmitted force)
-    camp.simulator()           # RackAxisSimulator of the same drive
-    camp.select(kind="load", direction=1, velocity=0.05)
-    plot_te_over_position(camp, "fig2.png")   # the paper's Fig. 2 from the recording
+Reading a campaign directory back: :func:`drivelash.te.protocol.campaign.load_campaign`.
 """
 
 from __future__ import annotations
@@ -35,14 +26,13 @@ import json
 import math
 import time
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from drivelash.errors import DataError, ParameterError
-from drivelash.io.trace import Trace
+from drivelash.errors import ParameterError
 from drivelash.params import CascadeGains
 from drivelash.physics.rack_pinion import RackPinionBench, TEGeneratorParams, TransmissionErrorModel
 from drivelash.sim.rack_axis import (
@@ -51,6 +41,16 @@ from drivelash.sim.rack_axis import (
     constant_velocity_pass,
     sine_trajectory,
 )
+
+__all__ = [
+    "FORMAT",
+    "STORED_COLUMNS",
+    "CampaignConfig",
+    "RunSpec",
+    "plan_runs",
+    "run_campaign",
+    "run_trajectory",
+]
 
 FORMAT = "drivelash.te_campaign/1"
 STORED_COLUMNS = ("t", "x_d", "x_T", "theta_m", "omega_m", "torque_m", "F_load", "direction")
@@ -280,198 +280,3 @@ def run_campaign(
     manifest = dict(manifest)
     manifest["timing"] = {"wall_s": wall, "simulated_s": simulated, "real_time_factor": simulated / wall}
     return manifest
-
-
-@dataclass(frozen=True)
-class CampaignRun:
-    """One recorded run (see the manifest fields)."""
-
-    path: Path
-    kind: str
-    load: float
-    velocity: float
-    direction: int
-    seed: int
-
-    def trace(self) -> Trace:
-        """Load the run's :class:`Trace`."""
-        return Trace.from_parquet(self.path)
-
-
-@dataclass
-class Campaign:
-    """A campaign directory read back by :func:`load_campaign`."""
-
-    directory: Path
-    manifest: dict[str, Any]
-    runs: list[CampaignRun] = field(default_factory=list)
-
-    @property
-    def bench(self) -> RackPinionBench:
-        """The bench the campaign was recorded on."""
-        return RackPinionBench.from_dict(self.manifest["bench"])
-
-    @property
-    def gains(self) -> CascadeGains:
-        """The cascade gains of the recording."""
-        return CascadeGains(**self.manifest["gains"])
-
-    @property
-    def seed(self) -> int:
-        """Seed of the drive."""
-        return int(self.manifest["seed"])
-
-    def true_te_model(self) -> TransmissionErrorModel:
-        """Regenerate the true transmission-error model (for scoring)."""
-        return TransmissionErrorModel.from_dict(self.manifest["te_model"])
-
-    def true_te(self, run: CampaignRun, trace: Trace | None = None) -> np.ndarray:
-        """The true TE along a recorded run [m], quasi-static.
-
-        TE(x_T, F, d) of :meth:`true_te_model` with d the commanded direction and F the
-        force the mesh transmits at constant velocity, F_load + F_CT + β_T |v_T|
-        (v_T from the recorded x_T). Accurate to the dynamics of the run (inertia during
-        ramps and reversals, damping: ≲ 0.01 µm at 10 mm/s at constant speed).
-
-        Parameters
-        ----------
-        run : CampaignRun
-            The run.
-        trace : Trace, optional
-            Its trace if already loaded.
-        """
-        tr = trace if trace is not None else run.trace()
-        bench = self.bench
-        v = np.gradient(tr["x_T"], tr["t"])
-        F = tr["F_load"] + bench.table_friction(v)
-        d = np.where(tr["direction"] >= 0, 1, -1)
-        return self.true_te_model().te(tr["x_T"], F, d)
-
-    def simulator(self) -> RackAxisSimulator:
-        """A simulator of the same drive, gains and engine settings."""
-        return RackAxisSimulator(
-            self.bench,
-            self.true_te_model(),
-            gains=self.gains,
-            seed=self.seed,
-            config=AxisSimConfig(**self.manifest["sim_config"]),
-        )
-
-    def select(self, kind: str | None = None, direction: int | None = None, velocity: float | None = None,
-               load: float | None = None) -> list[CampaignRun]:  # fmt: skip
-        """Runs matching all given fields (velocity and load compared to 1e-9)."""
-        out = []
-        for r in self.runs:
-            if kind is not None and r.kind != kind:
-                continue
-            if direction is not None and r.direction != direction:
-                continue
-            if velocity is not None and abs(r.velocity - velocity) > 1e-9:
-                continue
-            if load is not None and abs(r.load - load) > 1e-9:
-                continue
-            out.append(r)
-        return out
-
-
-def load_campaign(directory: str | Path) -> Campaign:
-    """Read ``manifest.json`` of a campaign directory.
-
-    Raises
-    ------
-    DataError
-        Missing or malformed manifest, or a listed trace file that does not exist.
-    """
-    d = Path(directory)
-    mpath = d / "manifest.json"
-    if not mpath.is_file():
-        raise DataError("no manifest.json: not a campaign directory", path=str(d))
-    try:
-        manifest = json.loads(mpath.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise DataError(f"malformed JSON ({exc.msg}, line {exc.lineno})", path=str(mpath)) from None
-    if manifest.get("format") != FORMAT:
-        raise DataError(f"unknown format {manifest.get('format')!r}, expected {FORMAT!r}", path=str(mpath))
-    runs = []
-    for r in manifest.get("runs", []):
-        p = d / r["file"]
-        if not p.is_file():
-            raise DataError("listed in the manifest but missing", path=str(p))
-        runs.append(
-            CampaignRun(
-                p, r["kind"], float(r["load"]), float(r["velocity"]), int(r["direction"]), int(r["seed"])
-            )
-        )
-    return Campaign(d, manifest, runs)
-
-
-def measured_te(trace: Trace, bench: RackPinionBench) -> np.ndarray:
-    """TE = x_T − θ_M d_p/(2 i_PG) along a recorded run [m], eq (1)."""
-    return bench.te_from_measurement(trace["x_T"], trace["theta_m"])
-
-
-def plot_te_over_position(
-    campaign: Campaign, path: str | Path, velocity: float | None = None, step: float = 200e-6
-) -> Path:
-    """Fig. 2 of the paper from a campaign: TE over position, both directions, all loads.
-
-    Parameters
-    ----------
-    campaign : Campaign
-        The recording.
-    path : str or Path
-        PNG to write.
-    velocity : float, optional
-        Velocity of the load runs to show [m/s]; default the lowest recorded.
-    step : float
-        Plot resolution over position [m].
-
-    Returns
-    -------
-    Path
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    bench = campaign.bench
-    loads = campaign.select(kind="load")
-    if velocity is None and loads:
-        velocity = min(r.velocity for r in loads)
-    fig, ax = plt.subplots(2, 1, figsize=(11, 8), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
-    cmap = plt.get_cmap("viridis")
-    F_max = max([r.load for r in loads] + [1.0])
-    geo = {}
-    for r in campaign.select(kind="geometric"):
-        tr = r.trace()
-        x, te = tr["x_T"], measured_te(tr, bench)
-        grid = np.arange(x.min(), x.max(), step)
-        order = np.argsort(x)
-        geo[r.direction] = (grid, np.interp(grid, x[order], te[order]))
-        ax[0].plot(grid, geo[r.direction][1] * 1e6, color="k", lw=0.8)
-    for r in campaign.select(kind="load", velocity=velocity):
-        tr = r.trace()
-        x, te = tr["x_T"], measured_te(tr, bench)
-        grid = np.arange(x.min(), x.max(), step)
-        order = np.argsort(x)
-        ax[0].plot(grid, np.interp(grid, x[order], te[order]) * 1e6, color=cmap(r.load / F_max), lw=0.5)
-    if 1 in geo and -1 in geo:
-        g = geo[1][0]
-        lo = np.interp(g, *geo[1])
-        hi = np.interp(g, *geo[-1])
-        ax[0].fill_between(g, lo * 1e6, hi * 1e6, color="tab:orange", alpha=0.25, label="backlash (no load)")
-        ax[1].plot(g, (hi - lo) * 1e6, color="tab:orange")
-    ax[0].set_ylabel("TE = x_T − x_M [µm]")
-    v_txt = f"{velocity * 1e3:g} mm/s" if velocity else ""
-    ax[0].set_title(
-        f"Transmission error, both directions, loads 0…{F_max:g} N (colour) {v_txt}; black: 10 mm/s, no load"
-    )
-    ax[0].legend(loc="upper right")
-    ax[1].set_ylabel("gap [µm]")
-    ax[1].set_xlabel("table position x_T [m]")
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path

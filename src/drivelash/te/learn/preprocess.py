@@ -13,7 +13,8 @@ Each step is one plain function with one job, testable on its own:
 5. :func:`remove_offset` — constant offset removal;
 6. :func:`lowpass` — zero-phase Butterworth low-pass over position, cut-off
    :func:`mesh_cutoff` = 3 × tooth-meshing spatial frequency;
-7. :func:`bump_features` — tooth-meshing features M_j, eqs (4)–(5).
+7. :func:`~drivelash.te.learn.features.bump_features` — tooth-meshing features M_j,
+   eqs (4)–(5) (in :mod:`drivelash.te.learn.features`).
 
 :class:`TEPipeline` chains them (a composite of small replaceable parts, like
 pysindy): ``pipeline.geometric(no_load_traces)`` then
@@ -32,9 +33,29 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from numba import njit
 
 from drivelash.errors import DataError, ParameterError
+from drivelash.te.learn.features import bump_features
+
+__all__ = [
+    "GRID_STEP",
+    "UM",
+    "GearGeometry",
+    "GeometricCurve",
+    "RunData",
+    "TEPipeline",
+    "deformation",
+    "direction_key",
+    "geometric_curve",
+    "lowpass",
+    "mesh_cutoff",
+    "mesh_frequency",
+    "monotone_part",
+    "remove_offset",
+    "resample_on_grid",
+    "transmission_error",
+    "trim_ends",
+]
 
 #: Resampling step over table position [m] (paper §IV: 50 µm).
 GRID_STEP = 50e-6
@@ -275,53 +296,6 @@ def lowpass(values: np.ndarray, step: float, cutoff: float, order: int = 4) -> n
     if v.size < 8:
         raise DataError(f"only {v.size} grid points: too short to filter")
     return sosfiltfilt(sos, v, padlen=padlen)
-
-
-# ---------------------------------------------------------------------------
-# 7. tooth-meshing bump features (4)–(5)
-# ---------------------------------------------------------------------------
-@njit(cache=True)
-def bump_row(x: float, n_t: int, d_p: float, eps: float, out: np.ndarray) -> None:  # pragma: no cover - njit
-    """Bump features M_1 … M_nt at one position ``x`` [m] into ``out`` (njit)."""
-    u = x * n_t / (np.pi * d_p)
-    for j in range(n_t):
-        m = (u - (j + 1)) % n_t
-        eta = (2.0 / eps) * m - 1.0
-        if -1.0 < eta < 1.0:
-            e2 = eta * eta
-            out[j] = np.exp(e2 / (e2 - 1.0))
-        else:
-            out[j] = 0.0
-
-
-def bump_features(x: np.ndarray, n_t: int, d_p: float, eps: float) -> np.ndarray:
-    """Tooth-meshing features, eqs (4)–(5).
-
-    η_j = (2/ε)·mod(x n_t/(π d_p) − j, n_t) − 1,  M_j = exp(η_j²/(η_j² − 1)) for |η_j| < 1 else 0,
-    for pinion teeth j = 1 … n_t.
-
-    Parameters
-    ----------
-    x : numpy.ndarray
-        Table position [m].
-    n_t : int
-        Number of pinion teeth.
-    d_p : float
-        Pitch diameter [m].
-    eps : float
-        Contact ratio ε [-].
-
-    Returns
-    -------
-    numpy.ndarray
-        Shape ``(len(x), n_t)``; values in [0, 1] (1 at η_j = 0).
-    """
-    x = np.asarray(x, dtype=np.float64).reshape(-1)
-    u = x[:, None] * n_t / (np.pi * d_p) - np.arange(1, n_t + 1)[None, :]
-    eta = (2.0 / eps) * np.mod(u, n_t) - 1.0
-    inside = np.abs(eta) < 1.0
-    e2 = np.where(inside, eta * eta, 0.0)
-    return np.where(inside, np.exp(e2 / np.where(inside, e2 - 1.0, -1.0)), 0.0)
 
 
 # ---------------------------------------------------------------------------

@@ -27,27 +27,32 @@ Feed-forward only: the output depends on the planned trajectory and, through the
 error models, on the torque state; no measured position or velocity error feeds
 through, so the closed-loop poles are those of the uncompensated cascade (tested).
 
-Runtime form: the fitted model is sampled once into a :class:`TETable` (position ×
-torque grid per direction, bilinear interpolation, clamped at the edges), which a
-``@njit`` kernel evaluates; export as CSV/JSON for a CNC (:func:`export_table`).
+The table the cycle reads is a :class:`~drivelash.te.runtime.table.TETable`
+(:mod:`drivelash.te.runtime.table`); exports for a CNC are in
+:mod:`drivelash.te.runtime.export`.
 """
 
 from __future__ import annotations
 
-import csv
-import json
 import math
-from dataclasses import asdict, dataclass, field, fields
-from pathlib import Path
-from typing import Any, Protocol
+from dataclasses import dataclass, fields
 
 import numpy as np
 from numba import njit
 
 from drivelash.errors import DataError, ParameterError
+from drivelash.te.runtime.table import TETable, table_te
 
-#: Direction codes: index 0 ⇔ positive flank (+1), index 1 ⇔ negative flank (−1).
-DIRECTIONS = (1, -1)
+__all__ = [
+    "Compensator",
+    "CompensatorParams",
+    "compensate_run",
+    "compensation_cycle",
+    "init_state",
+    "mesh_torque",
+    "smooth_step",
+    "smooth_step_rate",
+]
 
 # Layout of the compensator state vector (float64).
 S_FLANK = 0  # flank in contact, +1 or −1
@@ -76,16 +81,6 @@ P_T_LOCK = 10
 P_T_SS_SIGN = 11
 P_BL_GAIN = 12
 PARAM_SIZE = 13
-
-
-class TEPredictor(Protocol):
-    """Anything that predicts the transmission error of one flank.
-
-    ``predict(x_T [m], torque [N·m], direction ±1) -> TE [m]``, vectorised over
-    ``x_T`` and ``torque`` (broadcast).
-    """
-
-    def predict(self, x_T: np.ndarray, torque: np.ndarray, direction: int) -> np.ndarray: ...
 
 
 @dataclass(frozen=True)
@@ -193,173 +188,6 @@ def smooth_step_rate(tau: float) -> float:
 
 # ---------------------------------------------------------------------------
 # lookup table
-
-
-@dataclass(frozen=True)
-class TETable:
-    """Transmission error on a regular position × torque grid per flank.
-
-    Parameters
-    ----------
-    x0 : float
-        First grid position [m].
-    dx : float
-        Position step [m].
-    torque0 : numpy.ndarray
-        First grid torque per flank, shape (2,) [N·m] (index 0: flank +1, 1: flank −1).
-    dtorque : numpy.ndarray
-        Torque step per flank, shape (2,) [N·m].
-    te : numpy.ndarray
-        TE values, shape (2, n_x, n_torque) [m].
-    meta : dict
-        Provenance (model directory, units, axis name).
-    """
-
-    x0: float
-    dx: float
-    torque0: np.ndarray
-    dtorque: np.ndarray
-    te: np.ndarray
-    meta: dict[str, Any] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        te = np.ascontiguousarray(np.asarray(self.te, dtype=np.float64))
-        if te.ndim != 3 or te.shape[0] != 2 or te.shape[1] < 2 or te.shape[2] < 1:
-            raise DataError(f"TE table must have shape (2, n_x>=2, n_torque>=1), got {te.shape}")
-        if not np.all(np.isfinite(te)):
-            raise DataError("TE table holds non-finite values")
-        if not self.dx > 0:
-            raise DataError(f"position step must be > 0, got {self.dx}")
-        t0 = np.ascontiguousarray(np.asarray(self.torque0, dtype=np.float64).reshape(2))
-        dtq = np.ascontiguousarray(np.asarray(self.dtorque, dtype=np.float64).reshape(2))
-        if te.shape[2] > 1 and not np.all(dtq > 0):
-            raise DataError(f"torque steps must be > 0, got {dtq}")
-        object.__setattr__(self, "te", te)
-        object.__setattr__(self, "torque0", t0)
-        object.__setattr__(self, "dtorque", dtq)
-
-    @property
-    def x_grid(self) -> np.ndarray:
-        """Grid positions [m]."""
-        return self.x0 + self.dx * np.arange(self.te.shape[1])
-
-    def torque_grid(self, direction: int) -> np.ndarray:
-        """Grid torques of a flank [N·m]."""
-        d = _dir_index(direction)
-        return self.torque0[d] + self.dtorque[d] * np.arange(self.te.shape[2])
-
-    def predict(self, x_T: np.ndarray, torque: np.ndarray, direction: int) -> np.ndarray:
-        """Bilinear interpolation of the table (same protocol as the models) [m]."""
-        x, t = np.broadcast_arrays(np.asarray(x_T, dtype=np.float64), np.asarray(torque, dtype=np.float64))
-        out = np.empty(x.shape)
-        _table_batch(
-            self.te,
-            self.x0,
-            self.dx,
-            self.torque0,
-            self.dtorque,
-            _dir_index(direction),
-            np.ascontiguousarray(x.ravel()),
-            np.ascontiguousarray(t.ravel()),
-            out.reshape(-1),
-        )
-        return out
-
-    def backlash(self, x_T: np.ndarray, torque: float = 0.0) -> np.ndarray:
-        """Gap between the flank curves TE(−1) − TE(+1) at equal torque [m]."""
-        return self.predict(x_T, -abs(torque), -1) - self.predict(x_T, abs(torque), 1)
-
-
-def _dir_index(direction: int) -> int:
-    if direction == 1:
-        return 0
-    if direction == -1:
-        return 1
-    raise ParameterError("TETable", "direction", f"must be +1 or -1, got {direction!r}")
-
-
-def build_table(
-    model: TEPredictor,
-    x_min: float,
-    x_max: float,
-    dx: float,
-    torque_max: float,
-    n_torque: int,
-    torque_min: float = 0.0,
-    meta: dict[str, Any] | None = None,
-) -> TETable:
-    """Sample a TE model into a :class:`TETable`.
-
-    The torque grid of flank +1 runs over [torque_min, torque_max], that of flank
-    −1 over [−torque_max, −torque_min] (the load acts against the motion, so the
-    motor torque has the sign of the flank).
-
-    Parameters
-    ----------
-    model : TEPredictor
-        Fitted model with ``predict(x_T, torque, direction)`` [m].
-    x_min, x_max : float
-        Position range [m].
-    dx : float
-        Position step [m].
-    torque_max : float
-        Largest torque magnitude of the grid [N·m].
-    n_torque : int
-        Number of torque grid points per flank (≥ 1).
-    torque_min : float
-        Smallest torque magnitude of the grid [N·m].
-    meta : dict, optional
-        Provenance stored in the table.
-
-    Returns
-    -------
-    TETable
-    """
-    if not (x_max > x_min and dx > 0):
-        raise ParameterError("build_table", "x_max", "position range must be non-empty with dx > 0")
-    if n_torque < 1 or torque_max < torque_min:
-        raise ParameterError("build_table", "n_torque", "need n_torque >= 1 and torque_max >= torque_min")
-    n_x = int(math.floor((x_max - x_min) / dx + 1e-9)) + 1
-    x = x_min + dx * np.arange(n_x)
-    tq = np.linspace(torque_min, torque_max, n_torque)
-    step = tq[1] - tq[0] if n_torque > 1 else 1.0
-    te = np.empty((2, n_x, n_torque))
-    for d, sgn in enumerate(DIRECTIONS):
-        grid_t = tq if sgn == 1 else -tq[::-1]
-        X, T = np.meshgrid(x, grid_t, indexing="ij")
-        te[d] = np.asarray(model.predict(X.ravel(), T.ravel(), sgn), dtype=np.float64).reshape(n_x, n_torque)
-    torque0 = np.array([tq[0], -tq[-1]])
-    return TETable(float(x_min), float(dx), torque0, np.array([step, step]), te, dict(meta or {}))
-
-
-@njit(cache=True)
-def _cell(u, n):
-    """Cell index and fraction of grid coordinate ``u`` on ``n`` nodes, clamped to the grid."""
-    if u <= 0.0:
-        return 0, 0.0
-    if u >= n - 1:
-        return n - 2, 1.0
-    i = min(int(u), n - 2)
-    return i, u - i
-
-
-@njit(cache=True, inline="always")
-def table_te(te, x0, dx, torque0, dtorque, d, x, torque):
-    """TE [m] at position ``x`` [m] and ``torque`` [N·m] on flank index ``d`` (bilinear, clamped)."""
-    n_t = te.shape[2]
-    i, fu = _cell((x - x0) / dx, te.shape[1])
-    if n_t == 1:
-        return te[d, i, 0] * (1.0 - fu) + te[d, i + 1, 0] * fu
-    j, fw = _cell((torque - torque0[d]) / dtorque[d], n_t)
-    a = te[d, i, j] * (1.0 - fw) + te[d, i, j + 1] * fw
-    b = te[d, i + 1, j] * (1.0 - fw) + te[d, i + 1, j + 1] * fw
-    return a * (1.0 - fu) + b * fu
-
-
-@njit(cache=True)
-def _table_batch(te, x0, dx, torque0, dtorque, d, x, torque, out):
-    for k in range(x.size):
-        out[k] = table_te(te, x0, dx, torque0, dtorque, d, x[k], torque[k])
 
 
 # ---------------------------------------------------------------------------
@@ -546,122 +374,3 @@ class Compensator:
             self.state, t.te, t.x0, t.dx, t.torque0, t.dtorque, self._p, *a
         )
         return v, vte, vbl
-
-
-# ---------------------------------------------------------------------------
-# export for a CNC
-
-_CSV_HEADER = ("direction", "x_T_mm", "torque_Nm", "TE_um")
-
-
-def export_table(table: TETable, path: Path, params: CompensatorParams | None = None) -> Path:
-    """Write the table as CSV (long format) or JSON, chosen by the file suffix.
-
-    Units in the file: position in mm (table axis, linear scale coordinates), motor
-    torque in N·m, TE = x_T − x_M in µm. Interpolate bilinearly, clamp outside the grid.
-
-    Parameters
-    ----------
-    table : TETable
-        The table to export.
-    path : pathlib.Path
-        ``*.csv`` or ``*.json``.
-    params : CompensatorParams, optional
-        Written into the JSON (and the CSV comment header) for the CNC integrator.
-
-    Returns
-    -------
-    pathlib.Path
-        The written file.
-    """
-    path = Path(path)
-    suffix = path.suffix.lower()
-    doc = _grid_doc(table, params)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if suffix == ".json":
-        doc["te_um"] = {str(sgn): np.round(table.te[d] * 1e6, 6).tolist() for d, sgn in enumerate(DIRECTIONS)}
-        path.write_text(json.dumps(doc, indent=1))
-    elif suffix == ".csv":
-        with path.open("w", newline="") as fh:
-            fh.write("# drivelash transmission-error table; " + json.dumps(doc) + "\n")
-            w = csv.writer(fh)
-            w.writerow(_CSV_HEADER)
-            xs = table.x_grid * 1e3
-            for d, sgn in enumerate(DIRECTIONS):
-                ts = table.torque_grid(sgn)
-                for i, xv in enumerate(xs):
-                    for j, tv in enumerate(ts):
-                        w.writerow((sgn, f"{xv:.6f}", f"{tv:.6f}", f"{table.te[d, i, j] * 1e6:.6f}"))
-    else:
-        raise DataError(f"unknown export format '{path.suffix}', use .csv or .json", path=str(path))
-    return path
-
-
-def _grid_doc(table: TETable, params: CompensatorParams | None) -> dict[str, Any]:
-    n_x, n_t = table.te.shape[1:]
-    doc: dict[str, Any] = {
-        "format": "drivelash-te-table",
-        "version": 1,
-        "definition": "TE = x_T - x_M (table position by linear scale minus motor position "
-        "theta_M*d_p/(2*i_PG)), per flank in contact; flank +1 = positive direction of travel",
-        "units": {"x_T": "mm", "torque": "N*m (motor side)", "TE": "um"},
-        "interpolation": "bilinear in (x_T, torque); clamped at the grid edges",
-        "grid": {
-            "x_T": {"start_mm": table.x0 * 1e3, "step_mm": table.dx * 1e3, "count": int(n_x)},
-            "torque": {
-                str(sgn): {
-                    "start_Nm": float(table.torque0[d]),
-                    "step_Nm": float(table.dtorque[d]),
-                    "count": int(n_t),
-                }
-                for d, sgn in enumerate(DIRECTIONS)
-            },
-        },
-        "usage": "every t_sc: v_c = (TE(x_d[n+1],T)-TE(x_d[n],T))/t_sc + d/dt[b*s(t/t_ss)] with T = motor "
-        "torque - J_model*alpha and TE of the flank in contact; flank from the mesh torque T_M - friction - "
-        "J_flank*alpha (sign beyond 'hysteresis': step over t_ss_sign; below 'release' for three "
-        "cycles while the plan reverses: step over t_ss); b = bl_gain*(TE_new - TE_old) at x_d[n]; "
-        "subtract v_c from the table velocity command",
-        "meta": table.meta,
-    }
-    if params is not None:
-        doc["compensator"] = asdict(params)
-        doc["compensator_units"] = "SI: times s, torques N*m, inertias kg*m^2, omega_reg rad/s, v_max m/s"
-    return doc
-
-
-def load_table(path: Path) -> TETable:
-    """Read a table written by :func:`export_table` (CSV or JSON) back, in SI units."""
-    path = Path(path)
-    if not path.is_file():
-        raise DataError("no such file", path=str(path))
-    suffix = path.suffix.lower()
-    try:
-        if suffix == ".json":
-            doc = json.loads(path.read_text())
-            te = np.stack([np.asarray(doc["te_um"][str(s)], dtype=np.float64) for s in DIRECTIONS]) * 1e-6
-        elif suffix == ".csv":
-            with path.open() as fh:
-                first = fh.readline()
-                if not first.startswith("# drivelash transmission-error table; "):
-                    raise DataError("not a drivelash TE table (missing header line)", path=str(path))
-                doc = json.loads(first.split("; ", 1)[1])
-                rows = np.loadtxt(fh, delimiter=",", skiprows=1, ndmin=2)
-            n_x = doc["grid"]["x_T"]["count"]
-            n_t = doc["grid"]["torque"]["1"]["count"]
-            if rows.shape != (2 * n_x * n_t, 4):
-                msg = f"expected {2 * n_x * n_t} rows of 4 values, got {rows.shape}"
-                raise DataError(msg, path=str(path))
-            te = rows[:, 3].reshape(2, n_x, n_t) * 1e-6
-        else:
-            raise DataError(f"unknown table format '{path.suffix}', use .csv or .json", path=str(path))
-        g = doc["grid"]
-        torque0 = np.array([g["torque"][str(s)]["start_Nm"] for s in DIRECTIONS])
-        dtorque = np.array([g["torque"][str(s)]["step_Nm"] for s in DIRECTIONS])
-        return TETable(
-            g["x_T"]["start_mm"] * 1e-3, g["x_T"]["step_mm"] * 1e-3, torque0, dtorque, te, doc.get("meta", {})
-        )
-    except (KeyError, ValueError, TypeError) as exc:
-        if isinstance(exc, DataError):
-            raise
-        raise DataError(f"malformed TE table ({exc.__class__.__name__}: {exc})", path=str(path)) from None

@@ -20,10 +20,26 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from drivelash.errors import DataError, ParameterError
+from drivelash.te.runtime.table import TETable
+
+__all__ = [
+    "MonitorParams",
+    "SectionReport",
+    "defect_covered",
+    "defect_flagged",
+    "false_sections_per_metre",
+    "model_te_along",
+    "monitor_pass",
+    "monitor_sections",
+    "section_edges",
+    "section_mae",
+    "section_peak",
+]
 
 #: ``path_error(t [s], te [m]) -> e_x [m]``: (3) applied to a TE time series.
 PathErrorFn = Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -251,3 +267,33 @@ def defect_flagged(report: SectionReport, defect: tuple[float, float]) -> bool:
     a, b = defect
     lo, hi = report.edges[:-1], report.edges[1:]
     return bool(np.any(report.flagged & (hi > a) & (lo < b)))
+
+
+def model_te_along(table: TETable, res: dict[str, np.ndarray]) -> np.ndarray:
+    """The compensator's model TE at the recorded positions, torques and flanks [m]."""
+    out = np.empty(res["x_T"].size)
+    for d in (1, -1):
+        m = res["flank"] == d
+        if np.any(m):
+            out[m] = table.predict(res["x_T"][m], res["tq_model"][m], d)
+    return out
+
+
+def monitor_pass(sim: Any, table: TETable, res: dict[str, np.ndarray], v: float, edges: np.ndarray,
+                 params: MonitorParams | None = None) -> SectionReport:  # fmt: skip
+    """Run the section monitor on a compensated pass (constant-velocity part)."""
+    from drivelash.control.path_error import predict_path_error
+
+    J_s = float(sim.bench.J_s)
+    gains = sim.gains
+    te_meas = res["x_T"] - float(sim.bench.r_eff) * res["theta_m"]
+    te_hat = model_te_along(table, res)
+    m = np.abs(np.abs(res["v_d"]) - v) < 1e-9 * max(v, 1.0)
+    idx = np.flatnonzero(m)
+    sl = slice(idx[0], idx[-1] + 1)
+
+    def pe(t: np.ndarray, te: np.ndarray) -> np.ndarray:
+        return predict_path_error(te, t, J_s, gains)
+
+    return monitor_sections(res["t"][sl], res["x_T"][sl], te_meas[sl], te_hat[sl], res["e"][sl], pe,
+                            params, edges)  # fmt: skip

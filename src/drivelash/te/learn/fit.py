@@ -1,0 +1,229 @@
+"""From a campaign to a trained model: both directions plus the geometric curves (spec 02 §3–4).
+
+:func:`prepare_campaign` turns a campaign's runs into geometric curves and processed
+load runs; :func:`fit_te_model` fits one :class:`~drivelash.te.learn.stacked.StackedTERegressor`
+per direction on the training loads and returns a :class:`TrainedTEModel`, which
+predicts the full TE in **metres**; :func:`drivelash.te.runtime.persist.save_model`
+writes it to a directory that :func:`drivelash.te.runtime.persist.load_model` reads
+without torch.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from sklearn.base import clone
+
+from drivelash.errors import DataError
+from drivelash.te.learn.preprocess import UM, GearGeometry, GeometricCurve, RunData, TEPipeline, direction_key
+from drivelash.te.learn.stacked import StackedTERegressor
+
+__all__ = [
+    "TrainedTEModel",
+    "fit_offset_line",
+    "fit_te_model",
+    "prepare_campaign",
+    "split_of",
+    "stack_runs",
+]
+
+
+@dataclass
+class TrainedTEModel:
+    """Geometric curves and a stacked deformation model per direction (training side).
+
+    Attributes
+    ----------
+    pipeline : TEPipeline
+        Preprocessing (geometry, grid, filter).
+    geo : dict
+        ``{"pos": GeometricCurve, "neg": GeometricCurve}``, TE_geo in metres.
+    models : dict
+        ``{"pos": StackedTERegressor, "neg": …}``, TE_def in micrometres.
+    info : dict
+        JSON-serialisable training record (loads used, held-out runs, timings, scores).
+    offset : dict
+        ``{"pos": (a [µm], b [µm/(N·m)]), …}``: line through the per-run constants that the
+        offset step removed (mean elastic deflection against mean torque), so that
+        :meth:`predict` returns the absolute TE under load.
+    """
+
+    pipeline: TEPipeline
+    geo: dict[str, GeometricCurve]
+    models: dict[str, StackedTERegressor]
+    info: dict[str, Any] = field(default_factory=dict)
+    offset: dict[str, tuple[float, float]] = field(default_factory=dict)
+
+    def predict_def_um(self, x_T: Any, torque: Any, direction: int) -> np.ndarray:
+        """Deformation TE_def [µm] (offset-free, the learning target) at ``x_T`` [m], motor torque [N·m]."""
+        X = self.pipeline.design_matrix(x_T, torque)
+        return self.models[direction_key(direction)].predict(X)
+
+    def offset_um(self, torque: Any, direction: int) -> np.ndarray:
+        """Mean deformation a + b·torque [µm] removed by the offset step (0 if none was fitted)."""
+        a, b = self.offset.get(direction_key(direction), (0.0, 0.0))
+        return a + b * np.asarray(torque, dtype=np.float64)
+
+    def predict(self, x_T: Any, torque: Any, direction: int) -> np.ndarray:
+        """TE [m] = TE_geo(x_T) + (offset(torque) + TE_def(x_T, torque))·1e-6, direction +1/−1."""
+        key = direction_key(direction)
+        x = np.asarray(x_T, dtype=np.float64).reshape(-1)
+        tq = np.broadcast_to(np.asarray(torque, dtype=np.float64), x.shape)
+        return self.geo[key](x) + (self.offset_um(tq, direction) + self.predict_def_um(x, tq, direction)) / UM
+
+
+# ---------------------------------------------------------------------------
+# from a campaign to a trained model
+# ---------------------------------------------------------------------------
+def prepare_campaign(
+    campaign: Any, pipeline: TEPipeline | None = None
+) -> tuple[TEPipeline, dict[str, GeometricCurve], dict[str, list[RunData]]]:
+    """Geometric curves and processed load runs of a campaign (:func:`~drivelash.te.protocol.load_campaign`).
+
+    Parameters
+    ----------
+    campaign : Campaign
+        Needs ``bench`` (with ``d_p``, ``n_t``, ``i_PG``, ``epsilon``) and
+        ``select(kind=…, direction=…)`` returning runs with ``trace()``, ``load``,
+        ``velocity``, ``path``.
+    pipeline : TEPipeline, optional
+        Default: :class:`TEPipeline` with the bench geometry.
+
+    Returns
+    -------
+    pipeline, geo, runs
+        ``geo[key]`` from the ``geometric`` runs, ``runs[key]`` the ``load`` runs of
+        each direction as :class:`RunData` (meta: load [N], velocity [m/s], name).
+    """
+    if pipeline is None:
+        pipeline = TEPipeline(GearGeometry.from_bench(campaign.bench))
+    geo: dict[str, GeometricCurve] = {}
+    runs: dict[str, list[RunData]] = {}
+    for d in (1, -1):
+        key = direction_key(d)
+        gruns = campaign.select(kind="geometric", direction=d)
+        if not gruns:
+            raise DataError(f"campaign has no geometric (no-load) run in direction {d:+d}")
+        geo[key] = pipeline.geometric([r.trace().columns for r in gruns], d)
+        runs[key] = [
+            pipeline.process(
+                r.trace().columns,
+                d,
+                geo[key],
+                meta={"load": float(r.load), "velocity": float(r.velocity), "name": Path(r.path).stem},
+            )
+            for r in campaign.select(kind="load", direction=d)
+        ]
+        if not runs[key]:
+            raise DataError(f"campaign has no load run in direction {d:+d}")
+    return pipeline, geo, runs
+
+
+def split_of(load: float, max_load: float, holdout_loads: tuple[float, ...]) -> str:
+    """``"train"``, ``"held-out"`` (in range, left out) or ``"extrapolation"`` (above ``max_load``)."""
+    if load > max_load + 1e-9:
+        return "extrapolation"
+    if any(abs(load - h) < 1e-6 for h in holdout_loads):
+        return "held-out"
+    return "train"
+
+
+def stack_runs(runs: list[RunData], pipeline: TEPipeline) -> tuple[np.ndarray, np.ndarray]:
+    """Design matrix and TE_def [µm] of several runs, concatenated."""
+    if not runs:
+        raise DataError("no runs to stack")
+    X = np.vstack([pipeline.design_matrix(r.x, r.torque) for r in runs])
+    y = np.concatenate([r.te_def_um for r in runs])
+    return X, y
+
+
+def _fit_one(est: StackedTERegressor, X: np.ndarray, y: np.ndarray) -> StackedTERegressor:
+    return est.fit(X, y)
+
+
+def fit_te_model(
+    pipeline: TEPipeline,
+    geo: dict[str, GeometricCurve],
+    runs: dict[str, list[RunData]],
+    max_load: float = 3000.0,
+    holdout_loads: tuple[float, ...] = (1000.0, 2500.0),
+    estimator: StackedTERegressor | None = None,
+    log: Callable[[str], None] | None = None,
+    n_jobs: int = 2,
+) -> TrainedTEModel:
+    """Fit one stacked model per direction on the training runs (load ≤ ``max_load``, not held out).
+
+    Parameters
+    ----------
+    pipeline, geo, runs
+        From :func:`prepare_campaign`.
+    max_load : float
+        Largest training load [N] (paper: 3000 N).
+    holdout_loads : tuple of float
+        Loads [N] ≤ ``max_load`` whose runs are left out to score in-range generalisation.
+    estimator : StackedTERegressor, optional
+        Template (cloned per direction); default ``StackedTERegressor()``.
+    log : callable, optional
+        Progress messages.
+    n_jobs : int
+        Processes: with 2 the two directions are fitted at the same time (one core each).
+
+    Returns
+    -------
+    TrainedTEModel
+        With ``info``: loads, splits, per-direction fit times [s], stage-1 shares, training MAE [µm].
+    """
+    template = estimator if estimator is not None else StackedTERegressor()
+    models: dict[str, StackedTERegressor] = {}
+    info: dict[str, Any] = {"max_load": max_load, "holdout_loads": list(holdout_loads), "directions": {}}
+    t0 = time.perf_counter()
+    keys = list(runs)
+    trains = {
+        k: [r for r in runs[k] if split_of(r.meta["load"], max_load, holdout_loads) == "train"] for k in keys
+    }
+    data = {k: stack_runs(trains[k], pipeline) for k in keys}
+    if n_jobs > 1 and len(keys) > 1:
+        from joblib import Parallel, delayed
+
+        fitted = Parallel(n_jobs=min(n_jobs, len(keys)), backend="loky")(
+            delayed(_fit_one)(clone(template), *data[k]) for k in keys
+        )
+    else:
+        fitted = [_fit_one(clone(template), *data[k]) for k in keys]
+    for key, st in zip(keys, fitted, strict=True):
+        train, y = trains[key], data[key][1]
+        models[key] = st
+        info["directions"][key] = {
+            "train_runs": [r.meta.get("name", "") for r in train],
+            "n_rows": int(y.size),
+            "fit_time_s": st.fit_time_,
+            "stage1_share": st.stage1_share_,
+            "train_mae_um": st.train_mae_,
+            "nn": st.nn_info_,
+            "trees": st.tree_info_,
+        }
+        if log:
+            log(
+                f"{key}: {len(train)} runs, {y.size} rows, fit {st.fit_time_['total']:.1f} s, "
+                f"train MAE {st.train_mae_:.4f} um, stage-1 share {100 * st.stage1_share_:.0f} %"
+            )
+    info["fit_time_total_s"] = time.perf_counter() - t0
+    offset = {k: fit_offset_line(trains[k]) for k in keys}
+    info["offset_line_um"] = {k: list(v) for k, v in offset.items()}
+    return TrainedTEModel(pipeline, geo, models, info, offset)
+
+
+def fit_offset_line(runs: list[RunData]) -> tuple[float, float]:
+    """Least-squares line offset_um = a + b · torque_mean over runs ([µm], [µm/(N·m)])."""
+    tq = np.array([r.meta.get("torque_mean", np.nan) for r in runs])
+    off = np.array([r.meta.get("offset_um", 0.0) for r in runs])
+    ok = np.isfinite(tq)
+    if ok.sum() < 2 or np.ptp(tq[ok]) == 0:
+        return (float(np.mean(off)) if off.size else 0.0, 0.0)
+    b, a = np.polyfit(tq[ok], off[ok], 1)
+    return float(a), float(b)

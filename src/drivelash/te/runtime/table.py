@@ -1,0 +1,199 @@
+"""The runtime lookup table of a TE model: position × torque grid per flank.
+
+The fitted model is sampled once into a :class:`TETable` (bilinear interpolation,
+clamped at the edges), which the ``@njit`` kernel :func:`table_te` evaluates inside
+the compensation cycle (:mod:`drivelash.te.runtime.compensator`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+from numba import njit
+
+from drivelash.errors import DataError, ParameterError
+
+__all__ = ["DIRECTIONS", "TEPredictor", "TETable", "build_table", "table_te"]
+
+#: Direction codes: index 0 ⇔ positive flank (+1), index 1 ⇔ negative flank (−1).
+DIRECTIONS = (1, -1)
+
+
+class TEPredictor(Protocol):
+    """Anything that predicts the transmission error of one flank.
+
+    ``predict(x_T [m], torque [N·m], direction ±1) -> TE [m]``, vectorised over
+    ``x_T`` and ``torque`` (broadcast).
+    """
+
+    def predict(self, x_T: np.ndarray, torque: np.ndarray, direction: int) -> np.ndarray: ...
+
+
+@dataclass(frozen=True)
+class TETable:
+    """Transmission error on a regular position × torque grid per flank.
+
+    Parameters
+    ----------
+    x0 : float
+        First grid position [m].
+    dx : float
+        Position step [m].
+    torque0 : numpy.ndarray
+        First grid torque per flank, shape (2,) [N·m] (index 0: flank +1, 1: flank −1).
+    dtorque : numpy.ndarray
+        Torque step per flank, shape (2,) [N·m].
+    te : numpy.ndarray
+        TE values, shape (2, n_x, n_torque) [m].
+    meta : dict
+        Provenance (model directory, units, axis name).
+    """
+
+    x0: float
+    dx: float
+    torque0: np.ndarray
+    dtorque: np.ndarray
+    te: np.ndarray
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        te = np.ascontiguousarray(np.asarray(self.te, dtype=np.float64))
+        if te.ndim != 3 or te.shape[0] != 2 or te.shape[1] < 2 or te.shape[2] < 1:
+            raise DataError(f"TE table must have shape (2, n_x>=2, n_torque>=1), got {te.shape}")
+        if not np.all(np.isfinite(te)):
+            raise DataError("TE table holds non-finite values")
+        if not self.dx > 0:
+            raise DataError(f"position step must be > 0, got {self.dx}")
+        t0 = np.ascontiguousarray(np.asarray(self.torque0, dtype=np.float64).reshape(2))
+        dtq = np.ascontiguousarray(np.asarray(self.dtorque, dtype=np.float64).reshape(2))
+        if te.shape[2] > 1 and not np.all(dtq > 0):
+            raise DataError(f"torque steps must be > 0, got {dtq}")
+        object.__setattr__(self, "te", te)
+        object.__setattr__(self, "torque0", t0)
+        object.__setattr__(self, "dtorque", dtq)
+
+    @property
+    def x_grid(self) -> np.ndarray:
+        """Grid positions [m]."""
+        return self.x0 + self.dx * np.arange(self.te.shape[1])
+
+    def torque_grid(self, direction: int) -> np.ndarray:
+        """Grid torques of a flank [N·m]."""
+        d = _dir_index(direction)
+        return self.torque0[d] + self.dtorque[d] * np.arange(self.te.shape[2])
+
+    def predict(self, x_T: np.ndarray, torque: np.ndarray, direction: int) -> np.ndarray:
+        """Bilinear interpolation of the table (same protocol as the models) [m]."""
+        x, t = np.broadcast_arrays(np.asarray(x_T, dtype=np.float64), np.asarray(torque, dtype=np.float64))
+        out = np.empty(x.shape)
+        _table_batch(
+            self.te,
+            self.x0,
+            self.dx,
+            self.torque0,
+            self.dtorque,
+            _dir_index(direction),
+            np.ascontiguousarray(x.ravel()),
+            np.ascontiguousarray(t.ravel()),
+            out.reshape(-1),
+        )
+        return out
+
+    def backlash(self, x_T: np.ndarray, torque: float = 0.0) -> np.ndarray:
+        """Gap between the flank curves TE(−1) − TE(+1) at equal torque [m]."""
+        return self.predict(x_T, -abs(torque), -1) - self.predict(x_T, abs(torque), 1)
+
+
+def _dir_index(direction: int) -> int:
+    if direction == 1:
+        return 0
+    if direction == -1:
+        return 1
+    raise ParameterError("TETable", "direction", f"must be +1 or -1, got {direction!r}")
+
+
+def build_table(
+    model: TEPredictor,
+    x_min: float,
+    x_max: float,
+    dx: float,
+    torque_max: float,
+    n_torque: int,
+    torque_min: float = 0.0,
+    meta: dict[str, Any] | None = None,
+) -> TETable:
+    """Sample a TE model into a :class:`TETable`.
+
+    The torque grid of flank +1 runs over [torque_min, torque_max], that of flank
+    −1 over [−torque_max, −torque_min] (the load acts against the motion, so the
+    motor torque has the sign of the flank).
+
+    Parameters
+    ----------
+    model : TEPredictor
+        Fitted model with ``predict(x_T, torque, direction)`` [m].
+    x_min, x_max : float
+        Position range [m].
+    dx : float
+        Position step [m].
+    torque_max : float
+        Largest torque magnitude of the grid [N·m].
+    n_torque : int
+        Number of torque grid points per flank (≥ 1).
+    torque_min : float
+        Smallest torque magnitude of the grid [N·m].
+    meta : dict, optional
+        Provenance stored in the table.
+
+    Returns
+    -------
+    TETable
+    """
+    if not (x_max > x_min and dx > 0):
+        raise ParameterError("build_table", "x_max", "position range must be non-empty with dx > 0")
+    if n_torque < 1 or torque_max < torque_min:
+        raise ParameterError("build_table", "n_torque", "need n_torque >= 1 and torque_max >= torque_min")
+    n_x = int(math.floor((x_max - x_min) / dx + 1e-9)) + 1
+    x = x_min + dx * np.arange(n_x)
+    tq = np.linspace(torque_min, torque_max, n_torque)
+    step = tq[1] - tq[0] if n_torque > 1 else 1.0
+    te = np.empty((2, n_x, n_torque))
+    for d, sgn in enumerate(DIRECTIONS):
+        grid_t = tq if sgn == 1 else -tq[::-1]
+        X, T = np.meshgrid(x, grid_t, indexing="ij")
+        te[d] = np.asarray(model.predict(X.ravel(), T.ravel(), sgn), dtype=np.float64).reshape(n_x, n_torque)
+    torque0 = np.array([tq[0], -tq[-1]])
+    return TETable(float(x_min), float(dx), torque0, np.array([step, step]), te, dict(meta or {}))
+
+
+@njit(cache=True)
+def _cell(u, n):
+    """Cell index and fraction of grid coordinate ``u`` on ``n`` nodes, clamped to the grid."""
+    if u <= 0.0:
+        return 0, 0.0
+    if u >= n - 1:
+        return n - 2, 1.0
+    i = min(int(u), n - 2)
+    return i, u - i
+
+
+@njit(cache=True, inline="always")
+def table_te(te, x0, dx, torque0, dtorque, d, x, torque):
+    """TE [m] at position ``x`` [m] and ``torque`` [N·m] on flank index ``d`` (bilinear, clamped)."""
+    n_t = te.shape[2]
+    i, fu = _cell((x - x0) / dx, te.shape[1])
+    if n_t == 1:
+        return te[d, i, 0] * (1.0 - fu) + te[d, i + 1, 0] * fu
+    j, fw = _cell((torque - torque0[d]) / dtorque[d], n_t)
+    a = te[d, i, j] * (1.0 - fw) + te[d, i, j + 1] * fw
+    b = te[d, i + 1, j] * (1.0 - fw) + te[d, i + 1, j + 1] * fw
+    return a * (1.0 - fu) + b * fu
+
+
+@njit(cache=True)
+def _table_batch(te, x0, dx, torque0, dtorque, d, x, torque, out):
+    for k in range(x.size):
+        out[k] = table_te(te, x0, dx, torque0, dtorque, d, x[k], torque[k])
