@@ -10,3 +10,72 @@ import pytest
 def rng() -> np.random.Generator:
     """A seeded random generator (tests are reproducible)."""
     return np.random.default_rng(12345)
+
+
+# ---------------------------------------------------------------------------
+# TE: the seed-0 run whose figures the README quotes (slow tests only)
+
+_REPO = __import__("pathlib").Path(__file__).resolve().parents[1]
+
+
+def _source_hash() -> str:
+    """Hash of the package sources and pins: a cached TE run is reused only for identical code."""
+    import hashlib
+
+    h = hashlib.sha256()
+    files = sorted((_REPO / "src" / "drivelash").rglob("*.py"))
+    for p in [*files, _REPO / "pyproject.toml", _REPO / "requirements.lock"]:
+        h.update(str(p.relative_to(_REPO)).encode())
+        h.update(p.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def _te_step(workdir, name: str, args: list[str]) -> None:
+    """Run ``drivelash ARGS`` once (marker file ``.done-NAME``); a half-done step is redone."""
+    import shutil
+    import subprocess
+    import sys
+
+    marker = workdir / f".done-{name}"
+    if marker.is_file():
+        return
+    target = workdir / name
+    if target.exists():
+        shutil.rmtree(target)
+    log = workdir / f"{name}.log"
+    with log.open("w") as fh:
+        cmd = [sys.executable, "-m", "drivelash.cli", *args]
+        proc = subprocess.run(cmd, stdout=fh, stderr=subprocess.STDOUT, cwd=workdir)
+    if proc.returncode != 0:
+        raise RuntimeError(f"drivelash {' '.join(args)} failed (exit {proc.returncode}), see {log}")
+    marker.write_text("ok\n")
+
+
+@pytest.fixture(scope="session")
+def te_seed0():
+    """The README's TE run, by its own commands: ``drivelash te campaign -o C --seed 0``,
+    ``te fit C -o M``, ``te evaluate M C -o E``, ``te validate M -o V``.
+
+    Cached in ``$DRIVELASH_CACHE`` (default ``.venv/drivelash-cache``) under a hash of the
+    sources, so a second ``make test-slow`` on unchanged code reuses it; a file lock makes
+    the pytest-xdist workers share one run. ``DRIVELASH_TE_SEED0=DIR`` points at a finished
+    run (C, M, E, V) instead (development only). Returns the four directories.
+    """
+    import os
+    from pathlib import Path
+
+    from filelock import FileLock
+
+    env = os.environ.get("DRIVELASH_TE_SEED0")
+    if env:
+        d = Path(env)
+    else:
+        cache = Path(os.environ.get("DRIVELASH_CACHE", _REPO / ".venv" / "drivelash-cache"))
+        d = cache / f"te-seed0-{_source_hash()}"
+        d.mkdir(parents=True, exist_ok=True)
+        with FileLock(str(d) + ".lock"):
+            _te_step(d, "C", ["te", "campaign", "-o", "C", "--seed", "0"])
+            _te_step(d, "M", ["te", "fit", "C", "-o", "M"])
+            _te_step(d, "E", ["te", "evaluate", "M", "C", "-o", "E"])
+            _te_step(d, "V", ["te", "validate", "M", "-o", "V"])
+    return {k: d / k for k in ("C", "M", "E", "V")}

@@ -89,8 +89,28 @@ def test_ideal_model_removes_most_of_the_path_error(bench_sim, direction):
     assert np.all(1 - mc / mu > 0.85)
     m = np.abs(np.abs(comp["v_d"]) - v) < 1e-9
     assert np.all(comp["flank"][m] == direction)  # no spurious flank change at constant velocity
-    # v_c held per 5 ms cycle, subtracted: its integral follows the model TE along the plan
-    assert np.max(np.abs(comp["v_c"])) < params.v_max
+    # the v_c limit is never reached: the unclamped correction (6) + (7) stays below it, so
+    # the compensator output is the unclamped value in every cycle (no clamped cycle)
+    unclamped = comp["v_te"] + comp["v_bl"]
+    assert np.max(np.abs(unclamped)) < 0.5 * params.v_max
+    np.testing.assert_array_equal(comp["v_c"], unclamped)
+
+
+def test_clamped_cycles_are_counted_from_the_unclamped_value(bench_sim):
+    # negative control of the check above: with a 0.2 mm/s limit the correction saturates,
+    # and the unclamped value exceeds the limit in the cycles where the output is clamped
+    import dataclasses
+
+    sim = bench_sim
+    table = build_table(_TrueTE(sim), 0.0, 0.6, 0.1e-3, 10.0, 21)
+    params = dataclasses.replace(compensator_for(sim.bench, table), v_max=0.2e-3)
+    _, x_d, v_d = pass_trajectory(sim, 0.1, 0.3, 0.1, 1)
+    comp = run_pass(sim, x_d, v_d, 2000.0, Compensator(table, params, 1))
+    unclamped = comp["v_te"] + comp["v_bl"]
+    clamped = np.abs(unclamped) > params.v_max
+    assert 0.05 < np.mean(clamped) < 1.0
+    np.testing.assert_allclose(np.abs(comp["v_c"][clamped]), params.v_max)
+    np.testing.assert_array_equal(comp["v_c"][~clamped], unclamped[~clamped])
 
 
 def test_run_pass_without_compensator_equals_simulator_run(bench_sim):

@@ -57,6 +57,7 @@ __all__ = [
     "LoopReport",
     "TorquePathLoop",
     "analyse_torque_path",
+    "table_torque_path_gain_at",
     "table_torque_path_gains",
 ]
 
@@ -279,6 +280,7 @@ class TorquePathLoop:
     B: np.ndarray = field(init=False, repr=False)
     C: np.ndarray = field(init=False, repr=False)
     D: np.ndarray = field(init=False, repr=False)
+
     def __post_init__(self) -> None:
         N = int(round(self.t_sc / self.gains.T_s))
         if N < 2 or abs(N * self.gains.T_s - self.t_sc) > 1e-9 * self.t_sc:
@@ -317,6 +319,14 @@ class TorquePathLoop:
 
         delay = ct.tf([-float(g_T)], [1.0, 0.0], dt=self.t_sc)
         return ct.series(self.model_torque_response(), ct.tf2ss(delay))
+
+    def peak_gain(self, n: int = 400) -> float:
+        """max over ω of |P(e^{jω t_s,c})| [(N·m)/(m/s)] (|z⁻¹| = 1 on the unit circle)."""
+        w = np.array([1.0, -self.J_model])
+        c, d = w @ self.C, float(w @ self.D[:, 0])
+        eye = np.eye(self.A.shape[0])
+        zs = np.exp(1j * np.linspace(0.0, math.pi, n))
+        return float(max(abs(c @ np.linalg.solve(z * eye - self.A, self.B[:, 0]) + d) for z in zs))
 
     def closed_loop_matrix(self, g_T: float) -> np.ndarray:
         """State matrix at t_s,c of the loop closed through v_c[k+1] = g_T T_model[k]."""
@@ -409,11 +419,12 @@ class LoopReport:
     gain_margin : float
         Smallest of g_crit_pos / g_T_max and g_crit_neg / g_T_min (≥ 1: stable).
     phase_margin_deg : float
-        Phase margin of the torque path at the worst gain [deg] (inf: |L| < 1 everywhere).
+        Phase margin of the torque path at the worst gain [deg]: the smallest phase change
+        (lag or lead) at a gain crossover that puts L on −1 (inf: |L| < 1 everywhere).
     spectral_radius_without, spectral_radius_with : float
         Largest |pole| at t_s,c without and with the worst-case torque path.
-    pole_shift : float
-        Largest distance of a cascade pole (z-plane, t_s,c) moved by the worst-case path.
+    decay_rate_without, decay_rate_with : float
+        Decay rate of the slowest closed-loop mode, −ln(spectral radius) / t_s,c [1/s].
     K_v_margin_without, K_v_margin_with : float
         Factor on K_v until instability without and with the worst-case torque path.
     stable : bool
@@ -429,7 +440,8 @@ class LoopReport:
     phase_margin_deg: float
     spectral_radius_without: float
     spectral_radius_with: float
-    pole_shift: float
+    decay_rate_without: float
+    decay_rate_with: float
     K_v_margin_without: float
     K_v_margin_with: float
     stable: bool
@@ -437,6 +449,34 @@ class LoopReport:
     def as_dict(self) -> dict[str, Any]:
         """Plain dict (JSON-ready)."""
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
+
+    def violations(
+        self, min_gain_margin: float = 10.0, max_decay_loss: float = 0.05, max_kv_margin_loss: float = 0.05
+    ) -> list[str]:
+        """What the compensated loop misses of the stated margins (empty: all met).
+
+        Parameters
+        ----------
+        min_gain_margin : float
+            Smallest acceptable torque-path gain margin [-] (10 = 20 dB).
+        max_decay_loss : float
+            Largest acceptable relative loss of the slowest mode's decay rate [-].
+        max_kv_margin_loss : float
+            Largest acceptable relative loss of the cascade's K_v gain margin [-].
+        """
+        out = []
+        if not self.stable:
+            out.append(f"unstable: spectral radius {self.spectral_radius_with:.4f} >= 1 at t_s,c")
+        if not self.gain_margin >= min_gain_margin:
+            out.append(f"torque-path gain margin {self.gain_margin:.3g} < {min_gain_margin:g}")
+        loss = 1.0 - self.decay_rate_with / self.decay_rate_without
+        if not loss <= max_decay_loss:
+            out.append(f"slowest mode decays {100 * loss:.1f} % slower (limit {100 * max_decay_loss:g} %)")
+        kv_loss = 1.0 - self.K_v_margin_with / self.K_v_margin_without
+        if not kv_loss <= max_kv_margin_loss:
+            lim = 100 * max_kv_margin_loss
+            out.append(f"K_v gain margin {100 * kv_loss:.1f} % smaller (limit {lim:g} %)")
+        return out
 
 
 def table_torque_path_gains(
@@ -502,6 +542,35 @@ def table_torque_path_gains(
     return best
 
 
+def table_torque_path_gain_at(
+    te: np.ndarray,
+    x0: float,
+    dx: float,
+    torque0: np.ndarray,
+    dtorque: np.ndarray,
+    x: float,
+    torque: float,
+    flank: int,
+    delta: float,
+    t_sc: float = 5e-3,
+) -> float:
+    """g_T [(m/s)/(N·m)] of the table at one operating point: position ``x`` [m], model torque
+    ``torque`` [N·m] (inside a torque cell), flank ±1 and look-ahead step ``delta`` [m]."""
+    te = np.asarray(te, dtype=np.float64)
+    d = 0 if flank > 0 else 1
+    n_t = te.shape[2]
+    if n_t < 2:
+        return 0.0
+    u = (torque - torque0[d]) / dtorque[d]
+    if u < 0.0 or u > n_t - 1:
+        return 0.0  # clamped beyond the torque grid: no torque dependence
+    j = min(int(u), n_t - 2)
+    S = (te[d, :, j + 1] - te[d, :, j])[:, None] / dtorque[d]
+    xg = x0 + dx * np.arange(te.shape[1])
+    a, b = _interp_cols(np.array([x, x + delta]), xg, S)[:, 0]
+    return float((b - a) / t_sc)
+
+
 def _interp_cols(x: np.ndarray, xg: np.ndarray, S: np.ndarray) -> np.ndarray:
     """Linear interpolation of every column of S (rows at xg) at x, clamped at the ends."""
     i = np.clip(np.searchsorted(xg, x, side="right") - 1, 0, xg.size - 2)
@@ -535,12 +604,14 @@ def analyse_torque_path(
         gm = min(gm, g_neg / g_min)
     pm = math.inf
     if worst_g != 0.0:
-        pm_w = ct.stability_margins(loop.loop_transfer(worst_g))[1]
-        pm = float(pm_w) if np.isfinite(pm_w) else math.inf
-    p0 = loop.poles(0.0)
-    p1 = loop.poles(worst_g)
-    # match every pole with the compensator's extra pole (z = 0 at g = 0) included
-    shift = float(max(np.min(np.abs(p1 - q)) for q in p0))
+        if abs(worst_g) * loop.peak_gain() >= 1.0:  # |L| reaches 1: a gain crossover exists
+            # every gain crossover; the margin is the smallest phase change, lag or lead, that
+            # puts L on −1 (python-control reports 180° + ∠L, which may wrap to a negative value)
+            pms = np.atleast_1d(ct.stability_margins(loop.loop_transfer(worst_g), returnall=True,
+                                                     method="frd")[1])  # fmt: skip
+            pms = np.abs((pms + 180.0) % 360.0 - 180.0)
+            pm = float(np.min(pms)) if pms.size else math.inf
+    rho0 = loop.spectral_radius(0.0)
     rho_with = max(loop.spectral_radius(g_max), loop.spectral_radius(g_min))
     return LoopReport(
         g_T_max=g_max,
@@ -550,9 +621,10 @@ def analyse_torque_path(
         g_crit_pos=float(g_pos),
         gain_margin=float(gm),
         phase_margin_deg=pm,
-        spectral_radius_without=loop.spectral_radius(0.0),
+        spectral_radius_without=rho0,
         spectral_radius_with=rho_with,
-        pole_shift=shift,
+        decay_rate_without=-math.log(rho0) / loop.t_sc,
+        decay_rate_with=-math.log(rho_with) / loop.t_sc if 0.0 < rho_with else math.inf,
         K_v_margin_without=loop.gain_factor_margin(0.0),
         K_v_margin_with=min(loop.gain_factor_margin(g_max), loop.gain_factor_margin(g_min)),
         stable=bool(rho_with < 1.0),
