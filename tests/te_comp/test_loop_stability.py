@@ -36,7 +36,8 @@ from drivelash.control.stability import (
     table_torque_path_gain_at,
     table_torque_path_gains,
 )
-from drivelash.te.compensation import Compensator, CompensatorParams, TETable, build_table
+from drivelash.te.runtime.compensator import Compensator, CompensatorParams
+from drivelash.te.runtime.table import TETable, build_table
 
 from .analytic import BenchTE, BilinearTE, MeshAmplitudeTE, SineTE
 
@@ -143,7 +144,7 @@ def test_numpy_cascade_equals_python_control_interconnection(bench, rigid):
 def test_linear_two_mass_model_reproduces_the_simulator(bench):
     """A 0.5 mm/s step of v_c at constant velocity under 2000 N: the difference of two
     nonlinear runs (with and without the step) against the linear model's step response."""
-    from drivelash.te.validate import pass_trajectory
+    from drivelash.te.protocol.passes import pass_trajectory
 
     sim, b = bench["sim"], bench["bench"]
     _, x_d, v_d = pass_trajectory(sim, 0.1, 0.25, 0.05, 1)
@@ -244,7 +245,8 @@ def _linear_in_torque_table(kappa: float, T0: float, width: float = 1.0) -> TETa
 
 @pytest.mark.parametrize("sign", [1, -1])
 def test_predicted_stability_boundary_is_the_simulated_one(bench, sign):
-    from drivelash.te.validate import compensator_for, pass_trajectory, run_pass
+    from drivelash.te.protocol.bench import compensator_for
+    from drivelash.te.protocol.passes import pass_trajectory, run_pass
 
     sim, b, loop = bench["sim"], bench["bench"], bench["loop"]
     g_neg, g_pos = loop.critical_gains()

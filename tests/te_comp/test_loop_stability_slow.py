@@ -22,9 +22,9 @@ VELOCITIES = (0.02, 0.05, 0.1, 0.25, 0.5, 1.0)
 def learned(te_seed0):
     from drivelash.control.stability import AxisPlant, TorquePathLoop, table_torque_path_gains
     from drivelash.sim.rack_axis import bench_gains
-    from drivelash.te.campaign import load_campaign
-    from drivelash.te.persist import load_model
-    from drivelash.te.validate import ValidationConfig, table_for, training_torque_max
+    from drivelash.te.protocol.bench import ValidationConfig, table_for, training_torque_max
+    from drivelash.te.protocol.campaign import load_campaign
+    from drivelash.te.runtime.persist import load_model
 
     camp = load_campaign(te_seed0["C"])
     b = camp.bench
