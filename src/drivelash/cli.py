@@ -39,6 +39,7 @@ _COMMAND_MODULES = (
     "te_model",
     "te_compensate",
     "demo",
+    "iso230",
 )
 
 for _name in _COMMAND_MODULES:

@@ -39,7 +39,7 @@ import numpy as np
 from drivelash.errors import DataError, ParameterError
 from drivelash.iso230.evaluate import DOWN, UP, Approaches, _fmt_pos, approaches_from_rows
 
-__all__ = ["DwellParams", "Dwells", "detect_dwells"]
+__all__ = ["Drift", "DwellParams", "Dwells", "detect_dwells", "estimate_drift"]
 
 
 @dataclass(frozen=True)
@@ -381,3 +381,69 @@ def detect_dwells(
         v_threshold=v_th,
         warnings=warnings,
     )
+
+
+@dataclass(frozen=True)
+class Drift:
+    """Drift of the reference during the test, seen across the runs.
+
+    Attributes
+    ----------
+    rate, u_rate : float
+        Drift rate and its standard uncertainty [m/s or rad/s]: the common slope of the
+        deviations against time within each (target, direction) group.
+    bias_B_mean : float
+        What that drift adds to B̄: rate · mean_i(t̄_i↑ − t̄_i↓) [m or rad] (the ↓ approach
+        of a target comes later in a run than the ↑ one).
+    u_bias : float
+        Standard uncertainty of ``bias_B_mean`` from that of the rate [m or rad].
+    corrected : Approaches
+        The deviations with the drift removed, x − rate·(t − t_0), for the deadzone
+        comparison (the ISO values themselves stay uncorrected, as in the standard).
+    """
+
+    rate: float
+    u_rate: float
+    bias_B_mean: float
+    u_bias: float
+    corrected: Approaches
+
+
+def estimate_drift(d: Dwells) -> Drift:
+    """Drift rate from the dwells: least squares of x = a_(i,dir) + rate · t.
+
+    The ISO evaluation does not correct drift (the standard does not); this tells how
+    much of B̄ it may carry. Needs at least 2 runs per direction.
+    """
+    t_mid = 0.5 * (d.t_avg_start + d.t_avg_end)
+    keys = np.stack([d.target, d.direction], axis=1)
+    _, group = np.unique(keys, axis=0, return_inverse=True)
+    group = group.ravel()
+    tc = t_mid.copy()
+    xc = d.deviation.copy()
+    for g in range(int(group.max()) + 1):
+        sel = group == g
+        tc[sel] -= tc[sel].mean()
+        xc[sel] -= xc[sel].mean()
+    stt = float(np.dot(tc, tc))
+    if stt <= 0:
+        return Drift(0.0, math.inf, 0.0, math.inf, d.approaches)
+    rate = float(np.dot(tc, xc) / stt)
+    dof = t_mid.size - int(group.max()) - 2
+    res = xc - rate * tc
+    u_rate = float(math.sqrt(np.dot(res, res) / max(dof, 1) / stt))
+    up = d.direction > 0
+    targets = np.unique(d.target)
+    gaps = [t_mid[up & (d.target == P)].mean() - t_mid[~up & (d.target == P)].mean() for P in targets]
+    gap = float(np.mean(gaps))
+    x = d.deviation - rate * (t_mid - t_mid[0])
+    corrected = approaches_from_rows(
+        d.target,
+        d.run,
+        d.direction,
+        x,
+        unit=d.approaches.unit,
+        source=d.approaches.source,
+        target_tolerance=1e-12,
+    )
+    return Drift(rate, u_rate, rate * gap, abs(gap) * u_rate, corrected)

@@ -99,14 +99,29 @@ def synthetic_table(axis: SyntheticAxis, m: int = 11, n: int = 5, seed: int = 0)
 
 
 @njit(cache=True)
-def _play(motor: np.ndarray, h: float) -> np.ndarray:  # pragma: no cover - numba
-    """Play (backlash) operator of half-width ``h``: the load is dragged by the nearer flank."""
-    load = np.empty_like(motor)
-    y = motor[0] - h
-    for k in range(motor.size):
-        y = min(max(y, motor[k] - h), motor[k] + h)
+def _servo_play(
+    u: np.ndarray, omega: float, T_s: float, h: float
+) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - numba
+    """Motor and load positions for the command ``u`` (held over each sample).
+
+    Motor: critically damped second-order response ẍ = ω²(u − x) − 2ωẋ, integrated exactly
+    over a sample with Φ = e^{−ωT}[[1+ωT, T], [−ω²T, 1−ωT]] around the equilibrium (u, 0).
+    Load: play (backlash) operator of half-width ``h``, dragged by the nearer flank.
+    """
+    e = np.exp(-omega * T_s)
+    p11, p12 = e * (1 + omega * T_s), e * T_s
+    p21, p22 = -e * omega * omega * T_s, e * (1 - omega * T_s)
+    motor = np.empty_like(u)
+    load = np.empty_like(u)
+    x, v = u[0], 0.0
+    y = x - h
+    for k in range(u.size):
+        motor[k] = x
+        y = min(max(y, x - h), x + h)
         load[k] = y
-    return load
+        d = x - u[k]
+        x, v = u[k] + p11 * d + p12 * v, p21 * d + p22 * v
+    return motor, load
 
 
 def _move(x0: float, x1: float, v: float, acc: float, T_s: float) -> np.ndarray:
@@ -146,7 +161,6 @@ def synthetic_recording(
     dwell: float = 1.0,
     overshoot: float = 0.005,
     omega_servo: float = 60.0,
-    zeta: float = 1.0,
     drift: float = 2e-8,
     noise: float = 0.3e-6,
     skip: tuple[tuple[int, int, int], ...] = (),
@@ -168,10 +182,10 @@ def synthetic_recording(
         Dwell at each target [s].
     overshoot : float
         Overtravel beyond the end targets before each reversal [m].
-    omega_servo, zeta : float
-        Natural frequency [rad/s] and damping [-] of the motor's response to the command;
-        with zeta >= 1 the impulse response is positive, so the motor never overshoots a
-        target (an overshoot would make the last approach come from the other side).
+    omega_servo : float
+        Natural frequency of the motor's critically damped response to the command
+        [rad/s]; its impulse response is positive, so the motor never overshoots a target
+        (an overshoot would make the last approach come from the other side).
     drift : float
         Drift rate of the reference measurement (thermal) [m/s].
     noise : float
@@ -188,8 +202,6 @@ def synthetic_recording(
         Per approach: ``P_target``, ``direction``, ``run``, ``t_dwell`` (start of the
         dwell), ``x_dev`` (noise-free deviation of the load at the end of the dwell).
     """
-    from scipy import signal
-
     rng = np.random.default_rng(seed)
     P = iso_targets(axis.travel, m, rng)
     skip_set = set(skip)
@@ -228,15 +240,8 @@ def synthetic_recording(
     P_cmd = np.concatenate(pieces)
     eps = np.concatenate(offsets)
     t = np.arange(P_cmd.size) * T_s
-    # motor: second-order servo response to the command plus the stopping scatter
-    num = [omega_servo**2]
-    den = [1.0, 2 * zeta * omega_servo, omega_servo**2]
-    b, a = signal.bilinear(num, den, fs=1.0 / T_s)
-    u = P_cmd + eps
-    zi = signal.lfilter_zi(b, a) * u[0]
-    motor, _ = signal.lfilter(b, a, u, zi=zi)
-    # load: play operator of width delta, starting at the lower flank (moved up last)
-    load = _play(motor, axis.delta / 2)
+    # motor: servo response to the command plus the stopping scatter; load behind the play
+    motor, load = _servo_play(P_cmd + eps, omega_servo, T_s, axis.delta / 2)
     err = axis.pitch(load)
     ref = load + err + drift * t + rng.normal(0.0, noise, t.size)
     truth_rows = []

@@ -1,0 +1,169 @@
+"""``drivelash iso230``: ISO 230-2 evaluation of a positioning test, B beside the deadzone.
+
+``iso230 MEASUREMENT [--config AXIS.toml] [--estimate EST.json] [--json out.json]
+[--report iso.html]`` reads a table of approaches or a raw time series (dwells found
+automatically), evaluates every ISO 230-2:2014 quantity with the uncertainty of the
+reversal value, and — with ``--estimate`` and a ``[transmission]`` — puts B beside the
+deadzone estimated from a drive recording. Outputs go through
+:class:`drivelash.io.outputs.Outputs`: validated first, written together at the end.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import typer
+
+from drivelash.commands import print_warnings
+
+
+def run_iso230(
+    measurement: Path,
+    config: Path | None = None,
+    *,
+    estimate: Path | None = None,
+    json_out: Path | None = None,
+    report: Path | None = None,
+    force: bool = False,
+    quiet: bool = False,
+) -> dict[str, Any]:
+    """Body of ``drivelash iso230`` (callable from Python; returns the JSON summary)."""
+    from drivelash.errors import ConfigError
+    from drivelash.io.outputs import HTML_EXTENSIONS, JSON_EXTENSIONS, Outputs, write_json
+    from drivelash.iso230 import evaluate
+    from drivelash.iso230.compare import compare, read_deadzone
+    from drivelash.iso230.config import load_iso230_config
+    from drivelash.iso230.inputs import read_measurement
+
+    with Outputs("iso230", inputs=[measurement, config, estimate], force=force) as out:
+        j = out.file(json_out, option="--json", kinds=JSON_EXTENSIONS)
+        r = out.file(report, option="--report", kinds=HTML_EXTENSIONS)
+        cfg = load_iso230_config(config)
+        deadzone = read_deadzone(estimate) if estimate is not None else None
+        if deadzone is not None and cfg.transmission is None:
+            raise ConfigError(
+                f"{cfg.source}: --estimate needs a [transmission] table (lead or pinion_radius, and i_G)"
+                " to convert the deadzone to the load"
+            )
+        meas = read_measurement(measurement, cfg.mapping, params=cfg.iso230, dwell=cfg.dwell)
+        res = evaluate(meas.approaches, coverage=cfg.iso230.coverage)
+        axis_res = (
+            evaluate(meas.approaches_axis, coverage=cfg.iso230.coverage) if meas.approaches_axis else None
+        )
+        comparison = None
+        if deadzone is not None and cfg.transmission is not None:
+            corrected = evaluate(meas.drift.corrected, coverage=cfg.iso230.coverage) if meas.drift else None
+            comparison = compare(
+                res,
+                deadzone,
+                cfg.transmission,
+                cfg.iso230.compensation,
+                drift=meas.drift,
+                corrected=corrected,
+            )
+        summary: dict[str, Any] = {
+            "measurement": str(measurement),
+            "config": None if config is None else str(config),
+            "input": meas.kind,
+            **res.to_dict(),
+        }
+        warnings = list(meas.warnings)
+        if meas.drift is not None:
+            dr = meas.drift
+            summary["drift"] = {
+                "rate": dr.rate,
+                "u_rate": dr.u_rate,
+                "bias_B_mean": dr.bias_B_mean,
+                "u_bias_B_mean": dr.u_bias,
+            }
+            if abs(dr.bias_B_mean) > res.u_B_mean:
+                warnings.append(drift_warning(dr, res))
+        summary["warnings"] = warnings
+        if axis_res is not None:
+            summary["reference_vs_axis_encoder"] = {
+                "B": axis_res.B,
+                "B_mean": axis_res.B_mean,
+                "u_B_mean": axis_res.u_B_mean,
+            }
+        if meas.dwells is not None:
+            summary["dwells"] = meas.dwells.to_dict()
+        if comparison is not None:
+            summary["deadzone_comparison"] = comparison.to_dict()
+        if j is not None:
+            write_json(out.staging(j), summary)
+        if r is not None:
+            from drivelash.report.iso230 import write_iso230_report
+
+            write_iso230_report(out.staging(r), res, meas, comparison, axis_result=axis_res)
+    if not quiet:
+        print_warnings({"warnings": summary["warnings"]})
+        _print_summary(res, comparison)
+    return summary
+
+
+def drift_warning(dr: Any, res: Any) -> str:
+    """One line: the reference drifted enough to shift B̄ by more than its uncertainty."""
+    from drivelash.report.iso230 import display_units
+
+    _, _, dl, df = display_units(res.unit)
+    return (
+        f"the reference drifted {dr.rate * df * 3600:.3g} ± {dr.u_rate * df * 3600:.2g} {dl}/h"
+        " during the test;"
+        f" it shifts B̄ by {dr.bias_B_mean * df:.3g} {dl}, more than u(B̄) = {res.u_B_mean * df:.3g} {dl}"
+        " (ISO values are not corrected; the deadzone comparison is)"
+    )
+
+
+def _print_summary(res: Any, comparison: Any | None) -> None:
+    from rich.console import Console
+
+    from drivelash.report.iso230 import display_units  # no matplotlib import at module level
+
+    _, _, dl, df = display_units(res.unit)
+    c = Console()
+    c.print(f"[bold]ISO 230-2[/bold]: {res.m} targets × {res.n} runs per direction  [{dl}]")
+    c.print(f"  A = {res.A * df:.3f}   (A↑ {res.A_up * df:.3f}, A↓ {res.A_down * df:.3f})")
+    lo, hi = res.B_interval
+    c.print(
+        f"  B = {res.B * df:.3f} ± {res.u_B * df:.3f}  [{lo * df:.3f}, {hi * df:.3f}]   "
+        f"B̄ = {res.B_mean * df:.3f} ± {res.u_B_mean * df:.3f}"
+    )
+    c.print(
+        f"  E = {res.E * df:.3f}   (E↑ {res.E_up * df:.3f}, E↓ {res.E_down * df:.3f})   M = {res.M * df:.3f}"
+    )
+    c.print(f"  R = {res.R * df:.3f}   (R↑ {res.R_up * df:.3f}, R↓ {res.R_down * df:.3f})")
+    if comparison is not None:
+        cm = comparison
+        u = "–" if cm.u_L_delta is None else f"{cm.u_L_delta * df:.3f}"
+        verdict = "[green]agree[/green]" if cm.agree else "[red]disagree[/red]"
+        c.print(
+            f"  lost motion: ISO −B̄ = {cm.L_iso * df:.3f} ± {cm.u_L_iso * df:.3f}, deadzone at the load"
+            f" {cm.L_delta * df:.3f} ± {u}  → E_n = {cm.E_n:.2f} {verdict}"
+        )
+
+
+def register(app: typer.Typer, te_app: typer.Typer) -> None:
+    """Add ``iso230`` to the CLI."""
+
+    @app.command()
+    def iso230(
+        measurement: Path = typer.Argument(
+            ..., help="Table of approaches or raw time series (CSV, Parquet, HDF5, MAT)."
+        ),
+        config: Path | None = typer.Option(
+            None, "--config", "-c", help="TOML: [columns], [sampling], [iso230], [dwell], [transmission]."
+        ),
+        estimate: Path | None = typer.Option(
+            None, "--estimate", help="JSON of `drivelash estimate`: put B beside this deadzone."
+        ),
+        json_out: Path | None = typer.Option(None, "--json", help="Write the JSON summary here."),
+        report: Path | None = typer.Option(
+            None, "--report", help="Write the self-contained HTML report here."
+        ),
+        force: bool = typer.Option(
+            False, "--force", help="Replace existing files that are not drivelash outputs."
+        ),
+    ) -> None:
+        """ISO 230-2 positioning evaluation: A, B, E, M, R; B beside the estimated deadzone."""
+        run_iso230(measurement, config, estimate=estimate, json_out=json_out, report=report, force=force)

@@ -1,0 +1,276 @@
+"""The reversal value of an ISO 230-2 test beside the deadzone estimated from recordings.
+
+The deadzone δ of drivelash is an angle on the load-shaft scale of the drive model
+(Δθ = θ_m/N − θ_l, spec 01 §1). At the tool it is a lost motion
+
+    L_δ = k · δ,   k = lead / (2π i_G)   (ball screw, lead per screw revolution)
+                   k = r_p / i_G         (rack and pinion, pinion pitch radius r_p)
+                   k = 1 / i_G           (rotary axis measured as an angle)
+
+with i_G the revolutions of the θ_l shaft per screw/pinion revolution (1 when θ_l is the
+screw or pinion itself). A pure lost motion L gives x↑ = −L/2, x↓ = +L/2 at every target,
+so B_i = −L: the ISO test measures L as −B̄ (mean over targets, unbiased) and as
+B = max|B_i| (the standard's axis value, biased upward by the selection of the maximum).
+When the control compensates reversal during the test (a backlash compensation value
+c), the mechanical lost motion is −B̄ + c.
+
+Agreement is judged with the normalised error of ISO 13528 / ISO/IEC 17043,
+E_n = |L_ISO − L_δ| / sqrt(U_ISO² + U_δ²), with expanded uncertainties U = 2u
+(≈ 95 %); |E_n| ≤ 1 is agreement. Both u are the statistical parts only.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from drivelash.errors import ConfigError, DataError, ParameterError
+from drivelash.iso230.evaluate import Iso230Result
+
+__all__ = ["Comparison", "Deadzone", "Transmission", "compare", "read_deadzone"]
+
+#: Coverage factor of the expanded uncertainties in E_n.
+K_COVERAGE = 2.0
+
+
+@dataclass(frozen=True)
+class Transmission:
+    """``[transmission]``: from the deadzone's shaft to the load.
+
+    Parameters
+    ----------
+    lead : float, optional
+        Ball-screw lead, travel per screw revolution [m].
+    pinion_radius : float, optional
+        Pitch radius of the pinion of a rack-and-pinion drive [m].
+    i_G : float
+        Revolutions of the deadzone's shaft (θ_l of the drive model) per revolution
+        of the screw or pinion [-].
+    """
+
+    lead: float | None = None
+    pinion_radius: float | None = None
+    i_G: float = 1.0
+
+    def __post_init__(self) -> None:
+        for name in ("lead", "pinion_radius", "i_G"):
+            v = getattr(self, name)
+            if v is not None and not (math.isfinite(v) and v > 0):
+                raise ParameterError("Transmission", name, f"must be a finite number > 0, got {v!r}")
+        if self.lead is not None and self.pinion_radius is not None:
+            raise ParameterError(
+                "Transmission", "pinion_radius", "give either lead or pinion_radius, not both"
+            )
+
+    def factor(self, unit: str) -> float:
+        """Lost motion at the load per rad of deadzone: [m/rad] (linear) or [rad/rad] (rotary).
+
+        Raises
+        ------
+        ParameterError
+            A linear axis without ``lead`` or ``pinion_radius``, or a rotary one with one.
+        """
+        if unit == "rad":
+            if self.lead is not None or self.pinion_radius is not None:
+                raise ParameterError("Transmission", "lead", "a rotary axis (angle units) takes only i_G")
+            return 1.0 / self.i_G
+        if self.lead is not None:
+            return self.lead / (2.0 * math.pi * self.i_G)
+        if self.pinion_radius is not None:
+            return self.pinion_radius / self.i_G
+        raise ParameterError(
+            "Transmission", "lead", "a linear axis needs lead (ball screw) or pinion_radius (rack and pinion)"
+        )
+
+
+@dataclass(frozen=True)
+class Deadzone:
+    """An estimated deadzone.
+
+    Parameters
+    ----------
+    delta : float
+        Deadzone δ [rad].
+    u_delta : float or None
+        Its standard uncertainty [rad]; None when the estimator gave none.
+    source : str
+        Where it came from (file, or history store and axis).
+    time : str, optional
+        When the recording was made (ISO 8601), if known.
+    """
+
+    delta: float
+    u_delta: float | None
+    source: str
+    time: str | None = None
+
+
+def read_deadzone(path: str | Path) -> Deadzone:
+    """The deadzone of a ``drivelash estimate --json`` file.
+
+    Reads ``delta`` [rad] and, when the estimator reports one, its standard uncertainty
+    (``delta_std`` [rad]).
+
+    Raises
+    ------
+    DataError
+        Missing or unreadable file, not JSON, no finite ``delta`` — one line.
+    """
+    p = Path(path)
+    try:
+        data = json.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise DataError("no such file", path=str(p)) from None
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise DataError(f"not a drivelash estimate JSON ({type(exc).__name__})", path=str(p)) from None
+    if not isinstance(data, dict):
+        raise DataError("not a drivelash estimate JSON (top level is not an object)", path=str(p))
+    delta = data.get("delta")
+    if isinstance(delta, bool) or not isinstance(delta, int | float) or not math.isfinite(delta) or delta < 0:
+        raise DataError(f"key 'delta' must be a finite number >= 0 [rad], got {delta!r}", path=str(p))
+    u = data.get("delta_std")
+    if u is not None and (
+        isinstance(u, bool) or not isinstance(u, int | float) or not math.isfinite(u) or u < 0
+    ):
+        raise DataError(f"key 'delta_std' must be a finite number >= 0 [rad], got {u!r}", path=str(p))
+    if data.get("excitation_ok") is False:
+        raise DataError(
+            f"the estimate was made without sufficient excitation ({data.get('reason', 'no reason given')});"
+            " it cannot be compared",
+            path=str(p),
+        )
+    return Deadzone(float(delta), None if u is None else float(u), str(p), data.get("recording_time"))
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """B beside the deadzone, in the unit of the ISO test (m or rad at the load).
+
+    Attributes
+    ----------
+    unit : str
+    factor : float
+        Lost motion per rad of deadzone [m/rad or rad/rad].
+    compensation : float
+        Reversal compensation active in the control during the test [m or rad].
+    drift_correction : float
+        Change of the lost motion when the drift is removed [m or rad] (0 without a drift
+        estimate).
+    L_iso, u_L_iso : float
+        Lost motion from the ISO test, −B̄ + compensation (+ the drift's share of B̄ when a
+        drift was estimated), and its standard uncertainty.
+    B, u_B : float
+        The axis reversal value B = max|B_i| as measured (with the control's compensation,
+        if any, acting) and u(B_k).
+    B_interval : tuple of float
+        Simultaneous interval of B.
+    L_delta, u_L_delta : float or None
+        The deadzone at the load, k·δ, and k·u(δ) (None when unknown).
+    E_n : float
+        Normalised error |L_iso − L_delta| / sqrt(U_iso² + U_δ²), U = 2u.
+    agree : bool
+        |E_n| ≤ 1.
+    deadzone : Deadzone
+    """
+
+    unit: str
+    factor: float
+    compensation: float
+    drift_correction: float
+    L_iso: float
+    u_L_iso: float
+    B: float
+    u_B: float
+    B_interval: tuple[float, float]
+    L_delta: float
+    u_L_delta: float | None
+    E_n: float
+    agree: bool
+    deadzone: Deadzone
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready (SI units)."""
+        return {
+            "unit": self.unit,
+            "factor": self.factor,
+            "compensation": self.compensation,
+            "drift_correction": self.drift_correction,
+            "lost_motion_iso": self.L_iso,
+            "u_lost_motion_iso": self.u_L_iso,
+            "B": self.B,
+            "u_B": self.u_B,
+            "B_interval": list(self.B_interval),
+            "deadzone_rad": self.deadzone.delta,
+            "u_deadzone_rad": self.deadzone.u_delta,
+            "deadzone_at_load": self.L_delta,
+            "u_deadzone_at_load": self.u_L_delta,
+            "deadzone_source": self.deadzone.source,
+            "E_n": self.E_n,
+            "agree": self.agree,
+        }
+
+
+def compare(
+    result: Iso230Result,
+    deadzone: Deadzone,
+    transmission: Transmission,
+    compensation: float = 0.0,
+    drift: Any | None = None,
+    corrected: Iso230Result | None = None,
+) -> Comparison:
+    """Put the ISO reversal value and the estimated deadzone in one unit, with uncertainties.
+
+    Parameters
+    ----------
+    result : Iso230Result
+    deadzone : Deadzone
+    transmission : Transmission
+    compensation : float
+        Reversal (backlash) compensation active in the control during the test [m or rad].
+    drift : Drift, optional
+        Drift of the reference found in a time series
+        (:func:`drivelash.iso230.dwell.estimate_drift`); with it, the lost motion is
+        −B̄ of ``corrected`` (the evaluation of ``drift.corrected``), whose scatter no
+        longer carries the drift, and the uncertainty of the drift's share is added.
+    corrected : Iso230Result, optional
+        ``evaluate(drift.corrected)``; required with ``drift``.
+
+    Raises
+    ------
+    ConfigError
+        The transmission does not fit the axis (missing lead/radius on a linear axis).
+    """
+    try:
+        k = transmission.factor(result.unit)
+    except ParameterError as exc:
+        raise ConfigError(f"table [transmission], key '{exc.field}': {exc.problem}") from None
+    L_iso = -result.B_mean + compensation
+    u_iso = result.u_B_mean
+    if drift is not None and math.isfinite(drift.u_bias):
+        if corrected is None:
+            raise ValueError("compare: drift given without the evaluation of drift.corrected")
+        L_iso = -corrected.B_mean + compensation
+        u_iso = math.hypot(corrected.u_B_mean, drift.u_bias)
+    L_d = k * deadzone.delta
+    u_d = None if deadzone.u_delta is None else k * deadzone.u_delta
+    U = K_COVERAGE * math.hypot(u_iso, u_d or 0.0)
+    E_n = abs(L_iso - L_d) / U if U > 0 else math.inf
+    return Comparison(
+        unit=result.unit,
+        factor=k,
+        compensation=compensation,
+        drift_correction=0.0 if corrected is None else (-corrected.B_mean) - (-result.B_mean),
+        L_iso=L_iso,
+        u_L_iso=u_iso,
+        B=result.B,
+        u_B=result.u_B,
+        B_interval=result.B_interval,
+        L_delta=L_d,
+        u_L_delta=u_d,
+        E_n=E_n,
+        agree=E_n <= 1.0,
+        deadzone=deadzone,
+    )

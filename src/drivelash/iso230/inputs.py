@@ -1,0 +1,321 @@
+"""Reading an ISO 230-2 measurement through the project's readers.
+
+Two kinds of file, any format :func:`drivelash.io.read_raw` knows (CSV, Parquet, HDF5,
+MAT), with a ``[columns]`` mapping that names and converts the columns:
+
+- **a table of approaches** — ``P_target`` (or ``P_cmd``), ``run``, ``direction`` (+1 for
+  an approach in the positive direction, −1 for the negative) and either the deviation
+  ``x_dev`` or the measured position ``P_actual`` (then x = P_actual − P_target);
+- **a raw time series** — ``t``, the commanded position ``P_cmd``, the reference
+  measurement ``P_actual`` and optionally the axis's own position ``P_axis``; the dwells
+  are found by :func:`drivelash.iso230.dwell.detect_dwells`.
+
+A file with a ``run`` and a ``direction`` column is a table, otherwise a time series
+(``[iso230] input`` forces one). Positions in a length unit make a linear axis (m), in
+an angle unit a rotary axis (rad); mixing the two is refused, as is a measurement that
+does not move with the command (a factor 1000 or a reversed sign between them).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from drivelash.errors import DataError, ParameterError
+from drivelash.iso230.dwell import Drift, DwellParams, Dwells, detect_dwells, estimate_drift
+from drivelash.iso230.evaluate import COVERAGE, Approaches, approaches_from_rows
+
+__all__ = ["Iso230Params", "Measurement", "read_measurement"]
+
+#: Position columns of either kind of input.
+POSITION_COLUMNS = ("P_target", "P_cmd", "P_actual", "P_axis", "x_dev")
+
+#: A measurement whose deviations spread over more than this fraction of the travel,
+#: or whose scale differs from the command's by more than this fraction, is refused
+#: as a unit mix-up (real positioning errors are ~1e-5 of the travel, lead errors ~1e-4).
+MAX_DEVIATION_FRACTION = 0.01
+
+#: An offset of the reference larger than this fraction of the travel is reported.
+OFFSET_WARNING_FRACTION = 0.01
+
+
+@dataclass(frozen=True)
+class Iso230Params:
+    """``[iso230]``: what the measurement is and how it is evaluated.
+
+    Parameters
+    ----------
+    input : {"auto", "table", "timeseries"}
+        Kind of input; ``"auto"`` takes a file with ``run`` and ``direction`` columns as
+        a table, anything else as a time series.
+    axis : {"auto", "linear", "rotary"}
+        Kind of axis; ``"auto"`` follows the units of the mapped position columns
+        (linear when none is declared).
+    targets : tuple of float
+        Nominal target positions [m or rad]; empty: the targets are the clusters of
+        the dwells (time series) or of the table's target column.
+    coverage : float
+        Coverage probability of the intervals of B and B̄ [-].
+    compensation : float
+        Reversal (backlash) compensation the control applied during the test [m or rad];
+        added back to the measured lost motion before it is compared with the deadzone.
+    """
+
+    input: Literal["auto", "table", "timeseries"] = "auto"
+    axis: Literal["auto", "linear", "rotary"] = "auto"
+    targets: tuple[float, ...] = ()
+    coverage: float = COVERAGE
+    compensation: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.input not in ("auto", "table", "timeseries"):
+            raise ParameterError(
+                "Iso230Params", "input", f"must be auto, table or timeseries, got {self.input!r}"
+            )
+        if self.axis not in ("auto", "linear", "rotary"):
+            raise ParameterError("Iso230Params", "axis", f"must be auto, linear or rotary, got {self.axis!r}")
+        if not (isinstance(self.coverage, int | float) and 0.5 <= self.coverage < 1):
+            raise ParameterError("Iso230Params", "coverage", f"must lie in [0.5, 1), got {self.coverage!r}")
+        if not (isinstance(self.compensation, int | float) and math.isfinite(self.compensation)):
+            raise ParameterError(
+                "Iso230Params", "compensation", f"must be a finite number, got {self.compensation!r}"
+            )
+        t = np.asarray(self.targets, dtype=np.float64)
+        if t.size and not np.all(np.isfinite(t)):
+            raise ParameterError("Iso230Params", "targets", "must be finite numbers")
+        if t.size and np.unique(t).size != t.size:
+            raise ParameterError("Iso230Params", "targets", "contains a target twice")
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """An ISO 230-2 measurement read from a file.
+
+    Attributes
+    ----------
+    kind : {"table", "timeseries"}
+    unit : {"m", "rad"}
+        SI unit of positions and deviations (linear or rotary axis).
+    approaches : Approaches
+        Deviations of the reference measurement by target, direction and run.
+    approaches_axis : Approaches or None
+        P_actual − P_axis (reference against the axis's own encoder), time series only.
+    dwells : Dwells or None
+        The dwells found (time series only).
+    series : dict or None
+        ``t``, ``P_cmd``, ``P_actual`` (and ``P_axis``) of a time series, for plots.
+    source : str
+        The file.
+    warnings : list of str
+        Load warnings, skipped dwells, departures from the standard's test conditions.
+    drift : Drift or None
+        Drift of the reference across the runs (time series only).
+    """
+
+    kind: Literal["table", "timeseries"]
+    unit: Literal["m", "rad"]
+    approaches: Approaches
+    approaches_axis: Approaches | None
+    dwells: Dwells | None
+    series: dict[str, np.ndarray] | None
+    source: str
+    warnings: list[str] = field(default_factory=list)
+    drift: Drift | None = None
+
+
+def _axis_unit(kinds: dict[str, str], params: Iso230Params, source: str, origin: dict[str, str]) -> str:
+    """``"m"`` or ``"rad"`` from the declared units; refuse a mix of length and angle."""
+    declared = {c: kinds[c] for c in POSITION_COLUMNS if c in kinds}
+    found = set(declared.values())
+    if len(found) > 1:
+        lin = next(c for c, k in declared.items() if k == "length")
+        rot = next(c for c, k in declared.items() if k == "angle")
+        raise DataError(
+            f"units mismatch: '{origin.get(lin, lin)}' ({lin}) is a length but '{origin.get(rot, rot)}'"
+            f" ({rot}) an angle; declare all positions in length units (linear axis) or all in angle"
+            " units (rotary axis)",
+            path=source,
+            column=origin.get(rot, rot),
+        )
+    if params.axis != "auto":
+        want = "length" if params.axis == "linear" else "angle"
+        if found and found != {want}:
+            col = next(iter(declared))
+            raise DataError(
+                f"units mismatch: [iso230] axis = '{params.axis}' but the positions are declared in"
+                f" {next(iter(found))} units",
+                path=source,
+                column=origin.get(col, col),
+            )
+        return "m" if params.axis == "linear" else "rad"
+    return "rad" if found == {"angle"} else "m"
+
+
+def _check_scale(ref: np.ndarray, cmd: np.ndarray, source: str, ref_col: str, cmd_col: str) -> None:
+    """Refuse a reference that does not move one-to-one with the command (units, sign)."""
+    c = cmd - cmd.mean()
+    var = float(np.dot(c, c))
+    if var <= 0:
+        return
+    slope = float(np.dot(c, ref - ref.mean()) / var)
+    if abs(slope - 1.0) > MAX_DEVIATION_FRACTION:
+        hint = (
+            "the reference runs opposite to the command (set scale = -1 in its [columns] entry)"
+            if slope < 0
+            else "wrong unit in [columns]?"
+        )
+        raise DataError(
+            f"units mismatch: '{ref_col}' moves {slope:.4g}× as far as '{cmd_col}' (expected 1 within"
+            f" {MAX_DEVIATION_FRACTION:g}); {hint}",
+            path=source,
+            column=ref_col,
+        )
+
+
+def _check_spread(x: np.ndarray, travel: float, source: str, col: str, unit: str) -> None:
+    spread = float(np.ptp(x))
+    if travel > 0 and spread > MAX_DEVIATION_FRACTION * travel:
+        shown = f"{spread * 1e3:.4g} mm" if unit == "m" else f"{math.degrees(spread):.4g} deg"
+        raise DataError(
+            f"units mismatch: the deviations spread over {shown}, {spread / travel:.1%} of the travel"
+            f" (real positioning errors are far below {MAX_DEVIATION_FRACTION:.0%});"
+            " wrong unit in [columns]?",
+            path=source,
+            column=col,
+        )
+
+
+def _offset_warning(x: np.ndarray, travel: float, unit: str) -> list[str]:
+    off = float(np.median(x))
+    if travel > 0 and abs(off) > OFFSET_WARNING_FRACTION * travel:
+        shown = f"{off * 1e3:.4g} mm" if unit == "m" else f"{math.degrees(off):.4g} deg"
+        return [
+            f"the reference is offset by {shown} from the commanded positions (not zeroed at the axis"
+            " origin): the mean deviations carry it; B, R, E, M and A are differences and unaffected"
+        ]
+    return []
+
+
+def _read_table(path: Path, mapping: Any, params: Iso230Params, table: Any) -> Measurement:
+    src = str(path)
+    cols, origin = table.columns, table.origin
+    tcol = "P_target" if "P_target" in cols else "P_cmd" if "P_cmd" in cols else None
+    if tcol is None:
+        raise DataError(
+            "a table of approaches needs a target position column (map it to P_target)",
+            path=src,
+            column="P_target",
+        )
+    for need in ("run", "direction"):
+        if need not in cols:
+            raise DataError(f"a table of approaches needs a '{need}' column", path=src, column=need)
+    unit = _axis_unit(table.kinds, params, src, origin)
+    target = cols[tcol]
+    travel = float(np.ptp(target))
+    if "x_dev" in cols:
+        x = cols["x_dev"]
+        dev_col = origin.get("x_dev", "x_dev")
+    elif "P_actual" in cols:
+        _check_scale(
+            cols["P_actual"], target, src, origin.get("P_actual", "P_actual"), origin.get(tcol, tcol)
+        )
+        x = cols["P_actual"] - target
+        dev_col = origin.get("P_actual", "P_actual")
+    else:
+        raise DataError(
+            "a table of approaches needs the deviation (map it to x_dev) or the measured position (P_actual)",
+            path=src,
+            column="x_dev",
+        )
+    _check_spread(x, travel, src, dev_col, unit)
+    names = {"target": origin.get(tcol, tcol), "run": origin.get("run", "run")}
+    names |= {"direction": origin.get("direction", "direction"), "deviation": dev_col}
+    ap = approaches_from_rows(target, cols["run"], cols["direction"], x, unit=unit, source=src, columns=names)
+    if params.targets:
+        nominal = np.sort(np.asarray(params.targets, dtype=np.float64))
+        if nominal.size != ap.m or np.max(np.abs(nominal - ap.targets)) > 1e-4 * max(travel, 1e-300):
+            raise DataError(
+                f"the table's {ap.m} targets do not match the {nominal.size} nominal [iso230] targets",
+                path=src,
+                column=names["target"],
+            )
+    warnings = list(table.meta.get("warnings", [])) + list(ap.warnings)
+    return Measurement("table", unit, ap, None, None, None, src, warnings)  # type: ignore[arg-type]
+
+
+def _read_series(path: Path, mapping: Any, params: Iso230Params, dwell: DwellParams) -> Measurement:
+    from drivelash.io.config import UNIT_KIND
+    from drivelash.io.load import load_trace
+
+    src = str(path)
+    trace = load_trace(path, mapping, required=("P_cmd", "P_actual"), check_saturation=False)
+    origin: dict[str, str] = {}
+    kinds: dict[str, str] = {}
+    for source_col, cm in (trace.meta.get("mapping") or {}).items():
+        origin[cm["column"]] = source_col
+        kinds[cm["column"]] = UNIT_KIND[cm.get("unit", "1")]
+    unit = _axis_unit(kinds, params, src, origin)
+    t, cmd, ref = trace["t"], trace["P_cmd"], trace["P_actual"]
+    axis = trace["P_axis"] if "P_axis" in trace else None
+    _check_scale(ref, cmd, src, origin.get("P_actual", "P_actual"), origin.get("P_cmd", "P_cmd"))
+    if axis is not None:
+        _check_scale(axis, cmd, src, origin.get("P_axis", "P_axis"), origin.get("P_cmd", "P_cmd"))
+    nominal = np.asarray(params.targets, dtype=np.float64) if params.targets else None
+    d = detect_dwells(t, cmd, ref, axis, params=dwell, nominal=nominal, unit=unit, source=src)
+    travel = float(np.ptp(cmd))
+    warnings = list(trace.meta.get("warnings", [])) + list(d.warnings) + list(d.approaches.warnings)
+    warnings += _offset_warning(d.deviation, travel, unit)
+    series = {"t": t, "P_cmd": cmd, "P_actual": ref}
+    if axis is not None:
+        series["P_axis"] = axis
+    drift = estimate_drift(d) if d.approaches.n >= 2 else None
+    return Measurement("timeseries", unit, d.approaches, d.approaches_axis, d, series, src, warnings, drift)  # type: ignore[arg-type]
+
+
+def read_measurement(
+    path: str | Path,
+    mapping: Any = None,
+    *,
+    params: Iso230Params | None = None,
+    dwell: DwellParams | None = None,
+) -> Measurement:
+    """Read an ISO 230-2 measurement: a table of approaches or a raw time series.
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV, Parquet, HDF5 or MAT file.
+    mapping : DriveConfig or dict, optional
+        ``[columns]`` (and ``[sampling]``) mapping, as for :func:`drivelash.io.load_trace`.
+    params : Iso230Params, optional
+        ``[iso230]`` settings.
+    dwell : DwellParams, optional
+        ``[dwell]`` detection settings (time series).
+
+    Returns
+    -------
+    Measurement
+
+    Raises
+    ------
+    DataError
+        One line naming the file, the column or target and the problem.
+    """
+    from drivelash.io.load import load_table
+
+    p = Path(path)
+    params = params or Iso230Params()
+    dwell = dwell or DwellParams()
+    kind = params.input
+    table = None
+    if kind in ("auto", "table"):
+        table = load_table(p, mapping)
+        if kind == "auto":
+            kind = "table" if ("run" in table.columns and "direction" in table.columns) else "timeseries"
+    if kind == "table":
+        return _read_table(p, mapping, params, table)
+    return _read_series(p, mapping, params, dwell)

@@ -1,0 +1,263 @@
+"""``drivelash iso230``: end to end on both inputs; bad input is one line, exit 2, no output."""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from drivelash.cli import main
+from drivelash.io import Trace
+from drivelash.iso230.synthetic import SyntheticAxis, synthetic_recording, synthetic_table
+
+AXIS = SyntheticAxis(delta=12e-6, sigma=0.5e-6)
+LEAD = 0.01  # m per screw revolution
+
+TABLE_TOML = """
+[columns."Target [mm]"]
+column = "P_target"
+unit = "mm"
+[columns.Run]
+column = "run"
+[columns.Dir]
+column = "direction"
+[columns."Error [um]"]
+column = "x_dev"
+unit = "um"
+"""
+
+
+def _run(argv: list[str], capsys) -> tuple[int, str, str]:
+    old = sys.argv
+    sys.argv = ["drivelash", *argv]
+    try:
+        main()
+        code = 0
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    finally:
+        sys.argv = old
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _table_csv(path: Path, tb: dict[str, np.ndarray]) -> Path:
+    df = pd.DataFrame(
+        {
+            "Target [mm]": tb["P_target"] * 1e3,
+            "Run": tb["run"].astype(int),
+            "Dir": tb["direction"].astype(int),
+            "Error [um]": tb["x_dev"] * 1e6,
+        }
+    )
+    df.to_csv(path, index=False)
+    return path
+
+
+@pytest.fixture
+def table(tmp_path) -> tuple[Path, Path]:
+    csv = _table_csv(tmp_path / "laser.csv", synthetic_table(AXIS, m=11, n=5, seed=4))
+    toml = tmp_path / "axis.toml"
+    toml.write_text(TABLE_TOML + f"\n[transmission]\nlead = {LEAD}\n", encoding="utf-8")
+    return csv, toml
+
+
+def _estimate(path: Path, delta_load: float, u_load: float | None) -> Path:
+    k = LEAD / (2 * math.pi)
+    data = {"delta": delta_load / k, "excitation_ok": True, "reason": "ok"}
+    if u_load is not None:
+        data["delta_std"] = u_load / k
+    path.write_text(json.dumps(data), encoding="utf-8")
+    return path
+
+
+def test_table_end_to_end_with_deadzone(table, tmp_path, capsys):
+    csv, toml = table
+    est = _estimate(tmp_path / "est.json", 12e-6, 0.3e-6)
+    j, r = tmp_path / "iso.json", tmp_path / "iso.html"
+    code, out, err = _run(
+        [
+            "iso230",
+            str(csv),
+            "--config",
+            str(toml),
+            "--estimate",
+            str(est),
+            "--json",
+            str(j),
+            "--report",
+            str(r),
+        ],
+        capsys,
+    )
+    assert code == 0, err
+    s = json.loads(j.read_text())
+    assert s["generator"].startswith("drivelash ")
+    assert s["input"] == "table" and s["targets"] == 11 and s["runs_per_direction"] == 5
+    B_mean = s["reversal"]["B_mean"]
+    assert -B_mean == pytest.approx(12e-6, abs=3 * s["reversal"]["u_B_mean"])
+    cmp_ = s["deadzone_comparison"]
+    assert cmp_["deadzone_at_load"] == pytest.approx(12e-6, rel=1e-12)
+    assert cmp_["agree"] is True and cmp_["E_n"] <= 1
+    html = r.read_text()
+    assert "ISO 230-2" in html and "agree" in html and 'src="data:image/png;base64,' in html
+    assert "B = " in out and "E_n" in out
+
+
+def test_deadzone_that_does_not_match_disagrees(table, tmp_path, capsys):
+    """Negative control: a deadzone 30 % larger than the lost motion is flagged."""
+    csv, toml = table
+    est = _estimate(tmp_path / "est.json", 15.6e-6, 0.3e-6)
+    j = tmp_path / "iso.json"
+    code, _, err = _run(
+        ["iso230", str(csv), "-c", str(toml), "--estimate", str(est), "--json", str(j)], capsys
+    )
+    assert code == 0, err
+    c = json.loads(j.read_text())["deadzone_comparison"]
+    assert c["agree"] is False and c["E_n"] > 1
+
+
+def test_time_series_end_to_end(tmp_path, capsys):
+    cols, truth = synthetic_recording(AXIS, m=7, n=3, seed=5, dwell=0.8)
+    p = tmp_path / "rec.parquet"
+    Trace({"t": cols["t"], "cmd": cols["P_cmd"] * 1e3, "laser": cols["P_actual"] * 1e3}).to_parquet(p)
+    toml = tmp_path / "rec.toml"
+    toml.write_text(
+        '[columns.cmd]\ncolumn = "P_cmd"\nunit = "mm"\n[columns.laser]\ncolumn = "P_actual"\nunit = "mm"\n'
+        "[iso230]\ntargets = [" + ", ".join(repr(float(x)) for x in truth["targets"]) + "]\n",
+        encoding="utf-8",
+    )
+    j = tmp_path / "rec.json"
+    code, _, err = _run(["iso230", str(p), "--config", str(toml), "--json", str(j)], capsys)
+    assert code == 0, err
+    s = json.loads(j.read_text())
+    assert s["input"] == "timeseries" and s["dwells"]["count"] == 7 * 3 * 2
+    assert "rest position" in err  # the rest after the test is reported
+
+
+def _bad(capsys, argv: list[str], pattern: str, outputs: list[Path]) -> None:
+    code, out, err = _run(argv, capsys)
+    assert code == 2, (out, err)
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("drivelash: error: "), err
+    assert pattern in lines[0], lines[0]
+    assert "Traceback" not in err
+    for o in outputs:
+        assert not o.exists()
+    assert not [q for q in outputs[0].parent.iterdir() if q.name.endswith(".part")]
+
+
+def test_fewer_than_two_runs(tmp_path, capsys):
+    tb = synthetic_table(AXIS, m=5, n=1, seed=1)
+    csv = _table_csv(tmp_path / "one.csv", tb)
+    toml = tmp_path / "t.toml"
+    toml.write_text(TABLE_TOML, encoding="utf-8")
+    j = tmp_path / "o.json"
+    _bad(
+        capsys,
+        ["iso230", str(csv), "-c", str(toml), "--json", str(j)],
+        "needs at least 2 runs per direction",
+        [j],
+    )
+
+
+def test_unequal_targets(tmp_path, capsys):
+    tb = synthetic_table(AXIS, m=5, n=3, seed=1)
+    keep = ~((tb["P_target"] == tb["P_target"].max()) & (tb["direction"] < 0))
+    csv = _table_csv(tmp_path / "u.csv", {k: v[keep] for k, v in tb.items()})
+    toml = tmp_path / "t.toml"
+    toml.write_text(TABLE_TOML, encoding="utf-8")
+    j = tmp_path / "o.json"
+    _bad(
+        capsys, ["iso230", str(csv), "-c", str(toml), "--json", str(j)], "unequal targets: target 500 mm", [j]
+    )
+
+
+def test_units_mismatch_length_and_angle(tmp_path, capsys):
+    tb = synthetic_table(AXIS, m=5, n=3, seed=1)
+    csv = _table_csv(tmp_path / "u.csv", tb)
+    toml = tmp_path / "t.toml"
+    toml.write_text(TABLE_TOML.replace('unit = "um"', 'unit = "arcsec"'), encoding="utf-8")
+    j = tmp_path / "o.json"
+    _bad(capsys, ["iso230", str(csv), "-c", str(toml), "--json", str(j)], "units mismatch", [j])
+
+
+def test_units_mismatch_factor_1000(tmp_path, capsys):
+    """The laser column written in mm but declared µm moves 0.001× the command."""
+    cols, _ = synthetic_recording(AXIS, m=5, n=2, seed=5, dwell=0.6)
+    p = tmp_path / "rec.csv"
+    Trace({"t": cols["t"], "cmd": cols["P_cmd"] * 1e3, "laser": cols["P_actual"] * 1e3}).to_csv(p)
+    toml = tmp_path / "rec.toml"
+    toml.write_text(
+        '[columns.cmd]\ncolumn = "P_cmd"\nunit = "mm"\n[columns.laser]\ncolumn = "P_actual"\nunit = "um"\n',
+        encoding="utf-8",
+    )
+    r = tmp_path / "o.html"
+    _bad(
+        capsys,
+        ["iso230", str(p), "-c", str(toml), "--report", str(r)],
+        "units mismatch: 'laser' moves 0.00099",
+        [r],
+    )
+
+
+def test_deviation_in_the_wrong_unit(tmp_path, capsys):
+    """Deviations in µm declared as mm spread over a large part of the travel: refused."""
+    tb = synthetic_table(AXIS, m=5, n=3, seed=1)
+    csv = _table_csv(tmp_path / "u.csv", tb)
+    toml = tmp_path / "t.toml"
+    toml.write_text(TABLE_TOML.replace('unit = "um"', 'unit = "mm"'), encoding="utf-8")
+    j = tmp_path / "o.json"
+    _bad(
+        capsys,
+        ["iso230", str(csv), "-c", str(toml), "--json", str(j)],
+        "units mismatch: the deviations spread",
+        [j],
+    )
+
+
+def test_estimate_without_transmission(table, tmp_path, capsys):
+    csv, _ = table
+    toml = tmp_path / "t.toml"
+    toml.write_text(TABLE_TOML, encoding="utf-8")
+    est = _estimate(tmp_path / "est.json", 12e-6, None)
+    j = tmp_path / "o.json"
+    _bad(
+        capsys,
+        ["iso230", str(csv), "-c", str(toml), "--estimate", str(est), "--json", str(j)],
+        "[transmission]",
+        [j],
+    )
+
+
+def test_config_errors_name_table_and_key(table, tmp_path, capsys):
+    csv, _ = table
+    toml = tmp_path / "t.toml"
+    toml.write_text(TABLE_TOML + "[dwell]\nT_setle = 0.3\n", encoding="utf-8")
+    j = tmp_path / "o.json"
+    _bad(
+        capsys,
+        ["iso230", str(csv), "-c", str(toml), "--json", str(j)],
+        "table [dwell], key 'T_setle': unknown key; did you mean 'T_settle'?",
+        [j],
+    )
+    toml.write_text(TABLE_TOML + "[transmission]\nlead = -1\n", encoding="utf-8")
+    _bad(
+        capsys,
+        ["iso230", str(csv), "-c", str(toml), "--json", str(j)],
+        "table [transmission], key 'lead': must be a finite number > 0",
+        [j],
+    )
+
+
+def test_output_may_not_overwrite_the_input(table, capsys):
+    csv, toml = table
+    before = csv.read_bytes()
+    code, _, err = _run(["iso230", str(csv), "-c", str(toml), "--json", str(csv)], capsys)
+    assert code == 2 and "--json" in err
+    assert csv.read_bytes() == before
