@@ -389,9 +389,10 @@ def render_iso230_report(
         if meas.drift is not None:
             dr = meas.drift
             ds.paragraphs.append(
-                f"Drift of the reference across the runs: {dr.rate * df * 3600:.3g} ± {dr.u_rate * df * 3600:.2g}"
-                f" {dl}/h (common slope of the deviations against time at each target and direction). It shifts"
-                f" B̄ by {_f(dr.bias_B_mean, df)} {dl}, as the ↓ approach to a target comes later than the ↑ one."
+                f"Drift of the reference across the runs: {dr.rate * df * 3600:.3g}"
+                f" ± {dr.u_rate * df * 3600:.2g} {dl}/h (common slope of the deviations against time at"
+                f" each target and direction). It shifts B̄ by {_f(dr.bias_B_mean, df)} {dl}, as the ↓"
+                " approach to a target comes later than the ↑ one."
                 " The ISO values above are not corrected (the standard does not); the deadzone comparison is."
             )
         ds.figures.append(_series_figure(meas))
