@@ -73,3 +73,4 @@ def test_B_is_close_to_the_backlash(runs):
 def test_negative_control_naive_interval_undercovers(runs):
     hits = sum(abs(r.B - d) <= 2 * r.u_B for d, r in runs)
     assert hits < BOUND, f"naive B ± 2u covered δ in {hits}/{N_SEEDS} seeds"
+    assert hits == 69
