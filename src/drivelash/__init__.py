@@ -2,9 +2,77 @@
 
 Backlash estimation (online and offline), transmission-error learning and
 compensation for rack-and-pinion drives, and wear tracking.
+
+The public API, for notebooks and scripts (python-control style: one curated namespace)::
+
+    import drivelash as dl
+    trace = dl.load_trace("run.parquet", dl.load_config("drive.toml"))
+    ident = dl.identify_drive(trace, "drive.toml")          # offline, with 95 % intervals
+    ident["delta"].value, ident["delta"].low, ident["delta"].high
+
+Names are imported on first use, so ``import drivelash`` (and the command line) stays fast.
 """
 
-from drivelash.errors import DrivelashError, ParameterError
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+from drivelash.errors import ConfigError, DataError, DrivelashError, ParameterError
 
 __version__ = "0.1.0"
-__all__ = ["DrivelashError", "ParameterError", "__version__"]
+
+#: public name → module that defines it (imported lazily, PEP 562)
+_LAZY: dict[str, str] = {
+    # offline identification
+    "identify_drive": "drivelash.estimation.identify_api",
+    "DriveIdentification": "drivelash.estimation.identify_result",
+    "ParameterEstimate": "drivelash.estimation.identify_result",
+    # recordings and configuration
+    "Trace": "drivelash.io.trace",
+    "load_trace": "drivelash.io.load",
+    "load_config": "drivelash.io.config",
+    "DriveConfig": "drivelash.io.config",
+    # parameters
+    "DrivetrainParams": "drivelash.params",
+    "BacklashParams": "drivelash.params",
+}
+
+__all__ = [
+    "BacklashParams",
+    "ConfigError",
+    "DataError",
+    "DriveConfig",
+    "DriveIdentification",
+    "DrivelashError",
+    "DrivetrainParams",
+    "ParameterError",
+    "ParameterEstimate",
+    "Trace",
+    "__version__",
+    "identify_drive",
+    "load_config",
+    "load_trace",
+]
+
+
+def __getattr__(name: str) -> Any:
+    mod = _LAZY.get(name)
+    if mod is None:
+        raise AttributeError(f"module 'drivelash' has no attribute {name!r}")
+    value = getattr(importlib.import_module(mod), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
+    from drivelash.estimation.identify_api import identify_drive
+    from drivelash.estimation.identify_result import DriveIdentification, ParameterEstimate
+    from drivelash.io.config import DriveConfig, load_config
+    from drivelash.io.load import load_trace
+    from drivelash.io.trace import Trace
+    from drivelash.params import BacklashParams, DrivetrainParams

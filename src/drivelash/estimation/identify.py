@@ -71,6 +71,8 @@ class IdentificationResult:
         ``"rotary"`` or ``"prismatic"`` (units of the numbers above).
     side : str
         ``"motor"`` or ``"load"``.
+    cov : numpy.ndarray, optional
+        Covariance σ̂²(WᵀW)⁻¹ of ``theta``.
     """
 
     names: tuple[str, ...]
@@ -88,6 +90,7 @@ class IdentificationResult:
     q_ddot: np.ndarray = field(repr=False)
     axis: str = "rotary"
     side: str = "motor"
+    cov: np.ndarray | None = field(default=None, repr=False)
 
     def __getitem__(self, name: str) -> float:
         return float(self.theta[self.names.index(name)])
@@ -185,7 +188,7 @@ def _prepare(
 
 def _solve(
     W: np.ndarray, y: np.ndarray, names: tuple[str, ...]
-) -> tuple[np.ndarray, np.ndarray, float, float, float]:
+) -> tuple[np.ndarray, np.ndarray, float, float, float, np.ndarray]:
     r, p = W.shape
     if r <= p:
         raise DataError(f"only {r} rows after decimation for {p} parameters; record longer")
@@ -199,7 +202,7 @@ def _solve(
     cov = sigma2 * np.linalg.inv(W.T @ W)
     std = np.sqrt(np.clip(np.diag(cov), 0, None))
     rel = float(np.linalg.norm(e) / np.linalg.norm(y)) if np.linalg.norm(y) > 0 else float("inf")
-    return theta, std, rel, float(np.sqrt(sigma2)), float(np.linalg.cond(W))
+    return theta, std, rel, float(np.sqrt(sigma2)), float(np.linalg.cond(W)), cov
 
 
 def _regressors(
@@ -271,7 +274,7 @@ def _finish(
     Wd = np.column_stack([_decimate(W[:, j], decimate) for j in range(W.shape[1])])
     yd = _decimate(y, decimate)
     td = t[::decimate][: yd.size]
-    theta, std, rel, sigma, cond = _solve(Wd, yd, names)
+    theta, std, rel, sigma, cond, cov = _solve(Wd, yd, names)
     return IdentificationResult(
         names=names,
         theta=theta,
@@ -294,6 +297,7 @@ def _finish(
         q_ddot=Wd[:, 0],
         axis=str(trace.meta.get("axis", "rotary")),
         side=side,
+        cov=cov,
     )
 
 

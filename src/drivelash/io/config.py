@@ -204,6 +204,12 @@ class IdentificationSection(_Strict):
     side : {"motor", "load"}
         ``"load"`` identifies J_l, β_l, T_Cl from the load encoder and the
         estimated shaft torque.
+    model : {"rigid", "two-mass"}
+        Model of ``drivelash identify`` when ``--model`` is not given: the rigid
+        IDIM-LS above, or the two-mass model with backlash
+        (:mod:`drivelash.estimation.identify_two_mass`).
+    window : float, optional
+        Window of the two-mass integral equations [s] (default 1 ms, at least 2 samples).
     """
 
     cutoff_hz: float = Field(default=100.0, gt=0)
@@ -211,6 +217,8 @@ class IdentificationSection(_Strict):
     decimate: int = Field(default=10, ge=1, le=100)
     n_border: int = Field(default=50, ge=0)
     side: Literal["motor", "load"] = "motor"
+    model: Literal["rigid", "two-mass"] = "rigid"
+    window: float | None = Field(default=None, gt=0)
 
 
 class DriveConfig(_Strict):

@@ -1,0 +1,250 @@
+"""Result types of offline drive identification (:func:`drivelash.identify_drive`).
+
+One result type for every model (``"two-mass"`` and ``"rigid"``): a table of
+:class:`ParameterEstimate` (value, standard error, 95 % interval, or the reason why the
+recording cannot determine the parameter), their correlation matrix, the verdict on the
+backlash (whether the recording crossed the gap) and plausibility warnings. ``to_config``
+gives the ``[drivetrain]`` and ``[backlash]`` tables that ``drivelash estimate`` reads.
+
+Units are SI: J [kg·m²], K_S [N·m/rad], D_S [N·m·s/rad], T_C [N·m], β [N·m·s/rad],
+torque offset [N·m], δ and δ1 [rad]; a prismatic rigid axis carries kg, N, N·s/m.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+#: Units of the parameters (rotary axes).
+UNITS: dict[str, str] = {
+    "J_m": "kg·m²",
+    "J_l": "kg·m²",
+    "N": "-",
+    "K_S": "N·m/rad",
+    "D_S": "N·m·s/rad",
+    "T_Cm": "N·m",
+    "T_Cl": "N·m",
+    "beta_m": "N·m·s/rad",
+    "beta_l": "N·m·s/rad",
+    "torque_offset": "N·m",
+    "delta": "rad",
+    "delta1": "rad",
+    "c_lo": "rad",
+    "c_hi": "rad",
+}
+
+#: Two-sided 95 % quantile of the standard normal distribution.
+Z95 = 1.959963984540054
+
+
+@dataclass(frozen=True)
+class ParameterEstimate:
+    """One identified parameter.
+
+    Attributes
+    ----------
+    name : str
+        Symbol (``"K_S"``, ``"delta"``, …).
+    value : float
+        Estimate in SI units; NaN when the recording cannot determine it.
+    std : float
+        Standard error (same unit); ``inf`` when not identifiable.
+    low, high : float
+        95 % confidence interval; may be one-sided (``high = inf``) or unbounded.
+    unit : str
+        Unit of ``value``.
+    identifiable : bool
+        False when the data cannot determine the parameter; ``reason`` then says why.
+    reason : str
+        Empty when identifiable; otherwise one sentence a user can act on.
+    """
+
+    name: str
+    value: float
+    std: float
+    low: float
+    high: float
+    unit: str = ""
+    identifiable: bool = True
+    reason: str = ""
+
+    @classmethod
+    def normal(cls, name: str, value: float, std: float, unit: str | None = None) -> ParameterEstimate:
+        """An identified parameter with a symmetric normal 95 % interval value ± 1.96 std."""
+        return cls(
+            name,
+            float(value),
+            float(std),
+            float(value - Z95 * std),
+            float(value + Z95 * std),
+            UNITS.get(name, "") if unit is None else unit,
+        )
+
+    @classmethod
+    def unknown(
+        cls, name: str, reason: str, low: float = -math.inf, high: float = math.inf, unit: str | None = None
+    ) -> ParameterEstimate:
+        """A parameter the recording cannot determine (optionally with a bound)."""
+        return cls(
+            name,
+            float("nan"),
+            float("inf"),
+            float(low),
+            float(high),
+            UNITS.get(name, "") if unit is None else unit,
+            identifiable=False,
+            reason=reason,
+        )
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready (non-finite numbers are turned into ``null`` by the JSON writer)."""
+        d: dict[str, Any] = {
+            "value": self.value,
+            "std": self.std,
+            "ci95": [self.low, self.high],
+            "unit": self.unit,
+            "identifiable": self.identifiable,
+        }
+        if self.reason:
+            d["reason"] = self.reason
+        return d
+
+    def covers(self, x: float) -> bool:
+        """True if ``x`` lies in the 95 % interval."""
+        return self.low <= x <= self.high
+
+
+@dataclass
+class DriveIdentification:
+    """Result of :func:`drivelash.identify_drive`.
+
+    Attributes
+    ----------
+    model : {"two-mass", "rigid"}
+        Model identified.
+    parameters : dict of str to ParameterEstimate
+        Every parameter in report order (two-mass: J_m, J_l, K_S, D_S, T_Cm, beta_m, T_Cl,
+        beta_l, torque_offset, delta, delta1; N is given, not identified).
+    names : tuple of str
+        Names of the rows/columns of ``correlation`` (the identified parameters).
+    correlation : numpy.ndarray
+        Correlation matrix of the identified parameters [-].
+    N : float
+        Gear ratio used (given) [-].
+    backlash_visible : bool
+        Whether the recording crosses the gap so that δ can be determined.
+    reason : str
+        Plain-language verdict on the backlash (both contacts seen, or why not).
+    warnings : list of str
+        Plausibility findings, one line each (e.g. a negative inertia and its likely cause).
+    fit : dict
+        Fit statistics: residual RMS per equation, relative errors, rows, covariance method.
+    method : str
+        One line naming the method.
+    signals : dict of str to numpy.ndarray
+        Decimated signals for the report (time, measured and predicted accelerations,
+        Δθ, shaft torque).
+    """
+
+    model: str
+    parameters: dict[str, ParameterEstimate]
+    names: tuple[str, ...]
+    correlation: np.ndarray
+    N: float = 1.0
+    backlash_visible: bool = False
+    reason: str = ""
+    warnings: list[str] = field(default_factory=list)
+    fit: dict[str, Any] = field(default_factory=dict)
+    method: str = ""
+    signals: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+
+    def __getitem__(self, name: str) -> ParameterEstimate:
+        return self.parameters[name]
+
+    def value(self, name: str) -> float:
+        """Value of parameter ``name`` (NaN when not identifiable)."""
+        return self.parameters[name].value
+
+    @property
+    def plausible(self) -> bool:
+        """False when a plausibility check failed (see ``warnings``)."""
+        return not self.fit.get("implausible", False)
+
+    def to_config(self) -> dict[str, dict[str, float]]:
+        """The ``[drivetrain]`` and ``[backlash]`` tables ``drivelash estimate`` reads.
+
+        Only identifiable values are written. Friction coefficients and D_S whose estimate
+        is negative but whose interval reaches 0 are written as 0 (the parameter classes
+        require ≥ 0). ``[backlash]`` carries δ1 (and δ for reference) only when the
+        recording determined them.
+        """
+        dt: dict[str, float] = {"N": float(self.N)}
+        for k in ("J_m", "J_l", "K_S", "D_S", "T_Cm", "T_Cl", "beta_m", "beta_l"):
+            p = self.parameters.get(k)
+            if p is None or not p.identifiable or not math.isfinite(p.value):
+                continue
+            v = p.value
+            if k in ("D_S", "T_Cm", "T_Cl", "beta_m", "beta_l") and v < 0 <= p.high:
+                v = 0.0
+            dt[k] = float(v)
+        out: dict[str, dict[str, float]] = {"drivetrain": dt}
+        d1 = self.parameters.get("delta1")
+        if d1 is not None and d1.identifiable and math.isfinite(d1.value):
+            bl = {"delta1": float(d1.value)}
+            d = self.parameters.get("delta")
+            if d is not None and d.identifiable and math.isfinite(d.value):
+                bl["delta"] = float(d.value)
+            out["backlash"] = bl
+        return out
+
+    def to_toml(self, comments: list[str] | None = None) -> str:
+        """``to_config()`` as TOML text with ``#`` comment lines (intervals, verdict)."""
+        import tomli_w
+
+        head = list(comments or [])
+        for p in self.parameters.values():
+            if p.identifiable:
+                head.append(f"{p.name} = {p.value:.6g} {p.unit}, 95 % CI [{p.low:.6g}, {p.high:.6g}]")
+            else:
+                head.append(f"{p.name}: not identified ({p.reason})")
+        head.append(f"backlash: {self.reason}")
+        head += [f"warning: {w}" for w in self.warnings]
+        text = "".join(f"# {c}\n" for c in head)
+        return text + tomli_w.dumps(self.to_config())
+
+    def drivetrain_params(self, base: Any = None) -> Any:
+        """:class:`~drivelash.params.DrivetrainParams` from the identified values.
+
+        Parameters
+        ----------
+        base : DrivetrainParams or dict, optional
+            Values for fields the recording did not determine (e.g. a configuration).
+        """
+        from dataclasses import asdict, is_dataclass
+
+        from drivelash.params import DrivetrainParams
+
+        vals: dict[str, float] = {}
+        if base is not None:
+            vals.update(asdict(base) if is_dataclass(base) else dict(base))
+        vals.update(self.to_config()["drivetrain"])
+        keep = {f for f in DrivetrainParams.__dataclass_fields__}
+        return DrivetrainParams(**{k: v for k, v in vals.items() if k in keep and v is not None})
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (no arrays except the small correlation matrix)."""
+        return {
+            "model": self.model,
+            "method": self.method,
+            "N": self.N,
+            "parameters": {k: p.as_dict() for k, p in self.parameters.items()},
+            "correlation": {"names": list(self.names), "matrix": np.asarray(self.correlation).tolist()},
+            "backlash_visible": self.backlash_visible,
+            "backlash_reason": self.reason,
+            "plausible": self.plausible,
+            "warnings": list(self.warnings),
+            "fit": self.fit,
+        }
