@@ -35,6 +35,12 @@ def _steps() -> list[DemoStep]:
         steps.append(demo_compensate)
     except ModuleNotFoundError:
         pass
+    try:
+        from drivelash.iso230.demo import demo_iso230
+
+        steps.append(demo_iso230)
+    except ModuleNotFoundError:
+        pass
     return steps
 
 
