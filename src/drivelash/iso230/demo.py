@@ -40,7 +40,8 @@ def demo_iso230(out_dir: Path, console: Console) -> None:
     )
     r, d = s["reversal"], s["drift"]
     console.print(
-        f"iso230: {s['targets']} targets × {s['runs_per_direction']} runs, {s['dwells']['count']} dwells found;"
+        f"iso230: {s['targets']} targets × {s['runs_per_direction']} runs,"
+        f" {s['dwells']['count']} dwells found;"
         f" B = {r['B'] * 1e6:.2f} µm, −B̄ = {-r['B_mean'] * 1e6:.2f} ± {r['u_B_mean'] * 1e6:.2f} µm, of which"
         f" {-d['bias_B_mean'] * 1e6:.2f} µm is laser drift ({d['rate'] * 3.6e9:.0f} µm/h)"
         f" — simulated lost motion {axis.delta * 1e6:.0f} µm; report: {out_dir / 'iso230.html'}"
