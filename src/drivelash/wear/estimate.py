@@ -1,0 +1,218 @@
+"""One recording → one :class:`~drivelash.wear.store.EstimateRow` (the worker's whole job).
+
+:func:`estimate_recording` is the single adapter between the wear tracker and the backlash
+estimator: it hashes the file, reads and validates it with the axis's drive configuration
+(:func:`drivelash.io.load_trace`), finds its start time, and runs the same estimator with the
+same tuning as ``drivelash estimate`` (:func:`drivelash.commands.estimate._estimator_config`,
+:class:`~drivelash.estimation.estimator.DeadzoneEstimator` with the detected excitation
+frequency). A recording that cannot be read or validated becomes a ``failed`` row with its
+one-line reason; nothing raises out of a worker.
+
+The uncertainty of δ̂ is stored only when the estimator reports one (``delta_std`` in the
+result); otherwise it stays NULL and the trend treats it as unknown.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import re
+import time
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from drivelash.errors import DataError, DrivelashError
+from drivelash.io.config import DriveConfig
+from drivelash.wear.fleet import TimeSpec
+from drivelash.wear.store import EstimateRow, utc_naive
+
+__all__ = ["RecordingTask", "code_version", "estimate_recording", "recording_start"]
+
+
+def code_version() -> str:
+    """Version of the estimating code stored with every estimate (``drivelash`` version)."""
+    from drivelash import __version__
+
+    return f"drivelash {__version__}"
+
+
+@dataclass(frozen=True)
+class RecordingTask:
+    """Everything a worker needs for one recording (picklable, small)."""
+
+    axis: str
+    path: str
+    size_bytes: int
+    mtime_ns: int
+    drive: DriveConfig
+    time: TimeSpec
+    method: str
+    config_hash: str
+    code_version: str
+
+
+def recording_start(path: Path, spec: TimeSpec, meta: dict[str, Any] | None = None) -> datetime:
+    """Start time of a recording (naive UTC) as the fleet's ``time`` table says.
+
+    Raises
+    ------
+    DataError
+        The file name does not match, the column or metadata key is missing or unparsable.
+    """
+    if spec.source == "filename":
+        assert spec.pattern is not None and spec.format is not None
+        m = re.search(spec.pattern, path.name) or re.search(spec.pattern, str(path))
+        if m is None:
+            raise DataError(f"file name does not match the time pattern {spec.pattern!r}", path=str(path))
+        text = m.group("time") if "time" in m.re.groupindex else m.group(1)
+        try:
+            t = datetime.strptime(text, spec.format)
+        except ValueError:
+            raise DataError(
+                f"time stamp {text!r} in the file name does not match format {spec.format!r}", path=str(path)
+            ) from None
+        return utc_naive(t if t.tzinfo else t.replace(tzinfo=UTC))  # type: ignore[return-value]
+    if spec.source == "mtime":
+        return datetime.fromtimestamp(path.stat().st_mtime, UTC).replace(tzinfo=None)
+    if spec.source == "metadata":
+        value = (meta or {}).get(spec.key)
+        if value is None:
+            raise DataError(f"no time stamp '{spec.key}' in the file's metadata", path=str(path))
+        try:
+            t = datetime.fromisoformat(str(value))
+        except ValueError:
+            raise DataError(
+                f"metadata '{spec.key}' = {value!r} is not an ISO 8601 time", path=str(path)
+            ) from None
+        return utc_naive(t if t.tzinfo else t.replace(tzinfo=UTC))  # type: ignore[return-value]
+    # column: POSIX time stamps in the file
+    import math
+
+    from drivelash.io.formats import read_raw
+
+    raw = read_raw(path)
+    col = raw.columns.get(spec.column or "")
+    if col is None or col.size == 0:
+        raise DataError("no such column for the start time", path=str(path), column=spec.column)
+    v = float(col[0]) * {"s": 1.0, "ms": 1e-3, "us": 1e-6}[spec.unit]
+    if not math.isfinite(v):
+        raise DataError("start time stamp is not finite", path=str(path), column=spec.column, row=0)
+    try:
+        return datetime.fromtimestamp(v, UTC).replace(tzinfo=None)
+    except (OverflowError, OSError, ValueError):
+        raise DataError(
+            f"{v!r} is not a POSIX time stamp", path=str(path), column=spec.column, row=0
+        ) from None
+
+
+def _hash(path: Path) -> str:
+    with path.open("rb") as fh:
+        return hashlib.file_digest(fh, "sha256").hexdigest()
+
+
+def estimate_recording(task: RecordingTask) -> EstimateRow:
+    """Hash, read, validate and estimate one recording; never raises for a bad file.
+
+    Parameters
+    ----------
+    task : RecordingTask
+        The recording and its axis's configuration.
+
+    Returns
+    -------
+    EstimateRow
+        ``status="ok"`` with δ̂ and the estimator's verdicts, or ``status="failed"`` with
+        the one-line reason (the recording is still identified by its content hash).
+    """
+    from drivelash.commands.estimate import _estimator_config
+    from drivelash.estimation.estimator import INPUT_COLUMNS, DeadzoneEstimator, excitation_frequency
+    from drivelash.io import load_trace
+
+    t0 = time.perf_counter()
+    path = Path(task.path)
+    base: dict[str, Any] = dict(
+        axis=task.axis,
+        path=task.path,
+        size_bytes=task.size_bytes,
+        mtime_ns=task.mtime_ns,
+        method=task.method,
+        config_hash=task.config_hash,
+        code_version=task.code_version,
+    )
+    try:
+        digest = _hash(path)
+    except OSError as exc:
+        digest = (
+            "unreadable:"
+            + hashlib.sha256(f"{task.path}:{task.size_bytes}:{task.mtime_ns}".encode()).hexdigest()[:52]
+        )
+        return EstimateRow(
+            **base,
+            content_hash=digest,
+            start_time=None,
+            duration_s=None,
+            sample_rate_hz=None,
+            samples=None,
+            status="failed",
+            reason=f"{path}: cannot read ({exc.strerror or exc})",
+            runtime_s=time.perf_counter() - t0,
+        )
+    start = duration = rate = n = None
+    try:
+        cfg = task.drive
+        drivetrain = cfg.to_drivetrain_params()
+        bl = cfg.require("backlash")
+        trace = load_trace(path, cfg, required=INPUT_COLUMNS)
+        n = len(trace)
+        T_s = trace.T_s
+        duration = n * T_s
+        rate = 1.0 / T_s
+        start = recording_start(path, task.time, trace.meta)
+        f_exc = excitation_frequency(trace)
+        ecfg = _estimator_config(cfg, drivetrain, T_s, f_exc, task.method)
+        res = DeadzoneEstimator(drivetrain, bl.delta1, T_s, ecfg).run(trace.select(INPUT_COLUMNS))
+        d1 = res.extra.get("delta1_estimate", res.extra.get("delta1_check"))
+        std = getattr(res, "delta_std", None)
+        if std is None:
+            std = res.extra.get("delta_std")
+        return EstimateRow(
+            **base,
+            content_hash=digest,
+            start_time=start,
+            duration_s=duration,
+            sample_rate_hz=rate,
+            samples=n,
+            status="ok",
+            reason=res.reason,
+            delta=res.delta,
+            delta1_estimate=None if d1 is None else float(d1),
+            delta_std=None if std is None else float(std),
+            excitation_ok=bool(res.excitation_ok),
+            converged=bool(res.converged),
+            runtime_s=time.perf_counter() - t0,
+        )
+    except DrivelashError as exc:
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    except Exception as exc:  # noqa: BLE001 - a worker never raises: the batch continues
+        reason = f"{path}: unexpected {type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
+    if not reason.startswith(str(path)):
+        reason = f"{path}: {reason}"
+    return EstimateRow(
+        **base,
+        content_hash=digest,
+        start_time=start,
+        duration_s=duration,
+        sample_rate_hz=rate,
+        samples=n,
+        status="failed",
+        reason=reason,
+        runtime_s=time.perf_counter() - t0,
+    )
+
+
+def file_facts(path: Path) -> tuple[int, int]:
+    """(size in bytes, modification time in ns) of a file."""
+    st = os.stat(path)
+    return int(st.st_size), int(st.st_mtime_ns)

@@ -1,0 +1,338 @@
+"""The fleet inventory (``fleet.toml``): one ``[[axis]]`` per monitored axis.
+
+Example::
+
+    [fleet]
+    name = "line 3"
+    db = "wear.sqlite"            # default store (relative to this file); --db overrides
+    method = "default"            # estimator law used for every axis
+    horizon_days = 30             # alarm when the forecast crossing may lie within this horizon
+    not_excited_alarm = 5         # alarm after this many consecutive recordings without excitation
+    time = { from = "filename", pattern = '(\\d{8}T\\d{6})', format = "%Y%m%dT%H%M%S" }
+
+    [[axis]]
+    id = "M01/X"                  # machine/axis
+    drive = "drives/M01-X.toml"   # the `drivelash estimate` config: [drivetrain], [backlash], [columns]
+    recordings = "rec/M01/X/*.parquet"   # glob, relative to this file
+    threshold = 0.2               # maintenance threshold: rad at the load …
+    # threshold_unit = "mm"       # … or mm at the load, with
+    # transmission = 1.59         #   mm of load travel per rad of load angle
+
+How the recording's start time is found (``time`` per axis, or the fleet default):
+
+* ``from = "filename"``: ``pattern`` is a regular expression whose first group (or group
+  ``time``) is parsed with ``format`` (``strptime``; UTC unless the format has ``%z``);
+* ``from = "column"``: the first value of file column ``column`` is a POSIX time stamp in
+  ``unit`` (s, ms, us);
+* ``from = "metadata"``: key ``key`` (default ``start_time``) of the file's own metadata
+  (the ``drivelash.meta`` block of Parquet/CSV/HDF5/MAT files), ISO 8601;
+* ``from = "mtime"``: the file's modification time (last resort: copies change it).
+
+Every error is one :class:`~drivelash.errors.ConfigError` line naming the file, the table
+(``[[axis]] #k (id 'M01/X')``) and the key.
+"""
+
+from __future__ import annotations
+
+import difflib
+import glob
+import hashlib
+import json
+import math
+import re
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from drivelash.errors import ConfigError, DrivelashError
+from drivelash.io.config import DriveConfig, load_config
+
+__all__ = ["AxisSpec", "Fleet", "TimeSpec", "load_fleet", "parse_fleet"]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+
+
+class TimeSpec(_Strict):
+    """How the start time of a recording is found (see the module docstring)."""
+
+    source: Literal["filename", "column", "metadata", "mtime"] = Field(alias="from")
+    pattern: str | None = None
+    format: str | None = None
+    column: str | None = None
+    unit: Literal["s", "ms", "us"] = "s"
+    key: str = "start_time"
+
+    @model_validator(mode="after")
+    def _complete(self) -> TimeSpec:
+        if self.source == "filename":
+            if not self.pattern:
+                raise ValueError("from = 'filename' needs 'pattern' (a regular expression)")
+            try:
+                rx = re.compile(self.pattern)
+            except re.error as exc:
+                raise ValueError(f"'pattern' is not a valid regular expression ({exc})") from None
+            if rx.groups < 1:
+                raise ValueError("'pattern' needs one group capturing the time stamp")
+            if not self.format:
+                raise ValueError("from = 'filename' needs 'format' (strptime, e.g. '%Y%m%dT%H%M%S')")
+        if self.source == "column" and not self.column:
+            raise ValueError("from = 'column' needs 'column' (the file column with POSIX time stamps)")
+        return self
+
+
+class FleetSection(_Strict):
+    """``[fleet]``: defaults for every axis."""
+
+    name: str = "fleet"
+    db: str = "wear.sqlite"
+    method: Literal["default", "paper"] = "default"
+    horizon_days: float = Field(default=30.0, gt=0)
+    not_excited_alarm: int = Field(default=5, ge=1)
+    time: TimeSpec | None = None
+
+
+class AxisSection(_Strict):
+    """One ``[[axis]]`` entry."""
+
+    id: str
+    drive: str
+    recordings: str
+    threshold: float = Field(gt=0)
+    threshold_unit: Literal["rad", "mm"] = "rad"
+    transmission: float | None = Field(default=None, gt=0)
+    time: TimeSpec | None = None
+
+    @field_validator("id")
+    @classmethod
+    def _machine_axis(cls, v: str) -> str:
+        if not re.fullmatch(r"[^/\s]+/[^/\s]+", v):
+            raise ValueError(f"must be 'machine/axis' (one '/', no spaces), got {v!r}")
+        return v
+
+    @field_validator("threshold", "transmission")
+    @classmethod
+    def _finite(cls, v: float | None) -> float | None:
+        if v is not None and not math.isfinite(v):
+            raise ValueError(f"must be finite, got {v!r}")
+        return v
+
+    @model_validator(mode="after")
+    def _units(self) -> AxisSection:
+        if self.threshold_unit == "mm" and self.transmission is None:
+            raise ValueError("threshold_unit = 'mm' needs 'transmission' (mm of load travel per rad)")
+        return self
+
+
+class FleetFile(_Strict):
+    """The whole ``fleet.toml``."""
+
+    fleet: FleetSection = FleetSection()
+    axis: list[AxisSection]
+
+
+@dataclass(frozen=True)
+class AxisSpec:
+    """One axis, resolved: paths absolute, drive config loaded, threshold in rad.
+
+    Attributes
+    ----------
+    name : str
+        ``machine/axis``.
+    drive_path : Path
+        The drive configuration file.
+    drive : DriveConfig
+        Its parsed content (``[drivetrain]``, ``[backlash]``, ``[columns]`` …).
+    drive_hash : str
+        SHA-256 of the canonical JSON of ``drive`` and the estimation method: the
+        estimate's config hash (an edited drive file gives new estimates).
+    recordings : str
+        Absolute glob of the recordings.
+    threshold_rad : float
+        Maintenance threshold on δ [rad at the load].
+    transmission : float or None
+        mm of load travel per rad of load angle (for thresholds and laser checks in mm).
+    time : TimeSpec
+        How the start time is found.
+    method : str
+        Estimator law.
+    horizon_days : float
+        Forecast-alarm horizon [days].
+    not_excited_alarm : int
+        Consecutive unexcited recordings that raise an alarm.
+    """
+
+    name: str
+    drive_path: Path
+    drive: DriveConfig
+    drive_hash: str
+    recordings: str
+    threshold_rad: float
+    transmission: float | None
+    time: TimeSpec
+    method: str
+    horizon_days: float
+    not_excited_alarm: int
+
+    @property
+    def machine(self) -> str:
+        """The machine part of the id."""
+        return self.name.split("/", 1)[0]
+
+    def files(self) -> list[Path]:
+        """The recordings matched by the glob, sorted by path."""
+        return sorted(Path(p) for p in glob.glob(self.recordings, recursive=True) if Path(p).is_file())
+
+
+@dataclass(frozen=True)
+class Fleet:
+    """A parsed inventory: its file, defaults and axes."""
+
+    path: Path
+    name: str
+    db: str
+    axes: tuple[AxisSpec, ...]
+
+
+def _where(loc: tuple[Any, ...], data: dict[str, Any]) -> tuple[str, str]:
+    """(table description, key) of a pydantic error location."""
+    parts = [p for p in loc if p not in ("float", "str", "int", "bool")]
+    if parts and parts[0] == "axis" and len(parts) >= 2 and isinstance(parts[1], int):
+        k = parts[1]
+        ident = ""
+        try:
+            ident = f" (id {data['axis'][k]['id']!r})"
+        except (KeyError, IndexError, TypeError):
+            pass
+        rest = [str(p) for p in parts[2:]]
+        table = f"[[axis]] #{k + 1}{ident}"
+        if len(rest) > 1:
+            table += " " + ".".join(rest[:-1])
+        return table, (rest[-1] if rest else "")
+    if len(parts) >= 2:
+        return f"[{'.'.join(str(p) for p in parts[:-1])}]", str(parts[-1])
+    return "top level", str(parts[0]) if parts else ""
+
+
+def _valid(table: str) -> list[str]:
+    if table.startswith("[[axis]]"):
+        return list(AxisSection.model_fields) if "time" not in table else ["from", *TimeSpec.model_fields]
+    if table == "[fleet]":
+        return list(FleetSection.model_fields)
+    if "time" in table:
+        return ["from", *TimeSpec.model_fields]
+    return ["fleet", "axis"]
+
+
+def _format(source: str, err: dict[str, Any], data: dict[str, Any]) -> str:
+    table, key = _where(tuple(err.get("loc", ())), data)
+    kind = err.get("type", "")
+    if kind == "extra_forbidden":
+        close = difflib.get_close_matches(key, [v for v in _valid(table) if v != "source"], n=1, cutoff=0.5)
+        hint = f"; did you mean '{close[0]}'?" if close else ""
+        return f"{source}: table {table}, key '{key}': unknown key{hint}"
+    if kind == "missing":
+        return f"{source}: table {table}, key '{key}': missing"
+    msg = str(err.get("msg", "invalid value")).replace("\n", " ")
+    msg = msg.removeprefix("Value error, ")
+    if key in ("", "time") and kind == "value_error":
+        return f"{source}: table {table}{' ' + key if key else ''}: {msg}"
+    got = err.get("input")
+    if not isinstance(got, dict | list) and kind != "value_error":
+        msg = f"{msg} (got {got!r})"
+    return f"{source}: table {table}, key '{key}': {msg}"
+
+
+def config_hash(drive: DriveConfig, method: str) -> str:
+    """SHA-256 (hex) of the drive configuration's canonical JSON and the method."""
+    doc = {"drive": drive.model_dump(mode="json", exclude_none=True), "method": method}
+    return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()
+
+
+def parse_fleet(data: dict[str, Any], path: Path) -> Fleet:
+    """Validate a parsed ``fleet.toml`` and resolve its axes (drive configs loaded).
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file, the table and the key.
+    """
+    src = str(path)
+    if not isinstance(data.get("axis"), list) and "axis" in data:
+        raise ConfigError(f"{src}: 'axis' must be an array of tables ([[axis]])")
+    try:
+        doc = FleetFile.model_validate(data)
+    except ValidationError as exc:
+        errors = sorted(exc.errors(), key=lambda e: e.get("type") != "extra_forbidden")
+        raise ConfigError(_format(src, errors[0], data)) from None
+    if not doc.axis:
+        raise ConfigError(f"{src}: no [[axis]] table: the fleet has no axes")
+    base = path.parent
+    seen: dict[str, int] = {}
+    axes = []
+    for k, a in enumerate(doc.axis):
+        table = f"[[axis]] #{k + 1} (id {a.id!r})"
+        if a.id in seen:
+            raise ConfigError(f"{src}: table {table}, key 'id': duplicate of [[axis]] #{seen[a.id] + 1}")
+        seen[a.id] = k
+        spec = a.time or doc.fleet.time
+        if spec is None:
+            raise ConfigError(f"{src}: table {table}, key 'time': missing (and no [fleet] time default)")
+        drive_path = (base / a.drive).resolve()
+        if not drive_path.is_file():
+            raise ConfigError(f"{src}: table {table}, key 'drive': no such drive configuration {drive_path}")
+        try:
+            drive = load_config(drive_path)
+            drive.to_drivetrain_params()
+            drive.require("backlash")
+        except DrivelashError as exc:
+            raise ConfigError(f"{src}: table {table}, key 'drive': {exc}") from None
+        thr = a.threshold if a.threshold_unit == "rad" else a.threshold / float(a.transmission or 1.0)
+        axes.append(
+            AxisSpec(
+                name=a.id,
+                drive_path=drive_path,
+                drive=drive,
+                drive_hash=config_hash(drive, doc.fleet.method),
+                recordings=str(base / a.recordings) if not Path(a.recordings).is_absolute() else a.recordings,
+                threshold_rad=float(thr),
+                transmission=a.transmission,
+                time=spec,
+                method=doc.fleet.method,
+                horizon_days=doc.fleet.horizon_days,
+                not_excited_alarm=doc.fleet.not_excited_alarm,
+            )
+        )
+    return Fleet(path=path, name=doc.fleet.name, db=doc.fleet.db, axes=tuple(axes))
+
+
+def load_fleet(path: str | Path) -> Fleet:
+    """Read, validate and resolve a ``fleet.toml`` (see the module docstring).
+
+    Raises
+    ------
+    ConfigError
+        Missing/unreadable file, TOML syntax, unknown/missing/invalid key, missing drive
+        configuration — one line naming file, table and key.
+    """
+    p = Path(path)
+    try:
+        text = p.read_bytes().decode("utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"{p}: no such fleet file") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{p}: is a directory, not a fleet TOML file") from None
+    except OSError as exc:
+        raise ConfigError(f"{p}: cannot read ({exc.strerror or exc})") from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"{p}: not a UTF-8 text file (is this a fleet TOML?)") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        msg = str(exc).splitlines()[0] if str(exc) else "syntax error"
+        raise ConfigError(f"{p}: TOML syntax error: {msg}") from None
+    return parse_fleet(data, p.resolve())

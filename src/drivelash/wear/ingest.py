@@ -1,0 +1,286 @@
+"""Ingest a fleet's recordings into the history store: workers compute, one writer commits.
+
+Pipeline of :func:`ingest`:
+
+1. **plan** (writer): register the fleet's axes; list each axis's recordings; skip the files
+   whose (path, size, mtime) already carry an estimate with this method, config hash and
+   code version (a shortcut — the identity remains the content hash, checked on commit);
+2. **compute** (workers): :func:`~drivelash.wear.estimate.estimate_recording` per file —
+   serially, in local processes (``workers``) or on a Dask distributed cluster
+   (``dask="local"`` starts a ``LocalCluster``; otherwise a scheduler address);
+3. **commit** (writer): results are committed in batches of ``batch_size`` rows (or every
+   ``batch_seconds``), each batch in one transaction. A crash (even SIGKILL) loses at most
+   the uncommitted batch, which the next run recomputes; a repeated result is skipped by
+   the store's unique keys, so every recording ends up stored exactly once.
+
+A worker that dies loses no recording: Dask reschedules its tasks (the scheduler's
+``allowed-failures``); the local pool is rebuilt and its pending tasks resubmitted, up to
+:data:`MAX_ATTEMPTS` times, after which the recording is stored as failed with that reason.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from drivelash.errors import DrivelashError
+from drivelash.wear.estimate import RecordingTask, code_version, estimate_recording, file_facts
+from drivelash.wear.fleet import Fleet
+from drivelash.wear.store import EstimateRow, Store
+
+__all__ = ["IngestReport", "ingest", "plan"]
+
+#: Times a recording is tried when its worker process dies before it is stored as failed.
+MAX_ATTEMPTS = 3
+#: Rows per committed batch, and the longest time between commits [s].
+BATCH_SIZE = 64
+BATCH_SECONDS = 2.0
+
+
+class SchedulerError(DrivelashError):
+    """The Dask scheduler cannot be reached or the cluster cannot be started."""
+
+
+@dataclass
+class IngestReport:
+    """What an ingest run did."""
+
+    planned: int = 0
+    skipped: int = 0
+    stored: int = 0
+    failed: int = 0
+    batches: int = 0
+    axes: list[str] = field(default_factory=list)
+    wall_s: float = 0.0
+    compute_s: float = 0.0
+    failures: list[str] = field(default_factory=list)
+
+
+def plan(fleet: Fleet, store: Store) -> tuple[dict[str, int], list[RecordingTask], int]:
+    """Register the axes and list the recordings still to estimate.
+
+    Returns
+    -------
+    axis_ids : dict
+        ``machine/axis`` → id in the store.
+    tasks : list of RecordingTask
+        Recordings without an estimate of this method/config/code version, by axis and path.
+    skipped : int
+        Recordings already stored.
+    """
+    ids = store.upsert_axes(fleet.axes)
+    ver = code_version()
+    tasks: list[RecordingTask] = []
+    skipped = 0
+    for a in fleet.axes:
+        known = store.known_files(ids[a.name], a.method, a.drive_hash, ver)
+        for p in a.files():
+            size, mtime = file_facts(p)
+            if (str(p), size, mtime) in known:
+                skipped += 1
+                continue
+            tasks.append(
+                RecordingTask(a.name, str(p), size, mtime, a.drive, a.time, a.method, a.drive_hash, ver)
+            )
+    return ids, tasks, skipped
+
+
+# ------------------------------------------------------------------------------------ executors
+def _serial(
+    tasks: Sequence[RecordingTask], fn: Callable[[RecordingTask], EstimateRow]
+) -> Iterator[EstimateRow]:
+    for t in tasks:
+        yield fn(t)
+
+
+def _died(task: RecordingTask, why: str) -> EstimateRow:
+    return EstimateRow(
+        axis=task.axis,
+        path=task.path,
+        size_bytes=task.size_bytes,
+        mtime_ns=task.mtime_ns,
+        content_hash=_content_hash_or_marker(task),
+        start_time=None,
+        duration_s=None,
+        sample_rate_hz=None,
+        samples=None,
+        method=task.method,
+        code_version=task.code_version,
+        config_hash=task.config_hash,
+        status="failed",
+        reason=f"{task.path}: {why}",
+    )
+
+
+def _content_hash_or_marker(task: RecordingTask) -> str:
+    import hashlib
+
+    try:
+        with open(task.path, "rb") as fh:
+            return hashlib.file_digest(fh, "sha256").hexdigest()
+    except OSError:
+        return "unreadable:" + hashlib.sha256(task.path.encode()).hexdigest()[:52]
+
+
+def _processes(
+    tasks: Sequence[RecordingTask], fn: Callable[[RecordingTask], EstimateRow], workers: int
+) -> Iterator[EstimateRow]:
+    """Local process pool; a dead worker breaks the pool: rebuild it and resubmit what is pending."""
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
+
+    attempts = dict.fromkeys(range(len(tasks)), 0)
+    pending_idx = list(range(len(tasks)))
+    while pending_idx:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            futs = {}
+            for i in pending_idx:
+                attempts[i] += 1
+                futs[pool.submit(fn, tasks[i])] = i
+            pending_idx = []
+            broken = False
+            remaining = set(futs)
+            while remaining:
+                done, remaining = wait(remaining, return_when=FIRST_COMPLETED)
+                for f in done:
+                    i = futs[f]
+                    try:
+                        yield f.result()
+                    except BrokenProcessPool:
+                        broken = True
+                        if attempts[i] >= MAX_ATTEMPTS:
+                            yield _died(
+                                tasks[i], f"worker process died {attempts[i]} times on this recording"
+                            )
+                        else:
+                            pending_idx.append(i)
+            if broken:
+                pending_idx.sort()
+
+
+def _dask(
+    tasks: Sequence[RecordingTask], fn: Callable[[RecordingTask], EstimateRow], address: str, workers: int
+) -> Iterator[EstimateRow]:
+    try:
+        from distributed import Client, LocalCluster, as_completed
+    except ImportError:  # pragma: no cover - dask is a pinned dependency of [batch]
+        raise SchedulerError(
+            "--dask: dask.distributed is not installed (pip install drivelash[batch])"
+        ) from None
+    import logging
+
+    logging.getLogger("distributed").setLevel(logging.ERROR)
+    cluster = None
+    try:
+        if address == "local":
+            cluster = LocalCluster(
+                n_workers=max(1, workers), threads_per_worker=1, processes=True, dashboard_address=None
+            )
+            client = Client(cluster)
+        else:
+            client = Client(address, timeout="10s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        if cluster is not None:
+            cluster.close()
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise SchedulerError(f"--dask {address}: cannot reach the scheduler ({msg})") from None
+    try:
+        futs = client.map(fn, list(tasks), pure=False, retries=0)
+        index = {f.key: i for i, f in enumerate(futs)}
+        for f in as_completed(futs):
+            i = index[f.key]
+            try:
+                yield f.result()
+            except Exception as exc:  # noqa: BLE001 - KilledWorker after repeated worker deaths
+                yield _died(tasks[i], f"worker died while estimating ({type(exc).__name__})")
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+# ------------------------------------------------------------------------------------ ingest
+def ingest(
+    fleet: Fleet,
+    store: Store,
+    *,
+    workers: int = 1,
+    dask: str | None = None,
+    batch_size: int = BATCH_SIZE,
+    batch_seconds: float = BATCH_SECONDS,
+    progress: Callable[[int, int], None] | None = None,
+    compute: Callable[[RecordingTask], EstimateRow] = estimate_recording,
+    update_alarms: bool = True,
+) -> IngestReport:
+    """Estimate every new recording of ``fleet`` and commit the results to ``store``.
+
+    Parameters
+    ----------
+    fleet : Fleet
+        The inventory (:func:`~drivelash.wear.fleet.load_fleet`).
+    store : Store
+        The history store.
+    workers : int
+        Local worker processes (1 = in this process); with ``dask="local"`` the
+        ``LocalCluster``'s worker count.
+    dask : str, optional
+        ``"local"`` or a scheduler address (``tcp://host:8786``).
+    batch_size, batch_seconds : int, float
+        Commit when this many results are waiting or this long after the last commit.
+    progress : callable, optional
+        ``progress(done, total)`` after each result.
+    compute : callable
+        The worker function (default :func:`~drivelash.wear.estimate.estimate_recording`).
+    update_alarms : bool
+        Re-evaluate trend, forecast and alarms of the axes at the end.
+
+    Returns
+    -------
+    IngestReport
+    """
+    t0 = time.perf_counter()
+    ids, tasks, skipped = plan(fleet, store)
+    rep = IngestReport(planned=len(tasks), skipped=skipped, axes=[a.name for a in fleet.axes])
+    if dask is not None:
+        results = _dask(tasks, compute, dask, workers)
+    elif workers > 1 and len(tasks) > 1:
+        results = _processes(tasks, compute, workers)
+    else:
+        results = _serial(tasks, compute)
+    batch: list[EstimateRow] = []
+    last = time.monotonic()
+    done = 0
+
+    def flush() -> None:
+        nonlocal batch, last
+        if batch:
+            rep.stored += store.commit_batch(batch, ids)
+            rep.batches += 1
+        batch = []
+        last = time.monotonic()
+
+    for row in results:
+        done += 1
+        rep.compute_s += row.runtime_s
+        if row.status != "ok":
+            rep.failed += 1
+            rep.failures.append(row.reason)
+        batch.append(row)
+        if len(batch) >= batch_size or time.monotonic() - last >= batch_seconds:
+            flush()
+        if progress is not None:
+            progress(done, len(tasks))
+    flush()
+    if update_alarms:
+        from drivelash.wear.alarms import refresh_alarms
+
+        refresh_alarms(store, [a.name for a in fleet.axes])
+    rep.wall_s = time.perf_counter() - t0
+    return rep
+
+
+def files_of(fleet: Fleet) -> list[Path]:
+    """Every recording file of the fleet (all axes), for reports and tests."""
+    return [p for a in fleet.axes for p in a.files()]

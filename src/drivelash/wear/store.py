@@ -1,0 +1,638 @@
+"""The wear history store: SQLAlchemy 2.x, schema versioned by the Alembic migrations shipped here.
+
+One :class:`Store` per database URL (any SQLAlchemy URL; a plain path is an SQLite file,
+opened in WAL mode). Opening a store runs ``alembic upgrade head``; a read-only open
+(``create=False``) refuses a file that does not exist instead of creating it.
+
+Identity (DESIGN.md): a recording is identified by the SHA-256 of its content (per axis);
+an estimate by (recording, method, config hash, code version). Every write is one
+transaction, so a crash leaves the store as it was before the batch or after it.
+
+Python API for other sources of the same axis (ISO 230-2 laser checks, …)::
+
+    from drivelash.wear.store import Store
+    with Store("wear.sqlite") as st:
+        st.add_measurement("M01/X", time, value=0.012, std=0.001, unit="mm", source="iso230-2",
+                           reference="laser-2026-03-01.csv")
+
+The value is kept in its unit and, when the axis has a transmission (mm per rad at the
+load), also in rad, so trend plots show it next to the recording-based estimates.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import asdict, dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import sqlalchemy as sa
+from sqlalchemy import event
+from sqlalchemy.engine import Engine
+from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError, OperationalError
+
+from drivelash.errors import DrivelashError
+
+__all__ = ["EstimateRow", "Store", "StoreError", "utc_naive"]
+
+MIGRATIONS = Path(__file__).parent / "migrations"
+#: Units a measurement may carry, and their factor to mm (rad needs no transmission).
+LENGTH_UNITS = {"mm": 1.0, "um": 1e-3, "µm": 1e-3, "m": 1e3}
+
+
+class StoreError(DrivelashError):
+    """The store cannot be opened or written (bad URL, unreachable server, locked file)."""
+
+
+def utc_naive(t: datetime | None) -> datetime | None:
+    """A datetime as naive UTC (how the store keeps time; SQLite has no zones)."""
+    if t is None:
+        return None
+    if t.tzinfo is not None:
+        t = t.astimezone(UTC).replace(tzinfo=None)
+    return t
+
+
+def _now() -> datetime:
+    return datetime.now(UTC).replace(tzinfo=None)
+
+
+meta = sa.MetaData()
+axis_t = sa.Table(
+    "axis",
+    meta,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("name", sa.String(200)),
+    sa.Column("machine", sa.String(100)),
+    sa.Column("drive_path", sa.Text),
+    sa.Column("drive_hash", sa.String(64)),
+    sa.Column("threshold_rad", sa.Float),
+    sa.Column("transmission_mm_per_rad", sa.Float),
+    sa.Column("horizon_days", sa.Float),
+    sa.Column("not_excited_alarm", sa.Integer),
+    sa.Column("updated_at", sa.DateTime),
+)
+recording_t = sa.Table(
+    "recording",
+    meta,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("axis_id", sa.Integer),
+    sa.Column("content_hash", sa.String(64)),
+    sa.Column("path", sa.Text),
+    sa.Column("size_bytes", sa.BigInteger),
+    sa.Column("mtime_ns", sa.BigInteger),
+    sa.Column("start_time", sa.DateTime),
+    sa.Column("duration_s", sa.Float),
+    sa.Column("sample_rate_hz", sa.Float),
+    sa.Column("samples", sa.BigInteger),
+)
+estimate_t = sa.Table(
+    "estimate",
+    meta,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("recording_id", sa.Integer),
+    sa.Column("axis_id", sa.Integer),
+    sa.Column("method", sa.String(32)),
+    sa.Column("code_version", sa.String(64)),
+    sa.Column("config_hash", sa.String(64)),
+    sa.Column("status", sa.String(8)),
+    sa.Column("reason", sa.Text),
+    sa.Column("delta", sa.Float),
+    sa.Column("delta1_estimate", sa.Float),
+    sa.Column("delta_std", sa.Float),
+    sa.Column("excitation_ok", sa.Boolean),
+    sa.Column("converged", sa.Boolean),
+    sa.Column("runtime_s", sa.Float),
+    sa.Column("created_at", sa.DateTime),
+)
+measurement_t = sa.Table(
+    "measurement",
+    meta,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("axis_id", sa.Integer),
+    sa.Column("source", sa.String(32)),
+    sa.Column("key", sa.String(128)),
+    sa.Column("time", sa.DateTime),
+    sa.Column("value", sa.Float),
+    sa.Column("std", sa.Float),
+    sa.Column("unit", sa.String(16)),
+    sa.Column("value_rad", sa.Float),
+    sa.Column("std_rad", sa.Float),
+    sa.Column("reference", sa.Text),
+    sa.Column("details", sa.Text),
+    sa.Column("created_at", sa.DateTime),
+)
+alarm_t = sa.Table(
+    "alarm",
+    meta,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("axis_id", sa.Integer),
+    sa.Column("kind", sa.String(32)),
+    sa.Column("key", sa.String(128)),
+    sa.Column("message", sa.Text),
+    sa.Column("data_time", sa.DateTime),
+    sa.Column("raised_at", sa.DateTime),
+    sa.Column("cleared_at", sa.DateTime),
+)
+
+
+@dataclass(frozen=True)
+class EstimateRow:
+    """One recording's result as the workers return it (one row each in recording and estimate).
+
+    Attributes
+    ----------
+    axis : str
+        ``machine/axis``.
+    path : str
+        The recording file.
+    size_bytes, mtime_ns : int
+        File size and modification time (a shortcut to skip unchanged files on a rerun;
+        the identity is ``content_hash``).
+    content_hash : str
+        SHA-256 of the file's bytes (hex).
+    start_time : datetime or None
+        Start of the recording, naive UTC (None when it could not be found).
+    duration_s, sample_rate_hz : float or None
+        Length [s] and sample rate [Hz].
+    samples : int or None
+        Number of samples.
+    method, code_version, config_hash : str
+        Estimate identity besides the recording.
+    status : {"ok", "failed"}
+        ``failed``: the recording could not be read or validated; ``reason`` says why.
+    reason : str
+        Failure reason, or the estimator's excitation reason.
+    delta : float or None
+        δ̂ [rad].
+    delta1_estimate : float or None
+        The estimator's δ1 estimate or check value [rad].
+    delta_std : float or None
+        Standard uncertainty of δ̂ [rad] from the estimator; None when it gives none
+        (never made up).
+    excitation_ok, converged : bool or None
+        The estimator's verdicts.
+    runtime_s : float
+        Wall time of read + validate + estimate in the worker [s].
+    """
+
+    axis: str
+    path: str
+    size_bytes: int
+    mtime_ns: int
+    content_hash: str
+    start_time: datetime | None
+    duration_s: float | None
+    sample_rate_hz: float | None
+    samples: int | None
+    method: str
+    code_version: str
+    config_hash: str
+    status: str
+    reason: str
+    delta: float | None = None
+    delta1_estimate: float | None = None
+    delta_std: float | None = None
+    excitation_ok: bool | None = None
+    converged: bool | None = None
+    runtime_s: float = 0.0
+
+    def values(self) -> dict[str, Any]:
+        """The result fields only (what must be bit-identical between runs)."""
+        d = asdict(self)
+        d.pop("runtime_s")
+        return d
+
+
+def _url(db: str | Path) -> sa.URL:
+    s = str(db)
+    try:
+        if "://" in s:
+            return sa.make_url(s)
+        return sa.URL.create("sqlite", database=str(Path(s).expanduser().resolve()))
+    except ArgumentError:
+        raise StoreError(f"--db {s!r}: not a database URL or file path") from None
+
+
+def _show(url: sa.URL) -> str:
+    return url.render_as_string(hide_password=True)
+
+
+def _brief(exc: BaseException) -> str:
+    """First line of a driver error, without SQLAlchemy's background links."""
+    orig = getattr(exc, "orig", None) or exc
+    text = str(orig).strip().splitlines()
+    return text[0] if text else type(orig).__name__
+
+
+class Store:
+    """The history store on one database.
+
+    Parameters
+    ----------
+    db : str or Path
+        An SQLAlchemy URL (``postgresql+psycopg://user@host/db``, ``sqlite:///x.sqlite``) or
+        a path of an SQLite file.
+    create : bool
+        Create the database (SQLite file) and run the migrations. With False, a missing
+        SQLite file is an error and the schema must already be at ``head``.
+    connect_timeout : float
+        Seconds to wait for a server [s].
+
+    Raises
+    ------
+    StoreError
+        Unreachable server, missing driver, bad URL, unreadable file — one line.
+    """
+
+    def __init__(self, db: str | Path, *, create: bool = True, connect_timeout: float = 10.0) -> None:
+        self.url = _url(db)
+        self.name = _show(self.url)
+        backend = self.url.get_backend_name()
+        kw: dict[str, Any] = {}
+        if backend == "sqlite":
+            path = self.url.database
+            if path and path != ":memory:":
+                p = Path(path)
+                if not create and not p.is_file():
+                    raise StoreError(f"{p}: no such store (run `drivelash track ingest` first or give --db)")
+                if not p.parent.is_dir():
+                    raise StoreError(f"{p}: directory {p.parent} does not exist")
+            kw["connect_args"] = {"timeout": 30.0}
+        elif backend == "postgresql":
+            kw["connect_args"] = {"connect_timeout": max(1, int(math.ceil(connect_timeout)))}
+        try:
+            self.engine: Engine = sa.create_engine(self.url, future=True, **kw)
+        except (NoSuchModuleError, ModuleNotFoundError, ArgumentError) as exc:
+            raise StoreError(f"--db {self.name}: unsupported database or missing driver ({exc})") from None
+        if backend == "sqlite":
+            event.listen(self.engine, "connect", _sqlite_pragmas)
+        try:
+            self._migrate(create)
+        except (OperationalError, DBAPIError) as exc:
+            self.engine.dispose()
+            raise StoreError(f"--db {self.name}: cannot open the store ({_brief(exc)})") from None
+
+    # -- set-up ----------------------------------------------------------------------------
+    def _migrate(self, create: bool) -> None:
+        from alembic import command
+        from alembic.config import Config
+        from alembic.runtime.migration import MigrationContext
+        from alembic.script import ScriptDirectory
+
+        cfg = Config()
+        cfg.set_main_option("script_location", str(MIGRATIONS))
+        head = ScriptDirectory.from_config(cfg).get_current_head()
+        with self.engine.connect() as conn:
+            current = MigrationContext.configure(conn).get_current_revision()
+        if current == head:
+            return
+        if not create:
+            raise StoreError(
+                f"--db {self.name}: schema revision {current} is not the current {head} "
+                "(run `drivelash track ingest` to migrate)"
+            )
+        with self.engine.begin() as conn:
+            cfg.attributes["connection"] = conn
+            command.upgrade(cfg, "head")
+
+    def close(self) -> None:
+        """Release the connection pool."""
+        self.engine.dispose()
+
+    def __enter__(self) -> Store:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def revision(self) -> str | None:
+        """The schema revision of the database (Alembic)."""
+        from alembic.runtime.migration import MigrationContext
+
+        with self.engine.connect() as conn:
+            return MigrationContext.configure(conn).get_current_revision()
+
+    # -- axes ------------------------------------------------------------------------------
+    def upsert_axes(self, axes: Iterable[Any]) -> dict[str, int]:
+        """Insert or update the axes of a fleet (``AxisSpec``-like objects); returns name → id."""
+        ids: dict[str, int] = {}
+        now = _now()
+        with self.engine.begin() as conn:
+            for a in axes:
+                vals = {
+                    "name": a.name,
+                    "machine": a.name.split("/", 1)[0],
+                    "drive_path": str(a.drive_path),
+                    "drive_hash": a.drive_hash,
+                    "threshold_rad": a.threshold_rad,
+                    "transmission_mm_per_rad": a.transmission,
+                    "horizon_days": a.horizon_days,
+                    "not_excited_alarm": a.not_excited_alarm,
+                    "updated_at": now,
+                }
+                row = conn.execute(sa.select(axis_t.c.id).where(axis_t.c.name == a.name)).first()
+                if row is None:
+                    ids[a.name] = int(conn.execute(sa.insert(axis_t).values(**vals)).inserted_primary_key[0])
+                else:
+                    conn.execute(sa.update(axis_t).where(axis_t.c.id == row.id).values(**vals))
+                    ids[a.name] = int(row.id)
+        return ids
+
+    def axis_id(self, name: str, conn: sa.Connection | None = None) -> int:
+        """Id of axis ``name`` (ensured to exist: an unknown axis is a one-line error)."""
+        q = sa.select(axis_t.c.id).where(axis_t.c.name == name)
+        row = (conn.execute(q) if conn is not None else self._read(q)).first()
+        if row is None:
+            known = [r.name for r in self._read(sa.select(axis_t.c.name).order_by(axis_t.c.name))]
+            import difflib
+
+            close = difflib.get_close_matches(name, known, n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else f" ({len(known)} axes in the store)"
+            raise StoreError(f"{self.name}: no axis {name!r}{hint}")
+        return int(row.id)
+
+    def axes(self) -> list[dict[str, Any]]:
+        """Every axis as a dict (columns of the axis table), sorted by name."""
+        return [dict(r._mapping) for r in self._read(sa.select(axis_t).order_by(axis_t.c.name))]
+
+    def _read(self, q: Any) -> sa.CursorResult[Any]:
+        with self.engine.connect() as conn:
+            return conn.execute(q).all()  # type: ignore[return-value]
+
+    # -- recordings and estimates -------------------------------------------------------------
+    def known_files(self, axis_id: int, method: str, config_hash: str, code_version: str) -> set[tuple]:
+        """(path, size, mtime_ns) of recordings of the axis that already have this estimate."""
+        q = (
+            sa.select(recording_t.c.path, recording_t.c.size_bytes, recording_t.c.mtime_ns)
+            .join(estimate_t, estimate_t.c.recording_id == recording_t.c.id)
+            .where(
+                recording_t.c.axis_id == axis_id,
+                estimate_t.c.method == method,
+                estimate_t.c.config_hash == config_hash,
+                estimate_t.c.code_version == code_version,
+            )
+        )
+        return {(r.path, int(r.size_bytes), int(r.mtime_ns)) for r in self._read(q)}
+
+    def commit_batch(self, rows: Sequence[EstimateRow], axis_ids: dict[str, int]) -> int:
+        """Store a batch of results in ONE transaction; returns how many estimates were new.
+
+        Idempotent: a recording (axis, content hash) is stored once; an estimate (recording,
+        method, config hash, code version) is stored once — a repeated row is skipped.
+        """
+        new = 0
+        now = _now()
+        with self.engine.begin() as conn:
+            for r in rows:
+                aid = axis_ids[r.axis]
+                rec = conn.execute(
+                    sa.select(recording_t.c.id).where(
+                        recording_t.c.axis_id == aid, recording_t.c.content_hash == r.content_hash
+                    )
+                ).first()
+                if rec is None:
+                    rid = conn.execute(
+                        sa.insert(recording_t).values(
+                            axis_id=aid,
+                            content_hash=r.content_hash,
+                            path=r.path,
+                            size_bytes=r.size_bytes,
+                            mtime_ns=r.mtime_ns,
+                            start_time=utc_naive(r.start_time),
+                            duration_s=r.duration_s,
+                            sample_rate_hz=r.sample_rate_hz,
+                            samples=r.samples,
+                        )
+                    ).inserted_primary_key[0]
+                else:
+                    rid = rec.id
+                    # the same content under a new name or time stamp: keep the newest file facts
+                    conn.execute(
+                        sa.update(recording_t)
+                        .where(recording_t.c.id == rid)
+                        .values(path=r.path, size_bytes=r.size_bytes, mtime_ns=r.mtime_ns)
+                    )
+                dup = conn.execute(
+                    sa.select(estimate_t.c.id).where(
+                        estimate_t.c.recording_id == rid,
+                        estimate_t.c.method == r.method,
+                        estimate_t.c.config_hash == r.config_hash,
+                        estimate_t.c.code_version == r.code_version,
+                    )
+                ).first()
+                if dup is not None:
+                    continue
+                conn.execute(
+                    sa.insert(estimate_t).values(
+                        recording_id=rid,
+                        axis_id=aid,
+                        method=r.method,
+                        code_version=r.code_version,
+                        config_hash=r.config_hash,
+                        status=r.status,
+                        reason=r.reason,
+                        delta=_finite(r.delta),
+                        delta1_estimate=_finite(r.delta1_estimate),
+                        delta_std=_finite(r.delta_std),
+                        excitation_ok=r.excitation_ok,
+                        converged=r.converged,
+                        runtime_s=r.runtime_s,
+                        created_at=now,
+                    )
+                )
+                new += 1
+        return new
+
+    def estimates(self, axis: str | None = None) -> list[dict[str, Any]]:
+        """Recording-based estimates joined with their recordings, ordered by axis and time.
+
+        Each dict has the estimate's columns plus ``axis``, ``path``, ``content_hash``,
+        ``start_time``, ``duration_s``, ``sample_rate_hz``, ``samples``.
+        """
+        q = (
+            sa.select(
+                axis_t.c.name.label("axis"),
+                recording_t.c.path,
+                recording_t.c.content_hash,
+                recording_t.c.start_time,
+                recording_t.c.duration_s,
+                recording_t.c.sample_rate_hz,
+                recording_t.c.samples,
+                recording_t.c.size_bytes,
+                recording_t.c.mtime_ns,
+                *[c for c in estimate_t.c if c.name not in ("axis_id", "recording_id")],
+            )
+            .join(recording_t, recording_t.c.id == estimate_t.c.recording_id)
+            .join(axis_t, axis_t.c.id == estimate_t.c.axis_id)
+            .order_by(axis_t.c.name, recording_t.c.start_time, recording_t.c.path, estimate_t.c.id)
+        )
+        if axis is not None:
+            q = q.where(axis_t.c.name == axis)
+        return [dict(r._mapping) for r in self._read(q)]
+
+    def counts(self) -> dict[str, int]:
+        """Rows per table (for status lines and tests)."""
+        out = {}
+        with self.engine.connect() as conn:
+            for t in (axis_t, recording_t, estimate_t, measurement_t, alarm_t):
+                out[t.name] = int(conn.execute(sa.select(sa.func.count()).select_from(t)).scalar_one())
+        return out
+
+    # -- other sources ---------------------------------------------------------------------------
+    def add_measurement(
+        self,
+        axis: str,
+        time: datetime,
+        value: float,
+        std: float | None,
+        unit: str,
+        source: str = "iso230-2",
+        *,
+        reference: str | None = None,
+        key: str | None = None,
+        details: dict[str, Any] | None = None,
+    ) -> int:
+        """Store a backlash value from another source (e.g. an ISO 230-2 reversal value B).
+
+        Parameters
+        ----------
+        axis : str
+            ``machine/axis`` (must exist: ingest the fleet first).
+        time : datetime
+            When it was measured (naive = UTC).
+        value : float
+            The value, e.g. B at the load [``unit``].
+        std : float or None
+            Its standard uncertainty [``unit``] (None when unknown).
+        unit : {"rad", "mm", "um", "m"}
+            Unit of ``value``/``std``; lengths are converted to rad with the axis's
+            transmission when it has one.
+        source : str
+            Kind of measurement, e.g. ``"iso230-2"``.
+        reference : str, optional
+            Where it came from (file, report).
+        key : str, optional
+            Identity for idempotency (default: the time stamp); storing the same
+            (axis, source, key) again returns the existing row's id.
+        details : dict, optional
+            JSON-serialisable extras (e.g. the other ISO 230-2 quantities).
+
+        Returns
+        -------
+        int
+            The measurement's id.
+        """
+        if unit != "rad" and unit not in LENGTH_UNITS:
+            raise StoreError(f"measurement unit {unit!r}: must be rad, mm, um or m")
+        if not (isinstance(value, int | float) and math.isfinite(value)):
+            raise StoreError(f"measurement value: must be a finite number, got {value!r}")
+        if std is not None and not (math.isfinite(std) and std >= 0):
+            raise StoreError(f"measurement std: must be finite and >= 0, got {std!r}")
+        t = utc_naive(time)
+        k = key if key is not None else t.isoformat()
+        with self.engine.begin() as conn:
+            aid = self.axis_id(axis, conn)
+            old = conn.execute(
+                sa.select(measurement_t.c.id).where(
+                    measurement_t.c.axis_id == aid, measurement_t.c.source == source, measurement_t.c.key == k
+                )
+            ).first()
+            if old is not None:
+                return int(old.id)
+            tr = conn.execute(sa.select(axis_t.c.transmission_mm_per_rad).where(axis_t.c.id == aid)).scalar()
+            if unit == "rad":
+                v_rad, s_rad = float(value), std
+            elif tr:
+                f = LENGTH_UNITS[unit] / float(tr)
+                v_rad, s_rad = float(value) * f, (None if std is None else float(std) * f)
+            else:
+                v_rad, s_rad = None, None
+            return int(
+                conn.execute(
+                    sa.insert(measurement_t).values(
+                        axis_id=aid,
+                        source=source,
+                        key=k,
+                        time=t,
+                        value=float(value),
+                        std=std,
+                        unit=unit,
+                        value_rad=v_rad,
+                        std_rad=s_rad,
+                        reference=reference,
+                        details=json.dumps(details) if details else None,
+                        created_at=_now(),
+                    )
+                ).inserted_primary_key[0]
+            )
+
+    def measurements(self, axis: str | None = None) -> list[dict[str, Any]]:
+        """Measurements of other sources, with ``axis``, ordered by axis and time."""
+        q = (
+            sa.select(axis_t.c.name.label("axis"), *[c for c in measurement_t.c if c.name != "axis_id"])
+            .join(axis_t, axis_t.c.id == measurement_t.c.axis_id)
+            .order_by(axis_t.c.name, measurement_t.c.time)
+        )
+        if axis is not None:
+            q = q.where(axis_t.c.name == axis)
+        return [dict(r._mapping) for r in self._read(q)]
+
+    # -- alarms ------------------------------------------------------------------------------------
+    def sync_alarms(self, axis: str, alarms: Sequence[Any]) -> None:
+        """Make the axis's active alarms equal ``alarms`` (objects with kind, key, message,
+        data_time): new ones are raised, ones no longer present are cleared (kept as history)."""
+        now = _now()
+        with self.engine.begin() as conn:
+            aid = self.axis_id(axis, conn)
+            rows = conn.execute(sa.select(alarm_t).where(alarm_t.c.axis_id == aid)).all()
+            have = {(r.kind, r.key): r for r in rows}
+            want = {(a.kind, a.key): a for a in alarms}
+            for k, a in want.items():
+                r = have.get(k)
+                if r is None:
+                    conn.execute(
+                        sa.insert(alarm_t).values(
+                            axis_id=aid,
+                            kind=a.kind,
+                            key=a.key,
+                            message=a.message,
+                            data_time=utc_naive(a.data_time),
+                            raised_at=now,
+                            cleared_at=None,
+                        )
+                    )
+                else:
+                    conn.execute(
+                        sa.update(alarm_t)
+                        .where(alarm_t.c.id == r.id)
+                        .values(message=a.message, data_time=utc_naive(a.data_time), cleared_at=None)
+                    )
+            for k, r in have.items():
+                if k not in want and r.cleared_at is None:
+                    conn.execute(sa.update(alarm_t).where(alarm_t.c.id == r.id).values(cleared_at=now))
+
+    def alarms(self, active_only: bool = True) -> list[dict[str, Any]]:
+        """Alarms with ``axis``, newest data first."""
+        q = sa.select(axis_t.c.name.label("axis"), *[c for c in alarm_t.c if c.name != "axis_id"]).join(
+            axis_t, axis_t.c.id == alarm_t.c.axis_id
+        )
+        if active_only:
+            q = q.where(alarm_t.c.cleared_at.is_(None))
+        q = q.order_by(axis_t.c.name, alarm_t.c.kind, alarm_t.c.key)
+        return [dict(r._mapping) for r in self._read(q)]
+
+
+def _finite(x: float | None) -> float | None:
+    return float(x) if x is not None and math.isfinite(x) else None
+
+
+def _sqlite_pragmas(dbapi_conn: Any, _record: Any) -> None:
+    cur = dbapi_conn.cursor()
+    cur.execute("PRAGMA journal_mode=WAL")
+    cur.execute("PRAGMA synchronous=NORMAL")
+    cur.execute("PRAGMA foreign_keys=ON")
+    cur.close()

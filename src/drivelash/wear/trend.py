@@ -1,0 +1,445 @@
+"""Per-axis wear trend: change points, outliers, growth models, forecast of the threshold crossing.
+
+Input: the axis's estimates in time order. Only estimates that are ``ok``, excited and
+converged enter (an unexcited recording never enters a trend). Steps (numbers in
+docs/assumptions.md, "Wear tracking"):
+
+1. **Noise scale** σ̂: the MAD of second differences / √6 (insensitive to a trend and to
+   isolated jumps), floored at :data:`SIGMA_FLOOR`.
+2. **Change points** (sudden damage or maintenance): ``ruptures.Pelt`` with a piecewise-linear
+   cost proposes breaks (penalty :data:`PEN_FACTOR`·ln n·σ̂²); a break is kept only if the first
+   two recordings after it both lie more than J_min = max(:data:`JUMP_SIGMA`·σ̂,
+   :data:`JUMP_MIN`, :data:`JUMP_STEPS` × the median change between recordings before it)
+   from the local trend of up to :data:`JUMP_PRE` recordings before it
+   (quadratic from 5 points on), on the same side — so a jump is flagged on its second
+   recording, a lone outlier never.
+3. **Outliers**: residuals from a running median of 5 within each segment; |r| >
+   max(:data:`OUTLIER_SIGMA`·σ̂, :data:`OUTLIER_FLOOR`) is an outlier and leaves the fit.
+4. **Growth models** on the inliers, with one level-shift term per change point and weights
+   1/σ_i² when the estimator gives uncertainties (else equal; the scale is estimated):
+   *linear* δ = a + b t (``statsmodels`` WLS) and *accelerating* δ = a + v (e^{kt} − 1)/k,
+   k ≥ 0 (nested: k → 0 is linear; ``scipy.optimize.least_squares``). The accelerating model is
+   chosen only when its AICc is lower by more than :data:`AICC_MARGIN` (Burnham & Anderson's
+   "substantial support").
+5. **Forecast**: the fitted mean crosses the threshold at t*; the 90 % interval of t* comes from
+   inverting the pointwise 90 % confidence band of the mean (the upper band's crossing is the
+   early bound, the lower band's the late one; never = ∞). Prediction bands for a new
+   estimate (mean band widened by the residual scale) are drawn in the plots.
+6. **Monotone trend** for display: isotonic regression (scikit-learn) per segment.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from datetime import datetime, timedelta
+from typing import Any
+
+import numpy as np
+
+__all__ = ["AxisTrend", "ChangePoint", "Forecast", "analyse", "fit_trend"]
+
+#: Lower bound of the noise scale σ̂ [rad] (estimates agree better than the encoder model).
+SIGMA_FLOOR = 2e-5
+#: Change-point search penalty: PEN_FACTOR · ln(n) · σ̂².
+PEN_FACTOR = 6.0
+#: A jump must exceed JUMP_SIGMA · σ̂ …
+JUMP_SIGMA = 8.0
+#: … and JUMP_MIN [rad] (2 mrad: below it a jump is not "sudden damage" for maintenance).
+JUMP_MIN = 2e-3
+#: … and JUMP_STEPS times the median change between consecutive recordings before it
+#: (fast but smooth wear is not a jump).
+JUMP_STEPS = 3.0
+#: Recordings before a break whose linear trend is the jump's reference.
+JUMP_PRE = 10
+#: Outlier rule: |residual from the running median| > max(OUTLIER_SIGMA · σ̂, OUTLIER_FLOOR).
+OUTLIER_SIGMA = 6.0
+OUTLIER_FLOOR = 0.5e-3
+#: The accelerating model needs an AICc lower by more than this.
+AICC_MARGIN = 2.0
+#: Two-sided level of the forecast interval and bands.
+LEVEL = 0.90
+#: Fewest inliers for a forecast.
+MIN_POINTS = 5
+#: Longest forecast look-ahead, in multiples of the data span (and at least 365 days).
+LOOKAHEAD_SPANS = 20.0
+
+
+@dataclass(frozen=True)
+class ChangePoint:
+    """A detected jump: at recording ``index`` (of the used series), size [rad]."""
+
+    index: int
+    t_days: float
+    size: float
+
+
+@dataclass
+class Forecast:
+    """Threshold crossing of the fitted mean, in days since the axis's first used estimate.
+
+    ``t_cross`` is None when the mean never reaches the threshold within the look-ahead;
+    ``t_late`` is ``inf`` when the lower band never does.
+    """
+
+    t_cross: float | None
+    t_early: float | None
+    t_late: float | None
+    crossed: bool
+
+
+@dataclass
+class AxisTrend:
+    """Everything the trend analysis found for one axis (times in days since ``t0``)."""
+
+    t0: datetime | None
+    t: np.ndarray
+    y: np.ndarray
+    inlier: np.ndarray
+    change_points: list[ChangePoint]
+    sigma: float
+    model: str | None
+    params: dict[str, float]
+    aicc: dict[str, float]
+    forecast: Forecast | None
+    threshold: float | None
+    isotonic: np.ndarray
+    _curve: Any = field(default=None, repr=False)
+
+    def curve(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(mean, lower, upper, pred_lower, pred_upper) of the fitted model at days ``t`` [rad]."""
+        if self._curve is None:
+            nan = np.full(np.shape(t), np.nan)
+            return nan, nan, nan, nan, nan
+        return self._curve(np.asarray(t, dtype=float))
+
+    def to_time(self, days: float | None) -> datetime | None:
+        """Days since ``t0`` as a datetime (None for None or ∞)."""
+        if days is None or self.t0 is None or not math.isfinite(days):
+            return None
+        return self.t0 + timedelta(days=float(days))
+
+
+# ------------------------------------------------------------------------------- noise, jumps
+def noise_scale(y: np.ndarray) -> float:
+    """Robust noise σ̂ [rad]: 1.4826 · MAD(Δ²y) / √6, floored at :data:`SIGMA_FLOOR`."""
+    if y.size < 4:
+        return SIGMA_FLOOR
+    d2 = np.diff(y, 2)
+    mad = float(np.median(np.abs(d2 - np.median(d2))))
+    return max(1.4826 * mad / math.sqrt(6.0), SIGMA_FLOOR)
+
+
+def _local_fit(t: np.ndarray, y: np.ndarray) -> np.poly1d:
+    """Local trend before a candidate break: quadratic from 5 points on (smooth acceleration
+    must not look like a jump), linear below."""
+    deg = 2 if t.size >= 5 else min(1, t.size - 1)
+    return np.poly1d(np.polyfit(t - t[-1], y, deg))
+
+
+def detect_jumps(t: np.ndarray, y: np.ndarray, sigma: float | None = None) -> list[ChangePoint]:
+    """Change points of a δ̂ series (see the module docstring, step 2).
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Days, increasing.
+    y : numpy.ndarray
+        δ̂ [rad].
+    sigma : float, optional
+        Noise scale [rad]; default :func:`noise_scale`.
+    """
+    import ruptures as rpt
+
+    n = y.size
+    if n < 4:
+        return []
+    s = noise_scale(y) if sigma is None else sigma
+    signal = np.column_stack([y, np.ones(n), t - t[0]])
+    algo = rpt.Pelt(model="linear", min_size=2, jump=1).fit(signal)
+    bkps = [b for b in algo.predict(pen=PEN_FACTOR * math.log(n) * s * s) if 0 < b < n]
+    j_min = max(JUMP_SIGMA * s, JUMP_MIN)
+    found: list[ChangePoint] = []
+    last = 0
+    for b in sorted(bkps):
+        lo = max(last, b - JUMP_PRE)
+        if b - lo < 2:
+            continue
+        ref = _local_fit(t[lo:b], y[lo:b])
+        post = y[b : b + 2] - ref(t[b : b + 2] - t[b - 1])
+        # the recent wear increment per recording: a jump is sudden against it
+        step = float(np.median(np.abs(np.diff(y[lo:b])))) if b - lo >= 2 else 0.0
+        j_b = max(j_min, JUMP_STEPS * step)
+        if post.size < 2 or not (np.all(np.abs(post) > j_b) and np.sign(post[0]) == np.sign(post[1])):
+            continue
+        tail = y[b : b + 5] - ref(t[b : b + 5] - t[b - 1])
+        found.append(ChangePoint(index=int(b), t_days=float(t[b]), size=float(np.median(tail))))
+        last = b
+    return found
+
+
+# ------------------------------------------------------------------------------- models
+def _steps(t: np.ndarray, cps: list[ChangePoint]) -> np.ndarray:
+    return (
+        np.column_stack([(t >= c.t_days - 1e-9).astype(float) for c in cps]) if cps else np.zeros((t.size, 0))
+    )
+
+
+def _expm1_over_k(k: float, t: np.ndarray) -> np.ndarray:
+    """(e^{kt} − 1)/k, continuous at k = 0 (→ t)."""
+    if abs(k) < 1e-12:
+        return t.copy()
+    return np.expm1(k * t) / k
+
+
+def _d_dk(k: float, t: np.ndarray) -> np.ndarray:
+    """∂/∂k of (e^{kt} − 1)/k (→ t²/2 at k = 0)."""
+    if abs(k) < 1e-9:
+        return 0.5 * t * t
+    return (t * np.exp(k * t) * k - np.expm1(k * t)) / (k * k)
+
+
+def _aicc(rss: float, n: int, p: int) -> float:
+    if n - p - 1 <= 0 or rss <= 0:
+        return math.inf if rss > 0 else -math.inf
+    return n * math.log(rss / n) + 2 * p + 2 * p * (p + 1) / (n - p - 1)
+
+
+@dataclass
+class _Fit:
+    name: str
+    params: dict[str, float]
+    rss: float
+    aicc: float
+    curve: Any
+
+
+def _fit_linear(t: np.ndarray, y: np.ndarray, w: np.ndarray, cps: list[ChangePoint]) -> _Fit:
+    import statsmodels.api as sm
+
+    X = np.column_stack([np.ones_like(t), t, _steps(t, cps)])
+    res = sm.WLS(y, X, weights=w).fit()
+    n, p = y.size, X.shape[1]
+    rss = float(np.sum(w * res.resid**2))
+    scale = float(res.scale)
+
+    def curve(tt: np.ndarray):
+        Xn = np.column_stack([np.ones_like(tt), tt, _steps(tt, cps)])
+        pr = res.get_prediction(Xn)
+        mean = pr.predicted_mean
+        lo, hi = pr.conf_int(alpha=1 - LEVEL).T
+        from scipy.stats import t as student
+
+        q = student.ppf(0.5 + LEVEL / 2, max(n - p, 1))
+        half = q * np.sqrt(pr.var_pred_mean + scale / np.mean(w))
+        return mean, lo, hi, mean - half, mean + half
+
+    params = {"a": float(res.params[0]), "b": float(res.params[1])}
+    params.update({f"J{i}": float(v) for i, v in enumerate(res.params[2:])})
+    return _Fit("linear", params, rss, _aicc(rss, n, p), curve)
+
+
+def _fit_accelerating(
+    t: np.ndarray, y: np.ndarray, w: np.ndarray, cps: list[ChangePoint], lin: _Fit
+) -> _Fit | None:
+    from scipy.optimize import least_squares
+    from scipy.stats import t as student
+
+    span = float(t[-1] - t[0]) if t.size > 1 else 1.0
+    if span <= 0:
+        return None
+    S = _steps(t, cps)
+    sw = np.sqrt(w)
+    nj = S.shape[1]
+
+    def model(p: np.ndarray, tt: np.ndarray, SS: np.ndarray) -> np.ndarray:
+        a, v, k = p[0], p[1], p[2]
+        return a + v * _expm1_over_k(k, tt) + (SS @ p[3:] if nj else 0.0)
+
+    def jac(p: np.ndarray, tt: np.ndarray, SS: np.ndarray) -> np.ndarray:
+        v, k = p[1], p[2]
+        cols = [np.ones_like(tt), _expm1_over_k(k, tt), v * _d_dk(k, tt)]
+        return np.column_stack([*cols, SS]) if nj else np.column_stack(cols)
+
+    best = None
+    b0 = max(lin.params["b"], 1e-12)
+    J0 = [lin.params.get(f"J{i}", 0.0) for i in range(nj)]
+    for k0 in (0.3 / span, 1.0 / span, 3.0 / span):
+        p0 = np.array([lin.params["a"], b0, k0, *J0])
+        lb = np.array([-np.inf, 0.0, 0.0] + [-np.inf] * nj)
+        ub = np.array([np.inf, np.inf, 50.0 / span] + [np.inf] * nj)
+        try:
+            r = least_squares(
+                lambda p: sw * (model(p, t, S) - y),
+                p0,
+                jac=lambda p: sw[:, None] * jac(p, t, S),
+                bounds=(lb, ub),
+                x_scale="jac",
+                max_nfev=400,
+            )
+        except (ValueError, FloatingPointError):
+            continue
+        if best is None or r.cost < best.cost:
+            best = r
+    if best is None:
+        return None
+    p = best.x
+    n, q = y.size, p.size
+    rss = float(2.0 * best.cost)
+    dof = max(n - q, 1)
+    s2 = rss / dof
+    Jm = sw[:, None] * jac(p, t, S)
+    try:
+        cov = s2 * np.linalg.pinv(Jm.T @ Jm)
+    except np.linalg.LinAlgError:
+        return None
+    tq = float(student.ppf(0.5 + LEVEL / 2, dof))
+    wbar = float(np.mean(w))
+
+    def curve(tt: np.ndarray):
+        SS = _steps(tt, cps)
+        mean = model(p, tt, SS)
+        G = jac(p, tt, SS)
+        var = np.einsum("ij,jk,ik->i", G, cov, G)
+        half = tq * np.sqrt(np.maximum(var, 0.0))
+        halfp = tq * np.sqrt(np.maximum(var, 0.0) + s2 / wbar)
+        return mean, mean - half, mean + half, mean - halfp, mean + halfp
+
+    params = {"a": float(p[0]), "v": float(p[1]), "k": float(p[2])}
+    params.update({f"J{i}": float(v) for i, v in enumerate(p[3:])})
+    return _Fit("accelerating", params, rss, _aicc(rss, n, q), curve)
+
+
+def _first_crossing(tt: np.ndarray, f: np.ndarray, thr: float) -> float | None:
+    above = f >= thr
+    if not above.any():
+        return None
+    i = int(np.argmax(above))
+    if i == 0:
+        return float(tt[0])
+    f0, f1 = f[i - 1], f[i]
+    return float(tt[i - 1] + (thr - f0) * (tt[i] - tt[i - 1]) / (f1 - f0)) if f1 != f0 else float(tt[i])
+
+
+def _isotonic(t: np.ndarray, y: np.ndarray, w: np.ndarray, cps: list[ChangePoint]) -> np.ndarray:
+    from sklearn.isotonic import IsotonicRegression
+
+    out = np.empty_like(y)
+    edges = [0, *[c.index for c in cps], y.size]
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        if b > a:
+            out[a:b] = IsotonicRegression(increasing=True).fit_transform(t[a:b], y[a:b], sample_weight=w[a:b])
+    return out
+
+
+def _running_median_resid(y: np.ndarray, cps: list[ChangePoint], half: int = 2) -> np.ndarray:
+    r = np.zeros_like(y)
+    edges = [0, *[c.index for c in cps], y.size]
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        for i in range(a, b):
+            lo, hi = max(a, i - half), min(b, i + half + 1)
+            r[i] = y[i] - np.median(y[lo:hi])
+    return r
+
+
+def fit_trend(
+    t: np.ndarray,
+    y: np.ndarray,
+    std: np.ndarray | None = None,
+    threshold: float | None = None,
+    t0: datetime | None = None,
+) -> AxisTrend:
+    """Trend, change points and forecast of one axis's used estimates.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Days since ``t0``, increasing.
+    y : numpy.ndarray
+        δ̂ [rad].
+    std : numpy.ndarray, optional
+        Standard uncertainty of each δ̂ [rad]; NaN = unknown (then all weights are equal).
+    threshold : float, optional
+        Maintenance threshold [rad].
+    t0 : datetime, optional
+        Time of ``t = 0``.
+    """
+    t = np.asarray(t, dtype=float)
+    y = np.asarray(y, dtype=float)
+    n = y.size
+    if std is not None and n and np.all(np.isfinite(std)) and np.all(np.asarray(std) > 0):
+        w_all = 1.0 / np.asarray(std, dtype=float) ** 2
+        w_all = w_all / np.mean(w_all)
+    else:
+        w_all = np.ones(n)
+    sigma = noise_scale(y)
+    cps = detect_jumps(t, y, sigma) if n >= 4 else []
+    inl = np.ones(n, dtype=bool)
+    if n >= 5:
+        r = _running_median_resid(y, cps)
+        inl = np.abs(r) <= max(OUTLIER_SIGMA * sigma, OUTLIER_FLOOR)
+    iso = _isotonic(t, y, w_all, cps) if n else y.copy()
+    trend = AxisTrend(t0, t, y, inl, cps, sigma, None, {}, {}, None, threshold, iso)
+    ti, yi, wi = t[inl], y[inl], w_all[inl]
+    keep = [c for c in cps if np.any(ti >= c.t_days - 1e-9) and np.any(ti < c.t_days - 1e-9)]
+    if yi.size < MIN_POINTS + len(keep):
+        return trend
+    lin = _fit_linear(ti, yi, wi, keep)
+    fits = {"linear": lin}
+    acc = _fit_accelerating(ti, yi, wi, keep, lin) if yi.size >= MIN_POINTS + 1 + len(keep) else None
+    if acc is not None:
+        fits["accelerating"] = acc
+    trend.aicc = {k: f.aicc for k, f in fits.items()}
+    chosen = lin
+    if acc is not None and acc.aicc < lin.aicc - AICC_MARGIN and acc.params["k"] > 0:
+        chosen = acc
+    trend.model = chosen.name
+    trend.params = chosen.params
+    trend._curve = chosen.curve
+    if threshold is not None:
+        trend.forecast = _forecast(trend, float(ti[-1]), float(ti[-1] - ti[0]), threshold)
+    return trend
+
+
+def _forecast(trend: AxisTrend, t_last: float, span: float, thr: float) -> Forecast:
+    now_mean = float(trend.curve(np.array([t_last]))[0][0])
+    ahead = max(LOOKAHEAD_SPANS * max(span, 1.0), 365.0)
+    tt = np.linspace(t_last, t_last + ahead, 40001)
+    mean, lo, hi, _, _ = trend.curve(tt)
+    if now_mean >= thr:
+        # crossed: when did the fitted mean cross (looking back over the data)?
+        back = np.linspace(trend.t[0], t_last, 4001)
+        m_b, lo_b, hi_b, _, _ = trend.curve(back)
+        tc = _first_crossing(back, m_b, thr)
+        te = _first_crossing(back, hi_b, thr)
+        tl = _first_crossing(back, lo_b, thr)
+        return Forecast(tc, te, tl if tl is not None else t_last, True)
+    tc = _first_crossing(tt, mean, thr)
+    te = _first_crossing(tt, hi, thr)
+    tl = _first_crossing(tt, lo, thr)
+    return Forecast(tc, te, tl if tl is not None else math.inf, False)
+
+
+def analyse(rows: list[dict[str, Any]], threshold: float | None) -> tuple[AxisTrend, list[dict[str, Any]]]:
+    """Trend of one axis from its store rows (``Store.estimates(axis)``).
+
+    Returns the trend of the used estimates and the used rows (ok, excited, converged, with a
+    start time), in time order.
+    """
+    used = [
+        r
+        for r in rows
+        if r["status"] == "ok"
+        and r["excitation_ok"]
+        and r["converged"]
+        and r["delta"] is not None
+        and r["start_time"] is not None
+    ]
+    used.sort(key=lambda r: (r["start_time"], r["path"]))
+    if not used:
+        return fit_trend(np.array([]), np.array([]), None, threshold, None), used
+    t0 = used[0]["start_time"]
+    t = np.array([(r["start_time"] - t0).total_seconds() / 86400.0 for r in used])
+    y = np.array([r["delta"] for r in used], dtype=float)
+    std = np.array([np.nan if r["delta_std"] is None else r["delta_std"] for r in used], dtype=float)
+    return fit_trend(t, y, std, threshold, t0), used
