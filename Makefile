@@ -21,9 +21,11 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	@command -v chromium >/dev/null 2>&1 || { [ "$$(id -u)" = 0 ] && apt-get update -qq && apt-get install -y -qq chromium >/dev/null; } || echo "chromium unavailable: browser test will skip"
+	@ls /usr/lib/postgresql/*/bin/initdb >/dev/null 2>&1 || command -v initdb >/dev/null 2>&1 || { [ "$$(id -u)" = 0 ] && apt-get update -qq && apt-get install -y -qq postgresql >/dev/null; } || echo "postgresql unavailable: PostgreSQL store tests will skip"
 	$(PY) -m pytest -q -n $(PYTEST_WORKERS) -m "not slow"
 
 test-slow: $(STAMP)
+	@ls /usr/lib/postgresql/*/bin/initdb >/dev/null 2>&1 || command -v initdb >/dev/null 2>&1 || { [ "$$(id -u)" = 0 ] && apt-get update -qq && apt-get install -y -qq postgresql >/dev/null; } || echo "postgresql unavailable: PostgreSQL store tests will skip"
 	$(PY) -m pytest -q -n $(PYTEST_WORKERS) -m "slow"
 
 bench: $(STAMP)

@@ -40,6 +40,7 @@ _COMMAND_MODULES = (
     "te_compensate",
     "demo",
     "iso230",
+    "track",
 )
 
 for _name in _COMMAND_MODULES:

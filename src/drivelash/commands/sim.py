@@ -27,12 +27,40 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
 
     @app.command()
     def simulate(
-        scenario: str = typer.Argument(..., help="Scenario name (see `drivelash scenarios`) or CONFIG.toml."),
-        out: Path = typer.Option(..., "-o", "--out", help="Output trace (.parquet or .csv)."),
-        duration: float | None = typer.Option(None, "--duration", help="Simulated time [s]."),
+        scenario: str = typer.Argument(
+            ..., help="Scenario name (see `drivelash scenarios`), CONFIG.toml, or 'fleet'."
+        ),
+        out: Path = typer.Option(
+            ..., "-o", "--out", help="Output trace (.parquet or .csv); a directory for 'fleet'."
+        ),
+        duration: float | None = typer.Option(
+            None, "--duration", help="Simulated time [s] (per recording for 'fleet')."
+        ),
         seed: int | None = typer.Option(None, "--seed", help="Noise seed."),
+        machines: int = typer.Option(3, "--machines", help="'fleet': machines."),
+        axes: int = typer.Option(2, "--axes", help="'fleet': axes per machine."),
+        recordings: int = typer.Option(30, "--recordings", help="'fleet': recordings per axis (one a day)."),
+        workers: int = typer.Option(1, "--workers", help="'fleet': processes simulating recordings."),
     ) -> None:
-        """Simulate a scenario and write its trace (measured signals + true deadzone)."""
+        """Simulate a scenario and write its trace (measured signals + true deadzone).
+
+        ``simulate fleet -o DIR`` writes a simulated fleet for the wear tracker instead:
+        recordings, drive configs, fleet.toml and truth.json (see ``drivelash track``).
+        """
+        if scenario == "fleet":
+            from drivelash.commands.track import run_simulate_fleet
+            from drivelash.sim.fleet import RECORDING_SECONDS
+
+            run_simulate_fleet(
+                out,
+                machines,
+                axes,
+                recordings,
+                0 if seed is None else seed,
+                RECORDING_SECONDS if duration is None else duration,
+                workers,
+            )
+            return
         from rich.console import Console
         from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 

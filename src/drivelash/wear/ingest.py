@@ -30,7 +30,7 @@ from drivelash.wear.estimate import RecordingTask, code_version, estimate_record
 from drivelash.wear.fleet import Fleet
 from drivelash.wear.store import EstimateRow, Store
 
-__all__ = ["IngestReport", "ingest", "plan"]
+__all__ = ["DaskRunner", "IngestReport", "SchedulerError", "ingest", "plan"]
 
 #: Times a recording is tried when its worker process dies before it is stored as failed.
 MAX_ATTEMPTS = 3
@@ -160,34 +160,51 @@ def _processes(
                 pending_idx.sort()
 
 
-def _dask(
-    tasks: Sequence[RecordingTask], fn: Callable[[RecordingTask], EstimateRow], address: str, workers: int
-) -> Iterator[EstimateRow]:
-    try:
-        from distributed import Client, LocalCluster, as_completed
-    except ImportError:  # pragma: no cover - dask is a pinned dependency of [batch]
-        raise SchedulerError(
-            "--dask: dask.distributed is not installed (pip install drivelash[batch])"
-        ) from None
-    import logging
+class DaskRunner:
+    """A connected Dask client (``"local"`` starts a ``LocalCluster``); connect before any write.
 
-    logging.getLogger("distributed").setLevel(logging.ERROR)
-    cluster = None
-    try:
-        if address == "local":
-            cluster = LocalCluster(
-                n_workers=max(1, workers), threads_per_worker=1, processes=True, dashboard_address=None
-            )
-            client = Client(cluster)
-        else:
-            client = Client(address, timeout="10s")
-    except (OSError, TimeoutError, ValueError) as exc:
-        if cluster is not None:
-            cluster.close()
-        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise SchedulerError(f"--dask {address}: cannot reach the scheduler ({msg})") from None
-    try:
-        futs = client.map(fn, list(tasks), pure=False, retries=0)
+    Raises
+    ------
+    SchedulerError
+        The scheduler cannot be reached (one line, after ``timeout`` seconds).
+    """
+
+    def __init__(self, address: str, workers: int = 2, timeout: float = 10.0) -> None:
+        try:
+            from distributed import Client, LocalCluster
+        except ImportError:  # pragma: no cover - dask is a pinned dependency of [batch]
+            raise SchedulerError("--dask: dask.distributed is not installed (drivelash[batch])") from None
+        import logging
+
+        for name in ("distributed", "distributed.nanny", "distributed.scheduler", "distributed.worker"):
+            logging.getLogger(name).setLevel(logging.CRITICAL)
+        self.address = address
+        self.cluster = None
+        try:
+            if address == "local":
+                self.cluster = LocalCluster(
+                    n_workers=max(1, workers),
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=None,
+                    silence_logs=logging.CRITICAL,
+                )
+                self.client = Client(self.cluster)
+            else:
+                self.client = Client(address, timeout=f"{timeout:g}s")
+        except (OSError, TimeoutError, ValueError) as exc:
+            if self.cluster is not None:
+                self.cluster.close()
+            msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise SchedulerError(f"--dask {address}: cannot reach the scheduler ({msg})") from None
+
+    def run(
+        self, tasks: Sequence[RecordingTask], fn: Callable[[RecordingTask], EstimateRow]
+    ) -> Iterator[EstimateRow]:
+        """Results as they complete; a task whose workers keep dying becomes a failed row."""
+        from distributed import as_completed
+
+        futs = self.client.map(fn, list(tasks), pure=False, retries=0)
         index = {f.key: i for i, f in enumerate(futs)}
         for f in as_completed(futs):
             i = index[f.key]
@@ -195,10 +212,18 @@ def _dask(
                 yield f.result()
             except Exception as exc:  # noqa: BLE001 - KilledWorker after repeated worker deaths
                 yield _died(tasks[i], f"worker died while estimating ({type(exc).__name__})")
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+
+    def close(self) -> None:
+        """Close the client (and the local cluster)."""
+        self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+
+    def __enter__(self) -> DaskRunner:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
 
 # ------------------------------------------------------------------------------------ ingest
@@ -207,7 +232,7 @@ def ingest(
     store: Store,
     *,
     workers: int = 1,
-    dask: str | None = None,
+    dask: str | DaskRunner | None = None,
     batch_size: int = BATCH_SIZE,
     batch_seconds: float = BATCH_SECONDS,
     progress: Callable[[int, int], None] | None = None,
@@ -225,8 +250,9 @@ def ingest(
     workers : int
         Local worker processes (1 = in this process); with ``dask="local"`` the
         ``LocalCluster``'s worker count.
-    dask : str, optional
-        ``"local"`` or a scheduler address (``tcp://host:8786``).
+    dask : str or DaskRunner, optional
+        ``"local"`` or a scheduler address (``tcp://host:8786``), connected before anything
+        is written; or an already connected :class:`DaskRunner` (kept open).
     batch_size, batch_seconds : int, float
         Commit when this many results are waiting or this long after the last commit.
     progress : callable, optional
@@ -241,10 +267,32 @@ def ingest(
     IngestReport
     """
     t0 = time.perf_counter()
+    runner = DaskRunner(dask, workers) if isinstance(dask, str) else dask  # connect before writing
+    try:
+        return _ingest(
+            fleet, store, runner, workers, batch_size, batch_seconds, progress, compute, update_alarms, t0
+        )
+    finally:
+        if isinstance(dask, str) and runner is not None:
+            runner.close()
+
+
+def _ingest(
+    fleet: Fleet,
+    store: Store,
+    runner: DaskRunner | None,
+    workers: int,
+    batch_size: int,
+    batch_seconds: float,
+    progress: Callable[[int, int], None] | None,
+    compute: Callable[[RecordingTask], EstimateRow],
+    update_alarms: bool,
+    t0: float,
+) -> IngestReport:
     ids, tasks, skipped = plan(fleet, store)
     rep = IngestReport(planned=len(tasks), skipped=skipped, axes=[a.name for a in fleet.axes])
-    if dask is not None:
-        results = _dask(tasks, compute, dask, workers)
+    if runner is not None:
+        results = runner.run(tasks, compute)
     elif workers > 1 and len(tasks) > 1:
         results = _processes(tasks, compute, workers)
     else:

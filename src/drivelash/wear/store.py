@@ -345,7 +345,8 @@ class Store:
     def axis_id(self, name: str, conn: sa.Connection | None = None) -> int:
         """Id of axis ``name`` (ensured to exist: an unknown axis is a one-line error)."""
         q = sa.select(axis_t.c.id).where(axis_t.c.name == name)
-        row = (conn.execute(q) if conn is not None else self._read(q)).first()
+        rows = conn.execute(q).all() if conn is not None else self._read(q)
+        row = rows[0] if rows else None
         if row is None:
             known = [r.name for r in self._read(sa.select(axis_t.c.name).order_by(axis_t.c.name))]
             import difflib
@@ -359,9 +360,9 @@ class Store:
         """Every axis as a dict (columns of the axis table), sorted by name."""
         return [dict(r._mapping) for r in self._read(sa.select(axis_t).order_by(axis_t.c.name))]
 
-    def _read(self, q: Any) -> sa.CursorResult[Any]:
+    def _read(self, q: Any) -> list[Any]:
         with self.engine.connect() as conn:
-            return conn.execute(q).all()  # type: ignore[return-value]
+            return list(conn.execute(q).all())
 
     # -- recordings and estimates -------------------------------------------------------------
     def known_files(self, axis_id: int, method: str, config_hash: str, code_version: str) -> set[tuple]:

@@ -13,8 +13,10 @@ docs/assumptions.md, "Wear tracking"):
    from the local trend of up to :data:`JUMP_PRE` recordings before it
    (quadratic from 5 points on), on the same side — so a jump is flagged on its second
    recording, a lone outlier never.
-3. **Outliers**: residuals from a running median of 5 within each segment; |r| >
-   max(:data:`OUTLIER_SIGMA`·σ̂, :data:`OUTLIER_FLOOR`) is an outlier and leaves the fit.
+3. **Outliers**: residual from a robust local quadratic (Huber M-estimate by IRLS) through
+   the ±4 neighbours in the segment, the point itself left out; |r| >
+   max(:data:`OUTLIER_SIGMA`·σ̂, :data:`OUTLIER_FLOOR`, :data:`OUTLIER_STEPS` × local wear step)
+   is an outlier and leaves the fit.
 4. **Growth models** on the inliers, with one level-shift term per change point and weights
    1/σ_i² when the estimator gives uncertainties (else equal; the scale is estimated):
    *linear* δ = a + b t (``statsmodels`` WLS) and *accelerating* δ = a + v (e^{kt} − 1)/k,
@@ -55,6 +57,9 @@ JUMP_PRE = 10
 #: Outlier rule: |residual from the running median| > max(OUTLIER_SIGMA · σ̂, OUTLIER_FLOOR).
 OUTLIER_SIGMA = 6.0
 OUTLIER_FLOOR = 0.5e-3
+#: … and > OUTLIER_STEPS × the local wear step (median change between neighbouring recordings):
+#: on fast wear the local extrapolation error grows with the step.
+OUTLIER_STEPS = 0.5
 #: The accelerating model needs an AICc lower by more than this.
 AICC_MARGIN = 2.0
 #: Two-sided level of the forecast interval and bands.
@@ -130,11 +135,34 @@ def noise_scale(y: np.ndarray) -> float:
     return max(1.4826 * mad / math.sqrt(6.0), SIGMA_FLOOR)
 
 
+def _huber_poly(x: np.ndarray, y: np.ndarray, deg: int, iters: int = 6) -> np.ndarray:
+    """Robust polynomial fit (Huber M-estimate, c = 1.345, MAD scale, by IRLS — the estimator of
+    ``statsmodels`` ``RLM(..., HuberT())``, written out because it runs per recording).
+    Returns the coefficients, highest power first (``numpy.polyval`` order)."""
+    X = np.vander(x, deg + 1)
+    w = np.ones_like(y)
+    for k in range(iters + 1):
+        A = X.T @ (w[:, None] * X)
+        try:
+            beta = np.linalg.solve(A, X.T @ (w * y))
+        except np.linalg.LinAlgError:
+            beta = np.linalg.lstsq(X * np.sqrt(w)[:, None], y * np.sqrt(w), rcond=None)[0]
+        if k == iters:
+            break
+        r = y - X @ beta
+        s = 1.4826 * float(np.median(np.abs(r)))
+        if not s > 0:
+            break
+        a = np.abs(r) / (1.345 * s)
+        w = np.minimum(1.0, 1.0 / np.maximum(a, 1e-300))
+    return beta
+
+
 def _local_fit(t: np.ndarray, y: np.ndarray) -> np.poly1d:
-    """Local trend before a candidate break: quadratic from 5 points on (smooth acceleration
-    must not look like a jump), linear below."""
+    """Local trend before a candidate break (robust): quadratic from 5 points on (smooth
+    acceleration must not look like a jump), linear below."""
     deg = 2 if t.size >= 5 else min(1, t.size - 1)
-    return np.poly1d(np.polyfit(t - t[-1], y, deg))
+    return np.poly1d(_huber_poly(t - t[-1], y, deg))
 
 
 def detect_jumps(t: np.ndarray, y: np.ndarray, sigma: float | None = None) -> list[ChangePoint]:
@@ -332,14 +360,26 @@ def _isotonic(t: np.ndarray, y: np.ndarray, w: np.ndarray, cps: list[ChangePoint
     return out
 
 
-def _running_median_resid(y: np.ndarray, cps: list[ChangePoint], half: int = 2) -> np.ndarray:
+def _local_resid(
+    t: np.ndarray, y: np.ndarray, cps: list[ChangePoint], half: int = 4
+) -> tuple[np.ndarray, np.ndarray]:
+    """Residual of each estimate from its neighbours: a robust (Huber) local quadratic through
+    the ±``half`` recordings of its segment, the point itself left out — unbiased on
+    accelerating wear and at a segment's end, not pulled by one outlier. Also returns the
+    median change between consecutive neighbours (the local wear step)."""
     r = np.zeros_like(y)
+    step = np.zeros_like(y)
     edges = [0, *[c.index for c in cps], y.size]
     for a, b in zip(edges[:-1], edges[1:], strict=True):
         for i in range(a, b):
             lo, hi = max(a, i - half), min(b, i + half + 1)
-            r[i] = y[i] - np.median(y[lo:hi])
-    return r
+            idx = [j for j in range(lo, hi) if j != i]
+            if len(idx) < 4:
+                continue
+            step[i] = float(np.median(np.abs(np.diff(y[idx]))))
+            beta = _huber_poly(t[idx] - t[i], y[idx], 2 if len(idx) >= 6 else 1)
+            r[i] = y[i] - float(beta[-1])
+    return r, step
 
 
 def fit_trend(
@@ -376,8 +416,8 @@ def fit_trend(
     cps = detect_jumps(t, y, sigma) if n >= 4 else []
     inl = np.ones(n, dtype=bool)
     if n >= 5:
-        r = _running_median_resid(y, cps)
-        inl = np.abs(r) <= max(OUTLIER_SIGMA * sigma, OUTLIER_FLOOR)
+        r, step = _local_resid(t, y, cps)
+        inl = np.abs(r) <= np.maximum(max(OUTLIER_SIGMA * sigma, OUTLIER_FLOOR), OUTLIER_STEPS * step)
     iso = _isotonic(t, y, w_all, cps) if n else y.copy()
     trend = AxisTrend(t0, t, y, inl, cps, sigma, None, {}, {}, None, threshold, iso)
     ti, yi, wi = t[inl], y[inl], w_all[inl]

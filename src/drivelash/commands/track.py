@@ -1,0 +1,363 @@
+"""``drivelash track ingest|status|forecast|report`` and ``drivelash simulate fleet``.
+
+* ``track ingest FLEET.toml [--db URL] [--workers N] [--dask local|ADDRESS]`` — estimate every
+  new recording of the fleet and commit it to the history store (progress bar on stderr);
+  recordings that fail are stored as failed with their one-line reason, printed, and make
+  the exit status 2 once the rest is stored;
+* ``track status [--db URL | --fleet FLEET.toml]`` — table of the axes sorted by forecast time
+  to threshold, with the active alarms;
+* ``track forecast AXIS [--json PATH|-]`` — one axis's trend, model and forecast;
+* ``track report -o fleet.html`` — the self-contained HTML fleet report.
+
+The store is ``--db`` (an SQLAlchemy URL or an SQLite file path); without it, the fleet
+file's ``[fleet] db`` (relative to the fleet file) when ``--fleet`` is given, else
+``wear.sqlite`` in the current directory.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+import typer
+
+from drivelash.errors import DrivelashError
+
+track_app = typer.Typer(
+    help="Wear tracking of backlash across a fleet: ingest, status, forecast, report.",
+    no_args_is_help=True,
+)
+
+
+def _store_location(db: str | None, fleet: Path | None) -> str:
+    if db:
+        return db
+    if fleet is not None:
+        from drivelash.wear.fleet import load_fleet
+
+        f = load_fleet(fleet)
+        return _fleet_db(f)
+    return "wear.sqlite"
+
+
+def _fleet_db(f: Any) -> str:
+    return f.db if "://" in f.db else str((f.path.parent / f.db).resolve())
+
+
+def run_ingest(
+    fleet_path: Path,
+    db: str | None = None,
+    workers: int | None = None,
+    dask: str | None = None,
+    quiet: bool = False,
+) -> Any:
+    """Body of ``track ingest`` (callable from Python); returns the :class:`IngestReport`."""
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from drivelash.wear.fleet import load_fleet
+    from drivelash.wear.ingest import DaskRunner, ingest
+    from drivelash.wear.store import Store
+
+    fleet = load_fleet(fleet_path)  # every config error before anything is opened
+    n = workers if workers is not None else (os.cpu_count() or 1)
+    if n < 1:
+        raise DrivelashError(f"--workers: must be >= 1, got {n}")
+    runner = DaskRunner(dask, n) if dask else None  # unreachable scheduler: nothing written
+    try:
+        store = Store(db or _fleet_db(fleet))
+        console = Console(stderr=True, quiet=quiet)
+        with Progress(
+            TextColumn("ingest"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeRemainingColumn(),
+            console=console,
+            transient=True,
+        ) as bar:
+            task = bar.add_task("ingest", total=None)
+
+            def progress(done: int, total: int) -> None:
+                bar.update(task, completed=done, total=total)
+
+            try:
+                rep = ingest(fleet, store, workers=n, dask=runner, progress=progress)
+            finally:
+                store.close()
+    finally:
+        if runner is not None:
+            runner.close()
+    if not quiet:
+        for reason in rep.failures:
+            typer.echo(f"drivelash: warning: {reason}", err=True)
+        c = Console()
+        c.print(
+            f"[bold]{fleet.name}[/bold]: {rep.planned} new recordings estimated "
+            f"({rep.stored} stored in {rep.batches} transactions, {rep.failed} failed), "
+            f"{rep.skipped} already in the store; {rep.wall_s:.1f} s -> {store.name}"
+        )
+    return rep
+
+
+def _summaries(db: str) -> tuple[Any, list[dict[str, Any]]]:
+    from drivelash.wear.alarms import fleet_summary
+    from drivelash.wear.store import Store
+
+    store = Store(db, create=False)
+    return store, fleet_summary(store)
+
+
+def run_status(db: str, quiet: bool = False) -> list[dict[str, Any]]:
+    """Body of ``track status``; returns the axis summaries (sorted by forecast time)."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from drivelash.report.fleet import OVERVIEW_HEADER, overview_rows
+
+    store, summ = _summaries(db)
+    store.close()
+    if not quiet:
+        table = Table(*OVERVIEW_HEADER, box=None, title=f"wear status — {store.name}")
+        for row, s in zip(overview_rows(summ), summ, strict=True):
+            style = "red" if s["crossed"] or s["alarms"] else None
+            table.add_row(*row, style=style)
+        c = Console()
+        if not c.is_terminal:
+            c = Console(width=200)
+        c.print(table)
+        for s in summ:
+            for a in s["alarms"]:
+                c.print(f"[red]alarm[/red] {a.kind}: {a.message}")
+    return summ
+
+
+def forecast_json(s: dict[str, Any]) -> dict[str, Any]:
+    """The JSON document of ``track forecast``."""
+
+    def iso(t: datetime | None) -> str | None:
+        return t.isoformat() if t is not None else None
+
+    tr = s["trend"]
+    return {
+        "axis": s["axis"],
+        "threshold_rad": s["threshold_rad"],
+        "recordings": s["recordings"],
+        "used": s["used"],
+        "unexcited": s["unexcited"],
+        "failed": s["failed"],
+        "outliers": s["outliers"],
+        "last_recording": iso(s["last_recording"]),
+        "current_rad": s["current_rad"],
+        "noise_rad": s["noise_rad"],
+        "model": s["model"],
+        "params": s["params"],
+        "params_units": "a, J* [rad]; b, v [rad/day]; k [1/day]; t in days since t0",
+        "t0": iso(tr.t0),
+        "aicc": s["aicc"],
+        "crossed": s["crossed"],
+        "crossing": iso(s["crossing"]),
+        "crossing_90": [
+            iso(s["crossing_early"]),
+            None if s["crossing_late_never"] else iso(s["crossing_late"]),
+        ],
+        "crossing_90_late_never": s["crossing_late_never"],
+        "days_to_threshold": s["days_to_threshold"],
+        "change_points": [{"time": iso(c["time"]), "size_rad": c["size_rad"]} for c in s["change_points"]],
+        "alarms": [
+            {"kind": a.kind, "message": a.message, "data_time": iso(a.data_time)} for a in s["alarms"]
+        ],
+        "estimates": [
+            {
+                "time": iso(r["start_time"]),
+                "path": r["path"],
+                "status": r["status"],
+                "delta_rad": r["delta"],
+                "delta_std_rad": r["delta_std"],
+                "excitation_ok": r["excitation_ok"],
+                "converged": r["converged"],
+                "reason": r["reason"],
+            }
+            for r in s["rows"]
+        ],
+    }
+
+
+def run_forecast(axis: str, db: str, json_out: str | None = None, quiet: bool = False) -> dict[str, Any]:
+    """Body of ``track forecast``; returns the JSON document."""
+    from drivelash.io.outputs import JSON_EXTENSIONS, Outputs, dumps_json, write_json
+    from drivelash.wear.alarms import axis_summary
+    from drivelash.wear.store import Store
+
+    with Outputs("track forecast") as out:
+        target = (
+            out.file(json_out, option="--json", kinds=JSON_EXTENSIONS)
+            if json_out not in (None, "-")
+            else None
+        )
+        store = Store(db, create=False)
+        try:
+            store.axis_id(axis)
+            a = next(x for x in store.axes() if x["name"] == axis)
+            s = axis_summary(store, a)
+        finally:
+            store.close()
+        doc = forecast_json(s)
+        if target is not None:
+            write_json(out.staging(target), doc)
+    if json_out == "-":
+        typer.echo(dumps_json(doc))
+    elif not quiet:
+        _print_forecast(s)
+    return doc
+
+
+def _print_forecast(s: dict[str, Any]) -> None:
+    from rich.console import Console
+
+    c = Console()
+    mr = lambda x: "–" if x is None or not math.isfinite(x) else f"{1e3 * x:.3f} mrad"  # noqa: E731
+    day = lambda t: t.strftime("%Y-%m-%d %H:%M") if t is not None else "–"  # noqa: E731
+    c.print(
+        f"[bold]{s['axis']}[/bold]: {s['used']} of {s['recordings']} recordings used "
+        f"({s['unexcited']} not excited, {s['failed']} failed, {s['outliers']} outliers)"
+    )
+    c.print(
+        f"  threshold {mr(s['threshold_rad'])}; fitted now {mr(s['current_rad'])} "
+        f"(noise {mr(s['noise_rad'])}); model: {s['model'] or 'none (too few estimates)'}"
+    )
+    if s["crossed"]:
+        c.print(f"  [red]threshold crossed[/red] (fitted trend reached it {day(s['crossing'])})")
+    elif s["crossing"] is not None:
+        late = "never" if s["crossing_late_never"] else day(s["crossing_late"])
+        c.print(
+            f"  forecast crossing {day(s['crossing'])} ({s['days_to_threshold']:.1f} days after the "
+            f"last recording), 90 % interval {day(s['crossing_early'])} … {late}"
+        )
+    elif s["model"] is not None:
+        c.print("  no crossing forecast: the trend does not reach the threshold within the look-ahead")
+    for cp in s["change_points"]:
+        c.print(f"  jump of {1e3 * cp['size_rad']:+.2f} mrad at {day(cp['time'])}")
+    for a in s["alarms"]:
+        c.print(f"  [red]alarm[/red] {a.kind}: {a.message}")
+
+
+def run_report(db: str, out_path: Path, force: bool = False, quiet: bool = False) -> Path:
+    """Body of ``track report``; returns the written path."""
+    from drivelash.io.outputs import HTML_EXTENSIONS, Outputs
+    from drivelash.report.fleet import render_fleet_report, write_fleet_report
+
+    with Outputs("track report", force=force) as out:
+        target = out.file(out_path, option="-o", kinds=HTML_EXTENSIONS)
+        store, summ = _summaries(db)
+        try:
+            meas: dict[str, list[dict[str, Any]]] = {}
+            for m in store.measurements():
+                meas.setdefault(m["axis"], []).append(m)
+        finally:
+            store.close()
+        text = render_fleet_report(summ, meas, title="drivelash fleet wear report", store=store.name)
+        assert target is not None
+        write_fleet_report(out.staging(target), text)
+    if not quiet:
+        typer.echo(f"wrote {out_path} ({len(summ)} axes)")
+    return out_path
+
+
+def run_simulate_fleet(
+    out: Path, machines: int, axes: int, recordings: int, seed: int, duration: float, workers: int
+) -> Any:
+    """Body of ``simulate fleet``."""
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+
+    from drivelash.io.outputs import Outputs
+    from drivelash.sim.fleet import simulate_fleet
+
+    bar = Progress(
+        TextColumn("simulating fleet"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        console=Console(stderr=True),
+        transient=True,
+    )
+    with Outputs("simulate fleet") as o, bar:
+        task = bar.add_task("sim", total=machines * axes * recordings)
+        target = o.directory(out, option="-o")
+        assert target is not None
+        plan = simulate_fleet(
+            o.staging(target),
+            machines,
+            axes,
+            recordings,
+            seed,
+            duration=duration,
+            workers=workers,
+            progress=lambda d, t: bar.update(task, completed=d),
+        )
+    typer.echo(
+        f"{plan.recordings} recordings ({plan.unexcited} unexcited, {plan.corrupt} corrupt) of "
+        f"{machines * axes} axes -> {out}; inventory {out / 'fleet.toml'}, truth {out / 'truth.json'}"
+    )
+    return plan
+
+
+def register(app: typer.Typer, te_app: typer.Typer) -> None:
+    """Add the ``track`` group to the CLI."""
+    app.add_typer(track_app, name="track")
+
+    db_help = "Store: SQLAlchemy URL or SQLite file (default: the fleet's [fleet] db, else ./wear.sqlite)."
+
+    @track_app.command("ingest")
+    def ingest_cmd(
+        fleet: Path = typer.Argument(..., help="The fleet inventory (fleet.toml)."),
+        db: str | None = typer.Option(None, "--db", help=db_help),
+        workers: int | None = typer.Option(None, "--workers", help="Worker processes (default: CPU count)."),
+        dask: str | None = typer.Option(
+            None, "--dask", help="Run on Dask: 'local' (a LocalCluster) or a scheduler address."
+        ),
+    ) -> None:
+        """Estimate every new recording of the fleet and store it (idempotent, resumable).
+
+        Recordings that cannot be read are stored as failed with their reason; the exit
+        status is then 2 (after everything else is stored).
+        """
+        rep = run_ingest(fleet, db, workers, dask)
+        if rep.failed:
+            raise DrivelashError(
+                f"{rep.failed} of {rep.planned} recordings failed (stored as failed with their reasons above)"
+            )
+
+    @track_app.command("status")
+    def status_cmd(
+        db: str | None = typer.Option(None, "--db", help=db_help),
+        fleet: Path | None = typer.Option(None, "--fleet", help="Take the store from this fleet.toml."),
+    ) -> None:
+        """Table of the axes, soonest forecast threshold crossing first, with active alarms."""
+        run_status(_store_location(db, fleet))
+
+    @track_app.command("forecast")
+    def forecast_cmd(
+        axis: str = typer.Argument(..., help="machine/axis"),
+        db: str | None = typer.Option(None, "--db", help=db_help),
+        fleet: Path | None = typer.Option(None, "--fleet", help="Take the store from this fleet.toml."),
+        json_out: str | None = typer.Option(
+            None, "--json", help="Write the forecast as JSON here ('-': stdout)."
+        ),
+    ) -> None:
+        """Trend, growth model and forecast threshold crossing (90 % interval) of one axis."""
+        run_forecast(axis, _store_location(db, fleet), json_out)
+
+    @track_app.command("report")
+    def report_cmd(
+        out: Path = typer.Option(..., "-o", "--out", help="HTML report to write."),
+        db: str | None = typer.Option(None, "--db", help=db_help),
+        fleet: Path | None = typer.Option(None, "--fleet", help="Take the store from this fleet.toml."),
+        force: bool = typer.Option(
+            False, "--force", help="Replace an existing file that is not a drivelash output."
+        ),
+    ) -> None:
+        """Write the self-contained HTML fleet report (overview, alarms, trend per axis)."""
+        run_report(_store_location(db, fleet), out, force=force)

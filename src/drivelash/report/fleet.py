@@ -1,0 +1,333 @@
+"""Fleet wear report: one self-contained HTML page (``drivelash track report -o fleet.html``).
+
+Sections: fleet overview (table sorted by forecast time to threshold, and a chart of the
+forecast crossings with their 90 % intervals), the active alarms, and one trend figure per
+axis: the used estimates, outliers, unexcited and failed recordings (ticks along the bottom),
+the monotone (isotonic) trend, the fitted growth model with its 90 % confidence band and the
+wider prediction band, the forecast to the threshold with the crossing's 90 % interval,
+change points, and measurements of other sources (ISO 230-2 laser checks) with their
+uncertainty.
+"""
+
+from __future__ import annotations
+
+import math
+from datetime import datetime, timedelta
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drivelash.report.html import Figure, Section, render_html
+
+__all__ = ["render_fleet_report", "write_fleet_report"]
+
+
+def _mrad(x: float | None) -> str:
+    return "–" if x is None or not math.isfinite(x) else f"{1e3 * x:.2f}"
+
+
+def _day(t: datetime | None) -> str:
+    return t.strftime("%Y-%m-%d") if t is not None else "–"
+
+
+def _interval(s: dict[str, Any]) -> str:
+    if s["crossing_early"] is None:
+        return "–"
+    late = "never" if s["crossing_late_never"] else _day(s["crossing_late"])
+    return f"{_day(s['crossing_early'])} … {late}"
+
+
+def overview_rows(summaries: list[dict[str, Any]]) -> list[list[Any]]:
+    """Rows of the overview table (also used by ``track status``)."""
+    rows = []
+    for s in summaries:
+        days = s["days_to_threshold"]
+        rows.append(
+            [
+                s["axis"],
+                _mrad(s["current_rad"]),
+                _mrad(s["threshold_rad"]),
+                s["model"] or "–",
+                "crossed" if s["crossed"] else _day(s["crossing"]),
+                _interval(s),
+                "0" if s["crossed"] else ("–" if days is None else f"{days:.1f}"),
+                f"{s['used']}/{s['recordings']}",
+                str(s["unexcited"]),
+                str(s["failed"]),
+                ", ".join(sorted({a.kind for a in s["alarms"]})) or "–",
+            ]
+        )
+    return rows
+
+
+OVERVIEW_HEADER = [
+    "axis",
+    "δ now [mrad]",
+    "threshold [mrad]",
+    "model",
+    "crossing (expected)",
+    "90 % interval",
+    "days left",
+    "used/recordings",
+    "unexcited",
+    "failed",
+    "alarms",
+]
+
+
+def _dates(t0: datetime, days: np.ndarray) -> list[datetime]:
+    return [t0 + timedelta(days=float(d)) for d in days]
+
+
+def _axis_figure(s: dict[str, Any], meas: list[dict[str, Any]]) -> Figure:
+    name = s["axis"]
+
+    def draw(fig: Any) -> None:
+        import matplotlib.dates as mdates
+
+        ax = fig.add_subplot(1, 1, 1)
+        tr = s["trend"]
+        thr = s["threshold_rad"]
+        rows = s["rows"]
+        times = [r["start_time"] for r in rows if r["start_time"] is not None]
+        if tr.t.size:
+            t0 = tr.t0
+            ok = tr.inlier
+            d = _dates(t0, tr.t)
+            ax.plot(
+                [x for x, k in zip(d, ok, strict=True) if k],
+                1e3 * tr.y[ok],
+                "o",
+                ms=3.5,
+                color="C0",
+                label="estimate (excited)",
+            )
+            if (~ok).any():
+                ax.plot(
+                    [x for x, k in zip(d, ok, strict=True) if not k],
+                    1e3 * tr.y[~ok],
+                    "x",
+                    ms=6,
+                    color="C3",
+                    label="outlier (not fitted)",
+                )
+            ax.plot(d, 1e3 * tr.isotonic, color="0.35", lw=1.0, label="monotone trend (isotonic)")
+            if tr.model is not None:
+                fc = tr.forecast
+                end = float(tr.t[-1])
+                if fc is not None and fc.t_cross is not None and not fc.crossed:
+                    end = max(end, fc.t_cross * 1.05 if math.isfinite(fc.t_cross) else end)
+                    if fc.t_late is not None and math.isfinite(fc.t_late):
+                        end = max(end, min(fc.t_late, 3 * fc.t_cross) * 1.02)
+                else:
+                    end = end + 0.25 * max(end - float(tr.t[0]), 1.0)
+                tt = np.linspace(float(tr.t[0]), end, 400)
+                mean, lo, hi, plo, phi = tr.curve(tt)
+                dd = _dates(t0, tt)
+                ax.fill_between(
+                    dd, 1e3 * plo, 1e3 * phi, color="C1", alpha=0.12, lw=0, label="90 % prediction band"
+                )
+                ax.fill_between(
+                    dd, 1e3 * lo, 1e3 * hi, color="C1", alpha=0.35, lw=0, label="90 % band of the trend"
+                )
+                ax.plot(dd, 1e3 * mean, color="C1", lw=1.6, label=f"{tr.model} model")
+                if fc is not None and fc.t_cross is not None and thr is not None:
+                    xc = t0 + timedelta(days=fc.t_cross)
+                    ax.plot([xc], [1e3 * thr], "v", color="C3", ms=9, label=f"crossing {_day(xc)}")
+                    if fc.t_early is not None:
+                        xe = t0 + timedelta(days=fc.t_early)
+                        xl = (
+                            (t0 + timedelta(days=fc.t_late))
+                            if fc.t_late is not None and math.isfinite(fc.t_late)
+                            else dd[-1]
+                        )
+                        ax.plot(
+                            [xe, xl],
+                            [1e3 * thr] * 2,
+                            color="C3",
+                            lw=4,
+                            alpha=0.5,
+                            solid_capstyle="butt",
+                            label="crossing, 90 % interval",
+                        )
+            for c in tr.change_points:
+                ax.axvline(t0 + timedelta(days=c.t_days), color="C3" if c.size > 0 else "C2", ls="--", lw=1.0)
+        if thr is not None:
+            ax.axhline(1e3 * thr, color="k", lw=1.2, ls="-.", label=f"threshold {1e3 * thr:.1f} mrad")
+        bad = [
+            r["start_time"]
+            for r in rows
+            if r["status"] == "ok"
+            and not (r["excitation_ok"] and r["converged"])
+            and r["start_time"] is not None
+        ]
+        failed = [r["start_time"] for r in rows if r["status"] != "ok" and r["start_time"] is not None]
+        trans = ax.get_xaxis_transform()
+        if bad:
+            ax.plot(
+                bad,
+                [0.02] * len(bad),
+                "|",
+                ms=12,
+                mew=2,
+                color="0.5",
+                transform=trans,
+                label=f"not excited ({len(bad)})",
+            )
+        if failed:
+            ax.plot(
+                failed,
+                [0.02] * len(failed),
+                "|",
+                ms=12,
+                mew=2,
+                color="C3",
+                transform=trans,
+                label=f"failed file ({len(failed)})",
+            )
+        m = [x for x in meas if x["value_rad"] is not None]
+        if m:
+            ax.errorbar(
+                [x["time"] for x in m],
+                [1e3 * x["value_rad"] for x in m],
+                yerr=[1e3 * (x["std_rad"] or 0.0) for x in m],
+                fmt="D",
+                color="C4",
+                ms=5,
+                capsize=3,
+                label=f"{m[0]['source']} (laser check)",
+            )
+        if not tr.t.size and not times and not m:
+            ax.text(0.5, 0.5, "no recordings", transform=ax.transAxes, ha="center", va="center")
+        ax.set_ylabel("deadzone δ [mrad]")
+        ax.set_title(
+            f"{name}: {s['used']} of {s['recordings']} recordings used"
+            + (f", {s['outliers']} outliers" if s["outliers"] else ""),
+            fontsize=10,
+        )
+        ax.grid(alpha=0.3)
+        ax.xaxis.set_major_formatter(mdates.ConciseDateFormatter(ax.xaxis.get_major_locator()))
+        ax.legend(loc="upper left", fontsize=7, ncol=2, framealpha=0.85)
+
+    return Figure(
+        key="axis-" + name.replace("/", "-"),
+        caption=(
+            f"{name}: estimates of excited recordings (outliers ×), monotone trend, fitted growth "
+            "model with its 90 % band and 90 % prediction band, threshold (dash-dot) and forecast "
+            "crossing with its 90 % interval; dashed verticals are detected jumps; ticks at the bottom "
+            "mark unexcited (grey) and failed (red) recordings."
+        ),
+        draw=draw,
+        size=(10.0, 4.2),
+    )
+
+
+def _crossing_chart(summaries: list[dict[str, Any]]) -> Figure | None:
+    pts = [s for s in summaries if s["crossing"] is not None or s["crossed"]]
+    if not pts:
+        return None
+
+    def draw(fig: Any) -> None:
+        ax = fig.add_subplot(1, 1, 1)
+        for i, s in enumerate(pts):
+            x = s["crossing"]
+            color = (
+                "C3"
+                if s["crossed"] or any(a.kind in ("threshold", "forecast") for a in s["alarms"])
+                else "C0"
+            )
+            if s["crossing_early"] is not None:
+                late = s["crossing_late"] or s["crossing"]
+                ax.plot(
+                    [s["crossing_early"], late], [i, i], color=color, lw=4, alpha=0.4, solid_capstyle="butt"
+                )
+            if x is not None:
+                ax.plot([x], [i], "o", color=color)
+        ax.set_yticks(range(len(pts)), [s["axis"] for s in pts], fontsize=7)
+        ax.invert_yaxis()
+        ax.set_xlabel("forecast threshold crossing (bar: 90 % interval; red: alarm)")
+        import matplotlib.dates as mdates
+
+        ax.xaxis.set_major_formatter(mdates.ConciseDateFormatter(ax.xaxis.get_major_locator()))
+        ax.grid(alpha=0.3)
+
+    return Figure(
+        "crossings",
+        "Forecast threshold crossings of the fleet, soonest first.",
+        draw,
+        size=(10.0, max(2.5, 0.22 * len(pts) + 1.2)),
+    )
+
+
+def render_fleet_report(
+    summaries: list[dict[str, Any]], measurements: dict[str, list[dict[str, Any]]], *, title: str, store: str
+) -> str:
+    """The fleet report's HTML text (see the module docstring).
+
+    Parameters
+    ----------
+    summaries : list of dict
+        :func:`drivelash.wear.alarms.fleet_summary` (sorted by forecast time).
+    measurements : dict
+        Axis → measurements of other sources (``Store.measurements``).
+    title : str
+        Page title.
+    store : str
+        The store's URL (shown, password hidden).
+    """
+    alarms = [(s["axis"], a) for s in summaries for a in s["alarms"]]
+    n_rec = sum(s["recordings"] for s in summaries)
+    overview = Section(
+        "Fleet overview",
+        paragraphs=[
+            f"{len(summaries)} axes, {n_rec} recordings in {store}; {len(alarms)} active alarms. "
+            "Only recordings with sufficient excitation and a converged estimate enter a trend. "
+            "Axes are sorted by the forecast time to their maintenance threshold.",
+        ],
+        tables=[("", OVERVIEW_HEADER, overview_rows(summaries))],
+    )
+    chart = _crossing_chart(summaries)
+    if chart is not None:
+        overview.figures.append(chart)
+    if alarms:
+        alarm_rows = [[ax, a.kind, _day(a.data_time), a.message] for ax, a in alarms]
+        alarm_sec = Section("Alarms", tables=[("", ["axis", "kind", "data time", "message"], alarm_rows)])
+    else:
+        alarm_sec = Section("Alarms", raw=['<p class="verdict-ok">No active alarm.</p>'])
+    axes = Section(
+        "Axes",
+        paragraphs=[
+            "Growth models: linear δ = a + b·t and accelerating δ = a + v·(e^{kt} − 1)/k, chosen by AICc "
+            "(the accelerating one only when lower by more than 2); one level shift per detected jump."
+        ],
+    )
+    for s in summaries:
+        axes.figures.append(_axis_figure(s, measurements.get(s["axis"], [])))
+    sections = [overview, alarm_sec]
+    mrows = [
+        [
+            m["axis"],
+            m["source"],
+            _day(m["time"]),
+            f"{m['value']:.6g}",
+            "–" if m["std"] is None else f"{m['std']:.3g}",
+            m["unit"],
+            _mrad(m["value_rad"]),
+            m["reference"] or "–",
+        ]
+        for ax in sorted(measurements)
+        for m in measurements[ax]
+    ]
+    if mrows:
+        head = ["axis", "source", "time", "value", "std", "unit", "value [mrad at the load]", "reference"]
+        sections.append(Section("Measurements of other sources", tables=[("", head, mrows)]))
+    sections.append(axes)
+    return render_html(title, sections)
+
+
+def write_fleet_report(path: str | Path, html_text: str) -> Path:
+    """Write the report text to ``path`` (callers stage it through ``Outputs``)."""
+    p = Path(path)
+    p.write_text(html_text, encoding="utf-8")
+    return p

@@ -1,0 +1,142 @@
+"""fleet.toml: pydantic-validated; every error one line naming file, table and key; CLI exit 2, no store."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from drivelash.errors import ConfigError
+from drivelash.wear.fleet import load_fleet
+
+DRIVE = """[drivetrain]
+J_m = 8.31e-4
+J_l = 8.31e-4
+N = 1.0
+K_S = 32.94
+D_S = 0.0548
+[backlash]
+delta1 = 0.05
+"""
+GOOD = """[fleet]
+time = { from = "filename", pattern = '_(\\d{8}T\\d{6})', format = "%Y%m%dT%H%M%S" }
+[[axis]]
+id = "M01/X"
+drive = "drive.toml"
+recordings = "rec/*.parquet"
+threshold = 0.2
+[[axis]]
+id = "M01/Y"
+drive = "drive.toml"
+recordings = "rec/*.parquet"
+threshold = 0.3
+threshold_unit = "mm"
+transmission = 2.0
+"""
+
+
+def _write(tmp_path: Path, text: str, drive: bool = True) -> Path:
+    if drive:
+        (tmp_path / "drive.toml").write_text(DRIVE)
+    p = tmp_path / "fleet.toml"
+    p.write_text(text)
+    return p
+
+
+def test_good_fleet_resolves_axes(tmp_path):
+    f = load_fleet(_write(tmp_path, GOOD))
+    assert [a.name for a in f.axes] == ["M01/X", "M01/Y"]
+    assert f.axes[0].threshold_rad == 0.2
+    assert f.axes[1].threshold_rad == pytest.approx(0.15)  # 0.3 mm / (2 mm/rad)
+    assert f.axes[0].drive_path == (tmp_path / "drive.toml").resolve()
+    assert f.axes[0].drive_hash == f.axes[1].drive_hash and len(f.axes[0].drive_hash) == 64
+
+
+@pytest.mark.parametrize(
+    ("edit", "expect"),
+    [
+        (
+            ("threshold = 0.2", "treshold = 0.2"),
+            "table [[axis]] #1 (id 'M01/X'), key 'treshold': unknown key; did you mean 'threshold'?",
+        ),
+        (
+            ("threshold = 0.2", "threshold = -1.0"),
+            "table [[axis]] #1 (id 'M01/X'), key 'threshold': Input should be greater than 0",
+        ),
+        (
+            (
+                'drive = "drive.toml"\nrecordings = "rec/*.parquet"\nthreshold = 0.3',
+                'drive = "nope.toml"\nrecordings = "rec/*.parquet"\nthreshold = 0.3',
+            ),
+            "table [[axis]] #2 (id 'M01/Y'), key 'drive': no such drive configuration",
+        ),
+        (
+            ("transmission = 2.0\n", ""),
+            "table [[axis]] #2 (id 'M01/Y'): threshold_unit = 'mm' needs 'transmission'",
+        ),
+        (('id = "M01/X"', 'id = "M01 X"'), "key 'id': must be 'machine/axis'"),
+        (
+            ('id = "M01/Y"', 'id = "M01/X"'),
+            "table [[axis]] #2 (id 'M01/X'), key 'id': duplicate of [[axis]] #1",
+        ),
+        (
+            ('format = "%Y%m%dT%H%M%S"', 'fmt = "x"'),
+            "table [fleet.time], key 'fmt': unknown key; did you mean 'format'?",
+        ),
+        (("[fleet]", "[fleet\n"), "TOML syntax error"),
+        (("threshold = 0.2\n", ""), "table [[axis]] #1 (id 'M01/X'), key 'threshold': missing"),
+    ],
+)
+def test_bad_fleet_one_line_naming_file_table_key(tmp_path, edit, expect):
+    p = _write(tmp_path, GOOD.replace(edit[0], edit[1], 1))
+    with pytest.raises(ConfigError) as exc:
+        load_fleet(p)
+    msg = str(exc.value)
+    assert "\n" not in msg
+    assert msg.startswith(str(p.resolve()) if "syntax" not in expect else str(p))
+    assert expect in msg, msg
+
+
+def test_bad_drive_config_is_named_with_its_axis(tmp_path):
+    p = _write(tmp_path, GOOD)
+    (tmp_path / "drive.toml").write_text(DRIVE.replace("K_S = 32.94", "K_S = 32.94\nKS = 1.0"))
+    with pytest.raises(
+        ConfigError,
+        match=r"\[\[axis\]\] #1 \(id 'M01/X'\), key 'drive': .*drive.toml: "
+        r"table \[drivetrain\], key 'KS': unknown key",
+    ):
+        load_fleet(p)
+
+
+def test_missing_time_spec(tmp_path):
+    text = GOOD.replace("[fleet]\ntime = {", "[fleet]\nname = 'x'\n#").replace("#", "# ", 1)
+    p = _write(tmp_path, text)
+    with pytest.raises(ConfigError, match=r"key 'time': missing \(and no \[fleet\] time default\)"):
+        load_fleet(p)
+
+
+def test_cli_bad_fleet_exit_2_one_line_and_no_store(tmp_path):
+    p = _write(tmp_path, GOOD.replace("threshold = 0.2", "threshold = 'high'"))
+    db = tmp_path / "w.sqlite"
+    r = subprocess.run(
+        [sys.executable, "-m", "drivelash.cli", "track", "ingest", str(p), "--db", str(db)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("drivelash: error: ") and "key 'threshold'" in lines[0]
+    assert not db.exists()
+
+
+def test_cli_missing_fleet_file(tmp_path):
+    r = subprocess.run(
+        [sys.executable, "-m", "drivelash.cli", "track", "ingest", str(tmp_path / "none.toml")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert r.returncode == 2 and "no such fleet file" in r.stderr and r.stderr.count("\n") == 1

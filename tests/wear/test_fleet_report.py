@@ -1,0 +1,65 @@
+"""Fleet report: self-contained HTML, one non-blank trend figure per axis, clean in headless Chromium."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from datetime import datetime
+
+import pytest
+
+from report.test_report import _assert_self_contained, _chromium, _images, _non_blank, _shoot
+
+
+@pytest.fixture(scope="module")
+def report_html(serial_store, tmp_path_factory):
+    st, _ = serial_store
+    st.add_measurement(
+        "M01/Y", datetime(2026, 1, 8, 12), value=0.05, std=0.002, unit="rad", source="iso230-2"
+    )
+    out = tmp_path_factory.mktemp("rep") / "fleet.html"
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "drivelash.cli",
+            "track",
+            "report",
+            "-o",
+            str(out),
+            "--db",
+            str(st.url.database),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert r.returncode == 0, r.stderr
+    return out
+
+
+def test_report_is_self_contained_with_one_figure_per_axis(report_html, serial_store):
+    st, _ = serial_store
+    html = report_html.read_text()
+    _assert_self_contained(html)
+    assert html.startswith("<!DOCTYPE html>")
+    for a in st.axes():
+        assert f'id="fig-axis-{a["name"].replace("/", "-")}"' in html
+    imgs = _images(html)
+    assert len(imgs) >= len(st.axes())
+    for img in imgs:
+        assert img.width > 300 and img.height > 150 and _non_blank(img) > 0.01
+    assert "Fleet overview" in html and "Alarms" in html and "iso230-2" in html
+
+
+@pytest.mark.browser
+def test_fleet_report_in_headless_chromium(report_html, tmp_path):
+    exe = _chromium()
+    if exe is None:
+        pytest.skip("chromium not installed (make test installs it when run as root)")
+    log = _shoot(exe, report_html, tmp_path / "fleet.png", tmp_path)
+    assert "CONSOLE" not in log, log[-2000:]
+    from PIL import Image
+
+    img = Image.open(tmp_path / "fleet.png").convert("RGB")
+    assert _non_blank(img) > 0.05

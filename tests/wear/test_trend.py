@@ -1,0 +1,158 @@
+"""Trend, forecast, change points and outliers on synthetic wear series with a known truth.
+
+The truth is :func:`drivelash.sim.fleet.wear_law` (the simulated fleet's laws); the noise is
+Gaussian with σ = 0.3 mrad, several times the estimator's error on the simulated fleet
+(≤ 0.1 mrad), so these checks hold with margin for the fleet.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from drivelash.sim.fleet import _crossing, wear_law
+from drivelash.wear.trend import JUMP_MIN, detect_jumps, fit_trend
+
+R = 60
+SIGMA = 3e-4
+
+
+def _axis(rng: np.random.Generator, law: str) -> tuple[dict, float, float]:
+    d0, G, L = rng.uniform(0.03, 0.1), rng.uniform(0.04, 0.1), rng.uniform(0.7, 1.7) * R
+    p = {"delta0": d0}
+    if law == "linear":
+        p["r"] = G / L
+    else:
+        k = math.log(rng.uniform(4, 12)) / L
+        p.update(k=k, v=G * k / math.expm1(k * L))
+    thr = d0 + G
+    return p, thr, _crossing(law, p, thr)
+
+
+def _half_life_forecasts(seed: int, n: int, force_linear: bool = False):
+    """Forecast made at half of each axis's life: (law, relative error, covered)."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for i in range(n):
+        law = "linear" if i % 2 else "accelerating"
+        p, thr, L = _axis(rng, law)
+        days = np.arange(0, math.floor(L / 2) + 1, dtype=float)
+        days = days[rng.random(days.size) > 0.08]  # some recordings unexcited / failed
+        y = wear_law(law, p, days) + rng.normal(0, SIGMA, days.size)
+        if force_linear:
+            from drivelash.wear import trend
+
+            old = trend.AICC_MARGIN
+            trend.AICC_MARGIN = math.inf
+            try:
+                tr = fit_trend(days, y, None, thr)
+            finally:
+                trend.AICC_MARGIN = old
+        else:
+            tr = fit_trend(days, y, None, thr)
+        fc = tr.forecast
+        remaining = L - days[-1]
+        err = (fc.t_cross - L) / remaining if fc.t_cross is not None else math.inf
+        out.append((law, err, fc.t_early <= L <= fc.t_late, tr.model))
+    return out
+
+
+def test_forecast_at_half_life_within_15_percent_quick():
+    """Fast check on 24 axes: ≥ 90 % within ±15 % of the true remaining time."""
+    res = _half_life_forecasts(seed=7, n=24)
+    assert np.mean([abs(e) <= 0.15 for _, e, _, _ in res]) >= 0.90
+
+
+@pytest.mark.slow
+def test_forecast_at_half_life_within_15_percent_and_calibrated():
+    """300 axes: ≥ 90 % within ±15 % of the true remaining time; the 90 % intervals cover 80–98 %
+    (a coverage needs many axes to be measured: binomial sd ≈ 1.7 % here)."""
+    res = _half_life_forecasts(seed=11, n=300)
+    within = np.mean([abs(e) <= 0.15 for _, e, _, _ in res])
+    coverage = np.mean([c for _, _, c, _ in res])
+    print(f"within ±15 %: {within:.3f}, coverage of the 90 % interval: {coverage:.3f}")
+    assert within >= 0.90
+    assert 0.80 <= coverage <= 0.98
+    # the selection picks the law's model almost always
+    right = np.mean([(m == "linear") == (law == "linear") for law, _, _, m in res])
+    assert right >= 0.9
+
+
+def test_negative_control_linear_only_misses_accelerating_wear():
+    """Without the accelerating model the same forecasts on accelerating axes fail the ±15 % goal."""
+    res = [r for r in _half_life_forecasts(seed=7, n=24, force_linear=True) if r[0] == "accelerating"]
+    assert np.mean([abs(e) <= 0.15 for _, e, _, _ in res]) < 0.5
+
+
+@pytest.mark.parametrize("law", ["flat", "linear", "accelerating"])
+def test_no_jump_and_no_crossing_alarm_without_cause(law):
+    """No change point on smooth wear with noise; a flat axis has no forecast crossing."""
+    rng = np.random.default_rng(3)
+    for _ in range(8):
+        if law == "flat":
+            p, thr = {"delta0": rng.uniform(0.03, 0.1)}, 0.2
+        else:
+            p, thr, _ = _axis(rng, law)
+        days = np.arange(R, dtype=float)
+        y = wear_law(law, p, days) + rng.normal(0, SIGMA, R)
+        tr = fit_trend(days, np.minimum(y, thr * 0.99) if law != "flat" else y, None, thr)
+        assert tr.change_points == []
+        if law == "flat":
+            fc = tr.forecast
+            assert fc.t_early is None or fc.t_early - days[-1] > 30  # no forecast alarm
+
+
+def test_jump_found_on_its_second_recording_not_first():
+    rng = np.random.default_rng(4)
+    found_at = []
+    for _ in range(12):
+        j = int(rng.integers(15, 45))
+        p = {"delta0": 0.05, "r": 2e-4, "J": rng.uniform(0.015, 0.04), "t_jump": float(j)}
+        days = np.arange(R, dtype=float)
+        y = wear_law("jump", p, days) + rng.normal(0, SIGMA, R)
+        first = None
+        for end in range(j - 3, j + 4):
+            cps = detect_jumps(days[: end + 1], y[: end + 1])
+            if cps:
+                assert cps[0].index == j and cps[0].size == pytest.approx(p["J"], abs=2e-3)
+                first = end
+                break
+        found_at.append(first - j + 1 if first is not None else None)
+    assert all(k is not None and k <= 2 for k in found_at), found_at
+
+
+def test_single_outlier_is_excluded_not_a_jump():
+    rng = np.random.default_rng(5)
+    days = np.arange(40, dtype=float)
+    y = 0.05 + 5e-4 * days + rng.normal(0, SIGMA, 40)
+    y[20] += 0.01  # one wild estimate
+    tr = fit_trend(days, y, None, 0.1)
+    assert tr.change_points == []
+    assert not tr.inlier[20] and tr.inlier.sum() == 39
+    assert tr.params["b"] == pytest.approx(5e-4, rel=0.05)
+    # the same wild value on the last recording is not yet a jump (needs a second recording)
+    y2 = y.copy()
+    y2[20] -= 0.01
+    y2[-1] += 0.01
+    assert detect_jumps(days, y2) == []
+    y2[-2] += 0.01
+    cps = detect_jumps(days, y2)
+    assert len(cps) == 1 and cps[0].index == 38 and cps[0].size > JUMP_MIN
+
+
+def test_estimator_uncertainty_weights_the_fit():
+    """Known per-estimate uncertainties weight the fit: a noisy stretch flagged as such barely moves it."""
+    rng = np.random.default_rng(6)
+    days = np.arange(50, dtype=float)
+    std = np.full(50, 1e-4)
+    std[25:35] = 5e-3
+    y = 0.05 + 1e-3 * days + rng.normal(0, 1, 50) * std
+    y[25:35] += 3e-3  # biased where the estimator says it is unsure
+    w = fit_trend(days, y, std, 0.2)
+    u = fit_trend(days, y, None, 0.2)
+    assert abs(w.params["b"] - 1e-3) < abs(u.params["b"] - 1e-3) or abs(w.params["a"] - 0.05) < abs(
+        u.params["a"] - 0.05
+    )
+    assert abs(w.params["a"] - 0.05) < 1e-4
