@@ -1,0 +1,144 @@
+"""End-to-end ingest throughput of the wear tracker (read + validate + estimate + store).
+
+Measured in one run on a simulated fleet of 60 s recordings at 8 kHz (the rig's rate; the
+scale-out case of docs/scaling.md is one 60 s recording per axis and day):
+
+* **serial ingest** (one process: hash, read, validate, estimate, commit to SQLite) — CPU time
+  of the process, as a multiple of real time per core;
+* **named baseline**: what a competent user would write without the tracker — a loop calling
+  the body of ``drivelash estimate`` (:func:`drivelash.commands.estimate.run_estimate`) on each
+  file, results kept in memory; the ratio shows what the store and bookkeeping cost;
+* **Dask** ``LocalCluster`` with 2 worker processes on the same recordings (a fresh store):
+  speed-up over the serial wall time (goal ≥ 1.7×; on a 2-core machine shared with other jobs
+  this is bounded by what the other jobs leave);
+* **peak memory** of the writer process (``ru_maxrss`` of a child process ingesting N
+  recordings serially) for N = 8 and N = 32 short recordings: flat means the ratio ≈ 1.
+
+Goals (issue 10): ≥ 1000× real time per core; Dask 2 workers ≥ 1.7× serial; memory flat.
+The load average is printed: figures taken on a shared machine are lower bounds.
+
+Run: ``make bench`` or ``.venv/bin/python benchmarks/bench_wear.py [--recordings N]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import textwrap
+import time
+from pathlib import Path
+
+RECORDING_S = 60.0
+
+
+def _fleet(root: Path, recordings: int, duration: float, seed: int) -> Path:
+    from drivelash.sim.fleet import simulate_fleet
+
+    out = root / f"fleet-{recordings}-{duration:g}"
+    simulate_fleet(
+        out, machines=1, axes=2, recordings=max(2, recordings // 2), seed=seed, duration=duration, workers=2
+    )
+    return out
+
+
+def _peak_rss_mb(fleet: Path, db: Path) -> float:
+    code = textwrap.dedent(
+        """
+        import resource, sys
+        from drivelash.wear import Store, ingest, load_fleet
+        ingest(load_fleet(sys.argv[1]), Store(sys.argv[2]), workers=1)
+        print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)
+        """
+    )
+    r = subprocess.run(
+        [sys.executable, "-c", code, str(fleet / "fleet.toml"), str(db)],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return float(r.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--recordings", type=int, default=12, help="60 s recordings to ingest")
+    args = ap.parse_args()
+
+    from drivelash.commands.estimate import run_estimate
+    from drivelash.wear import Store, ingest, load_fleet
+
+    print(
+        f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores "
+        "(figures are lower bounds when loaded)"
+    )
+    with tempfile.TemporaryDirectory(prefix="bench-wear-") as tmp:
+        root = Path(tmp)
+        t0 = time.perf_counter()
+        fl = _fleet(root, args.recordings, RECORDING_S, seed=1)
+        fleet = load_fleet(fl / "fleet.toml")
+        files = [(a, p) for a in fleet.axes for p in a.files()]
+        data_s = len(files) * RECORDING_S
+        print(
+            f"fleet: {len(files)} recordings × {RECORDING_S:g} s at 8 kHz, "
+            f"simulated in {time.perf_counter() - t0:.0f} s"
+        )
+
+        # warm-up: numba caches loaded in this process
+        run_estimate(files[0][1], files[0][0].drive_path, quiet=True)
+
+        c0 = time.process_time()
+        for a, p in files:
+            run_estimate(p, a.drive_path, quiet=True)
+        base_cpu = time.process_time() - c0
+
+        st = Store(root / "serial.sqlite")
+        c0, w0 = time.process_time(), time.perf_counter()
+        rep = ingest(fleet, st, workers=1)
+        ser_cpu, ser_wall = time.process_time() - c0, time.perf_counter() - w0
+        assert rep.planned == len(files)
+
+        st2 = Store(root / "dask.sqlite")
+        from drivelash.wear.ingest import DaskRunner
+
+        with DaskRunner("local", 2) as runner:
+            runner.client.run(lambda: __import__("drivelash.wear.estimate"))  # workers up and imported
+            w0 = time.perf_counter()
+            ingest(fleet, st2, dask=runner)
+            dask_wall = time.perf_counter() - w0
+        same = sorted((r["content_hash"], r["delta"], r["status"]) for r in st.estimates()) == sorted(
+            (r["content_hash"], r["delta"], r["status"]) for r in st2.estimates()
+        )
+
+        small = _fleet(root, 8, 8.0, seed=2)
+        big = _fleet(root, 32, 8.0, seed=3)
+        m_small = _peak_rss_mb(small, root / "m8.sqlite")
+        m_big = _peak_rss_mb(big, root / "m32.sqlite")
+
+    rt_core = data_s / ser_cpu
+    print(
+        f"serial ingest: {ser_wall:6.2f} s wall, {ser_cpu:6.2f} s CPU -> {rt_core:7.0f}x real time per core "
+        f"(goal >= 1000x) {'OK' if rt_core >= 1000 else 'MISSED'}"
+    )
+    print(
+        f"baseline (loop over `drivelash estimate` bodies, no store): {base_cpu:6.2f} s CPU -> "
+        f"{data_s / base_cpu:7.0f}x real time; ingest/baseline throughput {base_cpu / ser_cpu:.2f}"
+    )
+    sp = ser_wall / dask_wall
+    print(
+        f"Dask LocalCluster, 2 workers: {dask_wall:6.2f} s wall -> {sp:.2f}x the serial wall time "
+        f"(goal >= 1.7x) {'OK' if sp >= 1.7 else 'MISSED'}; results identical to serial: {same}"
+    )
+    print(
+        f"peak writer memory: {m_small:.0f} MB for 8 recordings, {m_big:.0f} MB for 32 "
+        f"(ratio {m_big / m_small:.2f}; flat: {'OK' if m_big / m_small < 1.2 else 'MISSED'})"
+    )
+    print(f"load average at the end {os.getloadavg()[0]:.1f}")
+    if not same:
+        raise SystemExit("Dask results differ from the serial run")
+
+
+if __name__ == "__main__":
+    main()
