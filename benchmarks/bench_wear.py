@@ -62,9 +62,84 @@ def _peak_rss_mb(fleet: Path, db: Path) -> float:
     return float(r.stdout.strip().splitlines()[-1])
 
 
+def store_rate(url: str, n: int) -> tuple[float, float | None]:
+    """Writer rate [rows/s] of ``n`` synthetic results in batches of 64, and bytes per recording
+    (table + indexes; PostgreSQL: ``pg_total_relation_size``, SQLite: file size) or None."""
+    import dataclasses
+    from datetime import datetime, timedelta
+
+    import sqlalchemy as sa
+
+    from drivelash.wear.store import EstimateRow, Store
+
+    @dataclasses.dataclass(frozen=True)
+    class _Axis:
+        name: str
+        drive_path: str = "/fleet/drives/M00001-X.toml"
+        drive_hash: str = "c" * 64
+        threshold_rad: float = 0.2
+        transmission: float | None = None
+        horizon_days: float = 30.0
+        not_excited_alarm: int = 5
+
+    st = Store(url)
+    axes = [_Axis(f"M{i:05d}/{a}") for i in range(max(1, n // 100)) for a in "XYZ"]
+    ids = st.upsert_axes(axes)
+    t0 = datetime(2026, 1, 1)
+    rows = [
+        EstimateRow(
+            axis=axes[i % len(axes)].name,
+            path=f"/fleet/recordings/M{i:05d}/X/M{i:05d}-X_20260101T060000.parquet",
+            size_bytes=14_000_000,
+            mtime_ns=1_767_000_000_000_000_000 + i,
+            content_hash=f"{i:064x}",
+            start_time=t0 + timedelta(minutes=i),
+            duration_s=60.0,
+            sample_rate_hz=8000.0,
+            samples=480000,
+            method="default",
+            code_version="drivelash 0.1.0",
+            config_hash="c" * 64,
+            status="ok",
+            reason="120 traversals of the deadzone; information during 35 % of the last window",
+            delta=0.1 + 1e-9 * i,
+            delta1_estimate=0.05,
+            delta_std=1e-4,
+            excitation_ok=True,
+            converged=True,
+            runtime_s=0.05,
+        )
+        for i in range(n)
+    ]
+    w0 = time.perf_counter()
+    for k in range(0, n, 64):
+        st.commit_batch(rows[k : k + 64], ids)
+    rate = n / (time.perf_counter() - w0)
+    size = None
+    if st.url.get_backend_name() == "postgresql":
+        with st.engine.connect() as c:
+            size = (
+                sum(
+                    c.execute(sa.text(f"SELECT pg_total_relation_size('{t}')")).scalar_one()
+                    for t in ("recording", "estimate")
+                )
+                / n
+            )
+    elif st.url.database:
+        with st.engine.connect() as c:
+            c.exec_driver_sql("PRAGMA wal_checkpoint(TRUNCATE)")
+        size = Path(st.url.database).stat().st_size / n
+    st.close()
+    return rate, size
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--recordings", type=int, default=12, help="60 s recordings to ingest")
+    ap.add_argument("--store-rows", type=int, default=20000, help="synthetic results for the writer rate")
+    ap.add_argument(
+        "--pg", default=None, help="also measure the writer on this PostgreSQL URL (empty database)"
+    )
     args = ap.parse_args()
 
     from drivelash.commands.estimate import run_estimate
@@ -135,6 +210,12 @@ def main() -> None:
         f"peak writer memory: {m_small:.0f} MB for 8 recordings, {m_big:.0f} MB for 32 "
         f"(ratio {m_big / m_small:.2f}; flat: {'OK' if m_big / m_small < 1.2 else 'MISSED'})"
     )
+    with tempfile.TemporaryDirectory(prefix="bench-store-") as tmp:
+        rate, size = store_rate(str(Path(tmp) / "w.sqlite"), args.store_rows)
+        print(f"writer, SQLite: {rate:.0f} results/s (batches of 64), {size:.0f} bytes per recording")
+    if args.pg:
+        rate, size = store_rate(args.pg, args.store_rows)
+        print(f"writer, PostgreSQL: {rate:.0f} results/s, {size:.0f} bytes per recording (tables + indexes)")
     print(f"load average at the end {os.getloadavg()[0]:.1f}")
     if not same:
         raise SystemExit("Dask results differ from the serial run")

@@ -383,70 +383,100 @@ class Store:
         """Store a batch of results in ONE transaction; returns how many estimates were new.
 
         Idempotent: a recording (axis, content hash) is stored once; an estimate (recording,
-        method, config hash, code version) is stored once — a repeated row is skipped.
+        method, config hash, code version) is stored once — a repeated row is skipped. Set
+        based: a handful of statements per batch, not per row (the writer is the one serial
+        part of an ingest).
         """
-        new = 0
+        if not rows:
+            return 0
         now = _now()
+        keyed = [(axis_ids[r.axis], r) for r in rows]  # an unknown axis fails before any write
         with self.engine.begin() as conn:
-            for r in rows:
-                aid = axis_ids[r.axis]
-                rec = conn.execute(
-                    sa.select(recording_t.c.id).where(
-                        recording_t.c.axis_id == aid, recording_t.c.content_hash == r.content_hash
-                    )
-                ).first()
-                if rec is None:
-                    rid = conn.execute(
-                        sa.insert(recording_t).values(
-                            axis_id=aid,
-                            content_hash=r.content_hash,
-                            path=r.path,
-                            size_bytes=r.size_bytes,
-                            mtime_ns=r.mtime_ns,
-                            start_time=utc_naive(r.start_time),
-                            duration_s=r.duration_s,
-                            sample_rate_hz=r.sample_rate_hz,
-                            samples=r.samples,
-                        )
-                    ).inserted_primary_key[0]
-                else:
-                    rid = rec.id
-                    # the same content under a new name or time stamp: keep the newest file facts
-                    conn.execute(
-                        sa.update(recording_t)
-                        .where(recording_t.c.id == rid)
-                        .values(path=r.path, size_bytes=r.size_bytes, mtime_ns=r.mtime_ns)
-                    )
-                dup = conn.execute(
-                    sa.select(estimate_t.c.id).where(
-                        estimate_t.c.recording_id == rid,
-                        estimate_t.c.method == r.method,
-                        estimate_t.c.config_hash == r.config_hash,
-                        estimate_t.c.code_version == r.code_version,
-                    )
-                ).first()
-                if dup is not None:
-                    continue
-                conn.execute(
-                    sa.insert(estimate_t).values(
-                        recording_id=rid,
-                        axis_id=aid,
-                        method=r.method,
-                        code_version=r.code_version,
-                        config_hash=r.config_hash,
-                        status=r.status,
-                        reason=r.reason,
-                        delta=_finite(r.delta),
-                        delta1_estimate=_finite(r.delta1_estimate),
-                        delta_std=_finite(r.delta_std),
-                        excitation_ok=r.excitation_ok,
-                        converged=r.converged,
-                        runtime_s=r.runtime_s,
-                        created_at=now,
-                    )
+            hashes = sorted({r.content_hash for _, r in keyed})
+            rec_id: dict[tuple[int, str], int] = {}
+            for k in range(0, len(hashes), 500):
+                q = sa.select(recording_t.c.id, recording_t.c.axis_id, recording_t.c.content_hash).where(
+                    recording_t.c.content_hash.in_(hashes[k : k + 500])
                 )
-                new += 1
-        return new
+                rec_id.update({(int(x.axis_id), x.content_hash): int(x.id) for x in conn.execute(q)})
+            new_recs: dict[tuple[int, str], EstimateRow] = {}
+            moved = []
+            for aid, r in keyed:
+                key = (aid, r.content_hash)
+                if key in rec_id:
+                    moved.append({"rid": rec_id[key], "p": r.path, "s": r.size_bytes, "m": r.mtime_ns})
+                else:
+                    new_recs.setdefault(key, r)
+            if new_recs:
+                conn.execute(
+                    sa.insert(recording_t),
+                    [
+                        {
+                            "axis_id": aid,
+                            "content_hash": h,
+                            "path": r.path,
+                            "size_bytes": r.size_bytes,
+                            "mtime_ns": r.mtime_ns,
+                            "start_time": utc_naive(r.start_time),
+                            "duration_s": r.duration_s,
+                            "sample_rate_hz": r.sample_rate_hz,
+                            "samples": r.samples,
+                        }
+                        for (aid, h), r in new_recs.items()
+                    ],
+                )
+                fresh = sorted({h for _, h in new_recs})
+                for k in range(0, len(fresh), 500):
+                    q = sa.select(recording_t.c.id, recording_t.c.axis_id, recording_t.c.content_hash).where(
+                        recording_t.c.content_hash.in_(fresh[k : k + 500])
+                    )
+                    rec_id.update({(int(x.axis_id), x.content_hash): int(x.id) for x in conn.execute(q)})
+            if moved:
+                # the same content under a new name or time stamp: keep the newest file facts
+                conn.execute(
+                    sa.update(recording_t)
+                    .where(recording_t.c.id == sa.bindparam("rid"))
+                    .values(path=sa.bindparam("p"), size_bytes=sa.bindparam("s"), mtime_ns=sa.bindparam("m")),
+                    moved,
+                )
+            rids = sorted({rec_id[(aid, r.content_hash)] for aid, r in keyed})
+            have: set[tuple[int, str, str, str]] = set()
+            for k in range(0, len(rids), 500):
+                q = sa.select(
+                    estimate_t.c.recording_id,
+                    estimate_t.c.method,
+                    estimate_t.c.config_hash,
+                    estimate_t.c.code_version,
+                ).where(estimate_t.c.recording_id.in_(rids[k : k + 500]))
+                have.update((int(x[0]), x[1], x[2], x[3]) for x in conn.execute(q))
+            ins = []
+            for aid, r in keyed:
+                rid = rec_id[(aid, r.content_hash)]
+                ident = (rid, r.method, r.config_hash, r.code_version)
+                if ident in have:
+                    continue
+                have.add(ident)
+                ins.append(
+                    {
+                        "recording_id": rid,
+                        "axis_id": aid,
+                        "method": r.method,
+                        "code_version": r.code_version,
+                        "config_hash": r.config_hash,
+                        "status": r.status,
+                        "reason": r.reason,
+                        "delta": _finite(r.delta),
+                        "delta1_estimate": _finite(r.delta1_estimate),
+                        "delta_std": _finite(r.delta_std),
+                        "excitation_ok": r.excitation_ok,
+                        "converged": r.converged,
+                        "runtime_s": r.runtime_s,
+                        "created_at": now,
+                    }
+                )
+            if ins:
+                conn.execute(sa.insert(estimate_t), ins)
+        return len(ins)
 
     def estimates(self, axis: str | None = None) -> list[dict[str, Any]]:
         """Recording-based estimates joined with their recordings, ordered by axis and time.
