@@ -39,6 +39,9 @@ def _steps() -> list[DemoStep]:
         from drivelash.iso230.demo import demo_iso230
 
         steps.append(demo_iso230)
+    except ModuleNotFoundError:
+        pass
+    try:
         from drivelash.wear.demo import demo_fleet
 
         steps.append(demo_fleet)
