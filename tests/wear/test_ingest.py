@@ -252,3 +252,40 @@ def test_cli_status_forecast_report(small_fleet, serial_store, tmp_path):
         timeout=120,
     )
     assert r.returncode == 2 and "no axis 'M01/Q'" in r.stderr and r.stderr.count("\n") == 1
+
+
+def _dying_compute(marker: str, target: str):
+    """A worker function that kills its own worker process the first time it sees ``target``."""
+    from drivelash.wear.estimate import estimate_recording
+
+    def compute(task):
+        if task.path.endswith(target):
+            try:
+                os.close(os.open(marker, os.O_CREAT | os.O_EXCL))
+            except FileExistsError:
+                pass
+            else:
+                os._exit(1)  # the worker process dies mid-task, no exception, no result
+        return estimate_recording(task)
+
+    return compute
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("how", ["processes", "dask"])
+def test_a_dying_worker_loses_no_recording(small_fleet, serial_store, tmp_path, how):
+    st, _ = serial_store
+    target = sorted((small_fleet / "recordings" / "M02" / "Y").glob("*.parquet"))[3].name
+    marker = tmp_path / "died"
+    st2 = Store(tmp_path / "w.sqlite")
+    kw = {"dask": "local"} if how == "dask" else {}
+    rep = ingest(
+        load_fleet(small_fleet / "fleet.toml"),
+        st2,
+        workers=2,
+        compute=_dying_compute(str(marker), target),
+        **kw,
+    )
+    assert marker.exists()  # a worker really died
+    assert rep.planned == len(st.estimates())
+    assert _values(st2) == _values(st)  # rerun, nothing lost, same numbers
