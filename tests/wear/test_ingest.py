@@ -289,3 +289,26 @@ def test_a_dying_worker_loses_no_recording(small_fleet, serial_store, tmp_path, 
     assert marker.exists()  # a worker really died
     assert rep.planned == len(st.estimates())
     assert _values(st2) == _values(st)  # rerun, nothing lost, same numbers
+
+
+def test_cli_ingest_with_unreadable_recordings_exit_2_after_storing(tmp_path):
+    """Corrupt/unreadable recordings: one warning line each, stored as failed, the rest stored, exit 2."""
+    from drivelash.sim.fleet import simulate_fleet
+
+    from .conftest import _add_corrupt
+
+    simulate_fleet(tmp_path / "f", machines=1, axes=1, recordings=3, seed=1)
+    _add_corrupt(tmp_path / "f")
+    db = tmp_path / "w.sqlite"
+    r = subprocess.run(
+        [sys.executable, "-m", "drivelash.cli", "track", "ingest", str(tmp_path / "f" / "fleet.toml"), "--db",
+         str(db), "--workers", "1"],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert r.returncode == 2, r.stderr
+    err = r.stderr.strip().splitlines()
+    warnings = [x for x in err if x.startswith("drivelash: warning: ")]
+    assert len(warnings) >= 2 and all("M01-X_2026030" in w or "column" in w or "file" in w for w in warnings)
+    assert err[-1].startswith("drivelash: error: ") and "recordings failed (stored as failed" in err[-1]
+    rows = Store(db, create=False).estimates()
+    assert len(rows) == 5 and sum(r["status"] == "failed" for r in rows) == len(warnings)

@@ -164,28 +164,18 @@ def _axis_figure(s: dict[str, Any], meas: list[dict[str, Any]]) -> Figure:
         ]
         failed = [r["start_time"] for r in rows if r["status"] != "ok" and r["start_time"] is not None]
         trans = ax.get_xaxis_transform()
-        if bad:
-            ax.plot(
-                bad,
-                [0.02] * len(bad),
-                "|",
-                ms=12,
-                mew=2,
-                color="0.5",
-                transform=trans,
-                label=f"not excited ({len(bad)})",
-            )
-        if failed:
-            ax.plot(
-                failed,
-                [0.02] * len(failed),
-                "|",
-                ms=12,
-                mew=2,
-                color="C3",
-                transform=trans,
-                label=f"failed file ({len(failed)})",
-            )
+        for when, color, what in ((bad, "0.5", "not excited"), (failed, "C3", "failed file")):
+            if when:
+                ax.plot(
+                    when,
+                    [0.02] * len(when),
+                    "|",
+                    ms=12,
+                    mew=2,
+                    color=color,
+                    transform=trans,
+                    label=f"{what} ({len(when)})",
+                )
         m = [x for x in meas if x["value_rad"] is not None]
         if m:
             ax.errorbar(

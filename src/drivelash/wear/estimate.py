@@ -107,9 +107,14 @@ def recording_start(path: Path, spec: TimeSpec, meta: dict[str, Any] | None = No
         ) from None
 
 
-def _hash(path: Path) -> str:
-    with path.open("rb") as fh:
-        return hashlib.file_digest(fh, "sha256").hexdigest()
+def content_hash(path: str | Path) -> tuple[str, OSError | None]:
+    """SHA-256 (hex) of a file's bytes; for an unreadable file a marker
+    ``unreadable:<hash of the path>`` and the error."""
+    try:
+        with Path(path).open("rb") as fh:
+            return hashlib.file_digest(fh, "sha256").hexdigest(), None
+    except OSError as exc:
+        return "unreadable:" + hashlib.sha256(str(path).encode()).hexdigest()[:52], exc
 
 
 def estimate_recording(task: RecordingTask) -> EstimateRow:
@@ -141,13 +146,8 @@ def estimate_recording(task: RecordingTask) -> EstimateRow:
         config_hash=task.config_hash,
         code_version=task.code_version,
     )
-    try:
-        digest = _hash(path)
-    except OSError as exc:
-        digest = (
-            "unreadable:"
-            + hashlib.sha256(f"{task.path}:{task.size_bytes}:{task.mtime_ns}".encode()).hexdigest()[:52]
-        )
+    digest, exc = content_hash(path)
+    if exc is not None:
         return EstimateRow(
             **base,
             content_hash=digest,

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from drivelash.errors import DrivelashError
-from drivelash.wear.estimate import RecordingTask, code_version, estimate_recording, file_facts
+from drivelash.wear.estimate import RecordingTask, code_version, content_hash, estimate_recording, file_facts
 from drivelash.wear.fleet import Fleet
 from drivelash.wear.store import EstimateRow, Store
 
@@ -101,7 +101,7 @@ def _died(task: RecordingTask, why: str) -> EstimateRow:
         path=task.path,
         size_bytes=task.size_bytes,
         mtime_ns=task.mtime_ns,
-        content_hash=_content_hash_or_marker(task),
+        content_hash=content_hash(task.path)[0],
         start_time=None,
         duration_s=None,
         sample_rate_hz=None,
@@ -112,16 +112,6 @@ def _died(task: RecordingTask, why: str) -> EstimateRow:
         status="failed",
         reason=f"{task.path}: {why}",
     )
-
-
-def _content_hash_or_marker(task: RecordingTask) -> str:
-    import hashlib
-
-    try:
-        with open(task.path, "rb") as fh:
-            return hashlib.file_digest(fh, "sha256").hexdigest()
-    except OSError:
-        return "unreadable:" + hashlib.sha256(task.path.encode()).hexdigest()[:52]
 
 
 def _processes(
