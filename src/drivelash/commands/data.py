@@ -46,8 +46,34 @@ def run_identify(
     cross: Path | None = None,
     resample: bool = False,
     quiet: bool = False,
+    model: str | None = None,
+    force: bool = False,
 ) -> dict[str, Any]:
-    """Body of ``drivelash identify`` (callable from Python; returns the JSON summary)."""
+    """Body of ``drivelash identify`` (callable from Python; returns the JSON summary).
+
+    ``model`` (or ``[identification] model``): ``"rigid"`` (IDIM-LS, this function) or
+    ``"two-mass"`` (:func:`run_identify_two_mass`).
+    """
+    from drivelash.errors import DrivelashError
+    from drivelash.io import load_config as _load_config
+
+    if model is None:
+        model = _load_config(config_path).identification_or_default().model
+    if model not in ("rigid", "two-mass"):
+        raise DrivelashError(f"--model: must be 'rigid' or 'two-mass', got {model!r}")
+    if model == "two-mass":
+        if cross is not None:
+            raise DrivelashError("--cross: the cross-test is for the rigid model (IDIM-LS) only")
+        return run_identify_two_mass(
+            trace_path,
+            config_path,
+            json_out=json_out,
+            report=report,
+            out=out,
+            resample=resample,
+            quiet=quiet,
+            force=force,
+        )
     from rich.console import Console
     from rich.table import Table
 
@@ -62,6 +88,13 @@ def run_identify(
     trace = load_trace(trace_path, cfg, required=need, resample=resample or None)
     print_warnings(trace.meta)
     result = identify(trace, opts, cfg.drivetrain)
+    from drivelash.estimation.identify_two_mass import rigid_result
+
+    flags = rigid_result(result).warnings
+    if flags:  # physically impossible (e.g. a torque gain with the wrong sign): refuse, write nothing
+        from drivelash.errors import DataError
+
+        raise DataError(f"implausible identification, nothing written: {flags[0]}", path=str(trace_path))
     summary: dict[str, Any] = {"trace": str(trace_path), "config": str(config_path), **result.as_dict()}
     ct = None
     vtrace = None
@@ -131,6 +164,91 @@ def run_identify(
             console.print(f"cross-test on {cross}: {100 * ct.relative_error:.2f} %")
         if out is None:
             sys.stdout.write(fragment)
+    return summary
+
+
+def run_identify_two_mass(
+    trace_path: Path,
+    config_path: Path,
+    *,
+    json_out: Path | None = None,
+    report: Path | None = None,
+    out: Path | None = None,
+    resample: bool = False,
+    quiet: bool = False,
+    force: bool = False,
+) -> dict[str, Any]:
+    """Body of ``drivelash identify --model two-mass`` (returns the JSON summary).
+
+    Identifies J_m, J_l, K_S, D_S, friction, torque offset, δ and δ1 with 95 % intervals
+    (:func:`drivelash.estimation.identify_two_mass.identify_two_mass`) and writes the
+    ``[drivetrain]``/``[backlash]`` tables ``estimate`` reads. A physically impossible result
+    (negative inertia, stiffness or friction beyond its interval) is refused with the likely
+    cause, exit code 2, nothing written.
+    """
+    from rich.console import Console
+    from rich.table import Table
+
+    from drivelash.errors import DataError
+    from drivelash.estimation.identify_two_mass import identify_from_config
+    from drivelash.io import load_config, load_trace
+    from drivelash.io.outputs import HTML_EXTENSIONS, JSON_EXTENSIONS, TOML_EXTENSIONS, Outputs, write_json
+
+    outputs = Outputs("identify", inputs=[trace_path, config_path], force=force)
+    out_t = outputs.file(out, option="--out", kinds=TOML_EXTENSIONS)
+    json_t = outputs.file(json_out, option="--json", kinds=JSON_EXTENSIONS)
+    report_t = outputs.file(report, option="--report", kinds=HTML_EXTENSIONS)
+    cfg = load_config(config_path)
+    trace = load_trace(
+        trace_path, cfg, required=["theta_m", "theta_l", "torque_m"], resample=resample or None
+    )
+    if not quiet:
+        print_warnings(trace.meta)
+    result = identify_from_config(trace, cfg, model="two-mass")
+    if not result.plausible:
+        raise DataError(
+            f"implausible identification, nothing written: {result.warnings[0]}", path=str(trace_path)
+        )
+    summary: dict[str, Any] = {"trace": str(trace_path), "config": str(config_path), **result.as_dict()}
+    # [drivetrain]: the configuration's values where the recording determined nothing
+    merged = result.to_config()
+    if cfg.drivetrain is not None:
+        base = {k: v for k, v in cfg.drivetrain.model_dump().items() if v is not None}
+        merged["drivetrain"] = {**base, **merged["drivetrain"]}
+    summary["config_tables"] = merged
+    head = [
+        f"drivelash identify {trace_path} --model two-mass (config {config_path})",
+        f"method: {result.method}",
+    ]
+    text = result.to_toml(comments=head, tables=merged)
+    html = None
+    if report_t is not None:
+        from drivelash.report.identify_figures import render_two_mass_report
+
+        html = render_two_mass_report(trace, result, cfg)
+    with outputs:  # all computed: write the outputs together
+        if out_t is not None:
+            outputs.staging(out_t).write_text(text, encoding="utf-8")
+        if json_t is not None:
+            write_json(outputs.staging(json_t), summary)
+        if html is not None and report_t is not None:
+            outputs.staging(report_t).write_text(html, encoding="utf-8")
+    if not quiet:
+        console = Console(stderr=out is None)
+        table = Table(title="two-mass identification (95 % intervals)")
+        for col in ("parameter", "value", "95 % interval", "unit", "note"):
+            table.add_column(col, justify="right")
+        for prm in result.parameters.values():
+            if prm.identifiable:
+                table.add_row(prm.name, f"{prm.value:.6g}", f"[{prm.low:.5g}, {prm.high:.5g}]", prm.unit, "")
+            else:
+                table.add_row(prm.name, "–", f"[{prm.low:.4g}, {prm.high:.4g}]", prm.unit, prm.reason)
+        console.print(table)
+        console.print(f"backlash: {result.reason}")
+        for w in result.warnings:
+            typer.echo(f"drivelash: warning: {w}", err=True)
+        if out is None:
+            sys.stdout.write(text)
     return summary
 
 
@@ -225,9 +343,24 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         resample: bool = typer.Option(
             False, "--resample", help="Resample non-uniform time onto a uniform grid."
         ),
+        model: str | None = typer.Option(
+            None,
+            "--model",
+            help="rigid (IDIM-LS: inertia, friction) or two-mass (J_m, J_l, K_S, D_S, friction, "
+            "delta, delta1 with 95 % intervals); default: [identification] model, else rigid.",
+        ),
     ) -> None:
-        """Identify inertia and friction (IDIM-LS); write a drivetrain TOML fragment."""
-        run_identify(trace, config, json_out=json_out, report=report, out=out, cross=cross, resample=resample)
+        """Identify a drive (rigid IDIM-LS or two-mass with backlash); write [drivetrain]/[backlash] TOML."""
+        run_identify(
+            trace,
+            config,
+            json_out=json_out,
+            report=report,
+            out=out,
+            cross=cross,
+            resample=resample,
+            model=model,
+        )
 
     @app.command()
     def observe(

@@ -34,6 +34,7 @@ UNITS: dict[str, str] = {
     "delta1": "rad",
     "c_lo": "rad",
     "c_hi": "rad",
+    "encoder_delay": "s",
 }
 
 #: Two-sided 95 % quantile of the standard normal distribution.
@@ -200,8 +201,10 @@ class DriveIdentification:
             out["backlash"] = bl
         return out
 
-    def to_toml(self, comments: list[str] | None = None) -> str:
-        """``to_config()`` as TOML text with ``#`` comment lines (intervals, verdict)."""
+    def to_toml(
+        self, comments: list[str] | None = None, tables: dict[str, dict[str, float]] | None = None
+    ) -> str:
+        """``to_config()`` (or ``tables``) as TOML text with ``#`` comment lines (intervals, verdict)."""
         import tomli_w
 
         head = list(comments or [])
@@ -213,7 +216,8 @@ class DriveIdentification:
         head.append(f"backlash: {self.reason}")
         head += [f"warning: {w}" for w in self.warnings]
         text = "".join(f"# {c}\n" for c in head)
-        return text + tomli_w.dumps(self.to_config())
+        tables = self.to_config() if tables is None else tables
+        return text + tomli_w.dumps({k: {kk: float(vv) for kk, vv in v.items()} for k, v in tables.items()})
 
     def drivetrain_params(self, base: Any = None) -> Any:
         """:class:`~drivelash.params.DrivetrainParams` from the identified values.

@@ -76,8 +76,12 @@ PARAM_NAMES = (
     "torque_offset",
     "c_lo",
     "c_hi",
+    "encoder_delay",
 )
-(I_JM, I_JL, I_KS, I_DS, I_TCM, I_BM, I_TCL, I_BL, I_U0, I_CLO, I_CHI) = range(11)
+(I_JM, I_JL, I_KS, I_DS, I_TCM, I_BM, I_TCL, I_BL, I_U0, I_CLO, I_CHI, I_TAU) = range(12)
+NP = len(PARAM_NAMES)
+#: Parameters of the load equation (left out with ``equations="motor"``).
+LOAD_ONLY = (I_JL, I_TCL, I_BL)
 
 
 # --------------------------------------------------------------------------------------
@@ -184,8 +188,8 @@ class WindowData:
 
     Per-window arrays (length ``n_win``): measured mean accelerations ``a_m``, ``a_l``
     [rad/s²], mean torque ``U`` [N·m], interior means of ω and sgn ω, usable masks.
-    Per-sample arrays (``M·n_win``): Δθ at the half samples [rad] and Δω at the samples
-    [rad/s] (interior samples only are used).
+    Per-sample arrays (``M·n_win``): Δθ and ω_l at the half samples [rad], [rad/s] and Δω
+    at the samples [rad/s] (interior samples only are used).
     """
 
     M: int
@@ -203,6 +207,7 @@ class WindowData:
     ok_l: np.ndarray
     dth: np.ndarray
     dw: np.ndarray
+    wl: np.ndarray
     info: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -284,6 +289,7 @@ def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> Window
     dth_all = 0.5 * (fm[1:] + fm[:-1]) / N - 0.5 * (fl[1:] + fl[:-1])
     dth = np.ascontiguousarray(dth_all[s0 : s0 + nw * M])
     dw = np.ascontiguousarray((wm / N - wl)[s0 : s0 + nw * M])
+    wl_mid = np.ascontiguousarray((0.5 * (wl[1:] + wl[:-1]))[s0 : s0 + nw * M])
     # standstill: any sample of the window (and its look-back) below the threshold
     thr_m = max(
         STANDSTILL_FRACTION * float(np.percentile(np.abs(wm), 99)), STANDSTILL_SIGMA * info_m["sigma_omega"]
@@ -313,6 +319,7 @@ def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> Window
         ok_l=ok_l,
         dth=dth,
         dw=dw,
+        wl=wl_mid,
         info={
             "window_samples": M,
             "window_s": M * T_s,
@@ -332,34 +339,42 @@ def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> Window
 # 3. deadzone terms per window (the hot loop of the fit)
 # --------------------------------------------------------------------------------------
 @njit(cache=True)
-def window_deadzone(dth, dw, M, c_lo, c_hi, ZK, ZD, FLO, FHI):
-    """Per window: mean dz(Δθ) over the M half samples, interior mean of Δω in contact,
-    and the fractions of half samples below c_lo / above c_hi (∂ mean dz / ∂c = −fraction)."""
+def window_deadzone(dth, dw, wl, M, c_lo, c_hi, tau, ZK, ZD, FLO, FHI, GT):
+    """Per window: mean dz(Δθ − τ ω_l) over the M half samples, interior mean of Δω in contact,
+    the fractions of half samples below c_lo / above c_hi (∂ mean dz / ∂c = −fraction) and
+    ∂ mean dz / ∂τ (``GT``; τ is a time offset between the two encoders, 0 unless fitted)."""
     nw = ZK.shape[0]
     inv_m = 1.0 / M
     inv_i = 1.0 / (M - 1)
+    skew = tau != 0.0
     for i in range(nw):
         b = i * M
         s = 0.0
         lo = 0
         hi = 0
         sd = 0.0
+        g = 0.0
         for j in range(M):
             x = dth[b + j]
+            if skew:
+                x -= tau * wl[b + j]
             if x < c_lo:
                 s += x - c_lo
                 lo += 1
+                g -= wl[b + j]
                 if j > 0:
                     sd += dw[b + j]
             elif x > c_hi:
                 s += x - c_hi
                 hi += 1
+                g -= wl[b + j]
                 if j > 0:
                     sd += dw[b + j]
         ZK[i] = s * inv_m
         ZD[i] = sd * inv_i
         FLO[i] = lo * inv_m
         FHI[i] = hi * inv_m
+        GT[i] = g * inv_m
 
 
 @njit(cache=True)
@@ -398,21 +413,37 @@ class TwoMassProblem:
         at ∓∞ and left out of the parameter vector.
     """
 
-    def __init__(self, data: WindowData, sides: tuple[bool, bool] = (True, True)) -> None:
+    def __init__(
+        self,
+        data: WindowData,
+        sides: tuple[bool, bool] = (True, True),
+        *,
+        equations: str = "both",
+        fit_delay: bool = False,
+    ) -> None:
         self.d = data
         self.sides = sides
-        self.fixed = np.zeros(11)
+        self.equations = equations
+        self.fixed = np.zeros(NP)
         self.fixed[I_CLO] = -np.inf
         self.fixed[I_CHI] = np.inf
+        self.fixed[I_JL] = 1.0
         if not any(sides):  # no contact: the shaft never carries torque, only the motor is seen
-            self.free = [I_JM, I_TCM, I_BM, I_U0]
-            self.fixed[I_JL] = 1.0
-            self.il = np.zeros(0, dtype=np.int64)
+            free = [I_JM, I_TCM, I_BM, I_U0]
         else:
-            self.free = [
-                i for i in range(11) if not ((i == I_CLO and not sides[0]) or (i == I_CHI and not sides[1]))
-            ]
-            self.il = np.flatnonzero(data.ok_l)
+            free = list(range(I_CLO))
+            if sides[0]:
+                free.append(I_CLO)
+            if sides[1]:
+                free.append(I_CHI)
+            if fit_delay:
+                free.append(I_TAU)
+            if equations == "motor":
+                free = [i for i in free if i not in LOAD_ONLY]
+        self.free = free
+        self.il = (
+            np.flatnonzero(data.ok_l) if any(sides) and equations == "both" else np.zeros(0, dtype=np.int64)
+        )
         self.names = tuple(PARAM_NAMES[i] for i in self.free)
         self.im = np.flatnonzero(data.ok_m)
         self.w = np.array([1.0, 1.0])
@@ -421,6 +452,7 @@ class TwoMassProblem:
         self._ZD = np.empty(nw)
         self._FLO = np.empty(nw)
         self._FHI = np.empty(nw)
+        self._GT = np.empty(nw)
         self.nfev = 0
 
     def full(self, x: np.ndarray) -> np.ndarray:
@@ -431,9 +463,15 @@ class TwoMassProblem:
 
     def terms(self, p: np.ndarray) -> None:
         """Deadzone window terms at the contact points of ``p``."""
+        d = self.d
         window_deadzone(
-            self.d.dth, self.d.dw, self.d.M, p[I_CLO], p[I_CHI], self._ZK, self._ZD, self._FLO, self._FHI
-        )
+            d.dth, d.dw, d.wl, d.M, p[I_CLO], p[I_CHI], p[I_TAU],
+            self._ZK, self._ZD, self._FLO, self._FHI, self._GT,
+        )  # fmt: skip
+
+    def dtheta(self, p: np.ndarray) -> np.ndarray:
+        """Δθ at the half samples corrected for the encoder delay of ``p`` [rad]."""
+        return self.d.dth - p[I_TAU] * self.d.wl if p[I_TAU] != 0.0 else self.d.dth
 
     def predict(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Model accelerations (motor, load) [rad/s²] and shaft torque [N·m] per window."""
@@ -464,8 +502,8 @@ class TwoMassProblem:
         num_m = d.U - p[I_U0] - p[I_BM] * d.WM - p[I_TCM] * d.SM - T / d.N
         num_l = T - p[I_BL] * d.WL - p[I_TCL] * d.SL
         nw = d.n_win
-        Jm = np.zeros((nw, 11))
-        Jl = np.zeros((nw, 11))
+        Jm = np.zeros((nw, NP))
+        Jl = np.zeros((nw, NP))
         # residual r = a − model → ∂r = −∂model
         Jm[:, I_JM] = num_m / J_m**2
         Jm[:, I_U0] = 1.0 / J_m
@@ -476,6 +514,7 @@ class TwoMassProblem:
         # ∂ZK/∂c_lo = −FLO, ∂ZK/∂c_hi = −FHI
         Jm[:, I_CLO] = -K_S * FLO / (d.N * J_m)
         Jm[:, I_CHI] = -K_S * FHI / (d.N * J_m)
+        Jm[:, I_TAU] = K_S * self._GT / (d.N * J_m)
         Jl[:, I_JL] = num_l / J_l**2
         Jl[:, I_KS] = -ZK / J_l
         Jl[:, I_DS] = -ZD / J_l
@@ -483,6 +522,7 @@ class TwoMassProblem:
         Jl[:, I_TCL] = d.SL / J_l
         Jl[:, I_CLO] = K_S * FLO / J_l
         Jl[:, I_CHI] = K_S * FHI / J_l
+        Jl[:, I_TAU] = -K_S * self._GT / J_l
         return np.vstack([self.w[0] * Jm[self.im][:, self.free], self.w[1] * Jl[self.il][:, self.free]])
 
     def scores(self, x: np.ndarray) -> np.ndarray:
@@ -511,14 +551,17 @@ class GridStart:
     table: dict[str, Any]
 
 
-def grid_start(data: WindowData, max_windows: int = 20_000) -> GridStart:
+def grid_start(
+    data: WindowData, max_windows: int = 20_000, *, equations: str = "both", tau: float = 0.0
+) -> GridStart:
     """Contact points from a grid of Δθ quantiles (and "never reached" on either side).
 
     For each pair the two equations are solved by linear least squares in
     (1/J_m, β_m/J_m, T_Cm/J_m, u_0/J_m, K_S/(N J_m), D_S/(N J_m)) and
     (K_S/J_l, D_S/J_l, β_l/J_l, T_Cl/J_l); the pair minimising the concentrated Gaussian
     likelihood n_m log SSE_m + n_l log SSE_l wins. Physical start values follow from the
-    winning coefficients.
+    winning coefficients. With ``equations="motor"`` only the motor equation counts; ``tau``
+    is an encoder delay [s] applied to Δθ (Δθ − τ ω_l).
     """
     d = data
     nw = d.n_win
@@ -526,7 +569,7 @@ def grid_start(data: WindowData, max_windows: int = 20_000) -> GridStart:
     sel = np.arange(0, nw, step)
     M = d.M
     idx = (sel[:, None] * M + np.arange(M)[None, :]).ravel()
-    dth = np.ascontiguousarray(d.dth[idx])
+    dth = np.ascontiguousarray(d.dth[idx] - tau * d.wl[idx]) if tau else np.ascontiguousarray(d.dth[idx])
     dw = np.ascontiguousarray(d.dw[idx])
     qs = np.quantile(dth, np.linspace(0.002, 0.998, GRID_POINTS))
     cands = np.unique(qs)
@@ -584,9 +627,10 @@ def grid_start(data: WindowData, max_windows: int = 20_000) -> GridStart:
     Hm, Hl = batched(Gm), batched(Gl)
     sse_m, beta_m = sse(Hm, [0, 1, 2, 3, 8, 9], 6)
     sse_l, beta_l = sse(Hl, [8, 9, 4, 5], 7)
-    valid = (sse_m > 0) & (sse_l > 0)
+    use_l = equations == "both"
+    valid = (sse_m > 0) & ((sse_l > 0) | (not use_l))
     obj = np.full(A.size, np.inf)
-    obj[valid] = nm * np.log(sse_m[valid]) + nl * np.log(sse_l[valid])
+    obj[valid] = nm * np.log(sse_m[valid]) + (nl * np.log(sse_l[valid]) if use_l else 0.0)
     k = int(np.argmin(obj))
     if not np.isfinite(obj[k]):
         raise DataError("identification failed: no contact configuration explains the data")
@@ -599,18 +643,19 @@ def grid_start(data: WindowData, max_windows: int = 20_000) -> GridStart:
     K_S = -th5 * d.N * J_m
     D_S = -th6 * d.N * J_m
     ks_l, ds_l, bl_l, tc_l = bl  # a_l = (K_S/J_l) ZK + (D_S/J_l) ZD − (β_l/J_l) WL − (T_Cl/J_l) SL
-    J_l = K_S / ks_l if ks_l != 0 else 1.0
+    J_l = K_S / ks_l if (ks_l != 0 and use_l) else 1.0
     x = np.array(
         [J_m, J_l, K_S, D_S, th3 * J_m, th2 * J_m, tc_l * J_l, bl_l * J_l, th4 * J_m,
-         cands[a] if a is not None else -np.inf, cands[b] if b is not None else np.inf]
+         cands[a] if a is not None else -np.inf, cands[b] if b is not None else np.inf, tau]
     )  # fmt: skip
+    if not use_l:
+        x[[I_JL, I_TCL, I_BL]] = [1.0, 0.0, 0.0]
     sides = (a is not None, b is not None)
-    free = [i for i in range(11) if not ((i == I_CLO and not sides[0]) or (i == I_CHI and not sides[1]))]
     return GridStart(
         c_lo=float(x[I_CLO]),
         c_hi=float(x[I_CHI]),
         sides=sides,
-        x0=x[free],
+        x0=x,
         objective=float(obj[k]),
         table={"candidates": cands, "pairs": int(A.size), "windows_used": int(sel.size)},
     )
@@ -628,7 +673,8 @@ def motor_only_start(data: WindowData) -> GridStart:
     X = np.column_stack([d.U, -d.WM, -d.SM, -np.ones(d.n_win)])[ok]
     th, *_ = np.linalg.lstsq(X, d.a_m[ok], rcond=None)
     J_m = 1.0 / th[0] if th[0] != 0 else 1.0
-    x = np.zeros(11)
+    x = np.zeros(NP)
+    x[I_JL] = 1.0
     x[[I_JM, I_BM, I_TCM, I_U0]] = [J_m, th[1] * J_m, th[2] * J_m, th[3] * J_m]
     return GridStart(-np.inf, np.inf, (False, False), x, float("nan"), {"motor_only": True})
 
@@ -658,12 +704,19 @@ def andrews_bandwidth(g: np.ndarray) -> int:
 
 
 def hac_covariance(J: np.ndarray, g: np.ndarray, lags: int) -> np.ndarray:
-    """Sandwich (JᵀJ)⁻¹ S (JᵀJ)⁻¹ with the Bartlett-weighted long-run covariance S of ``g``."""
+    """Sandwich (JᵀJ)⁻¹ S (JᵀJ)⁻¹ with the Bartlett-weighted long-run covariance S of ``g``.
+
+    Computed on unit-norm Jacobian columns (parameters differ by 10 orders of magnitude:
+    K_S ~ 1e6 N·m/rad next to δ ~ 1e-4 rad) and scaled back.
+    """
     from statsmodels.stats.sandwich_covariance import S_hac_simple
 
-    S = S_hac_simple(g, nlags=lags)
-    B = np.linalg.pinv(J.T @ J)
-    return B @ S @ B
+    scale = np.linalg.norm(J, axis=0)
+    scale[scale == 0] = 1.0
+    Js = J / scale
+    S = S_hac_simple(g / scale, nlags=lags)
+    B = np.linalg.pinv(Js.T @ Js)
+    return (B @ S @ B) / np.outer(scale, scale)
 
 
 # --------------------------------------------------------------------------------------
@@ -683,28 +736,24 @@ class TwoMassFit:
 
 def _start_vector(prob: TwoMassProblem, start: GridStart, data: WindowData) -> np.ndarray:
     """Start values for ``prob`` from the grid result (contacts the grid did not see: data extremes)."""
-    p = np.zeros(11)
-    if start.x0.size == 11:
-        p[:] = start.x0
-    else:
-        free_start = [
-            i
-            for i in range(11)
-            if not ((i == I_CLO and not start.sides[0]) or (i == I_CHI and not start.sides[1]))
-        ]
-        p[free_start] = start.x0
-    if not start.sides[0]:
+    p = np.array(start.x0, dtype=float)
+    if not np.isfinite(p[I_CLO]):
         p[I_CLO] = float(np.min(data.dth))
-    if not start.sides[1]:
+    if not np.isfinite(p[I_CHI]):
         p[I_CHI] = float(np.max(data.dth))
-    for i, floor in ((I_JM, 1e-12), (I_JL, 1e-12)):
+    for i in (I_JM, I_JL):
         if not np.isfinite(p[i]) or p[i] == 0:
-            p[i] = floor
+            p[i] = 1e-12
     return p[prob.free]
 
 
 def fit_two_mass(
-    data: WindowData, sides: tuple[bool, bool] | None = None, start: GridStart | None = None
+    data: WindowData,
+    sides: tuple[bool, bool] | None = None,
+    start: GridStart | None = None,
+    *,
+    equations: str = "both",
+    fit_delay: bool = False,
 ) -> TwoMassFit:
     """Least-squares fit of the two-mass model with HAC covariance.
 
@@ -715,13 +764,17 @@ def fit_two_mass(
         Contacts to model (lower, upper); default: as the grid search found.
     start : GridStart, optional
         Result of :func:`grid_start` (computed when omitted).
+    equations : {"both", "motor"}
+        Equations fitted (``"motor"``: the load equation is left out).
+    fit_delay : bool
+        Fit a time offset between the two encoders (``encoder_delay``).
     """
     from scipy.optimize import least_squares
 
     if start is None:
-        start = grid_start(data)
+        start = grid_start(data, equations=equations)
     sides = start.sides if sides is None else sides
-    prob = TwoMassProblem(data, sides)
+    prob = TwoMassProblem(data, sides, equations=equations, fit_delay=fit_delay)
     x = _start_vector(prob, start, data)
     res = None
     for _ in range(2):  # reweight both equations by their residual standard deviation, refit
@@ -780,7 +833,7 @@ def _contact_evidence(fit: TwoMassFit) -> dict[str, Any]:
     gap = ok & (prob._FLO == 0) & (prob._FHI == 0)
     out["gap_windows"] = int(gap.sum())
     out["gap_shaft_torque_mean"] = float(Tm[gap].mean()) if gap.any() else float("nan")
-    out["traversals"] = int(count_traversals(d.dth, p[I_CLO], p[I_CHI])) if all(prob.sides) else 0
+    out["traversals"] = int(count_traversals(prob.dtheta(p), p[I_CLO], p[I_CHI])) if all(prob.sides) else 0
     return out
 
 
@@ -822,6 +875,7 @@ REPORT_ORDER = (
     "torque_offset",
     "delta",
     "delta1",
+    "encoder_delay",
 )
 
 
@@ -860,18 +914,33 @@ def _plausibility(params: dict[str, ParameterEstimate]) -> list[str]:
     return out
 
 
-def identify_two_mass(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> DriveIdentification:
+def identify_two_mass(
+    trace: Trace,
+    N: float,
+    *,
+    window_s: float = WINDOW_S,
+    equations: str = "both",
+    fit_delay: bool = False,
+) -> DriveIdentification:
     """Identify J_m, J_l, K_S, D_S, friction, torque offset, δ and δ1 from one recording.
 
     Parameters
     ----------
     trace : Trace
         ``theta_m``, ``theta_l`` [rad] (motor side / load side), ``torque_m`` [N·m] (motor
-        side); ``omega_m``, ``omega_l`` [rad/s] recommended.
+        side); ``omega_m``, ``omega_l`` [rad/s] recommended (differentiated from the
+        positions when absent).
     N : float
         Gear ratio θ_m/θ_l [-] (given, not identified).
     window_s : float
         Window length of the integral equations [s].
+    equations : {"both", "motor"}
+        ``"motor"`` leaves the load equation out (a robot link, whose inertia depends on
+        the pose and which carries gravity): J_l and the load friction are then not
+        identified; K_S, D_S, δ and δ1 come from the motor torque.
+    fit_delay : bool
+        Also fit a time offset τ [s] between the motor and the load encoder
+        (Δθ → Δθ − τ ω_l), reported as ``encoder_delay``.
 
     Returns
     -------
@@ -879,9 +948,16 @@ def identify_two_mass(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> 
         See the module docstring for the method; parameters the recording cannot
         determine carry a reason instead of a number.
     """
+    if equations not in ("both", "motor"):
+        raise ParameterError("identification", "equations", f"must be 'both' or 'motor', got {equations!r}")
     data = window_data(trace, N, window_s=window_s)
-    start = grid_start(data)
-    fit = fit_two_mass(data, start=start)
+    kw: dict[str, Any] = {"equations": equations, "fit_delay": fit_delay}
+    start = grid_start(data, equations=equations)
+    fit = fit_two_mass(data, start=start, **kw)
+    if fit_delay and fit.p[I_TAU] != 0.0 and any(fit.problem.sides):
+        # contacts again on the delay-corrected Δθ
+        start = grid_start(data, equations=equations, tau=float(fit.p[I_TAU]))
+        fit = fit_two_mass(data, start=start, **kw)
     ev = _contact_evidence(fit)
     notes: list[str] = []
     sides = fit.problem.sides
@@ -901,13 +977,13 @@ def identify_two_mass(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> 
                 >= abs(ev["lower"]["shaft_torque_mean"]) * ev["lower"]["windows"]
             )
             sides = (not keep_hi, keep_hi)
-            fit = fit_two_mass(data, sides=sides, start=start)
+            fit = fit_two_mass(data, sides=sides, start=start, **kw)
             ev = _contact_evidence(fit)
     if any(sides) and not all(sides):
         side = "upper" if sides[1] else "lower"
         if not _side_ok(ev, side, 1.0 if sides[1] else -1.0):
             sides = (False, False)
-            fit = fit_two_mass(data, sides=sides, start=start)
+            fit = fit_two_mass(data, sides=sides, start=motor_only_start(data), **kw)
             ev = _contact_evidence(fit)
     return _build_result(trace, data, fit, ev, notes)
 
@@ -923,7 +999,8 @@ def _build_result(
     params: dict[str, ParameterEstimate] = {}
     for n, v, s in zip(rep, vals, std, strict=True):
         params[n] = ParameterEstimate.normal(n, v, s)
-    dmin, dmax = float(np.min(data.dth)), float(np.max(data.dth))
+    dth = prob.dtheta(p)
+    dmin, dmax = float(np.min(dth)), float(np.max(dth))
     if all(sides):
         reason = (
             f"both contacts seen: {ev['traversals']} traversals of the gap, {ev['lower']['windows']} / "
@@ -956,6 +1033,10 @@ def _build_result(
             params[n] = ParameterEstimate.unknown(n, why)
         params["delta"] = ParameterEstimate.unknown("delta", reason, low=max(0.0, dmax - dmin))
         params["delta1"] = ParameterEstimate.unknown("delta1", why)
+    if prob.equations == "motor":
+        why = "the load equation was not used (equations = 'motor')"
+        for n in ("J_l", "T_Cl", "beta_l"):
+            params.setdefault(n, ParameterEstimate.unknown(n, why))
     ordered = {n: params[n] for n in REPORT_ORDER if n in params}
     corr_names = tuple(n for n in rep if ordered.get(n) is not None and ordered[n].identifiable)
     idx = [rep.index(n) for n in corr_names]
@@ -1003,7 +1084,7 @@ def _build_result(
         "a_m_hat": am,
         "a_l": data.a_l,
         "a_l_hat": al,
-        "dtheta": data.dth.reshape(data.n_win, data.M).mean(axis=1),
+        "dtheta": dth.reshape(data.n_win, data.M).mean(axis=1),
         "shaft_torque_motor": shaft_torque_from_motor(fit),
         "shaft_torque_model": T,
         "ok_m": data.ok_m,
@@ -1126,8 +1207,14 @@ def identify_from_config(
             f"{cfg.source or '<config>'}: table [drivetrain], key 'N': the gear ratio is needed for the "
             "two-mass model (or pass N=)"
         )
-    window = getattr(cfg.identification, "window", None) if cfg.identification is not None else None
-    return identify_two_mass(trace, float(N), window_s=window if window else WINDOW_S)
+    opts = cfg.identification_or_default()
+    return identify_two_mass(
+        trace,
+        float(N),
+        window_s=opts.window or WINDOW_S,
+        equations=opts.equations,
+        fit_delay=opts.encoder_delay,
+    )
 
 
 def _trace_from_frame(df: Any, mapping: Any, need: list[str]) -> Trace:

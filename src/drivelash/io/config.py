@@ -210,6 +210,11 @@ class IdentificationSection(_Strict):
         (:mod:`drivelash.estimation.identify_two_mass`).
     window : float, optional
         Window of the two-mass integral equations [s] (default 1 ms, at least 2 samples).
+    equations : {"both", "motor"}
+        Two-mass model: fit both equations, or the motor equation only (a robot link whose
+        inertia depends on the pose and which carries gravity).
+    encoder_delay : bool
+        Two-mass model: also fit a time offset between the motor and the load encoder [s].
     """
 
     cutoff_hz: float = Field(default=100.0, gt=0)
@@ -219,6 +224,8 @@ class IdentificationSection(_Strict):
     side: Literal["motor", "load"] = "motor"
     model: Literal["rigid", "two-mass"] = "rigid"
     window: float | None = Field(default=None, gt=0)
+    equations: Literal["both", "motor"] = "both"
+    encoder_delay: bool = False
 
 
 class DriveConfig(_Strict):

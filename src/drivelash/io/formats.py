@@ -421,8 +421,40 @@ def _read_mat(p: Path, kind: str) -> RawTable:
         raise
     meta = _parse_meta(data.get(_META_KEY, "")) if _META_KEY in data else {}
     items = {k: v for k, v in data.items() if not k.startswith("__") and k != _META_KEY}
-    cols, scalars = _split(items)
+    cols, scalars = _split(_flatten_mat(items))
     return RawTable(cols, scalars, meta, str(p), "mat")
+
+
+def _flatten_mat(items: dict[str, Any], prefix: str = "", depth: int = 0) -> dict[str, Any]:
+    """MATLAB structs and matrices as named vectors, MATLAB-style.
+
+    A struct field becomes ``struct.field``; a numeric matrix of shape (k, n) with k < n
+    becomes k rows ``name(i,:)``, one of shape (n, k) with k < n becomes k columns
+    ``name(:,j)`` (1-based, as in MATLAB) — e.g. ``rec.act_pos_mot_deg(2,:)`` is axis 2 of a
+    robot recording. The elements of short vectors (≤ 16) are also scalars ``name(i)``
+    (e.g. a gear ratio ``para.u(2)``). Nesting is followed two levels deep.
+    """
+    out: dict[str, Any] = {}
+    for name, value in items.items():
+        full = prefix + name
+        arr = np.asarray(value)
+        if arr.dtype.names and depth < 2 and arr.size == 1:
+            rec = arr.reshape(-1)[0]
+            out.update(_flatten_mat({f: rec[f] for f in arr.dtype.names}, full + ".", depth + 1))
+            continue
+        if arr.dtype.kind not in "biuf":
+            continue
+        if arr.ndim == 2 and min(arr.shape) > 1:
+            k, n = arr.shape
+            if k < n:
+                out.update({f"{full}({i + 1},:)": arr[i] for i in range(k)})
+            elif n < k:
+                out.update({f"{full}(:,{j + 1})": arr[:, j] for j in range(n)})
+            continue
+        out[full] = arr
+        if 1 < arr.size <= 16:
+            out.update({f"{full}({i + 1})": v for i, v in enumerate(arr.reshape(-1))})
+    return out
 
 
 def read_raw(path: str | Path) -> RawTable:
