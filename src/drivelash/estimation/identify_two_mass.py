@@ -57,8 +57,10 @@ WINDOW_S = 1e-3
 STANDSTILL_FRACTION = 0.05
 #: ... or below this many standard deviations of the velocity noise.
 STANDSTILL_SIGMA = 4.0
-#: Quantile grid of the contact-point search (per side).
+#: Quantile grid of the contact-point search (per side) ...
 GRID_POINTS = 32
+#: ... and uniform grid between the 0.2 % and 99.8 % quantiles of Δθ.
+UNIFORM_POINTS = 48
 #: A contact side counts as seen when at least this many usable windows lie in it.
 MIN_CONTACT_WINDOWS = 20
 #: Samples before a window used to extrapolate its starting velocity.
@@ -552,7 +554,7 @@ class GridStart:
 
 
 def grid_start(
-    data: WindowData, max_windows: int = 20_000, *, equations: str = "both", tau: float = 0.0
+    data: WindowData, max_windows: int = 12_000, *, equations: str = "both", tau: float = 0.0
 ) -> GridStart:
     """Contact points from a grid of Δθ quantiles (and "never reached" on either side).
 
@@ -571,8 +573,11 @@ def grid_start(
     idx = (sel[:, None] * M + np.arange(M)[None, :]).ravel()
     dth = np.ascontiguousarray(d.dth[idx] - tau * d.wl[idx]) if tau else np.ascontiguousarray(d.dth[idx])
     dw = np.ascontiguousarray(d.dw[idx])
+    # quantiles resolve where the data are dense; a uniform grid resolves the contact point
+    # itself, which for a stiff shaft sits just outside the dense (deflected) cluster
+    lo_q, hi_q = np.quantile(dth, [0.002, 0.998])
     qs = np.quantile(dth, np.linspace(0.002, 0.998, GRID_POINTS))
-    cands = np.unique(qs)
+    cands = np.unique(np.round(np.concatenate([qs, np.linspace(lo_q, hi_q, UNIFORM_POINTS)]), 15))
     K = cands.size
     DKlo = np.zeros((sel.size, K + 1))
     DDlo = np.zeros((sel.size, K + 1))
@@ -586,15 +591,33 @@ def grid_start(
     base_l = np.column_stack([-d.WL[sel], -d.SL[sel]])
     # column blocks: base_m(4) | base_l(2) | a_m | a_l | DKlo | DDlo | DKhi | DDhi
     X = np.column_stack([base_m, base_l, d.a_m[sel], d.a_l[sel], DKlo, DDlo, DKhi, DDhi])
-    Gm = X[ok_m].T @ X[ok_m]
-    Gl = X[ok_l].T @ X[ok_l]
     nm, nl = int(ok_m.sum()), int(ok_l.sum())
-    if nm < 20 or nl < 20:
+    if nm < 20 or (nl < 20 and equations == "both"):
         return motor_only_start(data)
     # pairs (a, b): index K means "contact never reached" (a zero column)
     K1 = K + 1
     o = 8
     lo_k, lo_d, hi_k, hi_d = o, o + K1, o + 2 * K1, o + 3 * K1
+
+    def partial_gram(Xs: np.ndarray) -> np.ndarray:
+        """The entries of XᵀX the pairs need: base rows, lower×upper blocks, within-candidate terms."""
+        G = np.zeros((X.shape[1], X.shape[1]))
+        G[:o, :] = Xs[:, :o].T @ Xs
+        G[:, :o] = G[:o, :].T
+        L, H = Xs[:, lo_k:hi_k], Xs[:, hi_k:]
+        C = L.T @ H
+        G[lo_k:hi_k, hi_k:] = C
+        G[hi_k:, lo_k:hi_k] = C.T
+        for kk, dd in ((lo_k, lo_d), (hi_k, hi_d)):
+            Kc, Dc = Xs[:, kk : kk + K1], Xs[:, dd : dd + K1]
+            i = np.arange(K1)
+            G[kk + i, kk + i] = np.einsum("ij,ij->j", Kc, Kc)
+            G[dd + i, dd + i] = np.einsum("ij,ij->j", Dc, Dc)
+            G[kk + i, dd + i] = G[dd + i, kk + i] = np.einsum("ij,ij->j", Kc, Dc)
+        return G
+
+    Gm = partial_gram(X[ok_m])
+    Gl = partial_gram(X[ok_l]) if nl else np.zeros_like(Gm)
     A, B = np.meshgrid(np.arange(K1), np.arange(K1), indexing="ij")
     A, B = A.ravel(), B.ravel()
     ca = np.append(cands, -np.inf)[A]
