@@ -254,21 +254,24 @@ def test_cli_status_forecast_report(small_fleet, serial_store, tmp_path):
     assert r.returncode == 2 and "no axis 'M01/Q'" in r.stderr and r.stderr.count("\n") == 1
 
 
-def _dying_compute(marker: str, target: str):
-    """A worker function that kills its own worker process the first time it sees ``target``."""
-    from drivelash.wear.estimate import estimate_recording
+class _Dying:
+    """A worker function that kills its own worker process the first time it sees ``target``
+    (a module-level class: picklable for the process pool and for Dask)."""
 
-    def compute(task):
-        if task.path.endswith(target):
+    def __init__(self, marker: str, target: str) -> None:
+        self.marker, self.target = marker, target
+
+    def __call__(self, task):
+        from drivelash.wear.estimate import estimate_recording
+
+        if task.path.endswith(self.target):
             try:
-                os.close(os.open(marker, os.O_CREAT | os.O_EXCL))
+                os.close(os.open(self.marker, os.O_CREAT | os.O_EXCL))
             except FileExistsError:
                 pass
             else:
                 os._exit(1)  # the worker process dies mid-task, no exception, no result
         return estimate_recording(task)
-
-    return compute
 
 
 @pytest.mark.slow
@@ -283,7 +286,7 @@ def test_a_dying_worker_loses_no_recording(small_fleet, serial_store, tmp_path, 
         load_fleet(small_fleet / "fleet.toml"),
         st2,
         workers=2,
-        compute=_dying_compute(str(marker), target),
+        compute=_Dying(str(marker), target),
         **kw,
     )
     assert marker.exists()  # a worker really died
