@@ -106,8 +106,19 @@ def _reversal_figure(result: Any, comparison: Any | None) -> Figure:
             if c.u_L_delta is not None:
                 lo, hi = (c.L_delta - 2 * c.u_L_delta) * df, (c.L_delta + 2 * c.u_L_delta) * df
                 ax.axhspan(lo, hi, color="#1b7a3a", alpha=0.12)
-            if c.compensation:
-                ax.axhline((c.L_iso) * df, color="#6a3d9a", lw=1.0, ls=":", label="−B̄ + compensation")
+            if c.compensation or c.drift_correction:
+                what = " + ".join(
+                    w
+                    for w, on in (("compensation", c.compensation), ("drift removed", c.drift_correction))
+                    if on
+                )
+                ax.axhline(
+                    c.L_iso * df,
+                    color="#6a3d9a",
+                    lw=1.4,
+                    ls=":",
+                    label=f"−B̄ ({what}) = {c.L_iso * df:.3g} {dl}",
+                )
         ax.set_xlabel(f"target position P_i [{pl}]")
         ax.set_ylabel(f"lost motion [{dl}]")
         ax.grid(alpha=0.3)
