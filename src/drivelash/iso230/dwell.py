@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from drivelash.errors import DataError, ParameterError
-from drivelash.iso230.evaluate import DOWN, UP, Approaches, _fmt_pos, approaches_from_rows
+from drivelash.iso230.evaluate import DOWN, MAX_ABS, UP, Approaches, _fmt_pos, approaches_from_rows
 
 __all__ = ["Drift", "DwellParams", "Dwells", "detect_dwells", "estimate_drift"]
 
@@ -240,6 +240,15 @@ def detect_dwells(
     P_actual = np.asarray(P_actual, dtype=np.float64)
     if t.size < 3:
         raise DataError(f"only {t.size} samples", path=source, column="t")
+    for name, arr in (("t", t), ("P_cmd", P_cmd), ("P_actual", P_actual), ("P_axis", P_axis)):
+        if arr is None:
+            continue
+        bad = ~np.isfinite(arr) | (np.abs(arr) > MAX_ABS)
+        if bad.any():
+            raise DataError(
+                f"NaN, infinite or implausible value (beyond ±{MAX_ABS:g})", path=source, column=name,
+                row=int(np.argmax(bad)),
+            )  # fmt: skip
     T_s = float(np.median(np.diff(t)))
     travel = float(np.ptp(P_cmd))
     if travel <= 0:

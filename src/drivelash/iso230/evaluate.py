@@ -62,6 +62,10 @@ STANDARD_MIN_TARGETS = 5
 #: Target positions closer than this fraction of the target range are one target.
 TARGET_TOLERANCE = 1e-6
 
+#: Larger magnitudes [m, rad, run numbers] are refused: no machine axis is 1000 km long,
+#: and squares of such numbers overflow.
+MAX_ABS = 1e6
+
 #: Coverage probability of the intervals of B and B̄.
 COVERAGE = 0.95
 
@@ -201,6 +205,15 @@ def approaches_from_rows(
         bad = ~np.isfinite(a)
         if bad.any():
             raise DataError("NaN or infinite value", path=source, column=cols[key], row=int(np.argmax(bad)))
+        big = np.abs(a) > MAX_ABS
+        if big.any():
+            i = int(np.argmax(big))
+            raise DataError(
+                f"implausible value {a[i]:.6g} (beyond ±{MAX_ABS:g} m or rad; wrong unit?)",
+                path=source,
+                column=cols[key],
+                row=i,
+            )
     d = arrays["direction"]
     bad = (d != UP) & (d != DOWN)
     if bad.any():

@@ -315,7 +315,15 @@ def read_measurement(
     if kind in ("auto", "table"):
         table = load_table(p, mapping)
         if kind == "auto":
-            kind = "table" if ("run" in table.columns and "direction" in table.columns) else "timeseries"
+            cols = table.columns
+            kind = "table" if ("run" in cols and "direction" in cols) else "timeseries"
+            if kind == "timeseries" and not ("P_cmd" in cols and "P_actual" in cols):
+                have = ", ".join(table.origin.get(c, c) for c in cols) or "none"
+                raise DataError(
+                    "neither a table of approaches (needs run, direction, P_target and x_dev or P_actual)"
+                    f" nor a time series (needs t, P_cmd, P_actual); columns: {have}; map them in [columns]",
+                    path=str(p),
+                )
     if kind == "table":
         return _read_table(p, mapping, params, table)
     return _read_series(p, mapping, params, dwell)
