@@ -1,10 +1,13 @@
 """``drivelash iso230``: ISO 230-2 evaluation of a positioning test, B beside the deadzone.
 
 ``iso230 MEASUREMENT [--config AXIS.toml] [--estimate EST.json] [--json out.json]
-[--report iso.html]`` reads a table of approaches or a raw time series (dwells found
+[--report iso.html] [--db URL --axis ID [--time T]]``
+reads a table of approaches or a raw time series (dwells found
 automatically), evaluates every ISO 230-2:2014 quantity with the uncertainty of the
 reversal value, and — with ``--estimate`` and a ``[transmission]`` — puts B beside the
-deadzone estimated from a drive recording. Outputs go through
+deadzone estimated from a drive recording (or the estimate of the same axis in the wear
+history); with ``--db``/``--axis`` the check is stored in that history as a second source
+of the axis (:mod:`drivelash.iso230.history`). Outputs go through
 :class:`drivelash.io.outputs.Outputs`: validated first, written together at the end.
 """
 
@@ -25,80 +28,133 @@ def run_iso230(
     estimate: Path | None = None,
     json_out: Path | None = None,
     report: Path | None = None,
+    db: str | None = None,
+    axis: str | None = None,
+    time: str | None = None,
     force: bool = False,
     quiet: bool = False,
 ) -> dict[str, Any]:
     """Body of ``drivelash iso230`` (callable from Python; returns the JSON summary)."""
-    from drivelash.errors import ConfigError
+    from drivelash.errors import ConfigError, DrivelashError
     from drivelash.io.outputs import HTML_EXTENSIONS, JSON_EXTENSIONS, Outputs, write_json
     from drivelash.iso230 import evaluate
-    from drivelash.iso230.compare import compare, read_deadzone
+    from drivelash.iso230.compare import compare, lost_motion, read_deadzone
     from drivelash.iso230.config import load_iso230_config
+    from drivelash.iso230.history import axis_factor, check_time, deadzone_from_store, store_check
     from drivelash.iso230.inputs import read_measurement
 
+    if (db is None) != (axis is None):
+        raise DrivelashError("--db and --axis go together: the history store and the axis (machine/axis)")
+    store = None
     with Outputs("iso230", inputs=[measurement, config, estimate], force=force) as out:
         j = out.file(json_out, option="--json", kinds=JSON_EXTENSIONS)
         r = out.file(report, option="--report", kinds=HTML_EXTENSIONS)
         cfg = load_iso230_config(config)
         deadzone = read_deadzone(estimate) if estimate is not None else None
-        if deadzone is not None and cfg.transmission is None:
-            raise ConfigError(
-                f"{cfg.source}: --estimate needs a [transmission] table (lead or pinion_radius, and i_G)"
-                " to convert the deadzone to the load"
-            )
-        meas = read_measurement(measurement, cfg.mapping, params=cfg.iso230, dwell=cfg.dwell)
-        res = evaluate(meas.approaches, coverage=cfg.iso230.coverage)
-        axis_res = (
-            evaluate(meas.approaches_axis, coverage=cfg.iso230.coverage) if meas.approaches_axis else None
-        )
-        comparison = None
-        if deadzone is not None and cfg.transmission is not None:
-            corrected = evaluate(meas.drift.corrected, coverage=cfg.iso230.coverage) if meas.drift else None
-            comparison = compare(
-                res,
-                deadzone,
-                cfg.transmission,
-                cfg.iso230.compensation,
-                drift=meas.drift,
-                corrected=corrected,
-            )
-        summary: dict[str, Any] = {
-            "measurement": str(measurement),
-            "config": None if config is None else str(config),
-            "input": meas.kind,
-            **res.to_dict(),
-        }
-        warnings = list(meas.warnings)
-        if meas.drift is not None:
-            dr = meas.drift
-            summary["drift"] = {
-                "rate": dr.rate,
-                "u_rate": dr.u_rate,
-                "bias_B_mean": dr.bias_B_mean,
-                "u_bias_B_mean": dr.u_bias,
-            }
-            if abs(dr.bias_B_mean) > res.u_B_mean:
-                warnings.append(drift_warning(dr, res))
-        summary["warnings"] = warnings
-        if axis_res is not None:
-            summary["reference_vs_axis_encoder"] = {
-                "B": axis_res.B,
-                "B_mean": axis_res.B_mean,
-                "u_B_mean": axis_res.u_B_mean,
-            }
-        if meas.dwells is not None:
-            summary["dwells"] = meas.dwells.to_dict()
-        if comparison is not None:
-            summary["deadzone_comparison"] = comparison.to_dict()
-        if j is not None:
-            write_json(out.staging(j), summary)
-        if r is not None:
-            from drivelash.report.iso230 import write_iso230_report
+        if not measurement.is_file():
+            from drivelash.io import read_raw
 
-            write_iso230_report(out.staging(r), res, meas, comparison, axis_result=axis_res)
+            read_raw(measurement)  # the reader's one-line error (missing file, directory, …)
+        when, when_how = check_time(measurement, time)
+        try:
+            factor = None
+            notes: list[str] = []
+            if db is not None and axis is not None:
+                from drivelash.wear.store import Store
+
+                store = Store(db, create=False)
+                factor = axis_factor(store, axis)
+                if deadzone is None:
+                    deadzone = deadzone_from_store(store, axis, when)
+                    if deadzone is None:
+                        notes.append(f"no excited estimate of axis {axis} in {store.name}: B is not compared")
+            if deadzone is not None and cfg.transmission is None and factor is None:
+                raise ConfigError(
+                    f"{cfg.source}: comparing with the deadzone needs a [transmission] table (lead or"
+                    " pinion_radius, and i_G) or an axis transmission in the history store"
+                )
+            meas = read_measurement(measurement, cfg.mapping, params=cfg.iso230, dwell=cfg.dwell)
+            cov = cfg.iso230.coverage
+            res = evaluate(meas.approaches, coverage=cov)
+            axis_res = evaluate(meas.approaches_axis, coverage=cov) if meas.approaches_axis else None
+            corrected = evaluate(meas.drift.corrected, coverage=cov) if meas.drift else None
+            comparison = None
+            if deadzone is not None:
+                comparison = compare(
+                    res,
+                    deadzone,
+                    cfg.transmission,
+                    cfg.iso230.compensation,
+                    drift=meas.drift,
+                    corrected=corrected,
+                    factor=factor if res.unit == "m" else None,
+                )
+            summary: dict[str, Any] = {
+                "measurement": str(measurement),
+                "config": None if config is None else str(config),
+                "input": meas.kind,
+                "time": when.isoformat(timespec="seconds"),
+                "time_from": when_how,
+                **res.to_dict(),
+            }
+            warnings = list(meas.warnings) + notes
+            if meas.drift is not None:
+                dr = meas.drift
+                summary["drift"] = {
+                    "rate": dr.rate,
+                    "u_rate": dr.u_rate,
+                    "bias_B_mean": dr.bias_B_mean,
+                    "u_bias_B_mean": dr.u_bias,
+                }
+                if abs(dr.bias_B_mean) > res.u_B_mean:
+                    warnings.append(drift_warning(dr, res))
+            summary["warnings"] = warnings
+            if axis_res is not None:
+                summary["reference_vs_axis_encoder"] = {
+                    "B": axis_res.B,
+                    "B_mean": axis_res.B_mean,
+                    "u_B_mean": axis_res.u_B_mean,
+                }
+            if meas.dwells is not None:
+                summary["dwells"] = meas.dwells.to_dict()
+            if comparison is not None:
+                summary["deadzone_comparison"] = comparison.to_dict()
+            L, u_L, dcorr = lost_motion(res, cfg.iso230.compensation, meas.drift, corrected)
+            summary["lost_motion"] = {
+                "value": L,
+                "u": u_L,
+                "compensation": cfg.iso230.compensation,
+                "drift_correction": dcorr,
+            }
+            if store is not None and axis is not None:
+                rot = cfg.transmission.factor("rad") if (res.unit == "rad" and cfg.transmission) else None
+                mid = store_check(
+                    store,
+                    axis,
+                    measurement,
+                    when,
+                    res,
+                    L,
+                    u_L,
+                    rotary_factor=rot,
+                    extra={"compensation": cfg.iso230.compensation, "drift_correction": dcorr},
+                )
+                summary["history"] = {"store": store.name, "axis": axis, "measurement_id": mid, "value": L}
+            if j is not None:
+                write_json(out.staging(j), summary)
+            if r is not None:
+                from drivelash.report.iso230 import write_iso230_report
+
+                write_iso230_report(out.staging(r), res, meas, comparison, axis_result=axis_res)
+        finally:
+            if store is not None:
+                store.close()
     if not quiet:
         print_warnings({"warnings": summary["warnings"]})
         _print_summary(res, comparison)
+        if "history" in summary:
+            h = summary["history"]
+            typer.echo(f"stored as measurement {h['measurement_id']} of axis {h['axis']} in {h['store']}")
     return summary
 
 
@@ -161,9 +217,26 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         report: Path | None = typer.Option(
             None, "--report", help="Write the self-contained HTML report here."
         ),
+        db: str | None = typer.Option(
+            None, "--db", help="Wear history store (SQLite path or SQLAlchemy URL): store the check there."
+        ),
+        axis: str | None = typer.Option(None, "--axis", help="The axis in the store (machine/axis)."),
+        time: str | None = typer.Option(
+            None, "--time", help="When the check was made (ISO 8601; default: the file's modification time)."
+        ),
         force: bool = typer.Option(
             False, "--force", help="Replace existing files that are not drivelash outputs."
         ),
     ) -> None:
         """ISO 230-2 positioning evaluation: A, B, E, M, R; B beside the estimated deadzone."""
-        run_iso230(measurement, config, estimate=estimate, json_out=json_out, report=report, force=force)
+        run_iso230(
+            measurement,
+            config,
+            estimate=estimate,
+            json_out=json_out,
+            report=report,
+            db=db,
+            axis=axis,
+            time=time,
+            force=force,
+        )

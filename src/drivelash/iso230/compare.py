@@ -30,7 +30,7 @@ from typing import Any
 from drivelash.errors import ConfigError, DataError, ParameterError
 from drivelash.iso230.evaluate import Iso230Result
 
-__all__ = ["Comparison", "Deadzone", "Transmission", "compare", "read_deadzone"]
+__all__ = ["Comparison", "Deadzone", "Transmission", "compare", "lost_motion", "read_deadzone"]
 
 #: Coverage factor of the expanded uncertainties in E_n.
 K_COVERAGE = 2.0
@@ -213,13 +213,41 @@ class Comparison:
         }
 
 
-def compare(
+def lost_motion(
     result: Iso230Result,
-    deadzone: Deadzone,
-    transmission: Transmission,
     compensation: float = 0.0,
     drift: Any | None = None,
     corrected: Iso230Result | None = None,
+) -> tuple[float, float, float]:
+    """The lost motion an ISO test measured, its standard uncertainty and the drift's part.
+
+    L = −B̄ + compensation; with a drift estimate, −B̄ of the drift-corrected deviations
+    (``corrected`` = ``evaluate(drift.corrected)``) and the uncertainty of the drift's
+    share added in quadrature [m or rad].
+
+    Returns
+    -------
+    L, u_L, drift_correction : float
+    """
+    L = -result.B_mean + compensation
+    u = result.u_B_mean
+    if drift is not None and math.isfinite(drift.u_bias):
+        if corrected is None:
+            raise ValueError("lost_motion: drift given without the evaluation of drift.corrected")
+        L_c = -corrected.B_mean + compensation
+        return L_c, math.hypot(corrected.u_B_mean, drift.u_bias), L_c - L
+    return L, u, 0.0
+
+
+def compare(
+    result: Iso230Result,
+    deadzone: Deadzone,
+    transmission: Transmission | None,
+    compensation: float = 0.0,
+    drift: Any | None = None,
+    corrected: Iso230Result | None = None,
+    *,
+    factor: float | None = None,
 ) -> Comparison:
     """Put the ISO reversal value and the estimated deadzone in one unit, with uncertainties.
 
@@ -227,33 +255,36 @@ def compare(
     ----------
     result : Iso230Result
     deadzone : Deadzone
-    transmission : Transmission
+    transmission : Transmission or None
+        From the deadzone's shaft to the load; None to use ``factor``.
     compensation : float
         Reversal (backlash) compensation active in the control during the test [m or rad].
     drift : Drift, optional
         Drift of the reference found in a time series
-        (:func:`drivelash.iso230.dwell.estimate_drift`); with it, the lost motion is
-        −B̄ of ``corrected`` (the evaluation of ``drift.corrected``), whose scatter no
-        longer carries the drift, and the uncertainty of the drift's share is added.
+        (:func:`drivelash.iso230.dwell.estimate_drift`); see :func:`lost_motion`.
     corrected : Iso230Result, optional
         ``evaluate(drift.corrected)``; required with ``drift``.
+    factor : float, optional
+        Lost motion per rad of deadzone [m/rad or rad/rad] when no ``transmission`` is given
+        (e.g. the axis's transmission in the wear history).
 
     Raises
     ------
     ConfigError
         The transmission does not fit the axis (missing lead/radius on a linear axis).
     """
-    try:
-        k = transmission.factor(result.unit)
-    except ParameterError as exc:
-        raise ConfigError(f"table [transmission], key '{exc.field}': {exc.problem}") from None
-    L_iso = -result.B_mean + compensation
-    u_iso = result.u_B_mean
-    if drift is not None and math.isfinite(drift.u_bias):
-        if corrected is None:
-            raise ValueError("compare: drift given without the evaluation of drift.corrected")
-        L_iso = -corrected.B_mean + compensation
-        u_iso = math.hypot(corrected.u_B_mean, drift.u_bias)
+    if transmission is not None:
+        try:
+            k = transmission.factor(result.unit)
+        except ParameterError as exc:
+            raise ConfigError(f"table [transmission], key '{exc.field}': {exc.problem}") from None
+    elif factor is not None and factor > 0:
+        k = float(factor)
+    else:
+        raise ConfigError(
+            "table [transmission]: needed to convert the deadzone to the load (lead or pinion_radius)"
+        )
+    L_iso, u_iso, dcorr = lost_motion(result, compensation, drift, corrected)
     L_d = k * deadzone.delta
     u_d = None if deadzone.u_delta is None else k * deadzone.u_delta
     U = K_COVERAGE * math.hypot(u_iso, u_d or 0.0)
@@ -262,7 +293,7 @@ def compare(
         unit=result.unit,
         factor=k,
         compensation=compensation,
-        drift_correction=0.0 if corrected is None else (-corrected.B_mean) - (-result.B_mean),
+        drift_correction=dcorr,
         L_iso=L_iso,
         u_L_iso=u_iso,
         B=result.B,

@@ -1,0 +1,184 @@
+"""ISO 230-2 checks in the wear history: stored once as a second source of the axis, in the same
+unit as the recording-based estimates, compared with the estimate nearest in time."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import sys
+from datetime import datetime
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from drivelash.cli import main
+from drivelash.iso230.synthetic import SyntheticAxis, synthetic_table
+from drivelash.wear.store import EstimateRow, Store
+
+LEAD = 0.01  # m per screw revolution
+K_MM = LEAD / (2 * math.pi) * 1e3  # mm of travel per rad: the axis transmission in the store
+AXIS = SyntheticAxis(delta=12e-6, sigma=0.5e-6)
+
+TABLE_TOML = """
+[columns."Target [mm]"]
+column = "P_target"
+unit = "mm"
+[columns.Run]
+column = "run"
+[columns.Dir]
+column = "direction"
+[columns."Error [um]"]
+column = "x_dev"
+unit = "um"
+"""
+
+
+@dataclasses.dataclass(frozen=True)
+class _Axis:
+    name: str
+    drive_path: str = "drive.toml"
+    drive_hash: str = "h" * 64
+    threshold_rad: float = 0.02
+    transmission: float | None = K_MM
+    horizon_days: float = 30.0
+    not_excited_alarm: int = 5
+
+
+def _estimate(i: int, day: int, delta: float, **kw) -> EstimateRow:
+    base = dict(
+        axis="M01/X",
+        path=f"/rec/{i}.parquet",
+        size_bytes=100 + i,
+        mtime_ns=10**18 + i,
+        content_hash=f"{i:064x}",
+        start_time=datetime(2026, 3, day, 6, 0),
+        duration_s=8.0,
+        sample_rate_hz=8000.0,
+        samples=64000,
+        method="default",
+        code_version="drivelash test",
+        config_hash="c" * 64,
+        status="ok",
+        reason="fine",
+        delta=delta,
+        delta1_estimate=delta / 2,
+        delta_std=0.2e-3,
+        excitation_ok=True,
+        converged=True,
+    )
+    base.update(kw)
+    return EstimateRow(**base)
+
+
+def _run(argv: list[str], capsys) -> tuple[int, str, str]:
+    old = sys.argv
+    sys.argv = ["drivelash", *argv]
+    try:
+        main()
+        code = 0
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    finally:
+        sys.argv = old
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture
+def setup(tmp_path) -> tuple[Path, Path, Path]:
+    db = tmp_path / "wear.sqlite"
+    st = Store(db)
+    ids = st.upsert_axes([_Axis("M01/X"), _Axis("M01/Y", transmission=None)])
+    d12 = 12e-3 / K_MM  # rad: 12 µm at the load
+    st.commit_batch(
+        [
+            _estimate(1, 1, 0.5 * d12),  # older
+            _estimate(2, 9, d12),  # the last excited one before the check (10 March)
+            _estimate(3, 9, 3 * d12, excitation_ok=False),  # not excited: never used
+            _estimate(4, 20, 2 * d12),  # after the check
+        ],
+        ids,
+    )
+    st.close()
+    tb = synthetic_table(AXIS, m=9, n=5, seed=6)
+    csv = tmp_path / "laser.csv"
+    pd.DataFrame(
+        {
+            "Target [mm]": tb["P_target"] * 1e3,
+            "Run": tb["run"].astype(int),
+            "Dir": tb["direction"].astype(int),
+            "Error [um]": tb["x_dev"] * 1e6,
+        }
+    ).to_csv(csv, index=False)
+    toml = tmp_path / "iso.toml"
+    toml.write_text(TABLE_TOML, encoding="utf-8")
+    (tmp_path / "est.json").write_text(json.dumps({"delta": 12e-3 / K_MM, "excitation_ok": True}))
+    return db, csv, toml
+
+
+def test_check_is_stored_and_compared_with_the_history(setup, tmp_path, capsys):
+    db, csv, toml = setup
+    j = tmp_path / "o.json"
+    argv = ["iso230", str(csv), "-c", str(toml), "--db", str(db), "--axis", "M01/X"]
+    code, out, err = _run([*argv, "--time", "2026-03-10T09:00", "--json", str(j)], capsys)
+    assert code == 0, err
+    s = json.loads(j.read_text())
+    # the deadzone is the excited estimate of 9 March, converted with the store's transmission
+    c = s["deadzone_comparison"]
+    assert "recording 2.parquet" in c["deadzone_source"]
+    assert c["deadzone_at_load"] == pytest.approx(12e-6, rel=1e-9) and c["agree"]
+    assert s["time"] == "2026-03-10T09:00:00+00:00" and s["time_from"] == "--time"
+    with Store(db, create=False) as st:
+        rows = st.measurements("M01/X")
+    assert len(rows) == 1
+    m = rows[0]
+    assert m["source"] == "iso230-2" and m["unit"] == "m"
+    assert m["value"] == pytest.approx(s["lost_motion"]["value"], rel=1e-12)
+    assert m["value"] == pytest.approx(12e-6, abs=3 * m["std"])
+    # in rad on the deadzone's scale, next to the estimates (the store converts with K_MM)
+    assert m["value_rad"] == pytest.approx(m["value"] * 1e3 / K_MM, rel=1e-12)
+    details = json.loads(m["details"])
+    assert details["B"] == pytest.approx(s["axis"]["B"]) and details["targets"] == 9
+    assert "stored as measurement" in out
+    # the same file again: no second row
+    code, _, err = _run([*argv, "--time", "2026-03-10T09:00"], capsys)
+    assert code == 0, err
+    with Store(db, create=False) as st:
+        assert len(st.measurements("M01/X")) == 1
+
+
+def test_fleet_report_shows_the_laser_check(setup, tmp_path, capsys):
+    db, csv, toml = setup
+    code, _, err = _run(["iso230", str(csv), "-c", str(toml), "--db", str(db), "--axis", "M01/X"], capsys)
+    assert code == 0, err
+    html = tmp_path / "fleet.html"
+    code, _, err = _run(["track", "report", "--db", str(db), "-o", str(html)], capsys)
+    assert code == 0, err
+    text = html.read_text()
+    assert "Measurements of other sources" in text and "iso230-2" in text
+
+
+@pytest.mark.parametrize(
+    ("extra", "needle"),
+    [
+        (["--db", "{db}"], "--db and --axis go together"),
+        (["--db", "{db}", "--axis", "M01/Q"], "no axis 'M01/Q'"),
+        (["--db", "{tmp}/none.sqlite", "--axis", "M01/X"], "no such store"),
+        (["--db", "{db}", "--axis", "M01/X", "--time", "yesterday"], "--time 'yesterday': not an ISO 8601"),
+        (["--db", "{db}", "--axis", "M01/Y", "--estimate", "{tmp}/est.json"], "needs a [transmission] table"),
+    ],
+)
+def test_bad_history_options_are_one_line(setup, tmp_path, capsys, extra, needle):
+    db, csv, toml = setup
+    j = tmp_path / "o.json"
+    extra = [e.format(db=db, tmp=tmp_path) for e in extra]
+    code, out, err = _run(["iso230", str(csv), "-c", str(toml), "--json", str(j), *extra], capsys)
+    assert code == 2, (out, err)
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("drivelash: error:") and needle in lines[0], err
+    assert not j.exists()
+    assert not (tmp_path / "none.sqlite").exists()
+    with Store(db, create=False) as st:
+        assert st.measurements() == []
