@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin, clone
+from sklearn.utils.validation import check_is_fitted, validate_data
 
 from drivelash.errors import DataError, ParameterError
 
@@ -66,9 +67,12 @@ class MLPRegressor(RegressorMixin, BaseEstimator):
     """Two-hidden-layer ReLU network with dropout, Adam and early stopping (PyTorch).
 
     Inputs and target are standardised inside ``fit``; prediction is in the target's
-    units. Trained in float32; after training the network is kept in float64 so the
-    NumPy/numba re-implementation in :mod:`drivelash.te.runtime.predictor` reproduces it to
-    rounding.
+    units. scikit-learn contract (``check_estimator`` passes, tested with
+    ``parametrize_with_checks``): hyperparameters are only stored by ``__init__`` and
+    validated in ``fit``; inputs are checked by ``validate_data`` (finite, 2-D, dense,
+    ``n_features_in_``); ``predict`` before ``fit`` raises ``NotFittedError``. Trained in
+    float32; after training the network is kept in float64 so the NumPy/numba
+    re-implementation in :mod:`drivelash.te.runtime.predictor` reproduces it to rounding.
 
     Parameters
     ----------
@@ -150,9 +154,7 @@ class MLPRegressor(RegressorMixin, BaseEstimator):
             ``self``.
         """
         self._check_params()
-        X, y = check_xy(X, y, min_cols=1)
-        assert y is not None
-        self.n_features_in_ = X.shape[1]
+        X, y = validate_data(self, X, y, dtype=np.float64, y_numeric=True)
         self.x_mean_ = X.mean(axis=0)
         sd = X.std(axis=0)
         self.x_scale_ = np.where(sd > 1e-12, sd, 1.0)
@@ -177,8 +179,8 @@ class MLPRegressor(RegressorMixin, BaseEstimator):
         lr_factor : float
             Learning rate = ``lr_factor · lr``.
         """
-        X, y = check_xy(X, y, min_cols=1)
-        assert y is not None
+        check_is_fitted(self, "net_")
+        X, y = validate_data(self, X, y, dtype=np.float64, y_numeric=True, reset=False)
         net = copy.deepcopy(self.net_).float()
         self._train(net, X, y, float(self.lr) * lr_factor, int(epochs), None)
         return self
@@ -238,9 +240,10 @@ class MLPRegressor(RegressorMixin, BaseEstimator):
 
     def predict(self, X: Any) -> np.ndarray:
         """Prediction in target units (float64 forward pass of the trained network)."""
+        check_is_fitted(self, "net_")
+        X = validate_data(self, X, dtype=np.float64, reset=False)
         import torch
 
-        X, _ = check_xy(X, min_cols=1)
         Xs = torch.from_numpy((X - self.x_mean_) / self.x_scale_)
         with torch.no_grad():
             out = self.net_(Xs).squeeze(-1).numpy()

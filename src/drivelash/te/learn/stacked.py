@@ -26,9 +26,10 @@ from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.ensemble import BaggingRegressor
 from sklearn.model_selection import GridSearchCV, GroupKFold
 from sklearn.tree import DecisionTreeRegressor
+from sklearn.utils.validation import check_is_fitted, validate_data
 
 from drivelash.errors import DataError, ParameterError
-from drivelash.te.learn.network import MLPRegressor, check_xy, tune_mlp
+from drivelash.te.learn.network import MLPRegressor, tune_mlp
 
 __all__ = [
     "DEFAULT_TREE_GRID",
@@ -179,10 +180,13 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         self.random_state = random_state
 
     def get_params(self, deep: bool = True) -> dict[str, Any]:
-        """Parameters; with ``deep`` also ``nn__*`` and ``trees__*`` of the (default) templates."""
+        """Parameters; with ``deep`` also ``nn__*`` and ``trees__*`` of the templates — of the
+        defaults when ``nn``/``trees`` are None, so ``GridSearchCV`` reaches them."""
         params = super().get_params(deep=False)
         if deep:
             for name, est in (("nn", self._nn_template()), ("trees", self._trees_template())):
+                if not hasattr(est, "get_params"):
+                    continue  # not an estimator (an invalid value is reported by fit)
                 for k, v in est.get_params(deep=True).items():
                     params[f"{name}__{k}"] = v
         return params
@@ -198,10 +202,12 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
             else:
                 own[k] = v
         super().set_params(**own)
-        if nested["nn"]:
-            self.nn = clone(self._nn_template()).set_params(**nested["nn"])
-        if nested["trees"]:
-            self.trees = clone(self._trees_template()).set_params(**nested["trees"])
+        for name, template in (("nn", self._nn_template), ("trees", self._trees_template)):
+            if nested[name]:
+                est = template()
+                if not hasattr(est, "set_params"):
+                    raise ParameterError("StackedTERegressor", name, f"is not an estimator ({est!r})")
+                setattr(self, name, clone(est).set_params(**nested[name]))
         return self
 
     def _stage2_cols(self) -> list[int]:
@@ -237,14 +243,15 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
             ``self``; fitted attributes ``nn_``, ``trees_``, ``stage1_share_``,
             ``train_mae_``, ``nn_info_``, ``tree_info_``, ``fit_time_``.
         """
-        X, y = check_xy(X, y)
-        assert y is not None
+        X, y = validate_data(self, X, y, dtype=np.float64, y_numeric=True, ensure_min_features=2)
         for name in ("nn_stride", "search_stride", "tree_stride", "update_stride", "cv_folds"):
             v = getattr(self, name)
             if not (isinstance(v, (int, np.integer)) and v >= 1):
                 raise ParameterError("StackedTERegressor", name, f"must be a positive integer, got {v!r}")
+        for name, base in (("nn", self._nn_template()), ("trees", self._trees_template())):
+            if not (hasattr(base, "fit") and hasattr(base, "get_params")):
+                raise ParameterError("StackedTERegressor", name, f"must be an estimator, got {base!r}")
         t0 = time.perf_counter()
-        self.n_features_in_ = X.shape[1]
         s = int(self.nn_stride)
         X1 = X[:, STAGE1_COLS]
         if self.tune_nn:
@@ -335,10 +342,8 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
             raise ParameterError(
                 "StackedTERegressor.update", "stage", f"must be 'trees' or 'both', got {stage!r}"
             )
-        if not hasattr(self, "nn_"):
-            raise DataError("update needs a fitted model; call fit first")
-        X, y = check_xy(X, y)
-        assert y is not None
+        check_is_fitted(self, ("nn_", "trees_"))
+        X, y = validate_data(self, X, y, dtype=np.float64, y_numeric=True, reset=False)
         t0 = time.perf_counter()
         if stage == "both":
             s = int(self.nn_stride)
@@ -350,7 +355,8 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
     # -- prediction ----------------------------------------------------------
     def predict_stages(self, X: Any) -> tuple[np.ndarray, np.ndarray]:
         """Stage-1 and stage-2 outputs [µm] separately."""
-        X, _ = check_xy(X)
+        check_is_fitted(self, ("nn_", "trees_"))
+        X = validate_data(self, X, dtype=np.float64, reset=False)
         return self.nn_.predict(X[:, STAGE1_COLS]), self.trees_.predict(X[:, self._stage2_cols()])
 
     def predict(self, X: Any) -> np.ndarray:
