@@ -285,6 +285,15 @@ def _first_line(path: Path) -> bytes:
     return _head(path, 512).split(b"\n", 1)[0].strip()
 
 
+def _com_signed(path: Path) -> bool:
+    """A HEIDENHAIN table written by ``te export``: ``[END]`` followed by a ``drivelash`` line."""
+    with path.open("rb") as fh:
+        fh.seek(0, os.SEEK_END)
+        fh.seek(max(0, fh.tell() - 4096))
+        tail = fh.read()
+    return re.search(rb"\n\[END\]\r?\ndrivelash ", tail) is not None
+
+
 def _hdf5_signed(path: Path) -> bool:
     import h5py
 
@@ -332,7 +341,10 @@ def is_own_output(path: str | Path) -> bool:
     - ``.csv``/``.txt``/``.toml``: first line starts with ``# drivelash``; ``.md``: first line
       ``<!-- drivelash``;
     - ``.h5``/``.hdf5``/``.hdf``, MAT v7.3: root attribute ``drivelash_meta``; MAT v5: a
-      variable ``drivelash_meta``.
+      variable ``drivelash_meta``;
+    - CNC tables (``te export``): ``.ini`` (SINUMERIK init program) first line starts with
+      ``; drivelash``; ``.com`` (HEIDENHAIN table) the line after ``[END]`` starts with
+      ``drivelash``.
 
     Anything else (and anything unreadable) is not ours.
     """
@@ -363,6 +375,10 @@ def is_own_output(path: str | Path) -> bool:
             return _hdf5_signed(p)
         if ext == ".mat":
             return _mat_signed(p)
+        if ext == ".ini":
+            return _first_line(p).startswith(b"; drivelash")
+        if ext == ".com":
+            return _com_signed(p)
     except OSError:
         return False
     return False

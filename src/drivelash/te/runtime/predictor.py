@@ -188,6 +188,12 @@ def _geo(x: float, f: np.ndarray, ib: np.ndarray) -> float:  # pragma: no cover 
 
 
 @njit(cache=True)
+def _geo_batch(x: np.ndarray, f: np.ndarray, ib: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover
+    for k in range(x.size):
+        out[k] = _geo(x[k], f, ib)
+
+
+@njit(cache=True)
 def te_def_point(x_T: float, torque: float, fbuf: np.ndarray, ibuf: np.ndarray) -> float:  # pragma: no cover
     """TE_def [µm] at one point: position ``x_T`` [m], motor torque [N·m] (njit-callable)."""
     n_in = ibuf[1]
@@ -387,6 +393,24 @@ class TEModel:
         """TE [m] at one operating point."""
         f, ib = self._buf["pos" if direction > 0 else "neg"]
         return te_point(float(x_T), float(torque), f, ib)
+
+    def geometric(self, x_T: Any, direction: int) -> np.ndarray:
+        """The geometric (no-load) error TE_geo [m] of a direction at ``x_T`` [m]: the lookup table
+        of the no-load runs (linear interpolation, held at its edges; see :meth:`geometric_range`)."""
+        f, ib = self.kernel_arrays(direction)
+        x = np.ascontiguousarray(np.asarray(x_T, dtype=np.float64).reshape(-1))
+        out = np.empty(x.size)
+        _geo_batch(x, f, ib, out)
+        return out
+
+    def geometric_range(self) -> tuple[float, float]:
+        """Positions [m] where every direction's no-load curve holds measured data (x_min, x_max)."""
+        lo, hi = -np.inf, np.inf
+        for key in self.directions:
+            f, ib = self._buf[key]
+            lo = max(lo, float(f[0]))
+            hi = min(hi, float(f[0] + f[1] * (ib[3] - 1)))
+        return lo, hi
 
     def backlash(self, x_T: Any, torque: Any = 0.0) -> np.ndarray:
         """Gap between the direction curves TE_neg − TE_pos [m] at ``x_T`` (same torque for both)."""

@@ -1,0 +1,313 @@
+"""The geometric (no-load) transmission error in layouts CNCs load (issue 12 item 6).
+
+A rack-and-pinion axis whose position loop closes on the motor encoder (no linear
+scale, or the scale used for monitoring only) sees the transmission error TE = x_T − x_M
+as a measuring-system error: the table stands TE ahead of where the motor encoder says.
+The no-load part of it, per direction of travel, is what a CNC's position-dependent
+compensation tables can hold; the load-dependent part needs the 5 ms velocity channel
+of :mod:`drivelash.te.runtime.compensator` (README: integration note).
+
+Layouts
+-------
+``sinumerik``
+    SINUMERIK 840D sl measuring-system error compensation (function manual K3,
+    "interpolatory compensation"): the init program ``%_N_AX_EEC_INI`` with
+    ``$AA_ENC_COMP[0,N,AX]`` (measuring system 1) and ``$AA_ENC_COMP_STEP``, ``_MIN``,
+    ``_MAX``, ``_IS_MODULO`` holding the **mean of both directions** — that table has no
+    direction index — and ``%_N_NC_CEC_INI`` with two tables ``$AN_CEC`` whose
+    ``$AN_CEC_DIRECTION`` is +1 and −1 (input axis = output axis: Siemens' documented way
+    to a position-dependent backlash compensation) holding the **direction-dependent
+    rest**. The control adds the LEC value to the actual position (a positive value
+    moves the axis negative), so the LEC value is +TE; the CEC value is added to the set
+    position, so the direction part enters negated. Values in mm.
+``heidenhain``
+    HEIDENHAIN nonlinear axis-error compensation table ``<AXIS>.COM``: columns ``NR``,
+    ``AXISPOS`` (compensation point, mm), ``<AXIS>`` (value in the positive direction of
+    traverse) and ``BACKLASH`` (value in the negative direction), between ``BEGIN
+    <AXIS>.COM MM`` and ``[END]``. Values are TE in mm, the convention of the LEC above.
+
+The **valid range** is where the model's no-load runs recorded both directions; the
+table spans exactly that range (the first and last points are its ends; a CNC holds the
+edge values beyond it), the SINUMERIK header states it in comments, the HEIDENHAIN file
+after its ``[END]`` marker (a TNC table has no comment syntax). Positions outside it are
+refused. Check the sign once on the machine (one laser or scale pass with the table
+loaded) before production — the two manufacturers' conventions are quoted from their
+manuals, not tested on a control here.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+
+from drivelash.errors import DataError, ParameterError
+
+__all__ = [
+    "CNC_LAYOUTS",
+    "GeometricTable",
+    "geometric_table",
+    "write_cnc",
+    "write_heidenhain",
+    "write_sinumerik",
+]
+
+#: Layout name → default file suffix.
+CNC_LAYOUTS = {"sinumerik": ".ini", "heidenhain": ".com"}
+#: Largest |TE| accepted in a CNC table [m]: a larger geometric error is a unit or sign
+#: mistake, not a rack (ISO 230-2 positioning deviations of such axes are tens of µm).
+TE_LIMIT = 1e-3
+#: Largest number of compensation points written.
+MAX_POINTS = 100_000
+
+
+class GeometricModel(Protocol):
+    """What the export needs of a model (:class:`drivelash.te.runtime.predictor.TEModel`)."""
+
+    def geometric(self, x_T: Any, direction: int) -> np.ndarray: ...
+
+    def geometric_range(self) -> tuple[float, float]: ...
+
+
+@dataclass(frozen=True)
+class GeometricTable:
+    """No-load TE per direction on an equidistant grid.
+
+    Attributes
+    ----------
+    x0 : float
+        First compensation point [m].
+    step : float
+        Distance of the points [m].
+    te_pos, te_neg : numpy.ndarray
+        TE = x_T − x_M in the positive and negative direction of travel [m].
+    valid : tuple of float
+        The model's valid range (x_min, x_max) [m].
+    interpolation_error : float
+        Largest |linear interpolation between the points − model| on a 50 µm grid [m].
+    source : str
+        Provenance (model directory).
+    """
+
+    x0: float
+    step: float
+    te_pos: np.ndarray
+    te_neg: np.ndarray
+    valid: tuple[float, float]
+    interpolation_error: float
+    source: str = ""
+
+    @property
+    def x(self) -> np.ndarray:
+        """Compensation points [m]."""
+        return self.x0 + self.step * np.arange(self.te_pos.size)
+
+    @property
+    def x_max(self) -> float:
+        """Last compensation point [m]."""
+        return float(self.x[-1])
+
+
+def geometric_table(
+    model: GeometricModel,
+    step: float = 1e-3,
+    x_min: float | None = None,
+    x_max: float | None = None,
+    source: str = "",
+) -> GeometricTable:
+    """Sample the model's geometric (no-load) error per direction for a CNC table.
+
+    Parameters
+    ----------
+    model : TEModel
+        Loaded model (``geometric``, ``geometric_range``).
+    step : float
+        Distance of the compensation points [m].
+    x_min, x_max : float, optional
+        Range [m]; default the model's valid range. Positions outside it are refused.
+    source : str
+        Provenance written into the file.
+
+    Returns
+    -------
+    GeometricTable
+    """
+    lo, hi = (float(v) for v in model.geometric_range())
+    a = lo if x_min is None else float(x_min)
+    b = hi if x_max is None else float(x_max)
+    if not (math.isfinite(step) and step > 0):
+        raise ParameterError("te export", "--step-mm", f"must be > 0, got {step * 1e3!r} mm")
+    if not (math.isfinite(a) and math.isfinite(b) and b > a):
+        raise ParameterError("te export", "--x-max", f"range [{a * 1e3:g}, {b * 1e3:g}] mm is empty")
+    tol = 1e-9
+    if a < lo - tol or b > hi + tol:
+        raise ParameterError(
+            "te export",
+            "--x-min" if a < lo - tol else "--x-max",
+            f"[{a * 1e3:.3f}, {b * 1e3:.3f}] mm leaves the model's valid range "
+            f"[{lo * 1e3:.3f}, {hi * 1e3:.3f}] mm (where its no-load runs recorded both directions)",
+        )
+    n = int(math.floor((b - a) / step + 1e-9)) + 1
+    if n < 2:
+        raise ParameterError("te export", "--step-mm", f"{step * 1e3:g} mm leaves fewer than 2 points")
+    if n > MAX_POINTS:
+        raise ParameterError(
+            "te export", "--step-mm", f"{step * 1e3:g} mm gives {n} points (limit {MAX_POINTS})"
+        )
+    x = a + step * np.arange(n)
+    te = [np.asarray(model.geometric(x, d), dtype=np.float64) for d in (1, -1)]
+    for d, v in zip((1, -1), te, strict=True):
+        if not np.all(np.isfinite(v)):
+            raise DataError(f"the model's no-load curve of direction {d:+d} is not finite")
+        worst = float(np.max(np.abs(v)))
+        if worst > TE_LIMIT:
+            raise DataError(
+                f"refusing to export a no-load TE of {worst * 1e3:.4g} mm in direction {d:+d} "
+                f"(limit {TE_LIMIT * 1e3:g} mm): a unit, sign or zero-offset error, not a rack"
+            )
+    # what linear interpolation between the points loses against the model (50 µm grid)
+    xf = np.arange(a, x[-1], 50e-6)
+    err = 0.0
+    for d, v in zip((1, -1), te, strict=True):
+        err = max(err, float(np.max(np.abs(np.interp(xf, x, v) - model.geometric(xf, d)))))
+    return GeometricTable(float(a), float(step), te[0], te[1], (lo, hi), err, source)
+
+
+def _mm(v: float, decimals: int = 6) -> str:
+    s = f"{v * 1e3:.{decimals}f}"
+    return "0." + "0" * decimals if s.lstrip("-") == "0." + "0" * decimals else s
+
+
+def _check_axis(axis: str) -> str:
+    if not (axis and axis.replace("_", "").isalnum() and axis[0].isalpha() and len(axis) <= 16):
+        raise ParameterError("te export", "--axis", f"must be a machine axis name like X1, got {axis!r}")
+    return axis
+
+
+def write_sinumerik(
+    tab: GeometricTable, path: Path, axis: str = "X1", cec_tables: tuple[int, int] = (0, 1)
+) -> Path:
+    """Write the SINUMERIK 840D sl init programs (LEC + two direction CEC tables); see the module doc.
+
+    Parameters
+    ----------
+    tab : GeometricTable
+        From :func:`geometric_table`.
+    path : pathlib.Path
+        Output file.
+    axis : str
+        Machine axis name (MD10000), e.g. ``X1``.
+    cec_tables : tuple of int
+        CEC table indices of the positive and negative direction.
+    """
+    axis = _check_axis(axis)
+    n = tab.te_pos.size
+    mean = 0.5 * (tab.te_pos + tab.te_neg)
+    lines = [
+        f"; drivelash geometric (no-load) transmission error of machine axis {axis}, {n} points",
+        f"; valid range {_mm(tab.valid[0], 3)} ... {_mm(tab.valid[1], 3)} mm (the model's no-load runs); "
+        f"table {_mm(tab.x0, 3)} ... {_mm(tab.x_max, 3)} mm, step {_mm(tab.step, 3)} mm; "
+        "the control holds the first/last value outside it",
+        "; TE = x_T - x_M [mm]: table position minus motor-encoder position, per direction of travel",
+        "; $AA_ENC_COMP (measuring system 1, motor encoder): mean of both directions,"
+        " added to the actual value",
+        f"; $AN_CEC[{cec_tables[0]}] / [{cec_tables[1]}] ($AN_CEC_DIRECTION +1 / -1):"
+        " direction-dependent rest TE_dir - mean, negated (added to the set position)",
+        f"; needs MD38000 $MA_MM_ENC_COMP_MAX_POINTS[0] >= {n}, MD18342 $MN_MM_CEC_MAX_POINTS >= {n}, "
+        "MD32700 $MA_ENC_COMP_ENABLE[0] = 1, MD32710 $MA_CEC_ENABLE = 1",
+        f"; interpolation between the points differs from the model by <= {_um(tab)} um",
+    ]
+    if tab.source:
+        lines.append(f"; model: {tab.source}")
+    lines += ["%_N_AX_EEC_INI", "CHANDATA(1)"]
+    lines += [f"$AA_ENC_COMP[0,{i},{axis}]={_mm(v)}" for i, v in enumerate(mean)]
+    lines += [
+        f"$AA_ENC_COMP_STEP[0,{axis}]={_mm(tab.step)}",
+        f"$AA_ENC_COMP_MIN[0,{axis}]={_mm(tab.x0)}",
+        f"$AA_ENC_COMP_MAX[0,{axis}]={_mm(tab.x_max)}",
+        f"$AA_ENC_COMP_IS_MODULO[0,{axis}]=0",
+        "M17",
+        "%_N_NC_CEC_INI",
+        "CHANDATA(1)",
+    ]
+    for t, direction, te in ((cec_tables[0], 1, tab.te_pos), (cec_tables[1], -1, tab.te_neg)):
+        lines += [f"$AN_CEC[{t},{i}]={_mm(-v)}" for i, v in enumerate(te - mean)]
+        lines += [
+            f"$AN_CEC_INPUT_AXIS[{t}]={axis}",
+            f"$AN_CEC_OUTPUT_AXIS[{t}]={axis}",
+            f"$AN_CEC_STEP[{t}]={_mm(tab.step)}",
+            f"$AN_CEC_MIN[{t}]={_mm(tab.x0)}",
+            f"$AN_CEC_MAX[{t}]={_mm(tab.x_max)}",
+            f"$AN_CEC_DIRECTION[{t}]={direction}",
+            f"$AN_CEC_IS_MODULO[{t}]=0",
+        ]
+    lines.append("M17")
+    return _write(path, lines)
+
+
+def write_heidenhain(tab: GeometricTable, path: Path, axis: str = "X", table_name: str | None = None) -> Path:
+    """Write a HEIDENHAIN ``.COM`` table (NR, AXISPOS, axis value, BACKLASH); see the module doc.
+
+    Parameters
+    ----------
+    tab : GeometricTable
+        From :func:`geometric_table`.
+    path : pathlib.Path
+        Output file (the table name in ``BEGIN`` is the file name, upper case).
+    axis : str
+        Axis key of CfgAxes/axisList, e.g. ``X`` (the value column's name).
+    table_name : str, optional
+        Name in the ``BEGIN`` line (the final file name); default the name of ``path``.
+    """
+    from drivelash.io.outputs import final_name
+
+    axis = _check_axis(axis)
+    name = (table_name or final_name(path)).upper()
+    w = (8, 14, 14, 14)
+    lines = [
+        f"BEGIN {name} MM",
+        f"{'NR':<{w[0]}}{'AXISPOS':<{w[1]}}{axis:<{w[2]}}{'BACKLASH':<{w[3]}}".rstrip(),
+    ]
+    for i, (x, p, q) in enumerate(zip(tab.x, tab.te_pos, tab.te_neg, strict=True)):
+        lines.append(f"{i:<{w[0]}}{_signed(x, 4):<{w[1]}}{_signed(p, 5):<{w[2]}}{_signed(q, 5)}")
+    lines += [
+        "[END]",
+        f"drivelash geometric (no-load) transmission error of axis {axis}, {tab.te_pos.size} points",
+        f"valid range {_mm(tab.valid[0], 3)} ... {_mm(tab.valid[1], 3)} mm (the model's no-load runs); "
+        f"table {_mm(tab.x0, 3)} ... {_mm(tab.x_max, 3)} mm, step {_mm(tab.step, 3)} mm",
+        f"values TE = x_T - x_M [mm]: {axis} in the positive, BACKLASH in the negative direction of traverse",
+        f"interpolation between the points differs from the model by <= {_um(tab)} um",
+    ]
+    if tab.source:
+        lines.append(f"model: {tab.source}")
+    return _write(path, lines)
+
+
+def _um(tab: GeometricTable) -> str:
+    return f"{tab.interpolation_error * 1e6:.3f}"
+
+
+def _signed(v: float, decimals: int) -> str:
+    s = _mm(v, decimals)
+    return s if s.startswith("-") else "+" + s
+
+
+def _write(path: Path, lines: list[str]) -> Path:
+    path = Path(path)
+    with path.open("w", encoding="ascii", newline="\r\n") as fh:  # CNC text files: ASCII, CR LF
+        fh.write("\n".join(lines) + "\n")
+    return path
+
+
+def write_cnc(tab: GeometricTable, path: Path, layout: str, axis: str | None = None) -> Path:
+    """Write ``tab`` in ``layout`` (``"sinumerik"``, ``"heidenhain"``) to ``path`` (may be a staging path)."""
+    if layout == "sinumerik":
+        return write_sinumerik(tab, path, axis or "X1")
+    if layout == "heidenhain":
+        return write_heidenhain(tab, path, axis or "X")
+    raise ParameterError(
+        "te export", "--format", f"must be one of table, {', '.join(CNC_LAYOUTS)}, got {layout!r}"
+    )
