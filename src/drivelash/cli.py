@@ -38,6 +38,7 @@ _COMMAND_MODULES = (
     "te_campaign",
     "te_model",
     "te_compensate",
+    "te_score",
     "demo",
     "iso230",
     "track",
