@@ -10,6 +10,7 @@ import sys
 from datetime import datetime
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -182,3 +183,48 @@ def test_bad_history_options_are_one_line(setup, tmp_path, capsys, extra, needle
     assert not (tmp_path / "none.sqlite").exists()
     with Store(db, create=False) as st:
         assert st.measurements() == []
+
+
+def test_trend_plot_draws_the_laser_check_beside_the_estimates(setup, capsys):
+    """The axis trend figure of the fleet report draws the stored check as a point with its
+    error bar at its time and at its value on the deadzone scale (mrad), the same scale as
+    the estimates of the recordings; an axis without a check draws none (negative control)."""
+    import matplotlib
+    import matplotlib.dates as mdates
+    from matplotlib.container import ErrorbarContainer
+    from matplotlib.figure import Figure as MplFigure
+
+    from drivelash.report.fleet import _axis_figure
+    from drivelash.wear.alarms import fleet_summary
+
+    matplotlib.use("Agg")
+    db, csv, toml = setup
+    argv = ["iso230", str(csv), "-c", str(toml), "--db", str(db), "--axis", "M01/X"]
+    code, _, err = _run([*argv, "--time", "2026-03-10T09:00"], capsys)
+    assert code == 0, err
+    with Store(db, create=False) as st:
+        summ = {s["axis"]: s for s in fleet_summary(st)}
+        meas = st.measurements()
+    assert [m["axis"] for m in meas] == ["M01/X"]
+    m = meas[0]
+
+    def containers(axis: str) -> tuple[list[ErrorbarContainer], object]:
+        fig = MplFigure()
+        _axis_figure(summ[axis], [x for x in meas if x["axis"] == axis]).draw(fig)
+        ax = fig.axes[0]
+        return [c for c in ax.containers if isinstance(c, ErrorbarContainer)], ax
+
+    bars, ax = containers("M01/X")
+    assert len(bars) == 1 and bars[0].get_label() == "iso230-2 (laser check)"
+    x, y = bars[0].lines[0].get_data()
+    assert mdates.date2num(x[0]) == pytest.approx(mdates.date2num(datetime(2026, 3, 10, 9, 0)), abs=1e-6)
+    assert y[0] == pytest.approx(1e3 * m["value_rad"], rel=1e-12)
+    # on the estimates' scale: 12 µm at the load is 1e3 * 12e-3 / K_MM mrad, where the
+    # estimate of 9 March lies; the check agrees with it within 3 standard uncertainties
+    d12_mrad = 12.0 / K_MM
+    assert y[0] == pytest.approx(d12_mrad, abs=3e3 * m["std_rad"])
+    est_y = np.concatenate([ln.get_ydata() for ln in ax.lines if ln.get_marker() == "o"])
+    assert np.any(np.isclose(est_y, d12_mrad, rtol=1e-9))
+    assert "iso230-2 (laser check)" in [t.get_text() for t in ax.get_legend().get_texts()]
+    bars_y, _ = containers("M01/Y")
+    assert bars_y == []

@@ -18,22 +18,25 @@ def demo_iso230(out_dir: Path, console: Console) -> None:
     ``iso230.json`` and the report ``iso230.html`` (the standard's chart, the dwells).
     """
     from drivelash.commands.iso230 import run_iso230
+    from drivelash.io.outputs import Outputs
     from drivelash.io.trace import Trace
     from drivelash.iso230.synthetic import SyntheticAxis, synthetic_recording
 
     out_dir = Path(out_dir)
     axis = SyntheticAxis()
     cols, _ = synthetic_recording(axis, m=DEMO_TARGETS, n=DEMO_RUNS, seed=0)
-    rec = out_dir / "iso230-recording.csv"
-    Trace(
-        {
-            "t": cols["t"],
-            "cmd_mm": cols["P_cmd"] * 1e3,
-            "laser_mm": cols["P_actual"] * 1e3,
-            "encoder_mm": cols["P_axis"] * 1e3,
-        },
-        {"source": "drivelash demo: synthetic ISO 230-2 test, lost motion 12 um"},
-    ).to_csv(rec)
+    with Outputs("demo", force=True) as out:  # the demo directory is the demo's own
+        rec = out.file(out_dir / "iso230-recording.csv", option="-o", kinds=(".csv",))
+        assert rec is not None
+        Trace(
+            {
+                "t": cols["t"],
+                "cmd_mm": cols["P_cmd"] * 1e3,
+                "laser_mm": cols["P_actual"] * 1e3,
+                "encoder_mm": cols["P_axis"] * 1e3,
+            },
+            {"source": "drivelash demo: synthetic ISO 230-2 test, lost motion 12 um"},
+        ).to_csv(out.staging(rec))
     config = Path(__file__).resolve().parents[3] / "examples" / "iso230_recording.toml"
     s = run_iso230(
         rec, config, json_out=out_dir / "iso230.json", report=out_dir / "iso230.html", force=True, quiet=True

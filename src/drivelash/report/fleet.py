@@ -310,7 +310,7 @@ def render_fleet_report(
         for m in measurements[ax]
     ]
     if mrows:
-        head = ["axis", "source", "time", "value", "std", "unit", "value [mrad at the load]", "reference"]
+        head = ["axis", "source", "time", "value", "std", "unit", "as deadzone δ [mrad]", "reference"]
         sections.append(Section("Measurements of other sources", tables=[("", head, mrows)]))
     sections.append(axes)
     return render_html(title, sections)
