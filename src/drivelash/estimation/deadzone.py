@@ -82,23 +82,50 @@ P_C_POS, P_A_F, P_A_Q, P_P0 = 27, 28, 29, 30
 P_INV_N, P_INV_J, P_D_OVER_K, P_K_OVER_PI, P_INV_K, P_PROJ_C1, P_PROJ_C0 = 34, 35, 36, 37, 38, 39, 40
 #: gain reset on a persistent residual: threshold (multiple of θ_def; 0 = off) and duration [s]
 P_RESET_E, P_RESET_T = 41, 42
-N_PARAMS = 43
+#: shaft-torque source (0: load observer J_l φ̂; 1: motor side −N J_m φ̂_m from the recorded
+#: motor torque, when the samples carry it), motor-side parameters and observer gains
+P_TSRC, P_J_M, P_T_CM, P_BETA_M, P_K1M, P_K2M, P_INV_JM = 43, 44, 45, 46, 47, 48, 49
+#: torque-offset learning inside the gap: rate [1/s] (0 = off), speed threshold [rad/s]
+#: (load side), margin as a fraction of the modelled gap
+P_LAM_G, P_OMEGA_G, P_GAP_M = 50, 51, 52
+#: first sample index of the verdict accumulators; time constant of the torque filter [s]
+P_K0, P_TAU_Q = 53, 54
+#: contact-consistency bound on δ̂ (and δ̂1) on/off
+P_BOUND = 55
+N_PARAMS = 56
 
 # -- state array layout (followed by the σ ring buffer of W samples) -----------------
 S_OMEGA_HAT, S_Z, S_DELTA, S_P, S_XHAT, S_INIT, S_EF, S_GF = 0, 1, 2, 3, 4, 5, 6, 7
 S_TQF, S_SIDE, S_TRAV, S_SIGSUM, S_RING_IDX, S_COUNT = 8, 9, 10, 11, 12, 13
-#: extended least squares (default method): θ = [δ, κ, a, b] at S_TH, filtered regressors at
+#: motor-side observer [ω̂_m, z_m]
+S_OMEGA_M_HAT, S_Z_M = 14, 15
+#: extended least squares (default method): θ = [δ, κ, δ1, -] at S_TH, filtered regressors at
 #: S_HF, 4×4 gain matrix (row-major) at S_PM
 NTH = 4
 S_TH, S_HF, S_PM, S_PH, S_RESET = 16, 20, 24, 40, 44
-N_STATE = 45
+#: gap-learnt torque offsets for positive / negative speed [N·m] and the time spent in the gap [s]
+S_FP, S_FN, S_GAPT = 45, 46, 47
+#: Δθ where the current contact side was entered, and the range of Δθ seen [rad]
+S_DSIDE, S_DTH_MIN, S_DTH_MAX = 48, 49, 50
+#: accumulators from sample P_K0 on: count, Σ e_f², Σ (δ̂ − δ̂_K0), Σ (δ̂ − δ̂_K0)², δ̂_K0
+S_ACC_N, S_ACC_E2, S_ACC_D, S_ACC_D2, S_ACC_REF = 51, 52, 53, 54, 55
+#: contact samples from P_K0 on: count, Σ T², Σ |T|
+S_CON_N, S_CON_T2, S_CON_T = 56, 57, 58
+#: motor vs load shaft torque (moving load, from P_K0 on): n, Σd, Σd·s, Σs, Σs², Σd², with
+#: d = T_motor − J_l φ̂ (filtered) and s = sgn ω_l; filtered load torque
+S_DIS_N, S_DIS_D, S_DIS_DS, S_DIS_S, S_DIS_SS, S_DIS_DD, S_TQF_L = 59, 60, 61, 62, 63, 64, 65
+#: torque-sign changes beyond ±T_thr regardless of Δθ (count, side), peak |filtered torque|
+S_RAW_TRAV, S_RAW_SIDE, S_PEAK_TQ = 66, 67, 68
+#: filtered residual in lower / upper contact from P_K0 on: Σ e_f², count (each side)
+S_E2_LO, S_N_LO, S_E2_HI, S_N_HI = 69, 70, 71, 72
+N_STATE = 73
 
 # -- output columns -----------------------------------------------------------------
-O_DELTA, O_PHI, O_OMEGA_HAT, O_SIGMA_WIN, O_DTHETA, O_TORQUE_HAT, O_TORQUE_MEAS, O_TRAV = range(8)
-N_OUT = 8
+O_DELTA, O_PHI, O_OMEGA_HAT, O_SIGMA_WIN, O_DTHETA, O_TORQUE_HAT, O_TORQUE_MEAS, O_TRAV, O_DELTA1 = range(9)
+N_OUT = 9
 
 # -- input columns ------------------------------------------------------------------
-I_THETA_M, I_OMEGA_M, I_THETA_L, I_OMEGA_L = 0, 1, 2, 3
+I_THETA_M, I_OMEGA_M, I_THETA_L, I_OMEGA_L, I_TORQUE_M = 0, 1, 2, 3, 4
 N_IN = 4
 
 
@@ -149,11 +176,12 @@ def _atan_diff(z, w):
 
 
 @njit(cache=True, error_model="numpy")
-def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
+def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, u, p, out, i_out):
     """One sample of the estimator, in place on ``state``; writes row ``i_out`` of ``out`` (n, N_OUT).
 
-    ``p`` must come from :func:`~drivelash.estimation.estimator.build_params` (its derived
-    entries P_C_POS, P_A_F, P_A_Q hold the per-sample filter constants).
+    ``u`` is the recorded motor torque [N·m] (NaN when the recording has none; the shaft
+    torque then comes from the load observer). ``p`` must come from
+    :func:`~drivelash.estimation.estimator.build_params` (derived entries filled).
     """
     J_l = p[P_J_L]
     delta1 = p[P_DELTA1]
@@ -162,6 +190,8 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
     default = p[P_METHOD] > 0.5
     delta_max = p[P_DELTA_MAX]
     thr = p[P_T_THR]
+    k_idx = state[S_COUNT]
+    acc = k_idx >= p[P_K0]
 
     est_d1 = default and p[P_EST_D1] > 0.5
     if est_d1:
@@ -174,6 +204,8 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
     if state[S_INIT] < 0.5:
         state[S_XHAT] = dtheta_meas
         state[S_INIT] = 1.0
+        state[S_DTH_MIN] = dtheta_meas
+        state[S_DTH_MAX] = dtheta_meas
     if default and p[P_OMEGA_C] > 0.0:
         xhat = state[S_XHAT]
         xhat = xhat + p[P_C_POS] * (dtheta_meas - xhat)
@@ -182,6 +214,10 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
     else:
         dtheta = dtheta_meas
         state[S_XHAT] = dtheta_meas
+    if dtheta < state[S_DTH_MIN]:
+        state[S_DTH_MIN] = dtheta
+    if dtheta > state[S_DTH_MAX]:
+        state[S_DTH_MAX] = dtheta
 
     # STSMO on the load velocity (16)–(21)
     if default and p[P_OMEGA_EPS] > 0.0:
@@ -195,6 +231,25 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
     phi = p[P_K1] * math.sqrt(abs(err)) * s + state[S_Z]
     state[S_OMEGA_HAT] = w_hat + T_s * (a_known + phi)
     state[S_Z] = state[S_Z] + T_s * p[P_K2] * s
+    T_load = J_l * phi
+
+    # shaft torque from the motor side: the same observer on ω_m with the recorded torque,
+    # J_m ω̇_m = u − T_F,m(ω_m) − T_l/N, so that −N J_m φ̂_m estimates T_l without the
+    # load-side parameters (J_l, T_C,l, β_l) and with any external load torque included
+    motor = default and p[P_TSRC] > 0.5 and u == u
+    if motor:
+        a_m = (u - p[P_T_CM] * sgn(omega_m) - p[P_BETA_M] * omega_m) * p[P_INV_JM]
+        wm_hat = state[S_OMEGA_M_HAT]
+        err_m = omega_m - wm_hat
+        s_m = sgn(err_m)
+        phi_m = p[P_K1M] * math.sqrt(abs(err_m)) * s_m + state[S_Z_M]
+        state[S_OMEGA_M_HAT] = wm_hat + T_s * (a_m + phi_m)
+        state[S_Z_M] = state[S_Z_M] + T_s * p[P_K2M] * s_m
+        T_raw = -p[P_N] * phi_m / p[P_INV_JM]
+        v_side = omega_m * inv_N
+    else:
+        T_raw = T_load
+        v_side = omega_l
 
     # model torque (12) and sensitivity (46)–(50), sharing the bracket of (11):
     # B = π + atan(α(Δθ − δ + δ1)) − atan(α(Δθ + δ1)),  K_BL = K_S B / π,  χ1 = ½(1 + sgn Δθ) B
@@ -209,15 +264,42 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
     chi1 = pos * bracket
     chi2 = arg * alpha / (1.0 + z * z)
     g = -(chi1 + chi2) * (1.0 / math.pi)  # ∂T_l/∂δ / K_S
-    T_meas = J_l * phi
+
+    # filtered shaft torque of the chosen source (excitation monitor, κ gate, offsets)
+    tq_raw = state[S_TQF] + p[P_A_Q] * (T_raw - state[S_TQF])
+    state[S_TQF] = tq_raw
+    lo = -delta1
+    hi = delta - delta1
+    # torque offset learnt in the gap, where the shaft carries no torque: what the source
+    # shows there is the error of its friction model (or a constant load such as gravity on
+    # the load observer), per direction of motion
+    fhat = 0.0
+    if default and p[P_LAM_G] > 0.0:
+        m = p[P_GAP_M] * (hi - lo)
+        if m < 3.0 * p[P_THETA_DEF]:
+            m = 3.0 * p[P_THETA_DEF]
+        if dtheta > lo + m and dtheta < hi - m:
+            state[S_GAPT] += T_s
+        else:
+            state[S_GAPT] = 0.0
+        if state[S_GAPT] > 3.0 * p[P_TAU_F]:
+            ag = p[P_LAM_G] * T_s
+            if v_side > p[P_OMEGA_G]:
+                state[S_FP] += ag * (tq_raw - state[S_FP])
+            elif v_side < -p[P_OMEGA_G]:
+                state[S_FN] += ag * (tq_raw - state[S_FN])
+        sp = 0.5 * (1.0 + math.tanh(v_side / p[P_OMEGA_G]))
+        fhat = sp * state[S_FP] + (1.0 - sp) * state[S_FN]
+    T_meas = T_raw - fhat
+    tq = tq_raw - fhat
+
     if default:
         kappa = state[S_TH + 1]
         # κ learns only from confirmed contact (measured and model torque agree in sign, exceed
         # the threshold and lie within a factor 2)
-        tqf = state[S_TQF]
         gate_k = 0.0
-        if tqf * T_hat > 0.0 and abs(tqf) > thr and abs(T_hat) > thr:
-            r = tqf / (kappa * T_hat)
+        if tq * T_hat > 0.0 and abs(tq) > thr and abs(T_hat) > thr:
+            r = tq / (kappa * T_hat)
             if 0.5 < r < 2.0:
                 gate_k = p[P_EST_K]
         h0 = kappa * g
@@ -225,7 +307,6 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
         h2 = 0.0
         if est_d1:  # κ ∂T_l/∂δ1 / K_S = κ [B + arg α (1/(1+z²) − 1/(1+w²))] / π
             h2 = kappa * (bracket + arg * (alpha / (1.0 + z * z) - alpha / (1.0 + w * w))) * (1.0 / math.pi)
-        h3 = 0.0
         y_hat = kappa * T_hat * inv_K
         e = T_meas * inv_K - y_hat
         a_f = p[P_A_F]
@@ -233,29 +314,13 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
         f0 = state[S_HF] + a_f * (h0 - state[S_HF])
         f1 = state[S_HF + 1] + a_f * (h1 - state[S_HF + 1])
         f2 = state[S_HF + 2] + a_f * (h2 - state[S_HF + 2])
-        f3 = state[S_HF + 3] + a_f * (h3 - state[S_HF + 3])
         state[S_EF] = ef
         state[S_HF] = f0
         state[S_HF + 1] = f1
         state[S_HF + 2] = f2
-        state[S_HF + 3] = f3
-        # P h_f (P symmetric 4×4, row-major at S_PM; slot 3 unused, h3 = 0). Without the
-        # offset (P_EST_D1 = 0) h2 = 0 forever, the coupling entries stay 0 and the 2×2
-        # block is exact.
-        q = S_PM
-        full = est_d1
-        if full:
-            ph0 = state[q] * f0 + state[q + 1] * f1 + state[q + 2] * f2 + state[q + 3] * f3
-            ph1 = state[q + 4] * f0 + state[q + 5] * f1 + state[q + 6] * f2 + state[q + 7] * f3
-            ph2 = state[q + 8] * f0 + state[q + 9] * f1 + state[q + 10] * f2 + state[q + 11] * f3
-            ph3 = state[q + 12] * f0 + state[q + 13] * f1 + state[q + 14] * f2 + state[q + 15] * f3
-        else:
-            ph0 = state[q] * f0 + state[q + 1] * f1
-            ph1 = state[q + 4] * f0 + state[q + 5] * f1
-            ph2 = 0.0
-            ph3 = 0.0
         # gain reset: a residual beyond P_RESET_E·θ_def that persists for P_RESET_T in
         # informative samples means δ (or κ) has changed — restart from P0 (wear, a swap)
+        q = S_PM
         if p[P_RESET_E] > 0.0:
             if abs(ef) > p[P_RESET_E] * p[P_THETA_DEF] and f0 * f0 > 0.25:
                 state[S_RESET] += T_s
@@ -265,65 +330,108 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
                 state[S_RESET] = 0.0
                 for i in range(NTH):
                     for j in range(NTH):
-                        state[S_PM + NTH * i + j] = p[P_P0 + i] if i == j else 0.0
-                ph0 = state[q] * f0 + state[q + 1] * f1 + state[q + 2] * f2 + state[q + 3] * f3
-                ph1 = state[q + 4] * f0 + state[q + 5] * f1 + state[q + 6] * f2 + state[q + 7] * f3
-                ph2 = state[q + 8] * f0 + state[q + 9] * f1 + state[q + 10] * f2 + state[q + 11] * f3
-                ph3 = 0.0
-        rate = _projection_fast(delta, ph0 * ef, p[P_PROJ_C1], p[P_PROJ_C0])
-        if ef == ef:
-            kappa = kappa + T_s * ph1 * ef
+                        state[q + NTH * i + j] = p[P_P0 + i] if i == j else 0.0
+        # P h_f (P symmetric, row-major at S_PM; the 3rd row/column only with the offset,
+        # slot 3 unused). Normalised (Sherman–Morrison) least-squares step: the information
+        # T_s h hᵀ of one sample is added exactly, so P stays positive definite and the step
+        # bounded however large h gets (the damping term of (12) makes χ2 spike when a
+        # wrong contact point is crossed at speed).
+        ph0 = state[q] * f0 + state[q + 1] * f1
+        ph1 = state[q + 4] * f0 + state[q + 5] * f1
+        ph2 = 0.0
+        if est_d1:
+            ph0 += state[q + 2] * f2
+            ph1 += state[q + 6] * f2
+            ph2 = state[q + 8] * f0 + state[q + 9] * f1 + state[q + 10] * f2
+        inv_den = 1.0 / (1.0 + T_s * (f0 * ph0 + f1 * ph1 + f2 * ph2))
+        rate = _projection_fast(delta, ph0 * ef * inv_den, p[P_PROJ_C1], p[P_PROJ_C0])
+        if ef == ef and inv_den == inv_den:
+            kappa = kappa + T_s * ph1 * ef * inv_den
             kappa = min(max(kappa, 0.25), 4.0)
             state[S_TH + 1] = kappa
-            if full:
-                d1 = state[S_TH + 2] + T_s * ph2 * ef
+            if est_d1:
+                d1 = state[S_TH + 2] + T_s * ph2 * ef * inv_den
                 state[S_TH + 2] = min(max(d1, -delta_max), delta_max)
-        # dP/dt = λ (P0 − P) − P h hᵀ P  (leakage towards P0 keeps P bounded and alive)
-        lam_ts = p[P_LAMBDA] * T_s
-        if full:
-            state[S_PH] = ph0
-            state[S_PH + 1] = ph1
-            state[S_PH + 2] = ph2
-            state[S_PH + 3] = ph3
-            for i in range(NTH):
-                for j in range(NTH):
-                    k = S_PM + NTH * i + j
-                    p0 = p[P_P0 + i] if i == j else 0.0
-                    v = state[k] + lam_ts * (p0 - state[k]) - T_s * state[S_PH + i] * state[S_PH + j]
-                    if v == v:
-                        state[k] = v
-        else:
-            v00 = state[q] + lam_ts * (p[P_P0] - state[q]) - T_s * ph0 * ph0
-            v01 = state[q + 1] - lam_ts * state[q + 1] - T_s * ph0 * ph1
-            v11 = state[q + 5] + lam_ts * (p[P_P0 + 1] - state[q + 5]) - T_s * ph1 * ph1
-            if v00 == v00 and v01 == v01 and v11 == v11:
-                state[q] = v00
-                state[q + 1] = v01
-                state[q + 4] = v01
-                state[q + 5] = v11
+            # dP/dt = λ (P0 − P) − P h hᵀ P / (1 + T_s hᵀ P h)  (leakage keeps P bounded and alive)
+            lam_ts = p[P_LAMBDA] * T_s
+            c = T_s * inv_den
+            v00 = state[q] + lam_ts * (p[P_P0] - state[q]) - c * ph0 * ph0
+            v01 = state[q + 1] - lam_ts * state[q + 1] - c * ph0 * ph1
+            v11 = state[q + 5] + lam_ts * (p[P_P0 + 1] - state[q + 5]) - c * ph1 * ph1
+            state[q] = v00
+            state[q + 1] = v01
+            state[q + 4] = v01
+            state[q + 5] = v11
+            if est_d1:
+                v02 = state[q + 2] - lam_ts * state[q + 2] - c * ph0 * ph2
+                v12 = state[q + 6] - lam_ts * state[q + 6] - c * ph1 * ph2
+                v22 = state[q + 10] + lam_ts * (p[P_P0 + 2] - state[q + 10]) - c * ph2 * ph2
+                state[q + 2] = v02
+                state[q + 8] = v02
+                state[q + 6] = v12
+                state[q + 9] = v12
+                state[q + 10] = v22
+        if acc:
+            state[S_ACC_E2] += ef * ef
+            if tq < -thr:
+                state[S_E2_LO] += ef * ef
+                state[S_N_LO] += 1.0
+            elif tq > thr:
+                state[S_E2_HI] += ef * ef
+                state[S_N_HI] += 1.0
     else:
         e = (T_meas - T_hat) * inv_K
         rate = _projection_fast(delta, p[P_GAMMA] * g * e, p[P_PROJ_C1], p[P_PROJ_C0])
+        if acc:
+            state[S_ACC_E2] += e * e
     if rate == rate:  # skip a NaN update (keeps δ̂ finite)
         delta = delta + T_s * rate
+    if default and p[P_BOUND] > 0.5:
+        # data consistency: while a contact torque is confirmed, the contact point of that
+        # side cannot lie beyond every Δθ seen so far (the upper one δ − δ1 above the largest
+        # Δθ, the lower one −δ1 below the smallest). Without this bound an estimate that
+        # overshot the data range receives no gradient (the model sees no contact anywhere)
+        # and stays there; inside the range it never acts.
+        if tq > 2.0 * thr and delta - delta1 > state[S_DTH_MAX]:
+            delta = state[S_DTH_MAX] + delta1
+        if est_d1 and tq < -2.0 * thr and -delta1 < state[S_DTH_MIN]:
+            state[S_TH + 2] = -state[S_DTH_MIN]
     if delta < 0.0:
         delta = 0.0
     if delta > delta_max:
         delta = delta_max
     state[S_DELTA] = delta
 
-    # excitation monitor
-    tq = state[S_TQF] + p[P_A_Q] * (T_meas - state[S_TQF])
-    state[S_TQF] = tq
+    # excitation monitor: a contact side is a filtered shaft torque beyond ±T_thr on the
+    # matching side of the modelled gap's centre; a traversal is a change of contact side
+    # after Δθ moved by at least half the estimated gap from the outermost point of the other
+    # side (the gap was crossed, not merely the torque reversed while one flank kept the load)
+    mid = 0.5 * (lo + hi)
     side = state[S_SIDE]
-    if tq > thr and side < 0.5:
-        if side < -0.5:
+    # S_DSIDE: the outermost Δθ reached on the current side (robust to a side entered early)
+    if side > 0.5 and dtheta > state[S_DSIDE]:
+        state[S_DSIDE] = dtheta
+    elif side < -0.5 and dtheta < state[S_DSIDE]:
+        state[S_DSIDE] = dtheta
+    if tq > thr and side < 0.5 and dtheta > mid:
+        if side < -0.5 and dtheta - state[S_DSIDE] >= 0.5 * (hi - lo):
             state[S_TRAV] += 1.0
         state[S_SIDE] = 1.0
-    elif tq < -thr and side > -0.5:
-        if side > 0.5:
+        state[S_DSIDE] = dtheta
+    elif tq < -thr and side > -0.5 and dtheta < mid:
+        if side > 0.5 and state[S_DSIDE] - dtheta >= 0.5 * (hi - lo):
             state[S_TRAV] += 1.0
         state[S_SIDE] = -1.0
+        state[S_DSIDE] = dtheta
+    raw = state[S_RAW_SIDE]
+    if tq > thr and raw < 0.5:
+        if raw < -0.5:
+            state[S_RAW_TRAV] += 1.0
+        state[S_RAW_SIDE] = 1.0
+    elif tq < -thr and raw > -0.5:
+        if raw > 0.5:
+            state[S_RAW_TRAV] += 1.0
+        state[S_RAW_SIDE] = -1.0
     W = int(p[P_WINDOW])
     sigma = g * g
     if not sigma == sigma:
@@ -335,7 +443,36 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
     if idx >= W:
         idx = 0
     state[S_RING_IDX] = idx
-    state[S_COUNT] += 1.0
+
+    # verdict accumulators (from sample P_K0 on; sequential sums, so chunking cannot change them)
+    if acc:
+        if state[S_ACC_N] == 0.0:
+            state[S_ACC_REF] = delta
+        state[S_ACC_N] += 1.0
+        dd = delta - state[S_ACC_REF]
+        state[S_ACC_D] += dd
+        state[S_ACC_D2] += dd * dd
+        if abs(tq) > thr:
+            state[S_CON_N] += 1.0
+            state[S_CON_T2] += tq * tq
+            state[S_CON_T] += abs(tq)
+        if abs(tq) > state[S_PEAK_TQ]:
+            state[S_PEAK_TQ] = abs(tq)
+        if motor:
+            tl = state[S_TQF_L] + p[P_A_Q] * (T_load - state[S_TQF_L])
+            state[S_TQF_L] = tl
+            if abs(omega_l) > p[P_OMEGA_G]:
+                d = tq - tl
+                sl = 1.0 if omega_l > 0.0 else -1.0
+                state[S_DIS_N] += 1.0
+                state[S_DIS_D] += d
+                state[S_DIS_DS] += d * sl
+                state[S_DIS_S] += sl
+                state[S_DIS_SS] += 1.0
+                state[S_DIS_DD] += d * d
+    elif motor:
+        state[S_TQF_L] += p[P_A_Q] * (T_load - state[S_TQF_L])
+    state[S_COUNT] = k_idx + 1.0
 
     out[i_out, O_DELTA] = delta
     out[i_out, O_PHI] = phi
@@ -345,6 +482,7 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, p, out, i_out):
     out[i_out, O_TORQUE_HAT] = T_hat
     out[i_out, O_TORQUE_MEAS] = T_meas
     out[i_out, O_TRAV] = state[S_TRAV]
+    out[i_out, O_DELTA1] = delta1
 
 
 @njit(cache=True)
@@ -356,7 +494,8 @@ def deadzone_run(state, samples, params):
     state : numpy.ndarray
         Estimator state (see :func:`initial_state`); not modified.
     samples : numpy.ndarray
-        Shape (n, 4): θ_m [rad], ω_m [rad/s], θ_l [rad], ω_l [rad/s] at the sample time T_s.
+        Shape (n, 4) or (n, 5): θ_m [rad], ω_m [rad/s], θ_l [rad], ω_l [rad/s] and, optionally,
+        the recorded motor torque u [N·m], at the sample time T_s.
     params : numpy.ndarray
         Parameter array (see :class:`~drivelash.estimation.estimator.EstimatorConfig`).
 
@@ -365,8 +504,8 @@ def deadzone_run(state, samples, params):
     state : numpy.ndarray
         State after the last sample (new array).
     outputs : numpy.ndarray
-        Shape (n, 8): δ̂ [rad], φ̂ [rad/s²], ω̂_l [rad/s], σ-window integral [s], Δθ used [rad],
-        T_l(x, δ̂) [N·m], J_l φ̂ [N·m], traversal count [-].
+        Shape (n, 9): δ̂ [rad], φ̂ [rad/s²], ω̂_l [rad/s], σ-window integral [s], Δθ used [rad],
+        T_l(x, δ̂) [N·m], shaft torque seen by the law [N·m], traversal count [-], δ1 used [rad].
     """
     out = np.empty((samples.shape[0], N_OUT))
     st = deadzone_run_into(state, samples, params, out)
@@ -382,8 +521,10 @@ def deadzone_run_into(state, samples, params, out):
     """
     st = state.copy()
     n = samples.shape[0]
+    has_u = samples.shape[1] > 4
     for i in range(n):
-        deadzone_step(st, samples[i, 0], samples[i, 1], samples[i, 2], samples[i, 3], params, out, i)
+        u = samples[i, 4] if has_u else math.nan
+        deadzone_step(st, samples[i, 0], samples[i, 1], samples[i, 2], samples[i, 3], u, params, out, i)
     return st
 
 
@@ -392,14 +533,16 @@ def derive_params(p: np.ndarray) -> np.ndarray:
 
     P_C_POS = 1 − exp(−ω_c T_s) (complementary filter), P_A_F = 1 − exp(−T_s/τ_f) (residual
     filter), P_A_Q = 1 − exp(−T_s/max(τ_f, 2 ms)) (torque filter of the excitation monitor),
-    P_P0 … P_P0+3 = diagonal of P0: [P_max, q P_max/θ_def², q P_max, q P_max].
+    P_P0 … P_P0+3 = diagonal of P0: [P_max, q P_max/θ_def², q_δ1 P_max, 0].
     """
     T_s = p[P_TS]
     p[P_C_POS] = 1.0 - math.exp(-p[P_OMEGA_C] * T_s) if p[P_OMEGA_C] > 0 else 1.0
     p[P_A_F] = 1.0 - math.exp(-T_s / p[P_TAU_F]) if p[P_TAU_F] > 0 else 1.0
     p[P_A_Q] = 1.0 - math.exp(-T_s / max(p[P_TAU_F], 2e-3)) if p[P_TAU_F] > 0 else 1.0
+    p[P_TAU_Q] = max(p[P_TAU_F], 2e-3) if p[P_TAU_F] > 0 else T_s
     p[P_INV_N] = 1.0 / p[P_N]
     p[P_INV_J] = 1.0 / p[P_J_L]
+    p[P_INV_JM] = 1.0 / p[P_J_M] if p[P_J_M] > 0 else 0.0
     p[P_D_OVER_K] = p[P_D_S] / p[P_K_S]
     p[P_K_OVER_PI] = p[P_K_S] / math.pi
     p[P_INV_K] = 1.0 / p[P_K_S]

@@ -1,54 +1,111 @@
-"""User-facing online deadzone estimator: configuration, tuning rule, :class:`DeadzoneEstimator`.
+"""User-facing online deadzone estimator: configuration, tuning rule, streaming run, verdict.
 
 The numerics live in :mod:`drivelash.estimation.deadzone` (one ``@njit`` kernel with
-explicit state); this module chooses the gains, runs traces (whole or in chunks) and turns
-the kernel outputs into an :class:`EstimationResult` with an excitation verdict.
+explicit state); this module chooses the gains, runs recordings in blocks (whole traces and
+files larger than memory alike) and turns the kernel's state and outputs into an
+:class:`EstimationResult` with an excitation verdict, plausibility checks, a δ1 check and an
+uncertainty. Every number is in docs/assumptions.md (backlash estimator).
 
-Tuning rule (``EstimatorConfig.tuned``), every number in docs/assumptions.md
---------------------------------------------------------------------------
-Inputs: J_l, K_S, T_C,l (estimator side), the sample time T_s and the excitation (motion
-reversal) frequency f_r — ``estimate`` detects f_r from the recording
-(:func:`excitation_frequency`). With ω_r = 2π f_r and ω_n = √(K_S/J_l):
+Two passes (:func:`estimate_blocks`)
+-----------------------------------
+1. :class:`~drivelash.estimation.motion.MotionScanner` over θ_m, θ_l and the motor torque:
+   reversal frequency f_r, travel, torque RMS (cheap; decimated by global sample index).
+2. The kernel, block by block, twice in lockstep: the chosen law and the *δ1 check* (the
+   default law with δ1 estimated jointly and the stiffness scale held at 1). Everything the
+   verdict needs is accumulated while streaming — kernel sums over the last third, Δθ range,
+   traversal counters, per-block min/max of δ̂ (:data:`HISTORY_BLOCKS` blocks) — so a file
+   read in chunks and the same data in memory give the same result.
 
-* contact torque scale T_ref = max(T_C,l, 10⁻³ rad · K_S); contact threshold T_thr = T_ref/2;
-  typical deflection θ_def = T_ref/K_S; model smoothness α = clip(20/θ_def, 10³, 10⁵) 1/rad;
-* STSMO: ρ = (K_S/J_l) · ω_r · 1 rad (rate of change of φ in contact),
-  k1 = 1.5 s √ρ, k2 = 1.1 s² ρ (Levant's rule; the chattering this leaves in φ̂ is removed
-  by the default law's residual filter), s = min(1, 0.1/(ω_n T_s)) slows the observer when
-  the sampling is coarse against the shaft resonance;
+Tuning rule (``EstimatorConfig.tuned``)
+--------------------------------------
+Inputs: J_l, K_S, T_C,l (estimator side), T_s, f_r and, when known, the recording's motion
+(:class:`~drivelash.estimation.motion.MotionSummary`). With ω_r = 2π f_r, ω_n = √(K_S/J_l):
+
+* shaft-torque source: the motor side (−N J_m φ̂_m from the recorded motor torque) when the
+  recording has ``torque_m`` and the method is the default one, else the load observer J_l φ̂;
+* contact torque scale T_ref = min(max(T_C,l, 10⁻³ rad · K_S), T_data), T_data = N · RMS(u)
+  (motor source) or J_l a_typ + T_C,l + β_l v_typ from the motion (load source); contact
+  threshold T_thr = T_ref/2; typical deflection θ_def = T_ref/K_S; α = clip(20/θ_def, 10³, 10⁵);
+* STSMO: ρ = (K_S/J_l) · ω_r · 1 rad, k1 = 1.5 s √ρ, k2 = 1.1 s² ρ, s = min(1, 0.1/(ω_n T_s));
+  motor side likewise with ρ_m = K_S ω_r/(N J_m), ω_n,m = √(K_S/(N² J_m));
 * paper law: γ = ω_n/16;
 * default law: τ_f = max(2/ω_n, 4 T_s), P_max = 16 ω_r, λ = ω_r/25, ω_c = 10 ω_r,
-  stiffness-scale gain q = 0.1; gain reset when the residual stays above 3 θ_def for
-  2 τ_f in informative samples;
+  stiffness-scale gain q = 0.1; gain reset when the residual stays above 3 θ_def for 2 τ_f
+  in informative samples; gap offset learning at rate ω_r above 5 % of v_typ;
 * excitation window max(2/f_r, 1 s); δ_max = 2 rad, ε_δ = 0.1, δ0 = 0.
-
-Chosen on ``paper-sim`` and the 18 bench scenarios and checked, unchanged, on drives outside
-them (N = 3 and 5, other inertias, stiffnesses, deadzones, offsets, encoders, trapezoidal
-passes with dwell): tests/estimation/test_acceptance.py.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any, Literal
 
 import numpy as np
-from numba import njit
 
 from drivelash.errors import DataError, ParameterError
 from drivelash.estimation import deadzone as dz
+from drivelash.estimation.motion import (
+    REVERSAL_HYSTERESIS,
+    MotionScanner,
+    MotionSummary,
+    excitation_frequency,
+    scan_trace,
+)
 from drivelash.io.trace import Trace
 from drivelash.params import BacklashParams, DrivetrainParams
 
+__all__ = [
+    "INPUT_COLUMNS",
+    "REVERSAL_HYSTERESIS",
+    "DeadzoneEstimator",
+    "EstimationResult",
+    "EstimatorConfig",
+    "MotionSummary",
+    "build_params",
+    "estimate_blocks",
+    "excitation_frequency",
+    "trace_blocks",
+]
+
 Method = Literal["paper", "default"]
 INPUT_COLUMNS = ("theta_m", "omega_m", "theta_l", "omega_l")
+#: Optional column: the recorded motor torque [N·m] (shaft torque from the motor side).
+TORQUE_COLUMN = "torque_m"
 #: Least share of the excitation window in which the law must receive information
 #: (∫σ dt / window ≥ ε_σ) for ``excitation_ok``.
 SIGMA_FRACTION_MIN = 0.01
-#: The joint δ/δ1 law replaces the anchored one only if its torque residual (RMS over the
-#: last third of the run) is below this fraction of the anchored law's.
+#: δ1 check: a configured δ1 within this of the joint law's δ̂1 is consistent [rad].
+OFFSET_FLOOR = 1e-3
+#: δ1 check: the joint law replaces the anchored one only if its residual (RMS of the filtered
+#: torque residual over the last third) is below this fraction of the anchored law's.
 OFFSET_RESIDUAL_RATIO = 0.8
+#: δ1 check: … and exceed this multiple of the mean contact deflection (what a wrong torque
+#: model can move a contact point by) …
+OFFSET_DEFLECTION_FACTOR = 2.0
+#: … and the anchored law's lower/upper residual ratio must exceed the joint law's by this
+#: factor; a joint law whose own lower/upper ratio lies outside [1/this, this] cannot judge δ1.
+OFFSET_BALANCE = 1.5
+#: δ̂ this close to δ_max (fraction) is at its projection bound.
+BOUND_FRACTION = 0.98
+#: κ this close to its bounds [¼, 4] is at its bound (the data disagree with the stated K_S).
+KAPPA_LIMITS = (0.26, 3.9)
+#: Resolution floor of the uncertainty, in units of the contact deflection θ_def.
+UNCERTAINTY_FLOOR = 0.1
+#: Number of blocks of the δ̂ min/max history (convergence time and settling, streaming).
+HISTORY_BLOCKS = 4096
+#: Rows kept of the output series when streaming (plots and reports).
+SERIES_POINTS = 20000
+#: Samples per block when a whole trace is run (the same blocks as a streamed file).
+BLOCK = 1 << 16
+#: The motor-side shaft torque is used when N T_C,m ≤ this × the expected shaft torque.
+MOTOR_FRICTION_RATIO = 2.0
+#: … and N² J_m ≤ this × J_l.
+MOTOR_INERTIA_RATIO = 10.0
+#: A constant load torque on the load is reported when the motor-side and load-side shaft
+#: torques differ on average by more than this fraction of the mean contact torque.
+LOAD_TORQUE_FRACTION = 0.2
 
 
 def _rms(x: np.ndarray) -> float:
@@ -98,10 +155,9 @@ class EstimatorConfig:
     q_offset : float
         Gain of δ1 relative to δ's [-] (``estimate_offset``).
     offset_check : bool
-        Run the joint δ/δ1 law alongside in :meth:`DeadzoneEstimator.run` and switch to it
-        when the data contradict δ1 (default method).
+        Run the δ1 check alongside (both methods): the default law with δ1 estimated jointly.
     offset_switch : float
-        |δ̂1 − δ1| above which the check may switch [rad].
+        |δ̂1 − δ1| up to which the configured δ1 is consistent with the data [rad].
     theta_def : float
         Typical contact deflection [rad]: scales the initial gain of κ, P0 = q_aux P_max/θ_def².
     q_aux : float
@@ -110,6 +166,17 @@ class EstimatorConfig:
         Gain reset threshold on the filtered residual, in units of θ_def [-]; 0 = off.
     reset_t : float
         Time the residual must stay beyond it (in informative samples) [s].
+    torque_source : {"load", "motor"}
+        Shaft torque from the load observer J_l φ̂ or from the motor side (recorded motor
+        torque; default method only, falls back to the load observer without the column).
+    k1_m, k2_m : float
+        Gains of the motor-side observer [rad^½/s^{3/2}], [rad/s³].
+    lam_g : float
+        Rate of the torque-offset learning in the gap [1/s] (default method; 0 = off).
+    omega_g : float
+        Speed above which the gap offset is learnt, load side [rad/s].
+    gap_margin : float
+        Margin of the gap region used for it, fraction of the modelled gap [-].
     """
 
     k1: float
@@ -131,11 +198,18 @@ class EstimatorConfig:
     estimate_offset: bool = False
     q_offset: float = 1.0
     offset_check: bool = True
-    offset_switch: float = 5e-3
+    offset_switch: float = OFFSET_FLOOR
     theta_def: float = 1e-3
     q_aux: float = 0.1
     reset_e: float = 0.0
     reset_t: float = 0.02
+    torque_source: Literal["load", "motor"] = "load"
+    k1_m: float = 1.0
+    k2_m: float = 1.0
+    lam_g: float = 0.0
+    omega_g: float = 0.1
+    gap_margin: float = 0.15
+    contact_bound: bool = True
 
     def __post_init__(self) -> None:
         name = type(self).__name__
@@ -155,20 +229,29 @@ class EstimatorConfig:
             "reset_t",
             "theta_def",
             "q_aux",
+            "k1_m",
+            "k2_m",
+            "omega_g",
         ):
             v = getattr(self, f)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ParameterError(name, f, f"must be finite and > 0, got {v!r}")
-        for f in ("delta0", "omega_c", "tau_f", "omega_eps", "reset_e"):
+        for f in ("delta0", "omega_c", "tau_f", "omega_eps", "reset_e", "lam_g", "gap_margin"):
             v = getattr(self, f)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+            if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ParameterError(name, f, f"must be finite and >= 0, got {v!r}")
+        if self.gap_margin >= 0.5:
+            raise ParameterError(name, "gap_margin", f"must be < 0.5, got {self.gap_margin!r}")
         if self.delta0 > self.delta_max:
             raise ParameterError(
                 name, "delta0", f"must be <= delta_max = {self.delta_max}, got {self.delta0}"
             )
         if self.method not in ("paper", "default"):
             raise ParameterError(name, "method", f"must be 'paper' or 'default', got {self.method!r}")
+        if self.torque_source not in ("load", "motor"):
+            raise ParameterError(
+                name, "torque_source", f"must be 'load' or 'motor', got {self.torque_source!r}"
+            )
 
     @classmethod
     def tuned(
@@ -178,6 +261,7 @@ class EstimatorConfig:
         f_exc: float = 0.5,
         method: Method = "default",
         delta_max: float | None = None,
+        motion: MotionSummary | None = None,
         **overrides: Any,
     ) -> EstimatorConfig:
         """Default gains from the documented scaling rule (module docstring).
@@ -189,31 +273,61 @@ class EstimatorConfig:
         T_s : float
             Sample time [s].
         f_exc : float
-            Excitation (motion reversal) frequency [Hz].
+            Excitation (motion reversal) frequency [Hz]; ``motion.f_exc`` when ``motion`` is given.
         method : {"paper", "default"}
             Law to tune.
         delta_max : float, optional
             Upper bound of δ [rad]; default 2 rad.
+        motion : MotionSummary, optional
+            Pass-1 summary of the recording: scales the contact threshold with the torque it
+            carries and chooses the motor-side torque source when it has a motor torque.
         **overrides
-            Any field of :class:`EstimatorConfig` to set explicitly.
+            Any field of :class:`EstimatorConfig` to set explicitly (``None`` values ignored).
         """
+        if motion is not None:
+            f_exc = motion.f_exc
         if not (T_s > 0 and math.isfinite(T_s)):
             raise ParameterError(cls.__name__, "T_s", f"sample time must be > 0, got {T_s!r}")
         if not (f_exc > 0 and math.isfinite(f_exc)):
             raise ParameterError(cls.__name__, "f_exc", f"must be > 0, got {f_exc!r}")
-        J_l, K_S = drivetrain.J_l, drivetrain.K_S
+        J_l, K_S, N, J_m = drivetrain.J_l, drivetrain.K_S, drivetrain.N, drivetrain.J_m
         w_r = 2.0 * math.pi * f_exc
         w_n = math.sqrt(K_S / J_l)
-        # contact torque scale: friction, or 1 mrad of shaft deflection if frictionless
+        motor = method == "default" and motion is not None and motion.torque_rms is not None
+        if motor and motion is not None:
+            # the motor side sees the shaft torque through its own friction: use it only when
+            # that friction (load side, N T_C,m) is not much larger than the shaft torque
+            T_shaft = J_l * motion.a_typ + drivetrain.T_Cl + drivetrain.beta_l * motion.v_typ
+            motor = N * drivetrain.T_Cm <= MOTOR_FRICTION_RATIO * T_shaft
+            # … and through its reflected inertia N² J_m: when it dwarfs J_l the shaft torque is
+            # a small perturbation of the motor's own dynamics
+            motor = motor and N * N * J_m <= MOTOR_INERTIA_RATIO * J_l
+        src = overrides.get("torque_source")
+        if src is not None:
+            motor = src == "motor"
+        # contact torque scale: friction, or 1 mrad of shaft deflection if frictionless —
+        # capped by the torque the recording carries (a stiff drive's contact torque can be
+        # far below 1 mrad of deflection)
         T_ref = max(drivetrain.T_Cl, 1e-3 * K_S)
+        if motion is not None:
+            if motor and motion.torque_rms is not None:
+                T_data = N * motion.torque_rms
+            else:
+                T_data = J_l * motion.a_typ + drivetrain.T_Cl + drivetrain.beta_l * motion.v_typ
+            if T_data > 0:
+                T_ref = min(T_ref, T_data)
         T_thr = 0.5 * T_ref
         rho = (K_S / J_l) * w_r * 1.0
         # slower observer when the sample time is coarse against the shaft resonance
         s_ts = min(1.0, 0.1 / (w_n * T_s))
         k2 = 1.1 * rho * s_ts * s_ts
         k1 = 1.5 * math.sqrt(rho) * s_ts
+        rho_m = K_S * w_r / (N * J_m)
+        w_nm = math.sqrt(K_S / (N * N * J_m))
+        s_m = min(1.0, 0.1 / (max(w_nm, w_n) * T_s))
         theta_def = T_ref / K_S
         alpha = min(max(20.0 / theta_def, 1e3), 1e5)
+        v_typ = motion.v_typ if motion is not None and motion.v_typ > 0 else math.pi * f_exc
         values: dict[str, Any] = dict(
             k1=k1,
             k2=k2,
@@ -233,6 +347,11 @@ class EstimatorConfig:
             theta_def=theta_def,
             reset_e=3.0,
             reset_t=max(2.0 * (2.0 / w_n), 4.0 * T_s),
+            torque_source="motor" if motor else "load",
+            k1_m=1.5 * math.sqrt(rho_m) * s_m,
+            k2_m=1.1 * rho_m * s_m * s_m,
+            lam_g=w_r,
+            omega_g=0.05 * v_typ,
         )
         values.update({k: v for k, v in overrides.items() if v is not None})
         return cls(**values)
@@ -243,7 +362,11 @@ class EstimatorConfig:
 
 
 def build_params(
-    drivetrain: DrivetrainParams, backlash: BacklashParams | float, config: EstimatorConfig, T_s: float
+    drivetrain: DrivetrainParams,
+    backlash: BacklashParams | float,
+    config: EstimatorConfig,
+    T_s: float,
+    k0: int = 0,
 ) -> np.ndarray:
     """Parameter array of :func:`~drivelash.estimation.deadzone.deadzone_run`.
 
@@ -258,6 +381,8 @@ def build_params(
         Gains.
     T_s : float
         Sample time [s].
+    k0 : int
+        First sample index of the verdict accumulators (the last third of a run).
     """
     delta1 = backlash.delta1 if isinstance(backlash, BacklashParams) else float(backlash)
     p = np.zeros(dz.N_PARAMS)
@@ -290,17 +415,28 @@ def build_params(
     p[dz.P_Q_AUX] = config.q_aux
     p[dz.P_RESET_E] = config.reset_e
     p[dz.P_RESET_T] = config.reset_t
+    p[dz.P_TSRC] = 1.0 if config.torque_source == "motor" else 0.0
+    p[dz.P_J_M] = drivetrain.J_m
+    p[dz.P_T_CM] = drivetrain.T_Cm
+    p[dz.P_BETA_M] = drivetrain.beta_m
+    p[dz.P_K1M] = config.k1_m
+    p[dz.P_K2M] = config.k2_m
+    p[dz.P_LAM_G] = config.lam_g
+    p[dz.P_OMEGA_G] = config.omega_g
+    p[dz.P_GAP_M] = config.gap_margin
+    p[dz.P_K0] = float(k0)
+    p[dz.P_BOUND] = 1.0 if config.contact_bound else 0.0
     return dz.derive_params(p)
 
 
 @dataclass
 class EstimationResult:
-    """Outputs of a run and the excitation verdict.
+    """Outputs of a run, the excitation verdict, plausibility checks and the uncertainty.
 
     Attributes
     ----------
     t : numpy.ndarray
-        Time [s].
+        Time [s] (every sample of an in-memory run; a decimated series when streamed).
     delta_hat : numpy.ndarray
         δ̂(t) [rad].
     phi_hat : numpy.ndarray
@@ -314,22 +450,29 @@ class EstimationResult:
     torque_hat : numpy.ndarray
         T_l(x, δ̂) of the estimator's model [N·m].
     torque_meas : numpy.ndarray
-        J_l φ̂, the observed shaft torque [N·m].
+        The shaft torque seen by the law (J_l φ̂, or the motor-side estimate) [N·m].
     traversals : numpy.ndarray
-        Running count of contact-side changes [-].
+        Running count of gap crossings [-].
     excitation_ok : bool
         Enough excitation to trust the estimate.
     reason : str
         Plain-language explanation of the verdict.
     converged : bool
-        ``excitation_ok`` and δ̂ settled over the last window.
+        ``excitation_ok``, δ̂ settled over the last window, and no plausibility check failed.
     convergence_time_s : float or None
         First time after which δ̂ stays in the band around its final value (or the truth,
-        when known) [s].
+        when known) [s]; None when not converged.
     band : float
-        Band used for ``convergence_time_s`` [rad].
+        Band used for ``convergence_time_s`` and the settling check [rad].
     config : EstimatorConfig
         Gains used.
+    delta_std : float
+        Standard uncertainty of the final δ̂ [rad] (see :func:`_uncertainty`).
+    warnings : list of str
+        Every plausibility problem found (each also keeps ``converged`` false, except
+        those marked "note:").
+    extra : dict
+        Figures behind the verdict (stiffness scale, δ1 check, Δθ range, torques, …).
     """
 
     t: np.ndarray
@@ -347,127 +490,572 @@ class EstimationResult:
     convergence_time_s: float | None
     band: float
     config: EstimatorConfig
+    delta_std: float = float("nan")
+    warnings: list[str] = field(default_factory=list)
     extra: dict[str, Any] = field(default_factory=dict)
 
     @property
     def delta(self) -> float:
         """Final estimate δ̂ [rad]."""
+        v = self.extra.get("delta_final")
+        if v is not None:
+            return float(v)
         return float(self.delta_hat[-1]) if self.delta_hat.size else float("nan")
 
-
-@njit(cache=True)
-def _reversals(x, h):
-    """Schmitt-trigger reversal detector on a position signal.
-
-    A reversal is counted when ``x`` retreats by more than ``h`` from its running extreme
-    in the current direction. Returns (count, index of the first reversal's extreme,
-    index of the last one's); −1 indices when there is none.
-    """
-    n = x.shape[0]
-    if n == 0:
-        return 0, -1, -1
-    direction = 0  # +1 rising, −1 falling, 0 not yet known
-    i_ext = 0
-    x_ext = x[0]
-    x_min = x[0]
-    x_max = x[0]
-    i_min = 0
-    i_max = 0
-    count = 0
-    first = -1
-    last = -1
-    for i in range(1, n):
-        v = x[i]
-        if direction == 0:
-            if v > x_max:
-                x_max = v
-                i_max = i
-            if v < x_min:
-                x_min = v
-                i_min = i
-            if x_max - x_min > h:
-                if i_max > i_min:
-                    direction = 1
-                    x_ext = x_max
-                    i_ext = i_max
-                else:
-                    direction = -1
-                    x_ext = x_min
-                    i_ext = i_min
-            continue
-        if direction > 0:
-            if v > x_ext:
-                x_ext = v
-                i_ext = i
-            elif x_ext - v > h:
-                count += 1
-                if first < 0:
-                    first = i_ext
-                last = i_ext
-                direction = -1
-                x_ext = v
-                i_ext = i
-        else:
-            if v < x_ext:
-                x_ext = v
-                i_ext = i
-            elif v - x_ext > h:
-                count += 1
-                if first < 0:
-                    first = i_ext
-                last = i_ext
-                direction = 1
-                x_ext = v
-                i_ext = i
-    return count, first, last
+    @property
+    def delta_interval(self) -> tuple[float, float]:
+        """95 % interval of δ [rad]: δ̂ ± 1.96 ``delta_std``."""
+        return (self.delta - 1.96 * self.delta_std, self.delta + 1.96 * self.delta_std)
 
 
-#: Hysteresis of the reversal detector, as a fraction of the motor's total travel.
-REVERSAL_HYSTERESIS = 0.1
+# ----------------------------------------------------------------------------------
+# blocks: one interface for in-memory traces and files read in chunks
+# ----------------------------------------------------------------------------------
+Block = Mapping[str, np.ndarray]
 
 
-def excitation_frequency(trace: Trace, default: float = 0.5, N: float = 1.0) -> float:
-    """Motion-reversal frequency of a recording [Hz], from the motor position.
+def trace_blocks(trace: Trace, block: int = BLOCK) -> Callable[[], Iterator[Block]]:
+    """A re-iterable source of ``block``-row slices of ``trace`` (for :func:`estimate_blocks`)."""
+    names = [c for c in ("t", *INPUT_COLUMNS, TORQUE_COLUMN, "delta_true") if c in trace]
 
-    Reversals of θ_m are detected with a hysteresis of :data:`REVERSAL_HYSTERESIS` of its
-    total travel (position, not velocity: noise at standstill does not count), and the
-    frequency is (reversals − 1) / (2 · time between the first and the last). ``default``
-    when fewer than three reversals are found.
+    def gen() -> Iterator[Block]:
+        n = len(trace)
+        for a in range(0, n, block):
+            yield {c: trace[c][a : a + block] for c in names}
 
-    Parameters
-    ----------
-    trace : Trace
-        Needs ``t`` and ``theta_m``.
-    default : float
-        Value returned for (nearly) unidirectional motion [Hz].
-    N : float
-        Gear ratio (the result does not depend on it; kept for symmetry with the estimator).
-    """
-    x = np.ascontiguousarray(trace["theta_m"], dtype=np.float64) / N
-    t = trace["t"]
-    if x.size < 3:
-        return default
-    h = REVERSAL_HYSTERESIS * float(np.ptp(x))
-    if not h > 0:
-        return default
-    count, first, last = _reversals(x, h)
-    if count < 3 or last <= first:
-        return default
-    return float((count - 1) / (2.0 * (t[last] - t[first])))
+    return gen
 
 
-def _samples_from_trace(trace: Trace) -> np.ndarray:
-    missing = [c for c in INPUT_COLUMNS if c not in trace]
+def _block_samples(blk: Block, row0: int, use_torque: bool) -> np.ndarray:
+    missing = [c for c in INPUT_COLUMNS if c not in blk]
     if missing:
         raise DataError(f"missing column(s) {', '.join(missing)} needed by the estimator", column=missing[0])
-    data = np.column_stack([trace[c] for c in INPUT_COLUMNS])
+    cols = list(INPUT_COLUMNS) + ([TORQUE_COLUMN] if use_torque else [])
+    data = np.column_stack([np.asarray(blk[c], dtype=np.float64) for c in cols])
     bad = ~np.isfinite(data)
     if bad.any():
         row, col = np.argwhere(bad)[0]
-        raise DataError("value is not finite (NaN or inf)", column=INPUT_COLUMNS[col], row=int(row))
+        raise DataError("value is not finite (NaN or inf)", column=cols[col], row=int(row0 + row))
     return np.ascontiguousarray(data)
 
 
+def scan_blocks(blocks: Callable[[], Iterable[Block]], N: float) -> MotionSummary:
+    """Pass 1 over a block source: :class:`MotionSummary`; also checks that time increases."""
+    sc = MotionScanner(N)
+    t_prev = -math.inf
+    row = 0
+    for blk in blocks():
+        t = np.asarray(blk["t"], dtype=np.float64)
+        if t.size:
+            d = np.diff(t, prepend=t_prev)  # first entry +inf at the start
+            bad = ~(d > 0)
+            if bad.any():
+                raise DataError("time is not strictly increasing", column="t", row=row + int(np.argmax(bad)))
+            t_prev = float(t[-1])
+        for c in ("theta_m", "theta_l"):
+            if c not in blk:
+                raise DataError(f"missing column {c} needed by the estimator", column=c)
+        sc.feed(t, blk["theta_m"], blk["theta_l"], blk.get(TORQUE_COLUMN))
+        row += t.size
+    return sc.summary()
+
+
+# ----------------------------------------------------------------------------------
+# the streaming session
+# ----------------------------------------------------------------------------------
+class _Track:
+    """Per-law outputs while streaming: block min/max history of δ̂ (and its error) and the series."""
+
+    def __init__(self, n_total: int, keep_full: bool, has_truth: bool) -> None:
+        self.Bh = max(1, -(-n_total // HISTORY_BLOCKS))
+        nb = -(-n_total // self.Bh) if n_total else 0
+        self.dmin = np.full(nb, np.inf)
+        self.dmax = np.full(nb, -np.inf)
+        self.emin = np.full(nb, np.inf) if has_truth else None
+        self.emax = np.full(nb, -np.inf) if has_truth else None
+        self.keep_full = keep_full
+        self.step = 1 if keep_full else max(1, -(-n_total // SERIES_POINTS))
+        self.rows: list[np.ndarray] = []
+        self.times: list[np.ndarray] = []
+        self.last: np.ndarray | None = None
+
+    def add(self, row0: int, t: np.ndarray, out: np.ndarray, truth: np.ndarray | None) -> None:
+        n = out.shape[0]
+        d = out[:, dz.O_DELTA]
+        idx = (row0 + np.arange(n)) // self.Bh
+        np.minimum.at(self.dmin, idx, d)
+        np.maximum.at(self.dmax, idx, d)
+        if truth is not None and self.emin is not None and self.emax is not None:
+            e = d - truth
+            np.minimum.at(self.emin, idx, e)
+            np.maximum.at(self.emax, idx, e)
+        if self.keep_full:
+            self.rows.append(out.copy())
+            self.times.append(np.asarray(t, dtype=np.float64).copy())
+        else:
+            start = (-row0) % self.step
+            self.rows.append(out[start :: self.step].copy())
+            self.times.append(np.asarray(t[start :: self.step], dtype=np.float64).copy())
+        if n:
+            self.last = out[-1].copy()
+
+    def series(self) -> tuple[np.ndarray, np.ndarray]:
+        if not self.rows:
+            return np.zeros(0), np.zeros((0, dz.N_OUT))
+        return np.concatenate(self.times), np.concatenate(self.rows)
+
+
+class _Law:
+    """One kernel instance (parameters, state, output buffer, track)."""
+
+    def __init__(self, params: np.ndarray, delta0: float, track: _Track) -> None:
+        self.params = params
+        self.state = dz.initial_state(params, delta0)
+        self.track = track
+        self._buf = np.empty((0, dz.N_OUT))
+
+    def feed(self, row0: int, x: np.ndarray, t: np.ndarray, truth: np.ndarray | None) -> None:
+        n = x.shape[0]
+        if self._buf.shape[0] < n:
+            self._buf = np.empty((n, dz.N_OUT))
+        out = self._buf[:n]
+        self.state = dz.deadzone_run_into(self.state, x, self.params, out)
+        self.track.add(row0, t, out, truth)
+
+    def acc(self) -> dict[str, float]:
+        s = self.state
+        n = s[dz.S_ACC_N]
+        d_mean = s[dz.S_ACC_D] / n if n else math.nan
+        var = max(s[dz.S_ACC_D2] / n - d_mean * d_mean, 0.0) if n else math.nan
+        nc = s[dz.S_CON_N]
+        return {
+            "n": n,
+            "residual_rms": math.sqrt(s[dz.S_ACC_E2] / n) if n else math.nan,
+            "delta_mean": s[dz.S_ACC_REF] + d_mean if n else math.nan,
+            "delta_spread": math.sqrt(var) if n else math.nan,
+            "contact_fraction": nc / n if n else 0.0,
+            "contact_torque": s[dz.S_CON_T] / nc if nc else 0.0,
+            "contact_torque_rms": math.sqrt(s[dz.S_CON_T2] / nc) if nc else 0.0,
+            "residual_rms_lower": math.sqrt(s[dz.S_E2_LO] / s[dz.S_N_LO]) if s[dz.S_N_LO] else math.nan,
+            "residual_rms_upper": math.sqrt(s[dz.S_E2_HI] / s[dz.S_N_HI]) if s[dz.S_N_HI] else math.nan,
+        }
+
+
+@dataclass
+class _Setup:
+    drivetrain: DrivetrainParams
+    delta1: float
+    T_s: float
+    config: EstimatorConfig
+    check_config: EstimatorConfig | None
+    motion: MotionSummary
+
+
+def _check_config(config: EstimatorConfig, default_cfg: EstimatorConfig) -> EstimatorConfig:
+    """The δ1 check: the default law with δ1 estimated jointly and κ held at 1."""
+    return replace(
+        default_cfg,
+        method="default",
+        estimate_offset=True,
+        estimate_stiffness=False,
+        offset_check=False,
+        delta0=config.delta0,
+        delta_max=config.delta_max,
+    )
+
+
+def estimate_blocks(
+    drivetrain: DrivetrainParams,
+    delta1: float,
+    blocks: Callable[[], Iterable[Block]],
+    *,
+    method: Method = "default",
+    config: EstimatorConfig | None = None,
+    overrides: Mapping[str, Any] | None = None,
+    f_exc: float | None = None,
+    keep: Literal["full", "decimated"] = "full",
+    motion: MotionSummary | None = None,
+) -> EstimationResult:
+    """Run the online estimator over a block source in two passes (module docstring).
+
+    Parameters
+    ----------
+    drivetrain : DrivetrainParams
+        Drive-train parameters as known to the estimator.
+    delta1 : float
+        Configured offset δ1 [rad].
+    blocks : callable
+        Returns a fresh iterator of blocks (mappings of column → array: ``t``, θ_m, ω_m, θ_l,
+        ω_l, optionally ``torque_m`` and ``delta_true``) each time it is called.
+    method : {"paper", "default"}
+        Law.
+    config : EstimatorConfig, optional
+        Gains to use as they are (no tuning); its ``method`` wins over ``method``.
+    overrides : mapping, optional
+        Fields of :class:`EstimatorConfig` overriding the tuning rule.
+    f_exc : float, optional
+        Excitation frequency [Hz] instead of the one detected in pass 1.
+    keep : {"full", "decimated"}
+        Keep every output row, or a series of about :data:`SERIES_POINTS` rows (files larger
+        than memory). The verdict and every figure are the same either way.
+    motion : MotionSummary, optional
+        Pass-1 result when the caller already has it.
+
+    Returns
+    -------
+    EstimationResult
+    """
+    if not (math.isfinite(delta1) and delta1 >= 0):
+        raise ParameterError("BacklashParams", "delta1", f"must be finite and >= 0, got {delta1!r}")
+    if motion is None:
+        motion = scan_blocks(blocks, drivetrain.N)
+    if motion.n < 2:
+        raise DataError("fewer than two samples: no sample time", column="t")
+    if f_exc is not None:
+        motion = replace(motion, f_exc=float(f_exc))
+    T_s = motion.T_s
+    over = dict(overrides or {})
+    if config is None:
+        config = EstimatorConfig.tuned(drivetrain, T_s, method=method, motion=motion, **over)
+    check_cfg = None
+    if config.offset_check and not config.estimate_offset:
+        if config.method == "default":
+            base = config
+        else:
+            over_d = {k: v for k, v in over.items() if k not in ("gamma",)}
+            base = EstimatorConfig.tuned(drivetrain, T_s, method="default", motion=motion, **over_d)
+        check_cfg = _check_config(config, base)
+    setup = _Setup(drivetrain, float(delta1), T_s, config, check_cfg, motion)
+    return _run_session(setup, blocks, keep)
+
+
+def _run_session(setup: _Setup, blocks: Callable[[], Iterable[Block]], keep: str) -> EstimationResult:
+    n = setup.motion.n
+    k0 = (2 * n) // 3
+    has_torque = setup.motion.torque_rms is not None
+    first = True
+    has_truth = False
+    main: _Law | None = None
+    check: _Law | None = None
+    row = 0
+    for blk in blocks():
+        if first:
+            has_truth = "delta_true" in blk
+            main = _Law(
+                build_params(setup.drivetrain, setup.delta1, setup.config, setup.T_s, k0),
+                setup.config.delta0,
+                _Track(n, keep == "full", has_truth),
+            )
+            if setup.check_config is not None:
+                check = _Law(
+                    build_params(setup.drivetrain, setup.delta1, setup.check_config, setup.T_s, k0),
+                    setup.check_config.delta0,
+                    _Track(n, keep == "full", has_truth),
+                )
+            first = False
+        assert main is not None
+        x = _block_samples(blk, row, has_torque)
+        t = np.asarray(blk["t"], dtype=np.float64)
+        truth = np.asarray(blk["delta_true"], dtype=np.float64) if has_truth else None
+        main.feed(row, x, t, truth)
+        if check is not None:
+            check.feed(row, x, t, truth)
+        row += x.shape[0]
+    if main is None or row != n:
+        raise DataError(f"the recording changed between passes ({n} then {row} rows)", column="t")
+    return _verdict(setup, main, check, has_truth)
+
+
+# ----------------------------------------------------------------------------------
+# verdict
+# ----------------------------------------------------------------------------------
+def _settled(track: _Track, n: int, k_win: int, band: float) -> bool:
+    """δ̂ varied by ≤ band over the blocks covering the last ``k_win`` samples."""
+    b0 = max(0, (n - k_win) // track.Bh)
+    lo, hi = float(np.min(track.dmin[b0:])), float(np.max(track.dmax[b0:]))
+    return hi - lo <= band
+
+
+def _convergence_time(track: _Track, t0: float, T_s: float, n: int, band: float, final: float) -> float | None:
+    """First block boundary after which |δ̂ − ref| ≤ band to the end (ref: truth, or the final δ̂)."""
+    if track.emin is not None and track.emax is not None:
+        lo, hi = track.emin, track.emax
+    else:
+        lo, hi = track.dmin - final, track.dmax - final
+    bad = np.nonzero((hi > band) | (lo < -band))[0]
+    if bad.size == 0:
+        return 0.0
+    k = int(bad[-1]) + 1
+    if k >= lo.size:
+        return None
+    return float(k * track.Bh * T_s)
+
+
+def _kappa(law: _Law) -> float:
+    return float(law.state[dz.S_TH + 1])
+
+
+def _verdict(setup: _Setup, main: _Law, check: _Law | None, has_truth: bool) -> EstimationResult:
+    cfg, mo = setup.config, setup.motion
+    T_s, n = setup.T_s, mo.n
+    st = main.state
+    default = cfg.method == "default"
+    extra: dict[str, Any] = {}
+    warnings: list[str] = []
+
+    n_trav = int(st[dz.S_TRAV])
+    raw_trav = int(st[dz.S_RAW_TRAV])
+    win = cfg.window
+    duration = n * T_s
+    sigma_frac = float(st[dz.S_SIGSUM] * T_s / win)
+    peak_tq = float(st[dz.S_PEAK_TQ])
+    # --- excitation -------------------------------------------------------------
+    if duration < win:
+        ok, reason = False, f"recording of {duration:.3g} s is shorter than the excitation window of {win:.3g} s"
+    elif mo.motor_range > 0 and mo.load_range < 0.1 * mo.motor_range:
+        ok = False
+        reason = (
+            f"no engagement: the load moved {mo.load_range:.3g} rad while the motor moved "
+            f"{mo.motor_range:.3g} rad (load side) — the motion stays inside the gap"
+        )
+    elif mo.reversals < 2:
+        ok = False
+        reason = (
+            "the motion never reverses (unidirectional): only one contact side is seen, "
+            "so the gap cannot be measured; a back-and-forth motion is needed"
+        )
+    elif n_trav < 2:
+        ok = False
+        if peak_tq < cfg.T_thr:
+            reason = (
+                "no engagement: the shaft torque never exceeded the contact threshold "
+                f"({cfg.T_thr:.3g} N·m) — the motion seems to stay inside the gap"
+            )
+        elif raw_trav >= 2:
+            reason = (
+                f"the shaft torque reversed {raw_trav} times but the gap was never crossed: one "
+                "flank keeps the load (a constant load torque such as gravity, or a preload), "
+                "so the gap cannot be seen"
+            )
+        else:
+            reason = (
+                "the motion never reverses through the gap (contact on one side only); "
+                "a reversing motion is needed to see the gap"
+            )
+    elif sigma_frac < SIGMA_FRACTION_MIN:
+        ok = False
+        reason = (
+            f"too little excitation in the last {win:.3g} s: the estimate received information "
+            f"during {100 * sigma_frac:.1f} % of it (needs {100 * SIGMA_FRACTION_MIN:g} %)"
+        )
+    else:
+        ok = True
+        reason = f"{n_trav} crossings of the gap; information during {100 * sigma_frac:.0f} % of the last window"
+
+    # --- δ1 check and the law reported -------------------------------------------
+    chosen = main
+    delta1_used = setup.delta1
+    a_main = main.acc()
+    kappa = _kappa(main) if default else 1.0
+    extra.update(
+        traversals=n_trav,
+        torque_reversals=raw_trav,
+        sigma_fraction=sigma_frac,
+        motor_range=mo.motor_range,
+        load_range=mo.load_range,
+        reversals=float(mo.reversals),
+        torque_source=cfg.torque_source,
+        contact_threshold=cfg.T_thr,
+    )
+    if default:
+        extra["stiffness_scale"] = kappa
+    D = a_main["contact_torque"] / (max(kappa, 1e-12) * setup.drivetrain.K_S)  # contact deflection
+    extra["contact_deflection"] = D
+    # the largest contact deflection of the last third, with the softer of the stated and the
+    # learnt stiffness: how far a wrong torque model can move a contact point
+    D_peak = float(st[dz.S_PEAK_TQ]) / (min(kappa, 1.0) * setup.drivetrain.K_S)
+    extra["contact_deflection_peak"] = D_peak
+    offset_state = "not run"
+    if check is not None:
+        a_chk = check.acc()
+        d1_j = float(check.state[dz.S_TH + 2])
+        diff = d1_j - setup.delta1
+        extra.update(
+            delta1_check=d1_j,
+            delta1_check_delta=float(check.state[dz.S_DELTA]),
+            delta_anchored=float(main.state[dz.S_DELTA]),
+            residual_rms_anchored_lower=a_main["residual_rms_lower"],
+            residual_rms_anchored_upper=a_main["residual_rms_upper"],
+            residual_rms_joint_lower=a_chk["residual_rms_lower"],
+            residual_rms_joint_upper=a_chk["residual_rms_upper"],
+            residual_rms_anchored=a_main["residual_rms"],
+            residual_rms_joint=a_chk["residual_rms"],
+        )
+        floor = max(cfg.offset_switch, OFFSET_FLOOR)
+        ratio = a_chk["residual_rms"] / a_main["residual_rms"] if a_main["residual_rms"] > 0 else math.nan
+        # per contact side: a wrong δ1 spoils the anchored law's fit in the *lower* contact
+        # (where δ1 anchors it) and not the joint law's; a wrong torque model spoils both sides
+        j_bal = a_chk["residual_rms_lower"] / a_chk["residual_rms_upper"]
+        a_bal = a_main["residual_rms_lower"] / a_main["residual_rms_upper"]
+        asym = a_bal / j_bal if j_bal > 0 else math.nan
+        extra.update(delta1_check_ratio=ratio, delta1_check_asymmetry=asym, delta1_check_balance=j_bal)
+        if abs(diff) <= floor:
+            offset_state = "consistent"
+        elif not (1.0 / OFFSET_BALANCE < j_bal < OFFSET_BALANCE):
+            # the joint law does not fit its own two contacts alike: it cannot judge δ1
+            offset_state = "inconclusive"
+        elif (
+            default
+            and ratio < OFFSET_RESIDUAL_RATIO
+            and asym > OFFSET_BALANCE
+            and abs(diff) > OFFSET_DEFLECTION_FACTOR * D
+        ):
+            offset_state = "switched"
+        elif default and ratio * OFFSET_RESIDUAL_RATIO > 1.0:
+            # the joint law explains the shaft torque clearly worse: its offset is an artefact
+            offset_state = "consistent"
+        else:
+            offset_state = "inconsistent"
+        extra["delta1_check_result"] = offset_state
+        if offset_state == "switched":
+            chosen = check
+            delta1_used = d1_j
+            reason += (
+                f"; the data put the lower contact {1e3 * diff:+.1f} mrad from the configured δ1 "
+                "(wrong δ1 or an offset between the encoders), so δ and δ1 were estimated jointly"
+            )
+        elif offset_state == "inconsistent":
+            what = (
+                "use --method default, which estimates δ1 when the data demand it"
+                if not default
+                else "the data do not decide between a wrong δ1 and wrong drive parameters"
+            )
+            warnings.append(
+                f"δ1 is inconsistent with the data: the joint δ/δ1 law puts the lower contact "
+                f"{1e3 * diff:+.1f} mrad from the configured δ1 = {1e3 * setup.delta1:.1f} mrad; {what}"
+            )
+    extra["offset_switched"] = offset_state == "switched"
+    extra["delta1_used"] = delta1_used
+    a = chosen.acc()
+    final = float(chosen.state[dz.S_DELTA])
+    extra["delta_final"] = final
+    if chosen is check:
+        extra["delta1_estimate"] = delta1_used
+        extra["stiffness_scale_joint"] = 1.0
+
+    # --- plausibility (both methods) ------------------------------------------------
+    dth_range = float(main.state[dz.S_DTH_MAX] - main.state[dz.S_DTH_MIN])
+    extra["dtheta_range"] = dth_range
+    if final >= BOUND_FRACTION * cfg.delta_max:
+        warnings.append(
+            f"δ̂ = {1e3 * final:.1f} mrad sits at its upper bound δ_max = {1e3 * cfg.delta_max:.0f} mrad: "
+            "the true gap is larger or the data are not in rad / rad/s (check the units)"
+        )
+    if ok and final > dth_range:
+        warnings.append(
+            f"δ̂ = {1e3 * final:.1f} mrad exceeds the whole Δθ range observed ({1e3 * dth_range:.1f} mrad): "
+            "the gap was never crossed, the estimate is not a measurement"
+        )
+    if default and not (KAPPA_LIMITS[0] < kappa < KAPPA_LIMITS[1]):
+        warnings.append(
+            f"the data disagree with the stated drive: the contact stiffness is {kappa:.2f}× the "
+            "stated K_S (at the limit of what the law corrects) — check K_S and the units"
+        )
+    # constant load torque on the load (gravity): motor-side and load-side torques disagree
+    if default and cfg.torque_source == "motor":
+        s = main.state
+        nd = s[dz.S_DIS_N]
+        if nd > 10:
+            A = np.array([[nd, s[dz.S_DIS_S]], [s[dz.S_DIS_S], s[dz.S_DIS_SS]]])
+            b = np.array([s[dz.S_DIS_D], s[dz.S_DIS_DS]])
+            try:
+                c0, c1 = np.linalg.solve(A, b)
+            except np.linalg.LinAlgError:
+                c0, c1 = s[dz.S_DIS_D] / nd, 0.0
+            extra["load_torque_constant"] = float(c0)
+            extra["load_friction_error"] = float(c1)
+            tc = a_main["contact_torque"]
+            if tc > 0 and abs(c0) > LOAD_TORQUE_FRACTION * tc:
+                warnings.append(
+                    f"note: the motor torque and the load observer disagree by a constant "
+                    f"{c0:+.3g} N·m (a load torque such as gravity, or a wrong load friction or "
+                    "inertia); the shaft torque was taken from the motor side, which includes it"
+                )
+    # --- settling, convergence, uncertainty -----------------------------------------
+    delta_max_seen = float(np.max(chosen.track.dmax)) if chosen.track.dmax.size else 0.0
+    band = max(2e-3, 0.02 * delta_max_seen)
+    k_win = max(1, int(round(win / T_s)))
+    settled = _settled(chosen.track, n, k_win, band) if n else False
+    std = _uncertainty(a, extra, cfg.theta_def)
+    if ok and 1.96 * std > band:
+        warnings.append(
+            f"the estimate is uncertain by ±{1e3 * 1.96 * std:.1f} mrad (95 %), more than the "
+            f"{1e3 * band:.1f} mrad band: the data disagree with the stated drive parameters "
+            + (f"(contact stiffness {kappa:.2f}× the stated model's)" if default else "")
+        )
+    blocking = [w for w in warnings if not w.startswith("note:")]
+    converged = bool(ok and settled and not blocking)
+    conv = _convergence_time(chosen.track, mo.t0, T_s, n, band, final) if ok else None
+    extra["delta_spread"] = a["delta_spread"]
+    extra["settled"] = settled
+    t, rows = chosen.track.series()
+    return EstimationResult(
+        t=t,
+        delta_hat=rows[:, dz.O_DELTA].copy(),
+        phi_hat=rows[:, dz.O_PHI].copy(),
+        omega_l_hat=rows[:, dz.O_OMEGA_HAT].copy(),
+        sigma_window=rows[:, dz.O_SIGMA_WIN].copy(),
+        dtheta=rows[:, dz.O_DTHETA].copy(),
+        torque_hat=rows[:, dz.O_TORQUE_HAT].copy(),
+        torque_meas=rows[:, dz.O_TORQUE_MEAS].copy(),
+        traversals=rows[:, dz.O_TRAV].copy(),
+        excitation_ok=ok,
+        reason=reason,
+        converged=converged,
+        convergence_time_s=conv if converged else None,
+        band=band,
+        config=setup.check_config if chosen is check and setup.check_config is not None else cfg,
+        delta_std=std,
+        warnings=warnings,
+        extra=extra,
+    )
+
+
+def _uncertainty(a: dict[str, float], extra: dict[str, Any], theta_def: float) -> float:
+    """Standard uncertainty of δ̂ [rad], from the estimator's own statistics.
+
+    Three parts, added in quadrature:
+
+    * the spread (standard deviation) of δ̂ over the last third of the run — how far the
+      estimate wanders under noise;
+    * the δ1 check: δ̂ of the anchored law moves one-for-one with δ1, and the joint δ/δ1 law
+      only resolves δ1 to within the difference it found when that difference is below the
+      floor or the check is inconclusive — half of it counts;
+    * with the load observer as torque source, the model part: the stiffness scale κ
+      absorbs a wrong K_S exactly but a wrong load friction or inertia only in part, so up to
+      D·|1 − 1/κ| of the contact deflection D may be misread as gap (with the motor-side
+      torque κ only carries the stiffness, and this part is 0);
+    * a resolution floor of :data:`UNCERTAINTY_FLOOR` θ_def (smoothing of the model (11) and
+      the sub-count reconstruction leave a bias of that order on the bench, measured).
+
+    Coverage of δ̂ ± 1.96 σ against the truth is measured in tests/estimation/test_robustness.py.
+    """
+    s_stat = a["delta_spread"] if math.isfinite(a["delta_spread"]) else 0.0
+    s_d1 = 0.0
+    state = extra.get("delta1_check_result")
+    if state in ("consistent", "inconclusive") and "delta1_check" in extra:
+        s_d1 = 0.5 * min(abs(extra["delta1_check"] - extra["delta1_used"]), OFFSET_FLOOR)
+    s_mod = 0.0
+    kappa = extra.get("stiffness_scale")
+    if kappa is not None and extra.get("torque_source") == "load":
+        s_mod = extra["contact_deflection"] * abs(1.0 - 1.0 / max(kappa, 1e-12))
+    s_res = UNCERTAINTY_FLOOR * theta_def
+    return float(math.sqrt(s_stat * s_stat + s_d1 * s_d1 + s_mod * s_mod + s_res * s_res))
+
+
+# ----------------------------------------------------------------------------------
+# the class the README shows
+# ----------------------------------------------------------------------------------
 class DeadzoneEstimator:
     """Online deadzone estimator: STSMO + adaptive law, chunk-able.
 
@@ -480,15 +1068,20 @@ class DeadzoneEstimator:
     T_s : float
         Sample time [s].
     config : EstimatorConfig, optional
-        Gains; default :meth:`EstimatorConfig.tuned` with ``f_exc``.
-    f_exc : float
-        Excitation frequency for the default tuning [Hz].
+        Gains used as they are. Default: tuned by :meth:`run` from the recording (detected
+        reversal frequency and torque), exactly as ``drivelash estimate`` does.
+    f_exc : float, optional
+        Excitation frequency [Hz] to tune for instead of the detected one.
+    method : {"paper", "default"}
+        Law (when ``config`` is not given).
+    **overrides
+        Fields of :class:`EstimatorConfig` overriding the tuning rule.
 
     Examples
     --------
-    >>> est = DeadzoneEstimator(drivetrain, bl, T_s=125e-6)          # doctest: +SKIP
-    >>> result = est.run(trace)                              # doctest: +SKIP
-    >>> result.delta, result.excitation_ok                   # doctest: +SKIP
+    >>> est = DeadzoneEstimator(drivetrain, bl, T_s=125e-6)   # doctest: +SKIP
+    >>> result = est.run(trace)                                # doctest: +SKIP
+    >>> result.delta, result.delta_std, result.converged       # doctest: +SKIP
     """
 
     def __init__(
@@ -497,242 +1090,95 @@ class DeadzoneEstimator:
         backlash: BacklashParams | float,
         T_s: float,
         config: EstimatorConfig | None = None,
-        f_exc: float = 0.5,
+        f_exc: float | None = None,
+        method: Method = "default",
+        **overrides: Any,
     ) -> None:
         self.drivetrain = drivetrain
         self.delta1 = backlash.delta1 if isinstance(backlash, BacklashParams) else float(backlash)
         if not (math.isfinite(self.delta1) and self.delta1 >= 0):
             raise ParameterError("BacklashParams", "delta1", f"must be finite and >= 0, got {self.delta1!r}")
         self.T_s = float(T_s)
-        self.config = config if config is not None else EstimatorConfig.tuned(drivetrain, T_s, f_exc)
+        self.f_exc = f_exc
+        self.method: Method = config.method if config is not None else method
+        self.overrides = overrides
+        self._given = config
+        self.config = (
+            config
+            if config is not None
+            else EstimatorConfig.tuned(drivetrain, self.T_s, f_exc or 0.5, method=method, **overrides)
+        )
         self.params = build_params(drivetrain, self.delta1, self.config, self.T_s)
         self.state = dz.initial_state(self.params, self.config.delta0)
-        self._check_params: np.ndarray | None = None
-        self._check_state: np.ndarray | None = None
-        c = self.config
-        if c.method == "default" and not c.estimate_offset and c.offset_check:
-            self._check_params = build_params(
-                drivetrain, self.delta1, replace(c, estimate_offset=True), self.T_s
-            )
-            self._check_state = dz.initial_state(self._check_params, c.delta0)
         self._row = np.empty((1, dz.N_OUT))
 
     def reset(self) -> None:
         """Back to δ̂ = δ0 and zero observer state."""
         self.state = dz.initial_state(self.params, self.config.delta0)
-        if self._check_params is not None:
-            self._check_state = dz.initial_state(self._check_params, self.config.delta0)
 
-    def step(self, sample: np.ndarray | tuple[float, float, float, float]) -> np.ndarray:
-        """Process one sample (θ_m, ω_m, θ_l, ω_l); returns the output row (see ``deadzone_run``)."""
+    def step(self, sample: np.ndarray | tuple[float, ...]) -> np.ndarray:
+        """Process one sample (θ_m, ω_m, θ_l, ω_l[, u]); returns the output row (see ``deadzone_run``)."""
         s = sample
+        u = float(s[4]) if len(s) > 4 else math.nan
         dz.deadzone_step(
-            self.state, float(s[0]), float(s[1]), float(s[2]), float(s[3]), self.params, self._row, 0
+            self.state, float(s[0]), float(s[1]), float(s[2]), float(s[3]), u, self.params, self._row, 0
         )
         return self._row[0].copy()
 
     def run_samples(self, samples: np.ndarray) -> np.ndarray:
-        """Process a block of samples, shape (n, 4); returns outputs (n, 8) and keeps the state."""
+        """Process a block of samples, shape (n, 4) or (n, 5); returns outputs (n, 9), keeps the state."""
         samples = np.ascontiguousarray(samples, dtype=np.float64)
         self.state, out = dz.deadzone_run(self.state, samples, self.params)
         return out
 
     def run(
-        self, trace: Trace, chunk: int | None = None, delta_true: np.ndarray | None = None
+        self,
+        trace: Trace,
+        chunk: int | None = None,
+        delta_true: np.ndarray | None = None,
+        keep: Literal["full", "decimated"] = "full",
     ) -> EstimationResult:
-        """Estimate over a whole trace from the current state (chunked internally if asked).
+        """Estimate over a whole trace with the verdict, plausibility checks and δ1 check.
+
+        The same two-pass procedure as ``drivelash estimate`` (:func:`estimate_blocks`): the
+        gains are tuned from the recording unless a ``config`` was given. Starts from δ̂ = δ0
+        (the state of :meth:`run_samples` is not used).
 
         Parameters
         ----------
         trace : Trace
-            Needs ``theta_m``, ``omega_m``, ``theta_l``, ``omega_l``; ``delta_true`` is used
-            for the convergence time when present.
+            Needs ``theta_m``, ``omega_m``, ``theta_l``, ``omega_l``; ``torque_m`` is used
+            when present; ``delta_true`` for the convergence time when present.
         chunk : int, optional
-            Process in blocks of this many samples (same result as one block).
+            Block length (the result does not depend on it).
         delta_true : numpy.ndarray, optional
             True δ(t) [rad]; default the trace's ``delta_true`` column if any.
+        keep : {"full", "decimated"}
+            Keep every output row or a decimated series.
         """
-        samples = _samples_from_trace(trace)
-        t = trace["t"]
-        if t.size >= 2 and not np.all(np.diff(t) > 0):
-            row = int(np.argmax(~(np.diff(t) > 0))) + 1
-            raise DataError("time is not strictly increasing", column="t", row=row)
-        if chunk is None or chunk <= 0:
-            out = self.run_samples(samples)
-        else:
-            out = np.concatenate(
-                [self.run_samples(samples[i : i + chunk]) for i in range(0, len(samples), chunk)]
-            )
-        if delta_true is None and "delta_true" in trace:
-            delta_true = trace["delta_true"]
-        res = make_result(t, out, self.config, self.params, delta_true, samples=samples)
-        if self.config.method == "default":
-            res.extra["stiffness_scale"] = float(self.state[dz.S_TH + 1])
-            if self.config.estimate_offset:
-                res.extra["delta1_estimate"] = float(self.state[dz.S_TH + 2])
-        if self._check_params is not None and self._check_state is not None:
-            res = self._offset_check(res, samples, t, delta_true)
-        return res
-
-    def _offset_check(
-        self, res: EstimationResult, samples: np.ndarray, t: np.ndarray, delta_true: np.ndarray | None
-    ) -> EstimationResult:
-        """Run the joint δ/δ1 law alongside; switch to it when the data disagree with δ1.
-
-        The anchored law (δ1 from the configuration) is the more accurate one when δ1 is right
-        (a friction or stiffness error shifts both contact points and the joint law follows);
-        when δ1 is wrong — or the two encoders' zeros are offset — its δ̂ is off by the same
-        amount. If the joint law's δ̂1 differs from the configured δ1 by more than
-        ``offset_switch`` the result is the joint law's, with the reason saying so.
-        """
-        from scipy.ndimage import uniform_filter1d
-
-        assert self._check_params is not None and self._check_state is not None
-        self._check_state, out_j = dz.deadzone_run(self._check_state, samples, self._check_params)
-        d1_joint = float(self._check_state[dz.S_TH + 2])
-        diff = d1_joint - self.delta1
-        res.extra["delta1_check"] = d1_joint
-        if abs(diff) <= self.config.offset_switch:
-            return res
-        cfg_j = replace(self.config, estimate_offset=True)
-        res_j = make_result(t, out_j, cfg_j, self._check_params, delta_true, samples=samples)
-        # model selection: the joint law must also explain the shaft torque clearly better
-        # over the last third (same observed torque, so the difference is the model's)
-        k0 = 2 * len(t) // 3
-        kap_a = float(self.state[dz.S_TH + 1])
-        kap_j = float(self._check_state[dz.S_TH + 1])
-        m = max(1, int(round(max(self.config.tau_f, 4 * self.T_s) / self.T_s)))  # chattering out
-        r_a = _rms(uniform_filter1d(res.torque_meas[k0:] - kap_a * res.torque_hat[k0:], m))
-        r_j = _rms(uniform_filter1d(res_j.torque_meas[k0:] - kap_j * res_j.torque_hat[k0:], m))
-        res.extra["residual_rms_anchored"] = r_a
-        res.extra["residual_rms_joint"] = r_j
-        if not res_j.excitation_ok or not r_j < OFFSET_RESIDUAL_RATIO * r_a:
-            return res
-        res_j.extra.update(
-            stiffness_scale=float(self._check_state[dz.S_TH + 1]),
-            delta1_estimate=d1_joint,
-            delta1_check=d1_joint,
-            offset_switched=True,
-            residual_rms_anchored=r_a,
-            residual_rms_joint=r_j,
+        if delta_true is not None:
+            trace = trace.with_columns({"delta_true": np.broadcast_to(delta_true, (len(trace),))})
+        blocks = trace_blocks(trace, chunk if chunk and chunk > 0 else BLOCK)
+        return estimate_blocks(
+            self.drivetrain,
+            self.delta1,
+            blocks,
+            method=self.method,
+            config=self._given,
+            overrides=self.overrides,
+            f_exc=self.f_exc,
+            keep=keep,
         )
-        res_j.reason += (
-            f"; the data put the lower contact {1e3 * diff:+.1f} mrad from the configured δ1 "
-            "(wrong δ1 or an offset between the encoders), so δ and δ1 were estimated jointly"
-        )
-        return res_j
-
-
-def _kinematics(samples: np.ndarray, N: float, T_s: float) -> dict[str, float]:
-    """Load and motor travel (load-side units) and number of motor-velocity reversals."""
-    th_m = samples[:, 0] / N
-    th_l = samples[:, 2]
-    w_m = samples[:, 1]
-    motor_range = float(np.ptp(th_m)) if th_m.size else 0.0
-    load_range = float(np.ptp(th_l)) if th_l.size else 0.0
-    del w_m
-    rev = 0
-    if motor_range > 0:
-        rev = int(_reversals(np.ascontiguousarray(th_m), REVERSAL_HYSTERESIS * motor_range)[0])
-    return {"motor_range": motor_range, "load_range": load_range, "reversals": float(rev)}
-
-
-def make_result(
-    t: np.ndarray,
-    out: np.ndarray,
-    config: EstimatorConfig,
-    params: np.ndarray,
-    delta_true: np.ndarray | None = None,
-    band: float | None = None,
-    samples: np.ndarray | None = None,
-) -> EstimationResult:
-    """Wrap kernel outputs into an :class:`EstimationResult` with the excitation verdict."""
-    from drivelash.metrics import convergence_time
-
-    T_s = float(params[dz.P_TS])
-    n = out.shape[0]
-    delta_hat = out[:, dz.O_DELTA].copy()
-    sigma_win = out[:, dz.O_SIGMA_WIN].copy()
-    trav = out[:, dz.O_TRAV].copy()
-    n_trav = int(trav[-1]) if n else 0
-    win = config.window
-    duration = n * T_s
-    sigma_frac = float(sigma_win[-1] / win) if n else 0.0
-    tq = out[:, dz.O_TORQUE_MEAS]
-    peak_tq = float(np.max(np.abs(tq[n // 10 :]))) if n else 0.0
-    kin = _kinematics(samples, float(params[dz.P_N]), T_s) if samples is not None else {}
-    if n == 0 or duration < win:
-        ok, reason = (
-            False,
-            f"recording of {duration:.3g} s is shorter than the excitation window of {win:.3g} s",
-        )
-    elif kin and kin["load_range"] < 0.1 * kin["motor_range"] and kin["motor_range"] > 0:
-        ok = False
-        reason = (
-            f"no engagement: the load moved {kin['load_range']:.3g} rad while the motor moved "
-            f"{kin['motor_range']:.3g} rad (load side) — the motion stays inside the deadzone"
-        )
-    elif kin and kin["reversals"] < 2:
-        ok = False
-        reason = (
-            "the motion never reverses (unidirectional): only one contact side is seen, "
-            "so the gap cannot be measured; a back-and-forth motion is needed"
-        )
-    elif n_trav < 2:
-        if peak_tq < config.T_thr:
-            reason = (
-                "no engagement: the shaft torque never exceeded the contact threshold "
-                f"({config.T_thr:.3g} N·m) — the motion seems to stay inside the deadzone"
-            )
-        else:
-            reason = (
-                "the motion never reverses through the deadzone (contact on one side only); "
-                "a reversing motion is needed to see the gap"
-            )
-        ok = False
-    elif sigma_frac < SIGMA_FRACTION_MIN:
-        ok = False
-        reason = (
-            f"too little excitation in the last {win:.3g} s: the estimate received information "
-            f"during {100 * sigma_frac:.1f} % of it (needs {100 * SIGMA_FRACTION_MIN:g} %)"
-        )
-    else:
-        ok = True
-        reason = (
-            f"{n_trav} traversals of the deadzone; information during "
-            f"{100 * sigma_frac:.0f} % of the last window"
-        )
-    if band is None:
-        band = max(2e-3, 0.02 * float(np.max(delta_hat))) if n else 2e-3
-    ref = delta_true if delta_true is not None else (np.full(n, delta_hat[-1]) if n else delta_hat)
-    conv = convergence_time(t, delta_hat, ref, band) if n else None
-    converged = False
-    if ok and n:
-        k = max(1, int(round(win / T_s)))
-        recent = delta_hat[-k:]
-        converged = bool(np.max(recent) - np.min(recent) <= band)
-    if not ok:
-        conv = None
-    return EstimationResult(
-        t=np.asarray(t),
-        delta_hat=delta_hat,
-        phi_hat=out[:, dz.O_PHI].copy(),
-        omega_l_hat=out[:, dz.O_OMEGA_HAT].copy(),
-        sigma_window=sigma_win,
-        dtheta=out[:, dz.O_DTHETA].copy(),
-        torque_hat=out[:, dz.O_TORQUE_HAT].copy(),
-        torque_meas=tq.copy(),
-        traversals=trav,
-        excitation_ok=ok,
-        reason=reason,
-        converged=converged,
-        convergence_time_s=conv,
-        band=band,
-        config=config,
-        extra={"traversals": n_trav, "sigma_fraction": sigma_frac, **kin},
-    )
 
 
 def with_method(config: EstimatorConfig, method: Method) -> EstimatorConfig:
     """Copy of ``config`` with another ``method``."""
     return replace(config, method=method)
+
+
+def samples_of(trace: Trace) -> np.ndarray:
+    """The kernel's input block of a trace: (n, 4), or (n, 5) with the motor torque."""
+    return _block_samples(dict(trace.columns), 0, TORQUE_COLUMN in trace)
+
+
+__all__ += ["scan_trace", "samples_of", "with_method"]
