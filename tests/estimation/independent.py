@@ -52,8 +52,7 @@ class IndependentDrive:
     def drivetrain(self, **scale: float) -> DrivetrainParams:
         """The drive-train parameters as an estimator would be told (``scale`` multiplies fields)."""
         v = {
-            k: getattr(self, k)
-            for k in ("J_m", "J_l", "N", "K_S", "D_S", "T_Cm", "T_Cl", "beta_m", "beta_l")
+            k: getattr(self, k) for k in ("J_m", "J_l", "N", "K_S", "D_S", "T_Cm", "T_Cl", "beta_m", "beta_l")
         }
         for k, f in scale.items():
             v[k] = v[k] * f

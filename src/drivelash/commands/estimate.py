@@ -28,22 +28,107 @@ MAEE_FRACTION = 1.0 / 3.0
 SS_FRACTION = 1.0 / 6.0
 
 
-def _estimator_config(cfg: Any, drivetrain: Any, T_s: float, f_exc: float, method: str) -> Any:
-    from drivelash.errors import ConfigError, ParameterError
-    from drivelash.estimation.estimator import EstimatorConfig
-
-    src = cfg.source or "<config>"
+def _estimator_overrides(cfg: Any) -> dict[str, Any]:
+    """Keys of ``[estimator]`` (and ``[backlash] alpha``) that override the tuning rule."""
     over: dict[str, Any] = {}
     if cfg.estimator is not None:
         over = {k: v for k, v in cfg.estimator.model_dump().items() if v is not None}
     bl = cfg.backlash
     if bl is not None and "alpha" in bl.model_fields_set:
         over["alpha"] = bl.alpha
+    return over
+
+
+def _estimator_config(
+    cfg: Any, drivetrain: Any, T_s: float, f_exc: float, method: str, motion: Any = None
+) -> Any:
+    """Gains: the tuning rule (from the recording's motion when given), overridden by the file."""
+    from drivelash.errors import ConfigError, ParameterError
+    from drivelash.estimation.estimator import EstimatorConfig
+
+    src = cfg.source or "<config>"
+    over = _estimator_overrides(cfg)
     try:
-        return EstimatorConfig.tuned(drivetrain, T_s, f_exc, method=method, **over)  # type: ignore[arg-type]
+        return EstimatorConfig.tuned(drivetrain, T_s, f_exc, method=method, motion=motion, **over)  # type: ignore[arg-type]
     except ParameterError as exc:
         table = "backlash" if exc.field == "alpha" else "estimator"
         raise ConfigError(f"{src}: table [{table}], key '{exc.field}': {exc.problem}") from None
+
+
+def estimate_trace(cfg: Any, trace: Any, method: str = "default") -> tuple[Any, Any]:
+    """The estimator exactly as ``drivelash estimate`` runs it on a loaded recording.
+
+    Two passes (:func:`drivelash.estimation.estimator.estimate_blocks`): the recording's
+    motion (reversal frequency, torque) tunes the gains and the contact threshold, then the
+    chosen law and the δ1 check run over it; ``[estimator]`` keys override the tuning.
+
+    Parameters
+    ----------
+    cfg : DriveConfig
+        The loaded configuration (``[drivetrain]``, ``[backlash]``, optional ``[estimator]``).
+    trace : Trace
+        The recording (``theta_m``, ``omega_m``, ``theta_l``, ``omega_l``; ``torque_m`` used
+        when present).
+    method : {"paper", "default"}
+        Law.
+
+    Returns
+    -------
+    (EstimationResult, MotionSummary)
+    """
+    from drivelash.errors import ConfigError
+    from drivelash.estimation.estimator import estimate_blocks, scan_blocks, trace_blocks
+
+    drivetrain = cfg.to_drivetrain_params()
+    bl = cfg.require("backlash")
+    if not (math.isfinite(bl.delta1) and bl.delta1 >= 0):
+        raise ConfigError(
+            f"{cfg.source or '<config>'}: table [backlash], key 'delta1': "
+            f"must be finite and >= 0, got {bl.delta1!r}"
+        )
+    blocks = trace_blocks(trace)
+    motion = scan_blocks(blocks, drivetrain.N)
+    _estimator_config(cfg, drivetrain, trace.T_s, motion.f_exc, method, motion=motion)  # names a bad key
+    res = estimate_blocks(
+        drivetrain,
+        float(bl.delta1),
+        blocks,
+        method=method,  # type: ignore[arg-type]
+        overrides=_estimator_overrides(cfg),
+        motion=motion,
+    )
+    return res, motion
+
+
+def result_summary(res: Any) -> dict[str, Any]:
+    """The estimator's figures of a result for the JSON summary (shared with the notebook API)."""
+    x = res.extra
+    lo, hi = res.delta_interval
+    d1 = x.get("delta1_estimate", x.get("delta1_check"))
+    keys = (
+        "delta1_check_result",
+        "delta1_used",
+        "dtheta_range",
+        "traversals",
+        "torque_reversals",
+        "sigma_fraction",
+        "contact_threshold",
+        "contact_deflection",
+        "torque_source",
+        "load_torque_constant",
+        "load_range",
+        "motor_range",
+    )
+    out: dict[str, Any] = {
+        "delta_std": res.delta_std,
+        "delta_interval_95": [lo, hi],
+        "stiffness_scale": x.get("stiffness_scale"),
+        "delta1_estimate": d1,
+        "offset_switched": bool(x.get("offset_switched", False)),
+        "warnings": list(res.warnings),
+    }
+    out.update({k: x[k] for k in keys if k in x})
+    return out
 
 
 def run_estimate(
@@ -57,8 +142,8 @@ def run_estimate(
     quiet: bool = False,
 ) -> dict[str, Any]:
     """Body of ``drivelash estimate`` (callable from Python; returns the JSON summary)."""
-    from drivelash.errors import ConfigError, DrivelashError
-    from drivelash.estimation.estimator import INPUT_COLUMNS, DeadzoneEstimator, excitation_frequency
+    from drivelash.errors import DrivelashError
+    from drivelash.estimation.estimator import INPUT_COLUMNS
     from drivelash.io import load_config, load_trace
     from drivelash.metrics import maee, steady_state_peak
 
@@ -68,21 +153,13 @@ def run_estimate(
         if p is not None and not p.parent.exists():
             raise DrivelashError(f"{p}: output directory {p.parent} does not exist")
     cfg = load_config(config_path)
-    src = cfg.source or str(config_path)
-    drivetrain = cfg.to_drivetrain_params()
     bl = cfg.require("backlash")
-    if not (math.isfinite(bl.delta1) and bl.delta1 >= 0):
-        raise ConfigError(
-            f"{src}: table [backlash], key 'delta1': must be finite and >= 0, got {bl.delta1!r}"
-        )
     trace = load_trace(trace_path, cfg, required=INPUT_COLUMNS)
     if not quiet:
         print_warnings(trace.meta)
     T_s = trace.T_s
-    f_exc = excitation_frequency(trace)
-    ecfg = _estimator_config(cfg, drivetrain, T_s, f_exc, method)
-    est = DeadzoneEstimator(drivetrain, bl.delta1, T_s, ecfg)
-    res = est.run(trace)
+    res, motion = estimate_trace(cfg, trace, method)
+    ecfg = res.config
     t = res.t
     summary: dict[str, Any] = {
         "trace": str(trace_path),
@@ -97,10 +174,8 @@ def run_estimate(
         "convergence_band_rad": res.band,
         "samples": len(trace),
         "T_s": T_s,
-        "excitation_frequency_hz": f_exc,
-        "stiffness_scale": res.extra.get("stiffness_scale"),
-        "delta1_estimate": res.extra.get("delta1_estimate", res.extra.get("delta1_check")),
-        "offset_switched": bool(res.extra.get("offset_switched", False)),
+        "excitation_frequency_hz": motion.f_exc,
+        **result_summary(res),
         "gains": ecfg.to_dict(),
     }
     if "delta_true" in trace:
@@ -134,7 +209,9 @@ def _print_summary(s: dict[str, Any]) -> None:
     c.print(
         f"[bold]deadzone estimate[/bold] ({s['method']} method, {s['samples']} samples at {s['T_s']:.3g} s)"
     )
-    c.print(f"  δ̂ = {1e3 * s['delta']:.3f} mrad   (δ1 = {1e3 * s['delta1']:.3f} mrad)")
+    std = s.get("delta_std")
+    pm = f" ± {1e3 * 1.96 * std:.2f} mrad (95 %)" if std is not None and math.isfinite(std) else ""
+    c.print(f"  δ̂ = {1e3 * s['delta']:.3f} mrad{pm}   (δ1 = {1e3 * s['delta1']:.3f} mrad)")
     if "delta_true" in s:
         c.print(
             f"  true δ = {1e3 * s['delta_true']:.3f} mrad, MAEE = {1e3 * s['maee_rad']:.3f} mrad, "
@@ -143,9 +220,16 @@ def _print_summary(s: dict[str, Any]) -> None:
     c.print(f"  excitation {verdict}: {s['reason']}")
     conv = s["convergence_time_s"]
     if s["converged"]:
-        c.print(f"  converged (band {1e3 * s['convergence_band_rad']:.2g} mrad) after {conv:.2f} s")
+        after = f" after {conv:.2f} s" if conv is not None else ""
+        c.print(f"  converged (band {1e3 * s['convergence_band_rad']:.2g} mrad){after}")
     else:
         c.print("  [yellow]not converged[/yellow] — do not use this estimate")
+    if s.get("delta1_check_result") not in (None, "not run"):
+        d1 = s.get("delta1_estimate")
+        d1s = f" (data: {1e3 * d1:.2f} mrad)" if d1 is not None else ""
+        c.print(f"  δ1 check: {s['delta1_check_result']}{d1s}")
+    for w in s.get("warnings", []):
+        c.print(f"  [yellow]warning:[/yellow] {w}")
 
 
 def run_reproduce(out: Path, quick: bool = False, workers: int = 2, quiet: bool = False) -> dict[str, Any]:

@@ -776,7 +776,9 @@ def _settled(track: _Track, n: int, k_win: int, band: float) -> bool:
     return hi - lo <= band
 
 
-def _convergence_time(track: _Track, t0: float, T_s: float, n: int, band: float, final: float) -> float | None:
+def _convergence_time(
+    track: _Track, t0: float, T_s: float, n: int, band: float, final: float
+) -> float | None:
     """First block boundary after which |δ̂ − ref| ≤ band to the end (ref: truth, or the final δ̂)."""
     if track.emin is not None and track.emax is not None:
         lo, hi = track.emin, track.emax
@@ -811,12 +813,15 @@ def _verdict(setup: _Setup, main: _Law, check: _Law | None, has_truth: bool) -> 
     peak_tq = float(st[dz.S_PEAK_TQ])
     # --- excitation -------------------------------------------------------------
     if duration < win:
-        ok, reason = False, f"recording of {duration:.3g} s is shorter than the excitation window of {win:.3g} s"
+        ok, reason = (
+            False,
+            f"recording of {duration:.3g} s is shorter than the excitation window of {win:.3g} s",
+        )
     elif mo.motor_range > 0 and mo.load_range < 0.1 * mo.motor_range:
         ok = False
         reason = (
             f"no engagement: the load moved {mo.load_range:.3g} rad while the motor moved "
-            f"{mo.motor_range:.3g} rad (load side) — the motion stays inside the gap"
+            f"{mo.motor_range:.3g} rad (load side) — the motion stays inside the deadzone (gap)"
         )
     elif mo.reversals < 2:
         ok = False
@@ -829,7 +834,7 @@ def _verdict(setup: _Setup, main: _Law, check: _Law | None, has_truth: bool) -> 
         if peak_tq < cfg.T_thr:
             reason = (
                 "no engagement: the shaft torque never exceeded the contact threshold "
-                f"({cfg.T_thr:.3g} N·m) — the motion seems to stay inside the gap"
+                f"({cfg.T_thr:.3g} N·m) — the motion seems to stay inside the deadzone (gap)"
             )
         elif raw_trav >= 2:
             reason = (
@@ -850,7 +855,9 @@ def _verdict(setup: _Setup, main: _Law, check: _Law | None, has_truth: bool) -> 
         )
     else:
         ok = True
-        reason = f"{n_trav} crossings of the gap; information during {100 * sigma_frac:.0f} % of the last window"
+        reason = (
+            f"{n_trav} crossings of the gap; information during {100 * sigma_frac:.0f} % of the last window"
+        )
 
     # --- δ1 check and the law reported -------------------------------------------
     chosen = main

@@ -3,10 +3,9 @@
 :func:`estimate_recording` is the single adapter between the wear tracker and the backlash
 estimator: it hashes the file, reads and validates it with the axis's drive configuration
 (:func:`drivelash.io.load_trace`), finds its start time, and runs the same estimator with the
-same tuning as ``drivelash estimate`` (:func:`drivelash.commands.estimate._estimator_config`,
-:class:`~drivelash.estimation.estimator.DeadzoneEstimator` with the detected excitation
-frequency). A recording that cannot be read or validated becomes a ``failed`` row with its
-one-line reason; nothing raises out of a worker.
+same tuning as ``drivelash estimate`` (:func:`drivelash.commands.estimate.estimate_trace`).
+A recording that cannot be read or validated becomes a ``failed`` row with its one-line reason;
+nothing raises out of a worker.
 
 The uncertainty of δ̂ is stored only when the estimator reports one (``delta_std`` in the
 result); otherwise it stays NULL and the trend treats it as unknown.
@@ -131,8 +130,8 @@ def estimate_recording(task: RecordingTask) -> EstimateRow:
         ``status="ok"`` with δ̂ and the estimator's verdicts, or ``status="failed"`` with
         the one-line reason (the recording is still identified by its content hash).
     """
-    from drivelash.commands.estimate import _estimator_config
-    from drivelash.estimation.estimator import INPUT_COLUMNS, DeadzoneEstimator, excitation_frequency
+    from drivelash.commands.estimate import estimate_trace
+    from drivelash.estimation.estimator import INPUT_COLUMNS
     from drivelash.io import load_trace
 
     t0 = time.perf_counter()
@@ -162,17 +161,13 @@ def estimate_recording(task: RecordingTask) -> EstimateRow:
     start = duration = rate = n = None
     try:
         cfg = task.drive
-        drivetrain = cfg.to_drivetrain_params()
-        bl = cfg.require("backlash")
         trace = load_trace(path, cfg, required=INPUT_COLUMNS)
         n = len(trace)
         T_s = trace.T_s
         duration = n * T_s
         rate = 1.0 / T_s
         start = recording_start(path, task.time, trace.meta)
-        f_exc = excitation_frequency(trace)
-        ecfg = _estimator_config(cfg, drivetrain, T_s, f_exc, task.method)
-        res = DeadzoneEstimator(drivetrain, bl.delta1, T_s, ecfg).run(trace.select(INPUT_COLUMNS))
+        res, _ = estimate_trace(cfg, trace, task.method)
         d1 = res.extra.get("delta1_estimate", res.extra.get("delta1_check"))
         std = getattr(res, "delta_std", None)
         if std is None:
