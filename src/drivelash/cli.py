@@ -39,6 +39,7 @@ _COMMAND_MODULES = (
     "te_model",
     "te_compensate",
     "te_score",
+    "te_update",
     "demo",
     "iso230",
     "track",

@@ -5,7 +5,8 @@
 * :func:`plot_fig6` — stacked model vs its stages and baselines (paper Fig. 6);
 * :func:`fig_sine`, :func:`fig_heatmaps`, :func:`fig_monitor` — the validation
   figures (paper Figs 8–9 and the monitoring demo); this module is the ``figures``
-  object :func:`drivelash.te.protocol.validate.validate` draws with.
+  object :func:`drivelash.te.protocol.validate.validate` draws with;
+* :func:`fig_update` — before/after of ``te update``.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ __all__ = [
     "fig_heatmaps",
     "fig_monitor",
     "fig_sine",
+    "fig_update",
     "plot_fig6",
     "plot_te_over_position",
 ]
@@ -323,3 +325,64 @@ def bode_figure(J_s: float, gains: Any, f_min: float = 0.1, f_max: float = 2000.
     ax[1].grid(True, which="both", alpha=0.3)
     fig.tight_layout()
     return fig
+
+
+def fig_update(
+    panels: Sequence[Mapping[str, Any]],
+    errors: Mapping[str, Mapping[str, Mapping[str, float]]],
+    stage: str,
+    path: Path,
+) -> Path:
+    """Before/after figure of ``te update``: one pass per direction, TE_def measured vs both models.
+
+    Parameters
+    ----------
+    panels : sequence of dict
+        Per direction: ``key``, ``name`` (pass), ``split`` ("held out" / "update"),
+        ``x`` [m], ``measured``, ``before``, ``after`` (TE_def [µm]).
+    errors : dict
+        ``{"update": {key: {"before_um", "after_um"}}, "held_out": {...}}`` (MAE [µm]).
+    stage : str
+        The updated stage(s), for the title.
+    path : Path
+        Output PNG (a staging path of :class:`~drivelash.io.outputs.Outputs` works).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from drivelash.report.save import save_figure
+
+    n = max(1, len(panels))
+    fig, ax = plt.subplots(2, n, figsize=(7 * n, 6.5), sharex="col", squeeze=False)
+    for j, p in enumerate(panels):
+        x = np.asarray(p["x"]) * 1e3
+        a, b = ax[0, j], ax[1, j]
+        a.plot(x, p["before"], color="tab:red", lw=0.9, label="model before the update")
+        a.plot(x, p["after"], color="tab:blue", lw=0.9, alpha=0.6, label="model after the update")
+        a.plot(x, p["measured"], color="k", lw=1.2, zorder=5,
+               label="measured (the model's geometric curve removed)")  # fmt: skip
+        a.set_ylabel("TE_def [µm]")
+        a.set_title(f"{p['key']}: {p['split']} pass {p['name']}", fontsize=9)
+        a.grid(alpha=0.3)
+        a.legend(fontsize=7, loc="upper left")
+        eb = np.abs(np.asarray(p["before"]) - p["measured"])
+        ea = np.abs(np.asarray(p["after"]) - p["measured"])
+        b.plot(x, eb, color="tab:red", lw=0.8, label=f"before: MAE {np.mean(eb):.3f} µm")
+        b.plot(x, ea, color="tab:blue", lw=0.8, label=f"after: MAE {np.mean(ea):.3f} µm")
+        b.set_ylabel("|model − measured| [µm]")
+        b.set_xlabel("x_T [mm]")
+        b.grid(alpha=0.3)
+        b.legend(fontsize=7, loc="upper left")
+    lines = [f"te update (stage {'2' if stage == 'trees' else '1 and 2'}), TE_def MAE before → after"]
+    for split, label in (("update", "update passes"), ("held_out", "held-out passes")):
+        parts = [f"{key} {e['before_um']:.3f} → {e['after_um']:.3f} µm"
+                 for key, e in sorted((errors.get(split) or {}).items())]  # fmt: skip
+        if parts:
+            lines.append(f"{label}: " + ", ".join(parts))
+    fig.suptitle("\n".join(lines), fontsize=9)
+    fig.tight_layout()
+    save_figure(fig, path, dpi=100)
+    plt.close(fig)
+    return Path(path)

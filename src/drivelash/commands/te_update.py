@@ -1,0 +1,208 @@
+"""``drivelash te update MODEL PASSES... -o NEW``: the wear update of a saved model (issue 12 item 4).
+
+The update (stage 2, or both stages) is applied to the restored model and written as a
+new model directory; the old one is an input and is never overwritten. The new model
+records its parent (path, SHA-256, version) and the update; ``update/update.json`` and
+``update/before_after.png`` give the before/after figures. Heavy imports (torch,
+scikit-learn) happen inside the command.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import typer
+
+
+def _parse_loads(text: str) -> tuple[float, ...]:
+    from drivelash.errors import ParameterError
+
+    if not text.strip():
+        return ()
+    try:
+        return tuple(float(v) for v in text.split(","))
+    except ValueError:
+        raise ParameterError(
+            "te update", "holdout-loads", f"must be comma-separated numbers, got {text!r}"
+        ) from None
+
+
+def _check_geometry(camp: Any, model: Any, path: Path) -> None:
+    """A campaign of another axis (other module, teeth or ratio) is refused."""
+    from drivelash.errors import DataError
+    from drivelash.te.learn.preprocess import GearGeometry
+
+    try:
+        g = GearGeometry.from_bench(camp.bench)
+    except Exception:  # noqa: BLE001 - a campaign without a bench block: nothing to compare
+        return
+    m = model.pipeline.geometry
+    for name in ("d_p", "n_t", "i_pg"):
+        a, b = float(getattr(g, name)), float(getattr(m, name))
+        if not np.isclose(a, b, rtol=1e-6, atol=0.0):
+            raise DataError(
+                f"{name} of the passes' axis is {a:g}, the model's is {b:g}: passes of another axis",
+                path=str(path / "manifest.json"),
+            )
+
+
+def _check_range(runs: dict[str, list[Any]], model: Any, tol: float = 1e-3) -> None:
+    """Passes beyond the model's geometric curve (± ``tol`` [m]) are refused: its wear cannot be learnt."""
+    from drivelash.errors import DataError
+
+    lo, hi = model.geometric_range()
+    for rs in runs.values():
+        for r in rs:
+            if r.x[0] < lo - tol or r.x[-1] > hi + tol:
+                raise DataError(
+                    f"pass covers x_T {r.x[0] * 1e3:.1f}..{r.x[-1] * 1e3:.1f} mm, outside the model's valid "
+                    f"range {lo * 1e3:.1f}..{hi * 1e3:.1f} mm (refit with te fit instead)",
+                    path=r.meta.get("file"),
+                )
+
+
+def _panel(key: str, r: Any, split: str, before: Any, after: Any) -> dict[str, Any]:
+    d = r.direction
+    return {
+        "key": key,
+        "name": r.meta.get("name", "?"),
+        "split": split,
+        "x": r.x,
+        "measured": r.te_def_um,
+        "before": before.predict_def_um(r.x, r.torque, d),
+        "after": after.predict_def_um(r.x, r.torque, d),
+    }
+
+
+def run_update(
+    model_dir: Path,
+    passes: list[Path],
+    out: Path,
+    stage: str = "trees",
+    holdout_loads: tuple[float, ...] = (),
+    stride: int = 1,
+    force: bool = False,
+    echo: Any = print,
+) -> dict[str, Any]:
+    """Update MODEL on the passes of one or more campaign directories; write the new version to ``out``."""
+    from drivelash.errors import DataError
+    from drivelash.io.outputs import Outputs, write_json
+    from drivelash.te.learn.update import (
+        UPDATE_STAGES,
+        parent_record,
+        restore_trained,
+        runs_for_update,
+        update_errors,
+        update_trained,
+    )
+    from drivelash.te.protocol.campaign import load_campaign
+    from drivelash.te.runtime.persist import load_model, save_model
+
+    if stage not in UPDATE_STAGES:
+        from drivelash.errors import ParameterError
+
+        raise ParameterError(
+            "te update", "stage", f"must be one of {', '.join(UPDATE_STAGES)}, got {stage!r}"
+        )
+    with Outputs("te update", inputs=[model_dir, *passes], force=force) as outs:
+        target = outs.directory(out, option="-o")
+        camps = [(Path(p), load_campaign(p)) for p in passes]  # fail early, before torch
+        model, trained = restore_trained(model_dir)
+        train: dict[str, list[Any]] = {k: [] for k in trained.models}
+        held: dict[str, list[Any]] = {k: [] for k in trained.models}
+        for p, camp in camps:
+            _check_geometry(camp, model, p)
+            for key, rs in runs_for_update(camp, trained).items():
+                for r in rs:
+                    is_held = any(np.isclose(r.meta["load"], h, rtol=0, atol=1e-6) for h in holdout_loads)
+                    (held if is_held else train)[key].append(r)
+        _check_range(train, model)
+        _check_range(held, model)
+        if holdout_loads and not any(held.values()):
+            raise DataError(
+                f"no pass at the held-out loads {', '.join(f'{v:g}' for v in holdout_loads)} N",
+                path=str(passes[0]),
+            )
+        n_train = sum(len(v) for v in train.values())
+        echo(f"{n_train} update passes, {sum(len(v) for v in held.values())} held out; "
+             f"model version {parent_record(model_dir, model.meta)['model_version']}")  # fmt: skip
+        rec = update_trained(trained, train, stage=stage, update_stride=stride, log=echo)
+        errors = {"update": update_errors(model, trained, train)}
+        if any(held.values()):
+            errors["held_out"] = update_errors(model, trained, {k: v for k, v in held.items() if v})
+        parent = parent_record(model_dir, model.meta)
+        rec.update({
+            "parent": parent,
+            "passes": [str(p.resolve()) for p in passes],
+            "holdout_loads": list(holdout_loads),
+            "mae_te_def_um": errors,
+        })  # fmt: skip
+        info = trained.info
+        info["model_version"] = parent["model_version"] + 1
+        info["parent"] = parent
+        info["updates"] = [*info.get("updates", []), {k: v for k, v in rec.items() if k != "parent"}]
+        stage_dir = outs.staging(target)
+        save_model(trained, stage_dir)
+        check = load_model(stage_dir)  # the written version loads and predicts what was trained
+        for key in trained.models:
+            dd = 1 if key == "pos" else -1
+            r = (train[key] or held[key])[0]
+            diff = np.max(
+                np.abs(check.predict_def_um(r.x, r.torque, dd) - trained.predict_def_um(r.x, r.torque, dd))
+            )
+            if not diff < 1e-6:
+                raise DataError(
+                    f"the written model differs from the updated one by {diff:.3g} um", path=str(out)
+                )
+        panels = []
+        for key in sorted(trained.models):
+            src, split = (held[key], "held-out") if held.get(key) else (train[key], "update")
+            if src:
+                r = max(src, key=lambda r: r.meta["load"])
+                panels.append(_panel(key, r, split, model, trained))
+        from drivelash.report.te_figures import fig_update
+
+        (stage_dir / "update").mkdir()
+        write_json(stage_dir / "update" / "update.json", rec)
+        fig_update(panels, errors, stage, stage_dir / "update" / "before_after.png")
+    echo(format_update(rec, out))
+    return rec
+
+
+def format_update(rec: dict[str, Any], out: Path) -> str:
+    """The before/after figures of an update as text."""
+    lines = []
+    for split, label in (("update", "update passes"), ("held_out", "held-out passes")):
+        for key, e in sorted(rec["mae_te_def_um"].get(split, {}).items()):
+            lines.append(f"{label} {key}: TE_def MAE {e['before_um']:.3f} um before, "
+                         f"{e['after_um']:.3f} um after ({e['n_runs']} passes)")  # fmt: skip
+    lines.append(f"wrote model version {rec['parent']['model_version'] + 1} to {out} "
+                 f"(parent {rec['parent']['path']} kept); figures in {out}/update/")  # fmt: skip
+    return "\n".join(lines)
+
+
+def register(app: typer.Typer, te_app: typer.Typer) -> None:
+    """Add ``te update`` to the CLI."""
+
+    @te_app.command("update")
+    def update_cmd(
+        model_dir: Path = typer.Argument(..., help="Model directory (te fit or an earlier te update)."),
+        passes: list[Path] = typer.Argument(..., help="Campaign directories with passes over the worn axis."),
+        out: Path = typer.Option(..., "-o", "--out", help="Directory of the new model version."),
+        stage: str = typer.Option(
+            "trees", "--stage", help="trees (stage 2 only) or both (network, then trees)."
+        ),
+        holdout_loads: str = typer.Option(
+            "",
+            "--holdout-loads",
+            help="Loads [N] of passes kept out of the update, to judge it (comma-separated).",
+        ),
+        stride: int = typer.Option(
+            1, "--stride", min=1, help="Every n-th 50 um grid row enters the tree refit."
+        ),
+        force: bool = typer.Option(False, "--force", help="Replace an existing output that is not ours."),
+    ) -> None:
+        """Update MODEL_DIR for wear on PASSES (stage 2, or both stages) and write it as a new version."""
+        run_update(model_dir, passes, out, stage, _parse_loads(holdout_loads), stride, force, typer.echo)

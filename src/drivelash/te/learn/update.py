@@ -1,0 +1,270 @@
+"""The wear update of a saved model (issue 12 item 4): stage 2, or both stages, on new passes.
+
+A saved model directory holds plain arrays only (loading never unpickles), so the
+trainable model is *restored* from them: :func:`restore_trained` rebuilds, per
+direction, the fitted network (its float64 weights and standardisation loaded into a
+PyTorch module of the same shape) and an unfitted bagged-tree template with the
+hyperparameters the grid search chose (``tree_params``, the number of trees of the
+saved bag, and the stage-2 inputs the saved trees split on). The restored model
+predicts what the saved one predicts (stage 1 to rounding; stage 2 is refitted anyway).
+
+:func:`update_trained` then processes the new passes with the model's **own**
+geometric curves (so stage 2 sees everything that changed since the fit, the
+geometric wear included, except the per-run constant that the offset step removes),
+and calls :meth:`~drivelash.te.learn.stacked.StackedTERegressor.update` per direction:
+``stage="trees"`` refits stage 2 alone on the new rows; ``stage="both"`` fine-tunes the
+network first. The offset line and the geometric curves are kept.
+
+:func:`update_errors` gives the before/after figures: the MAE of TE_def [µm] of both
+models on the update passes and on held-out passes (not used by the update).
+
+Training needs torch (imported here); prediction of the result does not.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import time
+from collections.abc import Callable, Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drivelash.errors import DataError, ParameterError
+from drivelash.te.learn.fit import TrainedTEModel, stack_runs
+from drivelash.te.learn.preprocess import GeometricCurve, RunData, direction_key
+
+__all__ = ["UPDATE_STAGES", "restore_trained", "runs_for_update", "update_errors", "update_trained"]
+
+#: Stages :func:`update_trained` accepts (those of ``StackedTERegressor.update``).
+UPDATE_STAGES = ("trees", "both")
+
+
+def _read_direction_arrays(directory: Path, meta: Mapping[str, Any]) -> dict[str, dict[str, np.ndarray]]:
+    """The validated arrays of every direction (same checks as ``load_model``)."""
+    from drivelash.te.runtime import persist
+
+    arrs = persist._read_arrays(directory / str(meta["weights"]))
+    n_t = int(meta["pipeline"]["geometry"]["n_t"])
+    return {k: persist._validate_direction(arrs, k, meta["models"][k], n_t) for k in meta["directions"]}
+
+
+def _restore_network(a: Mapping[str, np.ndarray], nn_params: Mapping[str, Any]) -> Any:
+    """A fitted :class:`MLPRegressor` holding the saved weights (float64, eval mode)."""
+    import torch
+
+    from drivelash.te.learn.network import MLPRegressor, _make_net
+
+    keep = MLPRegressor().get_params()
+    nn = MLPRegressor(**{k: v for k, v in nn_params.items() if k in keep})
+    n_in, hidden = a["W1"].shape
+    net = _make_net(n_in, hidden, float(nn.dropout)).double()
+    layers = [m for m in net if hasattr(m, "weight")]
+    with torch.no_grad():
+        for lay, (W, b) in zip(layers, (("W1", "b1"), ("W2", "b2"), ("W3", "b3")), strict=True):
+            lay.weight.copy_(torch.from_numpy(np.ascontiguousarray(a[W].T)))
+            lay.bias.copy_(torch.from_numpy(np.ascontiguousarray(a[b])))
+    nn.net_ = net.eval()
+    nn.x_mean_ = a["x_mean"].copy()
+    nn.x_scale_ = a["x_scale"].copy()
+    nn.y_mean_ = float(a["y_mean"][0])
+    nn.y_scale_ = float(a["y_scale"][0])
+    nn.n_features_in_ = int(n_in)
+    nn.best_val_mae_ = float("nan")
+    return nn
+
+
+def restore_trained(directory: str | Path) -> tuple[Any, TrainedTEModel]:
+    """Load a model directory and rebuild a trainable :class:`TrainedTEModel` from its arrays.
+
+    Parameters
+    ----------
+    directory : str or Path
+        Model directory (``drivelash te fit`` or an earlier ``te update``).
+
+    Returns
+    -------
+    model : TEModel
+        The loaded (numba) model, as :func:`~drivelash.te.runtime.persist.load_model` gives it.
+    trained : TrainedTEModel
+        Per direction a fitted network with the saved weights and an unfitted tree
+        template (``tree_params`` of the grid search, the saved number of trees, the
+        stage-2 inputs the saved trees use); geometric curves, offset lines, training
+        record and (where the format has one) the model's context copied.
+    """
+    from drivelash.te.learn.stacked import StackedTERegressor, default_trees
+    from drivelash.te.runtime.persist import load_model
+
+    d = Path(directory)
+    model = load_model(d)  # every safety check of the loader first
+    meta = model.meta
+    arrays = _read_direction_arrays(d, meta)
+    models: dict[str, StackedTERegressor] = {}
+    geo: dict[str, GeometricCurve] = {}
+    offset: dict[str, tuple[float, float]] = {}
+    for key in model.directions:
+        dm = meta["models"][key]
+        a = arrays[key]
+        nn = _restore_network(a, dm.get("nn_params", {}))
+        trees = default_trees().set_params(n_estimators=int(a["roots"].size))
+        tp = {k: v for k, v in (dm.get("tree_params") or {}).items() if k in trees.get_params()}
+        trees.set_params(**tp)
+        internal = a["children_left"] != -1
+        inputs = "position+torque" if np.any(a["feature"][internal] == 1) else "position"
+        st = StackedTERegressor(nn=nn, trees=trees, tune_nn=False, tune_trees=False, stage2_inputs=inputs)
+        st.nn_ = nn
+        st.trees_ = trees  # unfitted template: update(mode "keep") clones and fits it
+        st.n_features_in_ = int(a["W1"].shape[0]) + 1
+        st.nn_info_ = dict(dm.get("nn_info") or {})
+        st.tree_info_ = dict(dm.get("tree_info") or {"best_params": tp})
+        st.tree_info_.setdefault("best_params", tp)
+        st.stage1_share_ = dm.get("stage1_share")
+        st.train_mae_ = dm.get("train_mae_um")
+        st.fit_time_ = dict(dm.get("fit_time_s") or {})
+        models[key] = st
+        geo[key] = GeometricCurve(float(dm["geo_x0"]), float(dm["geo_step"]), a["geo_te"].copy())
+        offset[key] = (float(a["offset"][0]), float(a["offset"][1]))
+    trained = TrainedTEModel(model.pipeline, geo, models, dict(meta.get("info", {})), offset)
+    ctx = getattr(model, "context", None)
+    if ctx is not None:
+        trained.context = ctx  # type: ignore[attr-defined]
+    return model, trained
+
+
+def runs_for_update(campaign: Any, trained: TrainedTEModel) -> dict[str, list[RunData]]:
+    """Every constant-velocity run of ``campaign`` (geometric, load), processed with the model's curves.
+
+    Parameters
+    ----------
+    campaign : Campaign
+        New passes over the (worn) axis (:func:`~drivelash.te.protocol.campaign.load_campaign`).
+    trained : TrainedTEModel
+        The restored model (its pipeline and geometric curves are used).
+
+    Returns
+    -------
+    dict
+        ``{"pos": [RunData …], "neg": […]}`` with meta load [N], velocity [m/s], name, file.
+    """
+    out: dict[str, list[RunData]] = {}
+    for d in (1, -1):
+        key = direction_key(d)
+        if key not in trained.models:
+            continue
+        out[key] = [
+            trained.pipeline.process(
+                r.trace().columns,
+                d,
+                trained.geo[key],
+                meta={
+                    "load": float(r.load),
+                    "velocity": float(r.velocity),
+                    "name": Path(r.path).stem,
+                    "file": str(r.path),
+                },
+            )  # fmt: skip
+            for r in campaign.select(direction=d)
+            if r.kind in ("geometric", "load")  # constant-velocity passes (not sine runs)
+        ]
+    return out
+
+
+def _mae(predict: Callable[..., np.ndarray], runs: Iterable[RunData]) -> float:
+    err = [np.abs(predict(r.x, r.torque, r.direction) - r.te_def_um) for r in runs]
+    return float(np.mean(np.concatenate(err))) if err else float("nan")
+
+
+def update_errors(before: Any, after: Any, runs: Mapping[str, list[RunData]]) -> dict[str, dict[str, float]]:
+    """MAE of TE_def [µm] of two models on processed runs, per direction.
+
+    ``before``/``after`` need ``predict_def_um(x_T, torque, direction)`` (a loaded
+    ``TEModel`` or a ``TrainedTEModel``). Returns ``{key: {"before_um", "after_um",
+    "n_runs"}}``; an empty list gives NaN.
+    """
+    res: dict[str, dict[str, float]] = {}
+    for key, rs in runs.items():
+        res[key] = {
+            "before_um": _mae(before.predict_def_um, rs),
+            "after_um": _mae(after.predict_def_um, rs),
+            "n_runs": len(rs),
+        }
+    return res
+
+
+def _digest(directory: Path, meta: Mapping[str, Any]) -> str:
+    h = hashlib.sha256()
+    for name in ("model.json", str(meta.get("weights", ""))):
+        p = directory / name
+        if p.is_file():
+            h.update(p.read_bytes())
+    return h.hexdigest()
+
+
+def update_trained(
+    trained: TrainedTEModel,
+    runs: Mapping[str, list[RunData]],
+    stage: str = "trees",
+    update_stride: int = 1,
+    log: Callable[[str], None] | None = None,
+) -> dict[str, Any]:
+    """Apply the wear update in place; returns the update record.
+
+    Parameters
+    ----------
+    trained : TrainedTEModel
+        Restored (:func:`restore_trained`) or freshly fitted model; changed in place.
+    runs : dict
+        Processed update passes per direction (:func:`runs_for_update`); a direction
+        without runs keeps its model.
+    stage : {"trees", "both"}
+        Stage 2 alone, or fine-tune the network and then refit stage 2.
+    update_stride : int
+        Every ``update_stride``-th row of the position grid enters the stage-2 refit
+        (1 = every row; see ``docs/assumptions.md``, "te update").
+    log : callable, optional
+        Progress messages.
+
+    Returns
+    -------
+    dict
+        ``stage``, ``update_stride``, per direction ``rows``, ``runs`` and ``time_s``.
+    """
+    if stage not in UPDATE_STAGES:
+        raise ParameterError(
+            "te update", "stage", f"must be one of {', '.join(UPDATE_STAGES)}, got {stage!r}"
+        )
+    if not (isinstance(update_stride, (int, np.integer)) and update_stride >= 1):
+        raise ParameterError("te update", "stride", f"must be a positive integer, got {update_stride!r}")
+    say = log or (lambda s: None)
+    rec: dict[str, Any] = {"stage": stage, "update_stride": int(update_stride), "directions": {}}
+    if not any(runs.get(k) for k in trained.models):
+        raise DataError("no update pass in any direction of the model")
+    import torch
+
+    torch.set_num_threads(2)
+    for key, st in trained.models.items():
+        rs = runs.get(key) or []
+        if not rs:
+            say(f"{key}: no update pass, model kept")
+            continue
+        X, y = stack_runs(rs, trained.pipeline)
+        st.set_params(update_stride=int(update_stride))
+        t0 = time.perf_counter()
+        st.update(X, y, stage=stage)
+        dt_s = time.perf_counter() - t0
+        rec["directions"][key] = {"rows": int(X.shape[0]), "runs": len(rs), "time_s": dt_s}
+        say(f"{key}: updated stage {'2' if stage == 'trees' else '1 and 2'} on {len(rs)} passes "
+            f"({X.shape[0]} rows) in {dt_s:.1f} s")  # fmt: skip
+    return rec
+
+
+def parent_record(directory: str | Path, meta: Mapping[str, Any]) -> dict[str, Any]:
+    """Provenance of the model being updated: path, SHA-256 of its files, version number."""
+    d = Path(directory)
+    info = meta.get("info", {}) or {}
+    return {
+        "path": str(d.resolve()),
+        "sha256": _digest(d, meta),
+        "model_version": int(info.get("model_version", 1)),
+    }

@@ -1,0 +1,129 @@
+"""``drivelash te update`` end to end on a small synthetic campaign (fast; no simulator).
+
+The campaign directory is written by :func:`write_campaign` in the manifest layout
+``load_campaign`` reads; traces are built from the conftest's deformation with the
+saved model's own geometric curves, plus a 3 µm local defect (the wear).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from drivelash.cli import main
+from drivelash.io.trace import Trace
+from drivelash.te.runtime.persist import load_model, save_model
+
+from .conftest import GEOM, te_def_um, torque_of
+
+V = 0.05  # m/s
+T_S = 1e-3  # s
+
+
+def write_campaign(directory: Path, model, loads, defect: float) -> Path:
+    """One constant-velocity pass per load and direction over 10..290 mm at 1 kHz."""
+    directory.mkdir(parents=True)
+    runs = []
+    x_up = np.arange(0.01, 0.29, V * T_S)
+    for d, key in ((1, "pos"), (-1, "neg")):
+        x = x_up if d > 0 else x_up[::-1]
+        for F in loads:
+            te = model.geometric(x, d) + d * te_def_um(x, F, defect) * 1e-6
+            cols = {
+                "t": np.arange(x.size) * T_S,
+                "x_T": x,
+                "theta_m": (x - te) * 2 * GEOM.i_pg / GEOM.d_p,
+                "torque_m": torque_of(F, x),
+                "direction": np.full(x.size, float(d)),
+            }
+            name = f"{key}_F{F:g}.parquet"
+            Trace(cols, {}).to_parquet(directory / name)
+            runs.append({"file": name, "kind": "load", "load": F, "velocity": V, "direction": d, "seed": 0})
+    manifest = {"format": "drivelash.te_campaign/1", "runs": runs}
+    (directory / "manifest.json").write_text(json.dumps(manifest), encoding="utf-8")
+    return directory
+
+
+def _run(argv: list[str], capsys) -> tuple[int, str]:
+    """``drivelash ARGV`` in-process through :func:`drivelash.cli.main` (exit code, stdout + stderr)."""
+    old = sys.argv
+    sys.argv = ["drivelash", *argv]
+    try:
+        main()
+        code = 0
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    finally:
+        sys.argv = old
+    out, err = capsys.readouterr()
+    return code, out + err
+
+
+def _digest(d: Path) -> str:
+    return hashlib.sha256(b"".join(p.read_bytes() for p in sorted(d.iterdir()) if p.is_file())).hexdigest()
+
+
+@pytest.fixture(scope="module")
+def setup(small_trained, tmp_path_factory):
+    root = tmp_path_factory.mktemp("upd")
+    m1 = save_model(small_trained, root / "m1")
+    camp = write_campaign(root / "worn", load_model(m1), (0.0, 1000.0, 1500.0, 2000.0, 3000.0), 3.0)
+    return root, m1, camp
+
+
+def test_update_writes_a_new_version_and_keeps_the_old_one(setup, capsys):
+    root, m1, camp = setup
+    before = _digest(m1)
+    m2 = root / "m2"
+    code, out = _run(["te", "update", str(m1), str(camp), "-o", str(m2), "--holdout-loads", "1500"], capsys)
+    assert code == 0, out
+    assert _digest(m1) == before  # the parent is untouched
+    rec = json.loads((m2 / "update" / "update.json").read_text())
+    meta = json.loads((m2 / "model.json").read_text())
+    assert meta["info"]["model_version"] == 2 and meta["info"]["parent"]["model_version"] == 1
+    assert meta["info"]["parent"]["path"] == str(m1.resolve())
+    assert rec["stage"] == "trees" and rec["holdout_loads"] == [1500.0]
+    held = rec["mae_te_def_um"]["held_out"]
+    for key in ("pos", "neg"):
+        assert held[key]["n_runs"] == 1
+        assert held[key]["after_um"] < 0.8 * held[key]["before_um"], held
+    png = (m2 / "update" / "before_after.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000
+    assert "held-out passes pos" in out and "version 2" in out
+    # a second update of the new version counts on
+    m3 = root / "m3"
+    code, out = _run(["te", "update", str(m2), str(camp), "-o", str(m3), "--stride", "4"], capsys)
+    assert code == 0, out
+    assert json.loads((m3 / "model.json").read_text())["info"]["model_version"] == 3
+    assert len(json.loads((m3 / "model.json").read_text())["info"]["updates"]) == 2
+
+
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (["-o", "{m1}"], "is an input of this command"),
+        (["-o", "{root}/x", "--stage", "all"], "stage"),
+        (["-o", "{root}/x", "--holdout-loads", "777"], "no pass at the held-out loads 777"),
+        (["-o", "{m1}/sub"], "inside the input directory"),
+    ],
+)
+def test_bad_requests_are_one_line_errors_and_write_nothing(setup, args, needle, capsys):
+    root, m1, camp = setup
+    before = _digest(m1)
+    argv = ["te", "update", str(m1), str(camp), *[a.format(m1=m1, root=root) for a in args]]
+    code, out = _run(argv, capsys)
+    assert code == 2, out
+    assert needle in out and "Traceback" not in out and len(out.strip().splitlines()) == 1, out
+    assert _digest(m1) == before and not (root / "x").exists() and not (m1 / "sub").exists()
+
+
+def test_missing_campaign_is_refused_before_any_work(setup, tmp_path, capsys):
+    _, m1, _ = setup
+    code, out = _run(["te", "update", str(m1), str(tmp_path / "nope"), "-o", str(tmp_path / "o")], capsys)
+    assert code == 2 and "manifest.json" in out, out
+    assert not (tmp_path / "o").exists()
