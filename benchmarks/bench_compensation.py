@@ -35,7 +35,7 @@ from numba import njit
 
 from drivelash.te.demo import small_model
 from drivelash.te.protocol.bench import ValidationConfig, compensator_for, training_torque_max
-from drivelash.te.runtime.compensator import Compensator, compensate_run, init_state
+from drivelash.te.runtime.compensator import Compensator, compensate_run, init_state, smooth_step
 from drivelash.te.runtime.persist import load_model
 from drivelash.te.runtime.predictor import te_point
 from drivelash.te.runtime.table import build_table
@@ -43,15 +43,6 @@ from drivelash.te.runtime.table import build_table
 N_CYCLES = 20_000
 REPEATS = 5
 GOAL_US = 50.0
-
-
-@njit(cache=True)
-def _s(tau):
-    if tau <= 0.0:
-        return 0.0
-    if tau >= 1.0:
-        return 1.0
-    return tau * tau * (3.0 - 2.0 * tau)
 
 
 @njit(cache=True)
@@ -70,7 +61,7 @@ def baseline_cycle(st, fp, ip, fn, i_n, x_n, x_next, tq, t_sc, t_ss):
         v = (te_point(x_next, tq, fp, ip) - te_point(x_n, tq, fp, ip)) / t_sc
     else:
         v = (te_point(x_next, tq, fn, i_n) - te_point(x_n, tq, fn, i_n)) / t_sc
-    v += st[1] * (_s((st[2] + t_sc) / t_ss) - _s(st[2] / t_ss)) / t_sc
+    v += st[1] * (smooth_step((st[2] + t_sc) / t_ss) - smooth_step(st[2] / t_ss)) / t_sc
     st[2] += t_sc
     return v
 
