@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -14,12 +15,20 @@ EMPS_DIR = REPO.parent / "shared" / "data" / "emps"
 EMPS_CONFIG = REPO / "examples" / "emps.toml"
 
 
+def shared_data(path: Path) -> Path:
+    """A file of ../shared/data: skip with the reason when absent, but fail under CI=true
+    (real-data tests must not pass silently on a machine without the data)."""
+    if not path.exists():
+        msg = f"real data not available at {path} (../shared/data is absent)"
+        if os.environ.get("CI", "").lower() in ("1", "true", "yes"):
+            pytest.fail(msg + " — CI=true requires it")
+        pytest.skip(msg)
+    return path
+
+
 def emps_file(name: str) -> Path:
-    """Path of an EMPS file; skip (with the reason) when ../shared is absent."""
-    p = EMPS_DIR / name
-    if not p.exists():
-        pytest.skip(f"EMPS data not available at {p} (../shared/data/emps is absent)")
-    return p
+    """Path of an EMPS file (see :func:`shared_data`)."""
+    return shared_data(EMPS_DIR / name)
 
 
 def simulated_trace(duration: float = 2.0) -> Trace:

@@ -183,8 +183,10 @@ def run_identify_two_mass(
     Identifies J_m, J_l, K_S, D_S, friction, torque offset, δ and δ1 with 95 % intervals
     (:func:`drivelash.estimation.identify_two_mass.identify_two_mass`) and writes the
     ``[drivetrain]``/``[backlash]`` tables ``estimate`` reads. A physically impossible result
-    (negative inertia, stiffness or friction beyond its interval) is refused with the likely
-    cause, exit code 2, nothing written.
+    (negative inertia, stiffness or friction beyond its interval) never goes into a drive
+    table: with ``--out`` (or no output, TOML to stdout) it is refused with the likely cause,
+    exit code 2, nothing written; with only ``--json``/``--report`` the diagnosis is written
+    (``plausible: false``, the backlash verdict saying why δ is not determined).
     """
     from rich.console import Console
     from rich.table import Table
@@ -205,7 +207,10 @@ def run_identify_two_mass(
     if not quiet:
         print_warnings(trace.meta)
     result = identify_from_config(trace, cfg, model="two-mass")
-    if not result.plausible:
+    # an impossible drive (negative inertia or friction) never goes into a config file; the
+    # diagnosis alone (--json / --report without --out) is still written, with the verdict
+    diagnosis_only = out is None and (json_t is not None or report_t is not None)
+    if not result.plausible and not diagnosis_only:
         raise DataError(
             f"implausible identification, nothing written: {result.warnings[0]}", path=str(trace_path)
         )
@@ -247,7 +252,7 @@ def run_identify_two_mass(
         console.print(f"backlash: {result.reason}")
         for w in result.warnings:
             typer.echo(f"drivelash: warning: {w}", err=True)
-        if out is None:
+        if out is None and result.plausible:
             sys.stdout.write(text)
     return summary
 

@@ -63,6 +63,9 @@ GRID_POINTS = 32
 UNIFORM_POINTS = 48
 #: A contact side counts as seen when at least this many usable windows lie in it.
 MIN_CONTACT_WINDOWS = 20
+#: "No contact" needs the load to stay within this many Δθ spans; a load that travelled
+#: farther was driven through the gear (see docs/assumptions.md).
+LOAD_TRAVEL_FACTOR = 10.0
 #: Samples before a window used to extrapolate its starting velocity.
 _LOOKBACK = 4
 
@@ -422,6 +425,7 @@ class TwoMassProblem:
         *,
         equations: str = "both",
         fit_delay: bool = False,
+        torque_offset: float | None = None,
     ) -> None:
         self.d = data
         self.sides = sides
@@ -430,6 +434,8 @@ class TwoMassProblem:
         self.fixed[I_CLO] = -np.inf
         self.fixed[I_CHI] = np.inf
         self.fixed[I_JL] = 1.0
+        if torque_offset is not None:
+            self.fixed[I_U0] = torque_offset
         if not any(sides):  # no contact: the shaft never carries torque, only the motor is seen
             free = [I_JM, I_TCM, I_BM, I_U0]
         else:
@@ -442,6 +448,8 @@ class TwoMassProblem:
                 free.append(I_TAU)
             if equations == "motor":
                 free = [i for i in free if i not in LOAD_ONLY]
+        if torque_offset is not None:
+            free = [i for i in free if i != I_U0]
         self.free = free
         self.il = (
             np.flatnonzero(data.ok_l) if any(sides) and equations == "both" else np.zeros(0, dtype=np.int64)
@@ -554,7 +562,12 @@ class GridStart:
 
 
 def grid_start(
-    data: WindowData, max_windows: int = 12_000, *, equations: str = "both", tau: float = 0.0
+    data: WindowData,
+    max_windows: int = 12_000,
+    *,
+    equations: str = "both",
+    tau: float = 0.0,
+    torque_offset: float | None = None,
 ) -> GridStart:
     """Contact points from a grid of Δθ quantiles (and "never reached" on either side).
 
@@ -563,9 +576,11 @@ def grid_start(
     (K_S/J_l, D_S/J_l, β_l/J_l, T_Cl/J_l); the pair minimising the concentrated Gaussian
     likelihood n_m log SSE_m + n_l log SSE_l wins. Physical start values follow from the
     winning coefficients. With ``equations="motor"`` only the motor equation counts; ``tau``
-    is an encoder delay [s] applied to Δθ (Δθ − τ ω_l).
+    is an encoder delay [s] applied to Δθ (Δθ − τ ω_l); a given ``torque_offset`` [N·m] is
+    subtracted from the torque instead of fitted.
     """
     d = data
+    u0 = 0.0 if torque_offset is None else float(torque_offset)
     nw = d.n_win
     step = max(1, int(math.ceil(nw / max_windows)))
     sel = np.arange(0, nw, step)
@@ -587,13 +602,13 @@ def grid_start(
     _candidate_columns(dth, dw, M, cands, False, DKhi[:, :K], DDhi[:, :K])
     ok_m = d.ok_m[sel]
     ok_l = d.ok_l[sel]
-    base_m = np.column_stack([d.U[sel], -d.WM[sel], -d.SM[sel], -np.ones(sel.size)])
+    base_m = np.column_stack([d.U[sel] - u0, -d.WM[sel], -d.SM[sel], -np.ones(sel.size)])
     base_l = np.column_stack([-d.WL[sel], -d.SL[sel]])
     # column blocks: base_m(4) | base_l(2) | a_m | a_l | DKlo | DDlo | DKhi | DDhi
     X = np.column_stack([base_m, base_l, d.a_m[sel], d.a_l[sel], DKlo, DDlo, DKhi, DDhi])
     nm, nl = int(ok_m.sum()), int(ok_l.sum())
     if nm < 20 or (nl < 20 and equations == "both"):
-        return motor_only_start(data)
+        return motor_only_start(data, torque_offset=torque_offset)
     # pairs (a, b): index K means "contact never reached" (a zero column)
     K1 = K + 1
     o = 8
@@ -648,7 +663,11 @@ def grid_start(
         return H[:, y, y] - np.einsum("pi,pi->p", bh, beta), beta
 
     Hm, Hl = batched(Gm), batched(Gl)
-    sse_m, beta_m = sse(Hm, [0, 1, 2, 3, 8, 9], 6)
+    if torque_offset is None:
+        sse_m, beta_m = sse(Hm, [0, 1, 2, 3, 8, 9], 6)
+    else:  # offset given: no constant column (θ4 = 0, u0 put back below)
+        sse_m, beta_m = sse(Hm, [0, 1, 2, 8, 9], 6)
+        beta_m = np.insert(beta_m, 3, 0.0, axis=1)
     sse_l, beta_l = sse(Hl, [8, 9, 4, 5], 7)
     use_l = equations == "both"
     valid = (sse_m > 0) & ((sse_l > 0) | (not use_l))
@@ -673,6 +692,8 @@ def grid_start(
     )  # fmt: skip
     if not use_l:
         x[[I_JL, I_TCL, I_BL]] = [1.0, 0.0, 0.0]
+    if torque_offset is not None:
+        x[I_U0] = u0
     sides = (a is not None, b is not None)
     return GridStart(
         c_lo=float(x[I_CLO]),
@@ -684,17 +705,22 @@ def grid_start(
     )
 
 
-def motor_only_start(data: WindowData) -> GridStart:
+def motor_only_start(data: WindowData, *, torque_offset: float | None = None) -> GridStart:
     """Start of the motor-only model (no contact seen): linear least squares of the motor equation."""
     d = data
+    u0 = 0.0 if torque_offset is None else float(torque_offset)
     ok = d.ok_m
     if int(ok.sum()) < 20:
         raise DataError(
             f"too few moving windows for identification ({int(ok.sum())} with the motor moving): "
             "the recording stands still most of the time"
         )
-    X = np.column_stack([d.U, -d.WM, -d.SM, -np.ones(d.n_win)])[ok]
+    X = np.column_stack([d.U - u0, -d.WM, -d.SM, -np.ones(d.n_win)])[ok]
+    if torque_offset is not None:
+        X[:, 3] = 0.0
     th, *_ = np.linalg.lstsq(X, d.a_m[ok], rcond=None)
+    if torque_offset is not None:
+        th[3] = u0 / (1.0 / th[0] if th[0] != 0 else 1.0)
     J_m = 1.0 / th[0] if th[0] != 0 else 1.0
     x = np.zeros(NP)
     x[I_JL] = 1.0
@@ -777,6 +803,7 @@ def fit_two_mass(
     *,
     equations: str = "both",
     fit_delay: bool = False,
+    torque_offset: float | None = None,
 ) -> TwoMassFit:
     """Least-squares fit of the two-mass model with HAC covariance.
 
@@ -791,13 +818,15 @@ def fit_two_mass(
         Equations fitted (``"motor"``: the load equation is left out).
     fit_delay : bool
         Fit a time offset between the two encoders (``encoder_delay``).
+    torque_offset : float, optional
+        Known torque offset u_0 [N·m] (fixed, not fitted); ``None`` fits it.
     """
     from scipy.optimize import least_squares
 
     if start is None:
-        start = grid_start(data, equations=equations)
+        start = grid_start(data, equations=equations, torque_offset=torque_offset)
     sides = start.sides if sides is None else sides
-    prob = TwoMassProblem(data, sides, equations=equations, fit_delay=fit_delay)
+    prob = TwoMassProblem(data, sides, equations=equations, fit_delay=fit_delay, torque_offset=torque_offset)
     x = _start_vector(prob, start, data)
     res = None
     for _ in range(2):  # reweight both equations by their residual standard deviation, refit
@@ -932,7 +961,8 @@ def _plausibility(params: dict[str, ParameterEstimate]) -> list[str]:
             out.append(
                 f"{name} = {q.value:.4g} {q.unit} < 0 (95 % CI up to "
                 f"{q.high:.3g}): negative {side} friction — "
-                "torque sign or gain, or the velocity sign, is wrong"
+                "torque sign or gain, or the velocity sign, is wrong, or the drive has dynamics "
+                "the two-mass model lacks"
             )
     return out
 
@@ -944,6 +974,7 @@ def identify_two_mass(
     window_s: float = WINDOW_S,
     equations: str = "both",
     fit_delay: bool = False,
+    torque_offset: float | None = None,
 ) -> DriveIdentification:
     """Identify J_m, J_l, K_S, D_S, friction, torque offset, δ and δ1 from one recording.
 
@@ -964,6 +995,11 @@ def identify_two_mass(
     fit_delay : bool
         Also fit a time offset τ [s] between the motor and the load encoder
         (Δθ → Δθ − τ ω_l), reported as ``encoder_delay``.
+    torque_offset : float, optional
+        Known offset u_0 of the recorded motor torque [N·m], fixed instead of fitted. Give it
+        (usually 0) when the torque is absolute and a constant load (gravity) may pass
+        through the shaft: a fitted offset absorbs that load, and with it the evidence of
+        which flank the gear rests on.
 
     Returns
     -------
@@ -974,12 +1010,12 @@ def identify_two_mass(
     if equations not in ("both", "motor"):
         raise ParameterError("identification", "equations", f"must be 'both' or 'motor', got {equations!r}")
     data = window_data(trace, N, window_s=window_s)
-    kw: dict[str, Any] = {"equations": equations, "fit_delay": fit_delay}
-    start = grid_start(data, equations=equations)
+    kw: dict[str, Any] = {"equations": equations, "fit_delay": fit_delay, "torque_offset": torque_offset}
+    start = grid_start(data, equations=equations, torque_offset=torque_offset)
     fit = fit_two_mass(data, start=start, **kw)
     if fit_delay and fit.p[I_TAU] != 0.0 and any(fit.problem.sides):
         # contacts again on the delay-corrected Δθ
-        start = grid_start(data, equations=equations, tau=float(fit.p[I_TAU]))
+        start = grid_start(data, equations=equations, tau=float(fit.p[I_TAU]), torque_offset=torque_offset)
         fit = fit_two_mass(data, start=start, **kw)
     ev = _contact_evidence(fit)
     notes: list[str] = []
@@ -1006,7 +1042,8 @@ def identify_two_mass(
         side = "upper" if sides[1] else "lower"
         if not _side_ok(ev, side, 1.0 if sides[1] else -1.0):
             sides = (False, False)
-            fit = fit_two_mass(data, sides=sides, start=motor_only_start(data), **kw)
+            start = motor_only_start(data, torque_offset=torque_offset)
+            fit = fit_two_mass(data, sides=sides, start=start, **kw)
             ev = _contact_evidence(fit)
     return _build_result(trace, data, fit, ev, notes)
 
@@ -1046,27 +1083,56 @@ def _build_result(
         else:
             params["delta"] = ParameterEstimate.unknown("delta", reason, low=max(0.0, dmax - p[I_CLO]))
     else:
-        reason = (
-            "no contact: the shaft never carried torque in this recording (motion inside the gap, or "
-            "no load coupling) — the backlash and the load side cannot be identified"
-        )
         visible = False
-        why = "the shaft never carried torque"
+        travel = float(np.ptp(trace["theta_l"]))
+        if travel > LOAD_TRAVEL_FACTOR * (dmax - dmin):
+            # the load travelled far more than Δθ ever spans: the gear drove it, so the shaft did
+            # carry torque — the motor equation just cannot tell it from the motor's own terms
+            reason = (
+                f"backlash not determined: the load travelled {travel:.3g} rad (Δθ spans only "
+                f"{dmax - dmin:.3g} rad), so the gear drove it, but the shaft torque is not "
+                "distinguishable in the motor torque (deflection below what the recording resolves)"
+            )
+            why = "the shaft torque is not distinguishable in the motor torque"
+            low = 0.0
+        else:
+            reason = (
+                "no contact: the shaft never carried torque in this recording (motion inside the gap, or "
+                "no load coupling) — the backlash and the load side cannot be identified"
+            )
+            why = "the shaft never carried torque"
+            low = max(0.0, dmax - dmin)
         for n in ("J_l", "K_S", "D_S", "T_Cl", "beta_l"):
             params[n] = ParameterEstimate.unknown(n, why)
-        params["delta"] = ParameterEstimate.unknown("delta", reason, low=max(0.0, dmax - dmin))
+        params["delta"] = ParameterEstimate.unknown("delta", reason, low=low)
         params["delta1"] = ParameterEstimate.unknown("delta1", why)
     if prob.equations == "motor":
         why = "the load equation was not used (equations = 'motor')"
         for n in ("J_l", "T_Cl", "beta_l"):
             params.setdefault(n, ParameterEstimate.unknown(n, why))
     ordered = {n: params[n] for n in REPORT_ORDER if n in params}
+    warnings = _plausibility(ordered)
+    if warnings and visible:
+        # a physically impossible fit (negative friction or inertia) does not support a backlash
+        reason = (
+            "backlash not determined: the two-mass model does not fit this recording "
+            f"({warnings[0].split(':')[0]}) — the contacts it found are not evidence of the gap"
+        )
+        visible = False
+        fit_delta = ordered.get("delta")
+        ordered["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0)
+        ordered["delta1"] = ParameterEstimate.unknown("delta1", "the fit is implausible")
+        if fit_delta is not None:
+            notes.append(
+                f"implausible fit: δ = {fit_delta.value:.4g} rad [{fit_delta.low:.4g}, {fit_delta.high:.4g}]"
+            )
+    elif warnings:
+        reason += f"; the fit is implausible as well ({warnings[0].split(':')[0]})"
     corr_names = tuple(n for n in rep if ordered.get(n) is not None and ordered[n].identifiable)
     idx = [rep.index(n) for n in corr_names]
     c = cov[np.ix_(idx, idx)]
     sd = np.sqrt(np.clip(np.diag(c), 1e-300, None))
     corr = c / np.outer(sd, sd)
-    warnings = _plausibility(ordered)
     if visible and "delta1" in ordered and ordered["delta1"].identifiable:
         d1, dd = ordered["delta1"].value, ordered["delta"].value
         if not (0.0 <= d1 <= dd):
@@ -1237,6 +1303,7 @@ def identify_from_config(
         window_s=opts.window or WINDOW_S,
         equations=opts.equations,
         fit_delay=opts.encoder_delay,
+        torque_offset=opts.torque_offset,
     )
 
 

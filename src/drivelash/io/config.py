@@ -215,6 +215,9 @@ class IdentificationSection(_Strict):
         inertia depends on the pose and which carries gravity).
     encoder_delay : bool
         Two-mass model: also fit a time offset between the motor and the load encoder [s].
+    torque_offset : float, optional
+        Two-mass model: known offset of the recorded motor torque [N·m], fixed instead of
+        fitted (give 0 for an absolute torque on an axis loaded by gravity).
     """
 
     cutoff_hz: float = Field(default=100.0, gt=0)
@@ -226,6 +229,7 @@ class IdentificationSection(_Strict):
     window: float | None = Field(default=None, gt=0)
     equations: Literal["both", "motor"] = "both"
     encoder_delay: bool = False
+    torque_offset: float | None = None
 
 
 class DriveConfig(_Strict):
