@@ -64,6 +64,23 @@ def test_negative_torque_gain_is_refused_with_the_cause(tmp_path, recording):
     assert not out.exists()
 
 
+def test_implausible_drive_diagnosis_is_written_without_a_drive_table(tmp_path, recording):
+    """--json alone on the same wrong-sign torque: the diagnosis is written (exit 0), marked
+    implausible, and carries no backlash figure; nothing goes to stdout as a drive table."""
+    from drivelash.commands.data import run_identify
+
+    cfg = tmp_path / "neg.toml"
+    cfg.write_text(
+        '[drivetrain]\nN = 1.0\n[columns.torque_m]\ncolumn = "torque_m"\nunit = "N·m"\nscale = -1.0\n'
+    )
+    js = tmp_path / "id.json"
+    doc = run_identify(recording, cfg, model="two-mass", json_out=js, quiet=True)
+    on_disk = json.loads(js.read_text())
+    assert on_disk["plausible"] is False and doc["plausible"] is False
+    assert on_disk["parameters"]["delta"]["identifiable"] is False
+    assert "not determined" in on_disk["backlash_reason"]
+
+
 def test_rigid_emps_with_negative_gain_is_refused(tmp_path):
     """The rigid IDIM-LS on EMPS with the voltage gain negated gave M = −95.1 kg: refused now
     (the same file with the right sign identifies: tests/identify/test_identify_emps.py)."""
