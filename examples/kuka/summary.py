@@ -5,9 +5,11 @@ Run from the repository root (needs ../shared/data/kuka-kr300)::
     .venv/bin/python examples/kuka/summary.py OUTDIR
 
 For each recording it runs ``drivelash identify --model two-mass --json --report`` on axes
-1-3 (``examples/kuka/axisN.toml``) and writes ``OUTDIR/kuka_<rec>.md`` (the three axes: lost
-motion with its 95 % interval or the stated reason it cannot be determined, the backlash
-verdict, the fit diagnostics) beside the per-axis JSON and HTML reports, and
+1-3 (``examples/kuka/axisN.toml``), then the ``estimate --identify`` computation (the online
+law on the identified drive, or the reason it cannot run), and writes ``OUTDIR/kuka_<rec>.md``
+(the three axes: lost motion with its 95 % interval or the stated reason it cannot be
+determined, the online δ̂, the excitation verdict, the fit diagnostics) beside the per-axis
+JSON and HTML reports, and
 ``OUTDIR/kuka_summary.md``: the nine cases and the spread across A-C.
 """
 
@@ -30,7 +32,9 @@ def _mrad(x: float | None) -> str:
 
 def run(outdir: Path) -> dict[str, dict[int, dict]]:
     """Identify the nine cases, write the reports, return the JSON summaries."""
+    import drivelash as dl
     from drivelash.commands.data import run_identify
+    from drivelash.estimation.backlash_api import estimate_with_identification
 
     outdir.mkdir(parents=True, exist_ok=True)
     results: dict[str, dict[int, dict]] = {}
@@ -47,6 +51,9 @@ def run(outdir: Path) -> dict[str, dict[int, dict]]:
                 quiet=True,
                 force=True,
             )
+            cfg = dl.load_config(HERE / f"axis{axis}.toml")
+            trace = dl.load_trace(DATA / f"rec_{rec}.mat", cfg)
+            results[rec][axis]["online"] = estimate_with_identification(trace, cfg).summary
         (outdir / f"kuka_{rec}.md").write_text(recording_report(rec, results[rec]), encoding="utf-8")
     (outdir / "kuka_summary.md").write_text(summary_table(results), encoding="utf-8")
     return results
@@ -65,9 +72,9 @@ def recording_report(rec: str, docs: dict[int, dict]) -> str:
     """Markdown report of one recording (axes 1-3)."""
     lines = [
         f"# KUKA KR300, recording {rec}: backlash of axes 1-3\n",
-        "| axis | lost motion δ [mrad] (95 % interval) | backlash seen | verdict | K_S [N·m/rad] | "
-        "rel. motor error | plausible |",
-        "|---|---|---|---|---|---|---|",
+        "| axis | lost motion δ [mrad] (95 % interval) | online δ̂ [mrad] | backlash seen | verdict | "
+        "K_S [N·m/rad] | rel. motor error | plausible |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for axis, doc in docs.items():
         val, seen, why = _row(doc)
@@ -75,7 +82,9 @@ def recording_report(rec: str, docs: dict[int, dict]) -> str:
         ks_s = f"{ks['value']:.3g}" if ks["identifiable"] else "–"
         rel = doc["fit"].get("relative_error_motor")
         ok = "yes" if doc["plausible"] else "no"
-        lines.append(f"| {axis} | {val} | {seen} | {why} | {ks_s} | {rel:.2f} | {ok} |")
+        on = doc["online"]
+        online = _mrad(on["delta"]) if on["delta"] is not None else on["reason"]
+        lines.append(f"| {axis} | {val} | {online} | {seen} | {why} | {ks_s} | {rel:.2f} | {ok} |")
     lines.append("")
     for axis, doc in docs.items():
         for w in doc["warnings"]:

@@ -7,6 +7,8 @@ The public API, for notebooks and scripts (python-control style: one curated nam
 
     import drivelash as dl
     trace = dl.load_trace("run.parquet", dl.load_config("drive.toml"))
+    est = dl.estimate_backlash(trace, "drive.toml")         # online: the numbers of `estimate`
+    est.delta, est.converged, est.summary
     ident = dl.identify_drive(trace, "drive.toml")          # offline, with 95 % intervals
     ident["delta"].value, ident["delta"].low, ident["delta"].high
 
@@ -24,6 +26,9 @@ __version__ = "0.1.0"
 
 #: public name → module that defines it (imported lazily, PEP 562)
 _LAZY: dict[str, str] = {
+    # online estimation (the computation of `drivelash estimate`)
+    "estimate_backlash": "drivelash.estimation.backlash_api",
+    "BacklashEstimate": "drivelash.estimation.backlash_api",
     # offline identification
     "identify_drive": "drivelash.estimation.identify_api",
     "DriveIdentification": "drivelash.estimation.identify_result",
@@ -39,6 +44,7 @@ _LAZY: dict[str, str] = {
 }
 
 __all__ = [
+    "BacklashEstimate",
     "BacklashParams",
     "ConfigError",
     "DataError",
@@ -50,6 +56,7 @@ __all__ = [
     "ParameterEstimate",
     "Trace",
     "__version__",
+    "estimate_backlash",
     "identify_drive",
     "load_config",
     "load_trace",
@@ -70,6 +77,7 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
+    from drivelash.estimation.backlash_api import BacklashEstimate, estimate_backlash
     from drivelash.estimation.identify_api import identify_drive
     from drivelash.estimation.identify_result import DriveIdentification, ParameterEstimate
     from drivelash.io.config import DriveConfig, load_config

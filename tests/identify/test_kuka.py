@@ -64,8 +64,18 @@ def test_kuka_gravity_axis_and_axis1(rec, axis):
 @pytest.mark.slow
 @pytest.mark.parametrize(("rec", "axis"), CASES)
 def test_kuka_nine_cases_give_interval_or_reason(rec, axis):
-    """All nine cases: δ with a finite 95 % interval, or the stated reason (issue 11 acceptance)."""
+    """All nine cases: δ with a finite 95 % interval, or the stated reason (issue 11 acceptance);
+    the online estimate (``estimate --identify``) gives δ̂ or says why it cannot run."""
+    from drivelash.estimation.backlash_api import estimate_with_identification
+
     _check_case(rec, axis)
+    _, trace = _identify(rec, axis)
+    cfg = dl.load_config(REPO / "examples" / "kuka" / f"axis{axis}.toml")
+    on = estimate_with_identification(trace, cfg).summary
+    if on["delta"] is None:
+        assert not on["online_run"] and not on["excitation_ok"] and "not run" in on["reason"]
+    else:
+        assert math.isfinite(on["delta"]) and on["online_run"]
 
 
 def test_fitted_offset_on_gravity_axis_is_not_taken_as_evidence():

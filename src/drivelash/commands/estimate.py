@@ -140,12 +140,18 @@ def run_estimate(
     method: str = "default",
     report: Path | None = None,
     quiet: bool = False,
+    identify: bool = False,
 ) -> dict[str, Any]:
-    """Body of ``drivelash estimate`` (callable from Python; returns the JSON summary)."""
+    """Body of ``drivelash estimate`` (callable from Python; returns the JSON summary).
+
+    ``identify``: identify the drive offline first (two-mass, 95 % intervals) and take the
+    values the configuration lacks from it
+    (:func:`drivelash.estimation.backlash_api.estimate_with_identification`).
+    """
     from drivelash.errors import DrivelashError
+    from drivelash.estimation.backlash_api import estimate_from_config, estimate_with_identification
     from drivelash.estimation.estimator import INPUT_COLUMNS
     from drivelash.io import load_config, load_trace
-    from drivelash.metrics import maee, steady_state_peak
 
     if method not in ("paper", "default"):
         raise DrivelashError(f"--method: must be 'paper' or 'default', got {method!r}")
@@ -153,37 +159,25 @@ def run_estimate(
         if p is not None and not p.parent.exists():
             raise DrivelashError(f"{p}: output directory {p.parent} does not exist")
     cfg = load_config(config_path)
-    bl = cfg.require("backlash")
-    trace = load_trace(trace_path, cfg, required=INPUT_COLUMNS)
+    if not identify:
+        cfg.require("backlash")
+    need = [*INPUT_COLUMNS, "torque_m"] if identify else INPUT_COLUMNS
+    trace = load_trace(trace_path, cfg, required=need)
     if not quiet:
         print_warnings(trace.meta)
-    T_s = trace.T_s
-    res, motion = estimate_trace(cfg, trace, method)
-    ecfg = res.config
-    t = res.t
-    summary: dict[str, Any] = {
-        "trace": str(trace_path),
-        "config": str(config_path),
-        "method": method,
-        "delta": res.delta,
-        "delta1": float(bl.delta1),
-        "excitation_ok": res.excitation_ok,
-        "reason": res.reason,
-        "converged": res.converged,
-        "convergence_time_s": res.convergence_time_s,
-        "convergence_band_rad": res.band,
-        "samples": len(trace),
-        "T_s": T_s,
-        "excitation_frequency_hz": motion.f_exc,
-        **result_summary(res),
-        "gains": ecfg.to_dict(),
-    }
-    if "delta_true" in trace:
-        truth = trace["delta_true"]
-        T = float(t[-1] - t[0])
-        summary["delta_true"] = float(truth[-1])
-        summary["maee_rad"] = maee(t, res.delta_hat, truth, float(t[-1]) - MAEE_FRACTION * T)
-        summary["steady_state_peak_rad"] = steady_state_peak(t, res.delta_hat, truth, SS_FRACTION * T)
+    # the one computation shared with drivelash.estimate_backlash (same numbers by construction)
+    if identify:
+        est = estimate_with_identification(trace, cfg, method=method)
+    else:
+        est = estimate_from_config(trace, cfg, method=method)
+    res = est.result
+    if res is None and (plot is not None or report is not None):
+        # --identify could not give the drive: the verdict only, no time series to draw
+        est.summary.setdefault("warnings", []).append(
+            "no --plot/--report written: the online estimate was not run"
+        )
+        plot = report = None
+    summary: dict[str, Any] = {"trace": str(trace_path), "config": str(config_path), **est.summary}
     if json_out is not None:
         write_json(json_out, summary)
     if plot is not None:
@@ -209,6 +203,21 @@ def _print_summary(s: dict[str, Any]) -> None:
     c.print(
         f"[bold]deadzone estimate[/bold] ({s['method']} method, {s['samples']} samples at {s['T_s']:.3g} s)"
     )
+    ident = s.get("identification")
+    if ident is not None:
+        d = ident["delta"]
+        if d["identifiable"]:
+            c.print(
+                f"  offline δ = {1e3 * d['value']:.3f} mrad, 95 % interval "
+                f"[{1e3 * d['ci95'][0]:.3f}, {1e3 * d['ci95'][1]:.3f}] mrad"
+            )
+        else:
+            c.print(f"  offline δ not determined: {ident['reason']}")
+    if s["delta"] is None:  # --identify could not give the drive
+        c.print(f"  [yellow]{s['reason']}[/yellow]")
+        for w in s.get("warnings", []):
+            c.print(f"  [yellow]warning:[/yellow] {w}")
+        return
     std = s.get("delta_std")
     pm = f" ± {1e3 * 1.96 * std:.2f} mrad (95 %)" if std is not None and math.isfinite(std) else ""
     c.print(f"  δ̂ = {1e3 * s['delta']:.3f} mrad{pm}   (δ1 = {1e3 * s['delta1']:.3f} mrad)")
@@ -303,9 +312,17 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
             "default", "--method", help="paper (the paper's law) or default (improved)."
         ),
         report: Path | None = typer.Option(None, "--report", help="Write a self-contained HTML report here."),
+        identify: bool = typer.Option(
+            False,
+            "--identify",
+            help="Identify the drive first (two-mass, 95 % intervals); values the config lacks come "
+            "from it; the JSON carries offline δ and online δ̂ and flags disagreement.",
+        ),
     ) -> None:
         """Estimate the deadzone (backlash) angle of a drive train from a recording."""
-        run_estimate(trace, config, json_out=json_out, plot=plot, method=method, report=report)
+        run_estimate(
+            trace, config, json_out=json_out, plot=plot, method=method, report=report, identify=identify
+        )
 
     @app.command()
     def reproduce(

@@ -1128,6 +1128,7 @@ def _build_result(
             )
     elif warnings:
         reason += f"; the fit is implausible as well ({warnings[0].split(':')[0]})"
+        ordered["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0)  # no bound from it
     corr_names = tuple(n for n in rep if ordered.get(n) is not None and ordered[n].identifiable)
     idx = [rep.index(n) for n in corr_names]
     c = cov[np.ix_(idx, idx)]
@@ -1256,7 +1257,7 @@ def identify_from_config(
     from pathlib import Path
 
     from drivelash.errors import ConfigError
-    from drivelash.io import load_config, load_trace
+    from drivelash.io import load_config
     from drivelash.io.config import DriveConfig
 
     if model not in ("two-mass", "rigid"):
@@ -1271,20 +1272,7 @@ def identify_from_config(
             "identify_drive", "config", f"must be a DriveConfig or a path, got {type(config)}"
         )
     need = ["theta_m", "theta_l", "torque_m"] if model == "two-mass" else ["theta_m", "torque_m"]
-    if isinstance(data, Trace):
-        trace = data
-    elif isinstance(data, (str, Path)):
-        trace = load_trace(data, columns if columns is not None else cfg, required=need)
-    else:
-        try:
-            import pandas as pd
-        except ImportError:  # pragma: no cover - pandas is a dependency
-            pd = None
-        if pd is None or not isinstance(data, pd.DataFrame):
-            raise ParameterError(
-                "identify_drive", "data", f"must be a Trace, a pandas DataFrame or a path, got {type(data)}"
-            )
-        trace = _trace_from_frame(data, columns if columns is not None else cfg, need)
+    trace = as_trace(data, columns if columns is not None else cfg, need, "identify_drive")
     if model == "rigid":
         from drivelash.estimation.identify import identify
 
@@ -1307,15 +1295,36 @@ def identify_from_config(
     )
 
 
+def as_trace(data: Any, mapping: Any, need: list[str], caller: str) -> Trace:
+    """A Trace from a Trace, a pandas DataFrame (validated like a file) or a path.
+
+    ``mapping`` is a DriveConfig or a ``[columns]``-style dict; ``need`` the required columns;
+    ``caller`` names the API function in the error message.
+    """
+    from pathlib import Path
+
+    from drivelash.io import load_trace
+
+    if isinstance(data, Trace):
+        return data
+    if isinstance(data, (str, Path)):
+        return load_trace(data, mapping, required=need)
+    import pandas as pd
+
+    if not isinstance(data, pd.DataFrame):
+        raise ParameterError(
+            caller, "data", f"must be a Trace, a pandas DataFrame or a path, got {type(data).__name__}"
+        )
+    return _trace_from_frame(data, mapping, need)
+
+
 def _trace_from_frame(df: Any, mapping: Any, need: list[str]) -> Trace:
     """A validated Trace from a DataFrame (``Trace.from_frame`` with the loader's checks)."""
     from_frame = getattr(Trace, "from_frame", None)
     if from_frame is not None:
-        return from_frame(df, mapping)
+        return from_frame(df, mapping, required=need)
     # until the loader offers Trace.from_frame: plain numeric columns with Trace names only
     missing = [c for c in ["t", *need] if c not in df.columns]
     if missing:
         raise DataError("missing required column in the DataFrame", column=missing[0])
-    return Trace(
-        {c: df[c].to_numpy(dtype=np.float64) for c in df.columns if c in ("t", *need, "omega_m", "omega_l")}
-    )
+    return Trace({str(c): df[c].to_numpy(dtype=np.float64) for c in df.columns})

@@ -1,0 +1,320 @@
+"""The one computation behind ``drivelash estimate`` and :func:`drivelash.estimate_backlash`.
+
+``estimate`` (the command) and ``estimate_backlash`` (the notebook API) both call
+:func:`estimate_from_config`: the same tuning (the excitation frequency is detected in the
+data, ``[estimator]`` gains override the scaling rule), the same estimator run, the same
+summary — so the two cannot give different numbers.
+
+``DeadzoneEstimator(drivetrain, delta1, T_s).run(trace)`` without a config tunes for a fixed
+0.5 Hz reversal frequency (the :class:`~drivelash.estimation.estimator.EstimatorConfig`
+default); that is the low-level kernel wrapper, not the command's result. Use
+:func:`drivelash.estimate_backlash` for the command's numbers.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from drivelash.io.trace import Trace
+
+__all__ = ["BacklashEstimate", "estimate_backlash", "estimate_from_config", "estimate_with_identification"]
+
+
+@dataclass
+class BacklashEstimate:
+    """Result of :func:`drivelash.estimate_backlash` and of ``drivelash estimate``.
+
+    Attributes
+    ----------
+    delta : float
+        Final estimate δ̂ [rad].
+    summary : dict
+        Exactly what ``drivelash estimate --json`` writes (without the ``trace``/``config``
+        paths): δ̂ [rad], δ1 [rad], excitation verdict and reason, convergence, sample period
+        ``T_s`` [s], detected excitation frequency [Hz], gains, and MAEE / steady-state peak
+        [rad] when the recording carries the true δ.
+    result : EstimationResult
+        The estimator's time series (δ̂(t) [rad], φ̂, ω̂_l, Δθ, torques, traversals).
+    trace : Trace
+        The recording as the estimator saw it (SI units).
+    gains : EstimatorConfig
+        The tuning used.
+    """
+
+    summary: dict[str, Any]
+    result: Any
+    trace: Trace
+    gains: Any
+
+    @property
+    def delta(self) -> float:
+        """Final δ̂ [rad]."""
+        return float(self.summary["delta"])
+
+    @property
+    def converged(self) -> bool:
+        """True when the excitation sufficed and δ̂ settled."""
+        return bool(self.summary["converged"])
+
+    @property
+    def excitation_ok(self) -> bool:
+        """The excitation verdict."""
+        return bool(self.summary["excitation_ok"])
+
+    def __getitem__(self, key: str) -> Any:
+        return self.summary[key]
+
+
+def estimate_from_config(
+    trace: Trace,
+    cfg: Any,
+    *,
+    method: str = "default",
+    drivetrain: Any = None,
+    delta1: float | None = None,
+) -> BacklashEstimate:
+    """Run the online estimator on ``trace`` as ``drivelash estimate`` does.
+
+    Parameters
+    ----------
+    trace : Trace
+        θ_m, ω_m, θ_l, ω_l [rad, rad/s] (torque and the true δ optional).
+    cfg : DriveConfig
+        ``[drivetrain]``, ``[backlash] delta1``, optional ``[estimator]`` gains.
+    method : {"default", "paper"}
+        Adaptation law.
+    drivetrain : DrivetrainParams, optional
+        Replaces ``[drivetrain]``.
+    delta1 : float, optional
+        Known offset δ1 [rad]; replaces ``[backlash] delta1``.
+    """
+    from drivelash.commands.estimate import MAEE_FRACTION, SS_FRACTION, estimate_trace, result_summary
+    from drivelash.errors import DrivelashError
+    from drivelash.io.config import BacklashSection, DrivetrainSection
+    from drivelash.metrics import maee, steady_state_peak
+
+    if method not in ("paper", "default"):
+        raise DrivelashError(f"--method: must be 'paper' or 'default', got {method!r}")
+    update: dict[str, Any] = {}
+    if drivetrain is not None:  # the same validation path as a [drivetrain] table
+        update["drivetrain"] = DrivetrainSection(**asdict(drivetrain))
+    if delta1 is not None:
+        old = cfg.backlash
+        given = {k: getattr(old, k) for k in old.model_fields_set} if old is not None else {}
+        update["backlash"] = BacklashSection(**{**given, "delta1": float(delta1)})
+    if update:
+        cfg = cfg.model_copy(update=update)
+    res, motion = estimate_trace(cfg, trace, method)
+    t = res.t
+    summary: dict[str, Any] = {
+        "method": method,
+        "delta": res.delta,
+        "delta1": float(cfg.backlash.delta1),
+        "excitation_ok": res.excitation_ok,
+        "reason": res.reason,
+        "converged": res.converged,
+        "convergence_time_s": res.convergence_time_s,
+        "convergence_band_rad": res.band,
+        "samples": len(trace),
+        "T_s": trace.T_s,
+        "excitation_frequency_hz": motion.f_exc,
+        **result_summary(res),
+        "gains": res.config.to_dict(),
+    }
+    if "delta_true" in trace:
+        truth = trace["delta_true"]
+        T = float(t[-1] - t[0])
+        summary["delta_true"] = float(truth[-1])
+        summary["maee_rad"] = maee(t, res.delta_hat, truth, float(t[-1]) - MAEE_FRACTION * T)
+        summary["steady_state_peak_rad"] = steady_state_peak(t, res.delta_hat, truth, SS_FRACTION * T)
+    return BacklashEstimate(summary=summary, result=res, trace=trace, gains=res.config)
+
+
+def estimate_backlash(
+    data: Any,
+    drivetrain: Any = None,
+    delta1: float | None = None,
+    *,
+    method: str = "default",
+    columns: Any = None,
+) -> BacklashEstimate:
+    """Estimate the deadzone (backlash) angle δ of a drive train from a recording.
+
+    The same computation as ``drivelash estimate TRACE --config DRIVE.toml`` (same tuning,
+    same numbers; the command's JSON is ``result.summary`` plus the two paths).
+
+    Parameters
+    ----------
+    data : Trace, pandas.DataFrame, str or Path
+        The recording: θ_m, ω_m, θ_l, ω_l (motor side / load side, [rad], [rad/s]) and time
+        ``t`` [s]. A DataFrame is mapped and validated like a file (``columns``, or the
+        configuration's ``[columns]`` table); a path is read with
+        :func:`drivelash.load_trace`.
+    drivetrain : DriveConfig, str, Path or DrivetrainParams
+        The drive: a configuration (``[drivetrain]``, ``[backlash] delta1``, optional
+        ``[estimator]`` gains and ``[columns]``), its TOML path, or the parameters alone
+        (then ``delta1`` is required).
+    delta1 : float, optional
+        Known offset δ1 [rad] of the gap (replaces ``[backlash] delta1``).
+    method : {"default", "paper"}
+        ``"default"`` (the improved law) or ``"paper"`` (the paper's gradient law).
+    columns : dict, optional
+        Column mapping for a DataFrame or a file: source name → trace column, or a
+        ``{"column": …, "unit": …}`` table as in ``[columns]``.
+
+    Returns
+    -------
+    BacklashEstimate
+        ``.delta`` [rad], ``.converged``, ``.excitation_ok``, ``.summary`` (the command's
+        JSON), ``.result`` (time series).
+
+    Examples
+    --------
+    >>> import drivelash as dl
+    >>> from drivelash.sim.scenarios import get_scenario
+    >>> run = get_scenario("bench-0C").simulate(duration=8.0, seed=1)
+    >>> est = dl.estimate_backlash(run, "examples/drive_bench.toml", delta1=0.0525)
+    >>> round(1e3 * est.delta)  # true δ of bench-0C: 105 mrad
+    105
+    """
+    from drivelash.errors import ParameterError
+    from drivelash.estimation.estimator import INPUT_COLUMNS
+    from drivelash.estimation.identify_two_mass import as_trace
+    from drivelash.io.config import DriveConfig, load_config
+    from drivelash.params import DrivetrainParams
+
+    dt_params = None
+    if isinstance(drivetrain, (str, Path)):
+        cfg = load_config(drivetrain)
+    elif isinstance(drivetrain, DriveConfig):
+        cfg = drivetrain
+    elif isinstance(drivetrain, DrivetrainParams):
+        cfg = DriveConfig()
+        dt_params = drivetrain
+        if delta1 is None:
+            raise ParameterError(
+                "estimate_backlash", "delta1", "required when drivetrain is a DrivetrainParams"
+            )
+    elif drivetrain is None:
+        raise ParameterError(
+            "estimate_backlash", "drivetrain", "required: a DriveConfig, a TOML path or DrivetrainParams"
+        )
+    else:
+        raise ParameterError(
+            "estimate_backlash",
+            "drivetrain",
+            f"must be a DriveConfig, a path or DrivetrainParams, got {type(drivetrain).__name__}",
+        )
+    trace = as_trace(data, columns if columns is not None else cfg, list(INPUT_COLUMNS), "estimate_backlash")
+    return estimate_from_config(trace, cfg, method=method, drivetrain=dt_params, delta1=delta1)
+
+
+def _needs_identification(cfg: Any) -> bool:
+    dt = cfg.drivetrain
+    return dt is None or any(getattr(dt, k) is None for k in ("J_m", "J_l", "K_S", "D_S"))
+
+
+def estimate_with_identification(trace: Trace, cfg: Any, *, method: str = "default") -> BacklashEstimate:
+    """``drivelash estimate --identify``: identify the drive offline, then run the online law.
+
+    Drive-train values the configuration gives are kept; the ones it lacks (and δ1 when
+    ``[backlash] delta1`` is absent) come from the two-mass identification
+    (:func:`drivelash.identify_drive`). The summary carries both the offline δ with its 95 %
+    interval (``identification``) and the online δ̂ with its uncertainty when the estimator
+    reports one (``delta_std``; otherwise only the offline interval counts), and
+    ``agreement`` says whether they differ beyond their intervals (a warning). When the recording
+    cannot give the drive (implausible fit, load side or backlash not seen), the online law
+    is not run: ``online_run`` is false with the reason, ``excitation_ok`` false.
+    """
+    from drivelash.estimation.identify_two_mass import identify_from_config
+
+    ident = identify_from_config(trace, cfg, model="two-mass")
+    off = {
+        "delta": ident["delta"].as_dict(),
+        "delta1": ident["delta1"].as_dict() if "delta1" in ident.parameters else None,
+        "backlash_visible": ident.backlash_visible,
+        "reason": ident.reason,
+        "plausible": ident.plausible,
+        "warnings": list(ident.warnings),
+        "drivetrain": ident.to_config()["drivetrain"],
+    }
+    base = None
+    if cfg.drivetrain is not None:
+        base = {k: v for k, v in cfg.drivetrain.model_dump().items() if v is not None}
+    missing = [
+        k for k in ("J_m", "J_l", "K_S", "D_S") if k not in (base or {}) and k not in off["drivetrain"]
+    ]
+    why = None
+    if not ident.plausible:
+        why = f"the identification is implausible ({ident.warnings[0].split(':')[0]})"
+    elif missing:
+        why = f"the recording does not determine {', '.join(missing)} ({ident.reason})"
+    bl = cfg.backlash
+    d1_cfg = bl.delta1 if bl is not None and "delta1" in bl.model_fields_set else None
+    d1 = d1_cfg
+    if why is None and d1 is None:
+        p = ident.parameters.get("delta1")
+        if p is None or not p.identifiable:
+            why = f"δ1 is neither in [backlash] nor determined by the recording ({ident.reason})"
+        elif not 0.0 <= p.value <= max(ident["delta"].value, 0.0):
+            why = (
+                f"the identified gap does not contain Δθ = 0 (δ1 = {p.value:.4g} rad outside [0, δ]): "
+                "the encoders' zeros are offset (see the identification warning)"
+            )
+        else:
+            d1 = float(p.value)
+    if why is not None:
+        summary: dict[str, Any] = {
+            "method": method,
+            "delta": None,
+            "delta1": d1,
+            "excitation_ok": False,
+            "reason": f"online estimate not run: {why}",
+            "converged": False,
+            "convergence_time_s": None,
+            "samples": len(trace),
+            "T_s": trace.T_s,
+            "online_run": False,
+            "identification": off,
+            "warnings": [f"online estimate not run: {why}"],
+        }
+        return BacklashEstimate(summary=summary, result=None, trace=trace, gains=None)
+    from drivelash.params import DrivetrainParams
+
+    vals = {**off["drivetrain"], **(base or {})}  # the configuration's own values win
+    dt = DrivetrainParams(**{k: v for k, v in vals.items() if k in DrivetrainParams.__dataclass_fields__})
+    est = estimate_from_config(trace, cfg, method=method, drivetrain=dt, delta1=d1)
+    s = est.summary
+    s["online_run"] = True
+    s["identification"] = off
+    s["drivetrain_used"] = {k: float(v) for k, v in dt.__dict__.items()}
+    s["delta1_source"] = "config" if d1_cfg is not None else "identification"
+    s.setdefault("warnings", [])
+    std_on = s.get("delta_std")
+    if std_on is not None and not math.isfinite(std_on):
+        std_on = None
+    dp = ident["delta"]
+    if dp.identifiable:
+        sig = math.hypot(dp.std, std_on or 0.0)
+        diff = float(s["delta"]) - dp.value
+        disagree = abs(diff) > 1.959963984540054 * sig
+        s["agreement"] = {
+            "offline_delta": dp.value,
+            "offline_ci95": [dp.low, dp.high],
+            "online_delta": s["delta"],
+            "online_std": std_on,
+            "difference": diff,
+            "disagree": disagree,
+        }
+        if disagree:
+            msg = (
+                f"online δ̂ = {1e3 * s['delta']:.4g} mrad and offline δ = {1e3 * dp.value:.4g} mrad "
+                f"[{1e3 * dp.low:.4g}, {1e3 * dp.high:.4g}] disagree beyond their intervals"
+            )
+            s["warnings"].append(msg)
+    else:
+        s["agreement"] = {"offline_delta": None, "reason": dp.reason, "disagree": None}
+    return est
