@@ -72,6 +72,10 @@ def test_estimate_backlash_equals_the_command_json(tmp_path, name, duration):
     # the same from a path and from the Trace itself
     assert dl.estimate_backlash(pq, cfg).delta == api.delta == cmd["delta"]
     assert dl.estimate_backlash(run, cfg).delta == api.delta
+    # the low-level kernel wrapper as the README shows it: the same δ̂
+    sc = get_scenario(name)
+    low = dl.estimation.DeadzoneEstimator(sc.estimator_drivetrain, sc.estimator_backlash.delta1, run.T_s)
+    assert abs(low.run(run).delta - api.delta) <= 1e-12
     # negative control: the comparison sees a changed number
     with pytest.raises(AssertionError):
         _equal(cmd, {**api_json, "delta": api_json["delta"] * (1 + 1e-9)})

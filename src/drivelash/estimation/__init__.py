@@ -4,8 +4,8 @@ excitation monitor) and offline identification (rigid IDIM-LS, two-mass with bac
 Public names (imported on first use, so importing the package stays cheap):
 
 - online: :func:`estimate_backlash` (the computation of ``drivelash estimate``),
-  :class:`BacklashEstimate`, :class:`DeadzoneEstimator` (the kernel wrapper; tunes for a
-  fixed 0.5 Hz unless given an :class:`EstimatorConfig`), :class:`EstimatorConfig`,
+  :class:`BacklashEstimate`, :class:`DeadzoneEstimator` (the kernel wrapper, chunk by
+  chunk; ``run`` tunes from the recording as the command does), :class:`EstimatorConfig`,
   :class:`EstimationResult`, :class:`SuperTwistingObserver`;
 - offline: :func:`identify_drive` (two-mass or rigid, 95 % intervals),
   :class:`DriveIdentification`, :class:`ParameterEstimate`, :func:`identify_two_mass`,
@@ -14,8 +14,7 @@ Public names (imported on first use, so importing the package stays cheap):
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from drivelash._lazy import lazy_names
 
 _LAZY: dict[str, str] = {
     "estimate_backlash": "drivelash.estimation.backlash_api",
@@ -35,14 +34,4 @@ _LAZY: dict[str, str] = {
 __all__ = sorted(_LAZY, key=str.lower)
 
 
-def __getattr__(name: str) -> Any:
-    mod = _LAZY.get(name)
-    if mod is None:
-        raise AttributeError(f"module 'drivelash.estimation' has no attribute {name!r}")
-    value = getattr(importlib.import_module(mod), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_names("drivelash.estimation", _LAZY, globals())

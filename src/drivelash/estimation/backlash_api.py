@@ -5,10 +5,9 @@
 data, ``[estimator]`` gains override the scaling rule), the same estimator run, the same
 summary — so the two cannot give different numbers.
 
-``DeadzoneEstimator(drivetrain, delta1, T_s).run(trace)`` without a config tunes for a fixed
-0.5 Hz reversal frequency (the :class:`~drivelash.estimation.estimator.EstimatorConfig`
-default); that is the low-level kernel wrapper, not the command's result. Use
-:func:`drivelash.estimate_backlash` for the command's numbers.
+``DeadzoneEstimator(drivetrain, delta1, T_s).run(trace)`` (the chunk-able kernel wrapper)
+tunes from the recording the same way and gives the same δ̂; the summary (verdict, δ1 check,
+truth metrics, JSON) is this module's.
 """
 
 from __future__ import annotations
@@ -76,7 +75,8 @@ def estimate_from_config(
     drivetrain: Any = None,
     delta1: float | None = None,
 ) -> BacklashEstimate:
-    """Run the online estimator on ``trace`` as ``drivelash estimate`` does.
+    """Run the online estimator on ``trace`` as ``drivelash estimate`` does
+    (:func:`drivelash.commands.estimate.estimate_trace`) and build the command's summary.
 
     Parameters
     ----------
