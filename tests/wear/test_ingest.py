@@ -69,8 +69,8 @@ def test_estimates_match_truth_and_failures_are_rows(small_fleet, serial_store):
     for r in rows:
         if r["path"] in truth and not truth[r["path"]]["excited"]:
             assert r["status"] == "ok" and not r["excitation_ok"], r["path"]
-    for r in rows:  # the estimator's own uncertainty is stored with every estimate; NULL for failures
-        if r["status"] == "ok":
+    for r in rows:  # the estimator's own uncertainty is stored with every excited estimate, else NULL
+        if r["status"] == "ok" and r["excitation_ok"]:
             assert r["delta_std"] is not None and 0 < r["delta_std"] < 5e-3, r["path"]
         else:
             assert r["delta_std"] is None, r["path"]

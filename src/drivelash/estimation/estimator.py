@@ -906,7 +906,10 @@ def _verdict(setup: _Setup, main: _Law, check: _Law | None, has_truth: bool) -> 
         a_bal = a_main["residual_rms_lower"] / a_main["residual_rms_upper"]
         asym = a_bal / j_bal if j_bal > 0 else math.nan
         extra.update(delta1_check_ratio=ratio, delta1_check_asymmetry=asym, delta1_check_balance=j_bal)
-        if abs(diff) <= floor:
+        if not ok:
+            # without a verdict of sufficient excitation neither law saw the gap: no judgement
+            offset_state = "inconclusive"
+        elif abs(diff) <= floor:
             offset_state = "consistent"
         elif not (1.0 / OFFSET_BALANCE < j_bal < OFFSET_BALANCE):
             # the joint law does not fit its own two contacts alike: it cannot judge δ1
@@ -993,7 +996,8 @@ def _verdict(setup: _Setup, main: _Law, check: _Law | None, has_truth: bool) -> 
     band = max(2e-3, 0.02 * delta_max_seen)
     k_win = max(1, int(round(win / T_s)))
     settled = _settled(chosen.track, n, k_win, band) if n else False
-    std = _uncertainty(a, extra, cfg.theta_def)
+    # the uncertainty of a measurement; without sufficient excitation δ̂ is none (NaN → null)
+    std = _uncertainty(a, extra, cfg.theta_def) if ok else math.nan
     if ok and 1.96 * std > band:
         warnings.append(
             f"the estimate is uncertain by ±{1e3 * 1.96 * std:.1f} mrad (95 %), more than the "

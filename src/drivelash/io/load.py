@@ -87,6 +87,9 @@ UNIT_FACTOR_TOLERANCE = 0.15
 #: A torque/force column is "saturated" when at least this fraction of samples sits
 #: exactly at its maximum or minimum, in runs of at least SATURATION_MIN_RUN samples.
 SATURATION_FRACTION = 0.02
+#: Columns that may be constant: a load that stays inside the deadzone (quantised encoder)
+#: is a legitimate recording — the estimator's verdict says so, it is not a loading error.
+MAY_STAND_STILL = ("theta_l", "omega_l")
 SATURATION_MIN_RUN = 5
 
 
@@ -281,7 +284,7 @@ def _check_signals(
             continue
         a = cols[name]
         src = origin.get(name, name)
-        if np.ptp(a) == 0:
+        if np.ptp(a) == 0 and name not in MAY_STAND_STILL:
             raise DataError(f"constant signal (every sample is {a[0]:.6g})", path=path, column=src, row=0)
         if name.startswith("torque") or name.startswith("F_"):
             for ext, label in ((a.max(), "maximum"), (a.min(), "minimum")):

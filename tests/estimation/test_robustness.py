@@ -1,0 +1,277 @@
+"""Issue 11 items 2–4: the online estimator is never confidently wrong.
+
+Every recording here comes from the *independent* simulator (tests/estimation/independent.py:
+solve_ivp LSODA, continuous P/PI cascade, tanh friction — no code shared with drivelash.sim),
+so the estimator cannot be tuned to its own simulator's quirks. The rule checked everywhere:
+either |δ̂ − δ| is within the goal, or the result is not ``converged`` and says why (a
+warning or an excitation verdict). ``converged`` together with a wrong δ̂ fails the test.
+
+Fast part: the bench rig at 1 kHz for 12 s (one simulation of ≈ 2 s shared by the module),
+δ1 offsets, ``--method paper`` with a wrong δ1, the parameter-mismatch sweep on the rig,
+positions in degrees, a shifted load-encoder zero, a still load through the command line.
+Slow part: gravity load on compliant drives, the stiff geared drive, the mismatch sweep on
+the random drives of the generalisation test.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from drivelash.estimation.estimator import DeadzoneEstimator, EstimationResult
+
+from .independent import RIG, IndependentDrive, simulate_independent
+
+T_S = 1e-3
+DURATION = 12.0
+
+#: Each parameter stated ×0.5 and ×2 (friction also ×3), singly and combined (issue 11).
+MISMATCH = {
+    "true": {},
+    "K_S×0.5": dict(K_S=0.5),
+    "K_S×2": dict(K_S=2.0),
+    "J_l×0.5": dict(J_l=0.5),
+    "J_l×2": dict(J_l=2.0),
+    "D_S×0.5": dict(D_S=0.5),
+    "D_S×2": dict(D_S=2.0),
+    "T_Cl×0.5": dict(T_Cl=0.5),
+    "T_Cl×2": dict(T_Cl=2.0),
+    "T_Cl×3": dict(T_Cl=3.0),
+    "all×0.5": dict(K_S=0.5, J_l=0.5, D_S=0.5, T_Cl=0.5),
+    "all×2": dict(K_S=2.0, J_l=2.0, D_S=2.0, T_Cl=2.0),
+    "K_S×0.5 J_l×1.5 T_Cl×3": dict(K_S=0.5, J_l=1.5, T_Cl=3.0),
+    "K_S×2 J_l×0.5 T_Cl×3": dict(K_S=2.0, J_l=0.5, T_Cl=3.0),
+}
+
+
+def _run(drive: IndependentDrive, trace, delta1: float | None = None, method: str = "default", **scale):
+    d1 = drive.delta1 if delta1 is None else delta1
+    return DeadzoneEstimator(drive.drivetrain(**scale), d1, trace.T_s, method=method).run(trace)
+
+
+def _flagged(r: EstimationResult) -> bool:
+    """Not converged, with a stated cause (an excitation verdict or a blocking warning)."""
+    blocking = [w for w in r.warnings if not w.startswith("note:")]
+    return not r.converged and (not r.excitation_ok or bool(blocking))
+
+
+def _accurate_or_flagged(r: EstimationResult, delta: float, tol: float) -> str | None:
+    err = r.delta - delta
+    if abs(err) <= tol or _flagged(r):
+        return None
+    return f"err {1e3 * err:+.2f} mrad, converged={r.converged}, warnings={r.warnings}, reason={r.reason}"
+
+
+@pytest.fixture(scope="module")
+def rig_trace():
+    return simulate_independent(RIG, duration=DURATION, T_s=T_S)
+
+
+def test_true_parameters_converge_accurately(rig_trace):
+    """Negative control of the flags: with the true drive the estimate is accurate *and* claimed."""
+    r = _run(RIG, rig_trace)
+    assert r.converged and r.excitation_ok, (r.reason, r.warnings)
+    assert abs(r.delta - RIG.delta) <= 1e-3
+    # the 95 % interval from the estimator's own statistics covers the truth and is not vacuous
+    lo, hi = r.delta_interval
+    assert lo <= RIG.delta <= hi
+    assert 0 < r.delta_std < 1e-3
+
+
+# δ1 offsets of ±2, ±4, ±20 mrad and δ1 wrong by 90 % of its room either way
+# (δ1 must stay in [0, δ]: +0.9 (δ − δ1) = +83.7 mrad, −0.9 δ1 = −83.7 mrad on the rig).
+D1_OFFSETS = [2e-3, -2e-3, 4e-3, -4e-3, 20e-3, -20e-3, 0.9 * (RIG.delta - RIG.delta1), -0.9 * RIG.delta1]
+
+
+@pytest.mark.parametrize("method", ["default", "paper"])
+def test_delta1_offsets_accurate_or_flagged(rig_trace, method):
+    bad = {}
+    for e in D1_OFFSETS:
+        r = _run(RIG, rig_trace, RIG.delta1 + e, method)
+        msg = _accurate_or_flagged(r, RIG.delta, 1e-3)
+        if msg:
+            bad[f"{1e3 * e:+.1f} mrad"] = msg
+        # the δ1 check runs and is reported whatever the method
+        assert r.extra.get("delta1_check_result") in (
+            "consistent",
+            "switched",
+            "inconsistent",
+            "inconclusive",
+        )
+    assert not bad, bad
+
+
+def test_default_law_corrects_delta1_offsets(rig_trace):
+    """Item 4: the joint δ/δ1 law takes over and is accurate for +4 mrad (below the old 5 mrad
+    switch threshold: the old law left +4 mrad as 6.5 mrad error), ±20 mrad and ±90 %."""
+    for e in (4e-3, 20e-3, -20e-3, 0.9 * (RIG.delta - RIG.delta1), -0.9 * RIG.delta1):
+        r = _run(RIG, rig_trace, RIG.delta1 + e)
+        assert r.converged and abs(r.delta - RIG.delta) <= 1e-3, (e, r.delta - RIG.delta, r.warnings)
+        assert r.extra["offset_switched"]
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="known miss: δ1 +2 / −2 / −4 mrad on the independent rig (12 s, 1 kHz): measured "
+    "+1.98 / −3.73 / −6.22 mrad error, each flagged (δ1 inconsistent, not converged) but not "
+    "corrected; goal: corrected within 1 mrad, because the joint law's switch conditions "
+    "(residual ratio < 0.8, lower/upper asymmetry > 1.5) are not met when the offset is of the "
+    "order of the contact deflection (≈ 1 mrad here) or moves the lower contact into the gap",
+)
+def test_default_law_corrects_small_delta1_offsets(rig_trace):
+    for e in (2e-3, -2e-3, -4e-3):
+        r = _run(RIG, rig_trace, RIG.delta1 + e)
+        assert r.converged and abs(r.delta - RIG.delta) <= 1e-3, (e, r.delta - RIG.delta)
+
+
+@pytest.mark.parametrize("e", [10e-3, -36e-3])
+def test_paper_method_wrong_delta1_is_flagged(rig_trace, e):
+    """``--method paper`` with δ1 off by +10 / −36 mrad: δ̂ follows δ1, so it must be flagged."""
+    r = _run(RIG, rig_trace, RIG.delta1 + e, "paper")
+    assert abs(r.delta - RIG.delta) > 5e-3  # the paper law does take the wrong δ1 over (control)
+    assert not r.converged
+    assert any("δ1 is inconsistent" in w for w in r.warnings), r.warnings
+
+
+def test_mismatch_sweep_rig(rig_trace):
+    """Each of K_S, J_l, D_S, T_Cl ×0.5 / ×2 (friction ×3), singly and combined: |δ̂ − δ| ≤ 2 mrad
+    or flagged and not converged; never worse than the paper law by > 1 mrad without a flag."""
+    bad = {}
+    for name, scale in MISMATCH.items():
+        r = _run(RIG, rig_trace, **scale)
+        rp = _run(RIG, rig_trace, method="paper", **scale)
+        msg = _accurate_or_flagged(r, RIG.delta, 2e-3)
+        if msg:
+            bad[name] = msg
+        if r.converged and abs(r.delta - RIG.delta) > abs(rp.delta - RIG.delta) + 1e-3:
+            bad[name + " (vs paper)"] = (
+                f"{1e3 * (r.delta - RIG.delta):+.2f} vs {1e3 * (rp.delta - RIG.delta):+.2f}"
+            )
+    assert not bad, bad
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="known miss: --method paper with K_S×0.5, J_l×1.5, T_Cl×3 on the independent rig: "
+    "measured −3.6 mrad, converged, no flag (95 % interval ±1.6 mrad); goal ≤ 2 mrad or flagged, "
+    "because the paper law has no stiffness scale and its residual does not reveal the "
+    "mismatch — use the default method, which gives −0.5 mrad on the same recording",
+)
+def test_mismatch_sweep_rig_paper_law(rig_trace):
+    bad = {}
+    for name, scale in MISMATCH.items():
+        rp = _run(RIG, rig_trace, method="paper", **scale)
+        msg = _accurate_or_flagged(rp, RIG.delta, 2e-3)
+        if msg:
+            bad[name] = msg
+    assert not bad, bad
+
+
+@pytest.mark.parametrize("method", ["default", "paper"])
+def test_degrees_hit_the_bound_and_are_flagged(method):
+    """Positions and velocities both in degrees (consistent, so the unit check passes)."""
+    tr = simulate_independent(RIG, duration=DURATION, T_s=T_S, unit=180.0 / math.pi)
+    r = _run(RIG, tr, method=method)
+    assert not r.converged
+    assert any("upper bound" in w for w in r.warnings), r.warnings
+
+
+@pytest.mark.parametrize("shift", [0.2, -0.2])
+def test_load_encoder_zero_shift(shift):
+    """A load-encoder zero shifted by ±0.2 rad: corrected by the δ1 check, or flagged."""
+    tr = simulate_independent(RIG, duration=DURATION, T_s=T_S, load_zero_shift=shift)
+    for method in ("default", "paper"):
+        r = _run(RIG, tr, method=method)
+        msg = _accurate_or_flagged(r, RIG.delta, 2e-3)
+        assert msg is None, (method, msg)
+
+
+def test_estimate_never_exceeds_observed_range(rig_trace):
+    """δ̂ larger than the whole observed Δθ range is never claimed (δ1 +83.7 mrad, paper law)."""
+    r = _run(RIG, rig_trace, RIG.delta1 + 0.9 * (RIG.delta - RIG.delta1), "paper")
+    assert r.delta > r.extra["dtheta_range"]
+    assert not r.converged
+    assert any("exceeds the whole Δθ range" in w for w in r.warnings)
+
+
+def test_still_load_is_a_verdict_not_an_error(tmp_path, capsys):
+    """Motion inside the gap with a quantised load encoder (θ_l constant): exit 0,
+    ``excitation_ok = false`` with the reason in the JSON."""
+    from drivelash.cli import main
+
+    tr = simulate_independent(RIG, duration=6.0, T_s=T_S, amplitude=0.02)
+    assert np.ptp(tr["theta_l"]) == 0.0  # the load encoder never moves
+    data = tmp_path / "still.parquet"
+    tr.to_parquet(data)
+    cfg = tmp_path / "drive.toml"
+    d = RIG.drivetrain()
+    cfg.write_text(
+        "[drivetrain]\n"
+        + "".join(f"{k} = {getattr(d, k)!r}\n" for k in ("J_m", "J_l", "N", "K_S", "D_S", "T_Cm", "T_Cl"))
+        + f"beta_m = {d.beta_m!r}\nbeta_l = {d.beta_l!r}\n[backlash]\ndelta1 = {RIG.delta1!r}\n",
+        encoding="utf-8",
+    )
+    out = tmp_path / "o.json"
+    old = sys.argv
+    sys.argv = ["drivelash", "estimate", str(data), "--config", str(cfg), "--json", str(out)]
+    try:
+        main()
+        code = 0
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    finally:
+        sys.argv = old
+    capsys.readouterr()
+    assert code == 0
+    s = json.loads(out.read_text())
+    assert s["excitation_ok"] is False and s["converged"] is False
+    assert "inside the deadzone" in s["reason"]
+
+
+# ----------------------------------------------------------------------------------
+# slow: gravity, stiff geared drive, random drives
+# ----------------------------------------------------------------------------------
+@pytest.mark.slow
+@pytest.mark.parametrize("K_S", [50.0, 200.0])
+def test_gravity_load_accurate_or_flagged(K_S):
+    """A constant 0.5 N·m load torque (gravity) on K_S = 50 and 200 drives: within 5 % of δ
+    or flagged and not converged — never the old "63 traversals, converged, 15 % high"."""
+    drive = replace(RIG, K_S=K_S, T_ext=0.5)
+    tr = simulate_independent(drive, duration=20.0, T_s=T_S if K_S < 100 else 5e-4)
+    for method in ("default", "paper"):
+        r = _run(drive, tr, method=method)
+        msg = _accurate_or_flagged(r, drive.delta, 0.05 * drive.delta)
+        assert msg is None, (method, msg)
+
+
+#: A stiff geared drive (N = 10, K_S = 2000 N·m/rad, 1 kHz): contact torques far below
+#: 1 mrad of deflection (the old fixed threshold called it "contact on one side only").
+STIFF = replace(
+    RIG, N=10.0, K_S=2000.0, J_l=0.05, J_m=5e-4, delta=0.01, delta1=0.005, T_Cl=0.5, T_Cm=0.02,
+    beta_l=0.05, beta_m=1e-3, D_S=2.0,
+)  # fmt: skip
+
+
+@pytest.mark.slow
+def test_stiff_geared_drive_is_excited_and_accurate_or_flagged():
+    tr = simulate_independent(STIFF, duration=20.0, T_s=T_S, torque_limit=50.0)
+    for method in ("default", "paper"):
+        r = _run(STIFF, tr, method=method)
+        assert r.excitation_ok, (method, r.reason)  # not falsely "unexcited"
+        msg = _accurate_or_flagged(r, STIFF.delta, 2e-3)
+        assert msg is None, (method, msg)
+
+
+@pytest.mark.slow
+def test_stiff_drive_contact_threshold_is_configurable():
+    """The contact threshold is a key: set absurdly high, the verdict says the shaft torque
+    never exceeded it (so the key is really used)."""
+    tr = simulate_independent(STIFF, duration=10.0, T_s=T_S, torque_limit=50.0)
+    r = DeadzoneEstimator(STIFF.drivetrain(), STIFF.delta1, T_S, T_thr=1e3).run(tr)
+    assert r.config.T_thr == 1e3
+    assert not r.excitation_ok and "contact threshold" in r.reason
