@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import hashlib
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +20,6 @@ import pandas as pd
 import pytest
 
 import drivelash.cli
-from drivelash.cli import main
 from drivelash.io import Trace
 from drivelash.iso230.synthetic import SyntheticAxis, synthetic_recording, synthetic_table
 
@@ -115,20 +113,6 @@ def _snapshot(d: Path) -> dict[str, str]:
     }
 
 
-def _run(argv: list[str], capsys) -> tuple[int, str, str]:
-    old = sys.argv
-    sys.argv = ["drivelash", *argv]
-    try:
-        main()
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    finally:
-        sys.argv = old
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
 J, R = "{d}/out/iso.json", "{d}/out/iso.html"
 GOOD = ["{d}/laser.csv", "-c", "{d}/laser.toml"]
 
@@ -196,7 +180,7 @@ USAGE = [
 
 
 @pytest.mark.parametrize(("case", "args", "needle"), [*CASES, *USAGE], ids=[c[0] for c in CASES] + [None] * 3)
-def test_bad_input_is_one_line_exit_2_nothing_written(files, capsys, case, args, needle):
+def test_bad_input_is_one_line_exit_2_nothing_written(files, run_cli, case, args, needle):
     d = files
     argv = ["iso230", *[a.format(d=d) for a in args]]
     if "--json" not in argv:
@@ -204,7 +188,7 @@ def test_bad_input_is_one_line_exit_2_nothing_written(files, capsys, case, args,
     if "--report" not in argv:
         argv += ["--report", R.format(d=d)]
     before = _snapshot(d)
-    code, out, err = _run(argv, capsys)
+    code, out, err = run_cli(argv)
     assert code == 2, (case, out, err)
     lines = err.strip().splitlines()
     assert len(lines) == 1, (case, err)
@@ -213,12 +197,12 @@ def test_bad_input_is_one_line_exit_2_nothing_written(files, capsys, case, args,
     assert _snapshot(d) == before, case
 
 
-def test_negative_control_good_input_writes_both_outputs(files, capsys):
+def test_negative_control_good_input_writes_both_outputs(files, run_cli):
     """The same harness on good input: exit 0 and exactly the two outputs appear."""
     d = files
     argv = ["iso230", *[a.format(d=d) for a in GOOD], "--json", J.format(d=d), "--report", R.format(d=d)]
     before = _snapshot(d)
-    code, _, err = _run(argv, capsys)
+    code, _, err = run_cli(argv)
     assert code == 0, err
     after = _snapshot(d)
     assert set(after) - set(before) == {"out/iso.json", "out/iso.html"}

@@ -4,14 +4,12 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from drivelash.cli import main
 from drivelash.io import Trace
 from drivelash.iso230.synthetic import SyntheticAxis, synthetic_recording, synthetic_table
 
@@ -30,20 +28,6 @@ column = "direction"
 column = "x_dev"
 unit = "um"
 """
-
-
-def _run(argv: list[str], capsys) -> tuple[int, str, str]:
-    old = sys.argv
-    sys.argv = ["drivelash", *argv]
-    try:
-        main()
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    finally:
-        sys.argv = old
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def _table_csv(path: Path, tb: dict[str, np.ndarray]) -> Path:
@@ -76,11 +60,11 @@ def _estimate(path: Path, delta_load: float, u_load: float | None) -> Path:
     return path
 
 
-def test_table_end_to_end_with_deadzone(table, tmp_path, capsys):
+def test_table_end_to_end_with_deadzone(table, tmp_path, run_cli):
     csv, toml = table
     est = _estimate(tmp_path / "est.json", 12e-6, 0.3e-6)
     j, r = tmp_path / "iso.json", tmp_path / "iso.html"
-    code, out, err = _run(
+    code, out, err = run_cli(
         [
             "iso230",
             str(csv),
@@ -92,8 +76,7 @@ def test_table_end_to_end_with_deadzone(table, tmp_path, capsys):
             str(j),
             "--report",
             str(r),
-        ],
-        capsys,
+        ]
     )
     assert code == 0, err
     s = json.loads(j.read_text())
@@ -109,20 +92,18 @@ def test_table_end_to_end_with_deadzone(table, tmp_path, capsys):
     assert "B = " in out and "E_n" in out
 
 
-def test_deadzone_that_does_not_match_disagrees(table, tmp_path, capsys):
+def test_deadzone_that_does_not_match_disagrees(table, tmp_path, run_cli):
     """Negative control: a deadzone 30 % larger than the lost motion is flagged."""
     csv, toml = table
     est = _estimate(tmp_path / "est.json", 15.6e-6, 0.3e-6)
     j = tmp_path / "iso.json"
-    code, _, err = _run(
-        ["iso230", str(csv), "-c", str(toml), "--estimate", str(est), "--json", str(j)], capsys
-    )
+    code, _, err = run_cli(["iso230", str(csv), "-c", str(toml), "--estimate", str(est), "--json", str(j)])
     assert code == 0, err
     c = json.loads(j.read_text())["deadzone_comparison"]
     assert c["agree"] is False and c["E_n"] > 1
 
 
-def test_time_series_end_to_end(tmp_path, capsys):
+def test_time_series_end_to_end(tmp_path, run_cli):
     cols, truth = synthetic_recording(AXIS, m=7, n=3, seed=5, dwell=0.8)
     p = tmp_path / "rec.parquet"
     Trace({"t": cols["t"], "cmd": cols["P_cmd"] * 1e3, "laser": cols["P_actual"] * 1e3}).to_parquet(p)
@@ -133,15 +114,15 @@ def test_time_series_end_to_end(tmp_path, capsys):
         encoding="utf-8",
     )
     j = tmp_path / "rec.json"
-    code, _, err = _run(["iso230", str(p), "--config", str(toml), "--json", str(j)], capsys)
+    code, _, err = run_cli(["iso230", str(p), "--config", str(toml), "--json", str(j)])
     assert code == 0, err
     s = json.loads(j.read_text())
     assert s["input"] == "timeseries" and s["dwells"]["count"] == 7 * 3 * 2
     assert "rest position" in err  # the rest after the test is reported
 
 
-def _bad(capsys, argv: list[str], pattern: str, outputs: list[Path]) -> None:
-    code, out, err = _run(argv, capsys)
+def _bad(run_cli, argv: list[str], pattern: str, outputs: list[Path]) -> None:
+    code, out, err = run_cli(argv)
     assert code == 2, (out, err)
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("drivelash: error: "), err
@@ -152,21 +133,21 @@ def _bad(capsys, argv: list[str], pattern: str, outputs: list[Path]) -> None:
     assert not [q for q in outputs[0].parent.iterdir() if q.name.endswith(".part")]
 
 
-def test_fewer_than_two_runs(tmp_path, capsys):
+def test_fewer_than_two_runs(tmp_path, run_cli):
     tb = synthetic_table(AXIS, m=5, n=1, seed=1)
     csv = _table_csv(tmp_path / "one.csv", tb)
     toml = tmp_path / "t.toml"
     toml.write_text(TABLE_TOML, encoding="utf-8")
     j = tmp_path / "o.json"
     _bad(
-        capsys,
+        run_cli,
         ["iso230", str(csv), "-c", str(toml), "--json", str(j)],
         "needs at least 2 runs per direction",
         [j],
     )
 
 
-def test_unequal_targets(tmp_path, capsys):
+def test_unequal_targets(tmp_path, run_cli):
     tb = synthetic_table(AXIS, m=5, n=3, seed=1)
     keep = ~((tb["P_target"] == tb["P_target"].max()) & (tb["direction"] < 0))
     csv = _table_csv(tmp_path / "u.csv", {k: v[keep] for k, v in tb.items()})
@@ -174,20 +155,23 @@ def test_unequal_targets(tmp_path, capsys):
     toml.write_text(TABLE_TOML, encoding="utf-8")
     j = tmp_path / "o.json"
     _bad(
-        capsys, ["iso230", str(csv), "-c", str(toml), "--json", str(j)], "unequal targets: target 500 mm", [j]
+        run_cli,
+        ["iso230", str(csv), "-c", str(toml), "--json", str(j)],
+        "unequal targets: target 500 mm",
+        [j],
     )
 
 
-def test_units_mismatch_length_and_angle(tmp_path, capsys):
+def test_units_mismatch_length_and_angle(tmp_path, run_cli):
     tb = synthetic_table(AXIS, m=5, n=3, seed=1)
     csv = _table_csv(tmp_path / "u.csv", tb)
     toml = tmp_path / "t.toml"
     toml.write_text(TABLE_TOML.replace('unit = "um"', 'unit = "arcsec"'), encoding="utf-8")
     j = tmp_path / "o.json"
-    _bad(capsys, ["iso230", str(csv), "-c", str(toml), "--json", str(j)], "units mismatch", [j])
+    _bad(run_cli, ["iso230", str(csv), "-c", str(toml), "--json", str(j)], "units mismatch", [j])
 
 
-def test_units_mismatch_factor_1000(tmp_path, capsys):
+def test_units_mismatch_factor_1000(tmp_path, run_cli):
     """The laser column written in mm but declared µm moves 0.001× the command."""
     cols, _ = synthetic_recording(AXIS, m=5, n=2, seed=5, dwell=0.6)
     p = tmp_path / "rec.csv"
@@ -199,14 +183,14 @@ def test_units_mismatch_factor_1000(tmp_path, capsys):
     )
     r = tmp_path / "o.html"
     _bad(
-        capsys,
+        run_cli,
         ["iso230", str(p), "-c", str(toml), "--report", str(r)],
         "units mismatch: 'laser' moves 0.00099",
         [r],
     )
 
 
-def test_deviation_in_the_wrong_unit(tmp_path, capsys):
+def test_deviation_in_the_wrong_unit(tmp_path, run_cli):
     """Deviations in µm declared as mm spread over a large part of the travel: refused."""
     tb = synthetic_table(AXIS, m=5, n=3, seed=1)
     csv = _table_csv(tmp_path / "u.csv", tb)
@@ -214,50 +198,50 @@ def test_deviation_in_the_wrong_unit(tmp_path, capsys):
     toml.write_text(TABLE_TOML.replace('unit = "um"', 'unit = "mm"'), encoding="utf-8")
     j = tmp_path / "o.json"
     _bad(
-        capsys,
+        run_cli,
         ["iso230", str(csv), "-c", str(toml), "--json", str(j)],
         "units mismatch: the deviations spread",
         [j],
     )
 
 
-def test_estimate_without_transmission(table, tmp_path, capsys):
+def test_estimate_without_transmission(table, tmp_path, run_cli):
     csv, _ = table
     toml = tmp_path / "t.toml"
     toml.write_text(TABLE_TOML, encoding="utf-8")
     est = _estimate(tmp_path / "est.json", 12e-6, None)
     j = tmp_path / "o.json"
     _bad(
-        capsys,
+        run_cli,
         ["iso230", str(csv), "-c", str(toml), "--estimate", str(est), "--json", str(j)],
         "[transmission]",
         [j],
     )
 
 
-def test_config_errors_name_table_and_key(table, tmp_path, capsys):
+def test_config_errors_name_table_and_key(table, tmp_path, run_cli):
     csv, _ = table
     toml = tmp_path / "t.toml"
     toml.write_text(TABLE_TOML + "[dwell]\nT_setle = 0.3\n", encoding="utf-8")
     j = tmp_path / "o.json"
     _bad(
-        capsys,
+        run_cli,
         ["iso230", str(csv), "-c", str(toml), "--json", str(j)],
         "table [dwell], key 'T_setle': unknown key; did you mean 'T_settle'?",
         [j],
     )
     toml.write_text(TABLE_TOML + "[transmission]\nlead = -1\n", encoding="utf-8")
     _bad(
-        capsys,
+        run_cli,
         ["iso230", str(csv), "-c", str(toml), "--json", str(j)],
         "table [transmission], key 'lead': must be a finite number > 0",
         [j],
     )
 
 
-def test_output_may_not_overwrite_the_input(table, capsys):
+def test_output_may_not_overwrite_the_input(table, run_cli):
     csv, toml = table
     before = csv.read_bytes()
-    code, _, err = _run(["iso230", str(csv), "-c", str(toml), "--json", str(csv)], capsys)
+    code, _, err = run_cli(["iso230", str(csv), "-c", str(toml), "--json", str(csv)])
     assert code == 2 and "--json" in err
     assert csv.read_bytes() == before

@@ -6,7 +6,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import sys
 from datetime import datetime
 from pathlib import Path
 
@@ -14,7 +13,6 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from drivelash.cli import main
 from drivelash.iso230.synthetic import SyntheticAxis, synthetic_table
 from drivelash.wear.store import EstimateRow, Store
 
@@ -73,20 +71,6 @@ def _estimate(i: int, day: int, delta: float, **kw) -> EstimateRow:
     return EstimateRow(**base)
 
 
-def _run(argv: list[str], capsys) -> tuple[int, str, str]:
-    old = sys.argv
-    sys.argv = ["drivelash", *argv]
-    try:
-        main()
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    finally:
-        sys.argv = old
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
 @pytest.fixture
 def setup(tmp_path) -> tuple[Path, Path, Path]:
     db = tmp_path / "wear.sqlite"
@@ -119,11 +103,11 @@ def setup(tmp_path) -> tuple[Path, Path, Path]:
     return db, csv, toml
 
 
-def test_check_is_stored_and_compared_with_the_history(setup, tmp_path, capsys):
+def test_check_is_stored_and_compared_with_the_history(setup, tmp_path, run_cli):
     db, csv, toml = setup
     j = tmp_path / "o.json"
     argv = ["iso230", str(csv), "-c", str(toml), "--db", str(db), "--axis", "M01/X"]
-    code, out, err = _run([*argv, "--time", "2026-03-10T09:00", "--json", str(j)], capsys)
+    code, out, err = run_cli([*argv, "--time", "2026-03-10T09:00", "--json", str(j)])
     assert code == 0, err
     s = json.loads(j.read_text())
     # the deadzone is the excited estimate of 9 March, converted with the store's transmission
@@ -144,18 +128,18 @@ def test_check_is_stored_and_compared_with_the_history(setup, tmp_path, capsys):
     assert details["B"] == pytest.approx(s["axis"]["B"]) and details["targets"] == 9
     assert "stored as measurement" in out
     # the same file again: no second row
-    code, _, err = _run([*argv, "--time", "2026-03-10T09:00"], capsys)
+    code, _, err = run_cli([*argv, "--time", "2026-03-10T09:00"])
     assert code == 0, err
     with Store(db, create=False) as st:
         assert len(st.measurements("M01/X")) == 1
 
 
-def test_fleet_report_shows_the_laser_check(setup, tmp_path, capsys):
+def test_fleet_report_shows_the_laser_check(setup, tmp_path, run_cli):
     db, csv, toml = setup
-    code, _, err = _run(["iso230", str(csv), "-c", str(toml), "--db", str(db), "--axis", "M01/X"], capsys)
+    code, _, err = run_cli(["iso230", str(csv), "-c", str(toml), "--db", str(db), "--axis", "M01/X"])
     assert code == 0, err
     html = tmp_path / "fleet.html"
-    code, _, err = _run(["track", "report", "--db", str(db), "-o", str(html)], capsys)
+    code, _, err = run_cli(["track", "report", "--db", str(db), "-o", str(html)])
     assert code == 0, err
     text = html.read_text()
     assert "Measurements of other sources" in text and "iso230-2" in text
@@ -171,11 +155,11 @@ def test_fleet_report_shows_the_laser_check(setup, tmp_path, capsys):
         (["--db", "{db}", "--axis", "M01/Y", "--estimate", "{tmp}/est.json"], "needs a [transmission] table"),
     ],
 )
-def test_bad_history_options_are_one_line(setup, tmp_path, capsys, extra, needle):
+def test_bad_history_options_are_one_line(setup, tmp_path, run_cli, extra, needle):
     db, csv, toml = setup
     j = tmp_path / "o.json"
     extra = [e.format(db=db, tmp=tmp_path) for e in extra]
-    code, out, err = _run(["iso230", str(csv), "-c", str(toml), "--json", str(j), *extra], capsys)
+    code, out, err = run_cli(["iso230", str(csv), "-c", str(toml), "--json", str(j), *extra])
     assert code == 2, (out, err)
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("drivelash: error:") and needle in lines[0], err
@@ -185,7 +169,7 @@ def test_bad_history_options_are_one_line(setup, tmp_path, capsys, extra, needle
         assert st.measurements() == []
 
 
-def test_trend_plot_draws_the_laser_check_beside_the_estimates(setup, capsys):
+def test_trend_plot_draws_the_laser_check_beside_the_estimates(setup, run_cli):
     """The axis trend figure of the fleet report draws the stored check as a point with its
     error bar at its time and at its value on the deadzone scale (mrad), the same scale as
     the estimates of the recordings; an axis without a check draws none (negative control)."""
@@ -200,7 +184,7 @@ def test_trend_plot_draws_the_laser_check_beside_the_estimates(setup, capsys):
     matplotlib.use("Agg")
     db, csv, toml = setup
     argv = ["iso230", str(csv), "-c", str(toml), "--db", str(db), "--axis", "M01/X"]
-    code, _, err = _run([*argv, "--time", "2026-03-10T09:00"], capsys)
+    code, _, err = run_cli([*argv, "--time", "2026-03-10T09:00"])
     assert code == 0, err
     with Store(db, create=False) as st:
         summ = {s["axis"]: s for s in fleet_summary(st)}
