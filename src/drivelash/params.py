@@ -13,11 +13,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, fields
-from typing import Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
 from drivelash.errors import ParameterError
+
+if TYPE_CHECKING:  # annotation only: params does not import the estimation layer
+    from drivelash.estimation.motion import MotionSummary
 
 
 def require_finite(obj: object) -> None:
@@ -219,3 +222,266 @@ class SensorParams:
                 "velocity_source",
                 f"must be 'measured' or 'differentiated', got {self.velocity_source!r}",
             )
+
+
+#: Law of the deadzone estimator: the paper's gradient law or the improved default law.
+Method = Literal["paper", "default"]
+
+
+#: δ1 check: a configured δ1 within this of the joint law's δ̂1 is consistent [rad].
+OFFSET_FLOOR = 1e-3
+#: The motor-side shaft torque is used when N T_C,m ≤ this × the expected shaft torque.
+MOTOR_FRICTION_RATIO = 2.0
+#: … and N² J_m ≤ this × J_l.
+MOTOR_INERTIA_RATIO = 10.0
+
+
+@dataclass(frozen=True)
+class EstimatorConfig:
+    """Gains of the online deadzone estimator (never modified by the estimator).
+
+    The tuning rule of :meth:`tuned` is documented in :mod:`drivelash.estimation.estimator`.
+
+    Parameters
+    ----------
+    k1 : float
+        STSMO proportional gain [rad^½/s^{3/2}].
+    k2 : float
+        STSMO integral gain [rad/s³].
+    gamma : float
+        Adaptation rate of the paper's law [1/s] (``method="paper"``).
+    delta_max : float
+        Radius of the projection ball, upper bound of δ̂ [rad].
+    eps_delta : float
+        Boundary-layer width ε_δ of the projection [-].
+    delta0 : float
+        Initial estimate δ̂(t0) [rad] (0 or an underestimate).
+    alpha : float
+        Smoothness α of the model (11) used by the estimator [1/rad].
+    method : {"paper", "default"}
+        Plain gradient law of the paper, or the improved default law.
+    omega_c : float
+        Cut-off of the Δθ complementary filter [rad/s] (default method; 0 = off).
+    tau_f : float
+        Time constant of the residual/regressor low-pass [s] (default method; 0 = off).
+    lam : float
+        Leakage rate λ of the least-squares gain towards P0 [1/s] (default method).
+    P_max : float
+        Initial least-squares gain P0 of δ [1/s] (default method).
+    omega_eps : float
+        Regularisation velocity of the load-friction sign [rad/s] (default method; 0 = sgn).
+    T_thr : float
+        Shaft-torque threshold of a contact for the excitation monitor [N·m].
+    window : float
+        Length of the sliding excitation window [s].
+    estimate_stiffness : bool
+        Learn the stiffness scale κ = K_S,true/K_S (default method).
+    estimate_offset : bool
+        Learn δ1 jointly instead of taking it from the configuration (default method).
+    q_offset : float
+        Gain of δ1 relative to δ's [-] (``estimate_offset``).
+    offset_check : bool
+        Run the δ1 check alongside (both methods): the default law with δ1 estimated jointly.
+    offset_switch : float
+        |δ̂1 − δ1| up to which the configured δ1 is consistent with the data [rad].
+    theta_def : float
+        Typical contact deflection [rad]: scales the initial gain of κ, P0 = q_aux P_max/θ_def².
+    q_aux : float
+        Gain of κ relative to δ's [-].
+    reset_e : float
+        Gain reset threshold on the filtered residual, in units of θ_def [-]; 0 = off.
+    reset_t : float
+        Time the residual must stay beyond it (in informative samples) [s].
+    torque_source : {"load", "motor"}
+        Shaft torque from the load observer J_l φ̂ or from the motor side (recorded motor
+        torque; default method only, falls back to the load observer without the column).
+    k1_m, k2_m : float
+        Gains of the motor-side observer [rad^½/s^{3/2}], [rad/s³].
+    lam_g : float
+        Rate of the torque-offset learning in the gap [1/s] (default method; 0 = off).
+    omega_g : float
+        Speed above which the gap offset is learnt, load side [rad/s].
+    gap_margin : float
+        Margin of the gap region used for it, fraction of the modelled gap [-].
+    """
+
+    k1: float
+    k2: float
+    gamma: float
+    delta_max: float
+    eps_delta: float = 0.1
+    delta0: float = 0.0
+    alpha: float = 1000.0
+    method: Method = "default"
+    omega_c: float = 0.0
+    tau_f: float = 0.0
+    lam: float = 0.5
+    P_max: float = 10.0
+    omega_eps: float = 0.0
+    T_thr: float = 0.01
+    window: float = 2.0
+    estimate_stiffness: bool = True
+    estimate_offset: bool = False
+    q_offset: float = 1.0
+    offset_check: bool = True
+    offset_switch: float = OFFSET_FLOOR
+    theta_def: float = 1e-3
+    q_aux: float = 0.1
+    reset_e: float = 0.0
+    reset_t: float = 0.02
+    torque_source: Literal["load", "motor"] = "load"
+    k1_m: float = 1.0
+    k2_m: float = 1.0
+    lam_g: float = 0.0
+    omega_g: float = 0.1
+    gap_margin: float = 0.15
+    contact_bound: bool = True
+
+    def __post_init__(self) -> None:
+        name = type(self).__name__
+        for f in (
+            "k1",
+            "k2",
+            "gamma",
+            "delta_max",
+            "eps_delta",
+            "alpha",
+            "lam",
+            "P_max",
+            "T_thr",
+            "window",
+            "q_offset",
+            "offset_switch",
+            "reset_t",
+            "theta_def",
+            "q_aux",
+            "k1_m",
+            "k2_m",
+            "omega_g",
+        ):
+            v = getattr(self, f)
+            if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ParameterError(name, f, f"must be finite and > 0, got {v!r}")
+        for f in ("delta0", "omega_c", "tau_f", "omega_eps", "reset_e", "lam_g", "gap_margin"):
+            v = getattr(self, f)
+            if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise ParameterError(name, f, f"must be finite and >= 0, got {v!r}")
+        if self.gap_margin >= 0.5:
+            raise ParameterError(name, "gap_margin", f"must be < 0.5, got {self.gap_margin!r}")
+        if self.delta0 > self.delta_max:
+            raise ParameterError(
+                name, "delta0", f"must be <= delta_max = {self.delta_max}, got {self.delta0}"
+            )
+        if self.method not in ("paper", "default"):
+            raise ParameterError(name, "method", f"must be 'paper' or 'default', got {self.method!r}")
+        if self.torque_source not in ("load", "motor"):
+            raise ParameterError(
+                name, "torque_source", f"must be 'load' or 'motor', got {self.torque_source!r}"
+            )
+
+    @classmethod
+    def tuned(
+        cls,
+        drivetrain: DrivetrainParams,
+        T_s: float,
+        f_exc: float = 0.5,
+        method: Method = "default",
+        delta_max: float | None = None,
+        motion: MotionSummary | None = None,
+        **overrides: Any,
+    ) -> EstimatorConfig:
+        """Default gains from the documented scaling rule (module docstring).
+
+        Parameters
+        ----------
+        drivetrain : DrivetrainParams
+            Drive-train parameters as known to the estimator.
+        T_s : float
+            Sample time [s].
+        f_exc : float
+            Excitation (motion reversal) frequency [Hz]; ``motion.f_exc`` when ``motion`` is given.
+        method : {"paper", "default"}
+            Law to tune.
+        delta_max : float, optional
+            Upper bound of δ [rad]; default 2 rad.
+        motion : MotionSummary, optional
+            Pass-1 summary of the recording: scales the contact threshold with the torque it
+            carries and chooses the motor-side torque source when it has a motor torque.
+        **overrides
+            Any field of :class:`EstimatorConfig` to set explicitly (``None`` values ignored).
+        """
+        if motion is not None:
+            f_exc = motion.f_exc
+        if not (T_s > 0 and math.isfinite(T_s)):
+            raise ParameterError(cls.__name__, "T_s", f"sample time must be > 0, got {T_s!r}")
+        if not (f_exc > 0 and math.isfinite(f_exc)):
+            raise ParameterError(cls.__name__, "f_exc", f"must be > 0, got {f_exc!r}")
+        J_l, K_S, N, J_m = drivetrain.J_l, drivetrain.K_S, drivetrain.N, drivetrain.J_m
+        w_r = 2.0 * math.pi * f_exc
+        w_n = math.sqrt(K_S / J_l)
+        motor = method == "default" and motion is not None and motion.torque_rms is not None
+        if motor and motion is not None:
+            # the motor side sees the shaft torque through its own friction: use it only when
+            # that friction (load side, N T_C,m) is not much larger than the shaft torque
+            T_shaft = J_l * motion.a_typ + drivetrain.T_Cl + drivetrain.beta_l * motion.v_typ
+            motor = N * drivetrain.T_Cm <= MOTOR_FRICTION_RATIO * T_shaft
+            # … and through its reflected inertia N² J_m: when it dwarfs J_l the shaft torque is
+            # a small perturbation of the motor's own dynamics
+            motor = motor and N * N * J_m <= MOTOR_INERTIA_RATIO * J_l
+        src = overrides.get("torque_source")
+        if src is not None:
+            motor = src == "motor"
+        # contact torque scale: friction, or 1 mrad of shaft deflection if frictionless —
+        # capped by the torque the recording carries (a stiff drive's contact torque can be
+        # far below 1 mrad of deflection)
+        T_ref = max(drivetrain.T_Cl, 1e-3 * K_S)
+        if motion is not None:
+            if motor and motion.torque_rms is not None:
+                T_data = N * motion.torque_rms
+            else:
+                T_data = J_l * motion.a_typ + drivetrain.T_Cl + drivetrain.beta_l * motion.v_typ
+            if T_data > 0:
+                T_ref = min(T_ref, T_data)
+        T_thr = 0.5 * T_ref
+        rho = (K_S / J_l) * w_r * 1.0
+        # slower observer when the sample time is coarse against the shaft resonance
+        s_ts = min(1.0, 0.1 / (w_n * T_s))
+        k2 = 1.1 * rho * s_ts * s_ts
+        k1 = 1.5 * math.sqrt(rho) * s_ts
+        rho_m = K_S * w_r / (N * J_m)
+        w_nm = math.sqrt(K_S / (N * N * J_m))
+        s_m = min(1.0, 0.1 / (max(w_nm, w_n) * T_s))
+        theta_def = T_ref / K_S
+        alpha = min(max(20.0 / theta_def, 1e3), 1e5)
+        v_typ = motion.v_typ if motion is not None and motion.v_typ > 0 else math.pi * f_exc
+        values: dict[str, Any] = dict(
+            k1=k1,
+            k2=k2,
+            gamma=w_n / 16.0,
+            delta_max=2.0 if delta_max is None else delta_max,
+            eps_delta=0.1,
+            delta0=0.0,
+            alpha=alpha,
+            method=method,
+            omega_c=10.0 * w_r,
+            tau_f=max(2.0 / w_n, 4.0 * T_s),
+            lam=w_r / 25.0,
+            P_max=16.0 * w_r,
+            omega_eps=0.0,
+            T_thr=T_thr,
+            window=max(2.0 / f_exc, 1.0),
+            theta_def=theta_def,
+            reset_e=3.0,
+            reset_t=max(2.0 * (2.0 / w_n), 4.0 * T_s),
+            torque_source="motor" if motor else "load",
+            k1_m=1.5 * math.sqrt(rho_m) * s_m,
+            k2_m=1.1 * rho_m * s_m * s_m,
+            lam_g=w_r,
+            omega_g=0.05 * v_typ,
+        )
+        values.update({k: v for k, v in overrides.items() if v is not None})
+        return cls(**values)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dict of the fields (JSON output)."""
+        return asdict(self)

@@ -203,3 +203,28 @@ def test_estimate_prints_load_warnings_and_unwraps(bench_csv, tmp_path, capsys):
     d_counts = json.loads(js_counts.read_text())["delta"]
     # the SI recording is already quantised to 2048 counts, so both see the same positions
     assert d_counts == pytest.approx(d_si, abs=1e-9)
+
+
+def test_estimator_table_sets_any_gain_and_the_command_line_wins(bench_csv, tmp_path, capsys):
+    """[estimator] reaches EstimatorConfig key for key (here method, eps_delta, window);
+    --method on the command line overrides the file's method."""
+    cfg = _toml(tmp_path, GOOD_TOML + '\n[estimator]\nmethod = "paper"\neps_delta = 0.05\nwindow = 3.0\n')
+    out = tmp_path / "o.json"
+    code, _, err = _run(["estimate", str(bench_csv), "--config", str(cfg), "--json", str(out)], capsys)
+    assert code == 0, err
+    d = json.loads(out.read_text())
+    assert d["method"] == "paper" and d["gains"]["method"] == "paper"
+    assert d["gains"]["eps_delta"] == 0.05 and d["gains"]["window"] == 3.0
+    code, _, err = _run(
+        ["estimate", str(bench_csv), "--config", str(cfg), "--json", str(out), "--method", "default"], capsys
+    )
+    assert code == 0, err
+    assert json.loads(out.read_text())["method"] == "default"
+    # alpha given twice with different values is refused, not silently resolved
+    both = _toml(
+        tmp_path,
+        GOOD_TOML.replace("delta1 = 0.093", "delta1 = 0.093\nalpha = 500.0")
+        + "\n[estimator]\nalpha = 900.0\n",
+    )
+    code, _, err = _run(["estimate", str(bench_csv), "--config", str(both)], capsys)
+    assert code == 2 and "key 'alpha'" in err and "[backlash]" in err

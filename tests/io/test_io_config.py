@@ -101,9 +101,22 @@ def test_sections_optional_until_required():
 
 
 def test_invalid_physical_value_names_table_and_field():
-    cfg = loads_config("[drivetrain]\nJ_m = -1\nJ_l = 1\nN = 1\nK_S = 1\nD_S = 0\n", source="x.toml")
-    with pytest.raises(ConfigError, match=r"x.toml: \[drivetrain\] DrivetrainParams.J_m: must be > 0"):
-        cfg.to_drivetrain_params()
+    """A complete table is checked by the dataclass's own __post_init__ when the file loads."""
+    text = "[drivetrain]\nJ_m = -1\nJ_l = 1\nN = 1\nK_S = 1\nD_S = 0\n"
+    with pytest.raises(ConfigError, match=r"^x.toml: table \[drivetrain\], key 'J_m': must be > 0, got -1"):
+        loads_config(text, source="x.toml")
+    # cross-field check of the dataclass (static >= Coulomb friction)
+    text = "[drivetrain]\nJ_m = 1\nJ_l = 1\nN = 1\nK_S = 1\nD_S = 0\nT_Cm = 0.2\nT_Sm = 0.1\n"
+    with pytest.raises(
+        ConfigError, match=r"table \[drivetrain\], key 'T_Sm': static friction must be 0 or >= T_Cm"
+    ):
+        loads_config(text, source="x.toml")
+    # a partial table is checked when the command completes it
+    cfg = loads_config("[backlash]\ndelta1 = 0.3\n", source="x.toml")
+    with pytest.raises(
+        ConfigError, match=r"x.toml: table \[backlash\], key 'delta1': must lie in \[0, delta\]"
+    ):
+        cfg.to_backlash_params(delta=0.2)
 
 
 def test_missing_and_non_utf8_files(tmp_path):
@@ -173,7 +186,159 @@ def test_fuzz_raw_toml_text_only_raises_toolkit_errors(text):
 
 
 def test_nan_values_are_rejected_by_params():
-    cfg = loads_config("[drivetrain]\nJ_m = nan\nJ_l = 1\nN = 1\nK_S = 1\nD_S = 0\n")
-    assert math.isnan(cfg.drivetrain.J_m)
+    with pytest.raises(ConfigError, match=r"table \[drivetrain\], key 'J_m': must be finite"):
+        loads_config("[drivetrain]\nJ_m = nan\nJ_l = 1\nN = 1\nK_S = 1\nD_S = 0\n")
+    partial = loads_config("[drivetrain]\nJ_m = nan\n")  # incomplete: checked when completed
+    assert math.isnan(partial.drivetrain.J_m)
     with pytest.raises(ConfigError, match="finite"):
-        cfg.to_drivetrain_params()
+        partial.params("drivetrain", J_l=1.0, N=1.0, K_S=1.0, D_S=0.0)
+
+
+# ----------------------------------------------------------------------------- one schema
+def test_tables_are_generated_from_the_dataclasses():
+    """Keys, defaults and units of [drivetrain], [backlash], [estimator] are the dataclasses'."""
+    import dataclasses
+
+    from drivelash.io.config import BacklashSection, DrivetrainSection, EstimatorSection, unit_of
+    from drivelash.params import EstimatorConfig
+
+    for model, cls in (
+        (DrivetrainSection, DrivetrainParams),
+        (BacklashSection, BacklashParams),
+        (EstimatorSection, EstimatorConfig),
+    ):
+        fields = [f for f in dataclasses.fields(cls) if f.init]
+        assert list(model.model_fields) == [f.name for f in fields]  # every field, same order
+        for f in fields:
+            if model is not EstimatorSection and f.default is not dataclasses.MISSING:
+                assert model.model_fields[f.name].default == f.default
+            if f.type in ("float", float):
+                assert unit_of(model, f.name), f"{cls.__name__}.{f.name} has no unit in its numpydoc"
+    assert len(EstimatorSection.model_fields) >= 24
+    # the unit of eps_delta is the dataclass's (a ratio), not [rad]
+    assert unit_of(EstimatorSection, "eps_delta") == "-"
+    assert unit_of(EstimatorSection, "k2") == "rad/s³"
+    assert unit_of(DrivetrainSection, "J_m") == "kg·m²"
+    assert "inertia" in DrivetrainSection.model_fields["J_m"].description.lower()
+
+
+def test_every_estimator_key_reaches_the_estimator_config():
+    """Each [estimator] key overrides the tuning rule, value for value."""
+    from drivelash.params import EstimatorConfig
+
+    text = (
+        "[estimator]\nk1 = 11.0\nk2 = 222.0\ngamma = 3.0\ndelta_max = 1.5\neps_delta = 0.2\n"
+        'delta0 = 0.01\nalpha = 500.0\nmethod = "paper"\nomega_c = 12.0\ntau_f = 0.01\nlam = 0.3\n'
+        "P_max = 9.0\nomega_eps = 0.001\nT_thr = 0.02\nwindow = 3.0\nestimate_stiffness = false\n"
+        "estimate_offset = true\nq_offset = 0.5\noffset_check = false\noffset_switch = 0.004\n"
+        "theta_def = 0.002\nq_aux = 0.2\nreset_e = 2.0\nreset_t = 0.05\n"
+    )
+    cfg = loads_config(text)
+    given = cfg.estimator.given()
+    assert set(given) == {f.name for f in __import__("dataclasses").fields(EstimatorConfig)}
+    rig = DrivetrainParams(J_m=8.31e-4, J_l=8.31e-4, N=1.0, K_S=32.94, D_S=0.0548, T_Cl=0.0232)
+    ec = EstimatorConfig.tuned(rig, 125e-6, 0.5, **given)
+    for k, v in given.items():
+        assert getattr(ec, k) == v, k
+
+
+@pytest.mark.parametrize(
+    ("text", "expect"),
+    [
+        ("[drivetrain]\nJ_m = true\n", "table [drivetrain], key 'J_m': Input should be a valid number"),
+        ('[drivetrain]\nJ_m = "1.5"\n', "table [drivetrain], key 'J_m': Input should be a valid number"),
+        ("[estimator]\nestimate_stiffness = 1\n", "'estimate_stiffness': Input should be a valid boolean"),
+        ('[estimator]\nmethod = "fast"\n', "key 'method': Input should be 'paper' or 'default'"),
+        ("[estimator]\nK_S = 3.0\n", "[estimator], key 'K_S': unknown key; it is a key of [drivetrain]"),
+        ("drivetrain = 3\n", "table [drivetrain] must be a table"),
+        ("[estimator]\neps_delta = -0.1\n", None),  # partial table: checked by the estimator (below)
+    ],
+)  # fmt: skip
+def test_strict_types_and_helpful_errors(text, expect):
+    if expect is None:
+        cfg = loads_config(text, source="e.toml")
+        from drivelash.params import EstimatorConfig
+
+        with pytest.raises(DrivelashError, match="eps_delta"):
+            EstimatorConfig.tuned(DrivetrainParams(1, 1, 1, 1, 0), 1e-3, **cfg.estimator.given())
+        return
+    with pytest.raises(ConfigError) as ei:
+        loads_config(text, source="e.toml")
+    assert str(ei.value).startswith("e.toml: ") and expect in str(ei.value), str(ei.value)
+
+
+def test_param_docs_reads_numpydoc_entries_and_units():
+    from drivelash.io.config import param_docs
+
+    class Thing:
+        """A thing.
+
+        Parameters
+        ----------
+        a, b : float
+            Two lengths [m]; the second
+            may wrap.
+        n : int
+            A count.
+        ratio : float
+            Dimensionless [-].
+
+        Notes
+        -----
+        x : float
+            Not a parameter [s].
+        """
+
+    d = param_docs(Thing)
+    assert d["a"] == ("Two lengths [m]; the second may wrap.", "m") and d["b"][1] == "m"
+    assert d["n"] == ("A count.", None)
+    assert d["ratio"][1] == "-"
+    assert "x" not in d
+
+
+def test_extension_point_a_new_file_with_a_generated_table(tmp_path):
+    """How another owner adds a table: generate it from a dataclass, list it in a file model."""
+    import dataclasses
+
+    from drivelash.errors import ParameterError
+    from drivelash.io.config import ConfigFile, EstimatorSection, load_file, section
+
+    @dataclasses.dataclass(frozen=True)
+    class Geometry:
+        """Rack geometry.
+
+        Parameters
+        ----------
+        m_n : float
+            Normal module [m].
+        z : int
+            Number of pinion teeth [-].
+        """
+
+        m_n: float
+        z: int = 20
+
+        def __post_init__(self):
+            if not self.m_n > 0:
+                raise ParameterError("Geometry", "m_n", f"must be > 0, got {self.m_n!r}")
+
+    class AxisFile(ConfigFile):
+        geometry: section(Geometry, overrides=True) | None = None  # type: ignore[valid-type]
+        estimator: EstimatorSection | None = None  # type: ignore[valid-type]
+
+    p = tmp_path / "axis.toml"
+    p.write_text("[geometry]\nz = 24\n[estimator]\nk1 = 3.0\n")
+    cfg = load_file(p, AxisFile)
+    assert cfg.params("geometry", base=Geometry(m_n=0.004)) == Geometry(m_n=0.004, z=24)
+    assert cfg.estimator.k1 == 3.0
+    p.write_text("[geometry]\nm_n = -1.0\n")
+    with pytest.raises(ConfigError, match=rf"^{p}: table \[geometry\], key 'm_n': must be > 0, got -1.0$"):
+        load_file(p, AxisFile).params("geometry", base=Geometry(m_n=0.004))
+    p.write_text("[geometry]\nm_N = 0.004\n")
+    with pytest.raises(
+        ConfigError, match=r"table \[geometry\], key 'm_N': unknown key; did you mean 'm_n'\?"
+    ):
+        load_file(p, AxisFile)
+    p.write_text("[geometri]\nm_n = 0.004\n")
+    with pytest.raises(ConfigError, match=r"unknown table \[geometri\]; did you mean 'geometry'\?"):
+        load_file(p, AxisFile)

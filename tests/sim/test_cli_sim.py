@@ -68,7 +68,7 @@ def test_simulate_writes_trace(
         (("simulate", "bench-0A", "-o", "x.parquet", "--duration", "-1"), "duration"),
         (("simulate", "bench-0A", "-o", "x.txt"), "unsupported extension"),
         (("simulate", "bad.toml", "-o", "x.parquet"), "J_m"),
-        (("simulate", "missing.toml", "-o", "x.parquet"), "no such file"),
+        (("simulate", "missing.toml", "-o", "x.parquet"), "no such configuration file"),
     ],
 )
 def test_user_errors_are_one_line(

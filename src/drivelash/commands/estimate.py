@@ -28,34 +28,50 @@ MAEE_FRACTION = 1.0 / 3.0
 SS_FRACTION = 1.0 / 6.0
 
 
-def _estimator_overrides(cfg: Any) -> dict[str, Any]:
-    """Keys of ``[estimator]`` (and ``[backlash] alpha``) that override the tuning rule."""
-    over: dict[str, Any] = {}
-    if cfg.estimator is not None:
-        over = {k: v for k, v in cfg.estimator.model_dump().items() if v is not None}
+def _estimator_overrides(cfg: Any, method: str | None = None) -> tuple[str, dict[str, Any], bool]:
+    """The law and the keys that override the tuning rule.
+
+    ``--method`` (``method``) wins over ``[estimator] method``, else "default"; the other keys
+    of ``[estimator]`` and ``[backlash] alpha`` override the tuning rule (alpha given in both
+    tables with different values is an error). Returns (method, overrides, alpha taken from
+    ``[backlash]``).
+    """
+    from drivelash.errors import ConfigError
+
+    src = cfg.source or "<config>"
+    over: dict[str, Any] = cfg.estimator.given() if cfg.estimator is not None else {}
+    file_method = over.pop("method", None)
+    law = method if method is not None else (file_method or "default")
     bl = cfg.backlash
-    if bl is not None and "alpha" in bl.model_fields_set:
+    alpha_from_backlash = bl is not None and "alpha" in bl.model_fields_set and "alpha" not in over
+    if bl is not None and "alpha" in bl.model_fields_set and over.get("alpha", bl.alpha) != bl.alpha:
+        raise ConfigError(
+            f"{src}: table [estimator], key 'alpha': {over['alpha']!r} contradicts [backlash] alpha"
+            f" = {bl.alpha!r} (give it once)"
+        )
+    if alpha_from_backlash:
         over["alpha"] = bl.alpha
-    return over
+    return law, over, alpha_from_backlash
 
 
 def _estimator_config(
-    cfg: Any, drivetrain: Any, T_s: float, f_exc: float, method: str, motion: Any = None
+    cfg: Any, drivetrain: Any, T_s: float, f_exc: float, method: str | None, motion: Any = None
 ) -> Any:
-    """Gains: the tuning rule (from the recording's motion when given), overridden by the file."""
+    """Gains: the tuning rule (from the recording's motion when given), overridden by the file
+    and by ``--method``."""
     from drivelash.errors import ConfigError, ParameterError
-    from drivelash.estimation.estimator import EstimatorConfig
+    from drivelash.params import EstimatorConfig
 
     src = cfg.source or "<config>"
-    over = _estimator_overrides(cfg)
+    law, over, alpha_from_backlash = _estimator_overrides(cfg, method)
     try:
-        return EstimatorConfig.tuned(drivetrain, T_s, f_exc, method=method, motion=motion, **over)  # type: ignore[arg-type]
+        return EstimatorConfig.tuned(drivetrain, T_s, f_exc, method=law, motion=motion, **over)  # type: ignore[arg-type]
     except ParameterError as exc:
-        table = "backlash" if exc.field == "alpha" else "estimator"
+        table = "backlash" if exc.field == "alpha" and alpha_from_backlash else "estimator"
         raise ConfigError(f"{src}: table [{table}], key '{exc.field}': {exc.problem}") from None
 
 
-def estimate_trace(cfg: Any, trace: Any, method: str = "default") -> tuple[Any, Any]:
+def estimate_trace(cfg: Any, trace: Any, method: str | None = None) -> tuple[Any, Any]:
     """The estimator exactly as ``drivelash estimate`` runs it on a loaded recording.
 
     Two passes (:func:`drivelash.estimation.estimator.estimate_blocks`): the recording's
@@ -69,8 +85,8 @@ def estimate_trace(cfg: Any, trace: Any, method: str = "default") -> tuple[Any, 
     trace : Trace
         The recording (``theta_m``, ``omega_m``, ``theta_l``, ``omega_l``; ``torque_m`` used
         when present).
-    method : {"paper", "default"}
-        Law.
+    method : {"paper", "default"}, optional
+        Law; None: ``[estimator] method`` of the file, else "default".
 
     Returns
     -------
@@ -89,12 +105,13 @@ def estimate_trace(cfg: Any, trace: Any, method: str = "default") -> tuple[Any, 
     blocks = trace_blocks(trace)
     motion = scan_blocks(blocks, drivetrain.N)
     _estimator_config(cfg, drivetrain, trace.T_s, motion.f_exc, method, motion=motion)  # names a bad key
+    law, over, _ = _estimator_overrides(cfg, method)
     res = estimate_blocks(
         drivetrain,
         float(bl.delta1),
         blocks,
-        method=method,  # type: ignore[arg-type]
-        overrides=_estimator_overrides(cfg),
+        method=law,  # type: ignore[arg-type]
+        overrides=over,
         motion=motion,
     )
     return res, motion
@@ -137,7 +154,7 @@ def run_estimate(
     *,
     json_out: Path | None = None,
     plot: Path | None = None,
-    method: str = "default",
+    method: str | None = None,
     report: Path | None = None,
     quiet: bool = False,
     identify: bool = False,
@@ -153,7 +170,7 @@ def run_estimate(
     from drivelash.estimation.estimator import INPUT_COLUMNS
     from drivelash.io import load_config, load_trace
 
-    if method not in ("paper", "default"):
+    if method not in (None, "paper", "default"):
         raise DrivelashError(f"--method: must be 'paper' or 'default', got {method!r}")
     for p in (json_out, plot, report):
         if p is not None and not p.parent.exists():
@@ -308,8 +325,10 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         ),
         json_out: Path | None = typer.Option(None, "--json", help="Write a JSON summary here."),
         plot: Path | None = typer.Option(None, "--plot", help="Write a PNG of δ̂(t) and torque vs Δθ here."),
-        method: str = typer.Option(
-            "default", "--method", help="paper (the paper's law) or default (improved)."
+        method: str | None = typer.Option(
+            None,
+            "--method",
+            help="paper (the paper's law) or default (improved); default: [estimator] method, else default.",
         ),
         report: Path | None = typer.Option(None, "--report", help="Write a self-contained HTML report here."),
         identify: bool = typer.Option(

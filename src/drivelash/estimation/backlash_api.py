@@ -71,7 +71,7 @@ def estimate_from_config(
     trace: Trace,
     cfg: Any,
     *,
-    method: str = "default",
+    method: str | None = "default",
     drivetrain: Any = None,
     delta1: float | None = None,
 ) -> BacklashEstimate:
@@ -84,8 +84,8 @@ def estimate_from_config(
         θ_m, ω_m, θ_l, ω_l [rad, rad/s] (torque and the true δ optional).
     cfg : DriveConfig
         ``[drivetrain]``, ``[backlash] delta1``, optional ``[estimator]`` gains.
-    method : {"default", "paper"}
-        Adaptation law.
+    method : {"default", "paper"} or None
+        Adaptation law; None: the file's ``[estimator] method``, else "default".
     drivetrain : DrivetrainParams, optional
         Replaces ``[drivetrain]``.
     delta1 : float, optional
@@ -96,7 +96,7 @@ def estimate_from_config(
     from drivelash.io.config import BacklashSection, DrivetrainSection
     from drivelash.metrics import maee, steady_state_peak
 
-    if method not in ("paper", "default"):
+    if method not in (None, "paper", "default"):
         raise DrivelashError(f"--method: must be 'paper' or 'default', got {method!r}")
     update: dict[str, Any] = {}
     if drivetrain is not None:  # the same validation path as a [drivetrain] table
@@ -110,7 +110,7 @@ def estimate_from_config(
     res, motion = estimate_trace(cfg, trace, method)
     t = res.t
     summary: dict[str, Any] = {
-        "method": method,
+        "method": res.config.method,
         "delta": res.delta,
         "delta1": float(cfg.backlash.delta1),
         "excitation_ok": res.excitation_ok,
@@ -217,7 +217,9 @@ def _needs_identification(cfg: Any) -> bool:
     return dt is None or any(getattr(dt, k) is None for k in ("J_m", "J_l", "K_S", "D_S"))
 
 
-def estimate_with_identification(trace: Trace, cfg: Any, *, method: str = "default") -> BacklashEstimate:
+def estimate_with_identification(
+    trace: Trace, cfg: Any, *, method: str | None = "default"
+) -> BacklashEstimate:
     """``drivelash estimate --identify``: identify the drive offline, then run the online law.
 
     Drive-train values the configuration gives are kept; the ones it lacks (and δ1 when
@@ -268,7 +270,7 @@ def estimate_with_identification(trace: Trace, cfg: Any, *, method: str = "defau
             d1 = float(p.value)
     if why is not None:
         summary: dict[str, Any] = {
-            "method": method,
+            "method": method or "default",
             "delta": None,
             "delta1": d1,
             "excitation_ok": False,

@@ -41,13 +41,20 @@ def excitation_frequency_of(scenario: Any) -> float:
 
 
 def estimator_for(scenario: Any, method: Method, **overrides: Any) -> DeadzoneEstimator:
-    """The default-tuned estimator for a scenario's estimator-side parameters."""
+    """The default-tuned estimator for a scenario's estimator-side parameters.
+
+    Gains: the tuning rule, then the scenario's ``[estimator]`` settings
+    (``scenario.estimator_overrides``; its ``method`` is replaced by ``method``), then
+    ``overrides``.
+    """
+    kw = {k: v for k, v in getattr(scenario, "estimator_overrides", {}).items() if k != "method"}
+    kw.update(overrides)
     cfg = EstimatorConfig.tuned(
         scenario.estimator_drivetrain,
         scenario.T_s,
         f_exc=excitation_frequency_of(scenario),
         method=method,
-        **overrides,
+        **kw,
     )
     return DeadzoneEstimator(
         scenario.estimator_drivetrain, scenario.estimator_backlash.delta1, scenario.T_s, cfg

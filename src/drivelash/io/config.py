@@ -1,31 +1,87 @@
-"""TOML configuration: pydantic v2 models mirroring :mod:`drivelash.params`.
+"""One configuration schema: TOML tables generated from the parameter dataclasses.
 
-A configuration file has these tables, all optional at parse time (a command
-that needs one calls :meth:`DriveConfig.require`)::
+Every table that holds parameters is a pydantic model **generated** from the frozen
+dataclass the code runs on (:func:`section`): the same keys, types and defaults, the unit
+from the dataclass's numpydoc (``Field.description`` and ``json_schema_extra["unit"]``),
+and the value checks of the dataclass's own ``__post_init__`` — one source of truth. A
+table means the same in every file:
 
-    [drivetrain]      # DrivetrainParams: J_m, J_l, N, K_S, D_S, T_Cm, … (SI units)
-    [backlash]        # BacklashParams: delta1, alpha, optional delta
-    [estimator]       # k1, k2, gamma, delta_max, eps_delta, delta0 (all optional)
-    [columns.<src>]   # source column <src> → Trace column, unit and scale
-    [sampling]        # time unit, constant sample rate, jitter tolerance, resampling
-    [identification]  # filter cut-off, decimation, … for ``drivelash identify``
+=================  =====================================================================
+``[drivetrain]``   :class:`~drivelash.params.DrivetrainParams` — the drive train as the
+                   estimator/model is told it [SI]
+``[backlash]``     :class:`~drivelash.params.BacklashParams` — ``delta``, ``delta1`` [rad],
+                   ``alpha`` [1/rad]
+``[estimator]``    :class:`~drivelash.params.EstimatorConfig` — every gain of the deadzone
+                   estimator; a key left out comes from the tuning rule
+``[columns.<src>]`` source column → Trace column, unit and scale (:class:`ColumnMap`)
+``[sampling]``     time unit, sample rate, jitter tolerance (:class:`SamplingSection`)
+``[identification]`` options of ``drivelash identify`` (:class:`IdentificationSection`)
+=================  =====================================================================
 
-Errors are :class:`~drivelash.errors.ConfigError` with one line naming the file,
-the table and the key; an unknown key comes with the closest valid key.
+Files are pydantic models too, subclasses of :class:`ConfigFile` listing their tables:
+:class:`DriveConfig` (``estimate``, ``identify``, ``observe``) and the scenario file
+(:class:`drivelash.sim.scenarios.ScenarioFile`: ``base`` plus ``[plant]``, ``[drivetrain]``,
+``[backlash]``, ``[gains]``, ``[sensors]``, ``[reference]``, ``[deadzone]``,
+``[estimator]``). Errors are :class:`~drivelash.errors.ConfigError`, one line naming the
+file, the table and the key; an unknown key comes with the closest valid key, or with the
+table it belongs to.
+
+Adding a table (for another owner's file)
+-----------------------------------------
+Generate the table from your frozen dataclass and list it in your file model; nothing
+in this module changes::
+
+    from drivelash.io.config import ConfigFile, EstimatorSection, load_file, section
+    from drivelash.physics.rack_pinion import RackPinionBench
+
+    GeometrySection = section(RackPinionBench, overrides=True)   # [geometry]
+
+    class AxisFile(ConfigFile):
+        '''An axis file: [geometry] and the estimator gains.'''
+        geometry: GeometrySection | None = None
+        estimator: EstimatorSection | None = None     # the same [estimator] as everywhere
+
+    cfg = load_file("axis.toml", AxisFile)             # unknown keys, types: one-line errors
+    bench = cfg.params("geometry", base=RackPinionBench())
+    # -> RackPinionBench with the file's keys replaced, checked by its __post_init__;
+    #    a bad value is "axis.toml: table [geometry], key 'm_T': must be > 0, got -1".
+
+``section(cls)`` keeps the dataclass's required keys required; ``optional=True`` lets the
+keys without a default be left out (the command completes them, e.g. a ``[drivetrain]``
+fragment with only J_m, beta_m); ``overrides=True`` makes every key optional — a table
+of changes to a ``base`` object. A complete table (no ``overrides``) is checked by the
+dataclass when the file is loaded; the others when :meth:`ConfigFile.params` builds the
+object. Non-parameter tables (like ``[columns]``) are ordinary pydantic models deriving
+from :class:`Table`.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
+import functools
+import inspect
 import math
+import re
 import tomllib
+import types
+import typing
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, ClassVar, Literal, TypeVar, Union
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    Strict,
+    ValidationError,
+    create_model,
+    field_validator,
+)
 
-from drivelash.errors import ConfigError, DrivelashError
-from drivelash.params import BacklashParams, DrivetrainParams
+from drivelash.errors import ConfigError, ParameterError
+from drivelash.params import BacklashParams, DrivetrainParams, EstimatorConfig
 
 #: Units accepted in ``[columns.*] unit`` and the quantity each one measures.
 UNIT_KIND: dict[str, str] = {
@@ -59,61 +115,233 @@ UNIT_KIND: dict[str, str] = {
 }
 
 
-class _Strict(BaseModel):
-    """Base: unknown keys are errors, values validated on assignment, frozen."""
+class Table(BaseModel):
+    """Base of every table: unknown keys are errors, values frozen."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
 
 
-class DrivetrainSection(_Strict):
-    """``[drivetrain]``: the fields of :class:`~drivelash.params.DrivetrainParams` [SI].
+# ----------------------------------------------------------------------------- numpydoc
+_UNIT = re.compile(r"\[([^\[\]]+)\](?:\s+or\s+\[([^\[\]]+)\])?")
+_SECTIONS = ("Parameters", "Attributes")
 
-    J_m, J_l, N, K_S and D_S have no defaults in ``DrivetrainParams``; here they may
-    be left out at parse time (a rigid axis identified by ``drivelash identify``
-    has only J_m, beta_m, T_Cm), and :meth:`DriveConfig.to_drivetrain_params`
-    names the first missing one.
+
+def param_docs(cls: type) -> dict[str, tuple[str, str | None]]:
+    """Description and unit of each field, from the ``Parameters``/``Attributes`` numpydoc.
+
+    Parameters
+    ----------
+    cls : type
+        A documented class; entries may name several fields (``T_Cm, T_Cl : float``).
+
+    Returns
+    -------
+    dict
+        field name → (description, unit); the unit is the first ``[...]`` of the
+        description (``"-"`` for dimensionless), None when there is none.
     """
+    lines = (inspect.getdoc(cls) or "").splitlines()
+    out: dict[str, tuple[str, str | None]] = {}
+    names: list[str] = []
+    desc: list[str] = []
+    inside = False
 
-    J_m: float | None = None
-    J_l: float | None = None
-    N: float | None = None
-    K_S: float | None = None
-    D_S: float | None = None
-    T_Cm: float = 0.0
-    T_Cl: float = 0.0
-    beta_m: float = 0.0
-    beta_l: float = 0.0
-    T_Sm: float = 0.0
-    T_Sl: float = 0.0
-    omega_s: float = 0.01
+    def flush() -> None:
+        text = " ".join(d.strip() for d in desc).strip()
+        m = _UNIT.search(text)
+        for n in names:
+            unit = (m.group(1) + (f" or {m.group(2)}" if m.group(2) else "")) if m else None
+            out[n] = (text, unit)
+
+    for i, line in enumerate(lines):
+        nxt = lines[i + 1].strip() if i + 1 < len(lines) else ""
+        is_header = bool(line.strip()) and not line.startswith(" ") and nxt and set(nxt) == {"-"}
+        if is_header:
+            flush()
+            names, desc = [], []
+            inside = line.strip() in _SECTIONS
+            continue
+        if not inside or (line.strip() and set(line.strip()) == {"-"}):
+            continue
+        if line and not line.startswith(" "):
+            flush()
+            desc = []
+            head = line.split(" : ")[0]
+            names = [n.strip() for n in head.split(",") if n.strip().isidentifier()]
+        elif line.strip():
+            desc.append(line)
+    flush()
+    return out
 
 
-class BacklashSection(_Strict):
-    """``[backlash]``: δ1 [rad], α [1/rad] and optionally the true δ [rad]."""
+# ----------------------------------------------------------------------------- generated tables
+class Section(Table):
+    """A table generated from a parameter dataclass by :func:`section`."""
 
-    delta1: float
-    alpha: float = 1000.0
-    delta: float | None = None
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
+    #: The dataclass the table was generated from.
+    __params__: ClassVar[type]
+    #: Every key optional: the table changes a base object (:meth:`ConfigFile.params`).
+    __overrides__: ClassVar[bool] = False
+
+    def given(self) -> dict[str, Any]:
+        """The keys written in the file, with their values."""
+        return self.model_dump(exclude_unset=True)
+
+    def missing(self) -> list[str]:
+        """Fields the dataclass requires that are neither in the file nor defaulted."""
+        return [
+            f.name
+            for f in dataclasses.fields(self.__params__)
+            if f.init
+            and f.default is dataclasses.MISSING
+            and f.default_factory is dataclasses.MISSING
+            and getattr(self, f.name) is None
+        ]
+
+    def to_params(self, where: str, base: Any = None, **values: Any) -> Any:
+        """Build (and so validate) the dataclass.
+
+        Parameters
+        ----------
+        where : str
+            ``"<file>: table [<name>]"``, the start of every error message.
+        base : dataclass instance, optional
+            Object whose fields the table's keys replace (``dataclasses.replace``);
+            without it, the table's values (and the dataclass defaults) are used.
+        **values
+            Values that take precedence over the file (None entries are ignored).
+
+        Raises
+        ------
+        ConfigError
+            A required key missing, or a value the dataclass refuses: one line with
+            file, table and key.
+        """
+        cls = self.__params__
+        if base is not None:
+            kw = {f.name: getattr(base, f.name) for f in dataclasses.fields(base) if f.init}
+            kw.update(self.given())
+        else:
+            kw = {k: v for k, v in self.model_dump().items() if v is not None}
+        kw.update({k: v for k, v in values.items() if v is not None})
+        for f in dataclasses.fields(cls):
+            required = f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
+            if f.init and required and kw.get(f.name) is None:
+                raise ConfigError(f"{where}, key '{f.name}': missing")
+        try:
+            return cls(**kw)
+        except ParameterError as exc:
+            raise ConfigError(f"{where}, key '{exc.field}': {exc.problem}") from None
+        except (TypeError, ValueError) as exc:
+            raise ConfigError(f"{where}: {exc}") from None
 
 
-class EstimatorSection(_Strict):
-    """``[estimator]``: gains of the deadzone estimator and its STSMO (all optional).
+_SCALARS = (float, int, bool, str)
 
-    ``k1`` [(rad/s²)/(rad/s)^½], ``k2`` [rad/s³] super-twisting gains; ``gamma``
-    adaptation gain; ``delta_max`` [rad] projection radius; ``eps_delta`` [rad]
-    projection margin; ``delta0`` [rad] initial estimate. The estimator fills in
-    defaults for what is left out.
+
+def _strict(ann: Any) -> Any:
+    """``ann`` with strict scalars: a float takes int or float, never a bool or a string;
+    int, bool and str take only themselves (TOML has native types)."""
+    if ann in _SCALARS:
+        return Annotated[ann, Strict()]
+    origin = typing.get_origin(ann)
+    args = typing.get_args(ann)
+    if origin is Literal or not args:
+        return ann
+    if origin in (Union, types.UnionType):
+        return Union[tuple(_strict(a) for a in args)]  # noqa: UP007 - built from a tuple
+    if origin is Annotated:
+        return ann
+    try:
+        return origin[tuple(_strict(a) for a in args)]
+    except TypeError:
+        return ann
+
+
+def dataclass_fields(
+    cls: type, *, optional: bool | tuple[str, ...] = (), overrides: bool = False, only: tuple[str, ...] = ()
+) -> dict[str, Any]:
+    """pydantic field definitions of a dataclass's init fields (see :func:`section`).
+
+    ``only`` restricts to those fields (e.g. the scalar top-level keys of a file).
     """
+    hints = typing.get_type_hints(cls)
+    docs = param_docs(cls)
+    out: dict[str, Any] = {}
+    for f in dataclasses.fields(cls):
+        if not f.init or (only and f.name not in only):
+            continue
+        ann = _strict(hints[f.name])
+        has_default = f.default is not dataclasses.MISSING or f.default_factory is not dataclasses.MISSING
+        text, unit = docs.get(f.name, ("", None))
+        extra = {"unit": unit} if unit else None
+        if (
+            overrides
+            or f.name in (optional if isinstance(optional, tuple) else ())
+            or (optional is True and not has_default)
+        ):
+            out[f.name] = (ann | None, Field(default=None, description=text, json_schema_extra=extra))
+        elif f.default is not dataclasses.MISSING:
+            out[f.name] = (ann, Field(default=f.default, description=text, json_schema_extra=extra))
+        elif f.default_factory is not dataclasses.MISSING:
+            factory = f.default_factory
+            out[f.name] = (ann, Field(default_factory=factory, description=text, json_schema_extra=extra))
+        else:
+            out[f.name] = (ann, Field(description=text, json_schema_extra=extra))
+    return out
 
-    k1: float | None = None
-    k2: float | None = None
-    gamma: float | None = None
-    delta_max: float | None = None
-    eps_delta: float | None = None
-    delta0: float | None = None
+
+@functools.cache
+def section(cls: type, *, optional: bool | tuple[str, ...] = (), overrides: bool = False) -> type[Section]:
+    """The TOML table of a frozen parameter dataclass, as a pydantic model.
+
+    Parameters
+    ----------
+    cls : type
+        The dataclass (numpydoc ``Parameters``/``Attributes`` give descriptions and units).
+    optional : bool or tuple of str
+        ``True``: keys without a default may be left out (None until the command
+        completes them); a tuple: these keys may be left out.
+    overrides : bool
+        Every key optional (None): the table changes a base object.
+
+    Returns
+    -------
+    type
+        A :class:`Section` subclass; ``model_fields[k].description`` holds the
+        documentation and ``json_schema_extra["unit"]`` the unit of key ``k``.
+    """
+    kind = "Overrides" if overrides else "Section"
+    model = create_model(  # type: ignore[call-overload]
+        f"{cls.__name__}{kind}",
+        __base__=Section,
+        __doc__=f"[table] generated from :class:`{cls.__module__}.{cls.__qualname__}`.",
+        **dataclass_fields(cls, optional=optional, overrides=overrides),
+    )
+    model.__params__ = cls
+    model.__overrides__ = overrides
+    return model
 
 
-class ColumnMap(_Strict):
+def unit_of(model: type[BaseModel], key: str) -> str | None:
+    """Unit of ``key`` in a generated table (from the dataclass numpydoc), or None."""
+    extra = model.model_fields[key].json_schema_extra
+    return extra.get("unit") if isinstance(extra, dict) else None  # type: ignore[return-value]
+
+
+# ----------------------------------------------------------------------------- the drive tables
+#: ``[drivetrain]``: J_m, J_l, N, K_S, D_S may be left out at parse time (a rigid axis
+#: identified by ``drivelash identify`` has only J_m, beta_m, T_Cm).
+DrivetrainSection = section(DrivetrainParams, optional=True)
+#: ``[backlash]``: ``delta`` (the true δ) may be left out — an estimator estimates it.
+BacklashSection = section(BacklashParams, optional=("delta",))
+#: ``[estimator]``: every :class:`~drivelash.params.EstimatorConfig` field; a key left
+#: out comes from the tuning rule (:meth:`~drivelash.params.EstimatorConfig.tuned`).
+EstimatorSection = section(EstimatorConfig, overrides=True)
+
+
+class ColumnMap(Table):
     """One ``[columns.<source>]`` entry: where a source column goes and its unit.
 
     Attributes
@@ -166,7 +394,7 @@ class ColumnMap(_Strict):
         return v
 
 
-class SamplingSection(_Strict):
+class SamplingSection(Table):
     """``[sampling]``: how time is given and how strictly it is checked.
 
     Attributes
@@ -188,7 +416,7 @@ class SamplingSection(_Strict):
     resample: bool = False
 
 
-class IdentificationSection(_Strict):
+class IdentificationSection(Table):
     """``[identification]``: options of :func:`drivelash.estimation.identify.identify_rigid`.
 
     Attributes
@@ -232,39 +460,66 @@ class IdentificationSection(_Strict):
     torque_offset: float | None = None
 
 
-class DriveConfig(_Strict):
-    """A whole configuration file. Every table is optional at parse time.
+# ----------------------------------------------------------------------------- files
+class ConfigFile(Table):
+    """Base of a configuration file: its fields are the file's tables and top-level keys.
 
-    Use :func:`load_config` to read one; ``source`` is the file it came from.
+    Read one with :func:`load_file`; :attr:`source` is the file it came from.
     """
 
-    drivetrain: DrivetrainSection | None = None
-    backlash: BacklashSection | None = None
-    estimator: EstimatorSection | None = None
+    _source: str = PrivateAttr(default="<config>")
+
+    @property
+    def source(self) -> str:
+        """The file (or name) the configuration was read from."""
+        return self._source
+
+    def require(self, table: str) -> Any:
+        """Return table ``table``, or raise a one-line :class:`ConfigError` if absent."""
+        if table not in type(self).model_fields:
+            raise ConfigError(f"{self.source}: no such table [{table}]")
+        value = getattr(self, table)
+        if value is None:
+            raise ConfigError(f"{self.source}: table [{table}] is required for this command")
+        return value
+
+    def params(self, table: str, base: Any = None, **values: Any) -> Any:
+        """Table ``table`` as its parameter dataclass (see :meth:`Section.to_params`).
+
+        With ``base``, an absent table gives ``base`` (with ``values`` applied); without
+        it, an absent table is an error.
+        """
+        sec = getattr(self, table, None) if table in type(self).model_fields else None
+        if sec is None:
+            if base is None:
+                self.require(table)
+            sec = section(type(base), overrides=True)()
+        return sec.to_params(f"{self.source}: table [{table}]", base=base, **values)
+
+    def check(self) -> None:
+        """Validate each complete parameter table by its dataclass (called on load)."""
+        for name in type(self).model_fields:
+            sec = getattr(self, name)
+            if isinstance(sec, Section) and not sec.__overrides__ and not sec.missing():
+                sec.to_params(f"{self.source}: table [{name}]")
+
+
+class DriveConfig(ConfigFile):
+    """A drive configuration (``estimate``, ``identify``, ``observe``); every table optional.
+
+    Use :func:`load_config` to read one.
+    """
+
+    drivetrain: DrivetrainSection | None = None  # type: ignore[valid-type]
+    backlash: BacklashSection | None = None  # type: ignore[valid-type]
+    estimator: EstimatorSection | None = None  # type: ignore[valid-type]
     columns: dict[str, ColumnMap] | None = None
     sampling: SamplingSection | None = None
     identification: IdentificationSection | None = None
-    source: str | None = Field(default=None, exclude=True)
-
-    def require(self, section: str) -> Any:
-        """Return table ``section``, or raise a one-line :class:`ConfigError` if absent."""
-        if section not in type(self).model_fields or section == "source":
-            raise ConfigError(f"{self.source or '<config>'}: no such table [{section}]")
-        value = getattr(self, section)
-        if value is None:
-            raise ConfigError(f"{self.source or '<config>'}: table [{section}] is required for this command")
-        return value
 
     def to_drivetrain_params(self) -> DrivetrainParams:
         """The ``[drivetrain]`` table as :class:`~drivelash.params.DrivetrainParams`."""
-        sec: DrivetrainSection = self.require("drivetrain")
-        for key in ("J_m", "J_l", "N", "K_S", "D_S"):
-            if getattr(sec, key) is None:
-                raise ConfigError(f"{self.source or '<config>'}: table [drivetrain], key '{key}': missing")
-        try:
-            return DrivetrainParams(**sec.model_dump())
-        except DrivelashError as exc:
-            raise ConfigError(f"{self.source or '<config>'}: [drivetrain] {exc}") from None
+        return self.params("drivetrain")
 
     def to_backlash_params(self, delta: float | None = None) -> BacklashParams:
         """The ``[backlash]`` table as :class:`~drivelash.params.BacklashParams`.
@@ -272,19 +527,10 @@ class DriveConfig(_Strict):
         Parameters
         ----------
         delta : float, optional
-            Deadzone δ [rad]; overrides the table's ``delta`` (an estimator
-            passes its estimate). One of the two must be given.
+            Deadzone δ [rad]; overrides the table's ``delta`` (an estimator passes its
+            estimate). One of the two must be given.
         """
-        sec: BacklashSection = self.require("backlash")
-        d = delta if delta is not None else sec.delta
-        if d is None:
-            raise ConfigError(
-                f"{self.source or '<config>'}: table [backlash], key 'delta': missing (and none given)"
-            )
-        try:
-            return BacklashParams(delta=d, delta1=sec.delta1, alpha=sec.alpha)
-        except DrivelashError as exc:
-            raise ConfigError(f"{self.source or '<config>'}: [backlash] {exc}") from None
+        return self.params("backlash", delta=delta)
 
     def sampling_or_default(self) -> SamplingSection:
         """``[sampling]`` or its defaults."""
@@ -295,45 +541,79 @@ class DriveConfig(_Strict):
         return self.identification or IdentificationSection()
 
 
-_SECTION_MODELS: dict[str, type[BaseModel]] = {
-    "drivetrain": DrivetrainSection,
-    "backlash": BacklashSection,
-    "estimator": EstimatorSection,
-    "sampling": SamplingSection,
-    "identification": IdentificationSection,
-    "columns.*": ColumnMap,
-}
+# ----------------------------------------------------------------------------- errors
+def _unwrap(ann: Any) -> Any:
+    """The model, dict or list type inside Optional/Annotated/Union, or None for a leaf."""
+    if isinstance(ann, type) and issubclass(ann, BaseModel):
+        return ann
+    origin = typing.get_origin(ann)
+    if origin in (dict, list, tuple):
+        return ann
+    for a in typing.get_args(ann) if origin in (Union, types.UnionType, Annotated) else ():
+        u = _unwrap(a)
+        if u is not None:
+            return u
+    return None
 
 
-def _valid_keys(loc: tuple[Any, ...]) -> list[str]:
-    """Valid keys at the table addressed by ``loc`` (without the offending key)."""
-    if len(loc) <= 1:
-        return [k for k in DriveConfig.model_fields if k != "source"]
-    top = str(loc[0])
-    if top == "columns":
-        return list(ColumnMap.model_fields) if len(loc) >= 3 else []
-    model = _SECTION_MODELS.get(top)
-    return list(model.model_fields) if model else []
+def _walk(model: type[BaseModel], loc: tuple[Any, ...]) -> tuple[tuple[Any, ...], Any]:
+    """Keys of ``loc`` that address tables/keys (pydantic's type tags dropped), and the
+    model or container at the last of them."""
+    cur: Any = model
+    kept: list[Any] = []
+    for part in loc:
+        if isinstance(cur, type) and issubclass(cur, BaseModel):
+            if part in cur.model_fields:
+                kept.append(part)
+                cur = _unwrap(cur.model_fields[part].annotation)
+            continue
+        origin = typing.get_origin(cur)
+        if origin in (dict, list, tuple):
+            kept.append(part)
+            args = typing.get_args(cur)
+            cur = _unwrap(args[-1]) if args else None
+            continue
+    return tuple(kept), cur
 
 
-def _format_error(path: str, err: dict[str, Any]) -> str:
-    loc = tuple(err.get("loc", ()))
-    # pydantic adds union-member tags like 'float' / 'str' to the location; drop them.
-    loc = tuple(p for p in loc if p not in ("float", "str", "int", "bool", "function-after[_known_unit()]"))
+def _tables_with_key(model: type[BaseModel], key: str) -> list[str]:
+    """Tables of ``model`` (a file) that have a key ``key``."""
+    found = []
+    for name, f in model.model_fields.items():
+        sub = _unwrap(f.annotation)
+        if isinstance(sub, type) and issubclass(sub, BaseModel) and key in sub.model_fields:
+            found.append(name)
+    return found
+
+
+def _format_error(path: str, err: dict[str, Any], model: type[BaseModel]) -> str:
+    kind = err.get("type", "")
+    loc, _ = _walk(model, tuple(err.get("loc", ())))
+    if kind == "extra_forbidden":
+        loc = loc + (tuple(err.get("loc", ()))[-1],)
     key = str(loc[-1]) if loc else "?"
     table = ".".join(str(p) for p in loc[:-1])
     where = f"table [{table}], key '{key}'" if table else f"top-level key '{key}'"
-    kind = err.get("type", "")
     if kind == "extra_forbidden":
-        valid = _valid_keys(loc)
+        _, holder = _walk(model, loc[:-1])
+        is_model = isinstance(holder, type) and issubclass(holder, BaseModel)
+        valid = list(holder.model_fields) if is_model else []
         close = difflib.get_close_matches(key, valid, n=1, cutoff=0.5)
-        hint = f"; did you mean '{close[0]}'?" if close else (f"; valid: {', '.join(valid)}" if valid else "")
-        if not table:
-            where = f"unknown table [{key}]"
-            return f"{path}: {where}{hint}"
+        elsewhere = [t for t in _tables_with_key(model, key) if t != table] if table else []
+        if elsewhere and not close:
+            hint = "; it is a key of " + " and ".join(f"[{t}]" for t in elsewhere)
+        elif close:
+            hint = f"; did you mean '{close[0]}'?"
+        else:
+            hint = f"; valid: {', '.join(valid)}" if valid else ""
+        if not table and isinstance(err.get("input"), dict):
+            return f"{path}: unknown table [{key}]{hint}"
         return f"{path}: {where}: unknown key{hint}"
     if kind == "missing":
         return f"{path}: {where}: missing"
+    if kind in ("model_type", "model_attributes_type", "dict_type"):
+        what = f"table [{'.'.join(str(p) for p in loc)}]" if loc else "the document"
+        return f"{path}: {what} must be a table (got {type(err.get('input')).__name__})"
     msg = str(err.get("msg", "invalid value")).replace("\n", " ")
     if msg.startswith("Value error, "):
         msg = msg[len("Value error, ") :]
@@ -343,13 +623,19 @@ def _format_error(path: str, err: dict[str, Any]) -> str:
     return f"{path}: {where}: {msg}"
 
 
-def parse_config(data: dict[str, Any], source: str = "<config>") -> DriveConfig:
-    """Validate an already-parsed TOML document.
+# ----------------------------------------------------------------------------- loading
+F = TypeVar("F", bound=ConfigFile)
+
+
+def parse_file(data: Any, model: type[F], source: str = "<config>") -> F:
+    """Validate an already-parsed TOML document against a file model.
 
     Parameters
     ----------
     data : dict
         The TOML document as returned by :func:`tomllib.loads`.
+    model : type
+        A :class:`ConfigFile` subclass (e.g. :class:`DriveConfig`).
     source : str
         Name used in error messages (usually the file path).
 
@@ -361,51 +647,21 @@ def parse_config(data: dict[str, Any], source: str = "<config>") -> DriveConfig:
     if not isinstance(data, dict):
         raise ConfigError(f"{source}: a configuration must be a TOML table")
     try:
-        cfg = DriveConfig.model_validate(data)
+        cfg = model.model_validate(data)
     except ValidationError as exc:
         errors = exc.errors()
         # an unknown key first: a misspelt key also shows up as the missing one
         errors.sort(key=lambda e: e.get("type") != "extra_forbidden")
-        raise ConfigError(_format_error(source, errors[0])) from None
+        raise ConfigError(_format_error(source, errors[0], model)) from None
     except (TypeError, ValueError, RecursionError) as exc:  # pragma: no cover - defensive
         raise ConfigError(f"{source}: invalid configuration ({type(exc).__name__})") from None
-    return cfg.model_copy(update={"source": source})
+    cfg._source = source
+    cfg.check()
+    return cfg
 
 
-def load_config(path: str | Path) -> DriveConfig:
-    """Read and validate a TOML configuration file.
-
-    Parameters
-    ----------
-    path : str or Path
-        The ``.toml`` file.
-
-    Returns
-    -------
-    DriveConfig
-
-    Raises
-    ------
-    ConfigError
-        File missing/unreadable, TOML syntax error, unknown key (with the closest
-        valid key), missing key or wrong type — always one line.
-    """
-    p = Path(path)
-    try:
-        raw = p.read_bytes()
-    except FileNotFoundError:
-        raise ConfigError(f"{p}: no such configuration file") from None
-    except OSError as exc:
-        raise ConfigError(f"{p}: cannot read ({exc.strerror or exc})") from None
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError:
-        raise ConfigError(f"{p}: not a UTF-8 text file (is this a TOML configuration?)") from None
-    return loads_config(text, source=str(p))
-
-
-def loads_config(text: str, source: str = "<config>") -> DriveConfig:
-    """Parse configuration TOML text (see :func:`load_config`)."""
+def loads_file(text: str, model: type[F], source: str = "<config>") -> F:
+    """Parse configuration TOML text against a file model (see :func:`load_file`)."""
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -413,7 +669,55 @@ def loads_config(text: str, source: str = "<config>") -> DriveConfig:
         raise ConfigError(f"{source}: TOML syntax error: {msg}") from None
     except (ValueError, TypeError, RecursionError) as exc:
         raise ConfigError(f"{source}: TOML syntax error ({type(exc).__name__})") from None
-    return parse_config(data, source)
+    return parse_file(data, model, source)
+
+
+def load_file(path: str | Path, model: type[F]) -> F:
+    """Read and validate a TOML file against a file model.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.toml`` file.
+    model : type
+        A :class:`ConfigFile` subclass.
+
+    Raises
+    ------
+    ConfigError
+        File missing/unreadable, not UTF-8, TOML syntax error, unknown key (with the
+        closest valid key), missing key, wrong type or a value the parameter dataclass
+        refuses — always one line.
+    """
+    p = Path(path)
+    try:
+        raw = p.read_bytes()
+    except FileNotFoundError:
+        raise ConfigError(f"{p}: no such configuration file") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{p}: is a directory, not a configuration file") from None
+    except OSError as exc:
+        raise ConfigError(f"{p}: cannot read ({exc.strerror or exc})") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ConfigError(f"{p}: not a UTF-8 text file (is this a TOML configuration?)") from None
+    return loads_file(text, model, source=str(p))
+
+
+def parse_config(data: dict[str, Any], source: str = "<config>") -> DriveConfig:
+    """A drive configuration from a parsed TOML document (see :func:`parse_file`)."""
+    return parse_file(data, DriveConfig, source)
+
+
+def load_config(path: str | Path) -> DriveConfig:
+    """Read and validate a drive configuration file (:class:`DriveConfig`, see :func:`load_file`)."""
+    return load_file(path, DriveConfig)
+
+
+def loads_config(text: str, source: str = "<config>") -> DriveConfig:
+    """Parse drive-configuration TOML text (see :func:`load_file`)."""
+    return loads_file(text, DriveConfig, source)
 
 
 def drivetrain_fragment(values: dict[str, float], comments: list[str] | None = None) -> str:

@@ -23,19 +23,20 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 import numpy as np
+from pydantic import Strict, create_model
 
 from drivelash.control.cascade import gains_from_bandwidth
 from drivelash.control.references import Reference, position_sine, velocity_sine
 from drivelash.errors import ConfigError, DrivelashError, ParameterError
+from drivelash.io.config import ConfigFile, EstimatorSection, dataclass_fields, load_file, section
 from drivelash.io.trace import Trace
-from drivelash.params import BacklashParams, CascadeGains, DrivetrainParams, SensorParams
+from drivelash.params import BacklashParams, CascadeGains, DrivetrainParams, EstimatorConfig, SensorParams
 from drivelash.physics.drivetrain import DEFAULT_OMEGA_REG
 from drivelash.sim.engine import DEFAULT_SUBSTEPS, delta_constant, delta_ramp, delta_step, simulate
 
@@ -201,6 +202,9 @@ class Scenario:
         RK4 substeps per control period.
     feedback : {"measured", "true"}
         Signals the controller uses.
+    estimator : tuple of (str, value)
+        :class:`~drivelash.params.EstimatorConfig` fields that override the tuning rule
+        when this scenario is estimated (``[estimator]`` of a scenario file).
     """
 
     name: str
@@ -219,6 +223,29 @@ class Scenario:
     omega_reg: float = DEFAULT_OMEGA_REG
     n_sub: int = DEFAULT_SUBSTEPS
     feedback: Literal["measured", "true"] = "measured"
+    estimator: tuple[tuple[str, Any], ...] = ()
+
+    def __post_init__(self) -> None:
+        name = type(self).__name__
+        if not (
+            isinstance(self.duration, int | float) and math.isfinite(self.duration) and self.duration > 0
+        ):
+            raise ParameterError(name, "duration", f"must be finite and > 0, got {self.duration!r}")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            raise ParameterError(name, "seed", f"must be an integer >= 0, got {self.seed!r}")
+        if isinstance(self.n_sub, bool) or not isinstance(self.n_sub, int) or self.n_sub < 1:
+            raise ParameterError(name, "n_sub", f"must be an integer >= 1, got {self.n_sub!r}")
+        if not (math.isfinite(self.omega_reg) and self.omega_reg > 0):
+            raise ParameterError(name, "omega_reg", f"must be finite and > 0, got {self.omega_reg!r}")
+        if self.model not in ("deadzone", "smooth"):
+            raise ParameterError(name, "model", f"must be 'deadzone' or 'smooth', got {self.model!r}")
+        if self.feedback not in ("measured", "true"):
+            raise ParameterError(name, "feedback", f"must be 'measured' or 'true', got {self.feedback!r}")
+
+    @property
+    def estimator_overrides(self) -> dict[str, Any]:
+        """Estimator gains set for this scenario (``[estimator]`` of a scenario file)."""
+        return dict(self.estimator)
 
     @property
     def T_s(self) -> float:
@@ -286,6 +313,8 @@ class Scenario:
             v = getattr(self, f.name)
             if dataclasses.is_dataclass(v):
                 d[f.name] = dataclasses.asdict(v)
+            elif f.name == "estimator":
+                d[f.name] = dict(v)
             elif f.name not in ("name", "description"):
                 d[f.name] = v
         return d
@@ -374,28 +403,54 @@ def get_scenario(name: str) -> Scenario:
 
 
 # --------------------------------------------------------------------------------------
-# TOML configuration
+# TOML configuration: one schema (drivelash.io.config), tables generated from the dataclasses
 # --------------------------------------------------------------------------------------
-_TOP_KEYS = {"base", "name", "description", "duration", "seed", "model", "omega_reg", "n_sub", "feedback"}
-_TABLES = {
-    "plant": DrivetrainParams,
-    "estimator": DrivetrainParams,
-    "backlash": BacklashParams,
-    "gains": CascadeGains,
-    "sensors": SensorParams,
-    "reference": ReferenceSpec,
-    "deadzone": DeadzoneProfile,
-}
+#: Top-level keys of a scenario file: these fields of :class:`Scenario`.
+SCENARIO_KEYS = ("name", "description", "duration", "seed", "model", "omega_reg", "n_sub", "feedback")
+#: ``[plant]`` (the true drive train) and ``[drivetrain]`` (as the estimator is told it).
+DrivetrainOverrides = section(DrivetrainParams, overrides=True)
+BacklashOverrides = section(BacklashParams, overrides=True)
+GainsOverrides = section(CascadeGains, overrides=True)
+SensorsOverrides = section(SensorParams, overrides=True)
+ReferenceOverrides = section(ReferenceSpec, overrides=True)
+DeadzoneOverrides = section(DeadzoneProfile, overrides=True)
+
+
+class _ScenarioTables(ConfigFile):
+    """Tables of a scenario file; each changes the ``base`` scenario's object."""
+
+    base: Annotated[str, Strict()] = "bench-0A"
+    plant: DrivetrainOverrides | None = None  # type: ignore[valid-type]
+    drivetrain: DrivetrainOverrides | None = None  # type: ignore[valid-type]
+    backlash: BacklashOverrides | None = None  # type: ignore[valid-type]
+    gains: GainsOverrides | None = None  # type: ignore[valid-type]
+    sensors: SensorsOverrides | None = None  # type: ignore[valid-type]
+    reference: ReferenceOverrides | None = None  # type: ignore[valid-type]
+    deadzone: DeadzoneOverrides | None = None  # type: ignore[valid-type]
+    estimator: EstimatorSection | None = None  # type: ignore[valid-type]
+
+
+#: A scenario file (:func:`scenario_from_toml`): ``base`` + the top-level keys of
+#: :data:`SCENARIO_KEYS` (generated from :class:`Scenario`) + the tables above.
+ScenarioFile = create_model(  # type: ignore[call-overload]
+    "ScenarioFile",
+    __base__=_ScenarioTables,
+    __module__=__name__,
+    **dataclass_fields(Scenario, only=SCENARIO_KEYS, overrides=True),
+)
 
 
 def scenario_from_toml(path: str | Path) -> Scenario:
     """A scenario from a TOML file: a registered ``base`` scenario plus overrides.
 
-    Keys: ``base`` (default ``"bench-0A"``), ``name``, ``description``, ``duration`` [s],
-    ``seed``, ``model``, ``omega_reg`` [rad/s], ``n_sub``, ``feedback``; tables
-    ``[plant]`` and ``[estimator]`` (DrivetrainParams fields), ``[backlash]``,
-    ``[gains]``, ``[sensors]``, ``[reference]`` (kind, amplitude, frequency) and
-    ``[deadzone]`` (kind, delta_end, t0, t1). Example::
+    Top-level keys: ``base`` (default ``"bench-0A"``), ``name``, ``description``,
+    ``duration`` [s], ``seed``, ``model``, ``omega_reg`` [rad/s], ``n_sub``, ``feedback``.
+    Tables (the same as in every drivelash file, see :mod:`drivelash.io.config`):
+    ``[plant]`` (the true :class:`~drivelash.params.DrivetrainParams`), ``[drivetrain]``
+    (the drive train as the estimator is told it), ``[backlash]``, ``[gains]``,
+    ``[sensors]``, ``[reference]`` (kind, amplitude, frequency), ``[deadzone]``
+    (kind, delta_end, t0, t1) and ``[estimator]`` (estimator gains for this scenario,
+    :class:`~drivelash.params.EstimatorConfig`). Example::
 
         base = "bench-0B"
         duration = 20.0
@@ -411,64 +466,28 @@ def scenario_from_toml(path: str | Path) -> Scenario:
     Raises
     ------
     ConfigError
-        Unreadable file, unknown key, wrong type; one line naming the key.
-    ParameterError
-        A value out of range (from the parameter classes).
+        Unreadable file, unknown key (with the closest valid one), wrong type, a value a
+        parameter class refuses: one line naming the file, table and key.
     """
     path = Path(path)
+    cfg = load_file(path, ScenarioFile)
+    src = cfg.source
     try:
-        with path.open("rb") as fh:
-            cfg = tomllib.load(fh)
-    except FileNotFoundError:
-        raise ConfigError(f"{path}: no such file") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: invalid TOML: {exc}") from None
-    for key, value in cfg.items():
-        if key in _TABLES:
-            if not isinstance(value, dict):
-                raise ConfigError(f"{path}: [{key}] must be a table")
-            allowed = {f.name for f in dataclasses.fields(_TABLES[key])}
-            for sub in value:
-                if sub not in allowed:
-                    raise ConfigError(
-                        f"{path}: unknown key '{key}.{sub}'; allowed: {', '.join(sorted(allowed))}"
-                    )
-        elif key not in _TOP_KEYS:
-            allowed = sorted(_TOP_KEYS | set(_TABLES))
-            raise ConfigError(f"{path}: unknown key '{key}'; allowed: {', '.join(allowed)}")
-    base = get_scenario(str(cfg.get("base", "bench-0A")))
+        base = get_scenario(cfg.base)
+    except UnknownScenarioError as exc:
+        raise ConfigError(f"{src}: top-level key 'base': {exc}") from None
+    plant = cfg.params("plant", base=base.plant_drivetrain)
+    est = cfg.params("drivetrain", base=base.estimator_drivetrain)
+    backlash = cfg.params("backlash", base=base.plant_backlash)
+    est_bl = replace(base.estimator_backlash, delta=backlash.delta, delta1=backlash.delta1)
+    gains = cfg.params("gains", base=base.gains)
+    sensors = cfg.params("sensors", base=base.sensors)
+    reference = cfg.params("reference", base=base.reference)
+    profile = cfg.params("deadzone", base=base.deadzone_profile)
+    estimator = dict(base.estimator) | (cfg.estimator.given() if cfg.estimator is not None else {})
+    top = {k: v for k, v in cfg.model_dump(exclude_unset=True).items() if k in SCENARIO_KEYS}
     try:
-        plant = replace(base.plant_drivetrain, **cfg.get("plant", {}))
-        est = replace(base.estimator_drivetrain, **cfg.get("estimator", {}))
-        backlash = replace(base.plant_backlash, **cfg.get("backlash", {}))
-        est_bl = replace(base.estimator_backlash, delta=backlash.delta, delta1=backlash.delta1)
-        gains = replace(base.gains, **cfg.get("gains", {}))
-        sensors = replace(base.sensors, **cfg.get("sensors", {}))
-        reference = replace(base.reference, **cfg.get("reference", {}))
-        profile = replace(base.deadzone_profile, **cfg.get("deadzone", {}))
-        top = {k: cfg[k] for k in _TOP_KEYS - {"base"} if k in cfg}
-        for k, typ in (
-            ("duration", (int, float)),
-            ("seed", int),
-            ("n_sub", int),
-            ("omega_reg", (int, float)),
-        ):
-            if k in top and (isinstance(top[k], bool) or not isinstance(top[k], typ)):
-                raise ConfigError(f"{path}: '{k}' has the wrong type ({type(top[k]).__name__})")
-        for k in ("name", "description", "model", "feedback"):
-            if k in top and not isinstance(top[k], str):
-                raise ConfigError(f"{path}: '{k}' must be a string")
-        if top.get("model", base.model) not in ("deadzone", "smooth"):
-            raise ConfigError(f"{path}: 'model' must be 'deadzone' or 'smooth'")
-        if top.get("feedback", base.feedback) not in ("measured", "true"):
-            raise ConfigError(f"{path}: 'feedback' must be 'measured' or 'true'")
-        if "duration" in top and not top["duration"] > 0:
-            raise ConfigError(f"{path}: 'duration' must be > 0")
-        if "n_sub" in top and not top["n_sub"] >= 1:
-            raise ConfigError(f"{path}: 'n_sub' must be >= 1")
-        if "omega_reg" in top and not top["omega_reg"] > 0:
-            raise ConfigError(f"{path}: 'omega_reg' must be > 0")
-        return replace(
+        sc = replace(
             base,
             name=top.pop("name", path.stem),
             description=top.pop("description", f"{base.name} with overrides from {path.name}"),
@@ -480,10 +499,18 @@ def scenario_from_toml(path: str | Path) -> Scenario:
             sensors=sensors,
             reference=reference,
             deadzone_profile=profile,
-            **{k: (float(v) if k in ("duration", "omega_reg") else v) for k, v in top.items()},
+            estimator=tuple(sorted(estimator.items())),
+            **top,
         )
-    except TypeError as exc:  # wrong value type inside a parameter class
-        raise ConfigError(f"{path}: {exc}") from None
+    except ParameterError as exc:
+        raise ConfigError(f"{src}: top-level key '{exc.field}': {exc.problem}") from None
+    if estimator:  # the estimator this scenario gets (estimation.reproduce.estimator_for) must build
+        kw = {k: v for k, v in estimator.items() if k != "method"}
+        try:
+            EstimatorConfig.tuned(est, sc.T_s, f_exc=sc.reference.frequency, **kw)
+        except ParameterError as exc:
+            raise ConfigError(f"{src}: table [estimator], key '{exc.field}': {exc.problem}") from None
+    return sc
 
 
 def load_scenario(name_or_path: str) -> Scenario:
