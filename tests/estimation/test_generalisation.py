@@ -2,8 +2,8 @@
 
 Each case draws gear ratio, inertias, shaft resonance, damping, friction, deadzone, offset,
 encoder resolution, velocity noise and motion profile, simulates 40 s with the simulator's
-engine, and runs both laws with ``EstimatorConfig.tuned`` and the detected reversal
-frequency. The numbers quoted in docs/assumptions.md come from this sweep (seeds 0–3).
+engine, and runs the default law with ``EstimatorConfig.tuned`` and the detected reversal
+frequency (default law). The numbers quoted in docs/assumptions.md come from this sweep (seeds 0–3).
 """
 
 from __future__ import annotations
@@ -65,18 +65,51 @@ def random_drive(rng: np.random.Generator, seed: int):
     return replace(drivetrain, T_Sm=0.0, T_Sl=0.0), bl, trace
 
 
+#: The bench targets of issue 3, transferred to drives outside the scenarios (as in
+#: tests/estimation/test_acceptance.py::test_off_scenario_drive).
+MAEE_GOAL = 1e-3  # rad, over the last 20 s
+CONV_GOAL = 10.0  # s, into the 10 mrad band
+#: Cases that miss the MAEE goal, with the measured value (checked by the strict xfail below).
+KNOWN_MISS = {(0, 0): 1.33e-3}
+
+
+def _estimate(seed: int, case: int | None = None):
+    """(case, bl, result) for every case of ``seed`` (or only ``case``)."""
+    rng = np.random.default_rng(seed)
+    for k in range(12 if case is None else case + 1):
+        drivetrain, bl, trace = random_drive(rng, k)
+        if case is not None and k != case:
+            continue
+        cfg = EstimatorConfig.tuned(drivetrain, TS, excitation_frequency(trace))
+        yield k, bl, DeadzoneEstimator(drivetrain, bl, TS, cfg).run(trace)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
 def test_random_drives(seed):
-    rng = np.random.default_rng(seed)
-    for case in range(12):
-        drivetrain, bl, trace = random_drive(rng, case)
-        f = excitation_frequency(trace)
-        cfg = EstimatorConfig.tuned(drivetrain, TS, f)
-        res = DeadzoneEstimator(drivetrain, bl, TS, cfg).run(trace)
+    """Every case converges and meets the transferred bench goals (MAEE ≤ 1 mrad, 10 mrad band
+    within 10 s); the known misses are asserted at the goal by the strict xfail below."""
+    for case, bl, res in _estimate(seed):
         t, d = res.t, res.delta_hat
         where = f"seed {seed} case {case}"
         assert res.excitation_ok and res.converged, where
-        assert maee(t, d, bl.delta, t[-1] - 20.0) <= 1.5e-3, where  # measured worst 1.34 mrad
+        m = maee(t, d, bl.delta, t[-1] - 20.0)
+        if (seed, case) in KNOWN_MISS:  # the miss is the one reported, not a drifting one
+            assert m == pytest.approx(KNOWN_MISS[(seed, case)], rel=0.02), where
+        else:
+            assert m <= MAEE_GOAL, where
         c = convergence_time(t, d, bl.delta, 10e-3)
-        assert c is not None and c <= 10.0, where
+        assert c is not None and c <= CONV_GOAL, where
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="known miss: measured MAEE 1.33 mrad on random drive seed 0 / case 0, goal 1 mrad (the "
+    "bench target transferred); a soft drive (load-side resonance near the 60 rad/s end of the "
+    "sweep) on which δ̂ converges slowly (10 mrad band after 1.8 s) and is still settling in the "
+    "scored window under the leakage λ = ω_r/25 chosen for paper-sim (docs/assumptions.md)",
+)
+def test_known_miss_soft_drive_seed0_case0():
+    ((_, bl, res),) = _estimate(0, 0)
+    assert maee(res.t, res.delta_hat, bl.delta, res.t[-1] - 20.0) <= MAEE_GOAL
