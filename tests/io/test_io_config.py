@@ -342,3 +342,25 @@ def test_extension_point_a_new_file_with_a_generated_table(tmp_path):
     p.write_text("[geometri]\nm_n = 0.004\n")
     with pytest.raises(ConfigError, match=r"unknown table \[geometri\]; did you mean 'geometry'\?"):
         load_file(p, AxisFile)
+
+
+def test_generated_tables_pickle_across_processes(tmp_path):
+    """Configs cross process boundaries (wear ingest's process pool, Dask): a generated table
+    pickles by its recipe and unpickles in a fresh interpreter, equal to the original."""
+    import pickle
+    import subprocess
+    import sys
+
+    from drivelash.sim.scenarios import DrivetrainOverrides
+
+    cfg = loads_config("[drivetrain]\nJ_l = 0.002\nK_S = 30.0\n[backlash]\ndelta1 = 0.1\n", "a.toml")
+    ov = DrivetrainOverrides(K_S=12.0)
+    blob = tmp_path / "cfg.pkl"
+    blob.write_bytes(pickle.dumps((cfg, ov)))
+    assert pickle.loads(blob.read_bytes()) == (cfg, ov)
+    code = (
+        "import pickle, sys; cfg, ov = pickle.loads(open(sys.argv[1], 'rb').read()); "
+        "print(cfg.drivetrain.K_S, cfg.backlash.delta1, ov.K_S, ov.given())"
+    )
+    out = subprocess.run([sys.executable, "-c", code, str(blob)], capture_output=True, text=True, check=True)
+    assert out.stdout.split(maxsplit=3) == ["30.0", "0.1", "12.0", "{'K_S': 12.0}\n"]

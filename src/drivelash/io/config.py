@@ -183,6 +183,16 @@ class Section(Table):
     __params__: ClassVar[type]
     #: Every key optional: the table changes a base object (:meth:`ConfigFile.params`).
     __overrides__: ClassVar[bool] = False
+    #: The ``optional`` argument the table was generated with.
+    __optional__: ClassVar[bool | tuple[str, ...]] = ()
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickle by the recipe (dataclass, options), not by the generated class's name: a
+        process that unpickles a table regenerates its class (process pools, Dask)."""
+        return (
+            _rebuild_section,
+            (self.__params__, self.__optional__, self.__overrides__, self.__getstate__()),
+        )
 
     def given(self) -> dict[str, Any]:
         """The keys written in the file, with their values."""
@@ -292,7 +302,6 @@ def dataclass_fields(
     return out
 
 
-@functools.cache
 def section(cls: type, *, optional: bool | tuple[str, ...] = (), overrides: bool = False) -> type[Section]:
     """The TOML table of a frozen parameter dataclass, as a pydantic model.
 
@@ -312,6 +321,13 @@ def section(cls: type, *, optional: bool | tuple[str, ...] = (), overrides: bool
         A :class:`Section` subclass; ``model_fields[k].description`` holds the
         documentation and ``json_schema_extra["unit"]`` the unit of key ``k``.
     """
+    opt = (optional or ()) if isinstance(optional, bool) else tuple(optional)  # False == ()
+    return _section(cls, opt, bool(overrides))
+
+
+@functools.cache
+def _section(cls: type, optional: bool | tuple[str, ...], overrides: bool) -> type[Section]:
+    """:func:`section` with normalised, positional arguments: one class per table recipe."""
     kind = "Overrides" if overrides else "Section"
     model = create_model(  # type: ignore[call-overload]
         f"{cls.__name__}{kind}",
@@ -321,7 +337,16 @@ def section(cls: type, *, optional: bool | tuple[str, ...] = (), overrides: bool
     )
     model.__params__ = cls
     model.__overrides__ = overrides
+    model.__optional__ = optional
     return model
+
+
+def _rebuild_section(cls: type, optional: bool | tuple[str, ...], overrides: bool, state: Any) -> Section:
+    """Unpickle a generated table (see :meth:`Section.__reduce__`)."""
+    model = section(cls, optional=optional, overrides=overrides)
+    obj = model.__new__(model)
+    obj.__setstate__(state)
+    return obj
 
 
 def unit_of(model: type[BaseModel], key: str) -> str | None:
