@@ -2,33 +2,20 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
-import pytest
 
+from conftest import shared_data
 from drivelash.io.trace import Trace
 
 REPO = Path(__file__).resolve().parents[2]
-EMPS_DIR = REPO.parent / "shared" / "data" / "emps"
 EMPS_CONFIG = REPO / "examples" / "emps.toml"
 
 
-def shared_data(path: Path) -> Path:
-    """A file of ../shared/data: skip with the reason when absent, but fail under CI=true
-    (real-data tests must not pass silently on a machine without the data)."""
-    if not path.exists():
-        msg = f"real data not available at {path} (../shared/data is absent)"
-        if os.environ.get("CI", "").lower() in ("1", "true", "yes"):
-            pytest.fail(msg + " — CI=true requires it")
-        pytest.skip(msg)
-    return path
-
-
 def emps_file(name: str) -> Path:
-    """Path of an EMPS file (see :func:`shared_data`)."""
-    return shared_data(EMPS_DIR / name)
+    """Path of an EMPS file (``conftest.shared_data``: fails under CI=true when absent)."""
+    return shared_data("emps", name)
 
 
 def simulated_trace(duration: float = 2.0) -> Trace:

@@ -16,12 +16,11 @@ import pytest
 import drivelash as dl
 from identify.helpers import REPO, shared_data
 
-KUKA = REPO.parent / "shared" / "data" / "kuka-kr300"
 CASES = [(rec, axis) for rec in "ABC" for axis in (1, 2, 3)]
 
 
 def _identify(rec: str, axis: int) -> tuple[dl.DriveIdentification, dl.Trace]:
-    mat = shared_data(KUKA / f"rec_{rec}.mat")
+    mat = shared_data("kuka-kr300", f"rec_{rec}.mat")
     cfg = dl.load_config(REPO / "examples" / "kuka" / f"axis{axis}.toml")
     trace = dl.load_trace(mat, cfg, required=["theta_m", "theta_l", "torque_m"])
     return dl.identify_drive(trace, cfg), trace
