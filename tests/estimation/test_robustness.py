@@ -275,3 +275,27 @@ def test_stiff_drive_contact_threshold_is_configurable():
     r = DeadzoneEstimator(STIFF.drivetrain(), STIFF.delta1, T_S, T_thr=1e3).run(tr)
     assert r.config.T_thr == 1e3
     assert not r.excitation_ok and "contact threshold" in r.reason
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="known miss: 12 random drives of the independent simulator x 14 statements: 13 of 168 "
+    "runs converged with |err| > 2 mrad (worst -4.07 mrad, ind0.1 T_Cl x3), 3 converged and "
+    "> 1 mrad worse than the paper law; goal 0 and 0. Two drives (ind0.1, ind0.5) are ~2.1 mrad "
+    "off even with the true parameters (95 % interval +-1.0 mrad) - a bias against this "
+    "simulator not yet explained (paper law +1.4 to +1.7 mrad on the same runs)",
+)
+def test_mismatch_sweep_independent_random_drives():
+    """The sweep on 12 random drives of the independent simulator (the table of the closing
+    note: ``tests/estimation/mismatch_sweep.py independent 0``): never confidently wrong, never
+    converged and worse than the paper law by more than 1 mrad."""
+    from .mismatch_sweep import independent_drives, sweep
+
+    rows = sweep(independent_drives(0))
+    bad = [
+        (r.drive, r.case, 1e3 * r.err, 1e3 * r.err_paper)
+        for r in rows
+        if r.confidently_wrong or r.worse_than_paper
+    ]
+    assert not bad, bad

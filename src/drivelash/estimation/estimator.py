@@ -221,7 +221,8 @@ class EstimationResult:
     config : EstimatorConfig
         Gains used.
     delta_std : float
-        Standard uncertainty of the final δ̂ [rad] (see :func:`_uncertainty`).
+        Standard uncertainty of the final δ̂ [rad] (see :func:`_uncertainty`); NaN when the
+        excitation is insufficient (δ̂ is then no measurement).
     warnings : list of str
         Every plausibility problem found (each also keeps ``converged`` false, except
         those marked "note:").
