@@ -4,14 +4,32 @@ Each group of commands lives in its own module under :mod:`drivelash.commands`
 and registers itself on the shared app; heavy imports (numba kernels, torch)
 happen inside the commands, so ``drivelash --help`` stays fast.
 
-User errors (:class:`~drivelash.errors.DrivelashError`) become a one-line
-message on stderr and exit code 2 — never a traceback.
+:func:`main` is the one place where errors meet the user:
+
+- a user error (:class:`~drivelash.errors.DrivelashError`) → ``drivelash: error: …``
+  on stderr, exit code 2;
+- a usage error from typer/click (missing or unknown option, bad option value,
+  unknown command) → one line with click's message and its hint
+  (``try 'drivelash estimate --help'``), exit code 2;
+- ``drivelash`` or ``drivelash te`` without a command → the help (printed by typer's
+  formatter) and exit code 2, as click itself does since 8.2 (``NoArgsIsHelpError``);
+- SIGTERM → an exception like Ctrl-C, so every command's staged outputs are removed
+  and its targets stay as they were (:mod:`drivelash.io.outputs`); exit code 143
+  (130 for SIGINT).
+
+Numerical ``RuntimeWarning``\\ s (``invalid value encountered …``) are not actionable for
+a user and are not shown; the sources silence the legitimate ones themselves, and
+``DRIVELASH_WARNINGS=error`` turns any remaining one into a failure (used by the tests).
 """
 
 from __future__ import annotations
 
 import importlib
+import os
+import signal
 import sys
+import warnings
+from typing import Any
 
 import typer
 
@@ -46,40 +64,95 @@ _COMMAND_MODULES = (
 )
 
 for _name in _COMMAND_MODULES:
-    try:
-        _mod = importlib.import_module(f"drivelash.commands.{_name}")
-    except ModuleNotFoundError as exc:  # a command module not written yet
-        if exc.name != f"drivelash.commands.{_name}":
-            raise
-        continue
+    _mod = importlib.import_module(f"drivelash.commands.{_name}")
     _mod.register(app, te_app)
 
 
-def fail(message: str, code: int = 2) -> typer.Exit:
-    """Print a one-line error to stderr and return the exit to raise."""
-    typer.echo(f"drivelash: error: {message}", err=True)
-    return typer.Exit(code)
+class Terminated(BaseException):  # noqa: N818 - mirrors KeyboardInterrupt
+    """Raised in the main thread on SIGTERM, so ``with``-blocks clean up (staged outputs)."""
 
 
-def main() -> None:
-    """Console-script entry point: run the app, turning user errors into one line."""
+def _on_sigterm(signum: int, frame: Any) -> None:
+    raise Terminated()
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
+def _usage_error_line(exc: Any) -> str:
+    """Click's message and hint on one line."""
+    msg = _one_line(exc.format_message())
+    ctx = getattr(exc, "ctx", None)
+    if ctx is not None:
+        return f"{msg} (try '{ctx.command_path} --help')"
+    return msg
+
+
+def _click_exception_types() -> tuple[type[BaseException], ...]:
+    from typer._click.exceptions import ClickException
+
+    types: list[type[BaseException]] = [ClickException]
+    try:  # a stray real click exception (e.g. from a dependency) is shown the same way
+        import click
+
+        types.append(click.exceptions.ClickException)
+    except ImportError:  # pragma: no cover - click is a dependency of dask
+        pass
+    return tuple(types)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Console-script entry point: run the app; every error becomes one line and an exit code.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Arguments (default ``sys.argv[1:]``).
+    """
+    from typer._click.exceptions import NoArgsIsHelpError
+
+    click_errors = _click_exception_types()
+    in_main_thread = _is_main_thread()
+    old_handler = signal.signal(signal.SIGTERM, _on_sigterm) if in_main_thread else None
     try:
-        app(standalone_mode=False)
+        with warnings.catch_warnings():
+            if os.environ.get("DRIVELASH_WARNINGS") == "error":
+                warnings.simplefilter("error", RuntimeWarning)
+            else:
+                warnings.simplefilter("ignore", RuntimeWarning)
+            rv = app(args=argv, prog_name="drivelash", standalone_mode=False)
+        if isinstance(rv, int) and not isinstance(rv, bool) and rv != 0:
+            sys.exit(rv)  # typer returns the code of an Exit (e.g. 130 after Ctrl-C)
     except DrivelashError as exc:
-        typer.echo(f"drivelash: error: {exc}", err=True)
+        typer.echo(f"drivelash: error: {_one_line(str(exc))}", err=True)
         sys.exit(2)
+    except NoArgsIsHelpError as exc:
+        # typer's rich formatter has already printed the help (stdout) while raising this;
+        # the plain formatter returns it as the message instead.
+        if exc.format_message().strip():
+            typer.echo(exc.format_message(), err=True)
+        sys.exit(2)
+    except click_errors as exc:
+        typer.echo(f"drivelash: error: {_usage_error_line(exc)}", err=True)
+        sys.exit(int(getattr(exc, "exit_code", 2) or 2))
     except typer.Exit as exc:
         sys.exit(exc.exit_code)
     except (typer.Abort, KeyboardInterrupt):
         typer.echo("drivelash: aborted", err=True)
         sys.exit(130)
-    except Exception as exc:  # click usage errors
-        import click
+    except Terminated:
+        typer.echo("drivelash: terminated", err=True)
+        sys.exit(143)
+    finally:
+        if old_handler is not None:
+            signal.signal(signal.SIGTERM, old_handler)
 
-        if isinstance(exc, click.exceptions.ClickException):
-            exc.show()
-            sys.exit(2)
-        raise
+
+def _is_main_thread() -> bool:
+    import threading
+
+    return threading.current_thread() is threading.main_thread()
 
 
 if __name__ == "__main__":

@@ -16,38 +16,13 @@ DemoStep = Callable[[Path, Console], None]
 
 
 def _steps() -> list[DemoStep]:
-    steps: list[DemoStep] = []
-    try:
-        from drivelash.sim.demo import demo_simulate
+    from drivelash.estimation.demo import demo_estimate
+    from drivelash.iso230.demo import demo_iso230
+    from drivelash.sim.demo import demo_simulate
+    from drivelash.te.demo import demo_compensate
+    from drivelash.wear.demo import demo_fleet
 
-        steps.append(demo_simulate)
-    except ModuleNotFoundError:
-        pass
-    try:
-        from drivelash.estimation.demo import demo_estimate
-
-        steps.append(demo_estimate)
-    except ModuleNotFoundError:
-        pass
-    try:
-        from drivelash.te.demo import demo_compensate
-
-        steps.append(demo_compensate)
-    except ModuleNotFoundError:
-        pass
-    try:
-        from drivelash.iso230.demo import demo_iso230
-
-        steps.append(demo_iso230)
-    except ModuleNotFoundError:
-        pass
-    try:
-        from drivelash.wear.demo import demo_fleet
-
-        steps.append(demo_fleet)
-    except ModuleNotFoundError:
-        pass
-    return steps
+    return [demo_simulate, demo_estimate, demo_compensate, demo_iso230, demo_fleet]
 
 
 def register(app: typer.Typer, te_app: typer.Typer) -> None:

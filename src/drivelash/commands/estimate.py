@@ -6,7 +6,7 @@ documented default tuning (gains in ``[estimator]`` override it), prints a summa
 writes JSON / PNG / HTML on request. Every user error is one line naming the file and the
 field (exit code 2); outputs are written only after the estimate succeeded.
 
-``reproduce`` runs ``paper-sim`` and the 15 bench tests (both methods), writes the table
+``reproduce`` runs ``paper-sim`` and the 18 bench tests (both methods), writes the table
 (CSV + Markdown) of MAEE, steady-state peak and convergence times next to the paper's
 values, and the figures (paper's Fig. 8, 13/19, 15, 10).
 """
@@ -202,10 +202,8 @@ def run_estimate(
 
         estimate_figure(trace, res, plot)
     if report is not None:
-        try:
-            from drivelash.report import write_estimate_report
-        except ImportError:  # pragma: no cover - the report module is another issue's
-            raise DrivelashError("--report: HTML reports are not available in this build") from None
+        from drivelash.report import write_estimate_report
+
         write_estimate_report(report, trace, res, cfg)
     if not quiet:
         _print_summary(summary)
@@ -347,7 +345,7 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
     def reproduce(
         quick: bool = typer.Option(False, "--quick", help="Subset with shorter runs (about a minute)."),
         out: Path = typer.Option(Path("reproduce-output"), "-o", "--out", help="Output directory."),
-        workers: int = typer.Option(2, "--workers", help="Parallel processes for the scenario sweep."),
+        workers: int = typer.Option(2, "--workers", min=1, help="Parallel processes for the scenario sweep."),
     ) -> None:
-        """Re-run the paper's simulation and the 15 bench tests; write table and figures."""
+        """Re-run the paper's simulation and the 18 bench tests; write table and figures."""
         run_reproduce(out, quick=quick, workers=workers)
