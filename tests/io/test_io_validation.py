@@ -147,7 +147,11 @@ def test_cli_exit_2_and_no_outputs(cases, name, command, tmp_path, monkeypatch, 
     path, fragment, _, _ = cases[name]
     cfg = tmp_path / "c.toml"
     cfg.write_text(CONFIG)
-    outs = [tmp_path / "o.json", tmp_path / "o.html", tmp_path / "out.csv"]
+    outs = [
+        tmp_path / "o.json",
+        tmp_path / "o.html",
+        tmp_path / ("out.toml" if command == "identify" else "out.csv"),
+    ]
     code, err = _cli(
         [command, str(path), "--config", str(cfg), "--json", str(outs[0]), "--report", str(outs[1]),
          "--out", str(outs[2])],

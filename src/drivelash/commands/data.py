@@ -1,9 +1,9 @@
 """``drivelash identify`` and ``drivelash observe``: real recordings in, parameters out.
 
 Both commands read a recording with :func:`drivelash.io.load_trace` (mapping and
-units from ``--config``), do all the work, and only then write their outputs —
-each atomically — so a bad input (exit code 2, one-line message) leaves no
-partial files behind.
+units from ``--config``). Their output paths are validated before any work, and the
+outputs are written together at the end (:class:`drivelash.io.outputs.Outputs`), so a
+bad input (exit code 2, one-line message) leaves no partial files behind.
 """
 
 from __future__ import annotations
@@ -14,26 +14,9 @@ from typing import Any
 
 import typer
 
-from drivelash.commands import print_warnings
-from drivelash.io.outputs import write_json
+from drivelash.commands import FORCE_HELP, print_warnings
 
 OUT_HELP = "Write a JSON summary here."
-
-
-def _write_text(path: Path, text: str) -> None:
-    from drivelash.io.outputs import atomic_write
-
-    with atomic_write(path) as tmp:
-        tmp.write_text(text, encoding="utf-8")
-
-
-def _check_outputs(*paths: Path | None) -> None:
-    """Refuse output paths whose directory does not exist (before any work is done)."""
-    from drivelash.errors import DrivelashError
-
-    for p in paths:
-        if p is not None and not p.parent.exists():
-            raise DrivelashError(f"{p}: output directory {p.parent} does not exist")
 
 
 def run_identify(
@@ -80,8 +63,12 @@ def run_identify(
     from drivelash.estimation.identify import cross_test, identify
     from drivelash.io import load_config, load_trace
     from drivelash.io.config import drivetrain_fragment
+    from drivelash.io.outputs import HTML_EXTENSIONS, JSON_EXTENSIONS, TOML_EXTENSIONS, Outputs, write_json
 
-    _check_outputs(json_out, report, out)
+    outputs = Outputs("identify", inputs=[trace_path, config_path, cross], force=force)
+    out_t = outputs.file(out, option="--out", kinds=TOML_EXTENSIONS)
+    json_t = outputs.file(json_out, option="--json", kinds=JSON_EXTENSIONS)
+    report_t = outputs.file(report, option="--report", kinds=HTML_EXTENSIONS)
     cfg = load_config(config_path)
     opts = cfg.identification_or_default()
     need = ["theta_m", "torque_m"] + (["theta_l"] if opts.side == "load" else [])
@@ -144,13 +131,13 @@ def run_identify(
 
         html = render_identify_report(trace, result, cfg, cross=ct, cross_trace=vtrace, observer=obs)
 
-    # --- all computed: now write outputs
-    if out is not None:
-        _write_text(out, fragment)
-    if json_out is not None:
-        write_json(json_out, summary)
-    if html is not None and report is not None:
-        _write_text(report, html)
+    with outputs:  # all computed: write the outputs together
+        if out_t is not None:
+            outputs.staging(out_t).write_text(fragment, encoding="utf-8")
+        if json_t is not None:
+            write_json(outputs.staging(json_t), summary)
+        if html is not None and report_t is not None:
+            outputs.staging(report_t).write_text(html, encoding="utf-8")
     if not quiet:
         console = Console(stderr=out is None)
         table = Table(title=f"IDIM-LS ({result.side} side, {result.axis} axis)")
@@ -267,13 +254,18 @@ def run_observe(
     out: Path | None = None,
     resample: bool = False,
     quiet: bool = False,
+    force: bool = False,
 ) -> dict[str, Any]:
     """Body of ``drivelash observe`` (returns the JSON summary)."""
     from drivelash.errors import ConfigError
     from drivelash.estimation.identify import observe_disturbance
     from drivelash.io import Trace, load_config, load_trace, write_trace
+    from drivelash.io.outputs import HTML_EXTENSIONS, JSON_EXTENSIONS, TRACE_EXTENSIONS, Outputs, write_json
 
-    _check_outputs(json_out, report, out)
+    outputs = Outputs("observe", inputs=[trace_path, config_path, drivetrain], force=force)
+    out_t = outputs.file(out, option="--out", kinds=TRACE_EXTENSIONS)
+    json_t = outputs.file(json_out, option="--json", kinds=JSON_EXTENSIONS)
+    report_t = outputs.file(report, option="--report", kinds=HTML_EXTENSIONS)
     cfg = load_config(config_path)
     dt_sec = cfg.drivetrain
     if drivetrain is not None:
@@ -311,18 +303,19 @@ def run_observe(
         html = render_observe_report(
             trace, res, cfg, expected=expected, expected_label="T_Cm sign q̇ ([drivetrain])"
         )
-    if out is not None:
-        write_trace(
-            Trace(
-                {"t": res.t, "velocity": res.velocity, "disturbance": res.disturbance},
-                {"source": str(trace_path), "observer": res.as_dict()},
-            ),
-            out,
-        )
-    if json_out is not None:
-        write_json(json_out, summary)
-    if html is not None and report is not None:
-        _write_text(report, html)
+    with outputs:  # all computed: write the outputs together
+        if out_t is not None:
+            write_trace(
+                Trace(
+                    {"t": res.t, "velocity": res.velocity, "disturbance": res.disturbance},
+                    {"source": str(trace_path), "observer": res.as_dict()},
+                ),
+                outputs.staging(out_t),
+            )
+        if json_t is not None:
+            write_json(outputs.staging(json_t), summary)
+        if html is not None and report_t is not None:
+            outputs.staging(report_t).write_text(html, encoding="utf-8")
     if not quiet:
         unit = "N" if trace.meta.get("axis") == "prismatic" else "N·m"
         typer.echo(f"mean disturbance, forward constant-velocity stretches:  {res.mean_positive:.4g} {unit}")
@@ -354,6 +347,7 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
             help="rigid (IDIM-LS: inertia, friction) or two-mass (J_m, J_l, K_S, D_S, friction, "
             "delta, delta1 with 95 % intervals); default: [identification] model, else rigid.",
         ),
+        force: bool = typer.Option(False, "--force", help=FORCE_HELP),
     ) -> None:
         """Identify a drive (rigid IDIM-LS or two-mass with backlash); write [drivetrain]/[backlash] TOML."""
         run_identify(
@@ -365,6 +359,7 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
             cross=cross,
             resample=resample,
             model=model,
+            force=force,
         )
 
     @app.command()
@@ -384,6 +379,7 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         resample: bool = typer.Option(
             False, "--resample", help="Resample non-uniform time onto a uniform grid."
         ),
+        force: bool = typer.Option(False, "--force", help=FORCE_HELP),
     ) -> None:
         """Estimate the disturbance torque/force of an axis with the super-twisting observer."""
         run_observe(
@@ -394,4 +390,5 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
             report=report,
             out=out,
             resample=resample,
+            force=force,
         )

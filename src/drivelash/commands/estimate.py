@@ -19,7 +19,7 @@ from typing import Any
 
 import typer
 
-from drivelash.commands import print_warnings
+from drivelash.commands import FORCE_HELP, print_warnings
 from drivelash.io.outputs import write_json
 
 #: Fractions of a recording used for MAEE and steady-state peak when the truth is known
@@ -158,53 +158,58 @@ def run_estimate(
     report: Path | None = None,
     quiet: bool = False,
     identify: bool = False,
+    force: bool = False,
 ) -> dict[str, Any]:
     """Body of ``drivelash estimate`` (callable from Python; returns the JSON summary).
 
     ``identify``: identify the drive offline first (two-mass, 95 % intervals) and take the
     values the configuration lacks from it
     (:func:`drivelash.estimation.backlash_api.estimate_with_identification`).
+    Outputs (``json_out``, ``plot``, ``report``) are validated before any work and written
+    together at the end (:class:`drivelash.io.outputs.Outputs`): a failing plot leaves none.
     """
     from drivelash.errors import DrivelashError
     from drivelash.estimation.backlash_api import estimate_from_config, estimate_with_identification
     from drivelash.estimation.estimator import INPUT_COLUMNS
     from drivelash.io import load_config, load_trace
+    from drivelash.io.outputs import HTML_EXTENSIONS, JSON_EXTENSIONS, PLOT_EXTENSIONS, Outputs
 
     if method not in (None, "paper", "default"):
         raise DrivelashError(f"--method: must be 'paper' or 'default', got {method!r}")
-    for p in (json_out, plot, report):
-        if p is not None and not p.parent.exists():
-            raise DrivelashError(f"{p}: output directory {p.parent} does not exist")
-    cfg = load_config(config_path)
-    if not identify:
-        cfg.require("backlash")
-    need = [*INPUT_COLUMNS, "torque_m"] if identify else INPUT_COLUMNS
-    trace = load_trace(trace_path, cfg, required=need)
-    if not quiet:
-        print_warnings(trace.meta)
-    # the one computation shared with drivelash.estimate_backlash (same numbers by construction)
-    if identify:
-        est = estimate_with_identification(trace, cfg, method=method)
-    else:
-        est = estimate_from_config(trace, cfg, method=method)
-    res = est.result
-    if res is None and (plot is not None or report is not None):
-        # --identify could not give the drive: the verdict only, no time series to draw
-        est.summary.setdefault("warnings", []).append(
-            "no --plot/--report written: the online estimate was not run"
-        )
-        plot = report = None
-    summary: dict[str, Any] = {"trace": str(trace_path), "config": str(config_path), **est.summary}
-    if json_out is not None:
-        write_json(json_out, summary)
-    if plot is not None:
-        from drivelash.report.estimation_figures import estimate_figure
+    with Outputs("estimate", inputs=[trace_path, config_path], force=force) as out:
+        json_t = out.file(json_out, option="--json", kinds=JSON_EXTENSIONS)
+        plot_t = out.file(plot, option="--plot", kinds=PLOT_EXTENSIONS)
+        report_t = out.file(report, option="--report", kinds=HTML_EXTENSIONS)
+        cfg = load_config(config_path)
+        if not identify:
+            cfg.require("backlash")
+        need = [*INPUT_COLUMNS, "torque_m"] if identify else INPUT_COLUMNS
+        trace = load_trace(trace_path, cfg, required=need)
+        if not quiet:
+            print_warnings(trace.meta)
+        # the one computation shared with drivelash.estimate_backlash (same numbers by construction)
+        if identify:
+            est = estimate_with_identification(trace, cfg, method=method)
+        else:
+            est = estimate_from_config(trace, cfg, method=method)
+        res = est.result
+        if res is None and (plot_t is not None or report_t is not None):
+            # --identify could not give the drive: the verdict only, no time series to draw
+            est.summary.setdefault("warnings", []).append(
+                "no --plot/--report written: the online estimate was not run"
+            )
+            plot_t = report_t = None
+        summary: dict[str, Any] = {"trace": str(trace_path), "config": str(config_path), **est.summary}
+        if json_t is not None:
+            write_json(out.staging(json_t), summary)
+        if plot_t is not None:
+            from drivelash.report.estimation_figures import estimate_figure
 
-        estimate_figure(trace, res, plot)
-    if report is not None:
-        from drivelash.report import write_estimate_report
+            estimate_figure(trace, res, out.staging(plot_t))
+        if report_t is not None:
+            from drivelash.report import write_estimate_report
 
-        write_estimate_report(report, trace, res, cfg)
+            write_estimate_report(out.staging(report_t), trace, res, cfg)
     if not quiet:
         _print_summary(summary)
     return summary
@@ -256,10 +261,29 @@ def _print_summary(s: dict[str, Any]) -> None:
         c.print(f"  [yellow]warning:[/yellow] {w}")
 
 
-def run_reproduce(out: Path, quick: bool = False, workers: int = 2, quiet: bool = False) -> dict[str, Any]:
-    """Body of ``drivelash reproduce``; returns the table rows and the written files."""
+def run_reproduce(
+    out: Path, quick: bool = False, workers: int = 2, quiet: bool = False, force: bool = False
+) -> dict[str, Any]:
+    """Body of ``drivelash reproduce``; returns the table rows and the written files.
+
+    ``out`` is written as a whole (:meth:`drivelash.io.outputs.Outputs.directory`): the
+    files appear together at the end, replacing a previous ``reproduce`` output.
+    """
     from rich.console import Console
 
+    from drivelash.io.outputs import Outputs
+
+    console = Console(quiet=quiet)
+    with Outputs("reproduce", force=force) as outputs:
+        target = outputs.directory(out, option="-o")
+        assert target is not None
+        result = _reproduce_into(outputs.staging(target), quick, workers, console)
+    files = [target / f.name for f in result["files"]]
+    console.print(f"[green]wrote {', '.join(str(f) for f in files)}[/green]")
+    return result | {"files": files}
+
+
+def _reproduce_into(out: Path, quick: bool, workers: int, console: Any) -> dict[str, Any]:
     from drivelash.estimation.reproduce import (
         reproduce_table,
         summary_numbers,
@@ -268,8 +292,6 @@ def run_reproduce(out: Path, quick: bool = False, workers: int = 2, quiet: bool 
     )
     from drivelash.report import estimation_figures as figs
 
-    console = Console(quiet=quiet)
-    out.mkdir(parents=True, exist_ok=True)
     if quick:
         names = ["paper-sim", "bench-0B", "bench-5C"]
         bench_duration: float | None = 30.0
@@ -308,7 +330,6 @@ def run_reproduce(out: Path, quick: bool = False, workers: int = 2, quiet: bool 
     console.print("figures …")
     files += figs.reproduce_figures(out, rows, quick=quick)
     console.print(md)
-    console.print(f"[green]wrote {', '.join(str(f) for f in files)}[/green]")
     return {"rows": rows, "files": files, "summary": summ}
 
 
@@ -335,10 +356,18 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
             help="Identify the drive first (two-mass, 95 % intervals); values the config lacks come "
             "from it; the JSON carries offline δ and online δ̂ and flags disagreement.",
         ),
+        force: bool = typer.Option(False, "--force", help=FORCE_HELP),
     ) -> None:
         """Estimate the deadzone (backlash) angle of a drive train from a recording."""
         run_estimate(
-            trace, config, json_out=json_out, plot=plot, method=method, report=report, identify=identify
+            trace,
+            config,
+            json_out=json_out,
+            plot=plot,
+            method=method,
+            report=report,
+            identify=identify,
+            force=force,
         )
 
     @app.command()
@@ -346,6 +375,7 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         quick: bool = typer.Option(False, "--quick", help="Subset with shorter runs (about a minute)."),
         out: Path = typer.Option(Path("reproduce-output"), "-o", "--out", help="Output directory."),
         workers: int = typer.Option(2, "--workers", min=1, help="Parallel processes for the scenario sweep."),
+        force: bool = typer.Option(False, "--force", help=FORCE_HELP),
     ) -> None:
         """Re-run the paper's simulation and the 18 bench tests; write table and figures."""
-        run_reproduce(out, quick=quick, workers=workers)
+        run_reproduce(out, quick=quick, workers=workers, force=force)

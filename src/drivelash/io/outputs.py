@@ -97,8 +97,9 @@ JSON_EXTENSIONS: tuple[str, ...] = (".json",)
 TOML_EXTENSIONS: tuple[str, ...] = (".toml",)
 #: Plain text tables (first line ``# drivelash …`` or ``<!-- drivelash … -->``).
 TEXT_EXTENSIONS: tuple[str, ...] = (".csv", ".txt", ".md")
-#: Recordings (the extensions :mod:`drivelash.io.formats` writes).
-TRACE_EXTENSIONS: tuple[str, ...] = (".csv", ".txt", ".parquet", ".pq", ".h5", ".hdf5", ".hdf", ".mat")
+#: Recordings we write (:func:`drivelash.io.formats.write_trace`; ``.txt`` is read as CSV but
+#: never written as a recording).
+TRACE_EXTENSIONS: tuple[str, ...] = (".parquet", ".pq", ".csv", ".h5", ".hdf5", ".hdf", ".mat")
 
 #: Marker file written into every output directory (JSON, with the generator key).
 DIRECTORY_MARKER = ".drivelash-output"

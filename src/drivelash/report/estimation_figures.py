@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from drivelash.report.save import save_figure
+
 PAPER_FIG10_SLOPE = 0.0023  # rad per N·m, spec 01 §4
 
 
@@ -46,7 +48,7 @@ def estimate_figure(trace: Any, res: Any, path: str | Path) -> Path:
     _torque_panel(a2, res)
     fig.tight_layout()
     path = Path(path)
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -104,7 +106,7 @@ def fig8_paper_sim(rows: list[dict[str, Any]], path: Path) -> Path | None:
     a2.legend(fontsize=8)
     a2.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -142,7 +144,7 @@ def fig13_bench_errors(rows: list[dict[str, Any]], path: Path) -> Path | None:
                         color="0.4", backgroundcolor="white")  # fmt: skip
     fig.suptitle("bench replica: estimation error per test (cf. paper Fig. 13/19); y clipped to ±10 mrad")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -166,7 +168,7 @@ def fig15_torque(path: Path, scenario: str = "bench-0B", duration: float | None 
         )
     fig.suptitle("estimated shaft torque vs Δθ, second half of the run (cf. paper Fig. 15)")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -235,7 +237,7 @@ def fig10_ss_vs_phi(path: Path, scales: tuple[float, ...]) -> tuple[Path, float]
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path)
     plt.close(fig)
     return path, float(slope)
 
