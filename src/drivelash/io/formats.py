@@ -13,9 +13,11 @@ Parquet file without its footer is "truncated". Nothing is ever unpickled.
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import os
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -281,35 +283,345 @@ def csv_error() -> type[Exception]:
     return csv.Error
 
 
-def _read_parquet(p: Path) -> RawTable:
-    import pyarrow as pa
-    import pyarrow.parquet as pq
+# --------------------------------------------------------------------------- chunked sources
+#: Rows per chunk of the streaming readers (2**18 = 262 144 rows: 32 s at 8 kHz, 2 MiB per column).
+DEFAULT_CHUNK_ROWS = 1 << 18
 
-    tail = b""
-    if p.stat().st_size >= 8:
-        with p.open("rb") as fh:
-            fh.seek(-4, os.SEEK_END)
-            tail = fh.read(4)
-    if tail != b"PAR1":
-        raise DataError("Parquet footer missing (truncated file?)", path=str(p))
-    try:
-        table = pq.read_table(p)
-    except (pa.ArrowException, OSError, ValueError) as exc:
-        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise DataError(f"unreadable Parquet file (truncated or corrupt?): {msg}", path=str(p)) from None
+#: Peak memory of reading a file whole, per decoded float64 value (Arrow buffers, the
+#: float64 copy, the mapped SI copy and the validation temporaries): measured ≈ 5 (see
+#: docs/assumptions.md), rounded up.
+WHOLE_READ_FACTOR = 8.0
+#: The strict CSV reader (pandas with string cells, used to locate a bad cell): measured
+#: 1.2–1.9 KB per sample of 6 columns ≈ 12× the file size.
+STRICT_CSV_FACTOR = 12.0
+
+
+class ColumnSource:
+    """The numeric vector columns of a recording, read whole or in row chunks.
+
+    Attributes
+    ----------
+    path : str
+        The file.
+    fmt : str
+        Detected format.
+    names : list of str
+        Numeric vector columns (all of length ``n_rows``), in file order.
+    n_rows : int
+        Number of rows.
+    scalars : dict
+        Scalar values stored in the file (e.g. gains).
+    meta : dict
+        Provenance read from the file.
+    """
+
+    def __init__(
+        self, path: str, fmt: str, names: list[str], n_rows: int, scalars: dict[str, float], meta: dict
+    ) -> None:
+        self.path, self.fmt, self.names, self.n_rows = path, fmt, names, n_rows
+        self.scalars, self.meta = scalars, meta
+
+    def chunks(
+        self, names: list[str], chunk_rows: int = DEFAULT_CHUNK_ROWS
+    ) -> Iterator[dict[str, np.ndarray]]:
+        """Consecutive row chunks of ``names`` as float64 arrays (the last one may be shorter)."""
+        raise NotImplementedError
+
+    def read(self, names: list[str] | None = None) -> dict[str, np.ndarray]:
+        """``names`` (default: all) whole, after checking the memory budget."""
+        names = list(self.names if names is None else names)
+        self.check_whole(names)
+        parts: dict[str, list[np.ndarray]] = {n: [] for n in names}
+        for ch in self.chunks(names, max(1, self.n_rows)):
+            for n in names:
+                parts[n].append(ch[n])
+        return {n: (p[0] if len(p) == 1 else np.concatenate(p)) for n, p in parts.items()}
+
+    def check_whole(self, names: list[str], factor: float = WHOLE_READ_FACTOR) -> None:
+        """Refuse reading ``names`` whole when it would exceed the memory budget."""
+        from drivelash.io.budget import check_budget
+
+        check_budget(
+            float(self.n_rows) * max(1, len(names)) * 8.0 * factor,
+            what=f"{self.path}: reading {self.n_rows} rows × {len(names)} columns whole",
+            option="commands that stream (estimate, observe) read it in chunks",
+        )
+
+    def close(self) -> None:
+        """Release the file."""
+
+    def __enter__(self) -> ColumnSource:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+class ArraySource(ColumnSource):
+    """Columns already in memory (a DataFrame, a MAT v5 file)."""
+
+    def __init__(
+        self,
+        columns: dict[str, np.ndarray],
+        path: str = "",
+        fmt: str = "",
+        scalars: dict[str, float] | None = None,
+        meta: dict | None = None,
+    ) -> None:
+        n = len(next(iter(columns.values()))) if columns else 0
+        super().__init__(path, fmt, list(columns), n, dict(scalars or {}), dict(meta or {}))
+        self._cols = columns
+
+    def chunks(
+        self, names: list[str], chunk_rows: int = DEFAULT_CHUNK_ROWS
+    ) -> Iterator[dict[str, np.ndarray]]:
+        for a in range(0, self.n_rows, max(1, chunk_rows)):
+            yield {n: self._cols[n][a : a + chunk_rows] for n in names}
+
+    def read(self, names: list[str] | None = None) -> dict[str, np.ndarray]:
+        return {n: self._cols[n] for n in (self.names if names is None else names)}
+
+
+def _arrow_error(exc: Exception) -> str:
+    return str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+
+
+class ParquetSource(ColumnSource):
+    """A Parquet file read with ``pyarrow.parquet.ParquetFile.iter_batches``."""
+
+    def __init__(self, p: Path) -> None:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        tail = b""
+        if p.stat().st_size >= 8:
+            with p.open("rb") as fh:
+                fh.seek(-4, os.SEEK_END)
+                tail = fh.read(4)
+        if tail != b"PAR1":
+            raise DataError("Parquet footer missing (truncated file?)", path=str(p))
+        try:
+            self._pf = pq.ParquetFile(p)
+            schema = self._pf.schema_arrow
+        except (pa.ArrowException, OSError, ValueError) as exc:
+            raise DataError(
+                f"unreadable Parquet file (truncated or corrupt?): {_arrow_error(exc)}", path=str(p)
+            ) from None
+        meta: dict[str, Any] = {}
+        md = schema.metadata or {}
+        if b"drivelash.meta" in md:
+            meta = _parse_meta(md[b"drivelash.meta"])
+        names = [
+            str(f.name)
+            for f in schema
+            if pa.types.is_integer(f.type) or pa.types.is_floating(f.type) or pa.types.is_boolean(f.type)
+        ]
+        super().__init__(str(p), "parquet", names, int(self._pf.metadata.num_rows), {}, meta)
+
+    def chunks(
+        self, names: list[str], chunk_rows: int = DEFAULT_CHUNK_ROWS
+    ) -> Iterator[dict[str, np.ndarray]]:
+        import pyarrow as pa
+
+        try:
+            for batch in self._pf.iter_batches(batch_size=max(1, chunk_rows), columns=list(names)):
+                yield {
+                    n: batch.column(i).to_numpy(zero_copy_only=False).astype(np.float64)
+                    for i, n in enumerate(names)
+                }
+        except (pa.ArrowException, OSError, ValueError) as exc:
+            raise DataError(
+                f"unreadable Parquet file (truncated or corrupt?): {_arrow_error(exc)}", path=self.path
+            ) from None
+
+    def close(self) -> None:
+        self._pf.close()
+
+
+@dataclass
+class _CsvLayout:
+    """Where the data of a CSV file start and how its rows are split."""
+
+    header_end: int  # byte offset just after the header line
+    tokens: list[str]
+    sep: str
+    meta: dict[str, Any]
+
+
+def _csv_layout(p: Path) -> _CsvLayout:
+    """Comment lines (``#``, incl. ``# drivelash.meta``), header, separator; truncation check."""
+    size = p.stat().st_size
     meta: dict[str, Any] = {}
-    md = table.schema.metadata or {}
-    if b"drivelash.meta" in md:
-        meta = _parse_meta(md[b"drivelash.meta"])
-    cols: dict[str, np.ndarray] = {}
-    for name in table.column_names:
-        col = table.column(name)
-        if not (
-            pa.types.is_integer(col.type) or pa.types.is_floating(col.type) or pa.types.is_boolean(col.type)
-        ):
-            continue
-        cols[str(name)] = col.to_numpy(zero_copy_only=False).astype(np.float64)
-    return RawTable(cols, {}, meta, str(p), "parquet")
+    offset = 0
+    header: str | None = None
+    with p.open("rb") as fh:
+        while True:
+            raw = fh.readline()
+            if not raw:
+                break
+            offset += len(raw)
+            line = raw.decode("utf-8", "replace").rstrip("\r\n")
+            if header is None and line.startswith("#"):
+                if line.startswith("# drivelash.meta "):
+                    meta = _parse_meta(line[len("# drivelash.meta ") :])
+                continue
+            if not line.strip():
+                continue
+            header = line
+            break
+        if header is None:
+            raise DataError("file is empty (no header and no data rows)", path=str(p))
+        fh.seek(max(offset, size - 65536))
+        tail = fh.read().decode("utf-8", "replace")
+    sep = ","
+    if "," not in header:
+        for cand in (";", "\t"):
+            if cand in header:
+                sep = cand
+                break
+        else:
+            if " " in header.strip():
+                sep = r"\s+"
+    tokens = [h.strip() for h in (header.split(sep) if sep != r"\s+" else header.split())]
+    dup = next((h for i, h in enumerate(tokens) if h in tokens[:i]), None)
+    if dup is not None:
+        raise DataError("duplicated column name in the header", path=str(p), column=dup)
+    lines = [ln for ln in tail.splitlines() if ln.strip()]
+    if lines and not tail.endswith(("\n", "\r")) and offset < size:
+        last = lines[-1]
+        n_last = len(last.split(sep)) if sep != r"\s+" else len(last.split())
+        if n_last < len(tokens):
+            raise DataError(
+                f"last row is incomplete ({n_last} of {len(tokens)} fields, {len(last)} characters)"
+                " and the file ends mid-line (truncated file?)",
+                path=str(p),
+                row=_count_rows(p, offset) - 1,
+            )
+    return _CsvLayout(offset, tokens, sep, meta)
+
+
+def _count_rows(p: Path, start: int) -> int:
+    """Non-blank lines after byte ``start`` (only used to name the row of an error)."""
+    n = 0
+    with p.open("rb") as fh:
+        fh.seek(start)
+        for line in fh:
+            n += bool(line.strip())
+    return n
+
+
+class CsvSource(ColumnSource):
+    """A CSV file read with pyarrow's streaming reader (correctly rounded, like Python ``float``).
+
+    Anything pyarrow refuses (an empty field, ``1_000``, Latin-1 text, …) is re-read by the
+    strict reader (:func:`_read_csv`, Python ``float`` per cell) to name the bad cell, or to
+    read it when Python accepts it; whitespace-separated files are read whole by the strict
+    reader (within the memory budget).
+    """
+
+    def __init__(self, p: Path) -> None:
+        self._p = p
+        self._layout = _csv_layout(p)
+        self._strict: RawTable | None = None
+        lay = self._layout
+        if lay.sep == r"\s+":  # pyarrow splits on one character: the strict reader (whole)
+            n = len(next(iter(self._strict_table().columns.values())))
+        else:
+            n = self._count_arrow()
+        if n == 0:
+            raise DataError("no data rows below the header", path=str(p))
+        names = list(self._strict.columns) if self._strict is not None else lay.tokens
+        super().__init__(str(p), "csv", names, n, {}, lay.meta)
+
+    def _strict_table(self) -> RawTable:
+        if self._strict is None:
+            from drivelash.io.budget import check_budget
+
+            check_budget(
+                self._p.stat().st_size * STRICT_CSV_FACTOR,
+                what=f"{self._p}: the CSV reader's strict pass (pyarrow refused the file)",
+                option="fix the file (pyarrow's error names the column) or raise the budget",
+            )
+            self._strict = _read_csv(self._p)
+        return self._strict
+
+    def _reader(self, names: list[str], block: int) -> Any:
+        import pyarrow as pa
+        import pyarrow.csv as pcsv
+
+        fh = self._p.open("rb")
+        fh.seek(self._layout.header_end)
+        try:
+            return fh, pcsv.open_csv(
+                fh,
+                read_options=pcsv.ReadOptions(column_names=self._layout.tokens, block_size=block),
+                parse_options=pcsv.ParseOptions(delimiter=self._layout.sep),
+                convert_options=pcsv.ConvertOptions(
+                    column_types={n: pa.float64() for n in self._layout.tokens},
+                    include_columns=names,
+                    strings_can_be_null=False,
+                    quoted_strings_can_be_null=False,
+                    null_values=[],
+                ),
+            )
+        except BaseException:
+            fh.close()
+            raise
+
+    def _count_arrow(self) -> int:
+        """Row count from a pass over the first column (pyarrow); the strict reader if it refuses."""
+        import pyarrow as pa
+
+        try:
+            n = 0
+            fh, rd = self._reader(self._layout.tokens[:1], 1 << 24)
+            with fh:
+                for b in rd:
+                    n += b.num_rows
+            return n
+        except (pa.ArrowException, UnicodeDecodeError, ValueError):
+            return len(next(iter(self._strict_table().columns.values())))
+
+    def chunks(
+        self, names: list[str], chunk_rows: int = DEFAULT_CHUNK_ROWS
+    ) -> Iterator[dict[str, np.ndarray]]:
+        if self._strict is not None:
+            yield from ArraySource(self._strict.columns).chunks(names, chunk_rows)
+            return
+        import pyarrow as pa
+
+        # Arrow blocks are in bytes; ~24 bytes per field is typical for %.17g text
+        block = int(min(1 << 28, max(1 << 16, chunk_rows * len(self._layout.tokens) * 24)))
+        pending: dict[str, list[np.ndarray]] = {n: [] for n in names}
+        have = 0
+        try:
+            fh, rd = self._reader(names, block)
+            with fh:
+                for b in rd:
+                    for n in names:
+                        pending[n].append(b.column(n).to_numpy(zero_copy_only=False).astype(np.float64))
+                    have += b.num_rows
+                    while have >= chunk_rows:
+                        out, pending, have = _take(pending, chunk_rows, have)
+                        yield out
+        except (pa.ArrowException, UnicodeDecodeError, ValueError) as exc:
+            strict = self._strict_table()  # names the bad cell (DataError), or reads what Python accepts
+            del exc
+            yield from ArraySource(strict.columns).chunks(names, chunk_rows)
+            return
+        if have:
+            yield {n: np.concatenate(v) if len(v) > 1 else v[0] for n, v in pending.items()}
+
+
+def _take(
+    pending: dict[str, list[np.ndarray]], k: int, have: int
+) -> tuple[dict[str, np.ndarray], dict[str, list[np.ndarray]], int]:
+    """The first ``k`` rows of ``pending`` and the rest."""
+    out, rest = {}, {}
+    for n, parts in pending.items():
+        a = np.concatenate(parts) if len(parts) > 1 else parts[0]
+        out[n], rest[n] = a[:k], ([a[k:]] if a.size > k else [])
+    return out, rest, have - k
 
 
 def _h5_open(p: Path):  # noqa: ANN202
@@ -323,33 +635,49 @@ def _h5_open(p: Path):  # noqa: ANN202
         raise DataError(f"unreadable HDF5 file ({hint}): {msg}", path=str(p)) from None
 
 
-def _read_pandas_fixed(group: Any) -> dict[str, np.ndarray]:
-    """A pandas ``HDFStore`` fixed-format frame (``axis0``, ``blockN_items``, ``blockN_values``)."""
-    cols: dict[str, np.ndarray] = {}
-    i = 0
-    while f"block{i}_items" in group and f"block{i}_values" in group:
-        items = [x.decode() if isinstance(x, bytes) else str(x) for x in group[f"block{i}_items"][()]]
-        ds = group[f"block{i}_values"]
-        vals = np.asarray(ds[()])
-        transposed = bool(ds.attrs.get("transposed", False))
-        if vals.ndim == 2:
-            if transposed or (vals.shape[1] == len(items) and vals.shape[0] != len(items)):
-                vals = vals.T
-            for name, row in zip(items, vals, strict=False):
-                col = _as_column(row)
-                if col is not None:
-                    cols[name] = col
-        i += 1
-    return cols
+@dataclass
+class _H5Column:
+    """Where one column lives in an HDF5 file and how to slice it."""
+
+    dataset: str
+    how: str  # "1d", "row" (1×N), "col" (N×1), "field", "block-col" (values[:, j]), "block-row" (values[j])
+    length: int
+    field: str | None = None
+    j: int | None = None
+
+    def read(self, ds: Any, a: int, b: int) -> np.ndarray:
+        if self.how == "1d":
+            v = ds[a:b]
+        elif self.how == "row":
+            v = ds[0, a:b]
+        elif self.how == "col":
+            v = ds[a:b, 0]
+        elif self.how == "field":
+            v = ds[a:b][self.field]
+            if self.j is not None:
+                v = v.reshape(v.shape[0], -1)[:, self.j]
+        elif self.how == "block-col":
+            v = ds[a:b, self.j]
+        else:
+            v = ds[self.j, a:b]
+        return np.asarray(v, dtype=np.float64).reshape(-1)
 
 
-def _read_hdf5(p: Path) -> RawTable:
-    import h5py
+class Hdf5Source(ColumnSource):
+    """HDF5 (plain datasets, pandas fixed/table format) and MATLAB v7.3, sliced with h5py.
 
-    items: dict[str, Any] = {}
-    meta: dict[str, Any] = {}
-    order: list[str] = []
-    with _h5_open(p) as f:
+    Any length is read (in chunks when streaming); nothing is skipped for its size.
+    """
+
+    def __init__(self, p: Path, fmt: str = "hdf5") -> None:
+        import h5py
+
+        self._f = _h5_open(p)
+        f = self._f
+        meta: dict[str, Any] = {}
+        order: list[str] = []
+        scalars: dict[str, float] = {}
+        found: dict[str, _H5Column] = {}
         try:
             if _META_KEY in f.attrs:
                 meta = _parse_meta(f.attrs[_META_KEY])
@@ -357,57 +685,114 @@ def _read_hdf5(p: Path) -> RawTable:
                 got = json.loads(str(f.attrs[_ORDER_KEY]))
                 order = [str(x) for x in got] if isinstance(got, list) else []
             for k, v in f.attrs.items():
-                if (
-                    k not in (_META_KEY, _ORDER_KEY)
-                    and np.asarray(v).dtype.kind in "biuf"
-                    and np.asarray(v).size == 1
-                ):
-                    items[str(k)] = v
-
-            frames: list[Any] = []
+                a = np.asarray(v)
+                if k not in (_META_KEY, _ORDER_KEY) and a.dtype.kind in "biuf" and a.size == 1:
+                    scalars[str(k)] = float(a.reshape(-1)[0])
 
             def visit(name: str, obj: Any) -> None:
                 if isinstance(obj, h5py.Group) and "block0_items" in obj and "block0_values" in obj:
-                    frames.append(obj)
-                elif isinstance(obj, h5py.Dataset):
-                    if "/block" in f"/{name}" or name.endswith(("axis0", "axis1")) or "#refs#" in name:
+                    self._pandas_fixed(name, obj, found)
+                    return
+                if not isinstance(obj, h5py.Dataset):
+                    return
+                if "/block" in f"/{name}" or name.endswith(("axis0", "axis1")) or "#refs#" in name:
+                    return
+                dt = obj.dtype
+                if dt.names:  # compound table (e.g. pandas 'table' format)
+                    if obj.ndim != 1:
                         return
-                    if obj.dtype.names:  # compound table (e.g. pandas 'table' format)
-                        data = obj[()]
-                        for fld in obj.dtype.names:
-                            arr = np.asarray(data[fld])
-                            if arr.ndim == 2:
-                                for j in range(arr.shape[1]):
-                                    items[f"{fld}_{j}"] = arr[:, j]
-                            else:
-                                items[fld if fld != "index" else f"{name}/index"] = arr
-                        return
-                    if obj.size <= 10_000_000:
-                        items[name] = obj[()]
+                    for fld in dt.names:
+                        sub = dt.fields[fld][0]
+                        if sub.base.kind not in "biuf":
+                            continue
+                        if sub.shape:
+                            for j in range(int(np.prod(sub.shape))):
+                                found[f"{fld}_{j}"] = _H5Column(name, "field", obj.shape[0], fld, j)
+                        else:
+                            key = fld if fld != "index" else f"{name}/index"
+                            found[key] = _H5Column(name, "field", obj.shape[0], fld)
+                    return
+                if dt.kind not in "biuf":
+                    return
+                if obj.size == 1:
+                    scalars[name] = float(np.asarray(obj[()]).reshape(-1)[0])
+                elif obj.ndim == 1:
+                    found[name] = _H5Column(name, "1d", obj.shape[0])
+                elif obj.ndim == 2 and obj.shape[0] == 1:
+                    found[name] = _H5Column(name, "row", obj.shape[1])
+                elif obj.ndim == 2 and obj.shape[1] == 1:
+                    found[name] = _H5Column(name, "col", obj.shape[0])
 
             f.visititems(visit)
-            for g in frames:
-                items.update(_read_pandas_fixed(g))
         except (OSError, KeyError, ValueError, RuntimeError) as exc:
+            self._f.close()
             msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
             raise DataError(f"unreadable HDF5 content (truncated or corrupt?): {msg}", path=str(p)) from None
-    cols, scalars = _split(items)
-    # Shorter names when unambiguous: 'trace/theta_m' → 'theta_m'
-    base = [k.rsplit("/", 1)[-1] for k in cols]
-    if len(set(base)) == len(base):
-        cols = {b: v for b, v in zip(base, cols.values(), strict=True)}
-    if order:  # column order as written by drivelash
-        cols = {k: cols[k] for k in order if k in cols} | {k: v for k, v in cols.items() if k not in order}
-    return RawTable(cols, scalars, meta, str(p), "hdf5")
+        n = max((c.length for c in found.values()), default=0)
+        found = {k: c for k, c in found.items() if c.length == n}
+        base = [k.rsplit("/", 1)[-1] for k in found]
+        if len(set(base)) == len(base):  # shorter names when unambiguous: 'trace/theta_m' → 'theta_m'
+            found = {b: c for b, c in zip(base, found.values(), strict=True)}
+        if order:  # column order as written by drivelash
+            found = {k: found[k] for k in order if k in found} | {
+                k: v for k, v in found.items() if k not in order
+            }
+        self._cols = found
+        super().__init__(str(p), fmt, list(found), n, scalars, meta)
+
+    @staticmethod
+    def _pandas_fixed(name: str, group: Any, found: dict[str, _H5Column]) -> None:
+        """A pandas ``HDFStore`` fixed-format frame (``blockN_items``, ``blockN_values``)."""
+        i = 0
+        while f"block{i}_items" in group and f"block{i}_values" in group:
+            items = [x.decode() if isinstance(x, bytes) else str(x) for x in group[f"block{i}_items"][()]]
+            ds = group[f"block{i}_values"]
+            if ds.ndim == 2 and ds.dtype.kind in "biuf":
+                transposed = bool(ds.attrs.get("transposed", False))
+                path = f"{name}/block{i}_values"
+                by_col = transposed or (ds.shape[1] == len(items) and ds.shape[0] != len(items))
+                for j, item in enumerate(items):
+                    if by_col:
+                        found[item] = _H5Column(path, "block-col", ds.shape[0], j=j)
+                    else:
+                        found[item] = _H5Column(path, "block-row", ds.shape[1], j=j)
+            i += 1
+
+    def chunks(
+        self, names: list[str], chunk_rows: int = DEFAULT_CHUNK_ROWS
+    ) -> Iterator[dict[str, np.ndarray]]:
+        step = max(1, chunk_rows)
+        try:
+            for a in range(0, self.n_rows, step):
+                b = min(self.n_rows, a + step)
+                yield {n: self._cols[n].read(self._f[self._cols[n].dataset], a, b) for n in names}
+        except (OSError, KeyError, RuntimeError) as exc:
+            msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise DataError(
+                f"unreadable HDF5 content (truncated or corrupt?): {msg}", path=self.path
+            ) from None
+
+    def close(self) -> None:
+        with contextlib.suppress(Exception):
+            self._f.close()
 
 
-def _read_mat(p: Path, kind: str) -> RawTable:
-    if kind == "mat73":
-        table = _read_hdf5(p)
-        table.fmt = "mat73"
-        return table
+def _mat5_source(p: Path) -> ArraySource:
+    """A MATLAB v5 file: cannot be streamed (compressed variables); read whole within the budget."""
     import scipy.io
 
+    from drivelash.io.budget import check_budget
+
+    try:
+        info = scipy.io.whosmat(p)
+    except Exception:  # noqa: BLE001 - the full read below names the problem
+        info = []
+    n_values = sum(int(np.prod(shape)) for _, shape, _ in info)
+    check_budget(
+        n_values * 8.0 * WHOLE_READ_FACTOR,
+        what=f"{p}: reading a MATLAB v5 file ({n_values} values) whole",
+        option="save it as MATLAB v7.3 (HDF5), Parquet or CSV, which are read in chunks",
+    )
     try:
         data = scipy.io.loadmat(p, squeeze_me=False, mat_dtype=False)
     except (ValueError, OSError, TypeError, NotImplementedError, EOFError, IndexError) as exc:
@@ -422,7 +807,34 @@ def _read_mat(p: Path, kind: str) -> RawTable:
     meta = _parse_meta(data.get(_META_KEY, "")) if _META_KEY in data else {}
     items = {k: v for k, v in data.items() if not k.startswith("__") and k != _META_KEY}
     cols, scalars = _split(_flatten_mat(items))
-    return RawTable(cols, scalars, meta, str(p), "mat")
+    return ArraySource(cols, str(p), "mat", scalars, meta)
+
+
+def open_source(path: str | Path) -> ColumnSource:
+    """Open a recording for reading (whole or in chunks); nothing but its layout is read yet.
+
+    Raises
+    ------
+    DataError
+        Missing, empty, truncated or wrong-type file; no numeric columns; no rows.
+    """
+    p = Path(path)
+    kind = detect_format(p)
+    if kind == "csv":
+        src: ColumnSource = CsvSource(p)
+    elif kind == "parquet":
+        src = ParquetSource(p)
+    elif kind in ("hdf5", "mat73"):
+        src = Hdf5Source(p, kind)
+    else:
+        src = _mat5_source(p)
+    if not src.names:
+        src.close()
+        raise DataError("no numeric columns found", path=str(p))
+    if src.n_rows == 0:
+        src.close()
+        raise DataError("file has no data rows", path=str(p))
+    return src
 
 
 def _flatten_mat(items: dict[str, Any], prefix: str = "", depth: int = 0) -> dict[str, Any]:
@@ -458,7 +870,7 @@ def _flatten_mat(items: dict[str, Any], prefix: str = "", depth: int = 0) -> dic
 
 
 def read_raw(path: str | Path) -> RawTable:
-    """Read the source columns of a recording (no mapping, no validation).
+    """Read the source columns of a recording whole (no mapping, no validation).
 
     Parameters
     ----------
@@ -469,23 +881,12 @@ def read_raw(path: str | Path) -> RawTable:
     ------
     DataError
         Missing, empty, truncated or wrong-type file; malformed content.
+    ResourceError
+        Reading it whole would exceed the memory budget (:mod:`drivelash.io.budget`).
     """
-    p = Path(path)
-    kind = detect_format(p)
-    if kind == "csv":
-        table = _read_csv(p)
-    elif kind == "parquet":
-        table = _read_parquet(p)
-    elif kind == "hdf5":
-        table = _read_hdf5(p)
-    else:
-        table = _read_mat(p, kind)
-    if not table.columns:
-        raise DataError("no numeric columns found", path=str(p))
-    n = {v.size for v in table.columns.values()}
-    if n == {0}:
-        raise DataError("file has no data rows", path=str(p))
-    return table
+    with open_source(path) as src:
+        cols = src.read()
+        return RawTable(cols, dict(src.scalars), dict(src.meta), src.path, src.fmt)
 
 
 # --------------------------------------------------------------------------- writers
