@@ -88,6 +88,7 @@ UNIT_KIND: dict[str, str] = {
     "s": "time",
     "ms": "time",
     "us": "time",
+    "ns": "time",
     "rad": "angle",
     "deg": "angle",
     "rev": "angle",
@@ -424,7 +425,7 @@ class SamplingSection(Table):
 
     Attributes
     ----------
-    time_unit : {"s", "ms", "us"}
+    time_unit : {"s", "ms", "us", "ns"}
         Unit of the time column when no ``[columns]`` entry maps ``t``.
     sample_rate : float, optional
         Constant sample rate [Hz] when the file has no time column.
@@ -435,7 +436,7 @@ class SamplingSection(Table):
         instead of refusing it. Never done unless asked for.
     """
 
-    time_unit: Literal["s", "ms", "us"] = "s"
+    time_unit: Literal["s", "ms", "us", "ns"] = "s"
     sample_rate: float | None = Field(default=None, gt=0)
     tolerance: float = Field(default=0.01, gt=0)
     resample: bool = False

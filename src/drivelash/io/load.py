@@ -27,7 +27,7 @@ import numpy as np
 
 from drivelash.errors import DataError
 from drivelash.io.config import UNIT_KIND, ColumnMap, DriveConfig, SamplingSection
-from drivelash.io.formats import RawTable, read_raw
+from drivelash.io.formats import WHOLE_READ_FACTOR, RawTable, read_raw
 from drivelash.io.trace import UNITS as TRACE_UNITS
 from drivelash.io.trace import Trace
 
@@ -39,6 +39,7 @@ _TO_SI: dict[str, float] = {
     "s": 1.0,
     "ms": 1e-3,
     "us": 1e-6,
+    "ns": 1e-9,
     "rad": 1.0,
     "deg": math.pi / 180.0,
     "rev": 2.0 * math.pi,
@@ -243,18 +244,60 @@ def _check_finite(cols: Mapping[str, np.ndarray], origin: Mapping[str, str], pat
             )
 
 
+#: Longest plausible sample period of a drive recording [s] (docs/assumptions.md).
+MAX_PLAUSIBLE_T_S = 10.0
+
+
+def _check_plausible_period(
+    med: float, integral: bool, path: str, column: str, sampling: SamplingSection
+) -> None:
+    """Refuse a sample period that betrays time stamps in ns/µs/ms read as seconds.
+
+    Rules: a median period above :data:`MAX_PLAUSIBLE_T_S`, or an integer time column
+    whose median period is a whole number of at least one second (ms stamps at 1 kHz) —
+    unless the time column's unit is declared in ``[columns]``.
+    The message names the unit that gives a period closest to 1 ms.
+    """
+    period = med / _TO_SI[sampling.time_unit]  # in the file's unit
+    if not (med > MAX_PLAUSIBLE_T_S or (integral and med >= 1.0 and med == round(med))):
+        return
+    cands = [
+        (u, period * f) for u, f in (("ns", 1e-9), ("us", 1e-6), ("ms", 1e-3)) if 1e-7 <= period * f <= 1.0
+    ]
+    if cands:
+        u, v = min(cands, key=lambda c: abs(math.log10(c[1]) + 3.0))
+        hint = (
+            f'time stamps in {u}? that gives {v:.6g} s; set [sampling] time_unit = "{u}"'
+            f" or unit = \"{u}\" in the [columns] entry of '{column}'"
+        )
+    else:
+        hint = "check the time column and its unit ([sampling] time_unit or [columns] unit)"
+    raise DataError(f"implausible sample period {med:.6g} s: {hint}", path=path, column=column)
+
+
 def _check_time(
-    t: np.ndarray, path: str, column: str, sampling: SamplingSection, warnings: list[str]
+    t: np.ndarray,
+    path: str,
+    column: str,
+    sampling: SamplingSection,
+    warnings: list[str],
+    integral: bool = False,
 ) -> np.ndarray | None:
-    """Validate the time column; return a uniform grid to resample onto, or None."""
+    """Validate the time column; return a uniform grid to resample onto, or None.
+
+    ``integral``: the time column holds whole numbers in the file (for the plausibility rule).
+    """
     if t.size < 3:
         raise DataError(f"only {t.size} sample(s); need at least 3", path=path, column=column)
     steps = np.diff(t)
     if np.any(steps <= 0):
         i = int(np.flatnonzero(steps <= 0)[0])
         what = "duplicated time stamp" if steps[i] == 0 else "time goes backwards (non-increasing)"
-        raise DataError(f"{what}: t={t[i + 1]!r} after t={t[i]!r}", path=path, column=column, row=i + 1)
+        raise DataError(
+            f"{what}: t={float(t[i + 1])!r} after t={float(t[i])!r}", path=path, column=column, row=i + 1
+        )
     med = float(np.median(steps))
+    _check_plausible_period(med, integral, path, column, sampling)
     dev = np.abs(steps - med) / med
     if np.any(dev > sampling.tolerance):
         i = int(np.flatnonzero(dev > sampling.tolerance)[0])
@@ -268,6 +311,13 @@ def _check_time(
                 row=i + 1,
             )
         n = int(math.floor((t[-1] - t[0]) / med + 1e-9)) + 1
+        from drivelash.io.budget import check_budget
+
+        check_budget(
+            n * 8.0 * WHOLE_READ_FACTOR,
+            what=f"{path}: resampling onto {n} samples of {med:.6g} s",
+            option="cut the recording at its gaps",
+        )
         warnings.append(
             f"{path}, column '{column}', row {i + 1}: non-uniform sampling;"
             f" resampled linearly onto a {med:.6g} s grid ({n} samples)"
@@ -457,8 +507,19 @@ def load_trace(
     cmap, sampling = _mapping_from(mapping)
     if resample is not None:
         sampling = sampling.model_copy(update={"resample": resample})
-    table = read_raw(p)
-    spath = str(p)
+    return trace_from_table(read_raw(p), cmap, sampling, required=required, check_saturation=check_saturation)
+
+
+def trace_from_table(
+    table: RawTable,
+    cmap: dict[str, ColumnMap] | None,
+    sampling: SamplingSection,
+    *,
+    required: Iterable[str] = (),
+    check_saturation: bool = True,
+) -> Trace:
+    """Map, convert and validate source columns (the part of :func:`load_trace` after reading)."""
+    spath = table.path
     warnings: list[str] = []
     cols, kinds, origin = _apply_mapping(table, cmap, sampling, warnings)
 
@@ -486,7 +547,10 @@ def load_trace(
             column=missing[0],
         )
     _check_finite(cols, origin, spath)
-    grid = _check_time(cols["t"], spath, origin.get("t", "t"), sampling, warnings)
+    t_src = table.columns.get(origin.get("t", ""))
+    t_declared = cmap is not None and any(cm.column == "t" for cm in cmap.values())
+    integral = not t_declared and t_src is not None and bool(np.all(t_src == np.round(t_src)))
+    grid = _check_time(cols["t"], spath, origin.get("t", "t"), sampling, warnings, integral)
     if grid is not None:
         t_old = cols["t"]
         cols = {k: (grid if k == "t" else np.interp(grid, t_old, v)) for k, v in cols.items()}

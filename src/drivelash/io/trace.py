@@ -129,6 +129,43 @@ class Trace:
         cols.update(extra)
         return Trace(cols, dict(self.meta))
 
+    @classmethod
+    def from_frame(
+        cls,
+        df: Any,
+        mapping: Any = None,
+        *,
+        required: Iterable[str] = (),
+        resample: bool | None = None,
+        check_saturation: bool = True,
+    ) -> Trace:
+        """A trace from a :class:`pandas.DataFrame`, with every check :func:`~drivelash.io.load_trace` makes.
+
+        Parameters
+        ----------
+        df : pandas.DataFrame
+            Columns by name (numeric ones are used, as from a file); errors name ``<DataFrame>``.
+        mapping, required, resample, check_saturation
+            As for :func:`~drivelash.io.load_trace`.
+        """
+        from drivelash.io.formats import RawTable
+        from drivelash.io.load import _mapping_from, trace_from_table
+
+        cols: dict[str, np.ndarray] = {}
+        for name in df.columns:
+            a = np.asarray(df[name])
+            if a.dtype.kind in "biuf" and a.ndim == 1:
+                cols[str(name)] = a.astype(np.float64)
+        if not cols:
+            raise DataError("no numeric columns found", path="<DataFrame>")
+        if len(df) == 0:
+            raise DataError("no data rows", path="<DataFrame>")
+        cmap, sampling = _mapping_from(mapping)
+        if resample is not None:
+            sampling = sampling.model_copy(update={"resample": resample})
+        table = RawTable(cols, {}, {}, "<DataFrame>", "DataFrame")
+        return trace_from_table(table, cmap, sampling, required=required, check_saturation=check_saturation)
+
     def to_pandas(self):  # noqa: ANN201 - pandas is an optional import at call time
         """The columns as a :class:`pandas.DataFrame`."""
         import pandas as pd

@@ -1,0 +1,738 @@
+"""Recordings larger than memory: :class:`TraceStream` reads a recording in row chunks.
+
+The same mapping, unit conversion and validation as :func:`drivelash.io.load_trace`,
+applied chunk by chunk, so a multi-hour 8 kHz recording is read in bounded memory:
+
+1. **validation pass** over the needed columns (cheap: Parquet/HDF5 read only those
+   columns; CSV is parsed by pyarrow's streaming reader): NaN/Inf (first bad row per
+   column), time monotonic and uniform across chunk boundaries, the sample period
+   ``T_s`` as the exact median of all intervals (the same value :attr:`Trace.T_s` gives on
+   the whole recording), implausible time units, constant signals, encoder wrap-around;
+2. a second pass only where a check needs a figure of the whole signal first: clipped
+   torque (fraction of samples at the extreme, longest run) and the position/velocity
+   unit check (velocity against the derivative of position over the samples with
+   motion, |dθ/dt| > 0.1 max |dθ/dt|; the threshold is applied on a histogram with 1/16
+   octave bins, see ``docs/assumptions.md``);
+3. then :meth:`TraceStream.chunks` yields :class:`~drivelash.io.Trace` chunks whose
+   values are bit-identical to the rows of :func:`load_trace` on the same file
+   (unwrapping carries its correction across chunks; the conversion is elementwise).
+
+Non-uniform sampling with resampling asked for, and MAT v5 files, are read whole (within
+the memory budget, :mod:`drivelash.io.budget`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Iterator, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drivelash.errors import DataError
+from drivelash.io.config import UNIT_KIND, ColumnMap, DriveConfig, SamplingSection
+from drivelash.io.formats import DEFAULT_CHUNK_ROWS, ColumnSource, open_source
+from drivelash.io.trace import UNITS as TRACE_UNITS
+from drivelash.io.trace import Trace
+
+__all__ = ["DEFAULT_CHUNK_ROWS", "TraceStream", "iter_trace_chunks"]
+
+#: Above this many distinct sample intervals the exact median keeps every interval (8 B each).
+_MAX_DISTINCT_STEPS = 1 << 16
+#: Histogram resolution of the unit check: bins per octave of |dθ/dt|.
+_BINS_PER_OCTAVE = 16
+
+
+@dataclass
+class _Col:
+    """How one Trace column is made from one source column."""
+
+    name: str
+    source: str
+    factor: float
+    scale: float = 1.0
+    offset: float = 0.0
+    affine: bool = True  # raw * factor * scale + offset (mapped) or raw * factor (time unit only)
+    modulus: float | None = None  # encoder wrap-around candidate (file units)
+    jump: str = ""
+    kind: str | None = None
+
+    def convert(self, raw: np.ndarray) -> np.ndarray:
+        if self.affine:
+            return raw * self.factor * self.scale + self.offset
+        return raw * self.factor if self.factor != 1.0 else raw
+
+
+def _plan(src: ColumnSource, cmap: dict[str, ColumnMap] | None, sampling: SamplingSection) -> list[_Col]:
+    """The Trace columns of ``src`` under the mapping (the rules of ``load._apply_mapping``)."""
+    from drivelash.io.load import _ACCEPTS, _TO_SI, _factor, _one_rev
+
+    path = src.path
+    plan: list[_Col] = []
+    if cmap is None:
+        for k in src.names:
+            if k == "t":
+                plan.append(_Col("t", "t", _TO_SI[sampling.time_unit], affine=False))
+            elif k.startswith("theta"):
+                plan.append(_Col(k, k, 1.0, affine=False, modulus=2 * math.pi, jump="one revolution"))
+            else:
+                plan.append(_Col(k, k, 1.0, affine=False))
+        return plan
+    made: set[str] = set()
+    for source, cm in cmap.items():
+        if source not in src.names:
+            avail = ", ".join(src.names[:20])
+            raise DataError(f"missing required column (available: {avail})", path=path, column=source)
+        if cm.column in made:
+            raise DataError(f"two source columns map to Trace column '{cm.column}'", path=path, column=source)
+        kind = UNIT_KIND[cm.unit]
+        acc = _ACCEPTS.get(cm.column)
+        if acc is not None and kind not in acc:
+            raise DataError(
+                f"unit '{cm.unit}' ({kind}) does not fit Trace column '{cm.column}'"
+                f" (needs {' or '.join(acc)})",
+                path=path,
+                column=source,
+            )
+        modulus = cm.wrap if cm.wrap is not None else (_one_rev(cm) if kind == "angle" else None)
+        if not cm.column.startswith("theta"):
+            modulus = None
+        plan.append(
+            _Col(
+                cm.column,
+                source,
+                _factor(cm, src, source),  # type: ignore[arg-type]
+                cm.scale,
+                cm.offset,
+                True,
+                modulus,
+                f"{modulus:g} {cm.unit}" if modulus is not None else "",
+                kind,
+            )
+        )
+        made.add(cm.column)
+    for name in src.names:
+        if name in TRACE_UNITS and name != "t" and name not in made and name not in cmap:
+            mod = 2 * math.pi if name.startswith("theta") else None
+            plan.append(_Col(name, name, 1.0, affine=False, modulus=mod, jump="one revolution"))
+            made.add(name)
+    if "t" not in made and sampling.sample_rate is None:
+        for name in ("t", "time"):  # an unmapped time column in [sampling] time_unit
+            if name in src.names:
+                plan.insert(0, _Col("t", name, _TO_SI[sampling.time_unit], affine=False))
+                break
+    return plan
+
+
+class _Stats:
+    """Running figures of one column over the validation pass."""
+
+    def __init__(self) -> None:
+        self.bad = 0
+        self.first_bad: int | None = None
+        self.first_bad_nan = True
+        self.lo = math.inf
+        self.hi = -math.inf
+        self.first_si: float | None = None
+        self.jumps = 0
+        self.first_jump: int | None = None
+        self.last_raw: float | None = None
+        self.raw_lo = math.inf
+        self.raw_hi = -math.inf
+
+
+class TraceStream:
+    """A validated recording, read in row chunks (see the module docstring).
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV, Parquet, HDF5 or MATLAB file.
+    mapping : DriveConfig or dict, optional
+        Column mapping, as for :func:`drivelash.io.load_trace`.
+    required : iterable of str
+        Trace columns the caller needs.
+    columns : iterable of str, optional
+        Trace columns to read and yield (``t`` always); default: every mapped column.
+    chunk_rows : int
+        Rows per chunk.
+    resample : bool, optional
+        As for :func:`load_trace` (resampling reads the recording whole).
+    check_saturation : bool
+        Refuse clipped torque/force columns.
+
+    Attributes
+    ----------
+    n_samples : int
+    T_s : float
+        Sample period [s]: the median of all intervals, as :attr:`Trace.T_s`.
+    names : list of str
+        The columns each chunk carries.
+    meta : dict
+        As ``load_trace(...).meta``.
+    """
+
+    def __init__(
+        self,
+        path: str | Path,
+        mapping: DriveConfig | Mapping[str, Any] | None = None,
+        *,
+        required: Iterable[str] = (),
+        columns: Iterable[str] | None = None,
+        chunk_rows: int = DEFAULT_CHUNK_ROWS,
+        resample: bool | None = None,
+        check_saturation: bool = True,
+    ) -> None:
+        from drivelash.io.load import _mapping_from
+
+        self.path = Path(path)
+        self.chunk_rows = max(3, int(chunk_rows))
+        cmap, sampling = _mapping_from(mapping)
+        if resample is not None:
+            sampling = sampling.model_copy(update={"resample": resample})
+        self._sampling = sampling
+        self._mapping = mapping
+        self._required = list(required)
+        self._check_saturation = check_saturation
+        self._whole: Trace | None = None
+        self._src = open_source(self.path)
+        try:
+            self._setup(cmap, sampling, columns)
+        except BaseException:
+            self._src.close()
+            raise
+
+    # ------------------------------------------------------------------ set-up
+    def _setup(self, cmap: Any, sampling: SamplingSection, columns: Any) -> None:
+        src = self._src
+        spath = str(self.path)
+        plan = _plan(src, cmap, sampling)
+        names = [c.name for c in plan]
+        if "t" not in names and sampling.sample_rate is None:
+            raise DataError(
+                "missing required column 't' (no time column mapped and no [sampling] sample_rate)",
+                path=spath,
+                column="t",
+            )
+        have = names if "t" in names else ["t", *names]
+        missing = [r for r in self._required if r not in have]
+        if missing:
+            raise DataError(
+                f"missing required column (have: {', '.join(have)}); map it in [columns]",
+                path=spath,
+                column=missing[0],
+            )
+        if columns is not None:
+            want = ["t", *[c for c in columns if c != "t"]]
+            unknown = [c for c in want if c not in have]
+            if unknown:
+                raise DataError(f"no such column (have: {', '.join(have)})", path=spath, column=unknown[0])
+            plan = [c for c in plan if c.name in want]
+        self._plan = plan
+        self.n_samples = src.n_rows
+        self._warnings: list[str] = []
+        self._unwrap: dict[str, float] = {}
+        self.names = ["t", *[c.name for c in plan if c.name != "t"]]
+        self.meta: dict[str, Any] = {}
+        self._validate()
+        kinds = {c.name: c.kind for c in plan if c.kind}
+        self.meta = self._meta(kinds, cmap)
+
+    def _meta(self, kinds: dict[str, str], cmap: Any) -> dict[str, Any]:
+        prismatic = kinds.get("theta_m") == "length" or kinds.get("omega_m") == "velocity"
+        kinds_m = {kinds.get("theta_m"), kinds.get("omega_m")} - {None, "dimensionless"}
+        if prismatic and kinds_m & {"angle", "angular_velocity"}:
+            raise DataError(
+                "theta_m and omega_m mix a length and an angle unit",
+                path=str(self.path),
+                column=self._origin("omega_m"),
+            )
+        meta: dict[str, Any] = dict(self._src.meta)
+        meta.update(
+            {
+                "source": str(self.path),
+                "format": self._src.fmt,
+                "axis": "prismatic" if prismatic else meta.get("axis", "rotary"),
+                "warnings": list(meta.get("warnings", [])) + self._warnings,
+            }
+        )
+        if prismatic:
+            meta["units"] = {
+                "t": "s",
+                "theta_m": "m",
+                "omega_m": "m/s",
+                "torque_m": "N",
+                "theta_l": "m",
+                "omega_l": "m/s",
+            }
+        if self._src.scalars:
+            meta["scalars"] = {k: float(v) for k, v in self._src.scalars.items()}
+        if cmap is not None:
+            meta["mapping"] = {k: v.model_dump(exclude_defaults=True) for k, v in cmap.items()}
+        return meta
+
+    def _origin(self, name: str) -> str:
+        for c in self._plan:
+            if c.name == name:
+                return c.source
+        return name
+
+    def _t_col(self) -> _Col | None:
+        return next((c for c in self._plan if c.name == "t"), None)
+
+    def _raw_chunks(self, cols: list[_Col]) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+        """(first row, source arrays) of each chunk of ``cols``' sources."""
+        sources = list(dict.fromkeys(c.source for c in cols))
+        row = 0
+        for ch in self._src.chunks(sources, self.chunk_rows):
+            n = len(next(iter(ch.values()))) if ch else 0
+            yield row, ch
+            row += n
+
+    def _t_chunk(self, row: int, n: int, raw: dict[str, np.ndarray]) -> np.ndarray:
+        tc = self._t_col()
+        if tc is not None:
+            return tc.convert(raw[tc.source])
+        return np.arange(row, row + n) / self._sampling.sample_rate
+
+    # ------------------------------------------------------------------ validation
+    def _validate(self) -> None:
+        from drivelash.io.load import _check_plausible_period
+
+        spath = str(self.path)
+        plan = self._plan
+        stats = {c.name: _Stats() for c in plan}
+        step_vals: dict[float, int] = {}
+        all_steps: list[np.ndarray] | None = None
+        t_last: float | None = None
+        t_integral = True
+        bad_time: tuple[int, float, float] | None = None
+        n = self.n_samples
+        if n < 3:
+            raise DataError(f"only {n} sample(s); need at least 3", path=spath, column=self._origin("t"))
+        for row, raw in self._raw_chunks(plan):
+            m = len(next(iter(raw.values())))
+            for c in plan:
+                st = stats[c.name]
+                r = raw[c.source]
+                fin = np.isfinite(r)
+                if not fin.all():
+                    k = int(np.flatnonzero(~fin)[0])
+                    if st.first_bad is None:
+                        st.first_bad, st.first_bad_nan = row + k, bool(np.isnan(r[k]))
+                    st.bad += int((~fin).sum())
+                    continue
+                if st.first_bad is not None:
+                    continue
+                si = c.convert(r)
+                if st.first_si is None:
+                    st.first_si = float(si[0])
+                st.lo, st.hi = min(st.lo, float(si.min())), max(st.hi, float(si.max()))
+                if c.modulus is not None:
+                    rr = r if st.last_raw is None else np.concatenate(([st.last_raw], r))
+                    jumps = np.abs(np.diff(rr)) > 0.5 * c.modulus
+                    if jumps.any():
+                        st.jumps += int(jumps.sum())
+                        if st.first_jump is None:
+                            base = row - (0 if st.last_raw is None else 1)
+                            st.first_jump = base + int(np.flatnonzero(jumps)[0]) + 1
+                    st.last_raw = float(r[-1])
+                    st.raw_lo, st.raw_hi = min(st.raw_lo, float(r.min())), max(st.raw_hi, float(r.max()))
+            if any(stats[c.name].first_bad is not None for c in plan):
+                continue
+            t = self._t_chunk(row, m, raw)
+            tc = self._t_col()
+            if tc is not None and t_integral:
+                t_integral = bool(np.all(raw[tc.source] == np.round(raw[tc.source])))
+            tt = t if t_last is None else np.concatenate(([t_last], t))
+            steps = np.diff(tt)
+            if bad_time is None and np.any(steps <= 0):
+                i = int(np.flatnonzero(steps <= 0)[0])
+                base = row - (0 if t_last is None else 1)
+                bad_time = (base + i + 1, float(tt[i]), float(tt[i + 1]))
+            t_last = float(t[-1])
+            if all_steps is not None:
+                all_steps.append(steps)
+            else:
+                u, cnt = np.unique(steps, return_counts=True)
+                for v, k in zip(u.tolist(), cnt.tolist(), strict=True):
+                    step_vals[v] = step_vals.get(v, 0) + k
+                if len(step_vals) > _MAX_DISTINCT_STEPS:  # jittery clock: keep every interval
+                    from drivelash.io.budget import check_budget
+
+                    check_budget(8.0 * n, what=f"{spath}: the exact median of {n} irregular sample intervals")
+                    all_steps = [np.repeat(np.array(list(step_vals)), list(step_vals.values()))]
+        # the first problem in the loader's order: non-finite values, time, constant, …
+        for c in plan:
+            st = stats[c.name]
+            if st.first_bad is not None:
+                what = "NaN" if st.first_bad_nan else "infinite value"
+                raise DataError(
+                    f"{what} ({st.bad} bad sample(s))", path=spath, column=c.source, row=st.first_bad
+                )
+        tcol = self._origin("t")
+        if bad_time is not None:
+            row, a, b = bad_time
+            what = "duplicated time stamp" if a == b else "time goes backwards (non-increasing)"
+            raise DataError(f"{what}: t={b!r} after t={a!r}", path=spath, column=tcol, row=row)
+        if all_steps is not None:
+            med = float(np.median(np.concatenate(all_steps)))
+            dev_max = None
+        else:
+            med = _median_of_counts(step_vals)
+            dev_max = max(abs(v - med) / med for v in step_vals)
+        tc = self._t_col()
+        integral = t_integral and tc is not None and not tc.affine  # a unit declared in [columns] is trusted
+        _check_plausible_period(med, integral, spath, tcol, self._sampling)
+        tol = self._sampling.tolerance
+        if (dev_max is None or dev_max > tol) and self._first_irregular(med, tol) is not None:
+            if self._sampling.resample:  # resampling needs the whole recording
+                self._read_whole()
+                return
+            row, step = self._first_irregular(med, tol)  # type: ignore[misc]
+            raise DataError(
+                f"non-uniform sampling: interval {step:.6g} s vs median {med:.6g} s"
+                f" (deviation {abs(step - med) / med:.1%} > tolerance {tol:.1%});"
+                " resample explicitly with --resample or [sampling] resample = true",
+                path=spath,
+                column=tcol,
+                row=row,
+            )
+        self.T_s = med
+        # encoder wrap-around: unwrap when the signal jumps and stays within one modulus
+        for c in plan:
+            st = stats[c.name]
+            if c.modulus is None or not st.jumps or c.modulus <= 0:
+                continue
+            if st.raw_hi - st.raw_lo > c.modulus * (1 + 1e-9):
+                continue
+            self._unwrap[c.name] = c.modulus
+            self._warnings.append(
+                f"{spath}, column '{c.source}', row {st.first_jump}: encoder wrap-around"
+                f" ({st.jumps} jump(s) of {c.jump}) unwrapped"
+            )
+        self._second_pass(stats)
+
+    def _first_irregular(self, med: float, tol: float) -> tuple[int, float] | None:
+        t_last = None
+        for row, raw in self._raw_chunks([c for c in self._plan if c.name == "t"] or self._plan[:1]):
+            m = len(next(iter(raw.values())))
+            t = self._t_chunk(row, m, raw)
+            tt = t if t_last is None else np.concatenate(([t_last], t))
+            steps = np.diff(tt)
+            dev = np.abs(steps - med) / med
+            if np.any(dev > tol):
+                i = int(np.flatnonzero(dev > tol)[0])
+                return row - (0 if t_last is None else 1) + i + 1, float(steps[i])
+            t_last = float(t[-1])
+        return None
+
+    def _second_pass(self, stats: dict[str, _Stats]) -> None:
+        """Constant and clipped signals; the position/velocity unit check."""
+        from drivelash.io.load import SATURATION_FRACTION, SATURATION_MIN_RUN, SIGNAL_COLUMNS
+
+        spath = str(self.path)
+        names = list(dict.fromkeys([*SIGNAL_COLUMNS, *self._required]))
+        plan = {c.name: c for c in self._plan}
+        for name in names:
+            if name not in plan or name == "t":
+                continue
+            st = stats[name]
+            if st.hi - st.lo == 0:  # unwrapping cannot make a constant signal move
+                raise DataError(
+                    f"constant signal (every sample is {st.first_si:.6g})",
+                    path=spath,
+                    column=plan[name].source,
+                    row=0,
+                )
+        sat = [
+            n
+            for n in names
+            if n in plan and (n.startswith("torque") or n.startswith("F_"))
+            and (self._check_saturation or not n.startswith("torque"))
+        ]  # fmt: skip
+        pairs = [s for s in ("m", "l") if f"theta_{s}" in plan and f"omega_{s}" in plan]
+        if not sat and not pairs:
+            return
+        k = max(1, min(25, self.n_samples // 50))
+        sat_state = {
+            n: {"hi": [0, 0, 0, None], "lo": [0, 0, 0, None]} for n in sat
+        }  # count, run, best, start
+        units = {s: _UnitAcc(k) for s in pairs}
+        for ch in self.chunks():
+            for n in sat:
+                a = ch[n]
+                for key, ext in (("hi", stats[n].hi), ("lo", stats[n].lo)):
+                    _runs(sat_state[n][key], a == ext, ch.row0)
+            for s, acc in units.items():
+                acc.feed(ch["t"], ch[f"theta_{s}"], ch[f"omega_{s}"], ch.row0)
+        n_all = self.n_samples
+        for n in sat:
+            for key, label, ext in (("hi", "maximum", stats[n].hi), ("lo", "minimum", stats[n].lo)):
+                count, _run, best, start = sat_state[n][key]
+                frac = count / n_all
+                if frac >= SATURATION_FRACTION and best >= SATURATION_MIN_RUN:
+                    raise DataError(
+                        f"saturated signal: {frac:.1%} of samples sit at the {label} {ext:.6g}"
+                        " (clipped recording?)",
+                        path=spath,
+                        column=plan[n].source,
+                        row=int(start),
+                    )
+        for s, acc in units.items():
+            acc.finish()
+            ratio, row = acc.ratio()
+            if ratio is None:
+                continue
+            _check_ratio(ratio, s, spath, plan[f"omega_{s}"].source, row)
+
+    def _read_whole(self) -> None:
+        """Read the recording whole with :func:`load_trace` (within the memory budget)."""
+        from drivelash.io.load import load_trace
+
+        self._src.check_whole([c.source for c in self._plan])
+        tr = load_trace(
+            self.path,
+            self._mapping,
+            required=self._required,
+            resample=True,
+            check_saturation=self._check_saturation,
+        )
+        keep = ["t", *[c.name for c in self._plan if c.name != "t"]]
+        self._whole = tr.select(keep)
+        self._warnings.extend(w for w in tr.meta.get("warnings", []) if w not in self._warnings)
+        self.T_s = tr.T_s
+        self.n_samples = len(tr)
+        self._unwrap = {}
+
+    # ------------------------------------------------------------------ data
+    def chunks(self, chunk_rows: int | None = None) -> Iterator[_Chunk]:
+        """The recording in chunks of SI columns (:class:`~drivelash.io.Trace` with ``row0``)."""
+        if chunk_rows is not None and chunk_rows != self.chunk_rows:
+            self.chunk_rows = max(3, int(chunk_rows))
+        if self._whole is not None:
+            for a in range(0, len(self._whole), self.chunk_rows):
+                part = self._whole.slice(a, a + self.chunk_rows)
+                ch = _Chunk(part.columns, self.meta)
+                ch.row0 = a
+                yield ch
+            return
+        carry: dict[str, tuple[float, float]] = {}  # name -> (last raw, cumulative correction)
+        for row, raw in self._raw_chunks(self._plan):
+            m = len(next(iter(raw.values())))
+            cols: dict[str, np.ndarray] = {"t": self._t_chunk(row, m, raw)}
+            for c in self._plan:
+                if c.name == "t":
+                    continue
+                r = raw[c.source]
+                mod = self._unwrap.get(c.name)
+                if mod is not None:
+                    r = _unwrap_chunk(r, mod, carry, c.name)
+                cols[c.name] = c.convert(r)
+            ch = _Chunk({k: cols[k] for k in self.names}, self.meta)
+            ch.row0 = row
+            yield ch
+
+    def __iter__(self) -> Iterator[_Chunk]:
+        return self.chunks()
+
+    def close(self) -> None:
+        """Release the file."""
+        self._src.close()
+
+    def __enter__(self) -> TraceStream:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+class _Chunk(Trace):
+    """A chunk of a :class:`TraceStream`: a Trace and the row of its first sample."""
+
+    row0: int = 0
+
+
+def _unwrap_chunk(r: np.ndarray, period: float, carry: dict, name: str) -> np.ndarray:
+    """``np.unwrap(x, period)`` of the whole column, one chunk at a time (bit-identical)."""
+    last, corr0 = carry.get(name, (None, 0.0))
+    x = r if last is None else np.concatenate(([last], r))
+    # numpy's unwrap: ph_correct from the wrapped differences, cumulated from the start
+    dd = np.diff(x)
+    interval_high = period / 2
+    interval_low = -interval_high
+    ddmod = np.mod(dd - interval_low, period) + interval_low
+    ddmod[(ddmod == interval_low) & (dd > 0)] = interval_high
+    ph_correct = ddmod - dd
+    ph_correct[np.abs(dd) < period / 2] = 0
+    cum = np.cumsum(np.concatenate(([corr0], ph_correct)))
+    if last is None:
+        out = r.copy()
+        out[1:] = r[1:] + cum[1:]
+    else:
+        out = r + cum[1:]
+    carry[name] = (float(r[-1]), float(cum[-1]))
+    return out
+
+
+def _median_of_counts(counts: dict[float, int]) -> float:
+    """``np.median`` of a multiset given as value → count (same arithmetic for even sizes)."""
+    vals = np.array(sorted(counts))
+    cum = np.cumsum([counts[v] for v in vals.tolist()])
+    total = int(cum[-1])
+    lo = vals[int(np.searchsorted(cum, (total - 1) // 2, side="right"))]
+    hi = vals[int(np.searchsorted(cum, total // 2, side="right"))]
+    return float(np.median(np.array([lo, hi]))) if total % 2 == 0 else float(hi)
+
+
+def _runs(state: list, hit: np.ndarray, row0: int) -> None:
+    """Count of hits, the current run, the longest run and the first run's start, across chunks."""
+    count, run, best, start = state
+    count += int(hit.sum())
+    if hit.any():
+        if start is None:
+            start = row0 + int(np.flatnonzero(hit)[0])
+        edges = np.diff(np.concatenate(([0], hit.view(np.int8), [0])))
+        starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+        lengths = stops - starts
+        if starts[0] == 0:
+            lengths[0] += run
+        best = max(best, int(lengths.max()))
+        run = int(lengths[-1]) if stops[-1] == hit.size else 0
+    else:
+        run = 0
+    state[:] = [count, run, best, start]
+
+
+class _UnitAcc:
+    """The loader's unit check (``load._check_units``) accumulated over chunks.
+
+    dθ/dt (``np.gradient``) and its moving average over ``k`` samples are computed on each
+    chunk with ``k + 2`` samples of context on both sides, so they equal the whole-signal
+    values; Σ ω·d and Σ d·d are binned by |d| (1/16 octave) until max |d| is known.
+    """
+
+    def __init__(self, k: int) -> None:
+        self.k = k
+        self.ctx = k + 2
+        self.buf: dict[str, np.ndarray] | None = None
+        self.buf_row = 0
+        self.emitted = 0
+        self.bins: dict[str, np.ndarray] = {}
+        self.dmax = 0.0
+        self.first_row_by_bin: dict[int, int] = {}
+
+    def feed(self, t: np.ndarray, th: np.ndarray, om: np.ndarray, row0: int) -> None:
+        new = {"t": t, "th": th, "om": om}
+        if self.buf is None:
+            self.buf, self.buf_row = new, row0
+        else:
+            self.buf = {k: np.concatenate((self.buf[k], new[k])) for k in new}
+        self._process(final=False)
+
+    def finish(self) -> None:
+        if self.buf is not None:
+            self._process(final=True)
+
+    def _process(self, final: bool) -> None:
+        b = self.buf
+        assert b is not None
+        n = b["t"].size
+        # positions [lo, hi) of the buffer whose values have full context (or are at the edges)
+        lo = self.emitted - self.buf_row
+        hi = n if final else n - self.ctx
+        if hi <= lo or n < 2:
+            return
+        d = np.gradient(b["th"], b["t"])
+        om = b["om"]
+        if self.k > 1:
+            ker = np.ones(self.k) / self.k
+            d = np.convolve(d, ker, mode="same")
+            om = np.convolve(om, ker, mode="same")
+        # the buffer's own edges are not the signal's edges, except the very first and last
+        d, om = d[lo:hi], om[lo:hi]
+        ad = np.abs(d)
+        self.dmax = max(self.dmax, float(ad.max()) if ad.size else 0.0)
+        mant, expo = np.frexp(ad)
+        idx = _bin_of(ad, mant, expo)
+        size = 2300 * _BINS_PER_OCTAVE
+        for key, w in (("od", om * d), ("dd", d * d), ("n", np.ones_like(d))):
+            acc = np.bincount(idx, weights=w, minlength=size)
+            self.bins[key] = self.bins.get(key, 0) + acc
+        if ad.size:  # first row with motion, per bin (for the error message)
+            for bi in np.unique(idx):
+                if int(bi) not in self.first_row_by_bin:
+                    self.first_row_by_bin[int(bi)] = self.buf_row + lo + int(np.flatnonzero(idx == bi)[0])
+        self.emitted = self.buf_row + hi
+        keep = 2 * self.ctx
+        cut = max(0, hi - keep)
+        self.buf = {k: v[cut:] for k, v in b.items()}
+        self.buf_row += cut
+
+    def ratio(self) -> tuple[float | None, int]:
+        if not self.bins or self.dmax <= 0:
+            return None, 0
+        thr = 0.1 * self.dmax
+        mant, expo = np.frexp(np.array([thr]))
+        tb = int(_bin_of(np.array([thr]), mant, expo)[0])
+        sel = slice(tb + 1, None)  # bins wholly above the threshold (within 1/16 octave)
+        n = float(self.bins["n"][sel].sum())
+        if n < 10:
+            return None, 0
+        dd = float(self.bins["dd"][sel].sum())
+        if dd == 0:
+            return None, 0
+        rows = [r for b, r in self.first_row_by_bin.items() if b > tb]
+        return float(self.bins["od"][sel].sum()) / dd, (min(rows) if rows else 0)
+
+
+def _bin_of(ad: np.ndarray, mant: np.ndarray, expo: np.ndarray) -> np.ndarray:
+    """Histogram bin of |d|: 1/16 octave (from the float's exponent and mantissa); 0 for zero."""
+    fine = np.floor((mant - 0.5) * 2 * _BINS_PER_OCTAVE)
+    return np.where(ad > 0, (expo + 1100) * _BINS_PER_OCTAVE + fine, 0).astype(np.int64)
+
+
+def _check_ratio(ratio: float, side: str, path: str, column: str, row: int) -> None:
+    from drivelash.io.load import UNIT_FACTOR_TOLERANCE
+
+    for factor, hint in (
+        (180.0 / math.pi, "velocity looks like deg/s (or position like rad where deg was meant)"),
+        (60.0 / (2 * math.pi), "velocity looks like rpm"),
+        (math.pi / 180.0, "position looks like deg (declare unit 'deg')"),
+        (2 * math.pi / 60.0, "position/velocity units inconsistent by 9.55 (rpm vs rad/s?)"),
+    ):
+        if abs(ratio / factor - 1) < UNIT_FACTOR_TOLERANCE:
+            raise DataError(
+                f"implausible units: velocity is {ratio:.4g}× the derivative of"
+                f" theta_{side}; {hint} — fix the unit in [columns]",
+                path=path,
+                column=column,
+                row=row,
+            )
+
+
+def iter_trace_chunks(
+    path: str | Path,
+    mapping: DriveConfig | Mapping[str, Any] | None = None,
+    *,
+    required: Iterable[str] = (),
+    columns: Iterable[str] | None = None,
+    chunk_rows: int = DEFAULT_CHUNK_ROWS,
+    check_saturation: bool = True,
+) -> Iterator[Trace]:
+    """Validate a recording, then yield it in chunks of SI columns (see :class:`TraceStream`).
+
+    Every chunk is a :class:`~drivelash.io.Trace` (``meta`` as ``load_trace`` gives it);
+    concatenated, the chunks equal ``load_trace(path, mapping)`` bit for bit.
+    """
+    with TraceStream(
+        path,
+        mapping,
+        required=required,
+        columns=columns,
+        chunk_rows=chunk_rows,
+        check_saturation=check_saturation,
+    ) as stream:
+        yield from stream.chunks()
