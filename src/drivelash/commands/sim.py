@@ -100,6 +100,7 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
                 0 if seed is None else seed,
                 RECORDING_SECONDS if duration is None else duration,
                 workers,
+                force=force,
             )
             return
         from rich.console import Console

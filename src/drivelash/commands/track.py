@@ -267,7 +267,14 @@ def run_report(db: str, out_path: Path, force: bool = False, quiet: bool = False
 
 
 def run_simulate_fleet(
-    out: Path, machines: int, axes: int, recordings: int, seed: int, duration: float, workers: int
+    out: Path,
+    machines: int,
+    axes: int,
+    recordings: int,
+    seed: int,
+    duration: float,
+    workers: int,
+    force: bool = False,
 ) -> Any:
     """Body of ``simulate fleet``."""
     from rich.console import Console
@@ -283,7 +290,7 @@ def run_simulate_fleet(
         console=Console(stderr=True),
         transient=True,
     )
-    with Outputs("simulate fleet") as o, bar:
+    with Outputs("simulate fleet", force=force) as o, bar:
         task = bar.add_task("sim", total=machines * axes * recordings)
         target = o.directory(out, option="-o")
         assert target is not None
