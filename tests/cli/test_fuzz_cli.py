@@ -23,6 +23,7 @@ The count of cases (classes × commands) is printed by :func:`test_coverage_coun
 
 from __future__ import annotations
 
+import faulthandler
 import functools
 import hashlib
 import inspect
@@ -125,10 +126,19 @@ class Cmd:
     na: dict[str, str] = field(default_factory=dict)  # class -> reason it does not apply
     slow: bool = False  # every case of this row is slow (heavy imports)
     xfail: dict[str, str] = field(default_factory=dict)  # class -> known-miss reason
+    slow_classes: tuple[str, ...] = ()  # classes whose cases are slow for this command
 
 
 W = "{w}"
-TE_PENDING = "known miss: TE command outputs/manifests are wired by h5-te-axis (issue 15, TE part)"
+TE_PENDING = (
+    "known miss: measured a traceback, a late error (inputs read before the output paths are"
+    " checked) or a campaign run before refusing; goal: one line naming the option before any"
+    " work; because the TE commands' outputs and manifests are h5-te-axis's part of issue 15"
+)
+_TE_OUT = ("output-is-input", "output-dir-missing", "output-dir-read-only", "output-is-directory",
+           "foreign-file-no-force")  # fmt: skip
+_TE_MANIFEST = ("manifest-missing-key", "manifest-list", "manifest-missing-column",
+                "manifest-truncated-run", "manifest-empty-run")  # fmt: skip
 
 #: One row per command (``drivelash --help`` and ``te`` subcommands).
 COMMANDS: dict[str, Cmd] = {
@@ -222,26 +232,35 @@ COMMANDS: dict[str, Cmd] = {
             "missing-column": "covered by iso230's own tests (column names per [columns])",
         },  # fmt: skip
     ),
-    "te campaign": Cmd(good=["te", "campaign", "-o", f"{W}/camp_out", "--quick"], dir_outputs=("-o",)),
+    "te campaign": Cmd(
+        good=["te", "campaign", "-o", f"{W}/camp_out", "--quick"],
+        dir_outputs=("-o",),
+        xfail={k: TE_PENDING for k in _TE_OUT if k != "output-is-input"},
+        slow_classes=_TE_OUT,  # each runs the quick campaign (20-30 s) before it refuses
+    ),
     "te fit": Cmd(
         good=["te", "fit", f"{W}/campaign", "-o", f"{W}/model_out", "--trials", "1"],
         dir_outputs=("-o",),
         inputs=(f"{W}/campaign",),
+        xfail={k: TE_PENDING for k in (*_TE_OUT, *_TE_MANIFEST)},
     ),
     "te evaluate": Cmd(
         good=["te", "evaluate", f"{W}/model", f"{W}/campaign", "-o", f"{W}/eval_out"],
         dir_outputs=("-o",),
         inputs=(f"{W}/model", f"{W}/campaign"),
+        xfail={k: TE_PENDING for k in _TE_OUT},
     ),
     "te validate": Cmd(
         good=["te", "validate", f"{W}/model", "-o", f"{W}/val_out", "--quick"],
         dir_outputs=("-o",),
         inputs=(f"{W}/model",),
+        xfail={k: TE_PENDING for k in _TE_OUT},
     ),
     "te export": Cmd(
         good=["te", "export", f"{W}/model", "-o", f"{W}/table.json"],
         file_outputs={"-o": ".json"},
         inputs=(f"{W}/model",),
+        xfail={k: TE_PENDING for k in _TE_OUT if k != "output-is-input"},
     ),
 }
 
@@ -342,7 +361,8 @@ def _write_bad_recordings(d: Path) -> None:
     c = dict(sig)
     c["t"] = np.round(sig["t"] * 1e9)
     write_trace(Trace(c), d / "ns.csv")
-    c = {k: v for k, v in sig.items() if k != "torque_m"}
+    # no theta_m and no torque_m: every command that reads a recording needs one of them
+    c = {k: v for k, v in sig.items() if k not in ("theta_m", "torque_m")}
     write_trace(Trace(c), d / "nocol.csv")
 
 
@@ -363,7 +383,7 @@ _CONFIG_BAD = {
     "drive": {
         "bad-toml": ("[drivetrain\nJ_m = 1\n", ""),
         "unknown-key": ("[drivetrain]\nJ_mm = 1.0\n[backlash]\ndelta1 = 0.1\n", "J_mm"),
-        "missing-key": ("[drivetrain]\nJ_m = 8.31e-4\n", "backlash"),
+        "missing-key": ("[drivetrain]\nJ_m = 8.31e-4\n", "J_l"),  # the first missing key
         "wrong-type": ('[drivetrain]\nJ_m = "heavy"\n[backlash]\ndelta1 = 0.1\n', "J_m"),
     },
     "ident": {
@@ -637,7 +657,7 @@ def _all_cases(d: Path) -> list[tuple[str, str, int, Case | str]]:
             for i, case in enumerate(got):
                 if klass in cmd.xfail:
                     case.xfail = cmd.xfail[klass]
-                if cmd.slow:
+                if cmd.slow or klass in cmd.slow_classes:
                     case.slow = True
                 out.append((cname, klass, i, case))
     return out
@@ -666,12 +686,16 @@ def _run_main(argv: list[str], capsys, seconds: int = 120) -> tuple[int, str, st
 
     old = signal.signal(signal.SIGALRM, on_alarm)
     signal.alarm(seconds)
+    # backstop for a hang inside a compiled kernel (no Python bytecode runs, SIGALRM waits):
+    # dump the stacks and end the worker rather than hang the suite
+    faulthandler.dump_traceback_later(seconds + 30, exit=True, file=sys.__stderr__)
     try:
         cli.main(argv)
         code = 0
     except SystemExit as exc:
         code = int(exc.code or 0) if not isinstance(exc.code, str) else 1
     finally:
+        faulthandler.cancel_dump_traceback_later()
         signal.alarm(0)
         signal.signal(signal.SIGALRM, old)
     out, err = capsys.readouterr()
@@ -688,11 +712,16 @@ def _case_params() -> list:
     finally:
         shutil.rmtree(d, ignore_errors=True)
     params = []
+    commands, classes = list(COMMANDS), list(CLASSES)
     for cname, klass, i, case in rows:
         if isinstance(case, str):
             continue
         marks = []
-        if case.slow:
+        # the fast subset (make test): every 4th (command, class) pair on a rotation, so each
+        # class runs on about a quarter of the commands and each command gets about a quarter
+        # of the classes; make test-slow runs every case
+        fast = (commands.index(cname) + classes.index(klass)) % 4 == 0
+        if case.slow or not fast:
             marks.append(pytest.mark.slow)
         if case.xfail:
             marks.append(pytest.mark.xfail(strict=True, reason=case.xfail))

@@ -35,8 +35,9 @@ __all__ = [
 
 #: Fraction of the machine's RAM one command may plan to use.
 MEMORY_FRACTION = 0.5
-#: Compute-time budget of one request [s] (one day).
-DEFAULT_TIME_BUDGET_S = 86400.0
+#: Compute-time budget of one request [s] (one hour: a command-line run that would take
+#: longer is almost always a mistyped unit or count; set ``DRIVELASH_TIME_BUDGET`` to allow it).
+DEFAULT_TIME_BUDGET_S = 3600.0
 ENV_MEMORY = "DRIVELASH_MEMORY_BUDGET"
 ENV_TIME = "DRIVELASH_TIME_BUDGET"
 
