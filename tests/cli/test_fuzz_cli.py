@@ -262,6 +262,12 @@ COMMANDS: dict[str, Cmd] = {
         inputs=(f"{W}/model",),
         xfail={k: TE_PENDING for k in _TE_OUT if k != "output-is-input"},
     ),
+    "te score": Cmd(
+        good=["te", "score", "--uncompensated", f"{W}/campaign", "--compensated", f"{W}/campaign",
+              "-o", f"{W}/score_out"],  # fmt: skip
+        dir_outputs=("-o",),
+        inputs=(f"{W}/campaign",),
+    ),
 }
 
 _TRACK_NA = {
