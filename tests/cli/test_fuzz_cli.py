@@ -263,8 +263,16 @@ COMMANDS: dict[str, Cmd] = {
         xfail={k: TE_PENDING for k in _TE_OUT if k != "output-is-input"},
     ),
     "te score": Cmd(
-        good=["te", "score", "--uncompensated", f"{W}/campaign", "--compensated", f"{W}/campaign",
-              "-o", f"{W}/score_out"],  # fmt: skip
+        good=[
+            "te",
+            "score",
+            "--uncompensated",
+            f"{W}/campaign",
+            "--compensated",
+            f"{W}/campaign",
+            "-o",
+            f"{W}/score_out",
+        ],  # fmt: skip
         dir_outputs=("-o",),
         inputs=(f"{W}/campaign",),
     ),
