@@ -114,6 +114,22 @@ def estimate_cmd(path: Path, json_out: Path) -> list[str]:
     ]
 
 
+#: The chunk reader alone (``drivelash.io.TraceStream``: validation pass, second pass, chunks).
+_READ_STREAM = """
+import sys
+from drivelash.estimation.estimator import INPUT_COLUMNS
+from drivelash.io import load_config
+from drivelash.io.stream import TraceStream
+with TraceStream(sys.argv[1], load_config(sys.argv[2]), required=INPUT_COLUMNS) as s:
+    n = sum(len(c) for c in s.chunks())
+assert n == s.n_samples, (n, s.n_samples)
+"""
+
+
+def stream_cmd(path: Path) -> list[str]:
+    return [sys.executable, "-c", _READ_STREAM, str(path), str(CONFIG)]
+
+
 def in_memory_delta_hat(path: Path) -> np.ndarray:
     """δ̂(t) of the in-memory run (the reference for bit-identity)."""
     from drivelash.commands.estimate import _estimator_config
@@ -160,6 +176,13 @@ def main() -> None:
                   f"goal < 1 GiB at 60 min: {'met' if m['rss'] < GOAL_BYTES else 'NOT met'}"
                   f"{' (extrapolated)' if a.minutes != 60 else ''}")  # fmt: skip
             rows.append((fmt, path, m))
+            r = measure(stream_cmd(path))
+            if r["rc"] != 0:
+                print(f"{fmt}: chunk reader failed: {r['err'].strip().splitlines()[-1:]}")
+                continue
+            mib, per_r = r["rss"] / 2**20, r["rss"] / n
+            print(f"{fmt:8s}  chunk reader alone (TraceStream, validation + chunks): peak RSS "
+                  f"{mib:8.0f} MiB  wall {r['wall']:7.1f} s  {per_r:6.1f} B/sample")  # fmt: skip
         # bit-identity on a prefix: streamed CLI run (JSON δ) vs in-memory δ̂ on the same file
         pq_pre, csv_pre, n_pre = write_recording(d, a.prefix_minutes, seg)
         for fmt, path in (("parquet", pq_pre), ("csv", csv_pre)):

@@ -127,6 +127,7 @@ class Cmd:
     slow: bool = False  # every case of this row is slow (heavy imports)
     xfail: dict[str, str] = field(default_factory=dict)  # class -> known-miss reason
     slow_classes: tuple[str, ...] = ()  # classes whose cases are slow for this command
+    needs_store: bool = False  # the workspace gets the fleet store (fl/) of :func:`fleet_store`
 
 
 W = "{w}"
@@ -278,24 +279,33 @@ COMMANDS: dict[str, Cmd] = {
     ),
 }
 
-_TRACK_NA = {
-    c: "needs a fleet store; the inventory, store and report outputs are tested in tests/wear (h7-wear)"
-    for c in ("output-is-input", "output-dir-missing", "output-dir-read-only", "output-is-directory",
-              "foreign-file-no-force")
-}  # fmt: skip
+#: The output classes of the track rows need a fleet store (:func:`fleet_store`, built once,
+#: 1–2 min): they run in make test-slow; the usage classes run on the fast rotation.
+_STORE_CLASSES = (
+    "output-is-input",
+    "output-dir-missing",
+    "output-dir-read-only",
+    "output-is-directory",
+    "foreign-file-no-force",
+)
+FLEET = f"{W}/fl/fleet.toml"
 COMMANDS.update(
     {
-        "track ingest": Cmd(good=["track", "ingest", f"{W}/fleet.toml"], na=_TRACK_NA),
-        "track status": Cmd(good=["track", "status", "--fleet", f"{W}/fleet.toml"], na=_TRACK_NA),
+        "track ingest": Cmd(good=["track", "ingest", FLEET, "--workers", "1"]),
+        "track status": Cmd(good=["track", "status", "--fleet", FLEET]),
         "track forecast": Cmd(
-            good=["track", "forecast", "--fleet", f"{W}/fleet.toml", "--json", f"{W}/f.json"],
+            good=["track", "forecast", "M01/X", "--fleet", FLEET, "--json", f"{W}/f.json"],
             file_outputs={"--json": ".json"},
-            na=_TRACK_NA,
+            inputs=(FLEET, f"{W}/fl/wear.sqlite"),
+            needs_store=True,
+            slow_classes=_STORE_CLASSES,
         ),
         "track report": Cmd(
-            good=["track", "report", "--fleet", f"{W}/fleet.toml", "-o", f"{W}/fleet.html"],
+            good=["track", "report", "--fleet", FLEET, "-o", f"{W}/fleet.html"],
             file_outputs={"-o": ".html"},
-            na=_TRACK_NA,
+            inputs=(FLEET, f"{W}/fl/wear.sqlite"),
+            needs_store=True,
+            slow_classes=_STORE_CLASSES,
         ),
     }
 )
@@ -749,10 +759,32 @@ def _build_workspace_light(d: Path) -> None:
     (d / "a_dir.parquet").mkdir()
 
 
+@pytest.fixture(scope="session")
+def fleet_store(tmp_path_factory) -> Path:
+    """A one-axis simulated fleet with its store (``simulate fleet`` + ``track ingest``)."""
+    from drivelash import cli
+
+    d = tmp_path_factory.mktemp("fuzz-fleet") / "fl"
+    for argv in (
+        ["simulate", "fleet", "-o", str(d), "--machines", "1", "--axes", "1", "--recordings", "3",
+         "--duration", "10"],
+        ["track", "ingest", str(d / "fleet.toml"), "--workers", "1"],
+    ):  # fmt: skip
+        try:
+            cli.main(argv)
+        except SystemExit as exc:
+            assert not exc.code, f"building the fleet store: drivelash {' '.join(argv)}: exit {exc.code}"
+    return d
+
+
 @pytest.mark.parametrize(("cname", "klass", "i"), _case_params())
-def test_bad_input_is_one_line_exit_2_and_no_files(cname, klass, i, workspace, tmp_path, capsys, monkeypatch):
+def test_bad_input_is_one_line_exit_2_and_no_files(
+    cname, klass, i, workspace, tmp_path, capsys, monkeypatch, request
+):
     work = tmp_path / "w"
     shutil.copytree(workspace, work, symlinks=True)
+    if COMMANDS[cname].needs_store and klass in COMMANDS[cname].slow_classes:
+        shutil.copytree(request.getfixturevalue("fleet_store"), work / "fl")
     (work / "ro").chmod(0o555)
     case = CLASSES[klass](COMMANDS[cname], work)
     assert not isinstance(case, str)
