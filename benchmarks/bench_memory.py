@@ -132,15 +132,13 @@ def stream_cmd(path: Path) -> list[str]:
 
 def in_memory_delta_hat(path: Path) -> np.ndarray:
     """δ̂(t) of the in-memory run (the reference for bit-identity)."""
-    from drivelash.commands.estimate import _estimator_config
-    from drivelash.estimation.estimator import INPUT_COLUMNS, DeadzoneEstimator, excitation_frequency
+    from drivelash.commands.estimate import estimate_trace
+    from drivelash.estimation.estimator import INPUT_COLUMNS
     from drivelash.io import load_config, load_trace
 
     cfg = load_config(CONFIG)
-    tr = load_trace(path, cfg, required=INPUT_COLUMNS)
-    dt = cfg.to_drivetrain_params()
-    ecfg = _estimator_config(cfg, dt, tr.T_s, excitation_frequency(tr), "default")
-    return DeadzoneEstimator(dt, cfg.require("backlash").delta1, tr.T_s, ecfg).run(tr).delta_hat
+    res, _ = estimate_trace(cfg, load_trace(path, cfg, required=INPUT_COLUMNS), "default")
+    return res.delta_hat
 
 
 def main() -> None:
