@@ -129,3 +129,26 @@ def test_csv_meta_line_is_json(tmp_path, sim_trace):
 def test_unknown_format_name(tmp_path, sim_trace):
     with pytest.raises(DataError, match="unknown format"):
         write_trace(sim_trace, tmp_path / "x.bin", fmt="xlsx")
+
+
+def test_quoted_csv_header_as_pyarrow_writes_it(tmp_path):
+    """pyarrow's CSVWriter (and Excel) quote the header: ``"t","theta_m"`` names t and theta_m."""
+    import pyarrow as pa
+    import pyarrow.csv as pcsv
+
+    from drivelash.io import load_trace
+    from drivelash.io.stream import iter_trace_chunks
+
+    t = np.arange(200) / 8000.0
+    batch = pa.record_batch([pa.array(t), pa.array(np.sin(50 * t))], names=["t", "theta_m"])
+    p = tmp_path / "quoted.csv"
+    with pa.OSFile(str(p), "wb") as f:
+        w = pcsv.CSVWriter(f, batch.schema)
+        w.write_batch(batch)
+        w.close()
+    assert p.read_text().startswith('"t","theta_m"')
+    tr = load_trace(p)
+    assert tr.T_s == pytest.approx(1 / 8000.0, rel=1e-12)  # median of the float intervals
+    np.testing.assert_array_equal(tr["theta_m"], np.sin(50 * t))
+    streamed = np.concatenate([c["theta_m"] for c in iter_trace_chunks(p, chunk_rows=64)])
+    np.testing.assert_array_equal(streamed, tr["theta_m"])

@@ -158,6 +158,18 @@ def _as_column(a: Any) -> np.ndarray | None:
     return arr.astype(np.float64)
 
 
+def _header_tokens(header: str, sep: str) -> list[str]:
+    """Column names of a CSV header line; quoted names (``"t","theta_m"``, as pyarrow and
+    Excel write them) are unquoted."""
+    import csv
+
+    if sep == r"\s+":
+        fields = header.split()
+    else:
+        fields = next(csv.reader([header], delimiter=sep), [])
+    return [h.strip().strip('"').strip() for h in fields]
+
+
 def _split(items: dict[str, Any]) -> tuple[dict[str, np.ndarray], dict[str, float]]:
     """Separate vectors (longest common length) from scalars."""
     cols: dict[str, np.ndarray] = {}
@@ -220,7 +232,7 @@ def _read_csv(p: Path) -> RawTable:
         else:
             if " " in header.strip():
                 sep = r"\s+"
-    tokens = [h.strip() for h in (header.split(sep) if sep != r"\s+" else header.split())]
+    tokens = _header_tokens(header, sep)
     n_fields = len(tokens)
     dup = next((h for i, h in enumerate(tokens) if h in tokens[:i]), None)
     if dup is not None:
@@ -482,7 +494,7 @@ def _csv_layout(p: Path) -> _CsvLayout:
         else:
             if " " in header.strip():
                 sep = r"\s+"
-    tokens = [h.strip() for h in (header.split(sep) if sep != r"\s+" else header.split())]
+    tokens = _header_tokens(header, sep)
     dup = next((h for i, h in enumerate(tokens) if h in tokens[:i]), None)
     if dup is not None:
         raise DataError("duplicated column name in the header", path=str(p), column=dup)
