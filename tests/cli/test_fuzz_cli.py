@@ -263,6 +263,11 @@ COMMANDS: dict[str, Cmd] = {
         inputs=(f"{W}/model",),
         xfail={k: TE_PENDING for k in _TE_OUT if k != "output-is-input"},
     ),
+    "te update": Cmd(
+        good=["te", "update", f"{W}/model", f"{W}/campaign", "-o", f"{W}/upd_out"],
+        dir_outputs=("-o",),
+        inputs=(f"{W}/model", f"{W}/campaign"),
+    ),
     "te score": Cmd(
         good=[
             "te",

@@ -166,7 +166,10 @@ def _header_tokens(header: str, sep: str) -> list[str]:
     if sep == r"\s+":
         fields = header.split()
     else:
-        fields = next(csv.reader([header], delimiter=sep), [])
+        try:
+            fields = next(csv.reader([header], delimiter=sep), [])
+        except csv.Error:  # NUL bytes, stray quotes: the plain split (the reader names the problem)
+            fields = header.split(sep)
     return [h.strip().strip('"').strip() for h in fields]
 
 
