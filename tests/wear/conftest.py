@@ -70,6 +70,19 @@ def _pg_bindir() -> str | None:
     return os.path.dirname(w) if w else None
 
 
+def pg_missing_reason(euid: int, have_apt: bool) -> str:
+    """The skip reason when the PostgreSQL server binaries are missing: what was looked for and
+    why ``make test`` (``make components``) did not install them."""
+    why = (
+        "this run is not root, so `make test` could not install Debian's postgresql"
+        if euid != 0
+        else "`make test` (as root) tried `apt-get install postgresql` and it failed; see its output"
+        if have_apt
+        else "there is no apt-get to install it with"
+    )
+    return f"no PostgreSQL server binaries (initdb in /usr/lib/postgresql/*/bin or on PATH): {why}"
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -85,9 +98,7 @@ def pg_server():
     """
     bindir = _pg_bindir()
     if bindir is None:
-        pytest.skip(
-            "PostgreSQL server binaries not installed (make test installs Debian's postgresql as root)"
-        )
+        pytest.skip(pg_missing_reason(os.geteuid(), shutil.which("apt-get") is not None))
     base = Path(tempfile.mkdtemp(prefix="drivelash-pg-"))
     run_as: list[str] = []
     if os.geteuid() == 0:  # initdb refuses to run as root: use the package's system user

@@ -162,3 +162,14 @@ def test_read_only_open_never_creates_a_store(tmp_path):
     with pytest.raises(StoreError, match="no such store"):
         Store(tmp_path / "none.sqlite", create=False)
     assert not (tmp_path / "none.sqlite").exists()
+
+
+def test_postgresql_skip_reason_says_why():
+    """Without the server binaries the PostgreSQL tests skip naming what is missing and why
+    ``make test`` did not install it (not root / apt-get failed / no apt-get)."""
+    from .conftest import pg_missing_reason
+
+    texts = [pg_missing_reason(1000, True), pg_missing_reason(0, True), pg_missing_reason(0, False)]
+    assert all("initdb" in t for t in texts)
+    assert "not root" in texts[0] and "apt-get install postgresql" in texts[1] and "no apt-get" in texts[2]
+    assert len(set(texts)) == 3
