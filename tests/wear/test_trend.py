@@ -156,3 +156,32 @@ def test_estimator_uncertainty_weights_the_fit():
         u.params["a"] - 0.05
     )
     assert abs(w.params["a"] - 0.05) < 1e-4
+
+
+def test_latest_recording_on_accelerating_wear_is_not_an_outlier():
+    """The latest estimates of fast accelerating wear (a gap of 2 days before the last one) stay
+    in the fit. Negative control: the same rule judging the end by a straight line through its
+    4 neighbours (the window before the fix) flags the last one."""
+    from drivelash.wear import trend
+
+    days = np.array([0, 1, 2, 3, 4, 6, 7, 8, 9, 10, 11, 12, 13, 15], dtype=float)
+    p = {"delta0": 0.088, "k": 0.12, "v": 0.001}
+    rng = np.random.default_rng(3)
+    y = wear_law("accelerating", p, days) + rng.normal(0, 5e-5, days.size)
+    tr = fit_trend(days, y, None, 0.2)
+    assert tr.inlier.all(), np.flatnonzero(~tr.inlier)
+
+    def old_window(t, yy, cps, half=4):
+        r, step = np.zeros_like(yy), np.zeros_like(yy)
+        for i in range(yy.size):
+            idx = [j for j in range(max(0, i - half), min(yy.size, i + half + 1)) if j != i]
+            step[i] = float(np.median(np.abs(np.diff(yy[idx]))))
+            beta = trend._huber_poly(t[idx] - t[i], yy[idx], 2 if len(idx) >= 6 else 1)
+            r[i] = yy[i] - float(beta[-1])
+        return r, step
+
+    r, step = old_window(days, y, [])
+    bound = np.maximum(
+        max(trend.OUTLIER_SIGMA * trend.noise_scale(y), trend.OUTLIER_FLOOR), trend.OUTLIER_STEPS * step
+    )
+    assert abs(r[-1]) > bound[-1]

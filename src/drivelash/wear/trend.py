@@ -14,7 +14,7 @@ docs/assumptions.md, "Wear tracking"):
    (quadratic from 5 points on), on the same side — so a jump is flagged on its second
    recording, a lone outlier never.
 3. **Outliers**: residual from a robust local quadratic (Huber M-estimate by IRLS) through
-   the ±4 neighbours in the segment, the point itself left out; |r| >
+   the 8 nearest recordings in the segment (±4, one-sided at its ends), the point itself left out; |r| >
    max(:data:`OUTLIER_SIGMA`·σ̂, :data:`OUTLIER_FLOOR`, :data:`OUTLIER_STEPS` × local wear step)
    is an outlier and leaves the fit.
 4. **Growth models** on the inliers, with one level-shift term per change point and weights
@@ -364,15 +364,17 @@ def _local_resid(
     t: np.ndarray, y: np.ndarray, cps: list[ChangePoint], half: int = 4
 ) -> tuple[np.ndarray, np.ndarray]:
     """Residual of each estimate from its neighbours: a robust (Huber) local quadratic through
-    the ±``half`` recordings of its segment, the point itself left out — unbiased on
-    accelerating wear and at a segment's end, not pulled by one outlier. Also returns the
-    median change between consecutive neighbours (the local wear step)."""
+    the 2·``half`` nearest recordings of its segment (±``half`` inside, one-sided at a segment's
+    end, so the latest recording is judged by a quadratic too), the point itself left out —
+    unbiased on accelerating wear and at a segment's end, not pulled by one outlier. Also
+    returns the median change between consecutive neighbours (the local wear step)."""
     r = np.zeros_like(y)
     step = np.zeros_like(y)
     edges = [0, *[c.index for c in cps], y.size]
     for a, b in zip(edges[:-1], edges[1:], strict=True):
         for i in range(a, b):
-            lo, hi = max(a, i - half), min(b, i + half + 1)
+            lo = min(max(a, i - half), max(a, b - 2 * half - 1))
+            hi = min(b, lo + 2 * half + 1)
             idx = [j for j in range(lo, hi) if j != i]
             if len(idx) < 4:
                 continue
