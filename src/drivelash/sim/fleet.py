@@ -275,8 +275,9 @@ def simulate_fleet(
         (out / "drives" / f"{tag}.toml").write_text(_drive_toml(ax), encoding="utf-8")
         recs = []
         for i in range(recordings):
-            day = float(i)
-            start = START + timedelta(days=i, minutes=int(rng.integers(0, 120)))
+            minutes = int(rng.integers(0, 120))
+            start = START + timedelta(days=i, minutes=minutes)
+            day = i + minutes / 1440.0  # the true δ is the wear law at the recording's start time
             delta = float(wear_law(ax.law, ax.params, day))
             u = rng.random()
             kind = "normal"
