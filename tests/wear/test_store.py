@@ -173,3 +173,13 @@ def test_postgresql_skip_reason_says_why():
     assert all("initdb" in t for t in texts)
     assert "not root" in texts[0] and "apt-get install postgresql" in texts[1] and "no apt-get" in texts[2]
     assert len(set(texts)) == 3
+
+
+def test_non_finite_uncertainty_is_stored_as_null():
+    """The estimator's NaN 'no uncertainty' is NULL in every backend (SQLite would turn a NaN
+    into NULL, PostgreSQL would keep NaN)."""
+    from drivelash.wear.estimate import _std_or_none
+
+    assert _std_or_none(float("nan")) is None and _std_or_none(None) is None
+    assert _std_or_none(0.0) is None and _std_or_none(float("inf")) is None
+    assert _std_or_none(2.5e-4) == 2.5e-4

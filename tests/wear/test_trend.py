@@ -185,3 +185,22 @@ def test_latest_recording_on_accelerating_wear_is_not_an_outlier():
         max(trend.OUTLIER_SIGMA * trend.noise_scale(y), trend.OUTLIER_FLOOR), trend.OUTLIER_STEPS * step
     )
     assert abs(r[-1]) > bound[-1]
+
+
+def test_estimates_without_uncertainty_get_the_median_weight():
+    """A series where some estimates lack an uncertainty is still weighted by the known ones
+    (the unknown ones count like a typical estimate), not silently unweighted."""
+    rng = np.random.default_rng(6)
+    days = np.arange(50, dtype=float)
+    std = np.full(50, 1e-4)
+    std[25:35] = 5e-3
+    y = 0.05 + 1e-3 * days + rng.normal(0, 1, 50) * std
+    y[25:35] += 3e-3
+    part = std.copy()
+    part[::7] = np.nan  # some estimates from a code version without delta_std
+    full, mixed, none = (
+        fit_trend(days, y, std, 0.2),
+        fit_trend(days, y, part, 0.2),
+        fit_trend(days, y, None, 0.2),
+    )
+    assert abs(mixed.params["a"] - full.params["a"]) < 0.2 * abs(none.params["a"] - full.params["a"])

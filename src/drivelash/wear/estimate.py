@@ -14,6 +14,7 @@ result); otherwise it stays NULL and the trend treats it as unknown.
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import re
 import time
@@ -183,7 +184,7 @@ def estimate_recording(task: RecordingTask) -> EstimateRow:
             reason=res.reason,
             delta=res.delta,
             delta1_estimate=None if d1 is None else float(d1),
-            delta_std=None if std is None else float(std),
+            delta_std=_std_or_none(std),
             excitation_ok=bool(res.excitation_ok),
             converged=bool(res.converged),
             runtime_s=time.perf_counter() - t0,
@@ -205,6 +206,15 @@ def estimate_recording(task: RecordingTask) -> EstimateRow:
         reason=reason,
         runtime_s=time.perf_counter() - t0,
     )
+
+
+def _std_or_none(std: Any) -> float | None:
+    """The estimator's uncertainty as stored: a positive finite float, else NULL (a NaN would
+    be NULL in SQLite but NaN in PostgreSQL)."""
+    if std is None:
+        return None
+    v = float(std)
+    return v if math.isfinite(v) and v > 0 else None
 
 
 def file_facts(path: Path) -> tuple[int, int]:

@@ -400,7 +400,9 @@ def fit_trend(
     y : numpy.ndarray
         δ̂ [rad].
     std : numpy.ndarray, optional
-        Standard uncertainty of each δ̂ [rad]; NaN = unknown (then all weights are equal).
+        Standard uncertainty of each δ̂ [rad] (the estimator's ``delta_std``); weights are
+        1/σ_i² (relative; the residual scale is estimated). NaN = unknown: the median of the
+        known ones; all unknown = equal weights.
     threshold : float, optional
         Maintenance threshold [rad].
     t0 : datetime, optional
@@ -409,8 +411,13 @@ def fit_trend(
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float)
     n = y.size
-    if std is not None and n and np.all(np.isfinite(std)) and np.all(np.asarray(std) > 0):
-        w_all = 1.0 / np.asarray(std, dtype=float) ** 2
+    s_in = np.full(n, np.nan) if std is None else np.asarray(std, dtype=float)
+    known = np.isfinite(s_in) & (s_in > 0)
+    if n and known.any():
+        # an estimate without an uncertainty (older code version, another method) gets the
+        # median of the known ones; weights are relative, the scale is estimated from the data
+        s_all = np.where(known, s_in, float(np.median(s_in[known])))
+        w_all = 1.0 / s_all**2
         w_all = w_all / np.mean(w_all)
     else:
         w_all = np.ones(n)
