@@ -63,3 +63,12 @@ def test_fleet_report_in_headless_chromium(report_html, tmp_path):
 
     img = Image.open(tmp_path / "fleet.png").convert("RGB")
     assert _non_blank(img) > 0.05
+
+
+def test_measurements_are_shown_in_readable_units():
+    """Laser checks (stored in m) read in µm, angles in mrad — not 8.13922e-05 m."""
+    from drivelash.report.fleet import _readable
+
+    assert _readable(8.13922e-05, 1.03e-07, "m") == ("81.39", "0.10", "µm")
+    assert _readable(0.05, None, "rad") == ("50.00", "–", "mrad")
+    assert _readable(0.012, 0.001, "mm") == ("12.00", "1.00", "µm")

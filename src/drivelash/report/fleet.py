@@ -300,9 +300,7 @@ def render_fleet_report(
             m["axis"],
             m["source"],
             _day(m["time"]),
-            f"{m['value']:.6g}",
-            "–" if m["std"] is None else f"{m['std']:.3g}",
-            m["unit"],
+            *_readable(m["value"], m["std"], m["unit"]),
             _mrad(m["value_rad"]),
             m["reference"] or "–",
         ]
@@ -314,6 +312,19 @@ def render_fleet_report(
         sections.append(Section("Measurements of other sources", tables=[("", head, mrows)]))
     sections.append(axes)
     return render_html(title, sections)
+
+
+def _readable(value: float, std: float | None, unit: str) -> tuple[str, str, str]:
+    """A measurement's value, std and unit as a reader wants them: lengths in µm (a laser check
+    of lost motion is a few µm to a few hundred), angles in mrad."""
+    f, u = {
+        "m": (1e6, "µm"),
+        "mm": (1e3, "µm"),
+        "um": (1.0, "µm"),
+        "µm": (1.0, "µm"),
+        "rad": (1e3, "mrad"),
+    }.get(unit, (1.0, unit))
+    return f"{f * value:.2f}", "–" if std is None else f"{f * std:.2f}", u
 
 
 def write_fleet_report(path: str | Path, html_text: str) -> Path:
