@@ -55,13 +55,13 @@ def _campaign(tmp: Path) -> Path:
 
 def _defect_runs(camp, pipeline, geo, direction: int):
     """Load runs (≤ MAX_LOAD) of one direction on the same drive with a local defect, processed."""
-    from drivelash.sim.rack_axis import AxisSimConfig, RackAxisSimulator
-    from drivelash.sim.rack_campaign import CampaignConfig, RunSpec, run_trajectory
+    from drivelash.sim.rack_axis import RackAxisSimulator
+    from drivelash.sim.rack_campaign import RunSpec, run_trajectory
 
-    cfg = CampaignConfig.from_dict(camp.manifest["campaign"])
+    cfg = camp.simulator_block.campaign
     te = camp.true_te_model().with_local_defect(**DEFECT)
     sim = RackAxisSimulator(
-        camp.bench, te, gains=camp.gains, seed=camp.seed, config=AxisSimConfig(**camp.manifest["sim_config"])
+        camp.bench, te, gains=camp.gains, seed=camp.seed, config=camp.simulator_block.sim_config
     )
     dec = int(round(1.0 / (cfg.store_rate * sim.T_s)))
     key = "pos" if direction > 0 else "neg"

@@ -165,7 +165,9 @@ def test_tables_reproduce_the_model():
 
 def test_invalid_parameters_raise_parameter_error():
     with pytest.raises(ParameterError, match="travel"):
-        RackPinionBench(travel=1.5)
+        RackPinionBench(travel=0.02)  # less than two tooth pitches (26.7 mm)
+    with pytest.raises(ParameterError, match="contact_ratio"):
+        RackPinionBench(contact_ratio=1e9)
     with pytest.raises(ParameterError, match="b_max"):
         TEGeneratorParams(b_min=50e-6, b_max=40e-6)
     with pytest.raises(ParameterError, match="b_max"):
@@ -183,3 +185,19 @@ def test_vectorised_over_direction_and_force():
     ref = np.array([float(m.te(xi, Fi, int(di))) for xi, Fi, di in zip(x, F, d, strict=True)])
     np.testing.assert_allclose(te, ref, rtol=0, atol=1e-15)
     assert BENCH.table_friction(-0.1) == pytest.approx(BENCH.F_CT + 0.1 * BENCH.beta_T)
+
+
+def test_geometry_and_drive_make_the_bench():
+    """[geometry] and [drive] are the two parts of one bench; any travel the gearing allows."""
+    from drivelash.physics.rack_pinion import RackDrive, RackGeometry
+
+    geo = RackGeometry(m_n=3e-3, n_t=24, i_PG=10.0, travel=1.2, contact_ratio=2.1)
+    bench = RackPinionBench.from_parts(geo, RackDrive(m_T=250.0))
+    assert bench.geometry == geo and bench.drive == RackDrive(m_T=250.0)
+    assert bench.epsilon == 2.1 and geo.epsilon == 2.1
+    # d_p = m_n n_t / cos(beta), r_eff = d_p / (2 i_PG)
+    assert bench.r_eff == pytest.approx(3e-3 * 24 / math.cos(bench.helix_angle) / 20.0, rel=1e-12)
+    assert RackPinionBench.from_dict(bench.to_dict()) == bench
+    assert RackGeometry().epsilon == pytest.approx(
+        RackPinionBench().epsilon_alpha + RackPinionBench().epsilon_beta
+    )

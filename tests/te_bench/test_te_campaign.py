@@ -60,8 +60,10 @@ def test_tiny_campaign_files_manifest_and_reproducibility(tmp_path):
     ma = json.loads((tmp_path / "a" / "manifest.json").read_text())
     mb = json.loads((tmp_path / "b" / "manifest.json").read_text())
     assert ma == mb
-    assert ma["seed"] == 3 and ma["store_rate"] == 1000.0
-    assert {"bench", "te_generator", "te_model", "gains", "sim_config", "campaign"} <= set(ma)
+    assert ma["simulator"]["seed"] == 3 and ma["store_rate"] == 1000.0
+    assert ma["format"] == "drivelash.te-campaign" and ma["version"] == 2 and ma["source"] == "simulated"
+    assert {"geometry", "drive", "gains"} <= set(ma["axis"])
+    assert {"seed", "te_generator", "sim_config", "campaign", "defects"} <= set(ma["simulator"])
     camp_a, camp_b, camp_c = (load_campaign(tmp_path / n) for n in "abc")
     assert len(camp_a.runs) == len(plan_runs(TINY)) == 2 + 4 + 1
     for ra, rb, rc in zip(camp_a.runs, camp_b.runs, camp_c.runs, strict=True):
@@ -155,8 +157,10 @@ def test_load_campaign_errors(tmp_path):
     (tmp_path / "manifest.json").write_text("{not json")
     with pytest.raises(DataError, match="malformed"):
         load_campaign(tmp_path)
-    run = {"file": "x.parquet", "kind": "load", "load": 0, "velocity": 0.1, "direction": 1, "seed": 0}
-    (tmp_path / "manifest.json").write_text(json.dumps({"format": "drivelash.te_campaign/1", "runs": [run]}))
+    run = {"file": "x.parquet", "kind": "load", "load": 0, "velocity": 0.1, "direction": 1}
+    doc = {"format": "drivelash.te-campaign", "version": 2, "source": "imported", "axis": {"geometry": {}},
+           "columns": ["t", "x_T", "theta_m", "torque_m"], "runs": [run]}  # fmt: skip
+    (tmp_path / "manifest.json").write_text(json.dumps(doc))
     with pytest.raises(DataError, match="missing"):
         load_campaign(tmp_path)
 

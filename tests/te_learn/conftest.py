@@ -75,4 +75,21 @@ def small_trained(pipe: TEPipeline, train_xy: tuple[np.ndarray, np.ndarray]):
         "pos": GeometricCurve(0.0, 50e-6, 20e-6 * np.sin(2 * np.pi * xg / (GEOM.n_t * PITCH))),
         "neg": GeometricCurve(0.0, 50e-6, 40e-6 + 20e-6 * np.sin(2 * np.pi * xg / (GEOM.n_t * PITCH))),
     }
-    return TrainedTEModel(pipe, geo, models, {"note": "synthetic"}, {"pos": (-1.0, -0.5), "neg": (1.0, 0.4)})
+    return TrainedTEModel(
+        pipe, geo, models, {"note": "synthetic"}, {"pos": (-1.0, -0.5), "neg": (1.0, 0.4)}, synthetic_context()
+    )
+
+
+def synthetic_context(x_min: float = 0.0, x_max: float = 0.3, torque_max: float = 9.0):
+    """The model context of a synthetic model: the paper's bench, the given valid range."""
+    from drivelash.io.campaign import AxisBlock
+    from drivelash.physics.rack_pinion import RackPinionBench
+    from drivelash.te.runtime.compensator import CompensatorParams
+    from drivelash.te.runtime.persist import CampaignInfo, ModelContext, ValidRange
+
+    return ModelContext(
+        axis=AxisBlock.of(RackPinionBench()),
+        valid_range=ValidRange(x_min=x_min, x_max=x_max, torque_max=torque_max, loads=list(LOADS)),
+        compensator=CompensatorParams(),
+        campaign=CampaignInfo(source="imported"),
+    )

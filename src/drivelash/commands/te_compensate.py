@@ -1,11 +1,12 @@
 """``drivelash te validate`` and ``drivelash te export``: compensation of the learned TE.
 
-Heavy imports (numba kernels, the simulator, matplotlib) happen inside the commands.
+Both read everything from the model directory (axis, valid range, compensator settings,
+the virtual drive of a simulated campaign); nothing is read back from the campaign.
+Heavy imports (numba kernels, the simulator, the report figures) happen inside the commands.
 """
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -22,26 +23,39 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
             ..., "-o", "--out", help="Output directory (figures, tables, summary.json)."
         ),
         campaign: Path | None = typer.Option(
-            None, "--campaign", help="Campaign of the drive; default: the one recorded in the model."
+            None,
+            "--campaign",
+            help="The model's training campaign, if at hand (else it is regenerated from the model).",
         ),
-        quick: bool = typer.Option(False, "--quick", help="Reduced protocol: 3 loads, one direction, 0.6 m."),
+        quick: bool = typer.Option(
+            False, "--quick", help="Reduced protocol: 3 loads, one direction, at most 0.6 m."
+        ),
         no_update: bool = typer.Option(
             False, "--no-update", help="Skip the update(stage='trees') retraining."
         ),
+        force: bool = typer.Option(
+            False, "--force", help="Replace OUT even if it is not a drivelash output."
+        ),
     ) -> None:
-        """Validate the compensation on the virtual bench (paper Figs 8-9, monitoring) and write DIR."""
+        """Validate the compensation on the virtual bench (paper Figs 8-9, monitoring) and write OUT."""
+        from drivelash.io.outputs import Outputs
         from drivelash.te.protocol.bench import ValidationConfig, drive_for_model
-        from drivelash.te.protocol.validate import validate
-        from drivelash.te.protocol.wear_demo import TreesUpdater
         from drivelash.te.runtime.persist import load_model
 
-        model = load_model(model_dir)
-        camp = drive_for_model(model, campaign)
-        cfg = ValidationConfig.quick() if quick else ValidationConfig()
-        upd = None if no_update else TreesUpdater(echo=typer.echo)
-        from drivelash.report import te_figures
+        with Outputs("te validate", inputs=[model_dir, campaign], force=force) as outs:
+            d = outs.directory(out, option="-o")
+            model = load_model(model_dir)
+            drive = drive_for_model(model, campaign)
 
-        summary = validate(model, camp, out, cfg, updater=upd, progress=typer.echo, figures=te_figures)
+            from drivelash.report import te_figures
+            from drivelash.te.protocol.validate import validate
+            from drivelash.te.protocol.wear_demo import TreesUpdater
+
+            cfg = ValidationConfig.quick() if quick else ValidationConfig()
+            upd = None if no_update else TreesUpdater(echo=typer.echo)
+            summary = validate(
+                model, drive, outs.staging(d), cfg, updater=upd, progress=typer.echo, figures=te_figures
+            )
         typer.echo(format_summary(summary))
         typer.echo(f"outputs in {out}/")
 
@@ -53,66 +67,70 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         torque_max: float | None = typer.Option(
             None, "--torque-max", help="Largest motor torque of the grid [N·m]; default: the training range."
         ),
-        torque_step: float = typer.Option(
-            0.5, "--torque-step", min=1e-3, help="Torque step of the grid [N·m]."
+        torque_step: float = typer.Option(0.5, "--torque-step", help="Torque step of the grid [N·m]."),
+        x_min: float | None = typer.Option(
+            None, "--x-min", help="First position [m]; default: the start of the valid range."
         ),
-        x_min: float | None = typer.Option(None, "--x-min", help="First position [m]; default 0."),
-        x_max: float | None = typer.Option(None, "--x-max", help="Last position [m]; default: the travel."),
+        x_max: float | None = typer.Option(
+            None, "--x-max", help="Last position [m]; default: the end of the valid range."
+        ),
+        force: bool = typer.Option(
+            False, "--force", help="Replace OUT even if it is not a drivelash output."
+        ),
     ) -> None:
         """Sample the model on a position x torque grid per direction and write it for a CNC."""
-        from drivelash.te.runtime.compensator import CompensatorParams
+        from drivelash.io.outputs import Outputs
         from drivelash.te.runtime.export import export_table
         from drivelash.te.runtime.persist import load_model
         from drivelash.te.runtime.table import build_table
 
-        model = load_model(model_dir)
-        lo = 0.0 if x_min is None else x_min
-        hi = x_max if x_max is not None else _travel(model)
-        tmax = torque_max if torque_max is not None else _training_torque(model)
-        n_torque = int(math.ceil(tmax / torque_step - 1e-9)) + 1
-        table = build_table(model, lo, hi, dx_mm * 1e-3, tmax, n_torque,
-                            meta={"model_dir": str(model_dir)})  # fmt: skip
-        export_table(table, out, _params_for(model, CompensatorParams()))
+        with Outputs("te export", inputs=[model_dir], force=force) as outs:
+            target = outs.file(out, option="-o", kinds=(".csv", ".json"))
+            model = load_model(model_dir)
+            ctx = model.context
+            vr = ctx.valid_range
+            lo = vr.x_min if x_min is None else x_min
+            hi = vr.x_max if x_max is None else x_max
+            tmax = vr.torque_max if torque_max is None else torque_max
+            n_torque = _check_grid(lo, hi, dx_mm, tmax, torque_step, vr)
+            table = build_table(model, lo, hi, dx_mm * 1e-3, tmax, n_torque,
+                                meta={"model_dir": str(model_dir)})  # fmt: skip
+            export_table(table, outs.staging(target), ctx.compensator)
         n = table.te.shape
         typer.echo(f"wrote {out}: {n[1]} positions x {n[2]} torques x 2 directions "
                    f"(x_T in mm, torque in N*m, TE in um)")  # fmt: skip
 
 
-def _travel(model: object) -> float:
-    """Travel [m] of the drive the model was trained on (from its campaign), else 2.2 m."""
-    info = getattr(model, "info", {}) or {}
-    cand = info.get("campaign")
-    if cand and (Path(cand) / "manifest.json").is_file():
-        man = json.loads((Path(cand) / "manifest.json").read_text())
-        return float(man["bench"]["travel"])
-    return 2.2
+def _check_grid(lo: float, hi: float, dx_mm: float, tmax: float, step: float, vr: object) -> int:
+    """Validate the export grid up front; returns the torque count (refuses absurd sizes)."""
+    from drivelash.errors import ParameterError
+    from drivelash.io.budget import check_budget
+    from drivelash.te.runtime.table import table_bytes, table_size
 
-
-def _params_for(model: object, default: object) -> object:
-    """Compensator settings with the drive's friction/inertia if the model's campaign is at hand."""
-    info = getattr(model, "info", {}) or {}
-    cand = info.get("campaign")
-    if not cand or not (Path(cand) / "manifest.json").is_file():
-        return default
-    from drivelash.te.protocol.bench import compensator_for
-    from drivelash.te.protocol.campaign import load_campaign
-
-    return compensator_for(load_campaign(cand).bench, None, default)
-
-
-def _training_torque(model: object) -> float:
-    """Largest training motor torque [N·m] from the model's campaign (see ``training_torque_max``)."""
-    from drivelash.errors import DataError
-    from drivelash.te.protocol.bench import training_torque_max
-    from drivelash.te.protocol.campaign import load_campaign
-
-    info = getattr(model, "info", {}) or {}
-    cand = info.get("campaign")
-    if not cand or not (Path(cand) / "manifest.json").is_file():
-        raise DataError(
-            "the model's campaign is not available to find the training torque; pass --torque-max"
+    for name, v in (("--dx-mm", dx_mm), ("--torque-step", step), ("--torque-max", tmax)):
+        if not (math.isfinite(v) and v > 0):
+            raise ParameterError("te export", name.lstrip("-"), f"must be a finite number > 0, got {v!r}")
+    for name, v in (("--x-min", lo), ("--x-max", hi)):
+        if not math.isfinite(v):
+            raise ParameterError("te export", name.lstrip("-"), f"must be finite, got {v!r}")
+    if not vr.contains(lo, hi):  # type: ignore[attr-defined]
+        raise ParameterError(
+            "te export",
+            "x-min" if lo < vr.x_min else "x-max",  # type: ignore[attr-defined]
+            f"[{lo:.6g}, {hi:.6g}] m leaves the model's valid range [{vr.x_min:.6g}, {vr.x_max:.6g}] m",  # type: ignore[attr-defined]
         )
-    return training_torque_max(load_campaign(cand), float(info.get("max_load", 3000.0)))
+    if not hi > lo:
+        raise ParameterError("te export", "x-max", f"must exceed x-min ({lo:g} m), got {hi:g}")
+    n_x = table_size(lo, hi, dx_mm * 1e-3)
+    n_torque = int(math.ceil(tmax / step - 1e-9)) + 1
+    # the table in memory, and the CSV text (~40 bytes per row, 2 flanks) written from it
+    need = table_bytes(n_x, n_torque) + 40.0 * 2 * n_x * n_torque
+    check_budget(
+        need,
+        what=f"te export: {n_x} positions x {n_torque} torques x 2 flanks",
+        option="raise --dx-mm or --torque-step, or lower --torque-max",
+    )
+    return n_torque
 
 
 def format_summary(summary: dict) -> str:

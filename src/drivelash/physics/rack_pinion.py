@@ -53,7 +53,7 @@ a fine position grid (linear interpolation in the ``@njit`` engine).
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any
 
 import numpy as np
@@ -65,8 +65,8 @@ ArrayLike = float | np.ndarray
 
 
 @dataclass(frozen=True)
-class RackPinionBench:
-    """The rack-and-pinion test bench of spec 02 §1 (paper §II) and its drive train.
+class RackGeometry:
+    """Geometry of a rack-and-pinion axis: gearing, gearbox and travel (the ``[geometry]`` table).
 
     Parameters
     ----------
@@ -81,28 +81,12 @@ class RackPinionBench:
     face_width : float
         Face width b of the mesh [m] (enters the overlap ratio ε_β).
     i_PG : float
-        Ratio of the two-stage planetary gearbox [-] (16).
-    m_T : float
-        Table mass [kg] (400).
+        Gearbox ratio, motor turns per pinion turn [-] (16).
     travel : float
-        Usable travel [m] (≥ 2 m).
-    J_motor : float
-        Motor rotor inertia [kg·m²] (1FT7-class servo motor, frame 80).
-    J_gearbox : float
-        Gearbox inertia referred to its input (motor) shaft [kg·m²].
-    J_pinion : float
-        Pinion inertia about its own axis [kg·m²] (steel disc d_p × face width).
-    T_Cm : float
-        Coulomb friction torque of motor + gearbox, motor side [N·m].
-    beta_m : float
-        Viscous friction of motor + gearbox, motor side [N·m·s/rad].
-    F_CT : float
-        Coulomb friction force of the table guides [N].
-    beta_T : float
-        Viscous friction of the table guides [N·s/m].
-    zeta_mesh : float
-        Damping ratio of the drive-train (mesh + gearbox) mode [-]; converted to a
-        damping coefficient in :attr:`d_mesh`.
+        Usable travel [m]; any length of at least two tooth pitches.
+    contact_ratio : float or None
+        Total contact ratio ε [-] when known (e.g. from the gear data sheet, profile
+        shift or tip relief); None derives it from the tooth geometry (:attr:`epsilon`).
     """
 
     m_n: float = 4e-3
@@ -111,29 +95,37 @@ class RackPinionBench:
     alpha_n: float = math.radians(20.0)
     face_width: float = 40e-3
     i_PG: float = 16.0
-    m_T: float = 400.0
     travel: float = 2.2
-    J_motor: float = 2.5e-3
-    J_gearbox: float = 0.6e-3
-    J_pinion: float = 1.6e-3
-    T_Cm: float = 0.5
-    beta_m: float = 2e-4
-    F_CT: float = 150.0
-    beta_T: float = 1000.0
-    zeta_mesh: float = 2.0
+    contact_ratio: float | None = None
 
     def __post_init__(self) -> None:
+        self._check_geometry()
+
+    def _check_geometry(self) -> None:
         require_finite(self)
-        require_positive(self, "m_n", "n_t", "face_width", "i_PG", "m_T", "J_motor", "zeta_mesh")
-        require_non_negative(self, "J_gearbox", "J_pinion", "T_Cm", "beta_m", "F_CT", "beta_T", "helix_angle")
+        require_positive(self, "m_n", "n_t", "face_width", "i_PG", "travel")
+        require_non_negative(self, "helix_angle")
         if int(self.n_t) != self.n_t or self.n_t < 8:
             raise ParameterError(type(self).__name__, "n_t", f"must be a whole number >= 8, got {self.n_t!r}")
         if not 0 < self.alpha_n < math.pi / 4:
             raise ParameterError(type(self).__name__, "alpha_n", "must lie in (0, 45°)")
         if self.helix_angle >= math.pi / 3:
             raise ParameterError(type(self).__name__, "helix_angle", "must be < 60°")
-        if self.travel < 2.0:
-            raise ParameterError(type(self).__name__, "travel", f"must be >= 2 m, got {self.travel!r}")
+        if self.travel < 2.0 * self.tooth_pitch:
+            raise ParameterError(
+                type(self).__name__,
+                "travel",
+                f"must cover at least two tooth pitches ({2e3 * self.tooth_pitch:.1f} mm),"
+                f" got {self.travel!r}",
+            )
+        if self.contact_ratio is not None and not (
+            math.isfinite(self.contact_ratio) and 1.0 <= self.contact_ratio <= 0.5 * self.n_t
+        ):
+            raise ParameterError(
+                type(self).__name__,
+                "contact_ratio",
+                f"must lie in [1, n_t/2] = [1, {0.5 * self.n_t:g}], got {self.contact_ratio!r}",
+            )
 
     # -- geometry -------------------------------------------------------------
     @property
@@ -186,9 +178,96 @@ class RackPinionBench:
 
     @property
     def epsilon(self) -> float:
-        """Total contact ratio ε = ε_α + ε_β [-] (≈ 2.68): the number of tooth pitches a
-        pinion tooth stays in mesh; the width of the bump features (4)–(5)."""
+        """Total contact ratio ε [-] (≈ 2.68): the number of tooth pitches a pinion tooth
+        stays in mesh; the width of the bump features (4)–(5). :attr:`contact_ratio` when
+        given, else ε_α + ε_β from the tooth geometry."""
+        if self.contact_ratio is not None:
+            return float(self.contact_ratio)
         return self.epsilon_alpha + self.epsilon_beta
+
+    # -- kinematics ----------------------------------------------------------------
+    def x_M(self, theta_M: ArrayLike) -> ArrayLike:
+        """Linear motor position x_M = θ_M d_p / (2 i_PG) [m] from the motor angle [rad]."""
+        return np.asarray(theta_M, dtype=np.float64) * self.r_eff
+
+    def te_from_measurement(self, x_T: ArrayLike, theta_M: ArrayLike) -> np.ndarray:
+        """Measured transmission error (1): TE = x_T − θ_M d_p / (2 i_PG) [m]."""
+        return np.asarray(x_T, dtype=np.float64) - self.x_M(theta_M)
+
+
+@dataclass(frozen=True)
+class RackDrive:
+    """Masses, inertias and friction of a rack-and-pinion drive train (the ``[drive]`` table).
+
+    Parameters
+    ----------
+    m_T : float
+        Table mass [kg] (400).
+    J_motor : float
+        Motor rotor inertia [kg·m²] (1FT7-class servo motor, frame 80).
+    J_gearbox : float
+        Gearbox inertia referred to its input (motor) shaft [kg·m²].
+    J_pinion : float
+        Pinion inertia about its own axis [kg·m²] (steel disc d_p × face width).
+    T_Cm : float
+        Coulomb friction torque of motor + gearbox, motor side [N·m].
+    beta_m : float
+        Viscous friction of motor + gearbox, motor side [N·m·s/rad].
+    F_CT : float
+        Coulomb friction force of the table guides [N].
+    beta_T : float
+        Viscous friction of the table guides [N·s/m].
+    zeta_mesh : float
+        Damping ratio of the drive-train (mesh + gearbox) mode [-]; converted to a
+        damping coefficient in :attr:`RackPinionBench.d_mesh`.
+    """
+
+    m_T: float = 400.0
+    J_motor: float = 2.5e-3
+    J_gearbox: float = 0.6e-3
+    J_pinion: float = 1.6e-3
+    T_Cm: float = 0.5
+    beta_m: float = 2e-4
+    F_CT: float = 150.0
+    beta_T: float = 1000.0
+    zeta_mesh: float = 2.0
+
+    def __post_init__(self) -> None:
+        self._check_drive()
+
+    def _check_drive(self) -> None:
+        require_finite(self)
+        require_positive(self, "m_T", "J_motor", "zeta_mesh")
+        require_non_negative(self, "J_gearbox", "J_pinion", "T_Cm", "beta_m", "F_CT", "beta_T")
+
+
+@dataclass(frozen=True)
+class RackPinionBench(RackGeometry, RackDrive):
+    """A rack-and-pinion axis: :class:`RackGeometry` and :class:`RackDrive` together.
+
+    The defaults are the test bench of spec 02 §1 (paper §II): m_n = 4 mm, 20 teeth,
+    β = 19.53°, i_PG = 16, a 400 kg table on 2.2 m of travel. Build one from its parts
+    with :meth:`from_parts`; :attr:`geometry` and :attr:`drive` give them back.
+    """
+
+    def __post_init__(self) -> None:
+        self._check_geometry()
+        self._check_drive()
+
+    @classmethod
+    def from_parts(cls, geometry: RackGeometry, drive: RackDrive) -> RackPinionBench:
+        """The axis of ``geometry`` and ``drive``."""
+        return cls(**asdict(geometry), **asdict(drive))
+
+    @property
+    def geometry(self) -> RackGeometry:
+        """The geometry part."""
+        return RackGeometry(**{f.name: getattr(self, f.name) for f in fields(RackGeometry)})
+
+    @property
+    def drive(self) -> RackDrive:
+        """The drive-train part."""
+        return RackDrive(**{f.name: getattr(self, f.name) for f in fields(RackDrive)})
 
     # -- inertia ---------------------------------------------------------------
     @property
@@ -206,15 +285,6 @@ class RackPinionBench:
         """Combined inertia of eqs (2)–(3), J_M + m_T r_eff² [kg·m²]."""
         return self.J_M + self.J_T_reflected
 
-    # -- kinematics ----------------------------------------------------------------
-    def x_M(self, theta_M: ArrayLike) -> ArrayLike:
-        """Linear motor position x_M = θ_M d_p / (2 i_PG) [m] from the motor angle [rad]."""
-        return np.asarray(theta_M, dtype=np.float64) * self.r_eff
-
-    def te_from_measurement(self, x_T: ArrayLike, theta_M: ArrayLike) -> np.ndarray:
-        """Measured transmission error (1): TE = x_T − θ_M d_p / (2 i_PG) [m]."""
-        return np.asarray(x_T, dtype=np.float64) - self.x_M(theta_M)
-
     def table_friction(self, v_T: ArrayLike) -> np.ndarray:
         """Friction force of the table guides at velocity ``v_T`` [N] (magnitude, ≥ 0):
         F_CT + β_T |v_T|. At constant velocity the mesh transmits F_load + this."""
@@ -230,9 +300,9 @@ class RackPinionBench:
         m_eff = 1.0 / (1.0 / self.m_T + self.r_eff**2 / self.J_M)
         return 2.0 * self.zeta_mesh * math.sqrt(k * m_eff)
 
-    def to_dict(self) -> dict[str, float]:
-        """The fields as a JSON-serialisable dict."""
-        return {k: float(v) for k, v in asdict(self).items()}
+    def to_dict(self) -> dict[str, float | None]:
+        """The fields as a JSON-serialisable dict (``contact_ratio`` None when derived)."""
+        return {k: (None if v is None else float(v)) for k, v in asdict(self).items()}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> RackPinionBench:

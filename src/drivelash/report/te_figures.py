@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from drivelash.report.save import save_figure
 from drivelash.te.learn.preprocess import RunData
 from drivelash.te.protocol.campaign import Campaign, measured_te
 from drivelash.te.protocol.monitoring import SectionReport
@@ -95,7 +96,7 @@ def plot_te_over_position(
     ax[1].set_xlabel("table position x_T [m]")
     fig.tight_layout()
     path = Path(path)
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -146,7 +147,7 @@ def fig_sine(unc: dict, comp: dict, r_eff: float, path: Path) -> None:
     for a in [*ax, z]:
         a.grid(alpha=0.3)
     fig.suptitle("Sinusoidal trajectory: compensation of TE and backlash (cf. paper Fig. 8)")
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
 
 
@@ -194,7 +195,7 @@ def fig_heatmaps(rows: list[dict[str, Any]], train_max_load: float, path: Path) 
         ax.set_title(f"dir {d:+d}: mean improvement [%]", fontsize=9)
     fig.colorbar(im, ax=axes.ravel().tolist(), label="improvement of path-error MAE [%]", shrink=0.8)
     fig.suptitle("Improvement per 100 mm section (cf. paper Fig. 9); dashed: training range limit")
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
 
 
@@ -223,7 +224,7 @@ def fig_monitor(before: SectionReport, after: SectionReport, defect: tuple[float
     ax[1].set_xlabel("x_T [mm]")
     fig.suptitle("Monitoring with compensation active: flagged sections (red)")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
 
 
@@ -297,7 +298,7 @@ def plot_fig6(
     ax2.grid(alpha=0.3, which="both")
     ax2.legend(fontsize=8, ncol=2)
     path = Path(path)
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 

@@ -13,16 +13,17 @@ Each run is one Parquet :class:`~drivelash.io.trace.Trace` with the columns
 ``torque_m`` [N·m], ``F_load`` [N, magnitude against the motion], ``direction`` (±1,
 commanded), stored at ``store_rate`` (default 1 kHz, decimated from the 8 kHz
 control rate; the simulation has no sensor noise, so no anti-alias filter is
-needed). ``manifest.json`` lists the runs (file, kind, load, velocity, direction,
-seed) and everything needed to regenerate the true drive: bench, TE-generator
-parameters, seed, gains and engine settings.
+needed). ``manifest.json`` follows the published campaign schema
+(:mod:`drivelash.io.campaign`): the axis (geometry, drive, gains) and the runs (file,
+kind, load, velocity, direction), plus the ``simulator`` block (:class:`SimulatorBlock`)
+with everything needed to regenerate the true drive: seed, TE-generator parameters,
+engine settings and the campaign plan.
 
 Reading a campaign directory back: :func:`drivelash.te.protocol.campaign.load_campaign`.
 """
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -31,28 +32,38 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from pydantic import Field
 
 from drivelash.errors import ParameterError
+from drivelash.io.campaign import FORMAT_NAME, FORMAT_VERSION, MANIFEST, AxisBlock, CampaignManifest, RunEntry
+from drivelash.io.jsondoc import Document
+from drivelash.io.outputs import write_json
 from drivelash.params import CascadeGains
-from drivelash.physics.rack_pinion import RackPinionBench, TEGeneratorParams, TransmissionErrorModel
+from drivelash.physics.rack_pinion import (
+    LocalDefect,
+    RackPinionBench,
+    TEGeneratorParams,
+    TransmissionErrorModel,
+)
 from drivelash.sim.rack_axis import (
     AxisSimConfig,
     RackAxisSimulator,
+    bench_gains,
     constant_velocity_pass,
     sine_trajectory,
 )
 
 __all__ = [
-    "FORMAT",
     "STORED_COLUMNS",
     "CampaignConfig",
     "RunSpec",
+    "SimulatorBlock",
+    "default_gains",
     "plan_runs",
     "run_campaign",
     "run_trajectory",
 ]
 
-FORMAT = "drivelash.te_campaign/1"
 STORED_COLUMNS = ("t", "x_d", "x_T", "theta_m", "omega_m", "torque_m", "F_load", "direction")
 
 
@@ -187,7 +198,7 @@ def run_trajectory(
 
 
 def _simulate_one(
-    sim: RackAxisSimulator, spec: RunSpec, config: CampaignConfig, out_dir: Path, seed: int
+    sim: RackAxisSimulator, spec: RunSpec, config: CampaignConfig, out_dir: Path
 ) -> tuple[dict[str, Any], float]:
     _, x_d, v_d = run_trajectory(spec, sim.bench, config, sim.T_s)
     dec = int(round(1.0 / (config.store_rate * sim.T_s)))
@@ -206,11 +217,71 @@ def _simulate_one(
         "load": spec.load,
         "velocity": spec.velocity,
         "direction": spec.direction,
-        "seed": seed,
         "samples": len(tr),
         "duration": float(x_d.size * sim.T_s),
     }
     return entry, float(x_d.size * sim.T_s)
+
+
+#: Largest RK4 substep count a manifest may ask for (the engine's default is 4).
+MAX_SUBSTEPS = 64
+
+
+class SimulatorBlock(Document):
+    """``simulator`` block of a simulated campaign: everything that regenerates the true drive.
+
+    Attributes
+    ----------
+    seed : int
+        Seed of the TE generator (and of the sensor noise).
+    te_generator : TEGeneratorParams
+        Distribution parameters of the generator.
+    defects : list of LocalDefect
+        Local rack defects added to the generated TE (wear).
+    sim_config : AxisSimConfig
+        Engine settings.
+    campaign : CampaignConfig
+        The recorded plan (velocities, loads, stroke, sine, store rate).
+    """
+
+    seed: int = Field(ge=0, lt=2**63)
+    te_generator: TEGeneratorParams = Field(default_factory=TEGeneratorParams)
+    defects: list[LocalDefect] = Field(default_factory=list)
+    sim_config: AxisSimConfig = Field(default_factory=AxisSimConfig)
+    campaign: CampaignConfig = Field(default_factory=CampaignConfig)
+
+    def model_post_init(self, __context: Any) -> None:
+        """Bound the engine's effort (a manifest must not ask for a simulation that never ends)."""
+        if self.sim_config.n_sub > MAX_SUBSTEPS:
+            raise ValueError(f"sim_config.n_sub must be <= {MAX_SUBSTEPS}, got {self.sim_config.n_sub}")
+        if self.sim_config.table_dx < 1e-6:
+            raise ValueError(f"sim_config.table_dx must be >= 1e-6 m, got {self.sim_config.table_dx}")
+
+    def dump(self) -> dict[str, Any]:
+        """JSON-ready dict."""
+        return self.model_dump(mode="json")
+
+    def te_model(self, bench: RackPinionBench) -> TransmissionErrorModel:
+        """The true TE of the drive on ``bench``."""
+        m = TransmissionErrorModel.generate(bench, int(self.seed), self.te_generator)
+        for d in self.defects:
+            m = m.with_local_defect(d.x_center, d.width, d.amplitude, d.direction)
+        return m
+
+
+def default_gains(bench: RackPinionBench) -> CascadeGains:
+    """Loop gains of the virtual bench for any axis: the bench tuning at the bench's bandwidths.
+
+    K_v, T_n, the torque limit and the feed-forward as on the paper's bench (spec 02 §2);
+    K_p scaled with the axis inertia J_s so the velocity loop keeps the bench's crossover
+    K_p/J_s (≈ 1.8e3 rad/s). On the paper's bench this is exactly
+    :func:`~drivelash.sim.rack_axis.bench_gains`.
+    """
+    ref = bench_gains()
+    k = bench.J_s / RackPinionBench().J_s
+    return CascadeGains(
+        K_v=ref.K_v, K_p=ref.K_p * k, T_n=ref.T_n, torque_limit=ref.torque_limit, k_ff=ref.k_ff, T_s=ref.T_s
+    )
 
 
 def run_campaign(
@@ -250,7 +321,9 @@ def run_campaign(
     bench = bench or RackPinionBench()
     te_params = te_params or TEGeneratorParams()
     te_model = TransmissionErrorModel.generate(bench, int(seed), te_params)
-    sim = RackAxisSimulator(bench, te_model, gains=gains, seed=int(seed), config=sim_config)
+    sim = RackAxisSimulator(
+        bench, te_model, gains=gains or default_gains(bench), seed=int(seed), config=sim_config
+    )
     dec = 1.0 / (config.store_rate * sim.T_s)
     if abs(dec - round(dec)) > 1e-9 or round(dec) < 1:
         raise ParameterError("CampaignConfig", "store_rate", "1/(store_rate T_s) must be a whole number")
@@ -259,24 +332,26 @@ def run_campaign(
     sim.run(np.zeros(8), np.zeros(8))
     t0 = time.perf_counter()
     with ThreadPoolExecutor(max_workers=max(1, int(workers))) as pool:
-        results = list(pool.map(lambda s: _simulate_one(sim, s, config, out, int(seed)), specs))
+        results = list(pool.map(lambda s: _simulate_one(sim, s, config, out), specs))
     wall = time.perf_counter() - t0
     simulated = sum(r[1] for r in results)
-    manifest = {
-        "format": FORMAT,
-        "seed": int(seed),
-        "te_model": te_model.to_dict(),
-        "bench": bench.to_dict(),
-        "te_generator": te_params.to_dict(),
-        "gains": asdict(sim.gains),
-        "sim_config": asdict(sim.config),
-        "campaign": config.to_dict(),
-        "T_s": sim.T_s,
-        "store_rate": config.store_rate,
-        "columns": list(STORED_COLUMNS),
-        "runs": [r[0] for r in results],
-    }
-    (out / "manifest.json").write_text(json.dumps(manifest, indent=1), encoding="utf-8")
-    manifest = dict(manifest)
-    manifest["timing"] = {"wall_s": wall, "simulated_s": simulated, "real_time_factor": simulated / wall}
-    return manifest
+    manifest = CampaignManifest(
+        format=FORMAT_NAME,
+        version=FORMAT_VERSION,
+        source="simulated",
+        axis=AxisBlock.of(bench, sim.gains),
+        columns=list(STORED_COLUMNS),
+        runs=[RunEntry(**r[0]) for r in results],
+        store_rate=config.store_rate,
+        simulator=SimulatorBlock(
+            seed=int(seed),
+            te_generator=te_params,
+            defects=[],
+            sim_config=sim.config,
+            campaign=config,
+        ).dump(),
+    )
+    write_json(out / MANIFEST, manifest.dump())
+    result = manifest.dump()
+    result["timing"] = {"wall_s": wall, "simulated_s": simulated, "real_time_factor": simulated / wall}
+    return result

@@ -36,6 +36,7 @@ def small_model(work_dir: Path, echo: Any = None) -> tuple[Path, Path]:
     work_dir = Path(work_dir)
     camp_dir = work_dir / "campaign"
     model_dir = work_dir / "model"
+    _drop_stale_cache(camp_dir, model_dir)
     if not (camp_dir / "manifest.json").is_file():
         t0 = time.perf_counter()
         cfg = CampaignConfig(stroke=0.4, loads=(0.0, 1500.0, 3000.0, 4500.0), velocities=(0.02, 0.05, 0.1),
@@ -48,6 +49,7 @@ def small_model(work_dir: Path, echo: Any = None) -> tuple[Path, Path]:
         from drivelash.te.learn.fit import fit_te_model, prepare_campaign
         from drivelash.te.learn.network import MLPRegressor
         from drivelash.te.learn.stacked import StackedTERegressor
+        from drivelash.te.protocol.bench import model_context
         from drivelash.te.protocol.campaign import load_campaign
         from drivelash.te.runtime.persist import save_model
 
@@ -62,11 +64,28 @@ def small_model(work_dir: Path, echo: Any = None) -> tuple[Path, Path]:
             random_state=0,
         )
         trained = fit_te_model(pipeline, geo, runs, 3000.0, (), est)
-        trained.info["campaign"] = str(camp_dir)
-        trained.info["campaign_seed"] = camp.seed
+        trained.context = model_context(camp, 3000.0)
         save_model(trained, model_dir)
         say(f"  trained a small stacked model in {time.perf_counter() - t0:.1f} s")
     return camp_dir, model_dir
+
+
+def _drop_stale_cache(camp_dir: Path, model_dir: Path) -> None:
+    """Remove a cached demo campaign/model this release cannot read (written by an older one)."""
+    import shutil
+
+    from drivelash.errors import DrivelashError
+    from drivelash.te.protocol.campaign import load_campaign
+    from drivelash.te.runtime.persist import load_model
+
+    for d, load in ((camp_dir, load_campaign), (model_dir, load_model)):
+        if d.is_dir():
+            try:
+                load(d)
+            except DrivelashError:
+                shutil.rmtree(d)
+                if d == camp_dir:  # a model of a stale campaign is stale too
+                    shutil.rmtree(model_dir, ignore_errors=True)
 
 
 def demo_compensate(out_dir: Path, console: Any) -> None:
@@ -79,8 +98,7 @@ def demo_compensate(out_dir: Path, console: Any) -> None:
     console : rich.console.Console
         Where to print.
     """
-    from drivelash.te.protocol.bench import ValidationConfig, compensator_for, table_for, training_torque_max
-    from drivelash.te.protocol.campaign import load_campaign
+    from drivelash.te.protocol.bench import ValidationConfig, drive_for_model, table_for
     from drivelash.te.protocol.passes import pass_trajectory, run_pass
     from drivelash.te.runtime.compensator import Compensator
     from drivelash.te.runtime.export import export_table
@@ -89,13 +107,12 @@ def demo_compensate(out_dir: Path, console: Any) -> None:
     console.print("[bold]Transmission-error compensation[/bold] (virtual rack-and-pinion bench)")
     t0 = time.perf_counter()
     work = Path(out_dir) / "te-demo"
-    camp_dir, model_dir = small_model(work, console.print)
-    camp = load_campaign(camp_dir)
+    _, model_dir = small_model(work, console.print)
     model = load_model(model_dir)
-    sim = camp.simulator()
+    sim = drive_for_model(model).simulator()
     cfg = ValidationConfig()
-    table = table_for(model, sim.bench, cfg, torque_max=training_torque_max(camp, 3000.0))
-    params = compensator_for(sim.bench, table, cfg.compensator)
+    table = table_for(model, sim.bench, cfg, torque_max=model.context.valid_range.torque_max)
+    params = model.context.compensator
     export_table(table, work / "te_table.json", params)
     lo, hi = 0.05, 0.45
     rows = []

@@ -25,6 +25,7 @@ from drivelash.te.learn.stacked import StackedTERegressor
 
 __all__ = [
     "TrainedTEModel",
+    "default_holdout",
     "fit_offset_line",
     "fit_te_model",
     "prepare_campaign",
@@ -51,6 +52,9 @@ class TrainedTEModel:
         ``{"pos": (a [µm], b [µm/(N·m)]), …}``: line through the per-run constants that the
         offset step removed (mean elastic deflection against mean torque), so that
         :meth:`predict` returns the absolute TE under load.
+    context : ModelContext or None
+        Axis, valid range, compensator settings and simulator
+        (:class:`drivelash.te.runtime.persist.ModelContext`); required to save the model.
     """
 
     pipeline: TEPipeline
@@ -58,6 +62,7 @@ class TrainedTEModel:
     models: dict[str, StackedTERegressor]
     info: dict[str, Any] = field(default_factory=dict)
     offset: dict[str, tuple[float, float]] = field(default_factory=dict)
+    context: Any = None
 
     def predict_def_um(self, x_T: Any, torque: Any, direction: int) -> np.ndarray:
         """Deformation TE_def [µm] (offset-free, the learning target) at ``x_T`` [m], motor torque [N·m]."""
@@ -122,6 +127,35 @@ def prepare_campaign(
         if not runs[key]:
             raise DataError(f"campaign has no load run in direction {d:+d}")
     return pipeline, geo, runs
+
+
+def default_holdout(loads: Any, max_load: float) -> tuple[float, ...]:
+    """Held-out loads [N] derived from a campaign's loads: in range, interior, leaving >= 3 to train.
+
+    Of the distinct loads ≤ ``max_load`` (n of them): with n ≥ 5 the two interior loads
+    nearest to 1/3 and 5/6 of the in-range span are held out (0 … 3000 N in 500 N steps:
+    1000 and 2500 N, the paper-like default); with n = 4 the interior load nearest to the
+    middle; with fewer, none — every load is needed for training.
+
+    Parameters
+    ----------
+    loads : iterable of float
+        The campaign's loads [N].
+    max_load : float
+        Largest training load [N].
+    """
+    inr = sorted({float(f) for f in loads if float(f) <= max_load + 1e-9})
+    n = len(inr)
+    if n < 4:
+        return ()
+    interior = inr[1:-1]
+    lo, span = inr[0], inr[-1] - inr[0]
+    targets = (0.5,) if n == 4 else (1.0 / 3.0, 5.0 / 6.0)
+    out: list[float] = []
+    for q in targets:
+        cand = [f for f in interior if f not in out]
+        out.append(min(cand, key=lambda f: abs(f - (lo + q * span))))
+    return tuple(sorted(out))
 
 
 def split_of(load: float, max_load: float, holdout_loads: tuple[float, ...]) -> str:

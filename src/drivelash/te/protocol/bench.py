@@ -1,9 +1,11 @@
 """The setting of a validation on the virtual bench: protocol settings, drive, table, compensator.
 
-:class:`ValidationConfig` holds every number of the protocol; :func:`drive_for_model`
-finds the drive a model was trained on; :func:`table_for` samples the model into the
-runtime table over the travel; :func:`compensator_for` fills the drive train's
-nominal friction and inertia into the compensator settings.
+:class:`ValidationConfig` holds every number of the protocol; :func:`model_context` is
+what a model stores of its campaign (axis, valid range, compensator settings, simulator);
+:class:`ModelDrive` (:func:`drive_for_model`) is the virtual drive a model describes,
+rebuilt from the model alone; :func:`table_for` samples a model into the runtime table;
+:func:`compensator_for` fills the drive train's nominal friction and inertia into the
+compensator settings.
 """
 
 from __future__ import annotations
@@ -17,12 +19,15 @@ import numpy as np
 
 from drivelash.errors import DataError, ParameterError
 from drivelash.te.runtime.compensator import CompensatorParams
+from drivelash.te.runtime.persist import CampaignInfo, ModelContext, ValidRange
 from drivelash.te.runtime.table import TEPredictor, TETable, build_table
 
 __all__ = [
+    "ModelDrive",
     "ValidationConfig",
     "compensator_for",
     "drive_for_model",
+    "model_context",
     "table_for",
     "training_torque_max",
 ]
@@ -62,8 +67,14 @@ class ValidationConfig:
         its edge instead of extrapolated.
     table_torque_step : float
         Torque step of the table [N·m].
-    defect_center, defect_width, defect_amplitude : float
-        Local rack defect of the monitoring demo: centre [m], Gaussian σ [m], peak [m].
+    defect_center : float or None
+        Centre of the local rack defect of the monitoring demo [m]; None: the centre of
+        the section at 60 % of the pass range (1.30 m on the paper's bench).
+    defect_width, defect_amplitude : float
+        Gaussian σ [m] and peak [m] of the defect.
+    x_range : tuple of float or None
+        Positions the passes may use [m]; None: the model's valid range (where its
+        campaign recorded), so a validation never runs beyond the training data.
     monitor_velocity, monitor_load : float
         Pass of the monitoring demo [m/s], [N].
     """
@@ -83,18 +94,53 @@ class ValidationConfig:
     table_dx: float = 0.2e-3
     table_torque_max: float | None = None
     table_torque_step: float = 0.5
-    defect_center: float = 1.30
+    defect_center: float | None = None
     defect_width: float = 0.003
     defect_amplitude: float = 15e-6
     monitor_velocity: float = 0.1
     monitor_load: float = 1000.0
     compensator: CompensatorParams = field(default_factory=CompensatorParams)
+    x_range: tuple[float, float] | None = None
 
     @classmethod
     def quick(cls) -> ValidationConfig:
-        """Few loads, one direction, a 0.6 m stroke: for tests and the demo."""
+        """Few loads, one direction, at most a 0.6 m stroke: for tests and the demo."""
         return cls(loads=(0.0, 2000.0, 4000.0), directions=(1,), stroke=0.6, sine_amplitude=0.1,
-                   sine_periods=1.0, defect_center=0.30)  # fmt: skip
+                   sine_periods=1.0)  # fmt: skip
+
+    def resolved(self, travel: float, x_range: tuple[float, float] | None) -> ValidationConfig:
+        """A copy with ``x_range`` (given or the model's) and ``defect_center`` filled in.
+
+        Parameters
+        ----------
+        travel : float
+            Travel of the axis [m].
+        x_range : tuple of float or None
+            The model's valid position range [m] (used when ``self.x_range`` is None).
+        """
+        from dataclasses import replace
+
+        xr = self.x_range or x_range or (0.0, travel)
+        cfg = replace(self, x_range=(float(xr[0]), float(xr[1])))
+        if cfg.defect_center is None:
+            lo, hi = _pass_bounds(travel, cfg)
+            k = math.floor((0.6 * (hi - lo)) / cfg.section_length)
+            cfg = replace(cfg, defect_center=lo + (k + 0.5) * cfg.section_length)
+        return cfg
+
+
+def _pass_bounds(travel: float, cfg: ValidationConfig) -> tuple[float, float]:
+    """[margin, travel − margin] ∩ ``cfg.x_range``, shortened to ``cfg.stroke`` [m]."""
+    lo, hi = cfg.margin, travel - cfg.margin
+    if cfg.x_range is not None:
+        lo, hi = max(lo, cfg.x_range[0]), min(hi, cfg.x_range[1])
+    if cfg.stroke is not None:
+        hi = min(hi, lo + cfg.stroke)
+    if not hi - lo >= cfg.section_length:
+        raise ParameterError(
+            "ValidationConfig", "x_range", f"passes over [{lo:.4g}, {hi:.4g}] m are shorter than one section"
+        )
+    return lo, hi
 
 
 def compensator_for(
@@ -124,17 +170,138 @@ def compensator_for(
     )
 
 
-def drive_for_model(model: Any, campaign_dir: Path | None) -> Any:
-    """The campaign (drive) to validate on: ``campaign_dir`` or the one recorded in the model."""
-    from drivelash.te.protocol.campaign import load_campaign
+def model_context(
+    campaign: Any,
+    max_load: float,
+    holdout_loads: tuple[float, ...] = (),
+    valid_x: tuple[float, float] | None = None,
+    base: CompensatorParams | None = None,
+) -> ModelContext:
+    """What a model keeps of its campaign, so that nothing is ever read back from it.
 
-    if campaign_dir is None:
-        info = getattr(model, "info", {}) or {}
-        cand = info.get("campaign") or info.get("campaign_dir")
-        if not cand:
-            raise DataError("the model does not record its campaign; pass --campaign DIR")
-        campaign_dir = Path(cand)
-    return load_campaign(campaign_dir)
+    Parameters
+    ----------
+    campaign : Campaign
+        The training campaign (:func:`~drivelash.te.protocol.campaign.load_campaign`).
+    max_load : float
+        Largest training load [N].
+    holdout_loads : tuple of float
+        Loads left out of training [N].
+    valid_x : tuple of float, optional
+        Valid position range [m]; default the span covered by the geometric runs of
+        both directions (:func:`~drivelash.te.protocol.plausibility.geometric_coverage`).
+    base : CompensatorParams, optional
+        Compensator settings whose drive-train fields are filled from the axis.
+    """
+    from drivelash.te.protocol.plausibility import geometric_coverage
+
+    m = campaign.manifest
+    lo, hi = valid_x if valid_x is not None else geometric_coverage(campaign)
+    train = sorted(
+        f for f in m.loads if f <= max_load + 1e-9 and all(abs(f - h) > 1e-6 for h in holdout_loads)
+    )
+    return ModelContext(
+        axis=m.axis,
+        valid_range=ValidRange(
+            x_min=lo, x_max=hi, torque_max=training_torque_max(campaign, max_load), loads=train
+        ),
+        compensator=compensator_for(campaign.bench, None, base),
+        campaign=CampaignInfo(
+            source=m.source,
+            directory=str(campaign.directory),
+            velocities=list(m.velocities),
+            loads=list(m.loads),
+            max_load=max_load,
+            holdout_loads=list(holdout_loads),
+        ),
+        simulator=m.simulator,
+    )
+
+
+class ModelDrive:
+    """The virtual drive a model was trained on, rebuilt from the model alone.
+
+    A model fitted on a virtual-bench campaign stores the campaign's ``simulator``
+    block (seed, TE generator, engine settings, plan) and the axis; from them this
+    rebuilds the simulator, and — only when a protocol needs the training data (the
+    update half of the monitoring demo) — regenerates the campaign itself, which is
+    byte-identical to the original (same seed ⇒ identical campaign).
+
+    Parameters
+    ----------
+    model : TEModel
+        A loaded model with its context.
+    campaign : Campaign, optional
+        The training campaign when it is at hand (saves regenerating it).
+    """
+
+    def __init__(self, model: Any, campaign: Any = None) -> None:
+        ctx = getattr(model, "context", None)
+        if ctx is None:
+            raise DataError("the model has no context (axis, valid range): refit it with drivelash te fit")
+        if ctx.simulator is None:
+            raise DataError(
+                "te validate is the virtual-bench protocol, and this model was fitted on an imported"
+                " campaign: score your own passes with drivelash te score"
+            )
+        from drivelash.sim.rack_campaign import SimulatorBlock
+
+        self.context = ctx
+        self.block = SimulatorBlock.model_validate(ctx.simulator)
+        self.bench = ctx.axis.bench
+        self.gains = ctx.axis.gains
+        self._campaign = campaign
+        self._tmp: Any = None
+
+    @property
+    def seed(self) -> int:
+        """Seed of the simulated drive."""
+        return int(self.block.seed)
+
+    @property
+    def velocities(self) -> tuple[float, ...]:
+        """Velocities of the training campaign's load runs [m/s]."""
+        return tuple(self.context.campaign.velocities)
+
+    @property
+    def torque_max(self) -> float:
+        """Largest training motor torque [N·m]."""
+        return float(self.context.valid_range.torque_max)
+
+    def simulator(self) -> Any:
+        """A simulator of the drive, gains and engine settings."""
+        from drivelash.sim.rack_axis import RackAxisSimulator
+
+        return RackAxisSimulator(
+            self.bench, self.block.te_model(self.bench), gains=self.gains, seed=self.seed,
+            config=self.block.sim_config,
+        )  # fmt: skip
+
+    def campaign(self) -> Any:
+        """The training campaign: the one given, else regenerated from the simulator block."""
+        if self._campaign is None:
+            import tempfile
+
+            from drivelash.sim.rack_campaign import run_campaign
+            from drivelash.te.protocol.campaign import load_campaign
+
+            self._tmp = tempfile.TemporaryDirectory(prefix="drivelash-campaign-")
+            run_campaign(
+                self._tmp.name, seed=self.seed, config=self.block.campaign, bench=self.bench,
+                te_params=self.block.te_generator, gains=self.gains, sim_config=self.block.sim_config,
+            )  # fmt: skip
+            self._campaign = load_campaign(self._tmp.name)
+        return self._campaign
+
+
+def drive_for_model(model: Any, campaign_dir: Path | None = None) -> ModelDrive:
+    """The virtual drive of ``model`` (its training campaign at ``campaign_dir`` if given)."""
+    camp = None
+    if campaign_dir is not None:
+        from drivelash.te.protocol.campaign import load_campaign
+
+        camp = load_campaign(campaign_dir)
+    return ModelDrive(model, camp)
 
 
 def training_torque_max(campaign: Any, max_load: float) -> float:
@@ -157,11 +324,19 @@ def training_torque_max(campaign: Any, max_load: float) -> float:
     return out
 
 
-def table_for(model: TEPredictor, bench: Any, cfg: ValidationConfig, meta: dict | None = None,
-              torque_max: float | None = None) -> TETable:  # fmt: skip
-    """The runtime table of ``model`` over the whole travel (see :func:`build_table`).
+def table_for(
+    model: TEPredictor,
+    bench: Any,
+    cfg: ValidationConfig,
+    meta: dict | None = None,
+    torque_max: float | None = None,
+    x_range: tuple[float, float] | None = None,
+) -> TETable:
+    """The runtime table of ``model`` (see :func:`build_table`).
 
     ``torque_max`` [N·m] overrides ``cfg.table_torque_max``; one of them must be given.
+    ``x_range`` [m]: the positions of the table; default the model's valid range (a model
+    with a context), else the whole travel.
     """
     tmax = cfg.table_torque_max if cfg.table_torque_max is not None else torque_max
     if tmax is None:
@@ -169,4 +344,8 @@ def table_for(model: TEPredictor, bench: Any, cfg: ValidationConfig, meta: dict 
     n_t = int(math.ceil(tmax / cfg.table_torque_step - 1e-9)) + 1
     m = dict(meta or {})
     m["torque_max_Nm"] = tmax
-    return build_table(model, 0.0, float(bench.travel), cfg.table_dx, tmax, n_t, meta=m)
+    if x_range is None:
+        ctx = getattr(model, "context", None)
+        vr = getattr(ctx, "valid_range", None)
+        x_range = (vr.x_min, vr.x_max) if vr is not None else (0.0, float(bench.travel))
+    return build_table(model, x_range[0], x_range[1], cfg.table_dx, tmax, n_t, meta=m)

@@ -1,51 +1,82 @@
-"""A measurement campaign directory read back (spec 02 §1, §6).
+"""A measurement campaign directory read back (spec 02 §1, §6), simulated or imported.
 
 Reading::
 
-    camp = load_campaign(DIR)
-    camp.runs                  # list[CampaignRun]; run.trace() loads the Trace
-    camp.bench, camp.gains     # RackPinionBench, CascadeGains
-    camp.true_te_model()       # TransmissionErrorModel for scoring
-    camp.true_te(run)          # the true TE along a run (quasi-static, at the transmitted force)
-    camp.simulator()           # RackAxisSimulator of the same drive
+    camp = load_campaign(DIR)                # manifest validated (drivelash.io.campaign)
+    camp.runs                                # list[CampaignRun]; run.trace() loads the Trace
+    camp.bench, camp.gains                   # RackPinionBench, CascadeGains (None if unknown)
     camp.select(kind="load", direction=1, velocity=0.05)
+    camp.is_simulated                        # a virtual-bench campaign (te campaign)
+    camp.true_te_model(); camp.true_te(run); camp.simulator(); camp.seed   # simulated only
 
-Campaigns are recorded on the virtual bench by :func:`drivelash.sim.rack_campaign.run_campaign`.
+Campaigns are recorded on the virtual bench by :func:`drivelash.sim.rack_campaign.run_campaign`
+and brought in from real recordings by :func:`drivelash.te.protocol.importer.import_campaign`;
+both write the published schema of :mod:`drivelash.io.campaign`.
 """
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from drivelash.errors import DataError
+from drivelash.io.campaign import MANIFEST, REQUIRED_COLUMNS, CampaignManifest, read_manifest, run_path
+from drivelash.io.jsondoc import Document, validate_document
+from drivelash.io.load import load_trace
 from drivelash.io.trace import Trace
 from drivelash.params import CascadeGains
 from drivelash.physics.rack_pinion import RackPinionBench, TransmissionErrorModel
-from drivelash.sim.rack_axis import AxisSimConfig, RackAxisSimulator
-from drivelash.sim.rack_campaign import FORMAT
+from drivelash.sim.rack_axis import RackAxisSimulator
+from drivelash.sim.rack_campaign import SimulatorBlock
 
 __all__ = ["Campaign", "CampaignRun", "load_campaign", "measured_te"]
 
 
 @dataclass(frozen=True)
 class CampaignRun:
-    """One recorded run (see the manifest fields)."""
+    """One recorded run (see :class:`drivelash.io.campaign.RunEntry`).
+
+    Attributes
+    ----------
+    path : Path
+        Its Parquet trace (inside the campaign directory).
+    kind : str
+        ``geometric``, ``load`` or ``sine``.
+    load : float
+        Process load [N].
+    velocity : float
+        Travel speed [m/s].
+    direction : int
+        +1, −1 (0 for sine).
+    index : int
+        Position in the manifest's ``runs`` list.
+    """
 
     path: Path
     kind: str
     load: float
     velocity: float
     direction: int
-    seed: int
+    index: int = 0
+
+    @property
+    def name(self) -> str:
+        """The file name without suffix."""
+        return self.path.stem
 
     def trace(self) -> Trace:
-        """Load the run's :class:`Trace`."""
-        return Trace.from_parquet(self.path)
+        """Load the run's :class:`Trace`, validated (finite values, uniform time, required columns).
+
+        Raises
+        ------
+        DataError
+            Truncated, empty or unreadable file, a missing column, a NaN — one line naming
+            the file, the column and the row.
+        """
+        return load_trace(self.path, required=REQUIRED_COLUMNS)
 
 
 @dataclass
@@ -53,30 +84,62 @@ class Campaign:
     """A campaign directory read back by :func:`load_campaign`."""
 
     directory: Path
-    manifest: dict[str, Any]
+    manifest: CampaignManifest
     runs: list[CampaignRun] = field(default_factory=list)
 
     @property
-    def bench(self) -> RackPinionBench:
-        """The bench the campaign was recorded on."""
-        return RackPinionBench.from_dict(self.manifest["bench"])
+    def manifest_path(self) -> Path:
+        """``manifest.json``."""
+        return self.directory / MANIFEST
 
     @property
-    def gains(self) -> CascadeGains:
-        """The cascade gains of the recording."""
-        return CascadeGains(**self.manifest["gains"])
+    def bench(self) -> RackPinionBench:
+        """The axis the campaign was recorded on (geometry and drive)."""
+        return self.manifest.axis.bench
+
+    @property
+    def gains(self) -> CascadeGains | None:
+        """The cascade gains of the recording (None when the axis file gave none)."""
+        return self.manifest.axis.gains
+
+    @property
+    def is_simulated(self) -> bool:
+        """True for a virtual-bench campaign (it has a ``simulator`` block)."""
+        return self.manifest.simulator is not None
+
+    @cached_property
+    def simulator_block(self) -> SimulatorBlock:
+        """The validated ``simulator`` block (simulated campaigns only)."""
+        if self.manifest.simulator is None:
+            raise DataError(
+                "an imported campaign has no simulator (no seed, no true TE): this needs a campaign"
+                " recorded on the virtual bench (te campaign)",
+                path=str(self.manifest_path),
+            )
+        doc = {"simulator": self.manifest.simulator}
+        return validate_document(doc, _SimulatorKey, self.manifest_path).simulator
 
     @property
     def seed(self) -> int:
-        """Seed of the drive."""
-        return int(self.manifest["seed"])
+        """Seed of the simulated drive."""
+        return int(self.simulator_block.seed)
+
+    @property
+    def velocities(self) -> tuple[float, ...]:
+        """Distinct velocities of the load runs [m/s]."""
+        return self.manifest.velocities
+
+    @property
+    def loads(self) -> tuple[float, ...]:
+        """Distinct loads of the load runs [N]."""
+        return self.manifest.loads
 
     def true_te_model(self) -> TransmissionErrorModel:
-        """Regenerate the true transmission-error model (for scoring)."""
-        return TransmissionErrorModel.from_dict(self.manifest["te_model"])
+        """Regenerate the true transmission-error model (simulated campaigns only)."""
+        return self.simulator_block.te_model(self.bench)
 
     def true_te(self, run: CampaignRun, trace: Trace | None = None) -> np.ndarray:
-        """The true TE along a recorded run [m], quasi-static.
+        """The true TE along a recorded run [m], quasi-static (simulated campaigns only).
 
         TE(x_T, F, d) of :meth:`true_te_model` with d the commanded direction and F the
         force the mesh transmits at constant velocity, F_load + F_CT + β_T |v_T|
@@ -98,13 +161,10 @@ class Campaign:
         return self.true_te_model().te(tr["x_T"], F, d)
 
     def simulator(self) -> RackAxisSimulator:
-        """A simulator of the same drive, gains and engine settings."""
+        """A simulator of the same drive, gains and engine settings (simulated campaigns only)."""
+        blk = self.simulator_block
         return RackAxisSimulator(
-            self.bench,
-            self.true_te_model(),
-            gains=self.gains,
-            seed=self.seed,
-            config=AxisSimConfig(**self.manifest["sim_config"]),
+            self.bench, self.true_te_model(), gains=self.gains, seed=self.seed, config=blk.sim_config
         )
 
     def select(self, kind: str | None = None, direction: int | None = None, velocity: float | None = None,
@@ -124,35 +184,33 @@ class Campaign:
         return out
 
 
+class _SimulatorKey(Document):
+    """Wraps the block so that error messages name the key ``simulator.…``."""
+
+    simulator: SimulatorBlock
+
+
 def load_campaign(directory: str | Path) -> Campaign:
-    """Read ``manifest.json`` of a campaign directory.
+    """Read a campaign directory: ``manifest.json`` validated, every run file resolved inside it.
+
+    Run traces are read (and validated) on demand by :meth:`CampaignRun.trace`.
 
     Raises
     ------
     DataError
-        Missing or malformed manifest, or a listed trace file that does not exist.
+        Missing or malformed manifest, a key missing or invalid, a run file outside the
+        directory or missing — one line naming the file and the key.
     """
     d = Path(directory)
-    mpath = d / "manifest.json"
-    if not mpath.is_file():
-        raise DataError("no manifest.json: not a campaign directory", path=str(d))
-    try:
-        manifest = json.loads(mpath.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise DataError(f"malformed JSON ({exc.msg}, line {exc.lineno})", path=str(mpath)) from None
-    if manifest.get("format") != FORMAT:
-        raise DataError(f"unknown format {manifest.get('format')!r}, expected {FORMAT!r}", path=str(mpath))
-    runs = []
-    for r in manifest.get("runs", []):
-        p = d / r["file"]
-        if not p.is_file():
-            raise DataError("listed in the manifest but missing", path=str(p))
-        runs.append(
-            CampaignRun(
-                p, r["kind"], float(r["load"]), float(r["velocity"]), int(r["direction"]), int(r["seed"])
-            )
-        )
-    return Campaign(d, manifest, runs)
+    manifest = read_manifest(d)
+    runs = [
+        CampaignRun(run_path(d, r, i), r.kind, float(r.load), float(r.velocity), int(r.direction), i)
+        for i, r in enumerate(manifest.runs)
+    ]
+    camp = Campaign(d, manifest, runs)
+    if camp.is_simulated:
+        camp.simulator_block  # noqa: B018 - validated now, so a bad block fails early
+    return camp
 
 
 def measured_te(trace: Trace, bench: RackPinionBench) -> np.ndarray:

@@ -94,15 +94,13 @@ def run_pass(
 
 
 def pass_range(sim: Any, cfg: Any) -> tuple[float, float]:
-    """Travel range [m] of the passes: [margin, travel − margin], shortened to ``stroke``.
+    """Travel range [m] of the passes: [margin, travel − margin] ∩ ``cfg.x_range``, cut to ``stroke``.
 
-    ``cfg`` has ``margin`` [m] and ``stroke`` [m or None] (a ``ValidationConfig``).
+    ``cfg`` is a :class:`~drivelash.te.protocol.bench.ValidationConfig`.
     """
-    lo = cfg.margin
-    hi = sim.bench.travel - cfg.margin
-    if cfg.stroke is not None:
-        hi = min(hi, lo + cfg.stroke)
-    return lo, hi
+    from drivelash.te.protocol.bench import _pass_bounds
+
+    return _pass_bounds(float(sim.bench.travel), cfg)
 
 
 def pass_trajectory(sim: Any, lo: float, hi: float, v: float, direction: int, a_max: float = 0.5):

@@ -31,12 +31,7 @@ from typing import Any
 import numpy as np
 
 from drivelash.errors import DataError
-from drivelash.te.protocol.bench import (
-    ValidationConfig,
-    compensator_for,
-    table_for,
-    training_torque_max,
-)
+from drivelash.te.protocol.bench import ModelDrive, ValidationConfig, compensator_for, table_for
 from drivelash.te.protocol.monitoring import section_edges
 from drivelash.te.protocol.passes import pass_range, pass_trajectory, run_pass, score_pass
 from drivelash.te.protocol.wear_demo import TreesUpdater, monitoring_demo
@@ -209,7 +204,7 @@ def sine_validation(
 
 def validate(
     model: TEPredictor,
-    campaign: Any,
+    drive: Any,
     out_dir: Path,
     cfg: ValidationConfig | None = None,
     updater: TreesUpdater | None = None,
@@ -222,8 +217,9 @@ def validate(
     ----------
     model : TEPredictor
         The fitted model (``predict(x_T, torque, direction)`` [m]).
-    campaign : Campaign
-        The drive the model was trained on (:func:`drivelash.te.protocol.campaign.load_campaign`).
+    drive : ModelDrive or Campaign
+        The virtual drive the model was trained on (:func:`~drivelash.te.protocol.bench.drive_for_model`,
+        rebuilt from the model alone), or its training campaign.
     out_dir : pathlib.Path
         Output directory (created).
     cfg : ValidationConfig, optional
@@ -244,17 +240,20 @@ def validate(
     dict
         The summary (also written to ``summary.json``).
     """
-    cfg = cfg or ValidationConfig()
+    if not isinstance(drive, ModelDrive):
+        drive = ModelDrive(model, campaign=drive)
+    vr = drive.context.valid_range
+    cfg = (cfg or ValidationConfig()).resolved(float(drive.bench.travel), (vr.x_min, vr.x_max))
     say = progress or (lambda s: None)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     t_start = time.perf_counter()
-    sim = campaign.simulator()
+    sim = drive.simulator()
     bench = sim.bench
-    velocities = cfg.velocities or tuple(campaign.manifest["campaign"]["velocities"])
-    tq_max = training_torque_max(campaign, cfg.train_max_load)
+    velocities = cfg.velocities or drive.velocities
+    tq_max = drive.torque_max
     say(f"table torque range 0 … {tq_max:.2f} N·m (training runs up to {cfg.train_max_load:g} N)")
-    table = table_for(model, bench, cfg, meta={"axis": "rack-and-pinion table", "seed": campaign.seed},
+    table = table_for(model, bench, cfg, meta={"axis": "rack-and-pinion table", "seed": drive.seed},
                       torque_max=tq_max)  # fmt: skip
     params = compensator_for(bench, table, cfg.compensator)
     export_table(table, out / "te_table.json", params)
@@ -285,9 +284,7 @@ def validate(
     summary["passes"] = summarize_passes(rows, cfg.train_max_load)
 
     say("(c) monitoring with a local rack defect")
-    summary["monitoring"] = monitoring_demo(
-        campaign, sim, table, params, cfg, out, updater, say, model, figures
-    )
+    summary["monitoring"] = monitoring_demo(drive, sim, table, params, cfg, out, updater, say, model, figures)
     summary["acceptance"] = acceptance(summary)
     summary["wall_time_s"] = time.perf_counter() - t_start
     (out / "summary.json").write_text(json.dumps(_jsonable(summary), indent=1), encoding="utf-8")

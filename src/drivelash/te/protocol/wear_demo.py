@@ -152,7 +152,7 @@ class TreesUpdater:
 
 
 def monitoring_demo(
-    campaign: Any,
+    drive: Any,
     sim: Any,
     table: TETable,
     params: CompensatorParams,
@@ -166,7 +166,8 @@ def monitoring_demo(
     """Protocol (c): flag the defect with the old model, then update stage 2 and re-check.
 
     With an ``updater`` the demo uses its (trainable) model for both halves, so that
-    before and after differ only by the stage-2 update.
+    before and after differ only by the stage-2 update; it is fitted on the drive's
+    training campaign (:meth:`~drivelash.te.protocol.bench.ModelDrive.campaign`).
     """
     from drivelash.sim.rack_axis import RackAxisSimulator
 
@@ -189,8 +190,9 @@ def monitoring_demo(
     tq_max = float(table.torque_grid(1)[-1])
     if updater is not None:
         say("    fitting a trainable model on the campaign (hyperparameters of the validated model)")
-        table = table_for(updater.fit(campaign, cfg.train_max_load, reference), sim.bench, cfg,
-                          torque_max=tq_max)  # fmt: skip
+        xr = (float(table.x0), float(table.x_grid[-1]))
+        table = table_for(updater.fit(drive.campaign(), cfg.train_max_load, reference), sim.bench, cfg,
+                          torque_max=tq_max, x_range=xr)  # fmt: skip
     rep0, imp0_mean, imp0 = judge(table)
     k_def = int(np.searchsorted(edges, cfg.defect_center, side="right") - 1)
     res: dict[str, Any] = {
@@ -215,7 +217,7 @@ def monitoring_demo(
         new_model = updater.update(sim_w, lo, hi)
         res["fit_time_s"] = updater.fit_time_s
         res["update_time_s"] = updater.update_time_s
-        tab1 = table_for(new_model, sim.bench, cfg, torque_max=tq_max)
+        tab1 = table_for(new_model, sim.bench, cfg, torque_max=tq_max, x_range=xr)
         rep1, imp1_mean, imp1 = judge(tab1)
         res.update({
             "update_stride": updater.update_stride,

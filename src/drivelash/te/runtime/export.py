@@ -11,7 +11,9 @@ from typing import Any
 import numpy as np
 
 from drivelash.errors import DataError
+from drivelash.io.outputs import final_suffix, write_json
 from drivelash.te.runtime.compensator import CompensatorParams
+from drivelash.te.runtime.persist import TE_MAX
 from drivelash.te.runtime.table import DIRECTIONS, TETable
 
 __all__ = ["export_table", "load_table"]
@@ -40,12 +42,19 @@ def export_table(table: TETable, path: Path, params: CompensatorParams | None = 
         The written file.
     """
     path = Path(path)
-    suffix = path.suffix.lower()
+    suffix = final_suffix(path)  # a staging name of drivelash.io.outputs keeps the final suffix
+    worst = float(np.max(np.abs(table.te)))
+    if worst > TE_MAX:
+        raise DataError(
+            f"refusing to export a table with |TE| up to {worst * 1e6:.4g} um (limit {TE_MAX * 1e6:g} um):"
+            " the model is implausible",
+            path=str(path),
+        )
     doc = _grid_doc(table, params)
     path.parent.mkdir(parents=True, exist_ok=True)
     if suffix == ".json":
         doc["te_um"] = {str(sgn): np.round(table.te[d] * 1e6, 6).tolist() for d, sgn in enumerate(DIRECTIONS)}
-        path.write_text(json.dumps(doc, indent=1))
+        write_json(path, doc, indent=1)
     elif suffix == ".csv":
         with path.open("w", newline="") as fh:
             fh.write("# drivelash transmission-error table; " + json.dumps(doc) + "\n")
@@ -70,7 +79,8 @@ def _grid_doc(table: TETable, params: CompensatorParams | None) -> dict[str, Any
         "definition": "TE = x_T - x_M (table position by linear scale minus motor position "
         "theta_M*d_p/(2*i_PG)), per flank in contact; flank +1 = positive direction of travel",
         "units": {"x_T": "mm", "torque": "N*m (motor side)", "TE": "um"},
-        "interpolation": "bilinear in (x_T, torque); clamped at the grid edges",
+        "interpolation": "bilinear in (x_T, torque); the grid is the valid range (where the model was"
+        " trained): drivelash refuses positions outside it, a real-time kernel should hold the edge value",
         "grid": {
             "x_T": {"start_mm": table.x0 * 1e3, "step_mm": table.dx * 1e3, "count": int(n_x)},
             "torque": {

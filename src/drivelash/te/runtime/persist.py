@@ -2,8 +2,13 @@
 
 A model directory holds exactly two files that are read:
 
-* ``model.json`` — metadata (format version, units, geometry, preprocessing,
-  hyperparameters, training record, array shapes);
+* ``model.json`` — metadata, a published, versioned schema (:class:`ModelMeta`,
+  ``drivelash.te-model`` version 2): units, preprocessing, per-direction shapes and
+  hyperparameters, the training record, and everything the runtime needs without the
+  campaign (:class:`ModelContext`): the axis (geometry, drive, gains), the valid
+  position and torque range, the compensator settings with the drive's inertia and
+  friction, and — for a model of the virtual bench — the simulator that regenerates
+  its drive;
 * ``weights.safetensors`` (default) or ``weights.npz`` — plain numeric arrays:
   geometric curves, network weights and biases, standardisation, and the bagged
   trees as flat arrays (``children_left``, ``children_right``, ``feature``,
@@ -14,8 +19,11 @@ or ``numpy.load(allow_pickle=False)``. A directory that contains a
 pickle-capable file (``.pkl``, ``.pickle``, ``.joblib``, ``.npy``, ``.pt``, ``.pth``,
 ``.ckpt``, ``.dill``) or whose arrays are not plain numbers is refused with
 :class:`ModelFileError` — nothing in it is executed. Tree arrays are checked so
-that traversal always terminates (children after their parent).
-
+that traversal always terminates (children after their parent). Every number in
+``model.json`` is range-checked (an absurd contact ratio or substep count would hang the
+kernels), and a loaded model must predict finite, physically possible values over its
+valid range (a corrupted weight file is refused, not exported). Errors are one line
+naming the file and the key.
 
 :func:`load_model` returns a :class:`~drivelash.te.runtime.predictor.TEModel`, which
 predicts with numba kernels only (torch is never imported).
@@ -23,19 +31,24 @@ predicts with numba kernels only (torch is never imported).
 
 from __future__ import annotations
 
-import json
+import math
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
+from pydantic import Field, field_validator, model_validator
 
-from drivelash.errors import DrivelashError
+from drivelash.errors import DataError, DrivelashError
+from drivelash.io.campaign import AxisBlock
+from drivelash.io.jsondoc import Document, read_document, read_raw_document
+from drivelash.io.outputs import write_json
 from drivelash.te.learn.preprocess import TEPipeline
+from drivelash.te.runtime.compensator import CompensatorParams
 from drivelash.te.runtime.predictor import TEModel
 
 FORMAT_NAME = "drivelash.te-model"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 META_FILE = "model.json"
 WEIGHT_FILES = ("weights.safetensors", "weights.npz")
 #: Suffixes of files that can carry executable pickle payloads; their presence is refused.
@@ -44,6 +57,172 @@ PICKLE_SUFFIXES = (".pkl", ".pickle", ".joblib", ".npy", ".pt", ".pth", ".ckpt",
 
 class ModelFileError(DrivelashError):
     """A model directory that is missing, malformed, or not safe to load."""
+
+
+#: Largest |TE| a loaded model may predict over its valid range [m] (10 mm: far beyond
+#: any rack-and-pinion transmission error; a corrupted weight file predicts far more).
+TE_MAX = 10e-3
+#: Bounds of the kernels' sizes (time and memory of one prediction stay bounded).
+MAX_HIDDEN = 4096
+MAX_TREES = 4096
+MAX_NODES = 50_000_000
+MAX_TEETH = 1000
+
+
+def _finite(v: float) -> float:
+    if not math.isfinite(v):
+        raise ValueError("must be finite")
+    return v
+
+
+class GeometryDoc(Document):
+    """``pipeline.geometry``: what the features need (d_p [m], n_t, i_pg, contact ratio eps)."""
+
+    d_p: float = Field(gt=0, le=10.0)
+    n_t: int = Field(ge=2, le=MAX_TEETH)
+    i_pg: float = Field(gt=0, le=1e4)
+    eps: float = Field(gt=0)
+
+    @model_validator(mode="after")
+    def _eps(self) -> GeometryDoc:
+        # the bump kernel loops over ceil(eps) teeth: eps beyond n_t/2 is no gear (and would hang)
+        if not (0.5 <= self.eps <= max(1.0, 0.5 * self.n_t)):
+            raise ValueError(
+                f"eps: contact ratio must lie in [0.5, n_t/2 = {0.5 * self.n_t:g}], got {self.eps!r}"
+            )
+        return self
+
+
+class PipelineDoc(Document):
+    """``pipeline``: the preprocessing (see :class:`~drivelash.te.learn.preprocess.TEPipeline`)."""
+
+    geometry: GeometryDoc
+    step: float = Field(ge=1e-7, le=1e-2)
+    cutoff_factor: float = Field(gt=0, le=100)
+    filter_order: int = Field(ge=1, le=10)
+    offset: Literal["mean", "none"]
+    trim: float = Field(ge=0, le=10)
+    geo_trim: float = Field(default=5e-3, ge=0, le=10)
+
+
+class DirectionDoc(Document):
+    """``models.pos`` / ``models.neg``: shapes of one direction's arrays and its training record."""
+
+    geo_x0: float
+    geo_step: float = Field(gt=0, le=1.0)
+    hidden: int = Field(ge=1, le=MAX_HIDDEN)
+    n_inputs: int = Field(ge=2, le=MAX_TEETH + 1)
+    n_trees: int = Field(ge=0, le=MAX_TREES)
+    n_nodes: int = Field(ge=1, le=MAX_NODES)
+    nn_params: dict[str, Any] = Field(default_factory=dict)
+    tree_params: dict[str, Any] = Field(default_factory=dict)
+    stage1_share: float | None = None
+    train_mae_um: float | None = None
+    nn_info: dict[str, Any] = Field(default_factory=dict)
+    tree_info: dict[str, Any] = Field(default_factory=dict)
+    fit_time_s: dict[str, Any] = Field(default_factory=dict)
+
+    _f = field_validator("geo_x0")(_finite)
+
+
+class ValidRange(Document):
+    """Where the model was trained: positions [m] and the motor-torque magnitude [N·m].
+
+    Attributes
+    ----------
+    x_min, x_max : float
+        Table positions covered by the geometric runs of both directions [m].
+    torque_max : float
+        Largest motor-torque magnitude of the training runs [N·m] (99.9th percentile of
+        the constant-velocity parts); the runtime table spans [0, torque_max] per flank
+        and holds its edge beyond (no extrapolation).
+    loads : list of float
+        The training loads [N].
+    """
+
+    x_min: float
+    x_max: float
+    torque_max: float = Field(gt=0, le=1e6)
+    loads: list[float] = Field(default_factory=list)
+
+    _f = field_validator("x_min", "x_max", "torque_max")(_finite)
+
+    @model_validator(mode="after")
+    def _order(self) -> ValidRange:
+        if not self.x_max > self.x_min:
+            raise ValueError(f"x_max ({self.x_max!r}) must exceed x_min ({self.x_min!r})")
+        if self.x_max - self.x_min > 1000.0:
+            raise ValueError(f"range of {self.x_max - self.x_min:g} m is not a rack")
+        return self
+
+    def contains(self, x_lo: float, x_hi: float, tol: float = 1e-9) -> bool:
+        """True when [x_lo, x_hi] [m] lies inside the valid position range."""
+        return x_lo >= self.x_min - tol and x_hi <= self.x_max + tol
+
+
+class CampaignInfo(Document):
+    """``campaign``: what the model was trained on (for reports; never read back as data)."""
+
+    source: Literal["simulated", "imported"]
+    directory: str | None = None
+    velocities: list[float] = Field(default_factory=list)
+    loads: list[float] = Field(default_factory=list)
+    max_load: float | None = None
+    holdout_loads: list[float] = Field(default_factory=list)
+
+
+class ModelContext(Document):
+    """Everything the runtime needs besides the arrays: stored in ``model.json`` (no campaign needed).
+
+    Attributes
+    ----------
+    axis : AxisBlock
+        Geometry, drive (inertias, friction) and loop gains of the axis.
+    valid_range : ValidRange
+        Positions and torques the model was trained on.
+    compensator : CompensatorParams
+        Compensator settings with the drive's inertia and friction filled in.
+    campaign : CampaignInfo
+        Source, velocities, loads of the training campaign.
+    simulator : dict or None
+        The ``simulator`` block of a virtual-bench campaign (seed, TE generator, engine,
+        plan): ``te validate`` regenerates the drive from it.
+    """
+
+    axis: AxisBlock
+    valid_range: ValidRange
+    compensator: CompensatorParams
+    campaign: CampaignInfo
+    simulator: dict[str, Any] | None = None
+
+
+class ModelMeta(ModelContext):
+    """``model.json`` (format ``drivelash.te-model``, version 2)."""
+
+    format: Literal["drivelash.te-model"]
+    version: Literal[2]
+    generator: str | None = None
+    units: dict[str, str] = Field(default_factory=dict)
+    pipeline: PipelineDoc
+    directions: list[Literal["pos", "neg"]] = Field(min_length=1, max_length=2)
+    models: dict[Literal["pos", "neg"], DirectionDoc]
+    info: dict[str, Any] = Field(default_factory=dict)
+    weights: Literal["weights.safetensors", "weights.npz"]
+
+    @model_validator(mode="after")
+    def _dirs(self) -> ModelMeta:
+        if len(set(self.directions)) != len(self.directions):
+            raise ValueError("directions: listed twice")
+        for k in self.directions:
+            if k not in self.models:
+                raise ValueError(f"models: no entry for direction {k!r}")
+            if self.models[k].n_inputs != self.pipeline.geometry.n_t + 1:
+                raise ValueError(f"models.{k}.n_inputs: must be n_t + 1 = {self.pipeline.geometry.n_t + 1}")
+        return self
+
+    def context(self) -> ModelContext:
+        """The runtime context alone."""
+        return ModelContext(**{k: getattr(self, k) for k in ModelContext.model_fields})
 
 
 def flatten_trees(bagging: Any) -> dict[str, np.ndarray]:
@@ -99,7 +278,17 @@ def _jsonable(o: Any) -> Any:
 
 
 def model_arrays(trained: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """Metadata and flat named arrays of a :class:`~drivelash.te.learn.fit.TrainedTEModel`."""
+    """Metadata and flat named arrays of a :class:`~drivelash.te.learn.fit.TrainedTEModel`.
+
+    ``trained.context`` (a :class:`ModelContext`) is required: a model without its axis,
+    valid range and compensator settings could not be used without its campaign.
+    """
+    ctx = getattr(trained, "context", None)
+    if not isinstance(ctx, ModelContext):
+        raise ModelFileError(
+            "a model needs its context (axis, valid range, compensator): set trained.context"
+            " (drivelash.te.protocol.bench.model_context)"
+        )
     meta: dict[str, Any] = {
         "format": FORMAT_NAME,
         "version": FORMAT_VERSION,
@@ -115,6 +304,7 @@ def model_arrays(trained: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         "directions": sorted(trained.models),
         "models": {},
         "info": _jsonable(trained.info),
+        **ctx.model_dump(mode="json"),
     }
     flat: dict[str, np.ndarray] = {}
     for key in sorted(trained.models):
@@ -151,12 +341,16 @@ def model_arrays(trained: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
 
 
 def save_model(trained: Any, directory: str | Path, fmt: str = "safetensors") -> Path:
-    """Write a trained model to ``directory`` (created) as ``model.json`` + weights.
+    """Write a trained model as ``model.json`` + weights into ``directory`` (created).
+
+    The metadata are validated against :class:`ModelMeta` before anything is written.
+    Atomicity and overwrite rules are the caller's: commands write into a staging
+    directory of :class:`drivelash.io.outputs.Outputs`.
 
     Parameters
     ----------
     trained : TrainedTEModel
-        The fitted model.
+        The fitted model, with its ``context``.
     directory : str or Path
         Target directory.
     fmt : {"safetensors", "npz"}
@@ -167,21 +361,27 @@ def save_model(trained: Any, directory: str | Path, fmt: str = "safetensors") ->
     Path
         The directory.
     """
-    d = Path(directory)
-    d.mkdir(parents=True, exist_ok=True)
+    if fmt not in ("safetensors", "npz"):
+        raise ModelFileError(f"unknown weight format {fmt!r} (use 'safetensors' or 'npz')")
     meta, flat = model_arrays(trained)
+    meta["weights"] = WEIGHT_FILES[0] if fmt == "safetensors" else WEIGHT_FILES[1]
+    d = Path(directory)
+    try:
+        ModelMeta.model_validate(meta)
+    except Exception as exc:  # noqa: BLE001 - a writer bug must not produce an unreadable model
+        raise ModelFileError(
+            f"{d / META_FILE}: the model to save is invalid ({exc})".splitlines()[0]
+        ) from None
+    d.mkdir(parents=True, exist_ok=True)
     if fmt == "safetensors":
         from safetensors.numpy import save_file
 
         save_file(flat, str(d / WEIGHT_FILES[0]))
         (d / WEIGHT_FILES[1]).unlink(missing_ok=True)
-    elif fmt == "npz":
+    else:
         np.savez(d / WEIGHT_FILES[1], **flat)
         (d / WEIGHT_FILES[0]).unlink(missing_ok=True)
-    else:
-        raise ModelFileError(f"unknown weight format {fmt!r} (use 'safetensors' or 'npz')")
-    meta["weights"] = WEIGHT_FILES[0] if fmt == "safetensors" else WEIGHT_FILES[1]
-    (d / META_FILE).write_text(json.dumps(meta, indent=1, allow_nan=True), encoding="utf-8")
+    write_json(d / META_FILE, meta, indent=1)
     return d
 
 
@@ -306,34 +506,69 @@ def load_model(directory: str | Path) -> TEModel:
     if not mpath.is_file():
         raise ModelFileError(f"{mpath}: missing")
     try:
-        meta = json.loads(mpath.read_text(encoding="utf-8"))
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise ModelFileError(f"{mpath}: not valid JSON ({exc.__class__.__name__})") from None
-    if not isinstance(meta, dict) or meta.get("format") != FORMAT_NAME:
-        raise ModelFileError(f"{mpath}: not a drivelash transmission-error model")
-    if meta.get("version") != FORMAT_VERSION:
-        raise ModelFileError(f"{mpath}: unsupported format version {meta.get('version')!r}")
-    wname = meta.get("weights")
-    if wname not in WEIGHT_FILES:
-        raise ModelFileError(f"{mpath}: 'weights' must be one of {', '.join(WEIGHT_FILES)}")
-    wpath = d / wname
+        head = read_raw_document(mpath)
+        if head.get("format") != FORMAT_NAME:
+            raise ModelFileError(f"{mpath}: key 'format': not a drivelash transmission-error model")
+        if head.get("version") != FORMAT_VERSION:
+            raise ModelFileError(
+                f"{mpath}: key 'version': unsupported format version {head.get('version')!r}"
+                f" (this release reads {FORMAT_VERSION}; version 1 models depend on their campaign:"
+                " refit with drivelash te fit)"
+            )
+        doc = read_document(mpath, ModelMeta)
+    except DataError as exc:
+        raise ModelFileError(str(exc)) from None
+    meta = doc.model_dump(mode="json")
+    wpath = d / doc.weights
     if not wpath.is_file():
         raise ModelFileError(f"{wpath}: missing")
-    try:
-        pipe = TEPipeline.from_dict(meta["pipeline"])
-        dirs = list(meta["directions"])
-        models = meta["models"]
-        if not dirs or any(k not in ("pos", "neg") or k not in models for k in dirs):
-            raise ValueError("directions")
-        for k in dirs:
-            float(models[k]["geo_x0"])
-            if not float(models[k]["geo_step"]) > 0:
-                raise ValueError("geo_step")
-    except (KeyError, TypeError, ValueError, DrivelashError) as exc:
-        raise ModelFileError(f"{mpath}: malformed metadata ({exc})") from None
+    pipe = TEPipeline.from_dict(meta["pipeline"])
+    dirs = list(doc.directions)
+    models = meta["models"]
     arrs = _read_arrays(wpath)
     arrays = {k: _validate_direction(arrs, k, models[k], int(pipe.geometry.n_t)) for k in dirs}
-    return TEModel(meta, arrays)
+    model = TEModel(meta, arrays, context=doc.context())
+    check_outputs(model, wpath)
+    return model
 
 
-__all__ = ["ModelFileError", "flatten_trees", "load_model", "model_arrays", "save_model"]
+def check_outputs(model: TEModel, path: str | Path, n: int = 257) -> None:
+    """Refuse a model whose predictions over its valid range are not finite or not physical.
+
+    Evaluates TE on ``n`` positions × {0, ½, 1}·torque_max per direction (a few ms) and
+    requires every value finite with |TE| <= :data:`TE_MAX`.
+
+    Raises
+    ------
+    ModelFileError
+        One line naming the file, the direction and the worst value.
+    """
+    vr = model.context.valid_range
+    x = np.linspace(vr.x_min, vr.x_max, n)
+    for key in model.directions:
+        d = 1 if key == "pos" else -1
+        for frac in (0.0, 0.5, 1.0):
+            with np.errstate(all="ignore"):
+                te = model.predict(x, d * frac * vr.torque_max, d)
+            bad = ~np.isfinite(te) | (np.abs(te) > TE_MAX)
+            if bad.any():
+                k = int(np.flatnonzero(bad)[0])
+                raise ModelFileError(
+                    f"{path}: direction {key!r} predicts TE = {te[k] * 1e6:.4g} um at x = {x[k]:.4f} m"
+                    f" (limit ±{TE_MAX * 1e6:g} um): corrupted or implausible weights"
+                )
+
+
+__all__ = [
+    "FORMAT_VERSION",
+    "ModelContext",
+    "ModelFileError",
+    "ModelMeta",
+    "ValidRange",
+    "CampaignInfo",
+    "check_outputs",
+    "flatten_trees",
+    "load_model",
+    "model_arrays",
+    "save_model",
+]

@@ -330,10 +330,16 @@ class TEModel:
         Contents of ``model.json``.
     arrays : dict
         ``{"pos": {...}, "neg": {...}}`` of validated float64/int64 arrays.
+    context : ModelContext, optional
+        Axis, valid range, compensator settings and simulator of the model
+        (:class:`drivelash.te.runtime.persist.ModelContext`), as loaded from ``model.json``.
     """
 
-    def __init__(self, meta: dict[str, Any], arrays: dict[str, dict[str, np.ndarray]]) -> None:
+    def __init__(
+        self, meta: dict[str, Any], arrays: dict[str, dict[str, np.ndarray]], context: Any = None
+    ) -> None:
         self.meta = meta
+        self.context = context
         self.pipeline = TEPipeline.from_dict(meta["pipeline"])
         self.directions = tuple(meta["directions"])
         self._buf: dict[str, tuple[np.ndarray, np.ndarray]] = {}

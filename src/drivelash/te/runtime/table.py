@@ -16,7 +16,7 @@ from numba import njit
 
 from drivelash.errors import DataError, ParameterError
 
-__all__ = ["DIRECTIONS", "TEPredictor", "TETable", "build_table", "table_te"]
+__all__ = ["DIRECTIONS", "TEPredictor", "TETable", "build_table", "table_bytes", "table_size", "table_te"]
 
 #: Direction codes: index 0 ⇔ positive flank (+1), index 1 ⇔ negative flank (−1).
 DIRECTIONS = (1, -1)
@@ -152,11 +152,21 @@ def build_table(
     -------
     TETable
     """
-    if not (x_max > x_min and dx > 0):
-        raise ParameterError("build_table", "x_max", "position range must be non-empty with dx > 0")
-    if n_torque < 1 or torque_max < torque_min:
+    if not (math.isfinite(x_min) and math.isfinite(x_max) and x_max > x_min and dx > 0):
+        raise ParameterError(
+            "build_table", "x_max", "position range must be non-empty and finite with dx > 0"
+        )
+    if n_torque < 1 or not (math.isfinite(torque_max) and torque_max >= torque_min):
         raise ParameterError("build_table", "n_torque", "need n_torque >= 1 and torque_max >= torque_min")
-    n_x = int(math.floor((x_max - x_min) / dx + 1e-9)) + 1
+    vr = getattr(getattr(model, "context", None), "valid_range", None)
+    if vr is not None and not vr.contains(x_min, x_max):
+        raise ParameterError(
+            "build_table",
+            "x_min",
+            f"positions [{x_min:.6g}, {x_max:.6g}] m leave the model's valid range"
+            f" [{vr.x_min:.6g}, {vr.x_max:.6g}] m (where its campaign recorded)",
+        )
+    n_x = table_size(x_min, x_max, dx)
     x = x_min + dx * np.arange(n_x)
     tq = np.linspace(torque_min, torque_max, n_torque)
     step = tq[1] - tq[0] if n_torque > 1 else 1.0
@@ -167,6 +177,16 @@ def build_table(
         te[d] = np.asarray(model.predict(X.ravel(), T.ravel(), sgn), dtype=np.float64).reshape(n_x, n_torque)
     torque0 = np.array([tq[0], -tq[-1]])
     return TETable(float(x_min), float(dx), torque0, np.array([step, step]), te, dict(meta or {}))
+
+
+def table_size(x_min: float, x_max: float, dx: float) -> int:
+    """Grid positions of a table over [x_min, x_max] [m] with step ``dx`` [m]."""
+    return int(math.floor((x_max - x_min) / dx + 1e-9)) + 1
+
+
+def table_bytes(n_x: int, n_torque: int) -> float:
+    """Peak memory of :func:`build_table` [bytes]: the table plus the per-flank query arrays."""
+    return 8.0 * n_x * n_torque * (2 + 4)
 
 
 @njit(cache=True)

@@ -1,0 +1,505 @@
+"""Plausibility of a transmission-error campaign, before anything is fitted.
+
+Real recordings fail in a few typical ways, each of which a model would learn as
+"transmission error" without a word: the motor encoder counts against the linear
+scale, a wrong gearbox ratio or unit, two position zeros that differ (or differ from
+run to run), passes that cover only part of the travel, one training load only, a
+torque column in the wrong unit or sign, a sample rate too low for the tooth mesh.
+:func:`check_runs` measures each of them per run and per direction and returns a
+:class:`PlausibilityReport`: gross problems are **errors** (the campaign is refused),
+doubtful ones **warnings**; every finding is one line naming the file and the problem.
+
+Every threshold is a module constant; the reasons are in docs/assumptions.md
+("TE campaign plausibility").
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from drivelash.errors import DataError
+
+__all__ = [
+    "Finding",
+    "PlausibilityReport",
+    "RunRecord",
+    "check_campaign",
+    "check_runs",
+    "record_of",
+]
+
+#: Ratio k = Δx_T / Δx_M of scale to motor travel: error beyond this deviation from 1 (1 %).
+RATIO_ERROR = 1e-2
+#: Warning beyond this deviation (1 mm per metre: far above any rack's pitch error).
+RATIO_WARN = 1e-3
+#: |median TE| of a run: error beyond [m] (the two position zeros differ).
+ZERO_ERROR = 5e-3
+#: |median TE| of a run: warning beyond [m].
+ZERO_WARN = 0.5e-3
+#: Offset of one run's TE from the other runs of its direction (load trend removed): error [m].
+MIXED_ERROR = 0.5e-3
+#: … warning [m].
+MIXED_WARN = 0.1e-3
+#: Share of the recorded travel a geometric or load pass must cover (warning below).
+COVERAGE_WARN = 0.5
+#: Sample spacing over position, in cut-off wavelengths of the low-pass (3 × tooth mesh):
+#: error above 1/2 (Nyquist), warning above 1/10.
+SPACING_ERROR = 0.5
+SPACING_WARN = 0.1
+#: Torque growth with load, relative to the rigid-lever value r_eff = d_p/(2 i_PG):
+#: warning outside [lo, hi] (efficiency of gearbox and mesh between 50 % and 100 %+).
+TORQUE_SLOPE_RANGE = (0.5, 2.0)
+#: Relative deviation of a run's measured velocity from its listed velocity (warning).
+VELOCITY_WARN = 0.1
+#: Shortest motion of a run that is judged at all [m].
+MIN_MOTION = 5e-3
+#: Unit slips recognised in the ratio k (factor → description).
+_UNIT_SLIPS = (
+    (1e3, "x_T looks like millimetres read as metres (declare unit 'mm')"),
+    (1e6, "x_T looks like micrometres read as metres (declare unit 'um')"),
+    (1e-3, "x_T looks like metres declared as millimetres (check the unit)"),
+    (1e-6, "x_T looks like metres declared as micrometres (check the unit)"),
+)
+
+
+@dataclass(frozen=True)
+class RunRecord:
+    """One run as the checks see it (SI columns).
+
+    Attributes
+    ----------
+    label : str
+        File named in messages.
+    kind : str
+        ``geometric``, ``load`` or ``sine``.
+    direction : int
+        +1, −1 (0 for sine).
+    load : float
+        Process load [N].
+    velocity : float or None
+        Listed travel speed [m/s] (None: not listed).
+    t, x_T, theta_m, torque_m : numpy.ndarray
+        Time [s], table position [m], motor angle [rad], motor torque [N·m].
+    """
+
+    label: str
+    kind: str
+    direction: int
+    load: float
+    velocity: float | None
+    t: np.ndarray
+    x_T: np.ndarray
+    theta_m: np.ndarray
+    torque_m: np.ndarray
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One plausibility finding: ``level`` is ``"error"`` or ``"warning"``."""
+
+    level: str
+    check: str
+    file: str
+    message: str
+
+    def line(self) -> str:
+        """``FILE: problem`` (one line)."""
+        return f"{self.file}: {self.message}"
+
+
+@dataclass
+class PlausibilityReport:
+    """Findings and the measured figures of every check.
+
+    Attributes
+    ----------
+    findings : list of Finding
+        Errors and warnings, in the order of the checks.
+    runs : list of dict
+        Per run: ratio k, median TE [m], covered range [m], sample spacing [m], measured
+        velocity [m/s], mean torque [N·m].
+    directions : dict
+        Per direction (``"pos"``/``"neg"``): training loads [N], torque slope [N·m/N],
+        covered range [m].
+    valid_range : tuple of float or None
+        Positions [m] covered by the geometric runs of both directions (where a model of
+        this campaign is valid).
+    """
+
+    findings: list[Finding] = field(default_factory=list)
+    runs: list[dict[str, Any]] = field(default_factory=list)
+    directions: dict[str, dict[str, Any]] = field(default_factory=dict)
+    valid_range: tuple[float, float] | None = None
+
+    @property
+    def errors(self) -> list[Finding]:
+        """The errors."""
+        return [f for f in self.findings if f.level == "error"]
+
+    @property
+    def warnings(self) -> list[Finding]:
+        """The warnings."""
+        return [f for f in self.findings if f.level == "warning"]
+
+    def raise_errors(self) -> None:
+        """Raise the first error as a one-line :class:`~drivelash.errors.DataError` (the others follow)."""
+        errs = self.errors
+        if errs:
+            more = f" (and {len(errs) - 1} more problem(s))" if len(errs) > 1 else ""
+            raise DataError(f"implausible campaign: {errs[0].message}{more}", path=errs[0].file)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form (stored in an imported campaign's manifest)."""
+        return {
+            "errors": [f.line() for f in self.errors],
+            "warnings": [f.line() for f in self.warnings],
+            "runs": self.runs,
+            "directions": self.directions,
+            "valid_range": list(self.valid_range) if self.valid_range else None,
+        }
+
+
+def _moving(x: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Samples where the table moves (speed above 20 % of the run's 95th-percentile speed)."""
+    v = np.gradient(x, t) if x.size > 2 else np.zeros_like(x)
+    ref = float(np.percentile(np.abs(v), 95)) if v.size else 0.0
+    return np.abs(v) > 0.2 * ref if ref > 0 else np.zeros(x.size, bool)
+
+
+def _ratio(x_T: np.ndarray, x_M: np.ndarray) -> float:
+    """Least-squares slope k of x_T over x_M (both centred): Δx_T ≈ k Δx_M."""
+    a = x_M - x_M.mean()
+    b = x_T - x_T.mean()
+    den = float(np.dot(a, a))
+    return float(np.dot(a, b) / den) if den > 0 else float("nan")
+
+
+def _ratio_message(k: float, label_theta: str = "theta_m") -> str:
+    if not math.isfinite(k):
+        return "the motor angle does not move: check the theta_m column"
+    if abs(k + 1.0) < 0.05:
+        return (
+            f"TE slope {1 - k:+.3f} m/m: the motor encoder counts against the linear scale"
+            f" (encoder sign) — set scale = -1 on the {label_theta} column in [columns]"
+        )
+    for factor, text in _UNIT_SLIPS:
+        if abs(k / factor - 1.0) < 0.05:
+            return f"TE slope {1 - k:+.4g} m/m: {text}"
+    return (
+        f"TE slope {1 - k:+.4g} m/m: the linear scale moves {k:.6g}× the motor travel θ_M·d_p/(2 i_PG)"
+        " — check i_PG, m_n, n_t, helix_angle in [geometry] and counts_per_rev/unit in [columns]"
+    )
+
+
+def check_runs(
+    runs: Sequence[RunRecord],
+    r_eff: float,
+    tooth_pitch: float,
+    travel: float | None = None,
+    max_load: float = math.inf,
+    cutoff_factor: float = 3.0,
+    source: str = "campaign",
+) -> PlausibilityReport:
+    """Run every plausibility check on a campaign's runs.
+
+    Parameters
+    ----------
+    runs : sequence of RunRecord
+        The runs (any kinds).
+    r_eff : float
+        Kinematic ratio d_p/(2 i_PG) [m/rad] of the axis description.
+    tooth_pitch : float
+        Travel per tooth π d_p/n_t [m].
+    travel : float, optional
+        Travel of the axis description [m].
+    max_load : float
+        Largest training load [N]: loads above it are not counted as training loads.
+    cutoff_factor : float
+        Low-pass cut-off of the preprocessing, in tooth-mesh spatial frequencies.
+    source : str
+        File named by campaign-level findings (the axis file or the manifest).
+
+    Returns
+    -------
+    PlausibilityReport
+    """
+    rep = PlausibilityReport()
+
+    def add(level: str, check: str, file: str, msg: str) -> None:
+        rep.findings.append(Finding(level, check, file, msg))
+
+    lam_c = tooth_pitch / cutoff_factor  # shortest wavelength the model keeps [m]
+    per_run: list[dict[str, Any]] = []
+    for r in runs:
+        x, th, tq, t = (np.asarray(a, dtype=np.float64) for a in (r.x_T, r.theta_m, r.torque_m, r.t))
+        x_M = th * r_eff
+        mv = _moving(x, t)
+        span = float(np.ptp(x[mv])) if mv.any() else 0.0
+        info: dict[str, Any] = {"file": r.label, "kind": r.kind, "direction": r.direction, "load": r.load}
+        per_run.append(info)
+        if span < MIN_MOTION:
+            add(
+                "error",
+                "motion",
+                r.label,
+                f"the table moves only {span * 1e3:.2f} mm: not a pass (x_T column?)",
+            )
+            continue
+        k = _ratio(x[mv], x_M[mv])
+        te = x - x_M
+        med = float(np.median(te[mv]))
+        T_s = float(np.median(np.diff(t)))
+        v_meas = float(np.median(np.abs(np.gradient(x, t)[mv])))
+        spacing = v_meas * T_s
+        lo, hi = (float(x[mv].min()), float(x[mv].max()))
+        info.update(
+            {
+                "ratio": k,
+                "te_median_m": med,
+                "range_m": [lo, hi],
+                "sample_rate_hz": 1.0 / T_s,
+                "spacing_m": spacing,
+                "velocity_measured": v_meas,
+                "torque_mean": float(np.mean(tq[mv])),
+            }
+        )
+        # 1. encoder sign, ratio and position units
+        if not (math.isfinite(k) and abs(k - 1.0) <= RATIO_ERROR):
+            add("error", "ratio", r.label, _ratio_message(k))
+            info["gross"] = True
+            continue
+        if abs(k - 1.0) > RATIO_WARN:
+            add(
+                "warning",
+                "ratio",
+                r.label,
+                f"TE slope {1 - k:+.2e} m/m is large for a rack (pitch errors are ~1e-5 m/m):"
+                " check i_PG and the pinion data in [geometry]",
+            )
+        # 2. the two position zeros
+        if abs(med) > ZERO_ERROR:
+            add(
+                "error",
+                "zero",
+                r.label,
+                f"TE is {med * 1e3:+.3f} mm: the linear scale and the motor position have different zeros"
+                f" — set offset = {-med:.6g} (m) on the x_T column in [columns] or home both",
+            )
+            info["gross"] = True
+            continue
+        if abs(med) > ZERO_WARN:
+            add(
+                "warning", "zero", r.label, f"TE is {med * 1e3:+.3f} mm on average: are both positions homed?"
+            )
+        # 3. sample rate against the tooth mesh
+        need_mm = SPACING_ERROR * lam_c * 1e3
+        rate_ok = v_meas / (SPACING_WARN * lam_c)
+        if spacing > SPACING_ERROR * lam_c:
+            add(
+                "error",
+                "sampling",
+                r.label,
+                f"{1 / T_s:.4g} Hz at {v_meas * 1e3:.4g} mm/s puts {spacing * 1e3:.3g} mm between samples;"
+                f" the tooth mesh (pitch {tooth_pitch * 1e3:.4g} mm) needs <= {need_mm:.3g} mm:"
+                f" record at >= {rate_ok:.0f} Hz",
+            )
+        elif spacing > SPACING_WARN * lam_c:
+            add(
+                "warning",
+                "sampling",
+                r.label,
+                f"{spacing * 1e3:.3g} mm between samples is coarse for the tooth mesh"
+                f" (recommended <= {SPACING_WARN * lam_c * 1e3:.3g} mm, >= {rate_ok:.0f} Hz)",
+            )
+        # 4. listed velocity
+        if r.velocity and r.kind != "sine" and abs(v_meas / r.velocity - 1.0) > VELOCITY_WARN:
+            add(
+                "warning",
+                "velocity",
+                r.label,
+                f"moves at {v_meas * 1e3:.4g} mm/s, listed as {r.velocity * 1e3:.4g} mm/s",
+            )
+        # 5. torque sign on loaded passes
+        if (
+            r.kind == "load"
+            and r.load > 0
+            and r.direction != 0
+            and np.sign(info["torque_mean"]) != r.direction
+        ):
+            add(
+                "error",
+                "torque",
+                r.label,
+                f"mean motor torque {info['torque_mean']:+.3g} N·m opposes the motion"
+                f" (direction {r.direction:+d}) under load: torque sign —"
+                " set scale = -1 on the torque_m column in [columns]",
+            )
+    rep.runs = per_run
+    judged = [(r, i) for r, i in zip(runs, per_run, strict=True) if "ratio" in i and not i.get("gross")]
+    if not judged:
+        if not rep.errors:
+            add("error", "runs", source, "no run with usable motion")
+        return rep
+    x_lo = min(i["range_m"][0] for _, i in judged)
+    x_hi = max(i["range_m"][1] for _, i in judged)
+    recorded = x_hi - x_lo
+    if travel is not None and recorded > travel + 0.01:
+        add(
+            "error",
+            "travel",
+            source,
+            f"the runs span {recorded:.4g} m but [geometry] travel is {travel:.4g} m (position unit?)",
+        )
+    # 6. coverage of each pass
+    for r, i in judged:
+        if r.kind in ("geometric", "load"):
+            frac = (i["range_m"][1] - i["range_m"][0]) / recorded if recorded > 0 else 1.0
+            if frac < COVERAGE_WARN:
+                add(
+                    "warning",
+                    "coverage",
+                    r.label,
+                    f"covers {i['range_m'][1] - i['range_m'][0]:.3f} m of the {recorded:.3f} m recorded"
+                    f" ({frac:.0%}): the model is valid only where every direction is covered",
+                )
+    # 7. per direction: zero consistency, training loads, torque growth
+    geo_ranges: dict[int, tuple[float, float]] = {}
+    for d in (1, -1):
+        key = "pos" if d > 0 else "neg"
+        rr = [(r, i) for r, i in judged if r.direction == d and r.kind in ("geometric", "load")]
+        geo = [i for r, i in rr if r.kind == "geometric"]
+        loads = sorted({r.load for r, _ in rr if r.kind == "load"})
+        train = [f for f in loads if f <= max_load + 1e-9]
+        ds: dict[str, Any] = {"loads": loads, "training_loads": train}
+        rep.directions[key] = ds
+        if not geo:
+            add("error", "runs", source, f"no geometric (no-load) run in direction {d:+d}")
+        else:
+            geo_ranges[d] = (max(i["range_m"][0] for i in geo), min(i["range_m"][1] for i in geo))
+        if not loads:
+            add("error", "runs", source, f"no load run in direction {d:+d}")
+        elif len(train) < 2:
+            add(
+                "error",
+                "loads",
+                source,
+                f"only {len(train)} training load(s) ({', '.join(f'{f:g} N' for f in train) or 'none'}"
+                f" up to {max_load:g} N) in direction {d:+d}: the load dependence cannot be learnt;"
+                " record at least 2 loads (3 or more recommended)",
+            )
+        elif len(train) == 2:
+            add("warning", "loads", source, f"2 training loads in direction {d:+d}; 3 or more recommended")
+        if len(rr) >= 2:
+            _mixed_zeros(rr, add)
+        lr = [(r.load, i["torque_mean"] * d) for r, i in rr if r.kind == "load"]
+        if len({f for f, _ in lr}) >= 2:
+            f_arr, q_arr = np.array(lr).T
+            slope = float(np.polyfit(f_arr, q_arr, 1)[0])
+            ds["torque_per_N"] = slope
+            ds["torque_range"] = [float(q_arr.min()), float(q_arr.max())]
+            lo_s, hi_s = TORQUE_SLOPE_RANGE
+            if slope <= 0:
+                add(
+                    "error",
+                    "torque",
+                    source,
+                    f"direction {d:+d}: the motor torque does not grow with the load"
+                    f" ({slope * 1e3:+.3g} N·m/kN): wrong torque column or load labels",
+                )
+            elif not lo_s <= slope / r_eff <= hi_s:
+                add(
+                    "warning",
+                    "torque",
+                    source,
+                    f"direction {d:+d}: the torque grows {slope * 1e3:.3g} N·m per kN of load, the lever"
+                    f" d_p/(2 i_PG) gives {r_eff * 1e3:.3g}: torque constant or unit of torque_m?",
+                )
+    if 1 in geo_ranges and -1 in geo_ranges:
+        lo = max(geo_ranges[1][0], geo_ranges[-1][0])
+        hi = min(geo_ranges[1][1], geo_ranges[-1][1])
+        if hi > lo:
+            rep.valid_range = (lo, hi)
+        else:
+            add("error", "coverage", source, "the geometric runs of the two directions do not overlap")
+    return rep
+
+
+def _mixed_zeros(rr: Iterable[tuple[RunRecord, dict[str, Any]]], add: Any) -> None:
+    """Offsets of single runs against the others of a direction (load trend removed, Theil–Sen)."""
+    from scipy.stats import theilslopes
+
+    rr = list(rr)
+    F = np.array([r.load for r, _ in rr])
+    m = np.array([i["te_median_m"] for _, i in rr])
+    if np.ptp(F) > 0 and len(rr) >= 3:
+        slope, icpt, _, _ = theilslopes(m, F)
+        res = m - (icpt + slope * F)
+    else:
+        res = m - np.median(m)
+    for (r, _), e in zip(rr, res, strict=True):
+        if abs(e) > MIXED_ERROR:
+            add(
+                "error",
+                "mixed-zero",
+                r.label,
+                f"TE offset {e * 1e3:+.3f} mm from the other runs of direction {r.direction:+d}:"
+                " mixed position zeros between runs (homed in between?)",
+            )
+        elif abs(e) > MIXED_WARN:
+            add(
+                "warning",
+                "mixed-zero",
+                r.label,
+                f"TE offset {e * 1e3:+.3f} mm from the other runs of direction {r.direction:+d}",
+            )
+
+
+def record_of(
+    label: str, kind: str, direction: int, load: float, velocity: float | None, trace: Any
+) -> RunRecord:
+    """A :class:`RunRecord` from a :class:`~drivelash.io.trace.Trace` (columns t, x_T, theta_m, torque_m)."""
+    return RunRecord(label, kind, int(direction), float(load), velocity, trace["t"], trace["x_T"],
+                     trace["theta_m"], trace["torque_m"])  # fmt: skip
+
+
+def check_campaign(campaign: Any, max_load: float = math.inf) -> PlausibilityReport:
+    """:func:`check_runs` on every run of a loaded campaign (:func:`~drivelash.te.protocol.load_campaign`)."""
+    bench = campaign.bench
+    recs = [record_of(str(r.path), r.kind, r.direction, r.load, r.velocity, r.trace()) for r in campaign.runs]
+    return check_runs(
+        recs, bench.r_eff, bench.tooth_pitch, bench.travel, max_load, source=str(campaign.manifest_path)
+    )
+
+
+def geometric_coverage(campaign: Any) -> tuple[float, float]:
+    """Positions [m] covered by the geometric runs of both directions (moving parts, intersected).
+
+    Raises
+    ------
+    DataError
+        A direction without a geometric run, or no overlap.
+    """
+    lo, hi = -math.inf, math.inf
+    for d in (1, -1):
+        runs = campaign.select(kind="geometric", direction=d)
+        if not runs:
+            raise DataError(
+                f"no geometric (no-load) run in direction {d:+d}", path=str(campaign.manifest_path)
+            )
+        for r in runs:
+            tr = r.trace()
+            mv = _moving(tr["x_T"], tr["t"])
+            if not mv.any():
+                raise DataError("the table does not move", path=str(r.path), column="x_T")
+            lo = max(lo, float(tr["x_T"][mv].min()))
+            hi = min(hi, float(tr["x_T"][mv].max()))
+    if not hi > lo:
+        raise DataError(
+            "the geometric runs of the two directions do not overlap", path=str(campaign.manifest_path)
+        )
+    return lo, hi
