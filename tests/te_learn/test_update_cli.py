@@ -43,8 +43,15 @@ def write_campaign(directory: Path, model, loads, defect: float) -> Path:
             }
             name = f"{key}_F{F:g}.parquet"
             Trace(cols, {}).to_parquet(directory / name)
-            runs.append({"file": name, "kind": "load", "load": F, "velocity": V, "direction": d, "seed": 0})
-    manifest = {"format": "drivelash.te_campaign/1", "runs": runs}
+            runs.append({"file": name, "kind": "load", "load": F, "velocity": V, "direction": d})
+    manifest = {  # the published campaign schema (io.campaign), recorded on the model's own axis
+        "format": "drivelash.te-campaign",
+        "version": 2,
+        "source": "imported",
+        "axis": model.context.axis.model_dump(mode="json"),
+        "columns": ["t", "x_T", "theta_m", "torque_m", "direction"],
+        "runs": runs,
+    }
     (directory / "manifest.json").write_text(json.dumps(manifest), encoding="utf-8")
     return directory
 

@@ -249,7 +249,7 @@ def read_manifest(directory: str | Path) -> CampaignManifest:
     """
     d = Path(directory)
     if not d.is_dir():
-        raise DataError("not a campaign directory (not found)", path=str(d))
+        raise DataError(f"not a campaign directory (not found; a campaign holds {MANIFEST})", path=str(d))
     mpath = d / MANIFEST
     if not mpath.is_file():
         raise DataError("no manifest.json: not a campaign directory", path=str(d))
