@@ -76,7 +76,12 @@ def small_trained(pipe: TEPipeline, train_xy: tuple[np.ndarray, np.ndarray]):
         "neg": GeometricCurve(0.0, 50e-6, 40e-6 + 20e-6 * np.sin(2 * np.pi * xg / (GEOM.n_t * PITCH))),
     }
     return TrainedTEModel(
-        pipe, geo, models, {"note": "synthetic"}, {"pos": (-1.0, -0.5), "neg": (1.0, 0.4)}, synthetic_context()
+        pipe,
+        geo,
+        models,
+        {"note": "synthetic"},
+        {"pos": (-1.0, -0.5), "neg": (1.0, 0.4)},
+        synthetic_context(),
     )
 
 

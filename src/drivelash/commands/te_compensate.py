@@ -101,11 +101,15 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
                    f"(x_T in mm, torque in N*m, TE in um)")  # fmt: skip
 
 
+#: Largest table `te export` writes [grid points per flank]: 10 M (e.g. 0.1 mm over 10 m × 100
+#: torques); a CNC compensation table holds thousands, the default grid ≈ 0.2 M.
+MAX_TABLE_POINTS = 10_000_000
+
+
 def _check_grid(lo: float, hi: float, dx_mm: float, tmax: float, step: float, vr: object) -> int:
     """Validate the export grid up front; returns the torque count (refuses absurd sizes)."""
-    from drivelash.errors import ParameterError
-    from drivelash.io.budget import check_budget
-    from drivelash.te.runtime.table import table_bytes, table_size
+    from drivelash.errors import ParameterError, ResourceError
+    from drivelash.te.runtime.table import table_bytes
 
     for name, v in (("--dx-mm", dx_mm), ("--torque-step", step), ("--torque-max", tmax)):
         if not (math.isfinite(v) and v > 0):
@@ -121,16 +125,16 @@ def _check_grid(lo: float, hi: float, dx_mm: float, tmax: float, step: float, vr
         )
     if not hi > lo:
         raise ParameterError("te export", "x-max", f"must exceed x-min ({lo:g} m), got {hi:g}")
-    n_x = table_size(lo, hi, dx_mm * 1e-3)
-    n_torque = int(math.ceil(tmax / step - 1e-9)) + 1
-    # the table in memory, and the CSV text (~40 bytes per row, 2 flanks) written from it
-    need = table_bytes(n_x, n_torque) + 40.0 * 2 * n_x * n_torque
-    check_budget(
-        need,
-        what=f"te export: {n_x} positions x {n_torque} torques x 2 flanks",
-        option="raise --dx-mm or --torque-step, or lower --torque-max",
-    )
-    return n_torque
+    n_x = (hi - lo) / (dx_mm * 1e-3) + 1
+    n_torque = math.ceil(tmax / step - 1e-9) + 1
+    what = f"te export: {n_x:.4g} positions x {n_torque:.4g} torques x 2 flanks"
+    option = "raise --dx-mm or --torque-step, or lower --torque-max"
+    if n_x * n_torque > MAX_TABLE_POINTS:  # no CNC loads more; checked before any size is allocated
+        raise ResourceError(
+            f"{what} = {2 * n_x * n_torque:.4g} values, more than {2 * MAX_TABLE_POINTS:.4g}"
+            f" (≈ {table_bytes(int(n_x), int(n_torque)) / 2**30:.3g} GiB to build); {option}"
+        )
+    return int(n_torque)
 
 
 def format_summary(summary: dict) -> str:

@@ -1,0 +1,114 @@
+"""Plausibility of a campaign: each typical mistake of a real recording is caught, named by file.
+
+The synthetic axis of :mod:`.synth` (known TE, exact kinematics) is clean; each test spoils
+one thing the way it happens on a machine and checks the one-line finding. Negative
+control: the clean campaign gives no error and no warning except the ones stated.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+
+import pytest
+
+from drivelash.errors import DataError
+from drivelash.te.protocol.plausibility import check_runs
+
+from .synth import BENCH, record, standard_runs
+
+SHORT = {"lo": 0.05, "hi": 0.45}
+
+
+def _runs(**changes):
+    return [dataclasses.replace(r, **SHORT, **changes) for r in standard_runs()]
+
+
+def _check(runs, max_load=3000.0):
+    recs = [record(r, f"run{i:02d}.csv") for i, r in enumerate(runs)]
+    return check_runs(recs, BENCH.r_eff, BENCH.tooth_pitch, BENCH.travel, max_load, source="axis.toml")
+
+
+def test_clean_campaign_passes():
+    rep = _check(_runs())
+    assert rep.errors == [] and rep.warnings == []
+    assert rep.valid_range == pytest.approx((0.05, 0.45), abs=1e-3)
+    for r in rep.runs:  # the slope of x_T over x_M is the rack's 5 µm/m drift, no more
+        assert r["ratio"] == pytest.approx(1.0, abs=2e-5)
+    assert rep.directions["pos"]["torque_per_N"] / BENCH.r_eff == pytest.approx(1 / 0.95, rel=1e-3)
+
+
+def _one(rep, check):
+    found = [f for f in rep.findings if f.check == check]
+    assert found, [f.line() for f in rep.findings]
+    return found[0]
+
+
+def test_flipped_encoder_sign_is_an_error_naming_the_file():
+    runs = _runs()
+    runs[3] = dataclasses.replace(runs[3], sign=-1)
+    f = _one(_check(runs), "ratio")
+    assert f.level == "error" and f.file == "run03.csv"
+    assert "encoder sign" in f.message and "scale = -1" in f.message
+
+
+def test_scale_zero_offset_is_an_error_with_the_offset_to_set():
+    runs = _runs(zero_mm=1234.5)  # every run: the scale's zero is 1234.5 mm from the motor's
+    rep = _check(runs)
+    f = _one(rep, "zero")
+    assert f.level == "error" and f.file == "run00.csv"
+    # the measured TE is the 1234.5 mm zero plus the true TE of the drive (-16 µm on this run)
+    assert re.search(r"TE is \+1234\.4\d\d mm", f.message) and "offset = -1.2344" in f.message
+    with pytest.raises(DataError, match=r"run00.csv: implausible campaign: TE is \+1234\.4"):
+        rep.raise_errors()
+
+
+def test_mixed_zeros_between_runs_are_caught():
+    runs = _runs()
+    runs[5] = dataclasses.replace(runs[5], zero_mm=0.8)  # one run homed differently (0.8 mm)
+    f = _one(_check(runs), "mixed-zero")
+    assert f.level == "error" and f.file == "run05.csv" and re.search(r"\+0\.(79|80)\d mm", f.message)
+    runs[5] = dataclasses.replace(runs[5], zero_mm=0.2)
+    f = _one(_check(runs), "mixed-zero")
+    assert f.level == "warning" and f.file == "run05.csv"
+
+
+def test_single_training_load_is_an_error():
+    runs = [dataclasses.replace(r, **SHORT) for r in standard_runs(loads=(1500.0, 4000.0))]
+    f = _one(_check(runs), "loads")
+    assert f.level == "error" and f.file == "axis.toml"
+    assert "only 1 training load(s) (1500 N" in f.message
+
+
+def test_pass_over_a_quarter_of_the_travel_is_flagged():
+    runs = _runs()
+    runs[4] = dataclasses.replace(runs[4], lo=0.05, hi=0.15)  # 0.1 m of the 0.4 m recorded
+    f = _one(_check(runs), "coverage")
+    assert f.level == "warning" and f.file == "run04.csv" and "(25%)" in f.message
+
+
+def test_positions_in_micrometres_are_caught():
+    runs = _runs()
+    recs = [record(r, f"run{i:02d}.csv") for i, r in enumerate(runs)]
+    recs[0] = dataclasses.replace(recs[0], x_T=recs[0].x_T * 1e6)  # a campaign in µm, read as m
+    rep = check_runs(recs, BENCH.r_eff, BENCH.tooth_pitch, BENCH.travel, 3000.0, source="axis.toml")
+    f = _one(rep, "ratio")
+    assert f.level == "error" and "micrometres" in f.message
+
+
+def test_wrong_gearbox_ratio_and_torque_sign_and_sampling():
+    runs = _runs()
+    recs = [record(r, f"run{i:02d}.csv") for i, r in enumerate(runs)]
+    rep = check_runs(recs, BENCH.r_eff * 16 / 10, BENCH.tooth_pitch, BENCH.travel, 3000.0)
+    assert _one(rep, "ratio").level == "error" and "i_PG" in _one(rep, "ratio").message
+    recs[4] = dataclasses.replace(recs[4], torque_m=-recs[4].torque_m)
+    f = _one(check_runs(recs, BENCH.r_eff, BENCH.tooth_pitch, BENCH.travel, 3000.0), "torque")
+    assert f.file == "run04.csv" and "torque sign" in f.message
+    # 20 Hz at 100 mm/s: 5 mm between samples, the tooth mesh (13.3 mm pitch) aliases
+    r, sub = record(runs[4], "run04.csv"), slice(None, None, 50)
+    recs[4] = dataclasses.replace(
+        r, t=r.t[sub], x_T=r.x_T[sub], theta_m=r.theta_m[sub], torque_m=r.torque_m[sub]
+    )
+    f = _one(check_runs(recs, BENCH.r_eff, BENCH.tooth_pitch, BENCH.travel, 3000.0), "sampling")
+    assert f.level == "error" and f.file == "run04.csv" and math.isfinite(float(f.message.split(" Hz")[0]))
