@@ -106,3 +106,48 @@ def te_seed0():
             _te_step(d, "E", ["te", "evaluate", "M", "C", "-o", "E"])
             _te_step(d, "V", ["te", "validate", "M", "-o", "V"])
     return {k: d / k for k in ("C", "M", "E", "V")}
+
+
+def _te_run(tag: str, steps: list[tuple[str, list[str]]]) -> dict:
+    """Run TE command steps once in a cached directory keyed by ``tag`` and the source hash."""
+    import os
+    from pathlib import Path
+
+    from filelock import FileLock
+
+    cache = Path(os.environ.get("DRIVELASH_CACHE", _REPO / ".venv" / "drivelash-cache"))
+    d = cache / f"{tag}-{_source_hash()}"
+    d.mkdir(parents=True, exist_ok=True)
+    with FileLock(str(d) + ".lock"):
+        for name, args in steps:
+            _te_step(d, name, args)
+    return {name: d / name for name, _ in steps}
+
+
+@pytest.fixture(scope="session")
+def te_quick():
+    """The quick path with every default: ``te campaign --quick -o C``, ``te fit C -o M``,
+    ``te validate M -o V --quick`` (cached like :func:`te_seed0`)."""
+    return _te_run(
+        "te-quick",
+        [
+            ("C", ["te", "campaign", "--quick", "-o", "C", "--seed", "0"]),
+            ("M", ["te", "fit", "C", "-o", "M"]),
+            ("V", ["te", "validate", "M", "-o", "V", "--quick"]),
+        ],
+    )
+
+
+@pytest.fixture(scope="session")
+def te_custom_axis():
+    """A custom axis (examples/rack_axis.toml: 3 mm module, 24 teeth, i = 10, 1.2 m travel):
+    ``te campaign --config``, ``te fit``, ``te validate`` (cached like :func:`te_seed0`)."""
+    axis = str(_REPO / "examples" / "rack_axis.toml")
+    return _te_run(
+        "te-custom-axis",
+        [
+            ("C", ["te", "campaign", "--config", axis, "-o", "C", "--seed", "0"]),
+            ("M", ["te", "fit", "C", "-o", "M"]),
+            ("V", ["te", "validate", "M", "-o", "V"]),
+        ],
+    )

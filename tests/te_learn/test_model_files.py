@@ -41,12 +41,17 @@ def test_saved_model_carries_its_context(model_dir):
     assert m.context.valid_range.x_max == 0.3 and m.context.axis.geometry.n_t == 20
 
 
+def _sim_block(n_sub):
+    return {"seed": 0, "sim_config": {"n_sub": n_sub}}
+
+
 @pytest.mark.parametrize(
     ("edit", "needle"),
     [
         (lambda m: m["pipeline"]["geometry"].update(eps=1e9), "pipeline.geometry"),
         (lambda m: m["pipeline"]["geometry"].update(n_t=1e8), "pipeline.geometry.n_t"),
         (lambda m: m["models"]["pos"].update(hidden=10**9), "models.pos.hidden"),
+        (lambda m: m.update(simulator=_sim_block(10**8)), "simulator"),
         (lambda m: m.pop("valid_range"), "key 'valid_range': missing"),
         (lambda m: m.update(valid_range=[0, 1]), "key 'valid_range'"),
         (lambda m: m["valid_range"].update(x_max=-5.0), "x_max"),

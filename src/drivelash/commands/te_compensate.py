@@ -109,6 +109,7 @@ MAX_TABLE_POINTS = 10_000_000
 def _check_grid(lo: float, hi: float, dx_mm: float, tmax: float, step: float, vr: object) -> int:
     """Validate the export grid up front; returns the torque count (refuses absurd sizes)."""
     from drivelash.errors import ParameterError, ResourceError
+    from drivelash.io.budget import check_budget
     from drivelash.te.runtime.table import table_bytes
 
     for name, v in (("--dx-mm", dx_mm), ("--torque-step", step), ("--torque-max", tmax)):
@@ -134,6 +135,8 @@ def _check_grid(lo: float, hi: float, dx_mm: float, tmax: float, step: float, vr
             f"{what} = {2 * n_x * n_torque:.4g} values, more than {2 * MAX_TABLE_POINTS:.4g}"
             f" (≈ {table_bytes(int(n_x), int(n_torque)) / 2**30:.3g} GiB to build); {option}"
         )
+    # the table in memory, and the CSV text (~40 bytes per row, 2 flanks) written from it
+    check_budget(table_bytes(int(n_x), int(n_torque)) + 40.0 * 2 * n_x * n_torque, what=what, option=option)
     return int(n_torque)
 
 

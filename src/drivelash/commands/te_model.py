@@ -67,9 +67,9 @@ def run_fit(
         from drivelash.te.protocol.plausibility import check_campaign
 
         report = check_campaign(camp, max_load)
+        report.raise_errors()  # an error is the one line the user sees; warnings only when it goes on
         for f in report.warnings:
             warn(f.line())
-        report.raise_errors()
         holdout = default_holdout(camp.loads, max_load) if holdout_loads is None else tuple(holdout_loads)
         _check_holdout(holdout, camp.loads, max_load, camp.manifest_path)
 

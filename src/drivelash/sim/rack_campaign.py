@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -181,14 +182,35 @@ def plan_runs(config: CampaignConfig) -> list[RunSpec]:
     return runs
 
 
-def run_trajectory(
-    spec: RunSpec, bench: RackPinionBench, config: CampaignConfig, T_s: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Set-point trajectory (t, x_d, v_d) of one run."""
+#: Shortest constant-velocity pass a campaign records [m].
+MIN_PASS = 0.1
+
+
+def pass_bounds(bench: RackPinionBench, config: CampaignConfig) -> tuple[float, float]:
+    """Positions [m] the passes run between: [margin, travel − margin], shortened to ``stroke``."""
     lo = config.margin
     hi = bench.travel - config.margin
     if config.stroke is not None:
         hi = min(hi, lo + config.stroke)
+    return lo, hi
+
+
+def unique_files(specs: Sequence[RunSpec]) -> list[str]:
+    """The file name of each run; repeated runs get ``_2``, ``_3``, … before the suffix."""
+    seen: dict[str, int] = {}
+    out = []
+    for s in specs:
+        f = s.file
+        seen[f] = seen.get(f, 0) + 1
+        out.append(f if seen[f] == 1 else f.replace(".parquet", f"_{seen[f]}.parquet"))
+    return out
+
+
+def run_trajectory(
+    spec: RunSpec, bench: RackPinionBench, config: CampaignConfig, T_s: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Set-point trajectory (t, x_d, v_d) of one run."""
+    lo, hi = pass_bounds(bench, config)
     if spec.kind == "sine":
         xc = 0.5 * (lo + hi)
         A = min(config.sine_amplitude, 0.5 * (hi - lo))
@@ -198,7 +220,7 @@ def run_trajectory(
 
 
 def _simulate_one(
-    sim: RackAxisSimulator, spec: RunSpec, config: CampaignConfig, out_dir: Path
+    sim: RackAxisSimulator, spec: RunSpec, config: CampaignConfig, out_dir: Path, file: str
 ) -> tuple[dict[str, Any], float]:
     _, x_d, v_d = run_trajectory(spec, sim.bench, config, sim.T_s)
     dec = int(round(1.0 / (config.store_rate * sim.T_s)))
@@ -210,9 +232,9 @@ def _simulate_one(
         meta={"kind": spec.kind, "load": spec.load, "velocity": spec.velocity, "direction": spec.direction},
     )
     tr = tr.select(STORED_COLUMNS)
-    tr.save(out_dir / spec.file)
+    tr.save(out_dir / file)
     entry = {
-        "file": spec.file,
+        "file": file,
         "kind": spec.kind,
         "load": spec.load,
         "velocity": spec.velocity,
@@ -242,6 +264,9 @@ class SimulatorBlock(Document):
         Engine settings.
     campaign : CampaignConfig
         The recorded plan (velocities, loads, stroke, sine, store rate).
+    runs : list of RunSpec, optional
+        The runs, when given explicitly (an axis file's run list) instead of planned from
+        ``campaign``.
     """
 
     seed: int = Field(ge=0, lt=2**63)
@@ -249,6 +274,7 @@ class SimulatorBlock(Document):
     defects: list[LocalDefect] = Field(default_factory=list)
     sim_config: AxisSimConfig = Field(default_factory=AxisSimConfig)
     campaign: CampaignConfig = Field(default_factory=CampaignConfig)
+    runs: list[RunSpec] | None = None
 
     def model_post_init(self, __context: Any) -> None:
         """Bound the engine's effort (a manifest must not ask for a simulation that never ends)."""
@@ -293,6 +319,7 @@ def run_campaign(
     gains: CascadeGains | None = None,
     sim_config: AxisSimConfig | None = None,
     workers: int = 2,
+    runs: Sequence[RunSpec] | None = None,
 ) -> dict[str, Any]:
     """Simulate the campaign and write the traces and ``manifest.json`` into ``out_dir``.
 
@@ -308,6 +335,8 @@ def run_campaign(
         Bench, TE-generator parameters, cascade gains, engine settings.
     workers : int
         Threads simulating runs in parallel (the kernel releases the GIL).
+    runs : sequence of RunSpec, optional
+        The runs to record (e.g. an axis file's run list); default :func:`plan_runs`.
 
     Returns
     -------
@@ -327,12 +356,24 @@ def run_campaign(
     dec = 1.0 / (config.store_rate * sim.T_s)
     if abs(dec - round(dec)) > 1e-9 or round(dec) < 1:
         raise ParameterError("CampaignConfig", "store_rate", "1/(store_rate T_s) must be a whole number")
-    specs = plan_runs(config)
+    specs = list(runs) if runs is not None else plan_runs(config)
+    if not specs:
+        raise ParameterError("run_campaign", "runs", "no run to record")
+    lo, hi = pass_bounds(bench, config)
+    if hi - lo < MIN_PASS:
+        raise ParameterError(
+            "CampaignConfig",
+            "stroke",
+            f"passes over [{lo:.4g}, {hi:.4g}] m are shorter than {MIN_PASS:g} m"
+            " (the preprocessing trims 30 mm at each end): lengthen the travel or the stroke",
+        )
+    files = unique_files(specs)
     # compile (or load the cache) once before the threads start
     sim.run(np.zeros(8), np.zeros(8))
     t0 = time.perf_counter()
     with ThreadPoolExecutor(max_workers=max(1, int(workers))) as pool:
-        results = list(pool.map(lambda s: _simulate_one(sim, s, config, out), specs))
+        jobs = list(zip(specs, files, strict=True))
+        results = list(pool.map(lambda sf: _simulate_one(sim, sf[0], config, out, sf[1]), jobs))
     wall = time.perf_counter() - t0
     simulated = sum(r[1] for r in results)
     manifest = CampaignManifest(
@@ -349,6 +390,7 @@ def run_campaign(
             defects=[],
             sim_config=sim.config,
             campaign=config,
+            runs=list(runs) if runs is not None else None,
         ).dump(),
     )
     write_json(out / MANIFEST, manifest.dump())

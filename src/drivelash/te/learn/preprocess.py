@@ -345,7 +345,7 @@ class GearGeometry:
             d_p=float(pick("d_p")),
             n_t=int(pick("n_t")),
             i_pg=float(pick("i_PG", "i_pg")),
-            eps=float(pick("eps", "contact_ratio", "epsilon")),
+            eps=float(pick("epsilon", "eps")),
         )
 
     def to_dict(self) -> dict[str, float | int]:

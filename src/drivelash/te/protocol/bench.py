@@ -250,6 +250,13 @@ class ModelDrive:
         self.block = SimulatorBlock.model_validate(ctx.simulator)
         self.bench = ctx.axis.bench
         self.gains = ctx.axis.gains
+        if campaign is not None and (
+            campaign.manifest.simulator != ctx.simulator or campaign.manifest.axis != ctx.axis
+        ):
+            raise DataError(
+                "not the campaign this model was trained on (different drive); leave --campaign out",
+                path=str(campaign.manifest_path),
+            )
         self._campaign = campaign
         self._tmp: Any = None
 
@@ -289,6 +296,7 @@ class ModelDrive:
             run_campaign(
                 self._tmp.name, seed=self.seed, config=self.block.campaign, bench=self.bench,
                 te_params=self.block.te_generator, gains=self.gains, sim_config=self.block.sim_config,
+                runs=self.block.runs,
             )  # fmt: skip
             self._campaign = load_campaign(self._tmp.name)
         return self._campaign

@@ -20,7 +20,6 @@ Figures (paper Figs 8–9, monitoring) are drawn by a ``figures`` object passed 
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import time
 from collections.abc import Callable
@@ -31,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from drivelash.errors import DataError
+from drivelash.io.outputs import jsonable, write_json
 from drivelash.te.protocol.bench import ModelDrive, ValidationConfig, compensator_for, table_for
 from drivelash.te.protocol.monitoring import section_edges
 from drivelash.te.protocol.passes import pass_range, pass_trajectory, run_pass, score_pass
@@ -257,7 +257,7 @@ def validate(
                       torque_max=tq_max)  # fmt: skip
     params = compensator_for(bench, table, cfg.compensator)
     export_table(table, out / "te_table.json", params)
-    summary: dict[str, Any] = {"config": _jsonable(asdict(cfg)), "compensator": asdict(params)}
+    summary: dict[str, Any] = {"config": jsonable(asdict(cfg)), "compensator": asdict(params)}
 
     say("(a) sinusoidal trajectory")
     sine, unc, comp = sine_validation(sim, table, params, cfg)
@@ -287,7 +287,7 @@ def validate(
     summary["monitoring"] = monitoring_demo(drive, sim, table, params, cfg, out, updater, say, model, figures)
     summary["acceptance"] = acceptance(summary)
     summary["wall_time_s"] = time.perf_counter() - t_start
-    (out / "summary.json").write_text(json.dumps(_jsonable(summary), indent=1), encoding="utf-8")
+    write_json(out / "summary.json", summary, indent=1)
     return summary
 
 
@@ -330,18 +330,3 @@ def _write_csv(rows: list[dict[str, Any]], path: Path) -> None:
         w.writeheader()
         for r in rows:
             w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in r.items()})
-
-
-def _jsonable(o: Any) -> Any:
-    if isinstance(o, dict):
-        return {str(k): _jsonable(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_jsonable(v) for v in o]
-    if isinstance(o, (np.floating, float)):
-        f = float(o)
-        return f if math.isfinite(f) else None
-    if isinstance(o, (np.integer,)):
-        return int(o)
-    if isinstance(o, np.bool_):
-        return bool(o)
-    return o

@@ -42,7 +42,7 @@ from pydantic import Field, field_validator, model_validator
 from drivelash.errors import DataError, DrivelashError
 from drivelash.io.campaign import AxisBlock
 from drivelash.io.jsondoc import Document, read_document, read_raw_document
-from drivelash.io.outputs import write_json
+from drivelash.io.outputs import jsonable, write_json
 from drivelash.te.learn.preprocess import TEPipeline
 from drivelash.te.runtime.compensator import CompensatorParams
 from drivelash.te.runtime.predictor import TEModel
@@ -261,22 +261,6 @@ def flatten_trees(bagging: Any) -> dict[str, np.ndarray]:
 # ---------------------------------------------------------------------------
 # save / load
 # ---------------------------------------------------------------------------
-def _jsonable(o: Any) -> Any:
-    if isinstance(o, dict):
-        return {str(k): _jsonable(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_jsonable(v) for v in o]
-    if isinstance(o, np.integer):
-        return int(o)
-    if isinstance(o, np.floating):
-        return float(o)
-    if isinstance(o, np.ndarray):
-        return _jsonable(o.tolist())
-    if o is None or isinstance(o, (bool, int, float, str)):
-        return o
-    return repr(o)
-
-
 def model_arrays(trained: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Metadata and flat named arrays of a :class:`~drivelash.te.learn.fit.TrainedTEModel`.
 
@@ -303,7 +287,7 @@ def model_arrays(trained: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         "pipeline": trained.pipeline.to_dict(),
         "directions": sorted(trained.models),
         "models": {},
-        "info": _jsonable(trained.info),
+        "info": jsonable(trained.info),
         **ctx.model_dump(mode="json"),
     }
     flat: dict[str, np.ndarray] = {}
@@ -329,13 +313,13 @@ def model_arrays(trained: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
             "n_inputs": int(W[0].shape[0]),
             "n_trees": len(st.trees_.estimators_),
             "n_nodes": int(arrs["threshold"].size),
-            "nn_params": _jsonable({k: v for k, v in st.nn_.get_params().items()}),
-            "tree_params": _jsonable(st.tree_info_.get("best_params", {})),
+            "nn_params": jsonable({k: v for k, v in st.nn_.get_params().items()}),
+            "tree_params": jsonable(st.tree_info_.get("best_params", {})),
             "stage1_share": st.stage1_share_,
             "train_mae_um": st.train_mae_,
-            "nn_info": _jsonable(st.nn_info_),
-            "tree_info": _jsonable(st.tree_info_),
-            "fit_time_s": _jsonable(getattr(st, "fit_time_", {})),
+            "nn_info": jsonable(st.nn_info_),
+            "tree_info": jsonable(st.tree_info_),
+            "fit_time_s": jsonable(getattr(st, "fit_time_", {})),
         }
     return meta, flat
 
@@ -516,6 +500,14 @@ def load_model(directory: str | Path) -> TEModel:
                 " refit with drivelash te fit)"
             )
         doc = read_document(mpath, ModelMeta)
+        if doc.simulator is not None:  # the virtual drive: bounded effort (substeps, table step)
+            from drivelash.io.jsondoc import validate_document
+            from drivelash.sim.rack_campaign import SimulatorBlock
+
+            class _Sim(Document):
+                simulator: SimulatorBlock
+
+            validate_document({"simulator": doc.simulator}, _Sim, mpath)
     except DataError as exc:
         raise ModelFileError(str(exc)) from None
     meta = doc.model_dump(mode="json")

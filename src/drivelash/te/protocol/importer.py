@@ -1,0 +1,183 @@
+"""``te import``: the user's recordings of a real axis → a campaign directory (published schema).
+
+Each run of the axis file's ``[[runs]]`` list is read with :func:`~drivelash.io.load.load_trace`
+(any format it reads: CSV, Parquet, HDF5, MAT) through the file's ``[columns]`` mapping
+(units, encoder counts, current × torque constant, encoder sign ``scale = -1``, scale
+zero ``offset``), checked for plausibility (:mod:`drivelash.te.protocol.plausibility`)
+*before* anything is written, and stored as a Parquet trace in SI units next to a
+``manifest.json`` of :mod:`drivelash.io.campaign` (``source = "imported"``: no seed, no
+true TE). Errors refuse the import with one line naming the file and the problem;
+warnings are printed and kept in the manifest.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from drivelash.io.campaign import (
+    FORMAT_NAME,
+    FORMAT_VERSION,
+    MANIFEST,
+    OPTIONAL_COLUMNS,
+    REQUIRED_COLUMNS,
+    AxisBlock,
+    CampaignManifest,
+    RunEntry,
+)
+from drivelash.io.config import DriveConfig
+from drivelash.io.load import load_trace
+from drivelash.io.outputs import write_json
+from drivelash.io.trace import Trace
+from drivelash.te.protocol.axis import load_axis
+from drivelash.te.protocol.plausibility import PlausibilityReport, check_runs, record_of
+
+__all__ = ["import_campaign", "recording_paths", "summary_lines"]
+
+
+def recording_paths(axis_path: str | Path) -> list[Path]:
+    """The recordings an axis file lists (relative to the file), for output checks."""
+    axis = load_axis(axis_path)
+    return [axis.directory / r.file for r in axis.run_list(need_files=True)]  # type: ignore[operator]
+
+
+def _direction_column(tr: Trace, direction: int) -> np.ndarray:
+    """Commanded direction per sample: the run's for a pass, the sign of the set velocity for a sine."""
+    if direction != 0:
+        return np.full(len(tr), float(direction))
+    x = tr["x_d"] if "x_d" in tr else tr["x_T"]
+    v = np.gradient(x, tr["t"])
+    s = np.sign(v)
+    # standstill keeps the last direction of motion
+    idx = np.where(s != 0, np.arange(s.size), 0)
+    np.maximum.accumulate(idx, out=idx)
+    s = s[idx]
+    s[s == 0] = 1.0
+    return s
+
+
+def import_campaign(
+    axis_path: str | Path,
+    out_dir: str | Path,
+    max_load: float = 3000.0,
+    warn: Callable[[str], None] | None = None,
+) -> tuple[CampaignManifest, PlausibilityReport]:
+    """Read, check and store the recordings of an axis file as a campaign in ``out_dir``.
+
+    Parameters
+    ----------
+    axis_path : str or Path
+        The axis file: ``[geometry]`` (required), ``[drive]``, ``[gains]``, ``[columns]``,
+        ``[sampling]`` and ``[[runs]]`` with a ``file`` each.
+    out_dir : str or Path
+        Directory to write (a staging directory of :class:`drivelash.io.outputs.Outputs`).
+    max_load : float
+        Largest training load [N] (only the plausibility's count of training loads uses it).
+    warn : callable, optional
+        Receives each plausibility warning as one line.
+
+    Returns
+    -------
+    manifest, report
+        The written manifest and the plausibility report.
+
+    Raises
+    ------
+    ConfigError, DataError
+        A bad axis file or recording, or an implausible campaign (nothing written).
+    """
+    axis = load_axis(axis_path)
+    bench = axis.bench(require_geometry=True)
+    gains = axis.cascade_gains(bench, default=False)
+    runs = axis.run_list(need_files=True)
+    mapping = DriveConfig(columns=axis.columns, sampling=axis.sampling)
+    traces: list[Trace] = []
+    records = []
+    for r in runs:
+        path = axis.directory / str(r.file)
+        tr = load_trace(path, mapping, required=REQUIRED_COLUMNS)
+        for w in tr.meta.get("warnings", []):
+            if warn is not None:
+                warn(w)
+        traces.append(tr)
+        records.append(record_of(str(path), r.kind, r.direction, r.load, r.velocity, tr))
+    report = check_runs(
+        records, bench.r_eff, bench.tooth_pitch, bench.travel, max_load=max_load, source=str(axis_path)
+    )
+    report.raise_errors()  # an error is the one line the user sees; warnings only when it goes on
+    if warn is not None:
+        for f in report.warnings:
+            warn(f.line())
+
+    stored = [c for c in OPTIONAL_COLUMNS if c in ("F_load", "direction") or all(c in tr for tr in traces)]
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    entries = []
+    for i, (r, tr, info) in enumerate(zip(runs, traces, report.runs, strict=True)):
+        v = float(r.velocity) if r.velocity else float(info["velocity_measured"])
+        if r.kind == "sine":
+            v = float(np.max(np.abs(np.gradient(tr["x_T"], tr["t"]))))
+        cols = {c: np.asarray(tr[c], dtype=np.float64) for c in REQUIRED_COLUMNS}
+        for c in stored:
+            if c in tr:
+                cols[c] = np.asarray(tr[c], dtype=np.float64)
+        cols.setdefault("F_load", np.full(len(tr), float(r.load)))
+        cols.setdefault("direction", _direction_column(tr, r.direction))
+        d = {1: "pos", -1: "neg", 0: "both"}[r.direction]
+        name = f"{i:03d}_{r.kind}_v{v * 1e3:.4g}mmps_F{r.load:g}N_{d}.parquet"
+        meta = {
+            "recording": str(r.file),
+            "kind": r.kind,
+            "load": r.load,
+            "velocity": v,
+            "direction": r.direction,
+        }
+        Trace({c: cols[c] for c in (*REQUIRED_COLUMNS, *stored)}, meta).save(out / name)
+        entries.append(
+            RunEntry(
+                file=name,
+                kind=r.kind,
+                direction=r.direction,
+                velocity=v,
+                load=float(r.load),
+                samples=len(tr),
+                duration=float(tr["t"][-1] - tr["t"][0]) or None,
+                recording=str(r.file),
+            )  # fmt: skip
+        )
+    manifest = CampaignManifest.model_validate(
+        {
+            "format": FORMAT_NAME,
+            "version": FORMAT_VERSION,
+            "source": "imported",
+            "axis": AxisBlock.of(bench, gains),
+            "columns": [*REQUIRED_COLUMNS, *stored],
+            "runs": entries,
+            "import": {
+                "axis_file": str(axis_path),
+                "max_load": max_load if math.isfinite(max_load) else None,
+                "plausibility": report.to_dict(),
+            },
+        }
+    )
+    write_json(out / MANIFEST, manifest.dump())
+    return manifest, report
+
+
+def summary_lines(manifest: CampaignManifest, report: PlausibilityReport) -> list[str]:
+    """What ``te import`` prints: runs, loads, velocities, valid range."""
+    runs = manifest.runs
+    kinds = {k: sum(r.kind == k for r in runs) for k in ("geometric", "load", "sine")}
+    lines = [
+        f"{len(runs)} runs ({kinds['geometric']} geometric, {kinds['load']} load, {kinds['sine']} sine);"
+        f" loads {', '.join(f'{f:g}' for f in manifest.loads) or 'none'} N;"
+        f" velocities {', '.join(f'{v * 1e3:.4g}' for v in manifest.velocities) or 'none'} mm/s",
+    ]
+    if report.valid_range:
+        lo, hi = report.valid_range
+        lines.append(f"valid range (geometric runs, both directions): {lo:.4f} … {hi:.4f} m")
+    lines.append(f"plausibility: {len(report.warnings)} warning(s), no error")
+    return lines
