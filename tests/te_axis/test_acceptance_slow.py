@@ -67,6 +67,22 @@ def test_custom_axis_campaign_fit_validate(te_custom_axis):
     assert s["average_improvement"] >= 0.75
 
 
+@pytest.mark.xfail(
+    strict=True,
+    reason="known miss: measured reversal-error reduction -124 % (17.8 -> 39.8 um) and 5.4x the "
+    "high-frequency path error above 50 Hz on the sine of the custom axis, goal >= 80 % and <= 1x "
+    "(te validate's own acceptance, met on the paper's bench: 86 %), because the compensator's "
+    "backlash step is timed for the paper's loop (the custom axis' scaled gains cross the gap at "
+    "another pace); not retuned in this session",
+)
+def test_custom_axis_sine_reversals(te_custom_axis):
+    sine = _summary(te_custom_axis["V"])["sine"]
+    red, hf = sine["reversal_reduction"], sine["hf_ratio"]
+    print(f"custom axis sine: reversal reduction {red:.3f}, hf ratio {hf:.2f}")
+    assert red >= 0.80
+    assert hf <= 1.0
+
+
 def test_moved_model_gives_identical_results(te_quick, tmp_path):
     from drivelash.te.runtime import Compensator, build_table, load_model
 
