@@ -58,6 +58,31 @@ def _signals(n: int = 3000) -> dict[str, np.ndarray]:
     }
 
 
+AXIS_TOML = """
+[geometry]
+m_n = 0.003
+n_t = 24
+helix_angle = 0.340808
+i_PG = 10.0
+travel = 1.2
+
+[columns.t]
+column = "t"
+[columns.theta_l]
+column = "x_T"
+[columns.theta_m]
+column = "theta_m"
+[columns.torque_m]
+column = "torque_m"
+
+[[runs]]
+kind = "load"
+direction = 1
+velocity = 0.1
+load = 0.0
+file = "rec.csv"
+"""
+
 IDENT_TOML = """
 [drivetrain]
 J_m = 0.01
@@ -78,6 +103,7 @@ def _build_workspace(d: Path) -> None:
     write_trace(Trace(sig), d / "rec.parquet")
     shutil.copy(REPO / "examples" / "drive_bench.toml", d / "drive.toml")
     (d / "ident.toml").write_text(IDENT_TOML)
+    (d / "axis.toml").write_text(AXIS_TOML)
     (d / "scen.toml").write_text('base = "bench-0A"\nduration = 0.5\n')
     # ISO 230-2 recording, as the demo writes it
     from drivelash.iso230.synthetic import SyntheticAxis, synthetic_recording
@@ -118,7 +144,7 @@ class Cmd:
     good: list[str]
     recording: int | None = None  # argv index of the recording argument
     config: int | None = None  # argv index of the TOML configuration's value
-    config_kind: str | None = None  # "drive", "ident", "scenario", "iso230"
+    config_kind: str | None = None  # "drive", "ident", "scenario", "iso230", "axis"
     file_outputs: dict[str, str] = field(default_factory=dict)  # option -> a good extension
     dir_outputs: tuple[str, ...] = ()
     plot_options: tuple[str, ...] = ()
@@ -131,14 +157,6 @@ class Cmd:
 
 
 W = "{w}"
-TE_PENDING = (
-    "known miss: measured a traceback, a late error (inputs read before the output paths are"
-    " checked) or a campaign run before refusing; goal: one line naming the option before any"
-    " work; because the TE commands' outputs and manifests are h5-te-axis's part of issue 15"
-)
-_TE_OUT = ("output-is-input", "output-dir-missing", "output-dir-read-only", "output-is-directory",
-           "foreign-file-no-force")  # fmt: skip
-
 #: One row per command (``drivelash --help`` and ``te`` subcommands).
 COMMANDS: dict[str, Cmd] = {
     "scenarios": Cmd(good=["scenarios"]),
@@ -234,8 +252,13 @@ COMMANDS: dict[str, Cmd] = {
     "te campaign": Cmd(
         good=["te", "campaign", "-o", f"{W}/camp_out", "--quick"],
         dir_outputs=("-o",),
-        xfail={k: TE_PENDING for k in _TE_OUT if k != "output-is-input"},
-        slow_classes=_TE_OUT,  # each runs the quick campaign (20-30 s) before it refuses
+    ),
+    "te import": Cmd(
+        good=["te", "import", f"{W}/axis.toml", "-o", f"{W}/imp_out"],
+        config=2,
+        config_kind="axis",
+        dir_outputs=("-o",),
+        inputs=(f"{W}/axis.toml", f"{W}/rec.csv"),
     ),
     "te fit": Cmd(
         good=["te", "fit", f"{W}/campaign", "-o", f"{W}/model_out", "--trials", "1"],
@@ -420,6 +443,15 @@ _CONFIG_BAD = {
         "unknown-key": ('base = "bench-0A"\nduraton = 1.0\n', "duraton"),
         "missing-key": ('base = "no-such-scenario"\n', "no-such-scenario"),
         "wrong-type": ('base = "bench-0A"\nduration = "long"\n', "duration"),
+    },
+    "axis": {
+        "bad-toml": ("[geometry\n", ""),
+        "unknown-key": ("[geometry]\ntravl = 1.0\n", "travl"),
+        "missing-key": ("[geometry]\nn_t = 24\n", "runs"),
+        "wrong-type": (
+            '[geometry]\nn_t = "many"\n[[runs]]\nkind = "load"\ndirection = 1\nfile = "rec.csv"\n',
+            "n_t",
+        ),
     },
     "iso230": {
         "bad-toml": ("[dwell\n", ""),
