@@ -376,21 +376,25 @@ def _check_units(cols: Mapping[str, np.ndarray], origin: Mapping[str, str], path
             continue
         ratio = float(np.dot(om_s[moving], d[moving]) / np.dot(d[moving], d[moving]))
         row = int(np.flatnonzero(moving)[0])
-        src = origin.get(f"omega_{side}", f"omega_{side}")
-        for factor, hint in (
-            (180.0 / math.pi, "velocity looks like deg/s (or position like rad where deg was meant)"),
-            (60.0 / (2 * math.pi), "velocity looks like rpm"),
-            (math.pi / 180.0, "position looks like deg (declare unit 'deg')"),
-            (2 * math.pi / 60.0, "position/velocity units inconsistent by 9.55 (rpm vs rad/s?)"),
-        ):
-            if abs(ratio / factor - 1) < UNIT_FACTOR_TOLERANCE:
-                raise DataError(
-                    f"implausible units: velocity is {ratio:.4g}× the derivative of"
-                    f" theta_{side}; {hint} — fix the unit in [columns]",
-                    path=path,
-                    column=src,
-                    row=row,
-                )
+        check_unit_ratio(ratio, side, path, origin.get(f"omega_{side}", f"omega_{side}"), row)
+
+
+def check_unit_ratio(ratio: float, side: str, path: str, column: str, row: int) -> None:
+    """Refuse a velocity/derivative-of-position ratio that is a known unit mix-up factor."""
+    for factor, hint in (
+        (180.0 / math.pi, "velocity looks like deg/s (or position like rad where deg was meant)"),
+        (60.0 / (2 * math.pi), "velocity looks like rpm"),
+        (math.pi / 180.0, "position looks like deg (declare unit 'deg')"),
+        (2 * math.pi / 60.0, "position/velocity units inconsistent by 9.55 (rpm vs rad/s?)"),
+    ):
+        if abs(ratio / factor - 1) < UNIT_FACTOR_TOLERANCE:
+            raise DataError(
+                f"implausible units: velocity is {ratio:.4g}× the derivative of"
+                f" theta_{side}; {hint} — fix the unit in [columns]",
+                path=path,
+                column=column,
+                row=row,
+            )
 
 
 @dataclass(frozen=True)

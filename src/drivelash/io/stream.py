@@ -431,7 +431,12 @@ class TraceStream:
 
     def _second_pass(self, stats: dict[str, _Stats]) -> None:
         """Constant and clipped signals; the position/velocity unit check."""
-        from drivelash.io.load import SATURATION_FRACTION, SATURATION_MIN_RUN, SIGNAL_COLUMNS
+        from drivelash.io.load import (
+            SATURATION_FRACTION,
+            SATURATION_MIN_RUN,
+            SIGNAL_COLUMNS,
+            check_unit_ratio,
+        )
 
         spath = str(self.path)
         names = list(dict.fromkeys([*SIGNAL_COLUMNS, *self._required]))
@@ -486,7 +491,7 @@ class TraceStream:
             ratio, row = acc.ratio()
             if ratio is None:
                 continue
-            _check_ratio(ratio, s, spath, plan[f"omega_{s}"].source, row)
+            check_unit_ratio(ratio, s, spath, plan[f"omega_{s}"].source, row)
 
     def _read_whole(self) -> None:
         """Read the recording whole with :func:`load_trace` (within the memory budget)."""
@@ -692,25 +697,6 @@ def _bin_of(ad: np.ndarray, mant: np.ndarray, expo: np.ndarray) -> np.ndarray:
     """Histogram bin of |d|: 1/16 octave (from the float's exponent and mantissa); 0 for zero."""
     fine = np.floor((mant - 0.5) * 2 * _BINS_PER_OCTAVE)
     return np.where(ad > 0, (expo + 1100) * _BINS_PER_OCTAVE + fine, 0).astype(np.int64)
-
-
-def _check_ratio(ratio: float, side: str, path: str, column: str, row: int) -> None:
-    from drivelash.io.load import UNIT_FACTOR_TOLERANCE
-
-    for factor, hint in (
-        (180.0 / math.pi, "velocity looks like deg/s (or position like rad where deg was meant)"),
-        (60.0 / (2 * math.pi), "velocity looks like rpm"),
-        (math.pi / 180.0, "position looks like deg (declare unit 'deg')"),
-        (2 * math.pi / 60.0, "position/velocity units inconsistent by 9.55 (rpm vs rad/s?)"),
-    ):
-        if abs(ratio / factor - 1) < UNIT_FACTOR_TOLERANCE:
-            raise DataError(
-                f"implausible units: velocity is {ratio:.4g}× the derivative of"
-                f" theta_{side}; {hint} — fix the unit in [columns]",
-                path=path,
-                column=column,
-                row=row,
-            )
 
 
 def iter_trace_chunks(
