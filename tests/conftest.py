@@ -5,32 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-# ---------------------------------------------------------------------------
-# Real data (../shared/data): one rule for every test that reads it (issue 13 item 6)
-
-SHARED_DATA = __import__("pathlib").Path(__file__).resolve().parents[1].parent / "shared" / "data"
-
-
-def in_ci() -> bool:
-    """True when the environment says CI (``CI=true``, ``1`` or ``yes``, as CI services set it)."""
-    import os
-
-    return os.environ.get("CI", "").strip().lower() in {"true", "1", "yes"}
-
-
-def shared_data(*parts: str):
-    """Path of a real-data file or folder under ``../shared/data`` (e.g. ``"emps", "DATA_EMPS.mat"``).
-
-    When it is missing the calling test **fails** under ``CI=true`` (CI must run the real-data
-    checks) and **skips** otherwise, with the path in the reason (shown by ``-ra``).
-    """
-    p = SHARED_DATA.joinpath(*parts)
-    if not p.exists():
-        what = "/".join(("../shared/data", *parts))
-        if in_ci():
-            pytest.fail(f"real data missing under CI=true: {what} ({p} does not exist)", pytrace=False)
-        pytest.skip(f"real data not available locally: {what} ({p} does not exist)")
-    return p
+# Real data (../shared/data): one rule, in tests/realdata.py (a module name no conftest shadows)
+from realdata import SHARED_DATA, in_ci, shared_data  # noqa: E402,F401
 
 
 @pytest.fixture

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from conftest import SHARED_DATA, shared_data
+from realdata import SHARED_DATA, shared_data
 
 
 @pytest.mark.parametrize("value", ["true", "TRUE", "1", "yes"])

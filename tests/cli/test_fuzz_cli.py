@@ -429,7 +429,7 @@ _CONFIG_BAD = {
     "drive": {
         "bad-toml": ("[drivetrain\nJ_m = 1\n", ""),
         "unknown-key": ("[drivetrain]\nJ_mm = 1.0\n[backlash]\ndelta1 = 0.1\n", "J_mm"),
-        "missing-key": ("[drivetrain]\nJ_m = 8.31e-4\n", "J_l"),  # the first missing key
+        "missing-key": ("[drivetrain]\nJ_m = 8.31e-4\n[backlash]\ndelta1 = 0.1\n", "J_l"),
         "wrong-type": ('[drivetrain]\nJ_m = "heavy"\n[backlash]\ndelta1 = 0.1\n', "J_m"),
     },
     "ident": {

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from conftest import shared_data
 from drivelash.io.trace import Trace
+from realdata import shared_data
 
 REPO = Path(__file__).resolve().parents[2]
 EMPS_CONFIG = REPO / "examples" / "emps.toml"
