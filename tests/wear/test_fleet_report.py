@@ -72,3 +72,17 @@ def test_measurements_are_shown_in_readable_units():
     assert _readable(8.13922e-05, 1.03e-07, "m") == ("81.39", "0.10", "µm")
     assert _readable(0.05, None, "rad") == ("50.00", "–", "mrad")
     assert _readable(0.012, 0.001, "mm") == ("12.00", "1.00", "µm")
+
+
+def test_report_names_the_store_by_its_label_when_given(serial_store, tmp_path):
+    """The demo builds its store in a staging directory that is renamed afterwards: the report
+    and the status title then name the store by a label, never by the vanished staging URL."""
+    from drivelash.commands.track import run_report
+
+    st, _ = serial_store
+    db = str(st.url.database)
+    label = "fleet/wear.sqlite (SQLite, in this output directory)"
+    labelled = run_report(db, tmp_path / "a.html", quiet=True, label=label).read_text()
+    assert label in labelled and db not in labelled
+    plain = run_report(db, tmp_path / "b.html", quiet=True).read_text()  # negative control
+    assert db in plain and label not in plain

@@ -110,8 +110,12 @@ def _summaries(db: str) -> tuple[Any, list[dict[str, Any]]]:
     return store, fleet_summary(store)
 
 
-def run_status(db: str, quiet: bool = False) -> list[dict[str, Any]]:
-    """Body of ``track status``; returns the axis summaries (sorted by forecast time)."""
+def run_status(db: str, quiet: bool = False, label: str | None = None) -> list[dict[str, Any]]:
+    """Body of ``track status``; returns the axis summaries (sorted by forecast time).
+
+    ``label`` names the store in the title instead of its URL (the demo builds its store in a
+    staging directory that is renamed afterwards, so the URL would name a path that is gone).
+    """
     from rich.console import Console
     from rich.table import Table
 
@@ -120,7 +124,7 @@ def run_status(db: str, quiet: bool = False) -> list[dict[str, Any]]:
     store, summ = _summaries(db)
     store.close()
     if not quiet:
-        table = Table(*OVERVIEW_HEADER, box=None, title=f"wear status — {store.name}")
+        table = Table(*OVERVIEW_HEADER, box=None, title=f"wear status — {label or store.name}")
         for row, s in zip(overview_rows(summ), summ, strict=True):
             style = "red" if s["crossed"] or s["alarms"] else None
             table.add_row(*row, style=style)
@@ -244,8 +248,10 @@ def _print_forecast(s: dict[str, Any]) -> None:
         c.print(f"  [red]alarm[/red] {a.kind}: {a.message}")
 
 
-def run_report(db: str, out_path: Path, force: bool = False, quiet: bool = False) -> Path:
-    """Body of ``track report``; returns the written path."""
+def run_report(
+    db: str, out_path: Path, force: bool = False, quiet: bool = False, label: str | None = None
+) -> Path:
+    """Body of ``track report``; returns the written path (``label`` as in :func:`run_status`)."""
     from drivelash.io.outputs import HTML_EXTENSIONS, Outputs
     from drivelash.report.fleet import render_fleet_report, write_fleet_report
 
@@ -258,7 +264,7 @@ def run_report(db: str, out_path: Path, force: bool = False, quiet: bool = False
                 meas.setdefault(m["axis"], []).append(m)
         finally:
             store.close()
-        text = render_fleet_report(summ, meas, title="drivelash fleet wear report", store=store.name)
+        text = render_fleet_report(summ, meas, title="drivelash fleet wear report", store=label or store.name)
         assert target is not None
         write_fleet_report(out.staging(target), text)
     if not quiet:

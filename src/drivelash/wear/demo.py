@@ -30,7 +30,8 @@ def demo_fleet(out_dir: Path, console: Console) -> None:
         f"({rep.failed} failed, stored with reasons)"
     )
     db = str(d / "wear.sqlite")
-    run_status(db)
+    label = "fleet/wear.sqlite (SQLite, in this output directory)"
+    run_status(db, label=label)
     report = Path(out_dir) / "fleet.html"
-    run_report(db, report, quiet=True)
+    run_report(db, report, quiet=True, label=label)
     console.print(f"fleet: report -> {report}")
