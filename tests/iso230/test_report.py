@@ -32,14 +32,17 @@ def _colour_pixels(img: Image.Image, rgb: np.ndarray) -> int:
     return int((np.abs(a - rgb) < 25).all(axis=2).sum())
 
 
+#: The file as a command sees it while its outputs are staged (``drivelash demo`` evaluates its own
+#: recording inside the staging directory): the report must name the file, not that directory.
+STAGED = "/tmp/.demo-output.drivelash-1-abc.part/synthetic.csv"
+
+
 @pytest.fixture(scope="module")
 def page() -> str:
     cols, _ = synthetic_recording(SyntheticAxis(), m=9, n=3, seed=11, dwell=0.8)
     d = detect_dwells(cols["t"], cols["P_cmd"], cols["P_actual"], cols["P_axis"])
     dr = estimate_drift(d)
-    meas = Measurement(
-        "timeseries", "m", d.approaches, d.approaches_axis, d, cols, "synthetic.csv", d.warnings, dr
-    )
+    meas = Measurement("timeseries", "m", d.approaches, d.approaches_axis, d, cols, STAGED, d.warnings, dr)
     res = evaluate(d.approaches)
     cmp_ = compare(res, Deadzone(12e-6 / 0.01, 0.3e-6 / 0.01, "est.json"), Transmission(pinion_radius=0.01),
                    drift=dr, corrected=evaluate(dr.corrected))  # fmt: skip
@@ -54,6 +57,7 @@ def test_self_contained_with_every_figure(page):
     chart = Image.open(io.BytesIO(base64.b64decode(figs["iso-chart"])))
     # the standard's chart shows both directions (x̄↑ blue, x̄↓ orange, with their bands)
     assert _colour_pixels(chart, UP) > 1500 and _colour_pixels(chart, DOWN) > 1500
+    assert "synthetic.csv" in page and ".part" not in page  # the file by name, no staging path
     for key in ("A (bidirectional accuracy)", "B̄ (mean reversal value)", "Reversal value beside", "Drift of"):
         assert key in page
 

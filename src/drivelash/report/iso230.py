@@ -242,8 +242,9 @@ def render_iso230_report(
     sections: list[Section] = []
     esc = html.escape
     head = Section("Result")
+    kind = "table of approaches" if meas.kind == "table" else "time series, dwells detected"
     head.paragraphs.append(
-        f"{meas.source}: {'table of approaches' if meas.kind == 'table' else 'time series, dwells detected'};"
+        f"{esc(Path(meas.source).name)}: {kind};"
         f" {result.m} targets, {result.n} runs per direction; deviations x = P_actual − P_target in {dl}."
     )
     rows = [
