@@ -201,20 +201,7 @@ def _apply_mapping(
                 cols[k] = _unwrapped(cols[k], 2 * math.pi, path, k, "one revolution", warnings)
         return cols, kinds, origin
     for source, cm in cmap.items():
-        if source not in table.columns:
-            avail = ", ".join(list(table.columns)[:20])
-            raise DataError(f"missing required column (available: {avail})", path=path, column=source)
-        if cm.column in cols:
-            raise DataError(f"two source columns map to Trace column '{cm.column}'", path=path, column=source)
-        kind = UNIT_KIND[cm.unit]
-        acc = _ACCEPTS.get(cm.column)
-        if acc is not None and kind not in acc:
-            raise DataError(
-                f"unit '{cm.unit}' ({kind}) does not fit Trace column '{cm.column}'"
-                f" (needs {' or '.join(acc)})",
-                path=path,
-                column=source,
-            )
+        kind = check_mapped_column(source, cm, list(table.columns), cols, path)
         raw = table.columns[source]
         modulus = cm.wrap if cm.wrap is not None else (_one_rev(cm) if kind == "angle" else None)
         if modulus is not None and cm.column.startswith("theta"):
@@ -231,6 +218,29 @@ def _apply_mapping(
             cols[name] = raw
             origin[name] = name
     return cols, kinds, origin
+
+
+def check_mapped_column(source: str, cm: ColumnMap, available: list[str], taken: Any, path: str) -> str:
+    """Check one ``[columns]`` entry against the file's columns; return its unit kind.
+
+    One rule for the whole-file loader and the chunked stream: the source column exists, no two
+    sources map to the same Trace column (``taken`` holds those already mapped), and the unit's
+    kind fits the Trace column. Raises :class:`DataError` naming the file and column.
+    """
+    if source not in available:
+        avail = ", ".join(available[:20])
+        raise DataError(f"missing required column (available: {avail})", path=path, column=source)
+    if cm.column in taken:
+        raise DataError(f"two source columns map to Trace column '{cm.column}'", path=path, column=source)
+    kind = UNIT_KIND[cm.unit]
+    acc = _ACCEPTS.get(cm.column)
+    if acc is not None and kind not in acc:
+        raise DataError(
+            f"unit '{cm.unit}' ({kind}) does not fit Trace column '{cm.column}' (needs {' or '.join(acc)})",
+            path=path,
+            column=source,
+        )
+    return kind
 
 
 def _check_finite(cols: Mapping[str, np.ndarray], origin: Mapping[str, str], path: str) -> None:

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from drivelash.errors import DataError
-from drivelash.io.config import UNIT_KIND, ColumnMap, DriveConfig, SamplingSection
+from drivelash.io.config import ColumnMap, DriveConfig, SamplingSection
 from drivelash.io.formats import DEFAULT_CHUNK_ROWS, ColumnSource, open_source
 from drivelash.io.trace import UNITS as TRACE_UNITS
 from drivelash.io.trace import Trace
@@ -67,7 +67,7 @@ class _Col:
 
 def _plan(src: ColumnSource, cmap: dict[str, ColumnMap] | None, sampling: SamplingSection) -> list[_Col]:
     """The Trace columns of ``src`` under the mapping (the rules of ``load._apply_mapping``)."""
-    from drivelash.io.load import _ACCEPTS, _TO_SI, _factor, _one_rev
+    from drivelash.io.load import _TO_SI, _factor, _one_rev, check_mapped_column
 
     path = src.path
     plan: list[_Col] = []
@@ -82,20 +82,7 @@ def _plan(src: ColumnSource, cmap: dict[str, ColumnMap] | None, sampling: Sampli
         return plan
     made: set[str] = set()
     for source, cm in cmap.items():
-        if source not in src.names:
-            avail = ", ".join(src.names[:20])
-            raise DataError(f"missing required column (available: {avail})", path=path, column=source)
-        if cm.column in made:
-            raise DataError(f"two source columns map to Trace column '{cm.column}'", path=path, column=source)
-        kind = UNIT_KIND[cm.unit]
-        acc = _ACCEPTS.get(cm.column)
-        if acc is not None and kind not in acc:
-            raise DataError(
-                f"unit '{cm.unit}' ({kind}) does not fit Trace column '{cm.column}'"
-                f" (needs {' or '.join(acc)})",
-                path=path,
-                column=source,
-            )
+        kind = check_mapped_column(source, cm, list(src.names), made, path)
         modulus = cm.wrap if cm.wrap is not None else (_one_rev(cm) if kind == "angle" else None)
         if not cm.column.startswith("theta"):
             modulus = None
