@@ -124,6 +124,7 @@ def test_unmatched_and_missing_runs(recorded, tmp_path):
         score_campaigns(load_campaign(u), load_campaign(tmp_path), ScoreConfig())
 
 
+@pytest.mark.filterwarnings("error::RuntimeWarning")  # no numpy warning reaches the user
 def test_cli_writes_the_score_and_refuses_bad_input(recorded, tmp_path):
     from typer.testing import CliRunner
 

@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -172,7 +173,9 @@ def fig_heatmaps(rows: list[dict[str, Any]], train_max_load: float, path: Path) 
             for r in rows:
                 if r["direction"] == d and r["velocity"] == v:
                     grid[loads.index(r["load"]), xs.index(r["x_start"])] = r["improvement"] * 100
-            summary[j] = np.nanmean(grid, axis=1)
+            with warnings.catch_warnings():  # a load without a section at this velocity: NaN (blank)
+                warnings.simplefilter("ignore", RuntimeWarning)
+                summary[j] = np.nanmean(grid, axis=1)
             ax = axes[i, j + 1]
             im = ax.imshow(grid, origin="lower", aspect="auto", cmap="RdYlGn", vmin=0, vmax=100,
                            extent=(xs[0] * 1e3, (xs[-1] + (xs[1] - xs[0] if len(xs) > 1 else 0.1)) * 1e3,
