@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from drivelash.cli import main
+from cli_runner import run_in_process
 from drivelash.control.references import position_sine
 
 from .conftest import TS, rig_trace
@@ -31,18 +30,7 @@ delta1 = 0.093
 """
 
 
-def _run(argv: list[str], capsys) -> tuple[int, str, str]:
-    old = sys.argv
-    sys.argv = ["drivelash", *argv]
-    try:
-        main()
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    finally:
-        sys.argv = old
-    out, err = capsys.readouterr()
-    return code, out, err
+_run = run_in_process
 
 
 @pytest.fixture(scope="module")

@@ -9,13 +9,12 @@ from __future__ import annotations
 
 import hashlib
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from drivelash.cli import main
+from cli_runner import run_in_process
 from drivelash.io.trace import Trace
 from drivelash.te.runtime.persist import load_model, save_model
 
@@ -57,17 +56,8 @@ def write_campaign(directory: Path, model, loads, defect: float) -> Path:
 
 
 def _run(argv: list[str], capsys) -> tuple[int, str]:
-    """``drivelash ARGV`` in-process through :func:`drivelash.cli.main` (exit code, stdout + stderr)."""
-    old = sys.argv
-    sys.argv = ["drivelash", *argv]
-    try:
-        main()
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    finally:
-        sys.argv = old
-    out, err = capsys.readouterr()
+    """``drivelash ARGV`` in-process (exit code, stdout + stderr)."""
+    code, out, err = run_in_process(argv, capsys)
     return code, out + err
 
 
