@@ -19,6 +19,14 @@ import numpy as np
 
 from drivelash.errors import ParameterError
 
+__all__ = [
+    "BacklashParams",
+    "CascadeGains",
+    "DrivetrainParams",
+    "EstimatorConfig",
+    "SensorParams",
+]
+
 if TYPE_CHECKING:  # annotation only: params does not import the estimation layer
     from drivelash.estimation.motion import MotionSummary
 

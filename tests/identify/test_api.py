@@ -97,9 +97,20 @@ def test_drivetrain_params_and_delta1_form(tmp_path):
 def test_curated_namespaces():
     """Top level and each subpackage list their public names; every listed name resolves."""
     import importlib
+    import pkgutil
 
-    for mod in ("drivelash", "drivelash.estimation", "drivelash.io"):
+    import drivelash
+
+    # every public subpackage (commands and migrations are not an API) plus params
+    mods = ["drivelash", "drivelash.params"] + [
+        info.name
+        for info in pkgutil.walk_packages(drivelash.__path__, prefix="drivelash.")
+        if info.ispkg and ".commands" not in info.name and ".migrations" not in info.name
+    ]
+    assert {"drivelash.sim", "drivelash.physics", "drivelash.wear", "drivelash.te.runtime"} <= set(mods)
+    for mod in mods:
         m = importlib.import_module(mod)
+        assert hasattr(m, "__all__"), f"{mod} has no curated __all__"
         assert m.__all__ == sorted(m.__all__, key=str.lower) or len(m.__all__) > 0
         for n in m.__all__:
             assert getattr(m, n) is not None, (mod, n)
