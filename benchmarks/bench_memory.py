@@ -1,26 +1,27 @@
 """Memory of ``drivelash estimate`` on a long 8 kHz recording (issue 15, acceptance 2).
 
-Writes a recording of ``--minutes`` at 8 kHz (default 60 min = 28.8 M samples) as Parquet
-and as CSV in a temporary directory, runs ``drivelash estimate`` on each in a subprocess and
-reports its peak RSS (``resource.getrusage(RUSAGE_CHILDREN).ru_maxrss`` of that child
-alone: one child per measurement, each from a fresh helper process), wall time, bytes of
-RAM per sample and per byte of file. It then checks that δ̂ of the streamed run equals the
-in-memory run (:class:`drivelash.estimation.estimator.DeadzoneEstimator` on
-:func:`drivelash.io.load_trace`) on a shorter prefix file (``--prefix-minutes``), bit for
-bit.
+Writes a recording of ``--minutes`` at 8 kHz (60 min = 28.8 M samples) as Parquet and as
+CSV in a temporary directory (in chunks: the writer never holds the recording), runs
+``drivelash estimate`` on each in a child and reports its peak RSS
+(``resource.getrusage(RUSAGE_CHILDREN).ru_maxrss`` of that child alone: one child per
+measurement, each from a fresh helper process), wall time and bytes of RAM per sample.
+``estimate`` streams the file (:class:`drivelash.io.stream.TraceStream`, chunks of
+``DRIVELASH_CHUNK_ROWS`` rows, default 2**18).
 
-Baseline (named, measured in the same run): the file size — a competent user's pandas
-script ``pd.read_parquet`` / ``pd.read_csv`` holds at least the decoded columns
-(8 bytes × columns × samples); we print RSS / decoded size.
+Baseline (named, measured in the same run, on a prefix of ``--prefix-minutes``): the
+in-memory path a competent user writes in a notebook — ``drivelash.load_trace`` of the whole
+file, then ``estimate_from_config`` (the library call behind ``drivelash.estimate_backlash``)
+— in a child, its peak RSS and wall time; then the streamed command on the same prefix,
+whose JSON summary must equal the in-memory one **byte for byte** (δ̂ and every reported
+number). The prefix spans many chunks (5 min = 2.4 M samples = 10 chunks of 2**18 rows).
 
 The recording: 60 s of the simulated bench test ``bench-0A`` (0.5 Hz position sine, in
 periodic steady state after 10 s), its last 50 s tiled with continued time — the numbers
-are a drive's, the content repeats; δ̂ comparisons are between two readings of the same file, so the tiling
-does not matter for them.
+are a drive's, the content repeats.
 
-Run: ``make bench`` (a 10-minute recording, to keep ``make bench`` short) or
-``.venv/bin/python benchmarks/bench_memory.py --minutes 60`` for the acceptance figure.
-Goal: peak RSS < 1 GiB for 60 min (28.8 M samples), Parquet and CSV.
+Run: ``make bench`` (a 10-minute recording and a 2-minute prefix, to keep ``make bench``
+short) or ``.venv/bin/python benchmarks/bench_memory.py --minutes 60 --prefix-minutes 5``
+for the acceptance figure. Goal: peak RSS < 1 GiB for 60 min (28.8 M samples), Parquet and CSV.
 """
 
 from __future__ import annotations
@@ -74,8 +75,11 @@ def _chunks(seg: dict[str, np.ndarray], n: int, rows: int = 1 << 20):
         yield cols
 
 
-def write_recording(dirpath: Path, minutes: float, seg: dict[str, np.ndarray]) -> tuple[Path, Path, int]:
-    """Write the recording as Parquet (row groups of 1 M) and CSV; returns the paths and sample count."""
+def write_recording(
+    dirpath: Path, minutes: float, seg: dict[str, np.ndarray], formats: tuple[str, ...] = ("parquet", "csv")
+) -> tuple[Path, Path, int]:
+    """Write the recording as Parquet (row groups of 1 M) and/or CSV, 1 M rows at a time;
+    returns the two paths (a format not asked for is not written) and the sample count."""
     import pyarrow as pa
     import pyarrow.csv as pcsv
     import pyarrow.parquet as pq
@@ -83,13 +87,23 @@ def write_recording(dirpath: Path, minutes: float, seg: dict[str, np.ndarray]) -
     n = int(round(minutes * 60.0 * RATE_HZ))
     pq_path, csv_path = dirpath / f"rec-{minutes:g}min.parquet", dirpath / f"rec-{minutes:g}min.csv"
     schema = pa.schema([(c, pa.float64()) for c in COLUMNS])
-    with pq.ParquetWriter(pq_path, schema) as w, pa.OSFile(str(csv_path), "wb") as fcsv:
-        cw = pcsv.CSVWriter(fcsv, schema)
+    w = pq.ParquetWriter(pq_path, schema) if "parquet" in formats else None
+    fcsv = pa.OSFile(str(csv_path), "wb") if "csv" in formats else None
+    cw = pcsv.CSVWriter(fcsv, schema) if fcsv is not None else None
+    try:
         for cols in _chunks(seg, n):
             batch = pa.record_batch([pa.array(cols[c]) for c in COLUMNS], schema=schema)
-            w.write_batch(batch)
-            cw.write_batch(batch)
-        cw.close()
+            if w is not None:
+                w.write_batch(batch)
+            if cw is not None:
+                cw.write_batch(batch)
+    finally:
+        if w is not None:
+            w.close()
+        if cw is not None:
+            cw.close()
+        if fcsv is not None:
+            fcsv.close()
     return pq_path, csv_path, n
 
 
@@ -114,89 +128,88 @@ def estimate_cmd(path: Path, json_out: Path) -> list[str]:
     ]
 
 
-#: The chunk reader alone (``drivelash.io.TraceStream``: validation pass, second pass, chunks).
-_READ_STREAM = """
+#: The in-memory baseline: the whole recording, then the library call (writes the JSON summary).
+_IN_MEMORY = """
 import sys
+from drivelash.estimation.backlash_api import estimate_from_config
 from drivelash.estimation.estimator import INPUT_COLUMNS
-from drivelash.io import load_config
-from drivelash.io.stream import TraceStream
-with TraceStream(sys.argv[1], load_config(sys.argv[2]), required=INPUT_COLUMNS) as s:
-    n = sum(len(c) for c in s.chunks())
-assert n == s.n_samples, (n, s.n_samples)
+from drivelash.io import load_config, load_trace
+from drivelash.io.outputs import write_json
+cfg = load_config(sys.argv[2])
+est = estimate_from_config(load_trace(sys.argv[1], cfg, required=INPUT_COLUMNS), cfg, method=None)
+write_json(sys.argv[3], {"trace": sys.argv[1], "config": sys.argv[2], **est.summary})
 """
 
 
-def stream_cmd(path: Path) -> list[str]:
-    return [sys.executable, "-c", _READ_STREAM, str(path), str(CONFIG)]
+def in_memory_cmd(path: Path, json_out: Path) -> list[str]:
+    return [sys.executable, "-c", _IN_MEMORY, str(path), str(CONFIG), str(json_out)]
 
 
-def in_memory_delta_hat(path: Path) -> np.ndarray:
-    """δ̂(t) of the in-memory run (the reference for bit-identity)."""
-    from drivelash.commands.estimate import estimate_trace
-    from drivelash.estimation.estimator import INPUT_COLUMNS
-    from drivelash.io import load_config, load_trace
-
-    cfg = load_config(CONFIG)
-    res, _ = estimate_trace(cfg, load_trace(path, cfg, required=INPUT_COLUMNS), "default")
-    return res.delta_hat
+def _row(label: str, m: dict, n: int) -> str:
+    return (
+        f"{label:34s} peak RSS {m['rss'] / 2**20:7.0f} MiB  wall {m['wall']:7.1f} s  "
+        f"{m['rss'] / n:7.1f} B/sample"
+    )
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--minutes", type=float, default=10.0, help="Length of the long recording [min].")
-    ap.add_argument("--prefix-minutes", type=float, default=1.0, help="Prefix for the δ̂ comparison [min].")
+    ap.add_argument("--prefix-minutes", type=float, default=2.0, help="Prefix, bit-identity [min].")
     ap.add_argument("--formats", default="parquet,csv")
     ap.add_argument("--dir", type=Path, default=None, help="Work directory (default: a temporary one).")
     a = ap.parse_args()
-    formats = a.formats.split(",")
+    formats = tuple(a.formats.split(","))
+    failed = False
     with tempfile.TemporaryDirectory(dir=a.dir) as tmp:
         d = Path(tmp)
-        t0 = time.perf_counter()
         seg, _ = _tile(a.minutes)
-        pq_path, csv_path, n = write_recording(d, a.minutes, seg)
-        print(f"recording: {n} samples ({a.minutes:g} min at 8 kHz), {len(COLUMNS)} columns, "
-              f"written in {time.perf_counter() - t0:.0f} s")  # fmt: skip
-        decoded = n * len(COLUMNS) * 8
-        rows = []
+        # the prefix first: baseline and bit-identity
+        pq_pre, csv_pre, n_pre = write_recording(d, a.prefix_minutes, seg, formats)
+        print(f"prefix: {n_pre} samples ({a.prefix_minutes:g} min at 8 kHz), {len(COLUMNS)} columns")
+        for fmt, path in (("parquet", pq_pre), ("csv", csv_pre)):
+            if fmt not in formats:
+                continue
+            ref_j, got_j = d / f"prefix-{fmt}-mem.json", d / f"prefix-{fmt}-stream.json"
+            base = measure(in_memory_cmd(path, ref_j))
+            m = measure(estimate_cmd(path, got_j))
+            if base["rc"] != 0 or m["rc"] != 0:
+                print(f"{fmt} prefix: failed: {(base['err'] or m['err']).strip()[-300:]}")
+                failed = True
+                continue
+            print(_row(f"{fmt} prefix, in-memory (baseline)", base, n_pre))
+            print(_row(f"{fmt} prefix, drivelash estimate", m, n_pre)
+                  + f"  {m['rss'] / base['rss']:.2f}× baseline RSS,"
+                  + f" {m['wall'] / base['wall']:.2f}× its wall")  # fmt: skip
+            ref, got = json.loads(ref_j.read_text()), json.loads(got_j.read_text())
+            same = ref_j.read_text() == got_j.read_text()
+            print(f"{fmt} prefix: JSON summary streamed vs in-memory: "
+                  f"{'byte-identical' if same else 'DIFFERENT'}"
+                  f" (δ̂ {got['delta']!r} vs {ref['delta']!r})")  # fmt: skip
+            failed |= not same
+            path.unlink()
+        # the long recording
+        t0 = time.perf_counter()
+        pq_path, csv_path, n = write_recording(d, a.minutes, seg, formats)
+        took = time.perf_counter() - t0
+        print(f"recording: {n} samples ({a.minutes:g} min at 8 kHz), written in {took:.0f} s")
         for fmt, path in (("parquet", pq_path), ("csv", csv_path)):
             if fmt not in formats:
                 continue
             m = measure(estimate_cmd(path, d / f"{fmt}.json"))
             if m["rc"] != 0:
                 print(f"{fmt}: estimate failed (exit {m['rc']}): {m['err'].strip().splitlines()[-1:]}")
-                rows.append((fmt, path, None))
+                failed = True
                 continue
             size = path.stat().st_size
-            per = m["rss"] / n
-            print(f"{fmt:8s}: peak RSS {m['rss'] / 2**20:8.0f} MiB  wall {m['wall']:7.1f} s  "
-                  f"{per:6.1f} B/sample  {m['rss'] / size:5.2f}× file ({size / 2**20:.0f} MiB)  "
-                  f"{m['rss'] / decoded:5.2f}× decoded columns (pandas baseline ≥ 1.00×)  "
-                  f"goal < 1 GiB at 60 min: {'met' if m['rss'] < GOAL_BYTES else 'NOT met'}"
-                  f"{' (extrapolated)' if a.minutes != 60 else ''}")  # fmt: skip
-            rows.append((fmt, path, m))
-            r = measure(stream_cmd(path))
-            if r["rc"] != 0:
-                print(f"{fmt}: chunk reader failed: {r['err'].strip().splitlines()[-1:]}")
-                continue
-            mib, per_r = r["rss"] / 2**20, r["rss"] / n
-            print(f"{fmt:8s}  chunk reader alone (TraceStream, validation + chunks): peak RSS "
-                  f"{mib:8.0f} MiB  wall {r['wall']:7.1f} s  {per_r:6.1f} B/sample")  # fmt: skip
-        # bit-identity on a prefix: streamed CLI run (JSON δ) vs in-memory δ̂ on the same file
-        pq_pre, csv_pre, n_pre = write_recording(d, a.prefix_minutes, seg)
-        for fmt, path in (("parquet", pq_pre), ("csv", csv_pre)):
-            if fmt not in formats:
-                continue
-            ref = in_memory_delta_hat(path)
-            out = d / f"prefix-{fmt}.json"
-            p = subprocess.run(estimate_cmd(path, out), capture_output=True, text=True)
-            if p.returncode != 0:
-                print(f"{fmt} prefix: estimate failed: {p.stderr.strip()[-300:]}")
-                continue
-            got = json.loads(out.read_text())["delta"]
-            same = got == float(ref[-1])
-            print(f"{fmt} prefix ({n_pre} samples): final δ̂ CLI {got!r} vs in-memory {float(ref[-1])!r}: "
-                  f"{'bit-identical' if same else 'DIFFERENT'}")  # fmt: skip
+            met = "met" if m["rss"] < GOAL_BYTES else "NOT met"
+            print(_row(f"{fmt}, drivelash estimate", m, n)
+                  + f"  file {size / 2**20:.0f} MiB  goal < 1 GiB: {met}"
+                  + ("" if a.minutes == 60 else f" (at {a.minutes:g} min, not 60)"))  # fmt: skip
+            path.unlink()
     print(f"load average: {os.getloadavg()}")
+    if failed:
+        sys.exit(1)
 
 
 if __name__ == "__main__":

@@ -83,6 +83,22 @@ def test_mapping_units_wraparound_and_sample_rate(tmp_path):
             _same(_concat(s.chunks()), ref)
 
 
+def test_still_load_is_read_like_load_trace(tmp_path):
+    """A load that never moves (θ_l, ω_l constant) is a recording, not an error, for both
+    readers (``load.MAY_STAND_STILL``); a constant motor position is refused by both."""
+    c = _signals()
+    c["theta_l"] = np.full(N, 0.25)
+    c["omega_l"] = np.zeros(N)
+    p = write_trace(Trace(c), tmp_path / "still.parquet")
+    with TraceStream(p, required=["theta_l", "omega_l"], chunk_rows=700) as s:
+        _same(_concat(s.chunks()), load_trace(p, required=["theta_l", "omega_l"]))
+    c["theta_m"] = np.full(N, 0.25)
+    q = write_trace(Trace(c), tmp_path / "still_motor.parquet")
+    for read in (load_trace, TraceStream):
+        with pytest.raises(DataError, match="constant signal"):
+            read(q)
+
+
 def test_columns_selects_what_is_read(tmp_path):
     p = write_trace(Trace(_signals()), tmp_path / "x.parquet")
     chunks = list(iter_trace_chunks(p, columns=["torque_m"], chunk_rows=1024))

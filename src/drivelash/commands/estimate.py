@@ -14,9 +14,11 @@ values, and the figures (paper's Fig. 8, 13/19, 15, 10).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import typer
 
 from drivelash.commands import FORCE_HELP, print_warnings
@@ -92,8 +94,27 @@ def estimate_trace(cfg: Any, trace: Any, method: str | None = None) -> tuple[Any
     -------
     (EstimationResult, MotionSummary)
     """
+    from drivelash.estimation.estimator import trace_blocks
+
+    return _estimate_blocks(cfg, trace_blocks(trace), trace.T_s, method)
+
+
+def _estimate_blocks(
+    cfg: Any,
+    blocks: Callable[[], Iterator[Mapping[str, np.ndarray]]],
+    T_s: float,
+    method: str | None,
+    *,
+    keep: str = "full",
+    truth: bool = False,
+) -> tuple[Any, Any]:
+    """:func:`estimate_trace` on a block source (an in-memory trace or a file read in chunks).
+
+    ``truth``: the blocks carry ``delta_true``; max |δ* − δ̂| over the MAEE and steady-state
+    windows is accumulated while streaming (``extra["max_abs_error_since"]``).
+    """
     from drivelash.errors import ConfigError
-    from drivelash.estimation.estimator import estimate_blocks, scan_blocks, trace_blocks
+    from drivelash.estimation.estimator import estimate_blocks, scan_blocks
 
     drivetrain = cfg.to_drivetrain_params()
     bl = cfg.require("backlash")
@@ -102,10 +123,13 @@ def estimate_trace(cfg: Any, trace: Any, method: str | None = None) -> tuple[Any
             f"{cfg.source or '<config>'}: table [backlash], key 'delta1': "
             f"must be finite and >= 0, got {bl.delta1!r}"
         )
-    blocks = trace_blocks(trace)
     motion = scan_blocks(blocks, drivetrain.N)
-    _estimator_config(cfg, drivetrain, trace.T_s, motion.f_exc, method, motion=motion)  # names a bad key
+    _estimator_config(cfg, drivetrain, T_s, motion.f_exc, method, motion=motion)  # names a bad key
     law, over, _ = _estimator_overrides(cfg, method)
+    since: tuple[float, ...] = ()
+    if truth:  # the windows of metrics.maee / steady_state_peak as estimate_from_config takes them
+        T = motion.t_last - motion.t0
+        since = (motion.t_last - MAEE_FRACTION * T, motion.t_last - SS_FRACTION * T)
     res = estimate_blocks(
         drivetrain,
         float(bl.delta1),
@@ -113,8 +137,127 @@ def estimate_trace(cfg: Any, trace: Any, method: str | None = None) -> tuple[Any
         method=law,  # type: ignore[arg-type]
         overrides=over,
         motion=motion,
+        keep=keep,  # type: ignore[arg-type]
+        error_since=since,
     )
     return res, motion
+
+
+def estimate_summary(cfg: Any, res: Any, motion: Any, samples: int, T_s: float) -> dict[str, Any]:
+    """The JSON summary of an estimate, without the truth metrics (shared by both paths)."""
+    return {
+        "method": res.config.method,
+        "delta": res.delta,
+        "delta1": float(cfg.backlash.delta1),
+        "excitation_ok": res.excitation_ok,
+        "reason": res.reason,
+        "converged": res.converged,
+        "convergence_time_s": res.convergence_time_s,
+        "convergence_band_rad": res.band,
+        "samples": samples,
+        "T_s": T_s,
+        "excitation_frequency_hz": motion.f_exc,
+        **result_summary(res),
+        "gains": res.config.to_dict(),
+    }
+
+
+#: Columns the estimator reads from a recording (the others are not read).
+_ESTIMATE_COLUMNS = ("theta_m", "omega_m", "theta_l", "omega_l", "torque_m", "delta_true")
+#: Columns kept, decimated like the result's series, for ``--plot`` / ``--report``.
+_PLOT_COLUMNS = ("t", "theta_m", "omega_m", "theta_l", "omega_l", "delta_true")
+#: Environment variable: rows per chunk when ``estimate`` streams a recording.
+ENV_CHUNK_ROWS = "DRIVELASH_CHUNK_ROWS"
+
+
+def chunk_rows_from_env() -> int:
+    """Rows per chunk of the streaming reader: ``DRIVELASH_CHUNK_ROWS`` or the default."""
+    import os
+
+    from drivelash.errors import ResourceError
+    from drivelash.io.formats import DEFAULT_CHUNK_ROWS
+
+    env = os.environ.get(ENV_CHUNK_ROWS, "").strip()
+    if not env:
+        return DEFAULT_CHUNK_ROWS
+    try:
+        rows = int(env)
+    except ValueError:
+        rows = 0
+    if rows < 3:
+        raise ResourceError(f"{ENV_CHUNK_ROWS}={env!r}: must be a whole number of rows >= 3")
+    return rows
+
+
+def _stream_bytes(stream: Any) -> float:
+    """Memory ``estimate`` plans for a streamed recording [bytes]: the reader's
+    (:meth:`~drivelash.io.stream.TraceStream.peak_bytes`), the pass-1 series (θ_m/N and the
+    torque every ms: 16 B each), the two laws' output series and δ̂ histories."""
+    from drivelash.estimation import deadzone as dz
+    from drivelash.estimation.estimator import HISTORY_BLOCKS, SERIES_POINTS
+    from drivelash.estimation.motion import DECIMATION_PERIOD
+
+    B = max(1, int(DECIMATION_PERIOD / stream.T_s)) if stream.T_s > 0 else 1
+    pass1 = 16.0 * stream.n_samples / B
+    laws = 2 * (2 * SERIES_POINTS * (dz.N_OUT + 1) * 8.0 + 4 * HISTORY_BLOCKS * 8.0)
+    return stream.peak_bytes() + pass1 + laws
+
+
+def estimate_stream(
+    cfg: Any, stream: Any, method: str | None = None, *, series: bool = False
+) -> tuple[dict[str, Any], Any, Any]:
+    """``drivelash estimate`` on a :class:`~drivelash.io.stream.TraceStream`, in bounded memory.
+
+    The same two passes, tuning and verdict as :func:`estimate_trace` on the whole recording,
+    over chunks: the JSON summary equals that of
+    :func:`~drivelash.estimation.backlash_api.estimate_from_config` on ``load_trace`` of the
+    same file bit for bit (tests/cli/test_estimate_stream.py). What grows with the recording
+    is the pass-1 series (θ_m/N and the torque at ≥ 1 kHz: 16 B per ms).
+
+    Parameters
+    ----------
+    cfg : DriveConfig
+        The configuration.
+    stream : TraceStream
+        The validated recording.
+    method : {"paper", "default"}, optional
+        Law (as for :func:`estimate_trace`).
+    series : bool
+        Also return the recording's columns decimated like the result's series (for the
+        plot and the report); else None.
+
+    Returns
+    -------
+    (summary, EstimationResult, Trace or None)
+        The result keeps a decimated series (:data:`~drivelash.estimation.estimator.SERIES_POINTS` rows).
+    """
+    from drivelash.estimation.estimator import series_step
+    from drivelash.io.trace import Trace
+
+    names = ["t", *[c for c in _ESTIMATE_COLUMNS if c in stream.names]]
+    truth = "delta_true" in names
+    keep = [c for c in _PLOT_COLUMNS if c in names] if series else []
+    step = series_step(stream.n_samples)
+    kept: dict[str, list[np.ndarray]] = {}
+
+    def blocks() -> Iterator[dict[str, np.ndarray]]:
+        kept.clear()  # only the last pass's (both passes see the same rows)
+        kept.update({c: [] for c in keep})
+        for ch in stream.chunks():
+            start = (-ch.row0) % step
+            for c in keep:
+                kept[c].append(ch[c][start::step].copy())
+            yield {c: ch[c] for c in names}
+
+    res, motion = _estimate_blocks(cfg, blocks, stream.T_s, method, keep="decimated", truth=truth)
+    summary = estimate_summary(cfg, res, motion, stream.n_samples, stream.T_s)
+    if truth:
+        maee_v, ss_v = res.extra["max_abs_error_since"]
+        summary["delta_true"] = res.extra["delta_true_last"]
+        summary["maee_rad"] = maee_v
+        summary["steady_state_peak_rad"] = ss_v
+    trace = Trace({c: np.concatenate(v) for c, v in kept.items()}, meta=stream.meta) if series else None
+    return summary, res, trace
 
 
 def result_summary(res: Any) -> dict[str, Any]:
@@ -169,10 +312,12 @@ def run_estimate(
     together at the end (:class:`drivelash.io.outputs.Outputs`): a failing plot leaves none.
     """
     from drivelash.errors import DrivelashError
-    from drivelash.estimation.backlash_api import estimate_from_config, estimate_with_identification
+    from drivelash.estimation.backlash_api import estimate_with_identification
     from drivelash.estimation.estimator import INPUT_COLUMNS
     from drivelash.io import load_config, load_trace
+    from drivelash.io.budget import check_budget
     from drivelash.io.outputs import HTML_EXTENSIONS, JSON_EXTENSIONS, PLOT_EXTENSIONS, Outputs
+    from drivelash.io.stream import TraceStream
 
     if method not in (None, "paper", "default"):
         raise DrivelashError(f"--method: must be 'paper' or 'default', got {method!r}")
@@ -183,23 +328,32 @@ def run_estimate(
         cfg = load_config(config_path)
         if not identify:
             cfg.require("backlash")
-        need = [*INPUT_COLUMNS, "torque_m"] if identify else INPUT_COLUMNS
-        trace = load_trace(trace_path, cfg, required=need)
-        if not quiet:
-            print_warnings(trace.meta)
-        # the one computation shared with drivelash.estimate_backlash (same numbers by construction)
-        if identify:
+        if identify:  # the offline identification needs the whole recording (read within the budget)
+            trace = load_trace(trace_path, cfg, required=[*INPUT_COLUMNS, "torque_m"])
+            if not quiet:
+                print_warnings(trace.meta)
             est = estimate_with_identification(trace, cfg, method=method)
-        else:
-            est = estimate_from_config(trace, cfg, method=method)
-        res = est.result
+            res, core = est.result, est.summary
+        else:  # streamed: bounded memory, the same numbers as estimate_from_config on the whole trace
+            rows = chunk_rows_from_env()
+            with TraceStream(trace_path, cfg, required=INPUT_COLUMNS, chunk_rows=rows) as stream:
+                check_budget(
+                    _stream_bytes(stream),
+                    what=f"{trace_path}: estimating {stream.n_samples} samples in chunks",
+                    option=f"lower {ENV_CHUNK_ROWS}",
+                )
+                if not quiet:
+                    print_warnings(stream.meta)
+                core, res, trace = estimate_stream(
+                    cfg, stream, method, series=plot_t is not None or report_t is not None
+                )
         if res is None and (plot_t is not None or report_t is not None):
             # --identify could not give the drive: the verdict only, no time series to draw
-            est.summary.setdefault("warnings", []).append(
+            core.setdefault("warnings", []).append(
                 "no --plot/--report written: the online estimate was not run"
             )
             plot_t = report_t = None
-        summary: dict[str, Any] = {"trace": str(trace_path), "config": str(config_path), **est.summary}
+        summary: dict[str, Any] = {"trace": str(trace_path), "config": str(config_path), **core}
         if json_t is not None:
             write_json(out.staging(json_t), summary)
         if plot_t is not None:

@@ -91,7 +91,7 @@ def estimate_from_config(
     delta1 : float, optional
         Known offset δ1 [rad]; replaces ``[backlash] delta1``.
     """
-    from drivelash.commands.estimate import MAEE_FRACTION, SS_FRACTION, estimate_trace, result_summary
+    from drivelash.commands.estimate import MAEE_FRACTION, SS_FRACTION, estimate_summary, estimate_trace
     from drivelash.errors import DrivelashError
     from drivelash.io.config import BacklashSection, DrivetrainSection
     from drivelash.metrics import maee, steady_state_peak
@@ -109,21 +109,7 @@ def estimate_from_config(
         cfg = cfg.model_copy(update=update)
     res, motion = estimate_trace(cfg, trace, method)
     t = res.t
-    summary: dict[str, Any] = {
-        "method": res.config.method,
-        "delta": res.delta,
-        "delta1": float(cfg.backlash.delta1),
-        "excitation_ok": res.excitation_ok,
-        "reason": res.reason,
-        "converged": res.converged,
-        "convergence_time_s": res.convergence_time_s,
-        "convergence_band_rad": res.band,
-        "samples": len(trace),
-        "T_s": trace.T_s,
-        "excitation_frequency_hz": motion.f_exc,
-        **result_summary(res),
-        "gains": res.config.to_dict(),
-    }
+    summary = estimate_summary(cfg, res, motion, len(trace), trace.T_s)
     if "delta_true" in trace:
         truth = trace["delta_true"]
         T = float(t[-1] - t[0])

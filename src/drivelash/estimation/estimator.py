@@ -76,6 +76,7 @@ __all__ = [
     "build_params",
     "estimate_blocks",
     "excitation_frequency",
+    "series_step",
     "trace_blocks",
 ]
 
@@ -318,10 +319,25 @@ def scan_blocks(blocks: Callable[[], Iterable[Block]], N: float) -> MotionSummar
 # ----------------------------------------------------------------------------------
 # the streaming session
 # ----------------------------------------------------------------------------------
-class _Track:
-    """Per-law outputs while streaming: block min/max history of δ̂ (and its error) and the series."""
+def series_step(n_total: int) -> int:
+    """Decimation step of the output series kept when streaming (``keep="decimated"``).
 
-    def __init__(self, n_total: int, keep_full: bool, has_truth: bool) -> None:
+    The series keeps the samples whose global index is a multiple of the step, so any
+    column of the recording decimated the same way lines up with it row for row.
+    """
+    return max(1, -(-n_total // SERIES_POINTS))
+
+
+class _Track:
+    """Per-law outputs while streaming: block min/max history of δ̂ (and its error) and the series.
+
+    ``error_since``: start times [s] of the intervals over which max |δ* − δ̂| is accumulated
+    (the MAEE and steady-state peak of a recording with the true δ, without keeping δ̂(t)).
+    """
+
+    def __init__(
+        self, n_total: int, keep_full: bool, has_truth: bool, error_since: tuple[float, ...] = ()
+    ) -> None:
         self.Bh = max(1, -(-n_total // HISTORY_BLOCKS))
         nb = -(-n_total // self.Bh) if n_total else 0
         self.dmin = np.full(nb, np.inf)
@@ -329,10 +345,13 @@ class _Track:
         self.emin = np.full(nb, np.inf) if has_truth else None
         self.emax = np.full(nb, -np.inf) if has_truth else None
         self.keep_full = keep_full
-        self.step = 1 if keep_full else max(1, -(-n_total // SERIES_POINTS))
+        self.step = 1 if keep_full else series_step(n_total)
         self.rows: list[np.ndarray] = []
         self.times: list[np.ndarray] = []
         self.last: np.ndarray | None = None
+        self.error_since = error_since if has_truth else ()
+        self.err_max = [-math.inf] * len(self.error_since)
+        self.truth_last = math.nan
 
     def add(self, row0: int, t: np.ndarray, out: np.ndarray, truth: np.ndarray | None) -> None:
         n = out.shape[0]
@@ -344,6 +363,12 @@ class _Track:
             e = d - truth
             np.minimum.at(self.emin, idx, e)
             np.maximum.at(self.emax, idx, e)
+            if n:
+                self.truth_last = float(truth[-1])
+            for i, t_from in enumerate(self.error_since):
+                m = t >= t_from
+                if m.any():  # |δ* − δ̂| as metrics.maee computes it: max is exact in any order
+                    self.err_max[i] = max(self.err_max[i], float(np.max(np.abs(truth[m] - d[m]))))
         if self.keep_full:
             self.rows.append(out.copy())
             self.times.append(np.asarray(t, dtype=np.float64).copy())
@@ -430,6 +455,7 @@ def estimate_blocks(
     f_exc: float | None = None,
     keep: Literal["full", "decimated"] = "full",
     motion: MotionSummary | None = None,
+    error_since: tuple[float, ...] = (),
 ) -> EstimationResult:
     """Run the online estimator over a block source in two passes (module docstring).
 
@@ -455,6 +481,11 @@ def estimate_blocks(
         than memory). The verdict and every figure are the same either way.
     motion : MotionSummary, optional
         Pass-1 result when the caller already has it.
+    error_since : tuple of float
+        With the true δ in the blocks: start times [s] of intervals to the end over which
+        max |δ* − δ̂| is accumulated while streaming (``extra["max_abs_error_since"]``, one
+        per start, and ``extra["delta_true_last"]``), e.g. the MAEE and steady-state peak of
+        a recording too long to keep δ̂(t).
 
     Returns
     -------
@@ -481,10 +512,12 @@ def estimate_blocks(
             base = EstimatorConfig.tuned(drivetrain, T_s, method="default", motion=motion, **over_d)
         check_cfg = _check_config(config, base)
     setup = _Setup(drivetrain, float(delta1), T_s, config, check_cfg, motion)
-    return _run_session(setup, blocks, keep)
+    return _run_session(setup, blocks, keep, tuple(float(x) for x in error_since))
 
 
-def _run_session(setup: _Setup, blocks: Callable[[], Iterable[Block]], keep: str) -> EstimationResult:
+def _run_session(
+    setup: _Setup, blocks: Callable[[], Iterable[Block]], keep: str, error_since: tuple[float, ...] = ()
+) -> EstimationResult:
     n = setup.motion.n
     k0 = (2 * n) // 3
     has_torque = setup.motion.torque_rms is not None
@@ -499,13 +532,13 @@ def _run_session(setup: _Setup, blocks: Callable[[], Iterable[Block]], keep: str
             main = _Law(
                 build_params(setup.drivetrain, setup.delta1, setup.config, setup.T_s, k0),
                 setup.config.delta0,
-                _Track(n, keep == "full", has_truth),
+                _Track(n, keep == "full", has_truth, error_since),
             )
             if setup.check_config is not None:
                 check = _Law(
                     build_params(setup.drivetrain, setup.delta1, setup.check_config, setup.T_s, k0),
                     setup.check_config.delta0,
-                    _Track(n, keep == "full", has_truth),
+                    _Track(n, keep == "full", has_truth, error_since),
                 )
             first = False
         assert main is not None
@@ -764,6 +797,9 @@ def _verdict(setup: _Setup, main: _Law, check: _Law | None, has_truth: bool) -> 
     conv = _convergence_time(chosen.track, mo.t0, T_s, n, band, final) if ok else None
     extra["delta_spread"] = a["delta_spread"]
     extra["settled"] = settled
+    if chosen.track.error_since:
+        extra["max_abs_error_since"] = [v if v > -math.inf else None for v in chosen.track.err_max]
+        extra["delta_true_last"] = chosen.track.truth_last
     t, rows = chosen.track.series()
     return EstimationResult(
         t=t,

@@ -122,6 +122,8 @@ class MotionSummary:
         Total travel of the load θ_l [rad].
     torque_rms : float or None
         RMS of the recorded motor torque [N·m]; None without a ``torque_m`` column.
+    t_last : float
+        Last time stamp [s].
     """
 
     n: int
@@ -132,6 +134,7 @@ class MotionSummary:
     motor_range: float
     load_range: float
     torque_rms: float | None
+    t_last: float = math.nan
 
     @property
     def duration(self) -> float:
@@ -231,6 +234,7 @@ class MotionScanner:
             motor_range=float(motor_range),
             load_range=float(load_range),
             torque_rms=u_rms,
+            t_last=self.t_last,
         )
 
 

@@ -43,6 +43,9 @@ __all__ = ["DEFAULT_CHUNK_ROWS", "TraceStream", "iter_trace_chunks"]
 _MAX_DISTINCT_STEPS = 1 << 16
 #: Histogram resolution of the unit check: bins per octave of |dθ/dt|.
 _BINS_PER_OCTAVE = 16
+#: Buffers of the file readers while streaming (pyarrow's CSV read-ahead of 4 MiB blocks and
+#: their parsed columns, the Parquet page buffer), budgeted as one figure [bytes].
+READER_BUFFER_BYTES = 64 * 2**20
 
 
 @dataclass
@@ -419,6 +422,7 @@ class TraceStream:
     def _second_pass(self, stats: dict[str, _Stats]) -> None:
         """Constant and clipped signals; the position/velocity unit check."""
         from drivelash.io.load import (
+            MAY_STAND_STILL,
             SATURATION_FRACTION,
             SATURATION_MIN_RUN,
             SIGNAL_COLUMNS,
@@ -432,7 +436,8 @@ class TraceStream:
             if name not in plan or name == "t":
                 continue
             st = stats[name]
-            if st.hi - st.lo == 0:  # unwrapping cannot make a constant signal move
+            # unwrapping cannot make a constant signal move; a still load is a verdict, not an error
+            if st.hi - st.lo == 0 and name not in MAY_STAND_STILL:
                 raise DataError(
                     f"constant signal (every sample is {st.first_si:.6g})",
                     path=spath,
@@ -529,6 +534,18 @@ class TraceStream:
 
     def __iter__(self) -> Iterator[_Chunk]:
         return self.chunks()
+
+    def peak_bytes(self) -> float:
+        """Memory the data of a chunked read need at the peak [bytes] (not the interpreter).
+
+        ``min(chunk_rows, n)`` rows of every read column, :data:`WHOLE_READ_FACTOR` copies of
+        each (raw, float64, SI, temporaries), plus :data:`READER_BUFFER_BYTES` for the file
+        readers' buffers; the whole recording when it was read whole (resampling).
+        """
+        from drivelash.io.formats import WHOLE_READ_FACTOR
+
+        rows = self.n_samples if self._whole is not None else min(self.chunk_rows, self.n_samples)
+        return float(rows) * len(self.names) * 8.0 * WHOLE_READ_FACTOR + READER_BUFFER_BYTES
 
     def close(self) -> None:
         """Release the file."""
