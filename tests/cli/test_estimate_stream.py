@@ -35,12 +35,12 @@ GIB = 1 << 30
 
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory) -> dict[str, Path]:
-    """12 s of bench-0B at 8 kHz with the true δ (96 000 samples), as Parquet and CSV."""
+    """12 s of bench-0B at 8 kHz with the true δ (96 000 samples), as Parquet, CSV and HDF5."""
     from drivelash.sim.scenarios import get_scenario
 
     tr = get_scenario("bench-0B").simulate(duration=12.0, seed=1)
     d = tmp_path_factory.mktemp("stream")
-    return {ext: write_trace(tr, d / f"b0b.{ext}") for ext in ("parquet", "csv")}
+    return {ext: write_trace(tr, d / f"b0b.{ext}") for ext in ("parquet", "csv", "h5")}
 
 
 def _in_memory_json(path: Path, out: Path) -> str:
@@ -58,7 +58,7 @@ def _streamed_json(path: Path, out: Path, capsys) -> str:
     return out.read_text()
 
 
-@pytest.mark.parametrize("ext", ["parquet", "csv"])
+@pytest.mark.parametrize("ext", ["parquet", "csv", "h5"])
 def test_streamed_json_equals_in_memory_bit_for_bit(recording, ext, tmp_path, monkeypatch, capsys):
     """Every number of the JSON (δ̂, verdict, δ1 check, Δθ range, traversals, gains, MAEE, …)."""
     monkeypatch.setenv("DRIVELASH_CHUNK_ROWS", str(CHUNK))
