@@ -12,7 +12,8 @@ estimator is not tuned to its own simulator's quirks:
   (the project's controller is discrete, with a zero-order hold);
 * integration by ``scipy.integrate.solve_ivp`` (LSODA, adaptive, rtol 1e-7) over the whole
   run, sampled at ``T_s`` from its dense output;
-* sensors applied afterwards: encoder quantisation (floor), white velocity noise, white
+* sensors applied afterwards: encoder quantisation (truncation by default, as a counter
+  reads; ``reading="round"`` for a mid-tread quantiser), white velocity noise, white
   torque noise; optional encoder zero shift of the load, optional unit scaling of the
   recorded columns (degrees).
 
@@ -76,6 +77,7 @@ def simulate_independent(
     unit: float = 1.0,
     seed: int = 0,
     rtol: float = 1e-7,
+    reading: str = "floor",
 ) -> Trace:
     """Closed-loop run of ``drive`` on θ_r = amplitude·N·sin(2π f t) (motor side).
 
@@ -108,6 +110,11 @@ def simulate_independent(
         Noise seed.
     rtol : float
         solve_ivp relative tolerance.
+    reading : {"floor", "round"}
+        Encoder reading convention: the start of the count interval the angle lies in
+        (truncation, a counter's reading) or its nearest count. With a gear (N ≠ 1) the two
+        encoders' counts differ on the load side, so truncation offsets Δθ by
+        q/2 · (1 − 1/N) against the true relative angle (q = 2π/counts).
     """
     d = drive
     J = d.J_m + d.J_l / d.N**2
@@ -160,7 +167,7 @@ def simulate_independent(
         if counts <= 0:
             return x
         q = 2.0 * math.pi / counts
-        return np.floor(x / q) * q
+        return (np.floor(x / q) if reading == "floor" else np.round(x / q)) * q
 
     cols = {
         "t": t,

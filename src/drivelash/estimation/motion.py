@@ -8,7 +8,10 @@ in one cheap pass that keeps only:
   B = max(1, ⌊1 ms / T_s⌋) — the reversal detector and the torque RMS run on these
   (≥ 1 kHz is plenty for motion reversals at a few Hz; a 1-hour 8 kHz recording keeps
   3.6 M samples of each, 29 MB);
-* min / max of θ_m/N and θ_l (exact), the sample count, the first and last time stamp.
+* min / max of θ_m/N and θ_l (exact), the sample count, the first and last time stamp;
+* the encoder count of θ_m and θ_l: the smallest non-zero step between consecutive samples
+  (exact, every sample; an unquantised signal gives a step far below any real count, and
+  a count-quantised one its count, since the motion passes single counts at its reversals).
 
 Decimating by the *global* sample index makes the summary independent of how the recording
 is cut into blocks: a file read in chunks and the same data in memory give the same numbers
@@ -31,6 +34,20 @@ REVERSAL_HYSTERESIS = 0.1
 DEFAULT_F_EXC = 0.5
 #: Decimation period of the pass-1 series [s].
 DECIMATION_PERIOD = 1e-3
+#: Steps between consecutive positions at or below this are "no change" (floating-point
+#: round-off of a unit conversion), not an encoder count [rad].
+STEP_FLOOR = 1e-12
+
+
+def _min_step(x: np.ndarray, prev: float) -> float:
+    """Smallest step |x_k − x_k−1| above :data:`STEP_FLOOR` in a block [rad].
+
+    ``prev`` is the sample before the block (NaN at the start of the recording).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    d = np.abs(np.diff(x, prepend=prev)) if math.isfinite(prev) else np.abs(np.diff(x))
+    d = d[d > STEP_FLOOR]
+    return float(np.min(d)) if d.size else math.inf
 
 
 @njit(cache=True)
@@ -124,6 +141,9 @@ class MotionSummary:
         RMS of the recorded motor torque [N·m]; None without a ``torque_m`` column.
     t_last : float
         Last time stamp [s].
+    count_m, count_l : float
+        Encoder count of θ_m (motor side, as recorded) and of θ_l: the smallest non-zero step
+        between consecutive samples [rad] (0 when the signal never changes).
     """
 
     n: int
@@ -135,6 +155,8 @@ class MotionSummary:
     load_range: float
     torque_rms: float | None
     t_last: float = math.nan
+    count_m: float = 0.0
+    count_l: float = 0.0
 
     @property
     def duration(self) -> float:
@@ -174,6 +196,10 @@ class MotionScanner:
         self.th_m_max = -math.inf
         self.th_l_min = math.inf
         self.th_l_max = -math.inf
+        self.step_m = math.inf
+        self.step_l = math.inf
+        self._last_m = math.nan
+        self._last_l = math.nan
 
     def feed(
         self, t: np.ndarray, theta_m: np.ndarray, theta_l: np.ndarray, torque_m: np.ndarray | None = None
@@ -204,6 +230,10 @@ class MotionScanner:
         self.th_m_max = max(self.th_m_max, float(np.max(theta_m)) / self.N)
         self.th_l_min = min(self.th_l_min, float(np.min(theta_l)))
         self.th_l_max = max(self.th_l_max, float(np.max(theta_l)))
+        self.step_m = min(self.step_m, _min_step(theta_m, self._last_m))
+        self.step_l = min(self.step_l, _min_step(theta_l, self._last_l))
+        self._last_m = float(theta_m[-1])
+        self._last_l = float(theta_l[-1])
         self.t_last = float(t[-1])
         self.n += k
 
@@ -235,6 +265,8 @@ class MotionScanner:
             load_range=float(load_range),
             torque_rms=u_rms,
             t_last=self.t_last,
+            count_m=self.step_m if math.isfinite(self.step_m) else 0.0,
+            count_l=self.step_l if math.isfinite(self.step_l) else 0.0,
         )
 
 
