@@ -244,6 +244,10 @@ MOTOR_FRICTION_RATIO = 2.0
 MOTOR_INERTIA_RATIO = 10.0
 
 
+#: Encoder reading conventions (:attr:`EstimatorConfig.encoder_reading`).
+ENCODER_READINGS = ("unknown", "nearest", "truncate")
+
+
 @dataclass(frozen=True)
 class EstimatorConfig:
     """Gains of the online deadzone estimator (never modified by the estimator).
@@ -311,6 +315,12 @@ class EstimatorConfig:
         Speed above which the gap offset is learnt, load side [rad/s].
     gap_margin : float
         Margin of the gap region used for it, fraction of the modelled gap [-].
+    encoder_reading : {"unknown", "nearest", "truncate"}
+        How both encoders turn an angle into a count: the nearest count, or the count below
+        (truncation, as a counter reads). With a gear or unequal counts this offsets Δθ by up
+        to half the difference of their load-side counts; "truncate" corrects it, "nearest"
+        needs no correction, "unknown" widens the uncertainty by it (and a recording's own
+        metadata ``encoder_reading``, e.g. the project's simulator, is used when present).
     """
 
     k1: float
@@ -344,6 +354,7 @@ class EstimatorConfig:
     omega_g: float = 0.1
     gap_margin: float = 0.15
     contact_bound: bool = True
+    encoder_reading: Literal["unknown", "nearest", "truncate"] = "unknown"
 
     def __post_init__(self) -> None:
         name = type(self).__name__
@@ -382,6 +393,12 @@ class EstimatorConfig:
             )
         if self.method not in ("paper", "default"):
             raise ParameterError(name, "method", f"must be 'paper' or 'default', got {self.method!r}")
+        if self.encoder_reading not in ENCODER_READINGS:
+            raise ParameterError(
+                name,
+                "encoder_reading",
+                f"must be one of {', '.join(ENCODER_READINGS)}, got {self.encoder_reading!r}",
+            )
         if self.torque_source not in ("load", "motor"):
             raise ParameterError(
                 name, "torque_source", f"must be 'load' or 'motor', got {self.torque_source!r}"

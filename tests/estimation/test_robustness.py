@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 
 from drivelash.estimation.estimator import DeadzoneEstimator, EstimationResult
+from drivelash.io.trace import Trace
 
 from .independent import RIG, IndependentDrive, simulate_independent
 
@@ -208,6 +209,19 @@ def test_encoder_reading_convention_is_covered(geared_traces):
     lo, hi = rf.delta_interval
     assert lo <= GEARED.delta <= hi, (rf.delta - GEARED.delta, rf.delta_std)
     assert _flagged(rf) and any("encoders' counts" in w for w in rf.warnings), rf.warnings
+
+
+@pytest.mark.parametrize("reading", ["truncate", "nearest"])
+def test_stated_encoder_reading_is_used(geared_traces, reading):
+    """A stated convention removes the margin: truncation is corrected in δ1 (the +2 mrad of
+    the truncating run becomes ≤ 1 mrad), rounding needs nothing; both then converge."""
+    tr = geared_traces["floor" if reading == "truncate" else "round"]
+    r = DeadzoneEstimator(GEARED.drivetrain(), GEARED.delta1, tr.T_s, encoder_reading=reading).run(tr)
+    assert r.extra["encoder_reading"] == reading and r.extra["encoder_offset_bound"] == 0.0
+    assert r.converged and abs(r.delta - GEARED.delta) <= 1e-3, (r.delta - GEARED.delta, r.warnings)
+    # the recording's own metadata states it just as well (the project's simulator does)
+    r2 = _run(GEARED, Trace(dict(tr.columns), {**tr.meta, "encoder_reading": reading}))
+    assert r2.delta == r.delta and r2.converged
 
 
 def test_encoder_offset_bound_vanishes_for_equal_counts(rig_trace):

@@ -96,7 +96,7 @@ def estimate_trace(cfg: Any, trace: Any, method: str | None = None) -> tuple[Any
     """
     from drivelash.estimation.estimator import trace_blocks
 
-    return _estimate_blocks(cfg, trace_blocks(trace), trace.T_s, method)
+    return _estimate_blocks(cfg, trace_blocks(trace), trace.T_s, method, meta=trace.meta)
 
 
 def _estimate_blocks(
@@ -107,11 +107,13 @@ def _estimate_blocks(
     *,
     keep: str = "full",
     truth: bool = False,
+    meta: Mapping[str, Any] | None = None,
 ) -> tuple[Any, Any]:
     """:func:`estimate_trace` on a block source (an in-memory trace or a file read in chunks).
 
     ``truth``: the blocks carry ``delta_true``; max |δ* − δ̂| over the MAEE and steady-state
-    windows is accumulated while streaming (``extra["max_abs_error_since"]``).
+    windows is accumulated while streaming (``extra["max_abs_error_since"]``). ``meta``: the
+    recording's metadata (its ``encoder_reading``, when stated, is used).
     """
     from drivelash.errors import ConfigError
     from drivelash.estimation.estimator import estimate_blocks, scan_blocks
@@ -139,6 +141,7 @@ def _estimate_blocks(
         motion=motion,
         keep=keep,  # type: ignore[arg-type]
         error_since=since,
+        encoder_reading=(meta or {}).get("encoder_reading"),
     )
     return res, motion
 
@@ -249,7 +252,9 @@ def estimate_stream(
                 kept[c].append(ch[c][start::step].copy())
             yield {c: ch[c] for c in names}
 
-    res, motion = _estimate_blocks(cfg, blocks, stream.T_s, method, keep="decimated", truth=truth)
+    res, motion = _estimate_blocks(
+        cfg, blocks, stream.T_s, method, keep="decimated", truth=truth, meta=stream.meta
+    )
     summary = estimate_summary(cfg, res, motion, stream.n_samples, stream.T_s)
     if truth:
         maee_v, ss_v = res.extra["max_abs_error_since"]

@@ -463,6 +463,7 @@ def estimate_blocks(
     keep: Literal["full", "decimated"] = "full",
     motion: MotionSummary | None = None,
     error_since: tuple[float, ...] = (),
+    encoder_reading: str | None = None,
 ) -> EstimationResult:
     """Run the online estimator over a block source in two passes (module docstring).
 
@@ -493,6 +494,9 @@ def estimate_blocks(
         max |δ* − δ̂| is accumulated while streaming (``extra["max_abs_error_since"]``, one
         per start, and ``extra["delta_true_last"]``), e.g. the MAEE and steady-state peak of
         a recording too long to keep δ̂(t).
+    encoder_reading : {"nearest", "truncate"}, optional
+        The recording's own statement of its encoders' reading convention (``Trace.meta``);
+        used when the configuration leaves ``encoder_reading`` "unknown".
 
     Returns
     -------
@@ -510,6 +514,12 @@ def estimate_blocks(
     over = dict(overrides or {})
     if config is None:
         config = EstimatorConfig.tuned(drivetrain, T_s, method=method, motion=motion, **over)
+    if config.encoder_reading == "unknown" and encoder_reading in ("nearest", "truncate"):
+        config = replace(config, encoder_reading=encoder_reading)  # type: ignore[arg-type]
+    if config.encoder_reading == "truncate":
+        # truncating encoders put Δθ above the true relative angle by the signed offset; the
+        # lower contact then reads at −δ1 + offset, i.e. δ1 − offset in the recorded frame
+        delta1 = delta1 - _encoder_offset(motion, drivetrain.N)
     check_cfg = None
     if config.offset_check and not config.estimate_offset:
         if config.method == "default":
@@ -520,6 +530,11 @@ def estimate_blocks(
         check_cfg = _check_config(config, base)
     setup = _Setup(drivetrain, float(delta1), T_s, config, check_cfg, motion)
     return _run_session(setup, blocks, keep, tuple(float(x) for x in error_since))
+
+
+def _encoder_offset(mo: MotionSummary, N: float) -> float:
+    """Signed offset of Δθ = θ_m/N − θ_l when both encoders truncate, q_l/2 − q_m/(2N) [rad]."""
+    return 0.5 * (mo.count_l - mo.count_m / N)
 
 
 def _run_session(
@@ -798,8 +813,9 @@ def _verdict(setup: _Setup, main: _Law, check: _Law | None, has_truth: bool) -> 
     # the independent drives ind0.1/ind0.5, paper law 1.07×). A law that estimates δ1 (the
     # switched δ1 check) measures the lower contact in the recorded frame: no offset.
     c_m, c_l = mo.count_m, mo.count_l
-    enc_offset = 0.5 * abs(c_l - c_m / setup.drivetrain.N)
-    if chosen is check:
+    enc_offset = abs(_encoder_offset(mo, setup.drivetrain.N))
+    if cfg.encoder_reading != "unknown" or chosen is check:
+        # a stated convention: no offset ("nearest") or corrected in δ1 ("truncate")
         enc_gain = 0.0
     elif default and cfg.estimate_stiffness:
         enc_gain = ENCODER_OFFSET_GAIN_KAPPA
@@ -807,6 +823,7 @@ def _verdict(setup: _Setup, main: _Law, check: _Law | None, has_truth: bool) -> 
         enc_gain = 1.0
     enc_bound = enc_gain * enc_offset
     extra.update(
+        encoder_reading=cfg.encoder_reading,
         encoder_count_motor=c_m,
         encoder_count_load=c_l,
         encoder_offset=enc_offset,
@@ -1021,6 +1038,7 @@ class DeadzoneEstimator:
             overrides=self.overrides,
             f_exc=self.f_exc,
             keep=keep,
+            encoder_reading=trace.meta.get("encoder_reading"),
         )
 
 

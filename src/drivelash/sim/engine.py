@@ -259,7 +259,9 @@ class SimResult:
         if return_states:
             for n in ("u", "omega_m_true", "theta_m_true", "omega_l_true", "theta_l_true"):
                 cols[n] = self.column(n)
-        return Trace(cols, dict(self.meta))
+        # the sensor model quantises to the nearest count (mid-tread): the estimator needs no
+        # reading-convention margin for these recordings
+        return Trace(cols, {"encoder_reading": "nearest"} | dict(self.meta))
 
 
 def initial_state(theta_m: float = 0.0, theta_l: float = 0.0, omega_m: float = 0.0, omega_l: float = 0.0):

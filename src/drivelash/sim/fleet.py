@@ -190,6 +190,7 @@ def _recording(job: tuple) -> None:
         cols["omega_l"] = cols["omega_l"].copy()
         cols["omega_l"][len(cols["omega_l"]) // 3] = np.nan
     meta = {"start_time": start.isoformat(), "fleet_axis": ax.name, "generator": "drivelash simulate fleet"}
+    meta["encoder_reading"] = tr.meta["encoder_reading"]  # the simulator's quantiser (estimator uses it)
     path.parent.mkdir(parents=True, exist_ok=True)
     Trace(cols, meta).to_parquet(path)
     if corrupt == "truncated":
