@@ -224,6 +224,30 @@ def test_stated_encoder_reading_is_used(geared_traces, reading):
     assert r2.delta == r.delta and r2.converged
 
 
+def test_encoder_count_is_measured_whatever_the_blocks():
+    """Pass 1 reads each encoder's count from the recording (smallest non-zero step), the same
+    for any chunking; an unquantised signal gives only its slowest step (µrad, a negligible
+    bound), or 0 when that is below 2π/2²⁴."""
+    from drivelash.estimation.motion import MotionScanner
+
+    t = np.arange(20000) * 1e-3
+    x = 0.7 * np.sin(2 * np.pi * 0.5 * t)
+    q_m, q_l = 2 * np.pi / 1024, 2 * np.pi / 65536
+    th_m, th_l = np.floor(x / q_m) * q_m, np.round(x / q_l) * q_l
+    for block in (len(t), 7, 4096):
+        sc = MotionScanner(1.0)
+        for a in range(0, len(t), block):
+            sc.feed(t[a : a + block], th_m[a : a + block], th_l[a : a + block])
+        s = sc.summary()
+        assert s.count_m == pytest.approx(q_m, rel=1e-9) and s.count_l == pytest.approx(q_l, rel=1e-9)
+    sc = MotionScanner(1.0)
+    sc.feed(t, x, x)
+    assert 0.0 <= sc.summary().count_m < 1e-5 and 0.0 <= sc.summary().count_l < 1e-5
+    sc = MotionScanner(1.0)
+    sc.feed(t, np.zeros_like(x), x * 1e-3)  # a still motor; a load moving by ≤ 3.5 nrad steps
+    assert sc.summary().count_m == 0.0 and sc.summary().count_l == 0.0
+
+
 def test_encoder_offset_bound_vanishes_for_equal_counts(rig_trace):
     """Same counts on both sides of a 1:1 drive (the bench rig): the offsets cancel, no widening."""
     r = _run(RIG, rig_trace)

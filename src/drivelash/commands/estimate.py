@@ -283,6 +283,7 @@ def result_summary(res: Any) -> dict[str, Any]:
         "load_torque_constant",
         "load_range",
         "motor_range",
+        "encoder_offset_bound",
     )
     out: dict[str, Any] = {
         "delta_std": res.delta_std,

@@ -436,6 +436,7 @@ class _Setup:
     config: EstimatorConfig
     check_config: EstimatorConfig | None
     motion: MotionSummary
+    encoder_reading: str = "unknown"
 
 
 def _check_config(config: EstimatorConfig, default_cfg: EstimatorConfig) -> EstimatorConfig:
@@ -514,9 +515,12 @@ def estimate_blocks(
     over = dict(overrides or {})
     if config is None:
         config = EstimatorConfig.tuned(drivetrain, T_s, method=method, motion=motion, **over)
-    if config.encoder_reading == "unknown" and encoder_reading in ("nearest", "truncate"):
-        config = replace(config, encoder_reading=encoder_reading)  # type: ignore[arg-type]
-    if config.encoder_reading == "truncate":
+    # the configuration's statement wins; else the recording's own metadata (the config is kept
+    # as given, so the reported gains do not depend on where the recording came from)
+    reading = config.encoder_reading
+    if reading == "unknown" and encoder_reading in ("nearest", "truncate"):
+        reading = encoder_reading
+    if reading == "truncate":
         # truncating encoders put Δθ above the true relative angle by the signed offset; the
         # lower contact then reads at −δ1 + offset, i.e. δ1 − offset in the recorded frame
         delta1 = delta1 - _encoder_offset(motion, drivetrain.N)
@@ -528,7 +532,7 @@ def estimate_blocks(
             over_d = {k: v for k, v in over.items() if k not in ("gamma",)}
             base = EstimatorConfig.tuned(drivetrain, T_s, method="default", motion=motion, **over_d)
         check_cfg = _check_config(config, base)
-    setup = _Setup(drivetrain, float(delta1), T_s, config, check_cfg, motion)
+    setup = _Setup(drivetrain, float(delta1), T_s, config, check_cfg, motion, reading)
     return _run_session(setup, blocks, keep, tuple(float(x) for x in error_since))
 
 
@@ -814,7 +818,7 @@ def _verdict(setup: _Setup, main: _Law, check: _Law | None, has_truth: bool) -> 
     # switched δ1 check) measures the lower contact in the recorded frame: no offset.
     c_m, c_l = mo.count_m, mo.count_l
     enc_offset = abs(_encoder_offset(mo, setup.drivetrain.N))
-    if cfg.encoder_reading != "unknown" or chosen is check:
+    if setup.encoder_reading != "unknown" or chosen is check:
         # a stated convention: no offset ("nearest") or corrected in δ1 ("truncate")
         enc_gain = 0.0
     elif default and cfg.estimate_stiffness:
@@ -823,7 +827,7 @@ def _verdict(setup: _Setup, main: _Law, check: _Law | None, has_truth: bool) -> 
         enc_gain = 1.0
     enc_bound = enc_gain * enc_offset
     extra.update(
-        encoder_reading=cfg.encoder_reading,
+        encoder_reading=setup.encoder_reading,
         encoder_count_motor=c_m,
         encoder_count_load=c_l,
         encoder_offset=enc_offset,

@@ -10,8 +10,9 @@ in one cheap pass that keeps only:
   3.6 M samples of each, 29 MB);
 * min / max of θ_m/N and θ_l (exact), the sample count, the first and last time stamp;
 * the encoder count of θ_m and θ_l: the smallest non-zero step between consecutive samples
-  (exact, every sample; an unquantised signal gives a step far below any real count, and
-  a count-quantised one its count, since the motion passes single counts at its reversals).
+  (exact, every sample). A count-quantised signal gives its count, since the motion passes
+  single counts at its reversals; an unquantised one only its slowest step (µrad at kHz
+  rates, a negligible bound; 0 below 2π/2²⁴).
 
 Decimating by the *global* sample index makes the summary independent of how the recording
 is cut into blocks: a file read in chunks and the same data in memory give the same numbers
@@ -37,6 +38,10 @@ DECIMATION_PERIOD = 1e-3
 #: Steps between consecutive positions at or below this are "no change" (floating-point
 #: round-off of a unit conversion), not an encoder count [rad].
 STEP_FLOOR = 1e-12
+#: Smallest step reported as an encoder count [rad]: 2π/2²⁴ (24 bit). Below it the signal is
+#: unquantised or the encoder so fine that half a count (< 0.19 µrad) is far below anything
+#: the estimator resolves; the count is then reported as 0.
+COUNT_FLOOR = 2.0 * math.pi / 2**24
 
 
 def _min_step(x: np.ndarray, prev: float) -> float:
@@ -143,7 +148,8 @@ class MotionSummary:
         Last time stamp [s].
     count_m, count_l : float
         Encoder count of θ_m (motor side, as recorded) and of θ_l: the smallest non-zero step
-        between consecutive samples [rad] (0 when the signal never changes).
+        between consecutive samples [rad]; 0 when the signal never changes or the step is
+        below :data:`COUNT_FLOOR` (unquantised).
     """
 
     n: int
@@ -265,8 +271,8 @@ class MotionScanner:
             load_range=float(load_range),
             torque_rms=u_rms,
             t_last=self.t_last,
-            count_m=self.step_m if math.isfinite(self.step_m) else 0.0,
-            count_l=self.step_l if math.isfinite(self.step_l) else 0.0,
+            count_m=self.step_m if COUNT_FLOOR <= self.step_m < math.inf else 0.0,
+            count_l=self.step_l if COUNT_FLOOR <= self.step_l < math.inf else 0.0,
         )
 
 
