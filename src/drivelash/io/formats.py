@@ -304,10 +304,11 @@ DEFAULT_CHUNK_ROWS = 1 << 18
 
 #: Read buffer of the Parquet reader (pages are read through it, not whole column chunks).
 PARQUET_BUFFER_BYTES = 1 << 20
-#: Block size of pyarrow's streaming CSV reader [bytes]. Its read-ahead holds several blocks
-#: and their parsed columns: 36 MiB blocks (the previous rule, 24 B × fields × chunk rows)
-#: peaked at ≈ 630 MiB RSS, 4 MiB blocks at ≈ 290 MiB (measured on an 8-minute 8 kHz file).
-CSV_BLOCK_BYTES = 1 << 22
+#: Block size of pyarrow's streaming CSV reader [bytes]. It reads ahead in the background a
+#: number of blocks, so its memory scales with the block: 36 MiB blocks (the former rule,
+#: 24 B × fields × chunk rows) peaked at ≈ 630 MiB RSS; with 4 MiB blocks ``estimate``
+#: peaked at 408 / 489 MiB on a 2- / 8-minute 8 kHz file, with 1 MiB blocks at 369 / 377 MiB.
+CSV_BLOCK_BYTES = 1 << 20
 #: Peak memory of reading a file whole, per decoded float64 value (Arrow buffers, the
 #: float64 copy, the mapped SI copy and the validation temporaries): measured ≈ 5 (see
 #: docs/assumptions.md), rounded up.
