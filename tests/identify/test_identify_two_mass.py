@@ -169,3 +169,16 @@ def test_public_namespace_is_curated():
     for name in drivelash.__all__:
         assert getattr(drivelash, name) is not None, name
     assert replace  # keep import used
+
+
+def test_negative_shaft_damping_is_flagged_implausible():
+    """A D_S whose whole 95 % interval lies below 0 (KUKA A3: −6570 N·m·s/rad) is named as
+    implausible on its own; a D_S whose interval reaches 0 or above is not (negative control)."""
+    from drivelash.estimation.identify_result import ParameterEstimate
+    from drivelash.estimation.identify_two_mass import _plausibility
+
+    bad = {"D_S": ParameterEstimate("D_S", -6570.0, 900.0, -8334.0, -4806.0, "N·m·s/rad")}
+    (line,) = _plausibility(bad)
+    assert line.startswith("D_S = -6570") and "negative shaft damping" in line
+    ok = {"D_S": ParameterEstimate("D_S", -100.0, 900.0, -1864.0, 1664.0, "N·m·s/rad")}
+    assert _plausibility(ok) == []

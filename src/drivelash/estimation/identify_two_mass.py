@@ -964,6 +964,13 @@ def _plausibility(params: dict[str, ParameterEstimate]) -> list[str]:
                 "torque sign or gain, or the velocity sign, is wrong, or the drive has dynamics "
                 "the two-mass model lacks"
             )
+    q = below("D_S")
+    if q is not None:
+        out.append(
+            f"D_S = {q.value:.4g} {q.unit} < 0 (95 % CI up to {q.high:.3g}): negative shaft "
+            "damping — the position and velocity signals disagree (velocity lag or scale) or the "
+            "drive has dynamics the two-mass model lacks"
+        )
     return out
 
 
