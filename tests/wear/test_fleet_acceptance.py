@@ -36,6 +36,13 @@ def fleet(tmp_path_factory):
     return out, st, truth
 
 
+def _errors(out, st, truth):
+    index = {str(out / r["file"]): r for a in truth["axes"].values() for r in a["recordings"]}
+    rows = st.estimates()
+    assert len(rows) == sum(len(a["recordings"]) for a in truth["axes"].values())
+    return index, rows
+
+
 @pytest.mark.xfail(
     strict=True,
     reason="known miss (2026-11-23, main, quiet machine): 3287 excited recordings, max |δ̂ − δ| 4.123 mrad "
@@ -43,44 +50,56 @@ def fleet(tmp_path_factory):
     "marks it not converged (σ 0.99 mrad), so it never enters a trend; the others are ≤ 0.153 mrad "
     "(h7's analysis). Why that recording is 4 mrad off is not isolated",
 )
-def test_excited_within_1_mrad_and_unexcited_never_in_a_trend(fleet):
+def test_every_excited_recording_within_1_mrad(fleet):
+    """The goal as stated: every excited recording (the estimator's verdict, which must agree with
+    the truth) within 1 mrad — converged or not: a recording the estimator cannot settle on is
+    still an excited recording, so its error counts here (it is kept out of the trend, below)."""
     out, st, truth = fleet
-    index = {str(out / r["file"]): r for a in truth["axes"].values() for r in a["recordings"]}
-    rows = st.estimates()
-    assert len(rows) == sum(len(a["recordings"]) for a in truth["axes"].values())
-    errs = [
-        abs(r["delta"] - index[r["path"]]["delta"])
-        for r in rows
-        if r["status"] == "ok" and r["excitation_ok"]
-    ]
+    index, rows = _errors(out, st, truth)
+    exc = [r for r in rows if r["status"] == "ok" and r["excitation_ok"]]
+    errs = [abs(r["delta"] - index[r["path"]]["delta"]) for r in exc]
+    worst = max(exc, key=lambda r: abs(r["delta"] - index[r["path"]]["delta"]))
+    print(
+        f"\nexcited: {len(errs)} (truly excited: {sum(index[r['path']]['excited'] for r in exc)}), "
+        f"max |δ̂ − δ| {1e3 * max(errs):.3f} mrad, median {1e3 * np.median(errs):.4f} mrad; "
+        f"worst {worst['path'].rsplit('/', 1)[-1]}: converged {worst['converged']}, "
+        f"delta_std {1e3 * (worst['delta_std'] or np.nan):.2f} mrad; not converged: "
+        f"{sum(not r['converged'] for r in exc)}"
+    )
+    assert all(index[r["path"]]["excited"] for r in exc)
+    assert max(errs) <= 1e-3
+
+
+def test_unexcited_never_in_a_trend_and_trend_estimates_within_1_mrad(fleet):
+    """No unexcited (or corrupt) recording enters a trend: every truly unexcited recording is
+    flagged, every corrupt one is a failed row with its reason, and every estimate a trend uses
+    (ok, excited, converged) is within 1 mrad of the true δ."""
+    out, st, truth = fleet
+    index, rows = _errors(out, st, truth)
     n_unexc_truth = sum(1 for r in index.values() if not r["excited"] and not r["corrupt"])
     flagged = [r for r in rows if r["status"] == "ok" and not r["excitation_ok"]]
     failed = [r for r in rows if r["status"] == "failed"]
+    used = [r for s in fleet_summary(st) for r in s["used_rows"]]
+    errs = [abs(r["delta"] - index[r["path"]]["delta"]) for r in used]
     print(
-        f"excited: {len(errs)}, max |δ̂ − δ| {1e3 * max(errs):.3f} mrad, "
-        f"median {1e3 * np.median(errs):.4f} mrad; "
+        f"\nin trends: {len(used)} estimates, max |δ̂ − δ| {1e3 * max(errs):.3f} mrad; "
         f"unexcited flagged {len(flagged)} (truth {n_unexc_truth}); failed {len(failed)} "
         f"(truth corrupt {sum(1 for r in index.values() if r['corrupt'])})"
     )
-    assert max(errs) <= 1e-3
     for r in rows:  # every truly unexcited recording is flagged
         if not index[r["path"]]["excited"] and not index[r["path"]]["corrupt"]:
             assert r["status"] == "ok" and not r["excitation_ok"], r["path"]
         if index[r["path"]]["corrupt"]:
             assert r["status"] == "failed" and r["reason"].startswith(r["path"])
-    for s in fleet_summary(st):
-        for r in s["used_rows"]:
-            assert index[r["path"]]["excited"] and not index[r["path"]]["corrupt"]
+    for r in used:
+        assert index[r["path"]]["excited"] and not index[r["path"]]["corrupt"]
+    assert max(errs) <= 1e-3
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="known miss (2026-11-23, main, quiet machine): 38 growing axes, 38/38 within ±15 % "
-    "(worst 2.0 %), but the 90 % interval of the crossing covers the truth on 22/38 = 0.579 "
-    "(goal 0.80–0.98): the intervals are too narrow. Still 22/38 after the simulator's start-time fix, "
-    "so that was not the cause; cause not isolated (300 synthetic axes give 0.860 in test_trend)",
-)
 def test_forecast_at_half_life(fleet):
+    """The 90 % interval includes the axis's systematic uncertainty (trend.systematic_std): with the
+    fit's band of the mean alone it covered 22/38 = 0.579 (the estimates' error per axis, ±0.05 mrad,
+    does not average out over recordings; their scatter is 0.01 mrad)."""
     out, st, truth = fleet
     start = datetime.fromisoformat(truth["start"]).replace(tzinfo=None)
     within, covered, n = 0, 0, 0

@@ -31,8 +31,14 @@ def _axis(rng: np.random.Generator, law: str) -> tuple[dict, float, float]:
     return p, thr, _crossing(law, p, thr)
 
 
-def _half_life_forecasts(seed: int, n: int, force_linear: bool = False):
-    """Forecast made at half of each axis's life: (law, relative error, covered)."""
+def _half_life_forecasts(
+    seed: int, n: int, force_linear: bool = False, s_sys: float = 0.0, give_std: bool = False
+):
+    """Forecast made at half of each axis's life: (law, relative error, covered, model).
+
+    ``s_sys`` > 0 adds a systematic error per axis, b ~ N(0, s_sys²), the same on all its
+    estimates (as the estimator's error on one drive); ``give_std`` passes the estimator-like
+    stated uncertainty √(s_sys² + SIGMA²) of every estimate to the fit."""
     rng = np.random.default_rng(seed)
     out = []
     for i in range(n):
@@ -40,18 +46,20 @@ def _half_life_forecasts(seed: int, n: int, force_linear: bool = False):
         p, thr, L = _axis(rng, law)
         days = np.arange(0, math.floor(L / 2) + 1, dtype=float)
         days = days[rng.random(days.size) > 0.08]  # some recordings unexcited / failed
-        y = wear_law(law, p, days) + rng.normal(0, SIGMA, days.size)
+        bias = rng.normal(0, s_sys) if s_sys > 0 else 0.0
+        y = wear_law(law, p, days) + bias + rng.normal(0, SIGMA, days.size)
+        std = np.full(days.size, math.hypot(s_sys, SIGMA)) if give_std else None
         if force_linear:
             from drivelash.wear import trend
 
             old = trend.AICC_MARGIN
             trend.AICC_MARGIN = math.inf
             try:
-                tr = fit_trend(days, y, None, thr)
+                tr = fit_trend(days, y, std, thr)
             finally:
                 trend.AICC_MARGIN = old
         else:
-            tr = fit_trend(days, y, None, thr)
+            tr = fit_trend(days, y, std, thr)
         fc = tr.forecast
         remaining = L - days[-1]
         err = (fc.t_cross - L) / remaining if fc.t_cross is not None else math.inf
@@ -78,6 +86,55 @@ def test_forecast_at_half_life_within_15_percent_and_calibrated():
     # the selection picks the law's model almost always
     right = np.mean([(m == "linear") == (law == "linear") for law, _, _, m in res])
     assert right >= 0.9
+
+
+S_SYS = 1e-3  # a systematic error per axis larger than the scatter, as on the simulated fleet
+
+
+@pytest.mark.slow
+def test_forecast_interval_calibrated_with_a_systematic_error_per_axis():
+    """300 axes whose estimates share an error per axis (σ_sys = 1 mrad against a scatter of
+    0.3 mrad) and state their uncertainty: the 90 % crossing intervals still cover 80–98 %.
+    Negative control: the same series without the stated uncertainty (the fit's band of the
+    mean alone, which shrinks with the number of recordings) covers less than 80 %."""
+    res = _half_life_forecasts(seed=11, n=300, s_sys=S_SYS, give_std=True)
+    within = np.mean([abs(e) <= 0.15 for _, e, _, _ in res])
+    coverage = np.mean([c for _, _, c, _ in res])
+    blind = np.mean([c for _, _, c, _ in _half_life_forecasts(seed=11, n=300, s_sys=S_SYS)])
+    print(
+        f"systematic error per axis {1e3 * S_SYS:.1f} mrad: within ±15 %: {within:.3f}, coverage "
+        f"{coverage:.3f}; without the stated uncertainty {blind:.3f}"
+    )
+    assert within >= 0.90
+    assert 0.80 <= coverage <= 0.98
+    assert blind < 0.80
+
+
+def test_systematic_std_is_the_stated_uncertainty_the_scatter_does_not_show():
+    """σ_sys = √(median σ_i² − σ̂²), 0 without stated uncertainties or when the scatter explains
+    them; the band of the true δ is at least t₀.₉₅ · σ_sys wide on each side."""
+    from scipy.stats import t as student
+
+    from drivelash.wear.trend import LEVEL, systematic_std
+
+    assert systematic_std(np.full(5, 1e-4), 3e-5) == pytest.approx(math.sqrt(1e-8 - 9e-10), rel=1e-12)
+    assert systematic_std(np.array([np.nan, 1e-4, 2e-4, 3e-4]), 0.0) == pytest.approx(2e-4, rel=1e-12)
+    assert systematic_std(np.full(5, np.nan), 0.0) == 0.0
+    assert systematic_std(np.full(5, 1e-4), 2e-4) == 0.0
+    rng = np.random.default_rng(8)
+    days = np.arange(30, dtype=float)
+    y = 0.05 + 1e-3 * days + rng.normal(0, 1e-4, 30)
+    tr = fit_trend(days, y, np.full(30, 1e-3), 0.2)
+    plain = fit_trend(days, y, None, 0.2)
+    assert tr.sigma_sys == pytest.approx(math.sqrt(1e-6 - tr.sigma**2), rel=1e-12)
+    q = student.ppf(0.5 + LEVEL / 2, 30 - 2)
+    mean, lo, hi, plo, phi = tr.curve(days)
+    assert np.all(hi - mean >= q * tr.sigma_sys * (1 - 1e-12))
+    assert np.all(mean - lo >= q * tr.sigma_sys * (1 - 1e-12))
+    m0, lo0, hi0, plo0, phi0 = plain.curve(days)
+    assert np.all(hi0 - m0 < 0.5 * (hi - mean))  # the fit's band alone is far narrower
+    assert np.allclose(phi - plo, phi0 - plo0, rtol=1e-6)  # a new estimate shares the axis's error
+    assert plain.forecast.t_early > tr.forecast.t_early and plain.forecast.t_late < tr.forecast.t_late
 
 
 def test_negative_control_linear_only_misses_accelerating_wear():

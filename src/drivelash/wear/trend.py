@@ -24,9 +24,14 @@ docs/assumptions.md, "Wear tracking"):
    chosen only when its AICc is lower by more than :data:`AICC_MARGIN` (Burnham & Anderson's
    "substantial support").
 5. **Forecast**: the fitted mean crosses the threshold at t*; the 90 % interval of t* comes from
-   inverting the pointwise 90 % confidence band of the mean (the upper band's crossing is the
-   early bound, the lower band's the late one; never = ∞). Prediction bands for a new
-   estimate (mean band widened by the residual scale) are drawn in the plots.
+   inverting the pointwise 90 % band of the true δ (the upper band's crossing is the early
+   bound, the lower band's the late one; never = ∞). That band is the fit's confidence band of
+   the mean widened by the axis's **systematic uncertainty** σ_sys (:func:`systematic_std`):
+   the part of the estimator's stated uncertainty that the scatter between recordings does
+   not show is the same on every recording of the axis (same drive, encoder, δ1), so it does
+   not average out with more recordings and the fit's band alone would be far too narrow.
+   Prediction bands for a new estimate (the fit's mean band widened by the residual scale;
+   the axis's systematic error is shared by its next estimate) are drawn in the plots.
 6. **Monotone trend** for display: isotonic regression (scikit-learn) per segment.
 """
 
@@ -39,7 +44,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["AxisTrend", "ChangePoint", "Forecast", "analyse", "fit_trend"]
+__all__ = ["AxisTrend", "ChangePoint", "Forecast", "analyse", "fit_trend", "systematic_std"]
 
 #: Lower bound of the noise scale σ̂ [rad] (estimates agree better than the encoder model).
 SIGMA_FLOOR = 2e-5
@@ -95,7 +100,12 @@ class Forecast:
 
 @dataclass
 class AxisTrend:
-    """Everything the trend analysis found for one axis (times in days since ``t0``)."""
+    """Everything the trend analysis found for one axis (times in days since ``t0``).
+
+    ``sigma`` is the noise scale σ̂ between recordings [rad], ``sigma_sys`` the systematic
+    (non-averaging) standard uncertainty of the axis's estimates [rad] that widens the band of
+    the true δ and the forecast interval (:func:`systematic_std`).
+    """
 
     t0: datetime | None
     t: np.ndarray
@@ -109,10 +119,15 @@ class AxisTrend:
     forecast: Forecast | None
     threshold: float | None
     isotonic: np.ndarray
+    sigma_sys: float = 0.0
     _curve: Any = field(default=None, repr=False)
 
     def curve(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(mean, lower, upper, pred_lower, pred_upper) of the fitted model at days ``t`` [rad]."""
+        """(mean, lower, upper, pred_lower, pred_upper) of the fitted model at days ``t`` [rad].
+
+        ``lower``/``upper``: the 90 % band of the true δ (the fit's confidence band of the mean
+        widened by ``sigma_sys``); ``pred_*``: the 90 % prediction band of a new estimate.
+        """
         if self._curve is None:
             nan = np.full(np.shape(t), np.nan)
             return nan, nan, nan, nan, nan
@@ -242,8 +257,11 @@ class _Fit:
     curve: Any
 
 
-def _fit_linear(t: np.ndarray, y: np.ndarray, w: np.ndarray, cps: list[ChangePoint]) -> _Fit:
+def _fit_linear(
+    t: np.ndarray, y: np.ndarray, w: np.ndarray, cps: list[ChangePoint], s_sys: float = 0.0
+) -> _Fit:
     import statsmodels.api as sm
+    from scipy.stats import t as student
 
     X = np.column_stack([np.ones_like(t), t, _steps(t, cps)])
     res = sm.WLS(y, X, weights=w).fit()
@@ -251,16 +269,15 @@ def _fit_linear(t: np.ndarray, y: np.ndarray, w: np.ndarray, cps: list[ChangePoi
     rss = float(np.sum(w * res.resid**2))
     scale = float(res.scale)
 
+    q = float(student.ppf(0.5 + LEVEL / 2, max(n - p, 1)))
+
     def curve(tt: np.ndarray):
         Xn = np.column_stack([np.ones_like(tt), tt, _steps(tt, cps)])
         pr = res.get_prediction(Xn)
         mean = pr.predicted_mean
-        lo, hi = pr.conf_int(alpha=1 - LEVEL).T
-        from scipy.stats import t as student
-
-        q = student.ppf(0.5 + LEVEL / 2, max(n - p, 1))
-        half = q * np.sqrt(pr.var_pred_mean + scale / np.mean(w))
-        return mean, lo, hi, mean - half, mean + half
+        half = q * np.sqrt(pr.var_pred_mean + s_sys * s_sys)
+        halfp = q * np.sqrt(pr.var_pred_mean + scale / np.mean(w))
+        return mean, mean - half, mean + half, mean - halfp, mean + halfp
 
     params = {"a": float(res.params[0]), "b": float(res.params[1])}
     params.update({f"J{i}": float(v) for i, v in enumerate(res.params[2:])})
@@ -268,7 +285,7 @@ def _fit_linear(t: np.ndarray, y: np.ndarray, w: np.ndarray, cps: list[ChangePoi
 
 
 def _fit_accelerating(
-    t: np.ndarray, y: np.ndarray, w: np.ndarray, cps: list[ChangePoint], lin: _Fit
+    t: np.ndarray, y: np.ndarray, w: np.ndarray, cps: list[ChangePoint], lin: _Fit, s_sys: float = 0.0
 ) -> _Fit | None:
     from scipy.optimize import least_squares
     from scipy.stats import t as student
@@ -329,7 +346,7 @@ def _fit_accelerating(
         mean = model(p, tt, SS)
         G = jac(p, tt, SS)
         var = np.einsum("ij,jk,ik->i", G, cov, G)
-        half = tq * np.sqrt(np.maximum(var, 0.0))
+        half = tq * np.sqrt(np.maximum(var, 0.0) + s_sys * s_sys)
         halfp = tq * np.sqrt(np.maximum(var, 0.0) + s2 / wbar)
         return mean, mean - half, mean + half, mean - halfp, mean + halfp
 
@@ -347,6 +364,37 @@ def _first_crossing(tt: np.ndarray, f: np.ndarray, thr: float) -> float | None:
         return float(tt[0])
     f0, f1 = f[i - 1], f[i]
     return float(tt[i - 1] + (thr - f0) * (tt[i] - tt[i - 1]) / (f1 - f0)) if f1 != f0 else float(tt[i])
+
+
+def systematic_std(std: np.ndarray, sigma: float) -> float:
+    """Systematic (non-averaging) standard uncertainty of an axis's estimates [rad].
+
+    σ_sys = √max(median(σ_i²) − σ̂², 0): the part of the estimator's stated uncertainty σ_i
+    (``delta_std``) that the scatter between recordings σ̂ does not show. The estimator's
+    uncertainty is mostly made of parts that are the same on every recording of one axis (its
+    resolution floor of 0.1 θ_def, the δ1 check, the stiffness-model part; only the spread of δ̂
+    within a run is random), so this part does not average out over recordings: the fit's
+    confidence band shrinks as 1/√n, the error of the axis's estimates does not. The random
+    part of σ_i is at most σ̂ (otherwise the scatter would show it), so σ_sys is the least
+    systematic part the stated uncertainty implies.
+
+    Parameters
+    ----------
+    std : numpy.ndarray
+        The estimator's standard uncertainty of each used estimate [rad]; NaN = unknown.
+    sigma : float
+        Noise scale between recordings [rad] (:func:`noise_scale`).
+
+    Returns
+    -------
+    float
+        σ_sys [rad]; 0 when no estimate has an uncertainty.
+    """
+    s = np.asarray(std, dtype=float)
+    s = s[np.isfinite(s) & (s > 0)]
+    if not s.size:
+        return 0.0
+    return float(math.sqrt(max(float(np.median(s * s)) - sigma * sigma, 0.0)))
 
 
 def _isotonic(t: np.ndarray, y: np.ndarray, w: np.ndarray, cps: list[ChangePoint]) -> np.ndarray:
@@ -402,7 +450,8 @@ def fit_trend(
     std : numpy.ndarray, optional
         Standard uncertainty of each δ̂ [rad] (the estimator's ``delta_std``); weights are
         1/σ_i² (relative; the residual scale is estimated). NaN = unknown: the median of the
-        known ones; all unknown = equal weights.
+        known ones; all unknown = equal weights. Its non-averaging part (:func:`systematic_std`)
+        widens the band of the true δ and the forecast interval.
     threshold : float, optional
         Maintenance threshold [rad].
     t0 : datetime, optional
@@ -428,14 +477,15 @@ def fit_trend(
         r, step = _local_resid(t, y, cps)
         inl = np.abs(r) <= np.maximum(max(OUTLIER_SIGMA * sigma, OUTLIER_FLOOR), OUTLIER_STEPS * step)
     iso = _isotonic(t, y, w_all, cps) if n else y.copy()
-    trend = AxisTrend(t0, t, y, inl, cps, sigma, None, {}, {}, None, threshold, iso)
+    s_sys = systematic_std(s_in[inl], sigma)
+    trend = AxisTrend(t0, t, y, inl, cps, sigma, None, {}, {}, None, threshold, iso, s_sys)
     ti, yi, wi = t[inl], y[inl], w_all[inl]
     keep = [c for c in cps if np.any(ti >= c.t_days - 1e-9) and np.any(ti < c.t_days - 1e-9)]
     if yi.size < MIN_POINTS + len(keep):
         return trend
-    lin = _fit_linear(ti, yi, wi, keep)
+    lin = _fit_linear(ti, yi, wi, keep, s_sys)
     fits = {"linear": lin}
-    acc = _fit_accelerating(ti, yi, wi, keep, lin) if yi.size >= MIN_POINTS + 1 + len(keep) else None
+    acc = _fit_accelerating(ti, yi, wi, keep, lin, s_sys) if yi.size >= MIN_POINTS + 1 + len(keep) else None
     if acc is not None:
         fits["accelerating"] = acc
     trend.aicc = {k: f.aicc for k, f in fits.items()}
