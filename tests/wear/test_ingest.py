@@ -76,6 +76,32 @@ def test_estimates_match_truth_and_failures_are_rows(small_fleet, serial_store):
             assert r["delta_std"] is None, r["path"]
 
 
+def test_stored_figures_are_those_of_drivelash_estimate(small_fleet, serial_store):
+    """The ingest runs the estimator without keeping its output series (``keep="decimated"``, to
+    spare the copies); every stored figure equals the one ``drivelash estimate`` computes with the
+    full series kept, bit for bit."""
+    import math
+
+    from drivelash.commands.estimate import estimate_trace
+    from drivelash.estimation.estimator import INPUT_COLUMNS
+    from drivelash.io import load_trace
+
+    st, _ = serial_store
+    fleet = {a.name: a for a in load_fleet(small_fleet / "fleet.toml").axes}
+    rows = [r for r in st.estimates() if r["status"] == "ok"][:12]
+    assert any(r["excitation_ok"] for r in rows)
+    for r in rows:
+        drive = fleet[r["axis"]].drive
+        res, _ = estimate_trace(drive, load_trace(r["path"], drive, required=INPUT_COLUMNS))
+        assert res.t.size == r["samples"]  # the full series
+        assert r["delta"] == res.delta and r["excitation_ok"] == res.excitation_ok, r["path"]
+        assert r["converged"] == res.converged and r["reason"] == res.reason
+        std = res.delta_std if math.isfinite(res.delta_std) and res.delta_std > 0 else None
+        assert r["delta_std"] == std
+        d1 = res.extra.get("delta1_estimate", res.extra.get("delta1_check"))
+        assert r["delta1_estimate"] == (None if d1 is None else float(d1))
+
+
 def test_unexcited_never_enter_the_trend(serial_store):
     st, _ = serial_store
     for s in fleet_summary(st):

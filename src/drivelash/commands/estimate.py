@@ -73,7 +73,7 @@ def _estimator_config(
         raise ConfigError(f"{src}: table [{table}], key '{exc.field}': {exc.problem}") from None
 
 
-def estimate_trace(cfg: Any, trace: Any, method: str | None = None) -> tuple[Any, Any]:
+def estimate_trace(cfg: Any, trace: Any, method: str | None = None, keep: str = "full") -> tuple[Any, Any]:
     """The estimator exactly as ``drivelash estimate`` runs it on a loaded recording.
 
     Two passes (:func:`drivelash.estimation.estimator.estimate_blocks`): the recording's
@@ -89,6 +89,10 @@ def estimate_trace(cfg: Any, trace: Any, method: str | None = None) -> tuple[Any
         when present).
     method : {"paper", "default"}, optional
         Law; None: ``[estimator] method`` of the file, else "default".
+    keep : {"full", "decimated"}
+        Output series kept in the result (``estimate_blocks``); the verdict and every figure
+        are the same either way — "decimated" spares the copies when only the figures count
+        (the wear tracker).
 
     Returns
     -------
@@ -96,7 +100,7 @@ def estimate_trace(cfg: Any, trace: Any, method: str | None = None) -> tuple[Any
     """
     from drivelash.estimation.estimator import trace_blocks
 
-    return _estimate_blocks(cfg, trace_blocks(trace), trace.T_s, method, meta=trace.meta)
+    return _estimate_blocks(cfg, trace_blocks(trace), trace.T_s, method, keep=keep, meta=trace.meta)
 
 
 def _estimate_blocks(

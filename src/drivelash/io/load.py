@@ -366,27 +366,27 @@ def _check_signals(
 
 
 def _check_units(cols: Mapping[str, np.ndarray], origin: Mapping[str, str], path: str) -> None:
-    """Velocity against the derivative of position: factor ≈ 57.3 / 9.55 means deg or rpm."""
-    t = cols["t"]
+    """Velocity against the derivative of position: factor ≈ 57.3 / 9.55 means deg or rpm.
+
+    Robust scale ratio Σ ω̄·d̄ / Σ d̄² on the samples with motion (|d̄| > 0.1 max |d̄|), d = dθ/dt
+    (``np.gradient``), both lightly smoothed (moving mean over k = clip(n/50, 1, 25) samples);
+    one compiled pass (:func:`drivelash.io._unitcheck.unit_ratio_sums`).
+    """
+    from drivelash.io._unitcheck import unit_ratio_sums
+
+    t = np.ascontiguousarray(cols["t"], dtype=np.float64)
     for side in ("m", "l"):
         th, om = cols.get(f"theta_{side}"), cols.get(f"omega_{side}")
-        if th is None or om is None:
+        if th is None or om is None or t.size < 2:
             continue
-        d = np.gradient(th, t)
-        # robust scale ratio on samples with motion, after light smoothing of the derivative
         k = max(1, min(25, t.size // 50))
-        if k > 1:
-            ker = np.ones(k) / k
-            d = np.convolve(d, ker, mode="same")
-            om_s = np.convolve(om, ker, mode="same")
-        else:
-            om_s = om
-        moving = np.abs(d) > 0.1 * np.max(np.abs(d)) if np.max(np.abs(d)) > 0 else np.zeros(d.size, bool)
-        if moving.sum() < 10:
+        s_od, s_dd, count, row = unit_ratio_sums(
+            t, np.ascontiguousarray(th, dtype=np.float64), np.ascontiguousarray(om, dtype=np.float64), k
+        )
+        if count < 10:
             continue
-        ratio = float(np.dot(om_s[moving], d[moving]) / np.dot(d[moving], d[moving]))
-        row = int(np.flatnonzero(moving)[0])
-        check_unit_ratio(ratio, side, path, origin.get(f"omega_{side}", f"omega_{side}"), row)
+        column = origin.get(f"omega_{side}", f"omega_{side}")
+        check_unit_ratio(float(s_od / s_dd), side, path, column, int(row))
 
 
 def check_unit_ratio(ratio: float, side: str, path: str, column: str, row: int) -> None:
