@@ -129,7 +129,13 @@ def _axis_figure(s: dict[str, Any], meas: list[dict[str, Any]]) -> Figure:
                     dd, 1e3 * plo, 1e3 * phi, color="C1", alpha=0.12, lw=0, label="90 % prediction band"
                 )
                 ax.fill_between(
-                    dd, 1e3 * lo, 1e3 * hi, color="C1", alpha=0.35, lw=0, label="90 % band of the true δ (incl. systematic)"
+                    dd,
+                    1e3 * lo,
+                    1e3 * hi,
+                    color="C1",
+                    alpha=0.35,
+                    lw=0,
+                    label="90 % band of the true δ (incl. systematic)",
                 )
                 ax.plot(dd, 1e3 * mean, color="C1", lw=1.6, label=f"{tr.model} model")
                 if fc is not None and fc.t_cross is not None and thr is not None:
