@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from drivelash.errors import ParameterError
+
 #: Units of the parameters (rotary axes).
 UNITS: dict[str, str] = {
     "J_m": "kg·m²",
@@ -236,6 +238,10 @@ class DriveIdentification:
             vals.update(asdict(base) if is_dataclass(base) else dict(base))
         vals.update(self.to_config()["drivetrain"])
         keep = {f for f in DrivetrainParams.__dataclass_fields__}
+        for k in ("J_m", "J_l", "K_S"):
+            q = self.parameters.get(k)
+            if vals.get(k) is None and q is not None and not q.identifiable:
+                raise ParameterError("identification", k, f"{q.reason}; give it in base=")
         return DrivetrainParams(**{k: v for k, v in vals.items() if k in keep and v is not None})
 
     def as_dict(self) -> dict[str, Any]:
