@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from drivelash.errors import DataError, ParameterError
+from drivelash.physics.rack_pinion import RackPinionBench
 from drivelash.te.runtime.compensator import CompensatorParams
 from drivelash.te.runtime.persist import CampaignInfo, ModelContext, ValidRange
 from drivelash.te.runtime.table import TEPredictor, TETable, build_table
@@ -143,6 +144,11 @@ def _pass_bounds(travel: float, cfg: ValidationConfig) -> tuple[float, float]:
     return lo, hi
 
 
+#: Effective pinion radius of the paper's bench [m]: the reference of the flank-detection
+#: thresholds of :class:`CompensatorParams` (see :func:`compensator_for`).
+_PAPER_R_EFF = float(RackPinionBench().r_eff)
+
+
 def compensator_for(
     bench: Any, table: TETable | None, base: CompensatorParams | None = None
 ) -> CompensatorParams:
@@ -151,8 +157,17 @@ def compensator_for(
     Friction T_C, β and the inertia J_flank = J_M (motor + gearbox + pinion) for flank
     detection; J_model = J_s (the whole axis) for the model torque. The compensator
     uses *nominal* data-sheet values of the drive, as a commissioning engineer would.
+
+    The flank-detection thresholds ``hysteresis`` and ``release`` of ``base`` are motor
+    torques for the paper's bench, i.e. forces at the mesh (≈ 75 N and ≈ 230 N,
+    docs/assumptions.md) times its effective radius r_eff = d_p/(2 i_PG); they are
+    converted to this axis' r_eff (×1 on the paper's bench). Without the conversion an
+    axis with a larger r_eff sees its unloaded table's mesh torque at a reversal above
+    the release threshold, the flank change comes 15 ms late, mid-gap, and the 5 ms
+    backlash step makes the reversal error worse instead of better.
     """
     b = base or CompensatorParams()
+    k = float(bench.r_eff) / _PAPER_R_EFF
     return CompensatorParams(
         t_sc=b.t_sc,
         t_ss=b.t_ss,
@@ -162,10 +177,10 @@ def compensator_for(
         T_C=float(bench.T_Cm),
         beta=float(bench.beta_m),
         omega_reg=1e-4 / float(bench.r_eff),
-        hysteresis=b.hysteresis,
+        hysteresis=b.hysteresis * k,
         J_model=float(bench.J_s),
         v_max=b.v_max,
-        release=b.release,
+        release=b.release * k,
         t_lock=b.t_lock,
     )
 

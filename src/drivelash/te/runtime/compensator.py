@@ -113,7 +113,9 @@ class CompensatorParams:
         Regularisation velocity of the friction sign [rad/s].
     hysteresis : float
         Mesh-torque band [N·m] the estimate must leave before a flank change is
-        accepted (noise immunity).
+        accepted (noise immunity). The default is the paper's bench;
+        :func:`~drivelash.te.protocol.bench.compensator_for` converts it to another
+        axis as the same force at the mesh (× r_eff / r_eff,paper).
     J_model : float
         Inertia [kg·m²] whose acceleration torque is removed from the motor torque
         before it enters the error models (the models are trained at constant
@@ -125,7 +127,8 @@ class CompensatorParams:
         contact with the current flank counts as released when the *planned* motion
         (look-ahead) points towards the other flank: the flank change is then taken
         at the start of the gap traverse, not at the impact on the other flank (where
-        the torque sign confirms it). 0 disables.
+        the torque sign confirms it). 0 disables. The default is the paper's bench,
+        converted to another axis like ``hysteresis``.
     t_lock : float
         Time after a flank change during which no further change is accepted [s]:
         the torque spikes of the impact on the new flank must not toggle the flank.
