@@ -11,6 +11,13 @@ Tolerances: the figures are deterministic for given code and machine (seeded cam
 seeded training on one torch thread per direction); the tolerance is half a unit of the
 quoted figure's last digit plus the same again for floating-point differences between
 machines (BLAS and torch summation order), unless stated otherwise.
+
+The learning and constant-velocity figures were re-measured on 2026-11-23 (session 3,
+af360fa, `pytest -m slow tests/te_comp/test_readme_te_figures_slow.py`): the README had
+quoted an earlier model's figures (training 0.050, held-out 0.063, 3500–5000 N 0.31 µm,
+network 95–96 %, 87.2 %, ≥ 89 % / ≥ 46 %) that the current code no longer gives
+(0.0515, 0.0619, 0.341 µm, 93.9–95.2 %, 86.86 %, 88.8 % / 45.6 %). The issue's goals
+(``tests/te_learn/test_campaign_acceptance.py``) are unchanged.
 """
 
 from __future__ import annotations
@@ -22,18 +29,18 @@ FIGURES: dict[str, tuple[float, float, str]] = {
     "eq3_mae_50mm_s_um": (0.0005, 0.0001, "0.00000/0.0005/0.0035 µm MAE at 10/50/100 mm/s"),
     "eq3_mae_100mm_s_um": (0.0035, 0.0001, "0.00000/0.0005/0.0035 µm MAE at 10/50/100 mm/s"),
     # -- learning (te evaluate: MAE of TE_def, pooled over directions and velocities)
-    "train_mae_um": (0.050, 0.001, "training MAE 0.050 µm"),
-    "heldout_mae_um": (0.063, 0.001, "held-out loads 0.063 µm (3.9 % of the"),
-    "heldout_ratio_pct": (3.9, 0.1, "held-out loads 0.063 µm (3.9 % of the"),
-    "extrapolation_mae_um": (0.31, 0.01, "3500–5000 N 0.31 µm (11.9 %)"),
-    "extrapolation_ratio_pct": (11.9, 0.1, "3500–5000 N 0.31 µm (11.9 %)"),
-    "stage1_share_min_pct": (95.0, 1.0, "the network carries 95–96 % of the output"),
-    "stage1_share_max_pct": (96.0, 1.0, "the network carries 95–96 % of the output"),
+    "train_mae_um": (0.052, 0.001, "training MAE 0.052 µm"),
+    "heldout_mae_um": (0.062, 0.001, "held-out loads 0.062 µm (3.8 % of the"),
+    "heldout_ratio_pct": (3.8, 0.1, "held-out loads 0.062 µm (3.8 % of the"),
+    "extrapolation_mae_um": (0.34, 0.01, "3500–5000 N 0.34 µm (12.9 %)"),
+    "extrapolation_ratio_pct": (12.9, 0.1, "3500–5000 N 0.34 µm (12.9 %)"),
+    "stage1_share_min_pct": (94.0, 1.0, "the network carries 94–95 % of the output"),
+    "stage1_share_max_pct": (95.0, 1.0, "the network carries 94–95 % of the output"),
     # -- compensation (te validate)
-    "average_improvement_pct": (87.2, 0.1, "by 87.2 %\non average"),
-    "min_in_range_pass_pct": (89.0, 1.0, "in the training range ≥ 89 % per pass"),
+    "average_improvement_pct": (86.9, 0.1, "by 86.9 %\non average"),
+    "min_in_range_pass_pct": (88.0, 1.0, "in the training range ≥ 88 % per pass"),
     "min_in_range_section_pct": (77.0, 1.0, "≥ 77 % per section"),
-    "min_beyond_range_pass_pct": (46.0, 1.0, "beyond it ≥ 46 %"),
+    "min_beyond_range_pass_pct": (45.0, 1.0, "beyond it ≥ 45 %"),
     "reversal_uncomp_um": (19.0, 1.0, "the reversal error falls from 19 µm to 2.1 µm (−89 %)"),
     "reversal_comp_um": (2.1, 0.1, "the reversal error falls from 19 µm to 2.1 µm (−89 %)"),
     "reversal_reduction_pct": (89.0, 1.0, "the reversal error falls from 19 µm to 2.1 µm (−89 %)"),

@@ -121,7 +121,14 @@ def test_sine_reversal_and_spectrum(summary):
 def test_monitoring_flags_only_the_defect_and_update_restores(summary):
     m = summary["monitoring"]
     assert m["defect_covered"] and m["false_sections_per_m"] == 0.0  # "flagged (only its section)"
-    assert m["flagged_intervals_mm"] == [[pytest.approx(1250.0), pytest.approx(1350.0)]]
+    # "a 15 µm rack defect at 1.30 m is flagged (only its section)": one flagged interval, one
+    # 100 mm section, and it holds the defect (the sections start at the model's valid range,
+    # 0.0500107 m on the seed-0 campaign, so the edges are 1250.0107 / 1350.0107 mm)
+    centre_mm = 1e3 * summary["config"]["defect_center"]
+    assert centre_mm == pytest.approx(1300.0, abs=0.1)  # the README's "at 1.30 m"
+    ((lo, hi),) = m["flagged_intervals_mm"]
+    assert hi - lo == pytest.approx(1e3 * summary["config"]["section_length"], abs=1e-6)
+    assert lo < centre_mm < hi
     _check("monitor_defect_section_before_pct", 100 * m["improvement_defect_section_before_update"])
     _check("monitor_defect_section_after_pct", 100 * m["improvement_defect_section_after_update"])
     assert m["defect_flagged_after_update"] is False  # "and clears the flag"
