@@ -109,7 +109,7 @@ def test_moved_model_gives_identical_results(te_quick, tmp_path):
     # validate without any campaign: the drive is rebuilt from the model (and its training
     # campaign regenerated for the update demo)
     _cli("te", "validate", "model", "-o", "../V", "--quick", cwd=moved.parent)
-    s0, s1 = _summary(te_quick["V"]), _summary(tmp_path / "elsewhere" / "V")
+    s0, s1 = _summary(te_quick["V"]), _summary(tmp_path / "V")  # -o ../V from elsewhere/
     assert s0["passes"] == s1["passes"]
     assert s0["sine"] == s1["sine"]
     assert s0["monitoring"]["defect_covered"] == s1["monitoring"]["defect_covered"]
