@@ -288,6 +288,7 @@ def result_summary(res: Any) -> dict[str, Any]:
         "load_range",
         "motor_range",
         "encoder_offset_bound",
+        "law_disagreement",
     )
     out: dict[str, Any] = {
         "delta_std": res.delta_std,

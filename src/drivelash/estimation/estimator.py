@@ -442,6 +442,7 @@ class _Setup:
     check_config: EstimatorConfig | None
     motion: MotionSummary
     encoder_reading: str = "unknown"
+    cross_config: EstimatorConfig | None = None
 
 
 def _check_config(config: EstimatorConfig, default_cfg: EstimatorConfig) -> EstimatorConfig:
@@ -529,15 +530,19 @@ def estimate_blocks(
         # truncating encoders put Δθ above the true relative angle by the signed offset; the
         # lower contact then reads at −δ1 + offset, i.e. δ1 − offset in the recorded frame
         delta1 = delta1 - _encoder_offset(motion, drivetrain.N)
+    base = config
+    cross_cfg = None
+    if config.method != "default":
+        over_d = {k: v for k, v in over.items() if k not in ("gamma",)}
+        base = EstimatorConfig.tuned(drivetrain, T_s, method="default", motion=motion, **over_d)
+        # the paper law's cross-check: the default law (stiffness scale learnt) on the same data
+        cross_cfg = replace(
+            base, offset_check=False, delta0=config.delta0, delta_max=config.delta_max,
+        )  # fmt: skip
     check_cfg = None
     if config.offset_check and not config.estimate_offset:
-        if config.method == "default":
-            base = config
-        else:
-            over_d = {k: v for k, v in over.items() if k not in ("gamma",)}
-            base = EstimatorConfig.tuned(drivetrain, T_s, method="default", motion=motion, **over_d)
         check_cfg = _check_config(config, base)
-    setup = _Setup(drivetrain, float(delta1), T_s, config, check_cfg, motion, reading)
+    setup = _Setup(drivetrain, float(delta1), T_s, config, check_cfg, motion, reading, cross_cfg)
     return _run_session(setup, blocks, keep, tuple(float(x) for x in error_since))
 
 
@@ -556,6 +561,7 @@ def _run_session(
     has_truth = False
     main: _Law | None = None
     check: _Law | None = None
+    cross: _Law | None = None
     row = 0
     for blk in blocks():
         if first:
@@ -571,6 +577,12 @@ def _run_session(
                     setup.check_config.delta0,
                     _Track(n, keep == "full", has_truth, error_since),
                 )
+            if setup.cross_config is not None:
+                cross = _Law(
+                    build_params(setup.drivetrain, setup.delta1, setup.cross_config, setup.T_s, k0),
+                    setup.cross_config.delta0,
+                    _Track(n, False, False),
+                )
             first = False
         assert main is not None
         x = _block_samples(blk, row, has_torque)
@@ -579,10 +591,12 @@ def _run_session(
         main.feed(row, x, t, truth)
         if check is not None:
             check.feed(row, x, t, truth)
+        if cross is not None:
+            cross.feed(row, x, t, None)
         row += x.shape[0]
     if main is None or row != n:
         raise DataError(f"the recording changed between passes ({n} then {row} rows)", column="t")
-    return _verdict(setup, main, check, has_truth)
+    return _verdict(setup, main, check, has_truth, cross)
 
 
 # ----------------------------------------------------------------------------------
@@ -616,7 +630,9 @@ def _kappa(law: _Law) -> float:
     return float(law.state[dz.S_TH + 1])
 
 
-def _verdict(setup: _Setup, main: _Law, check: _Law | None, has_truth: bool) -> EstimationResult:
+def _verdict(
+    setup: _Setup, main: _Law, check: _Law | None, has_truth: bool, cross: _Law | None = None
+) -> EstimationResult:
     cfg, mo = setup.config, setup.motion
     T_s, n = setup.T_s, mo.n
     st = main.state
@@ -844,10 +860,24 @@ def _verdict(setup: _Setup, main: _Law, check: _Law | None, has_truth: bool) -> 
     k_win = max(1, int(round(win / T_s)))
     settled = _settled(chosen.track, n, k_win, band) if n else False
     # the uncertainty of a measurement; without sufficient excitation δ̂ is none (NaN → null)
-    std = _uncertainty(a, extra, cfg.theta_def, enc_bound) if ok else math.nan
+    # the paper law against the default law on the same data: the paper law has no stiffness
+    # scale, so a wrong K_S (or friction, inertia) moves its contact points unseen; where the
+    # default law, which learns κ, puts δ elsewhere, the interval must reach it
+    disagreement = 0.0
+    if cross is not None:
+        d_def = float(cross.state[dz.S_DELTA])
+        disagreement = abs(final - d_def)
+        extra.update(delta_default_law=d_def, law_disagreement=disagreement)
+    std = _uncertainty(a, extra, cfg.theta_def, enc_bound + disagreement) if ok else math.nan
     claim = min(band, CLAIM_HALF_WIDTH)
     if ok and 1.96 * std > claim:
-        if 1.96 * (std - enc_bound / 1.96) <= claim:
+        if disagreement > 0.0 and 1.96 * std - disagreement <= claim:
+            why = (
+                f"the paper law and the default law (which learns the contact stiffness) disagree by "
+                f"{1e3 * disagreement:.2f} mrad: the stated drive parameters do not fit the data "
+                "(use --method default)"
+            )
+        elif 1.96 * (std - enc_bound / 1.96) <= claim:
             why = (
                 f"the encoders' counts ({1e3 * c_m:.3g} mrad motor, {1e3 * c_l:.3g} mrad load) leave "
                 f"Δθ offset by up to {1e3 * enc_offset:.2f} mrad depending on how they round "
