@@ -110,6 +110,9 @@ BLOCK = 1 << 16
 #: Largest 95 % half-width [rad] with which an estimate may be called converged: the accuracy
 #: the tool promises when it says "converged" (issue 11: |δ̂ − δ| ≤ 2 mrad or flagged).
 CLAIM_HALF_WIDTH = 2e-3
+#: Model part of the uncertainty for the switched joint δ/δ1 law with the load-observer torque,
+#: relative to the anchored law's D·|1 − 1/κ| (both contact points from the model, not one).
+SWITCHED_MODEL_FACTOR = 2.0
 #: How far the anchored default law's δ̂ can move per unit offset of Δθ (encoder reading
 #: convention) when it learns the stiffness scale κ: once directly, up to once more through κ.
 ENCODER_OFFSET_GAIN_KAPPA = 2.0
@@ -937,7 +940,9 @@ def _uncertainty(
     * with the load observer as torque source, the model part: the stiffness scale κ
       absorbs a wrong K_S exactly but a wrong load friction or inertia only in part, so up to
       D·|1 − 1/κ| of the contact deflection D may be misread as gap (with the motor-side
-      torque κ only carries the stiffness, and this part is 0);
+      torque κ only carries the stiffness, and this part is 0); twice that
+      (:data:`SWITCHED_MODEL_FACTOR`) when the switched joint δ/δ1 law is reported, which
+      places both contact points with the stated model (κ held at 1);
     * a resolution floor of :data:`UNCERTAINTY_FLOOR` θ_def (smoothing of the model (11) and
       the sub-count reconstruction leave a bias of that order on the bench, measured);
     * ``enc_bound`` [rad], what the encoder reading-convention offset of Δθ (half the
@@ -957,6 +962,10 @@ def _uncertainty(
     kappa = extra.get("stiffness_scale")
     if kappa is not None and extra.get("torque_source") == "load":
         s_mod = extra["contact_deflection"] * abs(1.0 - 1.0 / max(kappa, 1e-12))
+        if extra.get("offset_switched"):
+            # the switched joint δ/δ1 law places *both* contact points with the stated torque
+            # model (κ held at 1), the anchored law only the upper one: twice the model part
+            s_mod *= SWITCHED_MODEL_FACTOR
     s_res = UNCERTAINTY_FLOOR * theta_def
     s = math.sqrt(s_stat * s_stat + s_d1 * s_d1 + s_mod * s_mod + s_res * s_res)
     return float(s + enc_bound / 1.96)
