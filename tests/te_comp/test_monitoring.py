@@ -66,6 +66,21 @@ def test_section_mae_against_loop_reference():
     assert section_edges(0.0, 0.95, 0.1).size == 11  # last section partial
 
 
+def test_a_partial_last_section_ends_where_the_data_end():
+    # te validate --quick: passes over the model's valid range [0.0500107, 0.44998935] m; the
+    # last section was reported as ending at 0.4500107 m, beyond the range the passes cover
+    lo, hi = 0.0500107, 0.44998935
+    e = section_edges(lo, hi, 0.1)
+    assert e.size == 5 and e[-1] == np.nextafter(hi, np.inf)
+    np.testing.assert_allclose(e[:-1], lo + 0.1 * np.arange(4), rtol=0, atol=1e-15)
+    # a sample at x_max still counts in the last section (right-open bins)
+    x = np.array([lo, 0.2, hi])
+    assert np.all(np.isfinite(section_mae(x[[0]], [1.0], e)[:1]))
+    assert section_mae(x, np.array([1.0, 2.0, 3.0]), e)[-1] == 3.0
+    # full sections keep their length
+    assert np.allclose(np.diff(section_edges(0.0, 1.0, 0.1)), 0.1, rtol=0, atol=1e-12)
+
+
 def test_flags_exactly_the_defective_section():
     t, x, te_true, te_model, e_meas = _pass()
     rep = monitor_sections(t, x, te_true, te_model, e_meas, path_error)

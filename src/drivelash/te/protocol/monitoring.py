@@ -173,9 +173,16 @@ def section_peak(x: np.ndarray, values: np.ndarray, edges: np.ndarray, min_count
 
 
 def section_edges(x_min: float, x_max: float, length: float) -> np.ndarray:
-    """Section boundaries from ``x_min`` in steps of ``length`` up to ``x_max`` (last one partial) [m]."""
+    """Section boundaries from ``x_min`` in steps of ``length`` up to ``x_max`` (last one partial) [m].
+
+    The last boundary is ``x_max`` itself (one ulp above it, so that a sample at ``x_max``
+    still falls into the last section of the right-open bins of :func:`section_mae`): a
+    partial last section is reported as ending where the data end, not a full length later.
+    """
     n = int(np.ceil((x_max - x_min) / length - 1e-9))
-    return x_min + length * np.arange(n + 1, dtype=np.float64)
+    edges = x_min + length * np.arange(n + 1, dtype=np.float64)
+    edges[-1] = min(edges[-1], float(np.nextafter(x_max, np.inf)))
+    return edges
 
 
 def monitor_sections(
