@@ -72,7 +72,7 @@ CONV_GOAL = 10.0  # s, into the 10 mrad band
 #: Cases that miss the MAEE goal, with the measured value (checked by the strict xfail below).
 KNOWN_MISS = {(0, 0): 1.33e-3}
 #: Cases whose ``converged`` verdict is a known miss (checked by the strict xfail below).
-KNOWN_NOT_CONVERGED = {(1, 2)}
+KNOWN_NOT_CONVERGED = {(1, 0), (1, 2)}
 
 
 def _estimate(seed: int, case: int | None = None):
@@ -127,4 +127,17 @@ def test_known_miss_soft_drive_seed0_case0():
 )
 def test_known_miss_converged_verdict_seed1_case2():
     ((_, _, res),) = _estimate(1, 2)
+    assert res.excitation_ok and res.converged
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="known miss: seed 1 / case 0 (δ = 254.8 mrad) reports converged = False although δ̂ "
+    "meets the goals (measured final error −0.38 mrad, MAEE 0.38 mrad, 10 mrad band after 0.26 s); "
+    "its stated σ is 1.07 mrad, so the 95 % half-width (2.1 mrad) exceeds the 2 mrad needed to "
+    "claim convergence since e8fd826/0ffdca8 (h4-online, docs/assumptions.md); goal: converged = True",
+)
+def test_known_miss_converged_verdict_seed1_case0():
+    ((_, _, res),) = _estimate(1, 0)
     assert res.excitation_ok and res.converged
