@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 from dataclasses import replace
 
 import numpy as np
@@ -294,7 +293,7 @@ def test_estimate_never_exceeds_observed_range(rig_trace):
 def test_still_load_is_a_verdict_not_an_error(tmp_path, capsys):
     """Motion inside the gap with a quantised load encoder (θ_l constant): exit 0,
     ``excitation_ok = false`` with the reason in the JSON."""
-    from drivelash.cli import main
+    from cli_runner import run_in_process
 
     tr = simulate_independent(RIG, duration=6.0, T_s=T_S, amplitude=0.02)
     assert np.ptp(tr["theta_l"]) == 0.0  # the load encoder never moves
@@ -309,16 +308,7 @@ def test_still_load_is_a_verdict_not_an_error(tmp_path, capsys):
         encoding="utf-8",
     )
     out = tmp_path / "o.json"
-    old = sys.argv
-    sys.argv = ["drivelash", "estimate", str(data), "--config", str(cfg), "--json", str(out)]
-    try:
-        main()
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    finally:
-        sys.argv = old
-    capsys.readouterr()
+    code, _, _ = run_in_process(["estimate", str(data), "--config", str(cfg), "--json", str(out)], capsys)
     assert code == 0
     s = json.loads(out.read_text())
     assert s["excitation_ok"] is False and s["converged"] is False

@@ -158,6 +158,16 @@ def _as_column(a: Any) -> np.ndarray | None:
     return arr.astype(np.float64)
 
 
+def _sniff_sep(header: str) -> str:
+    """The column separator of a CSV header line: ``,``, else ``;`` or tab, else whitespace."""
+    if "," in header:
+        return ","
+    for cand in (";", "\t"):
+        if cand in header:
+            return cand
+    return r"\s+" if " " in header.strip() else ","
+
+
 def _header_tokens(header: str, sep: str) -> list[str]:
     """Column names of a CSV header line; quoted names (``"t","theta_m"``, as pyarrow and
     Excel write them) are unquoted."""
@@ -226,15 +236,7 @@ def _read_csv(p: Path) -> RawTable:
     if not body_nonblank:
         raise DataError("file is empty (no header and no data rows)", path=str(p))
     header = body_nonblank[0]
-    sep = ","
-    if "," not in header:
-        for cand in (";", "\t"):
-            if cand in header:
-                sep = cand
-                break
-        else:
-            if " " in header.strip():
-                sep = r"\s+"
+    sep = _sniff_sep(header)
     tokens = _header_tokens(header, sep)
     n_fields = len(tokens)
     dup = next((h for i, h in enumerate(tokens) if h in tokens[:i]), None)
@@ -497,15 +499,7 @@ def _csv_layout(p: Path) -> _CsvLayout:
             raise DataError("file is empty (no header and no data rows)", path=str(p))
         fh.seek(max(offset, size - 65536))
         tail = fh.read().decode("utf-8", "replace")
-    sep = ","
-    if "," not in header:
-        for cand in (";", "\t"):
-            if cand in header:
-                sep = cand
-                break
-        else:
-            if " " in header.strip():
-                sep = r"\s+"
+    sep = _sniff_sep(header)
     tokens = _header_tokens(header, sep)
     dup = next((h for i, h in enumerate(tokens) if h in tokens[:i]), None)
     if dup is not None:

@@ -94,6 +94,17 @@ MAY_STAND_STILL = ("theta_l", "omega_l")
 SATURATION_MIN_RUN = 5
 
 
+#: SI units of the columns of a prismatic (linear) axis (positions in m, forces in N).
+PRISMATIC_UNITS: dict[str, str] = {
+    "t": "s",
+    "theta_m": "m",
+    "omega_m": "m/s",
+    "torque_m": "N",
+    "theta_l": "m",
+    "omega_l": "m/s",
+}
+
+
 def _one_rev(cm: ColumnMap) -> float | None:
     """One revolution in the column's file units (the default wrap modulus)."""
     return {"rad": 2 * math.pi, "deg": 360.0, "rev": 1.0, "counts": cm.counts_per_rev}.get(cm.unit)
@@ -593,14 +604,7 @@ def trace_from_table(
         }
     )
     if prismatic:
-        meta["units"] = {
-            "t": "s",
-            "theta_m": "m",
-            "omega_m": "m/s",
-            "torque_m": "N",
-            "theta_l": "m",
-            "omega_l": "m/s",
-        }
+        meta["units"] = dict(PRISMATIC_UNITS)
     if table.scalars:
         meta["scalars"] = {k: float(v) for k, v in table.scalars.items()}
     if cmap is not None:

@@ -253,14 +253,9 @@ class TraceStream:
             }
         )
         if prismatic:
-            meta["units"] = {
-                "t": "s",
-                "theta_m": "m",
-                "omega_m": "m/s",
-                "torque_m": "N",
-                "theta_l": "m",
-                "omega_l": "m/s",
-            }
+            from drivelash.io.load import PRISMATIC_UNITS
+
+            meta["units"] = dict(PRISMATIC_UNITS)
         if self._src.scalars:
             meta["scalars"] = {k: float(v) for k, v in self._src.scalars.items()}
         if cmap is not None:
