@@ -19,6 +19,21 @@ from drivelash.commands import FORCE_HELP, print_warnings
 OUT_HELP = "Write a JSON summary here."
 
 
+def _write_identify_outputs(outputs: Any, *pairs: tuple[Path | None, Any]) -> None:
+    """Write the computed outputs of ``identify`` together (one staged set): each pair is
+    (target or None, content); a ``dict`` content is JSON, a ``str`` is text, ``None`` skips."""
+    from drivelash.io.outputs import write_json
+
+    with outputs:
+        for target, content in pairs:
+            if target is None or content is None:
+                continue
+            if isinstance(content, dict):
+                write_json(outputs.staging(target), content)
+            else:
+                outputs.staging(target).write_text(content, encoding="utf-8")
+
+
 def run_identify(
     trace_path: Path,
     config_path: Path,
@@ -63,7 +78,7 @@ def run_identify(
     from drivelash.estimation.identify import cross_test, identify
     from drivelash.io import load_config, load_trace
     from drivelash.io.config import drivetrain_fragment
-    from drivelash.io.outputs import HTML_EXTENSIONS, JSON_EXTENSIONS, TOML_EXTENSIONS, Outputs, write_json
+    from drivelash.io.outputs import HTML_EXTENSIONS, JSON_EXTENSIONS, TOML_EXTENSIONS, Outputs
 
     outputs = Outputs("identify", inputs=[trace_path, config_path, cross], force=force)
     out_t = outputs.file(out, option="--out", kinds=TOML_EXTENSIONS)
@@ -131,13 +146,7 @@ def run_identify(
 
         html = render_identify_report(trace, result, cfg, cross=ct, cross_trace=vtrace, observer=obs)
 
-    with outputs:  # all computed: write the outputs together
-        if out_t is not None:
-            outputs.staging(out_t).write_text(fragment, encoding="utf-8")
-        if json_t is not None:
-            write_json(outputs.staging(json_t), summary)
-        if html is not None and report_t is not None:
-            outputs.staging(report_t).write_text(html, encoding="utf-8")
+    _write_identify_outputs(outputs, (out_t, fragment), (json_t, summary), (report_t, html))
     if not quiet:
         console = Console(stderr=out is None)
         table = Table(title=f"IDIM-LS ({result.side} side, {result.axis} axis)")
@@ -181,7 +190,7 @@ def run_identify_two_mass(
     from drivelash.errors import DataError
     from drivelash.estimation.identify_two_mass import identify_from_config
     from drivelash.io import load_config, load_trace
-    from drivelash.io.outputs import HTML_EXTENSIONS, JSON_EXTENSIONS, TOML_EXTENSIONS, Outputs, write_json
+    from drivelash.io.outputs import HTML_EXTENSIONS, JSON_EXTENSIONS, TOML_EXTENSIONS, Outputs
 
     outputs = Outputs("identify", inputs=[trace_path, config_path], force=force)
     out_t = outputs.file(out, option="--out", kinds=TOML_EXTENSIONS)
@@ -218,13 +227,7 @@ def run_identify_two_mass(
         from drivelash.report.identify_figures import render_two_mass_report
 
         html = render_two_mass_report(trace, result, cfg)
-    with outputs:  # all computed: write the outputs together
-        if out_t is not None:
-            outputs.staging(out_t).write_text(text, encoding="utf-8")
-        if json_t is not None:
-            write_json(outputs.staging(json_t), summary)
-        if html is not None and report_t is not None:
-            outputs.staging(report_t).write_text(html, encoding="utf-8")
+    _write_identify_outputs(outputs, (out_t, text), (json_t, summary), (report_t, html))
     if not quiet:
         console = Console(stderr=out is None)
         table = Table(title="two-mass identification (95 % intervals)")
