@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import typer
 
 from drivelash.commands import FORCE_HELP, print_warnings
@@ -247,6 +248,105 @@ def run_identify_two_mass(
     return summary
 
 
+#: Working arrays of the streamed observer per chunk row (velocity, acceleration, their
+#: context copies, torque, d̂, mask, the output rows): 16 float64 [bytes per row].
+OBSERVE_BYTES_PER_CHUNK_ROW = 16 * 8
+
+
+def _observe_columns(names: list[str], report: bool) -> list[str]:
+    """Columns ``observe`` reads: torque, the velocity (else the position), and for the
+    report's overview the positions and velocities too."""
+    need = ["torque_m", "omega_m" if "omega_m" in names else "theta_m"]
+    if report:
+        need += [c for c in ("theta_m", "theta_l", "omega_m", "omega_l") if c in names]
+    return list(dict.fromkeys(c for c in need if c in names))
+
+
+def observe_recording(
+    stream: Any,
+    *,
+    J: float,
+    beta: float | None,
+    est: Any,
+    opts: Any,
+    out_path: Path | None = None,
+    report: bool = False,
+    spill_dir: Path | None = None,
+    source: str = "",
+) -> tuple[Any, Any]:
+    """The disturbance observer over a :class:`~drivelash.io.stream.TraceStream`, in bounded
+    memory (:func:`drivelash.estimation.identify.observe_stream`).
+
+    ``out_path``: write t, velocity, disturbance there (a staging path), chunk by chunk.
+    ``report``: also return the recording's columns thinned as the report draws them.
+
+    Returns
+    -------
+    (DisturbanceEstimate, Trace or None)
+        The estimate keeps every k-th sample (k = samples // the report's point budget) when
+        ``report``, else no series; the thinned recording for the report.
+    """
+    from drivelash.estimation.identify import observe_stream
+    from drivelash.io import Trace
+    from drivelash.io.formats import TraceWriter
+    from drivelash.io.spill import Spill
+
+    n = stream.n_samples
+    keep = None
+    if report:
+        from drivelash.report import _MAX_POINTS
+
+        keep = max(1, n // _MAX_POINTS)
+    cols = _observe_columns(stream.names, report)
+    kept: dict[str, list[np.ndarray]] = {}
+    out_rows = Spill(n, 3, spill_dir) if out_path is not None else None
+    row = [0]
+
+    def chunks() -> Any:
+        kept.clear()
+        kept.update({c: [] for c in ["t", *cols]})
+        for ch in stream.chunks():
+            if keep is not None:
+                s = (-ch.row0) % keep
+                for c in kept:
+                    kept[c].append(ch[c][s::keep].copy())
+            yield ch
+
+    def sink(t: np.ndarray, v: np.ndarray, d: np.ndarray) -> None:
+        assert out_rows is not None
+        out_rows.write(row[0], np.column_stack([t, v, d]))
+        row[0] += len(t)
+
+    try:
+        res = observe_stream(
+            chunks,
+            n,
+            stream.T_s,
+            list(stream.names),
+            J=J,
+            beta=beta or 0.0,
+            k1=est.k1 if est else None,
+            k2=est.k2 if est else None,
+            cutoff_hz=opts.cutoff_hz,
+            filter_order=opts.filter_order,
+            keep=keep,
+            sink=sink if out_rows is not None else None,
+            spill_dir=spill_dir,
+            back_rows=stream.chunk_rows,
+        )
+        if out_rows is not None and out_path is not None:
+            names = ["t", "velocity", "disturbance"]
+            with TraceWriter(out_path, names, n, {"source": source, "observer": res.as_dict()}) as w:
+                for a in range(0, n, stream.chunk_rows):
+                    block = out_rows.read(a, a + stream.chunk_rows)
+                    w.write({c: np.ascontiguousarray(block[:, j]) for j, c in enumerate(names)})
+    finally:
+        if out_rows is not None:
+            out_rows.close()
+    thin = Trace({c: np.concatenate(v) for c, v in kept.items()}, meta=stream.meta) if report else None
+    return res, thin
+
+
 def run_observe(
     trace_path: Path,
     config_path: Path,
@@ -259,11 +359,20 @@ def run_observe(
     quiet: bool = False,
     force: bool = False,
 ) -> dict[str, Any]:
-    """Body of ``drivelash observe`` (returns the JSON summary)."""
+    """Body of ``drivelash observe`` (returns the JSON summary).
+
+    The recording is read in chunks (:class:`~drivelash.io.stream.TraceStream`,
+    ``DRIVELASH_CHUNK_ROWS``) and the observer runs in bounded memory
+    (:func:`observe_recording`); the outputs equal those of
+    :func:`~drivelash.estimation.identify.observe_disturbance` on the whole recording bit for bit.
+    """
+    from drivelash.commands.estimate import ENV_CHUNK_ROWS, chunk_rows_from_env
     from drivelash.errors import ConfigError
-    from drivelash.estimation.identify import observe_disturbance
-    from drivelash.io import Trace, load_config, load_trace, write_trace
+    from drivelash.io import load_config
+    from drivelash.io.budget import check_budget
     from drivelash.io.outputs import HTML_EXTENSIONS, JSON_EXTENSIONS, TRACE_EXTENSIONS, Outputs, write_json
+    from drivelash.io.spill import spill_directory
+    from drivelash.io.stream import TraceStream
 
     outputs = Outputs("observe", inputs=[trace_path, config_path, drivetrain], force=force)
     out_t = outputs.file(out, option="--out", kinds=TRACE_EXTENSIONS)
@@ -280,47 +389,47 @@ def run_observe(
             " (run `drivelash identify … --out FRAGMENT.toml` and pass --drivetrain FRAGMENT.toml)"
         )
     opts = cfg.identification_or_default()
-    trace = load_trace(trace_path, cfg, required=["torque_m"], resample=resample or None)
-    print_warnings(trace.meta)
-    est = cfg.estimator
-    res = observe_disturbance(
-        trace,
-        J=dt_sec.J_m,
-        beta=dt_sec.beta_m,
-        k1=est.k1 if est else None,
-        k2=est.k2 if est else None,
-        cutoff_hz=opts.cutoff_hz,
-        filter_order=opts.filter_order,
-    )
-    summary: dict[str, Any] = {"trace": str(trace_path), **res.as_dict()}
-    if dt_sec.T_Cm:
-        summary["coulomb_friction"] = dt_sec.T_Cm
-    html = None
-    if report is not None:
-        import numpy as np
-
-        from drivelash.report import render_observe_report
-
-        t_c = dt_sec.T_Cm or 0.0
-        expected = (lambda v: t_c * np.sign(v)) if t_c > 0 else None
-        html = render_observe_report(
-            trace, res, cfg, expected=expected, expected_label="T_Cm sign q̇ ([drivetrain])"
+    rows = chunk_rows_from_env()
+    with (
+        outputs,
+        TraceStream(
+            trace_path, cfg, required=["torque_m"], resample=resample or None, chunk_rows=rows
+        ) as stream,
+    ):
+        check_budget(
+            stream.peak_bytes() + OBSERVE_BYTES_PER_CHUNK_ROW * min(rows, stream.n_samples),
+            what=f"{trace_path}: observing {stream.n_samples} samples in chunks",
+            option=f"lower {ENV_CHUNK_ROWS}",
         )
-    with outputs:  # all computed: write the outputs together
-        if out_t is not None:
-            write_trace(
-                Trace(
-                    {"t": res.t, "velocity": res.velocity, "disturbance": res.disturbance},
-                    {"source": str(trace_path), "observer": res.as_dict()},
-                ),
-                outputs.staging(out_t),
+        print_warnings(stream.meta)
+        res, thin = observe_recording(
+            stream,
+            J=dt_sec.J_m,
+            beta=dt_sec.beta_m,
+            est=cfg.estimator,
+            opts=opts,
+            out_path=outputs.staging(out_t) if out_t is not None else None,
+            report=report_t is not None,
+            spill_dir=spill_directory(out_t, json_t, report_t),
+            source=str(trace_path),
+        )
+        summary: dict[str, Any] = {"trace": str(trace_path), **res.as_dict()}
+        if dt_sec.T_Cm:
+            summary["coulomb_friction"] = dt_sec.T_Cm
+        if report_t is not None and thin is not None:
+            from drivelash.report import render_observe_report
+
+            t_c = dt_sec.T_Cm or 0.0
+            expected = (lambda v: t_c * np.sign(v)) if t_c > 0 else None
+            html = render_observe_report(
+                thin, res, cfg, expected=expected, expected_label="T_Cm sign q̇ ([drivetrain])"
             )
+            outputs.staging(report_t).write_text(html, encoding="utf-8")
         if json_t is not None:
             write_json(outputs.staging(json_t), summary)
-        if html is not None and report_t is not None:
-            outputs.staging(report_t).write_text(html, encoding="utf-8")
+        axis = stream.meta.get("axis")
     if not quiet:
-        unit = "N" if trace.meta.get("axis") == "prismatic" else "N·m"
+        unit = "N" if axis == "prismatic" else "N·m"
         typer.echo(f"mean disturbance, forward constant-velocity stretches:  {res.mean_positive:.4g} {unit}")
         typer.echo(f"mean disturbance, backward constant-velocity stretches: {res.mean_negative:.4g} {unit}")
     return summary

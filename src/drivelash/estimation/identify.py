@@ -27,6 +27,7 @@ T̂_l = J_l ω̇_l + β_l ω_l + T_Cl sign ω_l + offset is solved the same way.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -461,6 +462,8 @@ class DisturbanceEstimate:
         Inertia and viscous coefficient the observer assumed.
     k1, k2 : float
         STSMO gains used.
+    n_constant_velocity : int, optional
+        Samples on constant-velocity stretches (when the mask above is thinned or empty).
     """
 
     t: np.ndarray = field(repr=False)
@@ -473,6 +476,7 @@ class DisturbanceEstimate:
     beta: float
     k1: float
     k2: float
+    n_constant_velocity: int | None = None
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready summary."""
@@ -483,7 +487,9 @@ class DisturbanceEstimate:
             "k2": self.k2,
             "mean_disturbance_forward": self.mean_positive,
             "mean_disturbance_backward": self.mean_negative,
-            "constant_velocity_samples": int(self.constant_velocity.sum()),
+            "constant_velocity_samples": int(
+                self.constant_velocity.sum() if self.n_constant_velocity is None else self.n_constant_velocity
+            ),
         }
 
 
@@ -509,6 +515,83 @@ def constant_velocity_mask(
     return m
 
 
+#: Masked values summed per block by :class:`BlockSum` (numpy's pairwise sum inside a block).
+SUM_BLOCK = 1 << 16
+
+
+class BlockSum:
+    """A sum that does not depend on how the values arrive in chunks.
+
+    Values are cut into consecutive blocks of :data:`SUM_BLOCK` (in arrival order, across
+    chunks); each block is summed by ``np.sum`` and the block sums by ``math.fsum``. The
+    whole-array and the streamed observer use this one sum, so their means are equal bit
+    for bit whatever the chunk size.
+    """
+
+    def __init__(self) -> None:
+        self._buf: list[np.ndarray] = []
+        self._have = 0
+        self._sums: list[float] = []
+        self.count = 0
+
+    def add(self, x: np.ndarray) -> None:
+        """Append values (any length)."""
+        if x.size == 0:
+            return
+        self._buf.append(np.asarray(x, dtype=np.float64))
+        self._have += x.size
+        self.count += x.size
+        if self._have >= SUM_BLOCK:
+            a = np.concatenate(self._buf)
+            k = (a.size // SUM_BLOCK) * SUM_BLOCK
+            self._sums.extend(float(np.sum(b)) for b in a[:k].reshape(-1, SUM_BLOCK))
+            rest = a[k:].copy()
+            self._buf, self._have = ([rest] if rest.size else []), rest.size
+
+    def mean(self) -> float:
+        """Mean of every value added (NaN when none)."""
+        import math
+
+        if self.count == 0:
+            return float("nan")
+        tail = [float(np.sum(np.concatenate(self._buf)))] if self._buf else []
+        return math.fsum(self._sums + tail) / self.count
+
+
+class _ArraySpill:
+    """In-memory stand-in of :class:`drivelash.io.spill.Spill` (a whole Trace in memory)."""
+
+    def __init__(self, n: int, k: int, directory: Any = None) -> None:
+        self.n, self.k = n, k
+        self.a = np.empty((n, k))
+
+    def write(self, start: int, rows: np.ndarray) -> None:
+        rows = np.asarray(rows)
+        self.a[start : start + len(rows)] = rows.reshape(len(rows), self.k)
+
+    def read(self, start: int, stop: int) -> np.ndarray:
+        return self.a[max(0, start) : min(self.n, stop)].copy()
+
+    def close(self) -> None:
+        self.a = np.empty((0, self.k))
+
+    def __enter__(self) -> _ArraySpill:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+def trace_chunks(trace: Trace, rows: int = 1 << 18) -> Any:
+    """A re-iterable chunk source over an in-memory Trace (for the streamed pipelines)."""
+
+    def chunks() -> Iterator[Trace]:
+        for a in range(0, len(trace), rows):
+            yield trace.slice(a, a + rows)
+
+    return chunks
+
+
 def observe_disturbance(
     trace: Trace,
     *,
@@ -525,6 +608,8 @@ def observe_disturbance(
     Model J q̈ = u − β q̇ − d with u = ``torque_m``; the STSMO
     (:class:`drivelash.estimation.stsmo.SuperTwistingObserver`) tracks the velocity
     with known acceleration (u − β q̇)/J and its perturbation φ̂ gives d̂ = −J φ̂.
+    The same computation as the streamed ``drivelash observe``
+    (:func:`observe_stream`), on the whole trace in memory.
 
     Parameters
     ----------
@@ -538,41 +623,154 @@ def observe_disturbance(
     k1, k2 : float, optional
         STSMO gains; default from ρ = :data:`DEFAULT_RHO` by Levant's rule.
     """
+    return observe_stream(
+        trace_chunks(trace),
+        len(trace),
+        trace.T_s,
+        list(trace.names),
+        J=J,
+        beta=beta,
+        k1=k1,
+        k2=k2,
+        cutoff_hz=cutoff_hz,
+        filter_order=filter_order,
+        side=side,
+        keep=1,
+        spill=_ArraySpill,
+    )
+
+
+def observe_stream(
+    chunks: Callable[[], Iterable[Any]],
+    n: int,
+    T_s: float,
+    names: list[str],
+    *,
+    J: float,
+    beta: float = 0.0,
+    k1: float | None = None,
+    k2: float | None = None,
+    cutoff_hz: float = 100.0,
+    filter_order: int = 4,
+    side: str = "m",
+    keep: int | None = 1,
+    sink: Callable[[np.ndarray, np.ndarray, np.ndarray], None] | None = None,
+    spill: Callable[..., Any] | None = None,
+    spill_dir: Any = None,
+    back_rows: int = 1 << 18,
+) -> DisturbanceEstimate:
+    """The disturbance observer over a recording given in chunks, in bounded memory.
+
+    Steps (each bit-identical to the whole-array computation of :func:`observe_disturbance`):
+    the velocity column, or the position through the zero-phase low-pass
+    (:func:`~drivelash.estimation.zero_phase.filtfilt_to_spill`) and a central difference;
+    a pass over the velocity for max |q̇| and max |q̈| (the constant-velocity thresholds);
+    then the STSMO over the chunks with its state carried, the constant-velocity means
+    accumulated by :class:`BlockSum`.
+
+    Parameters
+    ----------
+    chunks : callable
+        ``chunks()`` yields the recording in order (Trace-like chunks with ``t``,
+        ``torque_m`` and ``omega_<side>`` or ``theta_<side>``); called twice.
+    n, T_s : int, float
+        Samples and sample period [s].
+    names : list of str
+        Columns the chunks carry.
+    keep : int or None
+        Keep every ``keep``-th sample of t, velocity, d̂ and the mask in the result
+        (1: all; None: none, the arrays are empty).
+    sink : callable, optional
+        ``sink(t, velocity, disturbance)`` receives every chunk of the output, in order.
+    spill : callable, optional
+        Factory of the velocity store ``(n, 1)`` (default :class:`drivelash.io.spill.Spill`
+        in ``spill_dir``).
+    Other parameters as :func:`observe_disturbance`.
+    """
     from drivelash.estimation.stsmo import STSMOParams, SuperTwistingObserver
+    from drivelash.estimation.zero_phase import ZeroPhase, filtfilt_to_spill, gradient_rows
+    from drivelash.io.spill import Spill
 
     if not J > 0:
         raise ParameterError("observer", "J", f"must be > 0, got {J!r}")
-    T_s = trace.T_s
-    if f"omega_{side}" in trace:
-        v = trace[f"omega_{side}"]
-    elif f"theta_{side}" in trace:
-        v = central_difference(
-            lowpass_zero_phase(trace[f"theta_{side}"], cutoff_hz, 1 / T_s, filter_order), T_s
-        )
+    if f"omega_{side}" in names:
+        vcol, filt = f"omega_{side}", None
+    elif f"theta_{side}" in names:
+        vcol, filt = f"theta_{side}", ZeroPhase.butter(filter_order, cutoff_hz, 1 / T_s)
     else:
         raise DataError("the observer needs a velocity or position column", column=f"omega_{side}")
-    if "torque_m" not in trace:
+    if "torque_m" not in names:
         raise DataError("the observer needs the motor torque/force", column="torque_m")
     if k1 is None or k2 is None:
         p = STSMOParams.from_rho(DEFAULT_RHO, T_s)
         k1 = p.k1 if k1 is None else k1
         k2 = p.k2 if k2 is None else k2
     params = STSMOParams(k1=k1, k2=k2, T_s=T_s)
-    obs = SuperTwistingObserver(params, omega0=float(v[0]))
-    _, phi = obs.run(v, (trace["torque_m"] - beta * v) / J)
-    d = -J * phi
-    skip = min(len(trace) // 10, int(round(0.5 / T_s)))
-    cv = constant_velocity_mask(v, T_s, skip=skip)
-    pos, neg = cv & (v > 0), cv & (v < 0)
+    store = (spill or Spill)(n, 1, spill_dir)
+    with store:
+        if filt is not None:
+            filtfilt_to_spill(filt, (ch[vcol] for ch in chunks()), n, store, back_rows=back_rows)
+            order = 2  # position → velocity → acceleration
+        else:
+            row = 0
+            for ch in chunks():
+                store.write(row, ch[vcol])
+                row += len(ch[vcol])
+            order = 1
+
+        def read(a: int, b: int) -> np.ndarray:
+            return store.read(a, b)[:, 0]
+
+        def vel_acc(a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
+            g = gradient_rows(read, n, a, b, T_s, order)
+            if filt is None:
+                return g[0], g[1]
+            return g[1], g[2]
+
+        # thresholds of the constant-velocity mask need max |q̇| and max |q̈| of the whole run
+        vmax = amax = 0.0
+        v0 = None
+        for a in range(0, n, back_rows):
+            v, acc = vel_acc(a, min(n, a + back_rows))
+            if v0 is None:
+                v0 = float(v[0])
+            vmax, amax = max(vmax, float(np.abs(v).max())), max(amax, float(np.abs(acc).max()))
+        obs = SuperTwistingObserver(params, omega0=float(v0))
+        skip = min(n // 10, int(round(0.5 / T_s)))
+        pos_sum, neg_sum = BlockSum(), BlockSum()
+        kept: dict[str, list[np.ndarray]] = {"t": [], "v": [], "d": [], "cv": []}
+        row = 0
+        for ch in chunks():
+            m = len(ch["t"])
+            v, acc = vel_acc(row, row + m)
+            _, phi = obs.run(v, (ch["torque_m"] - beta * v) / J)
+            d = -J * phi
+            cv = (np.abs(acc) < 0.05 * amax) & (np.abs(v) > 0.2 * vmax)
+            if row < skip:
+                cv[: skip - row] = False
+            pos_sum.add(d[cv & (v > 0)])
+            neg_sum.add(d[cv & (v < 0)])
+            if sink is not None:
+                sink(ch["t"], v, d)
+            if keep is not None:
+                s = (-row) % keep
+                for key, arr in (("t", ch["t"]), ("v", v), ("d", d), ("cv", cv)):
+                    kept[key].append(arr[s::keep].copy() if keep > 1 else arr)
+            row += m
+
+    def cat(key: str, dtype: Any = np.float64) -> np.ndarray:
+        return np.concatenate(kept[key]) if kept[key] else np.empty(0, dtype)
+
     return DisturbanceEstimate(
-        t=trace["t"],
-        velocity=v,
-        disturbance=d,
-        constant_velocity=cv,
-        mean_positive=float(d[pos].mean()) if pos.any() else float("nan"),
-        mean_negative=float(d[neg].mean()) if neg.any() else float("nan"),
+        t=cat("t"),
+        velocity=cat("v"),
+        disturbance=cat("d"),
+        constant_velocity=cat("cv", bool),
+        mean_positive=pos_sum.mean(),
+        mean_negative=neg_sum.mean(),
         J=float(J),
         beta=float(beta),
         k1=float(k1),
         k2=float(k2),
+        n_constant_velocity=pos_sum.count + neg_sum.count,  # |q̇| > 0.2 max|q̇|: never 0
     )

@@ -920,10 +920,128 @@ def _write_hdf5(trace: Trace, path: Path, userblock: int = 0) -> None:
         f.attrs[_META_KEY] = meta_json(trace.meta)
         f.attrs[_ORDER_KEY] = json.dumps(trace.names)
     if userblock:
-        header = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created by: drivelash HDF5 schema 1.00 ."
-        block = header.ljust(116, b" ") + b"\x00" * 8 + b"\x00\x02" + b"IM"
-        with path.open("r+b") as fh:
-            fh.write(block.ljust(userblock, b"\x00")[:userblock])
+        _mat73_header(path, userblock)
+
+
+def _mat73_header(path: Path, userblock: int = 512) -> None:
+    """Write the MATLAB v7.3 header into the HDF5 user block of ``path``."""
+    header = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created by: drivelash HDF5 schema 1.00 ."
+    block = header.ljust(116, b" ") + b"\x00" * 8 + b"\x00\x02" + b"IM"
+    with path.open("r+b") as fh:
+        fh.write(block.ljust(userblock, b"\x00")[:userblock])
+
+
+class TraceWriter:
+    """Write a recording of known length chunk by chunk (bounded memory).
+
+    The files equal :func:`write_trace`'s: CSV byte for byte (meta line, header, ``%.17g``);
+    Parquet with the same schema and metadata (row groups per chunk); HDF5 / MAT v7.3 with
+    datasets of the final length written by slices. MAT v5 has no appendable layout: its
+    columns are gathered and written at :meth:`close`, within the memory budget.
+
+    Parameters
+    ----------
+    path : str or Path
+        The output (a staging path of :class:`drivelash.io.outputs.Outputs`).
+    names : list of str
+        Columns, in order.
+    n : int
+        Total rows.
+    meta : dict
+        The recording's ``meta``.
+    fmt : str, optional
+        As for :func:`write_trace`.
+    """
+
+    def __init__(self, path: str | Path, names: list[str], n: int, meta: dict[str, Any],
+                 fmt: str | None = None) -> None:  # fmt: skip
+        from drivelash.io.outputs import final_suffix
+
+        self.path, self.names, self.n, self.meta = Path(path), list(names), int(n), dict(meta)
+        fmt = fmt or EXTENSIONS.get(final_suffix(self.path))
+        if fmt not in FORMATS:
+            raise DataError(
+                f"unsupported extension '{final_suffix(self.path)}' (use .csv, .parquet, .h5, .mat)",
+                path=str(self.path),
+            )
+        self.fmt = fmt
+        self.row = 0
+        self._fh: Any = None
+        self._buf: dict[str, list[np.ndarray]] = {c: [] for c in self.names}
+        if fmt == "csv":
+            self._fh = self.path.open("w", encoding="utf-8", newline="\n")
+            self._fh.write("# drivelash.meta " + meta_json(self.meta) + "\n" + ",".join(self.names) + "\n")
+        elif fmt == "parquet":
+            import pyarrow as pa
+            import pyarrow.parquet as pq
+
+            schema = pa.schema([(c, pa.float64()) for c in self.names])
+            schema = schema.with_metadata({b"drivelash.meta": meta_json(self.meta).encode()})
+            self._schema = schema
+            self._fh = pq.ParquetWriter(self.path, schema)
+        elif fmt in ("hdf5", "mat73"):
+            import h5py
+
+            ub = 512 if fmt == "mat73" else 0
+            f = h5py.File(self.path, "w", userblock_size=ub) if ub else h5py.File(self.path, "w")
+            self._fh = f
+            for c in self.names:
+                if ub:
+                    ds = f.create_dataset(c, shape=(1, self.n), dtype="f8")
+                    ds.attrs["MATLAB_class"] = np.bytes_("double")
+                else:
+                    f.create_dataset(c, shape=(self.n,), dtype="f8")
+            f.attrs[_META_KEY] = meta_json(self.meta)
+            f.attrs[_ORDER_KEY] = json.dumps(self.names)
+        else:
+            from drivelash.io.budget import check_budget
+
+            check_budget(
+                16.0 * self.n * len(self.names),
+                what=f"{self.path}: a MAT v5 file of {self.n} rows is written whole",
+                option="write .parquet, .csv or .h5 instead",
+            )
+
+    def write(self, cols: dict[str, np.ndarray]) -> None:
+        """Append rows (every column, equal lengths)."""
+        m = len(cols[self.names[0]])
+        if self.fmt == "csv":
+            np.savetxt(self._fh, np.column_stack([cols[c] for c in self.names]), delimiter=",", fmt="%.17g")
+        elif self.fmt == "parquet":
+            import pyarrow as pa
+
+            self._fh.write_table(pa.table({c: cols[c] for c in self.names}, schema=self._schema))
+        elif self.fmt == "hdf5":
+            for c in self.names:
+                self._fh[c][self.row : self.row + m] = cols[c]
+        elif self.fmt == "mat73":
+            for c in self.names:
+                self._fh[c][0, self.row : self.row + m] = cols[c]
+        else:
+            for c in self.names:
+                self._buf[c].append(np.array(cols[c], dtype=np.float64))
+        self.row += m
+
+    def close(self) -> None:
+        """Finish the file (idempotent); every row must have been written."""
+        if self.fmt == "mat":
+            if self._buf is not None:
+                cols = {c: np.concatenate(v) if v else np.empty(0) for c, v in self._buf.items()}
+                self._buf = None  # type: ignore[assignment]
+                _write(Trace(cols, self.meta), self.path, "mat")
+            return
+        if self._fh is None:
+            return
+        fh, self._fh = self._fh, None
+        fh.close()
+        if self.fmt == "mat73":
+            _mat73_header(self.path)
+
+    def __enter__(self) -> TraceWriter:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
 
 
 def write_trace(trace: Trace, path: str | Path, fmt: str | None = None) -> Path:
