@@ -139,3 +139,78 @@ def test_round_trip_through_cnc_traces(te_seed0, tmp_path):
     meta = json.loads((tmp_path / "M2" / "model.json").read_text())
     assert meta["campaign"]["source"] == "imported" and meta["simulator"] is None
     assert meta["campaign"]["holdout_loads"] == [1000.0, 2500.0]
+
+
+def test_score_of_validation_passes_through_cnc_traces(te_seed0, tmp_path):
+    """Issue 12 round trip, second half: ``te validate``'s own constant-velocity passes (seed-0
+    model), recorded as CNC traces (1 kHz, ms, mm, counts, A), brought back with ``te import``
+    and scored by ``te score``: the same improvement per pass as ``te validate`` reports, within
+    1 percentage point.
+
+    A subset of the protocol's passes (both directions, every campaign velocity, 0 / 2500 /
+    4500 N: a training, a held-out and a beyond-range load) keeps the CSVs small; the passes
+    are re-simulated exactly as :func:`~drivelash.te.protocol.validate.validate` runs them and
+    the reference is te validate's own ``improvement_sections.csv``.
+    """
+    from types import SimpleNamespace
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from drivelash.te.protocol.bench import ValidationConfig, compensator_for, drive_for_model, table_for
+    from drivelash.te.protocol.campaign import load_campaign
+    from drivelash.te.protocol.passes import pass_range, pass_trajectory, run_pass
+    from drivelash.te.runtime import Compensator, load_model
+    from te_axis.cnc import axis_toml, write_pass
+
+    model = load_model(te_seed0["M"])
+    drive = drive_for_model(model)
+    vr = drive.context.valid_range
+    cfg = ValidationConfig().resolved(float(drive.bench.travel), (vr.x_min, vr.x_max))
+    sim = drive.simulator()
+    table = table_for(model, sim.bench, cfg, meta={"axis": "rack-and-pinion table", "seed": drive.seed},
+                      torque_max=drive.torque_max)  # fmt: skip
+    params = compensator_for(sim.bench, table, cfg.compensator)
+    # te validate's per-pass improvement (mean over the pass's sections), from its own output
+    ref: dict[tuple[int, float, float], list[float]] = {}
+    with (te_seed0["V"] / "improvement_sections.csv").open() as fh:
+        for r in csv.DictReader(fh):
+            key = (int(r["direction"]), float(r["velocity"]), float(r["load"]))
+            ref.setdefault(key, []).append(float(r["improvement"]))
+    camp = load_campaign(te_seed0["C"])
+    lo, hi = pass_range(sim, cfg)
+    dirs = {"unc": tmp_path / "unc", "comp": tmp_path / "comp"}
+    runs: dict[str, list] = {"unc": [], "comp": []}
+    for tag, d in dirs.items():
+        d.mkdir()
+        for r in camp.select(kind="geometric"):  # te import wants a no-load run per direction
+            runs[tag].append((write_pass(r.trace(), d / f"{r.name}.csv").name, r))
+    keys = []
+    for direction in (1, -1):
+        for v in drive.velocities:
+            _, x_d, v_d = pass_trajectory(sim, lo, hi, v, direction)
+            for F in (0.0, 2500.0, 4500.0):
+                keys.append((direction, float(v), F))
+                name = f"pass_v{v * 1e3:g}_F{F:g}_{'pos' if direction > 0 else 'neg'}.csv"
+                entry = SimpleNamespace(kind="load", direction=direction, load=F, velocity=float(v))
+                for tag, comp in (("unc", None), ("comp", Compensator(table, params, direction))):
+                    res = run_pass(sim, x_d, v_d, F, comp, decimate=8)  # 1 kHz, as a CNC trace
+                    write_pass(res, dirs[tag] / name)
+                    runs[tag].append((name, entry))
+    for tag, d in dirs.items():
+        (d / "axis.toml").write_text(axis_toml(camp, runs[tag]))
+        _cli("te", "import", str(d / "axis.toml"), "-o", f"C_{tag}", cwd=tmp_path)
+    _cli("te", "score", "--uncompensated", "C_unc", "--compensated", "C_comp", "-o", "S", cwd=tmp_path)
+    got = {
+        (p["direction"], p["velocity"], p["load"]): p["improvement"]
+        for p in json.loads((tmp_path / "S" / "score.json").read_text())["passes"]["pass_averages"]
+    }
+    diffs = []
+    for k in keys:
+        want = float(np.mean(ref[k]))
+        have = next(
+            g for kk, g in got.items() if kk[0] == k[0] and abs(kk[1] - k[1]) < 1e-9 and kk[2] == k[2]
+        )
+        diffs.append(100 * (have - want))
+        print(f"d={k[0]:+d} v={k[1] * 1e3:g} mm/s F={k[2]:g} N: te validate {want:.4f}, te score {have:.4f}"
+              f" ({diffs[-1]:+.2f} pp)")  # fmt: skip
+    print(f"te score - te validate: max |diff| {max(map(abs, diffs)):.2f} pp over {len(keys)} passes")
+    assert max(map(abs, diffs)) <= 1.0
