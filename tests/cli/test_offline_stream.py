@@ -154,3 +154,167 @@ def test_trace_writer_in_chunks_equals_write_trace(ext, tmp_path):
     }
     if ext == "csv":
         assert a.read_bytes() == b.read_bytes()
+
+
+def _reference_rigid(trace: Trace) -> tuple[np.ndarray, int]:
+    """IDIM-LS as written before streaming: filtfilt, np.gradient twice, border cut,
+    scipy.signal.decimate of every column, numpy lstsq (SVD)."""
+    T_s = trace.T_s
+    b, a = signal.butter(4, 100.0 / (0.5 / T_s))
+    dq = np.gradient(signal.filtfilt(b, a, trace["theta_m"]), T_s, edge_order=1)
+    ddq = np.gradient(dq, T_s, edge_order=1)
+    sl = slice(50, len(trace) - 50)
+    W = np.column_stack([ddq[sl], dq[sl], np.sign(dq[sl]), np.ones(len(trace))[sl]])
+    Wd = np.column_stack([signal.decimate(W[:, j], 10, ftype="iir", zero_phase=True) for j in range(4)])
+    yd = signal.decimate(trace["torque_m"][sl], 10, ftype="iir", zero_phase=True)
+    theta, *_ = np.linalg.lstsq(Wd, yd, rcond=None)
+    return theta, yd.size
+
+
+def _identify(path: Path, tmp: Path, capsys) -> dict:
+    js = tmp / "id.json"
+    code, _, err = run_in_process(
+        [
+            "identify",
+            str(path),
+            "--config",
+            str(CONFIG),
+            "--json",
+            str(js),
+            "-o",
+            str(tmp / "d.toml"),
+            "--force",
+        ],
+        capsys,
+    )
+    assert code == 0, err
+    return json.loads(js.read_text())
+
+
+@pytest.mark.parametrize("ext", EXTS)
+def test_identify_rigid_streamed_equals_whole_signal(recording, ext, tmp_path, monkeypatch, capsys):
+    """The streamed command equals the in-memory API bit for bit (one pipeline, fixed QR
+    blocks), and the pre-streaming least squares (SVD) to 1e-10 relative."""
+    from drivelash.estimation.identify import identify
+
+    monkeypatch.setenv("DRIVELASH_CHUNK_ROWS", str(CHUNK))
+    s = _identify(recording[ext], tmp_path, capsys)
+    cfg = load_config(CONFIG)
+    whole = load_trace(recording[ext], cfg)
+    api = identify(whole, cfg.identification_or_default(), cfg.drivetrain)
+    for k, v in api.as_dict().items():
+        assert s[k] == v, k
+    theta_ref, rows = _reference_rigid(whole)
+    assert s["n_rows"] == rows > 3000
+    got = np.array([s["parameters"][n]["value"] for n in ("M", "F_v", "F_c", "offset")])
+    np.testing.assert_allclose(got, theta_ref, rtol=1e-10, atol=0)
+    # the observer that follows the identification streams too (same figures as the API)
+    obs = observe_disturbance(whole, J=api["M"], beta=api["F_v"]).as_dict()
+    assert {k: s["observer"][k] for k in obs} == obs
+
+
+def test_identify_negative_control_one_sample(recording, tmp_path, monkeypatch, capsys):
+    """One torque sample moved by 1e-6 N·m changes the identified values."""
+    monkeypatch.setenv("DRIVELASH_CHUNK_ROWS", str(CHUNK))
+    tr = load_trace(recording["parquet"])
+    u = tr["torque_m"].copy()
+    u[20000] += 1e-6
+    bad = write_trace(tr.with_columns({"torque_m": u}), tmp_path / "bad.parquet")
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    a = _identify(recording["parquet"], tmp_path / "a", capsys)
+    b = _identify(bad, tmp_path / "b", capsys)
+    assert a["parameters"]["F_c"]["value"] != b["parameters"]["F_c"]["value"]
+
+
+# ------------------------------------------------------------------ two-mass: the fitted stretch
+STILL = 16000  # samples of standstill before the motion (2 s at 8 kHz)
+
+
+@pytest.fixture(scope="module")
+def two_mass_recording(tmp_path_factory) -> dict[str, Path]:
+    """6 s of bench-0B (48 000 samples, with velocities), and the same after 2 s of standstill."""
+    from drivelash.sim.scenarios import get_scenario
+
+    tr = get_scenario("bench-0B").simulate(duration=6.0, seed=2)
+    tr = tr.select(["t", "theta_m", "omega_m", "theta_l", "omega_l", "torque_m"])
+    still = {c: np.full(STILL, tr[c][0]) for c in tr.names}
+    still["omega_m"][:] = still["omega_l"][:] = still["torque_m"][:] = 0.0
+    cols = {c: np.concatenate([still[c], tr[c]]) for c in tr.names}
+    cols["t"] = np.arange(STILL + len(tr)) * tr.T_s
+    d = tmp_path_factory.mktemp("two_mass")
+    out = {ext: write_trace(tr, d / f"move.{ext}") for ext in EXTS}
+    out.update({f"still.{ext}": write_trace(Trace(cols, tr.meta), d / f"still.{ext}") for ext in EXTS})
+    return out
+
+
+def _two_mass_config(tmp: Path, max_samples: int) -> Path:
+    p = tmp / "tm.toml"
+    p.write_text(
+        CONFIG.read_text() + f'\n[identification]\nmodel = "two-mass"\nmax_samples = {max_samples}\n',
+        encoding="utf-8",
+    )
+    return p
+
+
+def _identify_two_mass(path: Path, cfg: Path, tmp: Path, capsys) -> dict:
+    js = tmp / "tm.json"
+    code, _, err = run_in_process(["identify", str(path), "--config", str(cfg), "--json", str(js)], capsys)
+    assert code == 0, err
+    return json.loads(js.read_text())
+
+
+def _values(d: dict) -> dict:
+    return {k: (p["value"], p["ci95"]) for k, p in d["parameters"].items()}
+
+
+@pytest.mark.parametrize("ext", EXTS)
+def test_two_mass_within_budget_unchanged(two_mass_recording, ext, tmp_path, monkeypatch, capsys):
+    """A recording within [identification] max_samples is fitted whole: the streamed read
+    gives the numbers of the whole-file path (load_trace + identify_from_config) exactly."""
+    from drivelash.estimation.identify_two_mass import identify_from_config
+
+    monkeypatch.setenv("DRIVELASH_CHUNK_ROWS", str(CHUNK))
+    cfg = _two_mass_config(tmp_path, 480_000)
+    s = _identify_two_mass(two_mass_recording[ext], cfg, tmp_path, capsys)
+    conf = load_config(cfg)
+    ref = identify_from_config(load_trace(two_mass_recording[ext], conf), conf, model="two-mass").as_dict()
+    assert "window" not in s
+    for k, v in ref.items():
+        assert s[k] == v, k
+
+
+@pytest.mark.parametrize("ext", EXTS)
+def test_two_mass_longer_than_budget_fits_the_moving_stretch(
+    two_mass_recording, ext, tmp_path, monkeypatch, capsys
+):
+    """Over the budget, the stretch with the most reversals is fitted (not the standstill at
+    the start, where the fit has nothing to fit: the negative control), the JSON says which,
+    and the numbers equal a whole-trace fit of exactly that stretch."""
+    from drivelash.estimation.identify_two_mass import identify_from_config, reversal_blocks
+
+    monkeypatch.setenv("DRIVELASH_CHUNK_ROWS", str(CHUNK))
+    L = 24000
+    cfg = _two_mass_config(tmp_path, L)
+    path = two_mass_recording[f"still.{ext}"]
+    s = _identify_two_mass(path, cfg, tmp_path, capsys)
+    w = s["window"]
+    whole = load_trace(path, load_config(cfg))
+    first = w["first_sample"]
+    assert w["samples"] == L and w["recording_samples"] == len(whole) == STILL + 48000
+    assert first >= STILL - 80  # the window lies in the motion
+    # independent count: reversals of the 10 ms block velocity in every candidate stretch
+    B = 80
+    rev, moving = reversal_blocks(whole["theta_m"][::B], B, whole.T_s)
+    ks = range(0, (len(whole) - L) // B + 1)
+    counts = [int(((rev >= k) & (rev < k + L // B)).sum()) for k in ks]
+    moved = [int(moving[k : k + L // B].sum()) for k in ks]
+    assert w["reversals"] == max(counts) == counts[first // B] >= 2
+    best = [k for k in ks if counts[k] == max(counts)]
+    assert first // B == max(best, key=lambda k: (moved[k], -k))
+    conf = load_config(cfg)
+    ref = identify_from_config(whole.slice(first, first + L), conf, model="two-mass").as_dict()
+    assert _values(s) == _values(ref)
+    # negative control: the first samples (what a naive cut would fit) stand still
+    with pytest.raises(Exception, match="moving windows"):
+        identify_from_config(whole.slice(0, STILL), conf, model="two-mass")

@@ -35,6 +35,86 @@ def _write_identify_outputs(outputs: Any, *pairs: tuple[Path | None, Any]) -> No
                 outputs.staging(target).write_text(content, encoding="utf-8")
 
 
+#: Decimated rows of the rigid identification kept for ``--report`` (about; every k-th row).
+IDENTIFY_PLOT_ROWS = 20000
+
+
+def _open_stream(path: Path, cfg: Any, need: list[str], resample: bool, what: str) -> Any:
+    """A :class:`~drivelash.io.stream.TraceStream` of ``path`` (chunks of ``DRIVELASH_CHUNK_ROWS``),
+    its memory plan checked against the budget."""
+    from drivelash.commands.estimate import ENV_CHUNK_ROWS, chunk_rows_from_env
+    from drivelash.io.budget import check_budget
+    from drivelash.io.stream import TraceStream
+
+    rows = chunk_rows_from_env()
+    stream = TraceStream(path, cfg, required=need, resample=resample or None, chunk_rows=rows)
+    try:
+        check_budget(
+            stream.peak_bytes() + OBSERVE_BYTES_PER_CHUNK_ROW * min(rows, stream.n_samples),
+            what=f"{path}: {what} {stream.n_samples} samples in chunks",
+            option=f"lower {ENV_CHUNK_ROWS}",
+        )
+    except BaseException:
+        stream.close()
+        raise
+    return stream
+
+
+def _thinned_chunks(
+    stream: Any, keep: int | None, cols: list[str]
+) -> tuple[Any, dict[str, list[np.ndarray]]]:
+    """``chunks()`` over ``stream`` that also keeps every ``keep``-th row of ``cols`` (the
+    report's thinned recording; the last pass's rows)."""
+    kept: dict[str, list[np.ndarray]] = {}
+
+    def chunks() -> Any:
+        kept.clear()
+        if keep is not None:
+            kept.update({c: [] for c in ["t", *cols]})
+        for ch in stream.chunks():
+            if keep is not None:
+                s = (-ch.row0) % keep
+                for c in kept:
+                    kept[c].append(ch[c][s::keep].copy())
+            yield ch
+
+    return chunks, kept
+
+
+def _report_keep(n: int) -> int:
+    from drivelash.report import _MAX_POINTS
+
+    return max(1, n // _MAX_POINTS)
+
+
+def _identify_motor_stream(stream: Any, opts: Any, spill_dir: Path, report: bool) -> tuple[Any, Any]:
+    """Rigid IDIM-LS over the stream (:func:`~drivelash.estimation.identify.identify_rigid_stream`);
+    with ``report`` also the recording thinned as the report draws it."""
+    from drivelash.estimation.identify import identify_rigid_stream
+    from drivelash.io import Trace
+
+    keep = _report_keep(stream.n_samples) if report else None
+    chunks, kept = _thinned_chunks(stream, keep, _observe_columns(stream.names, True))
+    result = identify_rigid_stream(
+        chunks,
+        stream.n_samples,
+        stream.T_s,
+        list(stream.names),
+        cutoff_hz=opts.cutoff_hz,
+        filter_order=opts.filter_order,
+        decimate=opts.decimate,
+        n_border=opts.n_border,
+        keep=None,
+        plot_rows=IDENTIFY_PLOT_ROWS if report else None,
+        spill_dir=spill_dir,
+        back_rows=stream.chunk_rows,
+        axis=str(stream.meta.get("axis", "rotary")),
+        source=str(stream.path),
+    )
+    thin = Trace({c: np.concatenate(v) for c, v in kept.items()}, meta=stream.meta) if report else None
+    return result, thin
+
+
 def run_identify(
     trace_path: Path,
     config_path: Path,
@@ -77,9 +157,11 @@ def run_identify(
     from rich.table import Table
 
     from drivelash.estimation.identify import cross_test, identify
+    from drivelash.estimation.identify_two_mass import rigid_result
     from drivelash.io import load_config, load_trace
     from drivelash.io.config import drivetrain_fragment
     from drivelash.io.outputs import HTML_EXTENSIONS, JSON_EXTENSIONS, TOML_EXTENSIONS, Outputs
+    from drivelash.io.spill import spill_directory
 
     outputs = Outputs("identify", inputs=[trace_path, config_path, cross], force=force)
     out_t = outputs.file(out, option="--out", kinds=TOML_EXTENSIONS)
@@ -88,10 +170,27 @@ def run_identify(
     cfg = load_config(config_path)
     opts = cfg.identification_or_default()
     need = ["theta_m", "torque_m"] + (["theta_l"] if opts.side == "load" else [])
-    trace = load_trace(trace_path, cfg, required=need, resample=resample or None)
-    print_warnings(trace.meta)
-    result = identify(trace, opts, cfg.drivetrain)
-    from drivelash.estimation.identify_two_mass import rigid_result
+    if opts.side == "motor":  # streamed, bounded memory (the load side needs the whole trace)
+        with _open_stream(trace_path, cfg, need, resample, "identifying") as stream:
+            print_warnings(stream.meta)
+            spill_dir = spill_directory(out_t, json_t, report_t)
+            result, trace = _identify_motor_stream(stream, opts, spill_dir, report_t is not None)
+            obs = None
+            if result["M"] > 0 and not rigid_result(result).warnings:
+                obs, _ = observe_recording(
+                    stream,
+                    J=result["M"],
+                    beta=result["F_v"],
+                    est=cfg.estimator,
+                    opts=opts,
+                    spill_dir=spill_dir,
+                    report=report_t is not None,
+                )
+    else:
+        trace = load_trace(trace_path, cfg, required=need, resample=resample or None)
+        print_warnings(trace.meta)
+        result = identify(trace, opts, cfg.drivetrain)
+        obs = None
 
     flags = rigid_result(result).warnings
     if flags:  # physically impossible (e.g. a torque gain with the wrong sign): refuse, write nothing
@@ -122,20 +221,7 @@ def run_identify(
     fragment = drivetrain_fragment(merged, comments)
     summary["drivetrain"] = merged
 
-    obs = None
-    if result.side == "motor" and result["M"] > 0:
-        from drivelash.estimation.identify import observe_disturbance
-
-        est = cfg.estimator
-        obs = observe_disturbance(
-            trace,
-            J=result["M"],
-            beta=result["F_v"],
-            k1=est.k1 if est else None,
-            k2=est.k2 if est else None,
-            cutoff_hz=opts.cutoff_hz,
-            filter_order=opts.filter_order,
-        )
+    if obs is not None:
         summary["observer"] = {
             **obs.as_dict(),
             "identified_forward": result["F_c"] + result["offset"],
@@ -189,8 +275,8 @@ def run_identify_two_mass(
     from rich.table import Table
 
     from drivelash.errors import DataError
-    from drivelash.estimation.identify_two_mass import identify_from_config
-    from drivelash.io import load_config, load_trace
+    from drivelash.estimation.identify_two_mass import identify_from_config, select_window
+    from drivelash.io import load_config
     from drivelash.io.outputs import HTML_EXTENSIONS, JSON_EXTENSIONS, TOML_EXTENSIONS, Outputs
 
     outputs = Outputs("identify", inputs=[trace_path, config_path], force=force)
@@ -198,11 +284,13 @@ def run_identify_two_mass(
     json_t = outputs.file(json_out, option="--json", kinds=JSON_EXTENSIONS)
     report_t = outputs.file(report, option="--report", kinds=HTML_EXTENSIONS)
     cfg = load_config(config_path)
-    trace = load_trace(
-        trace_path, cfg, required=["theta_m", "theta_l", "torque_m"], resample=resample or None
-    )
-    if not quiet:
-        print_warnings(trace.meta)
+    opts = cfg.identification_or_default()
+    need = ["theta_m", "theta_l", "torque_m"]
+    with _open_stream(trace_path, cfg, need, resample, "identifying") as stream:
+        if not quiet:
+            print_warnings(stream.meta)
+        # a recording longer than the fit's budget: its most informative stretch (stated)
+        trace, window = select_window(stream, opts.max_samples)
     result = identify_from_config(trace, cfg, model="two-mass")
     # an impossible drive (negative inertia or friction) never goes into a config file; the
     # diagnosis alone (--json / --report without --out) is still written, with the verdict
@@ -212,6 +300,8 @@ def run_identify_two_mass(
             f"implausible identification, nothing written: {result.warnings[0]}", path=str(trace_path)
         )
     summary: dict[str, Any] = {"trace": str(trace_path), "config": str(config_path), **result.as_dict()}
+    if window is not None:
+        summary["window"] = window
     # [drivetrain]: the configuration's values where the recording determined nothing
     merged = result.to_config()
     if cfg.drivetrain is not None:
@@ -222,6 +312,12 @@ def run_identify_two_mass(
         f"drivelash identify {trace_path} --model two-mass (config {config_path})",
         f"method: {result.method}",
     ]
+    if window is not None:
+        head.append(
+            f"fitted on samples {window['first_sample']}–{window['first_sample'] + window['samples'] - 1}"
+            f" of {window['recording_samples']} (t = {window['start_s']:.6g}–{window['stop_s']:.6g} s):"
+            f" {window['rule']}"
+        )
     text = result.to_toml(comments=head, tables=merged)
     html = None
     if report_t is not None:
@@ -292,25 +388,10 @@ def observe_recording(
     from drivelash.io.spill import Spill
 
     n = stream.n_samples
-    keep = None
-    if report:
-        from drivelash.report import _MAX_POINTS
-
-        keep = max(1, n // _MAX_POINTS)
-    cols = _observe_columns(stream.names, report)
-    kept: dict[str, list[np.ndarray]] = {}
+    keep = _report_keep(n) if report else None
+    chunks, kept = _thinned_chunks(stream, keep, _observe_columns(stream.names, report))
     out_rows = Spill(n, 3, spill_dir) if out_path is not None else None
     row = [0]
-
-    def chunks() -> Any:
-        kept.clear()
-        kept.update({c: [] for c in ["t", *cols]})
-        for ch in stream.chunks():
-            if keep is not None:
-                s = (-ch.row0) % keep
-                for c in kept:
-                    kept[c].append(ch[c][s::keep].copy())
-            yield ch
 
     def sink(t: np.ndarray, v: np.ndarray, d: np.ndarray) -> None:
         assert out_rows is not None
@@ -366,13 +447,10 @@ def run_observe(
     (:func:`observe_recording`); the outputs equal those of
     :func:`~drivelash.estimation.identify.observe_disturbance` on the whole recording bit for bit.
     """
-    from drivelash.commands.estimate import ENV_CHUNK_ROWS, chunk_rows_from_env
     from drivelash.errors import ConfigError
     from drivelash.io import load_config
-    from drivelash.io.budget import check_budget
     from drivelash.io.outputs import HTML_EXTENSIONS, JSON_EXTENSIONS, TRACE_EXTENSIONS, Outputs, write_json
     from drivelash.io.spill import spill_directory
-    from drivelash.io.stream import TraceStream
 
     outputs = Outputs("observe", inputs=[trace_path, config_path, drivetrain], force=force)
     out_t = outputs.file(out, option="--out", kinds=TRACE_EXTENSIONS)
@@ -389,18 +467,7 @@ def run_observe(
             " (run `drivelash identify … --out FRAGMENT.toml` and pass --drivetrain FRAGMENT.toml)"
         )
     opts = cfg.identification_or_default()
-    rows = chunk_rows_from_env()
-    with (
-        outputs,
-        TraceStream(
-            trace_path, cfg, required=["torque_m"], resample=resample or None, chunk_rows=rows
-        ) as stream,
-    ):
-        check_budget(
-            stream.peak_bytes() + OBSERVE_BYTES_PER_CHUNK_ROW * min(rows, stream.n_samples),
-            what=f"{trace_path}: observing {stream.n_samples} samples in chunks",
-            option=f"lower {ENV_CHUNK_ROWS}",
-        )
+    with outputs, _open_stream(trace_path, cfg, ["torque_m"], resample, "observing") as stream:
         print_warnings(stream.meta)
         res, thin = observe_recording(
             stream,

@@ -164,17 +164,25 @@ def lowpass_zero_phase(x: np.ndarray, cutoff_hz: float, fs: float, order: int = 
     return signal.filtfilt(b, a, x)
 
 
-def _decimate(x: np.ndarray, q: int) -> np.ndarray:
-    if q == 1:
-        return x.copy()
-    # stages of at most 10 as scipy recommends for IIR decimation
-    out = x
+def decimation_stages(q: int) -> list[int]:
+    """Factors of the staged decimation by ``q``: stages of at most 10, as scipy recommends
+    for IIR decimation (a prime factor above 10 is one stage)."""
+    stages = []
     while q > 1:
         step = next(s for s in range(min(q, 10), 0, -1) if q % s == 0)
         if step == 1:  # prime factor > 10: one stage (scipy warns only for q > 13)
             step = q
-        out = signal.decimate(out, step, ftype="iir", zero_phase=True)
+        stages.append(step)
         q //= step
+    return stages
+
+
+def _decimate(x: np.ndarray, q: int) -> np.ndarray:
+    if q == 1:
+        return x.copy()
+    out = x
+    for step in decimation_stages(q):
+        out = signal.decimate(out, step, ftype="iir", zero_phase=True)
     return out
 
 
@@ -187,23 +195,82 @@ def _prepare(
     return qf, dq, ddq
 
 
+#: Rows of the decimated system per QR step of :class:`ChunkedLSQ` (fixed, so the result does
+#: not depend on how the rows arrive).
+LSQ_BLOCK = 8192
+
+
+class ChunkedLSQ:
+    """Ordinary least squares y ≈ Wθ by a chunked (TSQR) QR of ``[W | y]``, bounded memory.
+
+    Rows are buffered and factorised in fixed blocks of :data:`LSQ_BLOCK` rows,
+    ``R ← qr([R; block])``; from the final triangular factor, θ̂ = R_w⁻¹ r_wy, the residual
+    norm ‖y − Wθ̂‖ = |r_yy|, cov(θ̂) = σ̂² (R_wᵀR_w)⁻¹ and cond(W) = cond(R_w). QR is
+    backward stable: no squaring of the condition number as with normal equations.
+    """
+
+    def __init__(self, names: tuple[str, ...]) -> None:
+        self.names = names
+        self.p = len(names)
+        self.R: np.ndarray | None = None
+        self.rows = 0
+        self.col_sq = np.zeros(self.p)
+        self.yy = 0.0
+        self._buf: list[np.ndarray] = []
+        self._have = 0
+
+    def add(self, W: np.ndarray, y: np.ndarray) -> None:
+        """Append rows of W (``(m, p)``) and y (``(m,)``)."""
+        if len(y) == 0:
+            return
+        self._buf.append(np.column_stack([W, y]))
+        self._have += len(y)
+        if self._have >= LSQ_BLOCK:
+            a = np.concatenate(self._buf)
+            k = (len(a) // LSQ_BLOCK) * LSQ_BLOCK
+            for j in range(0, k, LSQ_BLOCK):
+                self._factor(a[j : j + LSQ_BLOCK])
+            rest = a[k:]
+            self._buf, self._have = ([rest] if len(rest) else []), len(rest)
+
+    def _factor(self, A: np.ndarray) -> None:
+        self.rows += len(A)
+        self.col_sq += np.einsum("ij,ij->j", A[:, : self.p], A[:, : self.p])
+        self.yy += float(A[:, self.p] @ A[:, self.p])
+        stacked = A if self.R is None else np.vstack([self.R, A])
+        self.R = np.linalg.qr(stacked, mode="r")
+
+    def solve(self) -> tuple[np.ndarray, np.ndarray, float, float, float, np.ndarray]:
+        """(θ̂, std, relative error, σ̂, cond(W), cov)."""
+        from scipy.linalg import solve_triangular
+
+        if self._buf:
+            self._factor(np.concatenate(self._buf))
+            self._buf, self._have = [], 0
+        r, p = self.rows, self.p
+        if r <= p:
+            raise DataError(f"only {r} rows after decimation for {p} parameters; record longer")
+        if np.any(self.col_sq == 0):
+            bad = self.names[int(np.flatnonzero(self.col_sq == 0)[0])]
+            raise DataError(f"the recording does not excite parameter {bad} (its regressor column is zero)")
+        assert self.R is not None
+        Rw, rwy, ryy = self.R[:p, :p], self.R[:p, p], float(self.R[p, p])
+        theta = solve_triangular(Rw, rwy)
+        e2 = ryy * ryy
+        sigma2 = e2 / (r - p)
+        Rinv = solve_triangular(Rw, np.eye(p))
+        cov = sigma2 * (Rinv @ Rinv.T)
+        std = np.sqrt(np.clip(np.diag(cov), 0, None))
+        rel = float(np.sqrt(e2) / np.sqrt(self.yy)) if self.yy > 0 else float("inf")
+        return theta, std, rel, float(np.sqrt(sigma2)), float(np.linalg.cond(Rw)), cov
+
+
 def _solve(
     W: np.ndarray, y: np.ndarray, names: tuple[str, ...]
 ) -> tuple[np.ndarray, np.ndarray, float, float, float, np.ndarray]:
-    r, p = W.shape
-    if r <= p:
-        raise DataError(f"only {r} rows after decimation for {p} parameters; record longer")
-    col_norm = np.linalg.norm(W, axis=0)
-    if np.any(col_norm == 0):
-        bad = names[int(np.flatnonzero(col_norm == 0)[0])]
-        raise DataError(f"the recording does not excite parameter {bad} (its regressor column is zero)")
-    theta, *_ = np.linalg.lstsq(W, y, rcond=None)
-    e = y - W @ theta
-    sigma2 = float(e @ e) / (r - p)
-    cov = sigma2 * np.linalg.inv(W.T @ W)
-    std = np.sqrt(np.clip(np.diag(cov), 0, None))
-    rel = float(np.linalg.norm(e) / np.linalg.norm(y)) if np.linalg.norm(y) > 0 else float("inf")
-    return theta, std, rel, float(np.sqrt(sigma2)), float(np.linalg.cond(W)), cov
+    lsq = ChunkedLSQ(names)
+    lsq.add(W, y)
+    return lsq.solve()
 
 
 def _regressors(
@@ -235,6 +302,9 @@ def identify_rigid(
 ) -> IdentificationResult:
     """IDIM-LS of τ = M q̈ + F_v q̇ + F_c sign(q̇) + offset on the motor side.
 
+    The same computation as the streamed ``drivelash identify`` (:func:`identify_rigid_stream`),
+    on the whole trace in memory.
+
     Parameters
     ----------
     trace : Trace
@@ -253,9 +323,167 @@ def identify_rigid(
     IdentificationResult
         Names ``M``, ``F_v``, ``F_c``, ``offset``.
     """
-    t, dq, ddq, y, _ = _regressors(trace, "motor", cutoff_hz, filter_order, n_border)
-    W = np.column_stack([ddq, dq, np.sign(dq), np.ones_like(dq)])
-    return _finish(trace, t, W, y, RIGID_NAMES, "motor", cutoff_hz, filter_order, decimate, n_border)
+    return identify_rigid_stream(
+        trace_chunks(trace),
+        len(trace),
+        trace.T_s,
+        list(trace.names),
+        cutoff_hz=cutoff_hz,
+        filter_order=filter_order,
+        decimate=decimate,
+        n_border=n_border,
+        keep=1,
+        spill=_ArraySpill,
+        axis=str(trace.meta.get("axis", "rotary")),
+        source=trace.meta.get("source"),
+    )
+
+
+def _downsampled(spill: Any, m: int, step: int, rows: int) -> Iterator[np.ndarray]:
+    """Rows 0, step, 2·step, … of ``spill`` (``m`` rows), read ``rows`` at a time."""
+    rows = max(step, (rows // step) * step)
+    for a in range(0, m, rows):
+        yield spill.read(a, min(m, a + rows))[::step]
+
+
+def identify_rigid_stream(
+    chunks: Callable[[], Iterable[Any]],
+    n: int,
+    T_s: float,
+    names: list[str],
+    *,
+    cutoff_hz: float = 100.0,
+    filter_order: int = 4,
+    decimate: int = 10,
+    n_border: int = 50,
+    keep: int | None = 1,
+    plot_rows: int | None = None,
+    spill: Callable[..., Any] | None = None,
+    spill_dir: Any = None,
+    back_rows: int = 1 << 18,
+    axis: str = "rotary",
+    source: Any = None,
+) -> IdentificationResult:
+    """IDIM-LS on a recording given in chunks, in bounded memory (``drivelash identify``).
+
+    Each step equals the whole-array computation bit for bit: the zero-phase low-pass of the
+    position (:func:`~drivelash.estimation.zero_phase.filtfilt_to_spill`), the central
+    differences (:func:`~drivelash.estimation.zero_phase.gradient_rows`), the border cut,
+    the staged parallel decimation of W and τ (the anti-alias filter of
+    ``scipy.signal.decimate``, streamed the same way); the decimated rows go into
+    :class:`ChunkedLSQ`. Spill files hold the filtered position (8 B per sample) and the
+    undecimated system (40 B per sample), one at a time on disk, never in memory.
+
+    Parameters
+    ----------
+    chunks : callable
+        ``chunks()`` yields the recording in order (chunks with ``t``, ``theta_m``,
+        ``torque_m``); called twice.
+    n, T_s, names
+        Samples, sample period [s], the chunks' columns.
+    keep : int or None
+        Keep every ``keep``-th decimated row for the result's ``t``/``y``/``y_hat``/``q_dot``/
+        ``q_ddot`` (1: all); ``plot_rows`` instead chooses it so that about that many remain.
+    Other parameters as :func:`identify_rigid`.
+    """
+    from drivelash.estimation.zero_phase import ZeroPhase, filtfilt_to_spill, gradient_rows
+    from drivelash.io.spill import Spill
+
+    for need in ("theta_m", "torque_m"):
+        if need not in names:
+            raise DataError("identification needs this column", column=need, path=source)
+    if decimate < 1:
+        raise ParameterError("identification", "decimate", "must be >= 1")
+    if 2 * n_border + 20 >= n:
+        raise DataError(f"recording too short ({n} samples) for n_border = {n_border}", column="t")
+    make = spill or Spill
+    filt = ZeroPhase.butter(filter_order, cutoff_hz, 1.0 / T_s)
+    lo, hi = n_border, n - n_border
+    m = hi - lo
+    stages = decimation_stages(decimate)
+    m_dec = m
+    for step in stages:
+        m_dec = -(-m_dec // step)
+    if plot_rows is not None:
+        keep = max(1, m_dec // plot_rows)
+    t_dec: list[np.ndarray] = []
+    with make(n, 1, spill_dir) as qf:
+        filtfilt_to_spill(filt, (ch["theta_m"] for ch in chunks()), n, qf, back_rows=back_rows)
+
+        def read(a: int, b: int) -> np.ndarray:
+            return qf.read(a, b)[:, 0]
+
+        def system() -> Iterator[np.ndarray]:
+            """Rows [q̈, q̇, sign q̇, 1, τ] of the border-cut recording, in order."""
+            row = 0
+            for ch in chunks():
+                r0, r1 = row, row + len(ch["t"])
+                row = r1
+                a, b = max(r0, lo), min(r1, hi)
+                if a >= b:
+                    continue
+                _, dq, ddq = gradient_rows(read, n, a, b, T_s, 2)
+                s = (-(a - lo)) % decimate
+                t_dec.append(ch["t"][a - r0 : b - r0][s::decimate].copy())
+                tau = ch["torque_m"][a - r0 : b - r0]
+                yield np.column_stack([ddq, dq, np.sign(dq), np.ones_like(dq), tau])
+
+        source_rows: Iterable[np.ndarray] = system()
+        held: Any = None
+        size = m
+        try:
+            for step in stages:
+                nxt = make(size, 5, spill_dir)
+                try:
+                    filtfilt_to_spill(ZeroPhase.decimator(step), source_rows, size, nxt, back_rows=back_rows)
+                except BaseException:
+                    nxt.close()
+                    raise
+                if held is not None:
+                    held.close()
+                held = nxt
+                source_rows = _downsampled(held, size, step, back_rows)
+                size = -(-size // step)
+            lsq = ChunkedLSQ(RIGID_NAMES)
+            kept: list[np.ndarray] = []
+            row = 0
+            for block in source_rows:
+                lsq.add(block[:, :4], block[:, 4])
+                if keep is not None:
+                    kept.append(block[(-row) % keep :: keep].copy() if keep > 1 else block)
+                row += len(block)
+        finally:
+            if held is not None:
+                held.close()
+    theta, std, rel, sigma, cond, cov = lsq.solve()
+    Wk = np.concatenate(kept) if kept else np.empty((0, 5))
+    td = np.concatenate(t_dec)[: lsq.rows]
+    if keep is not None and keep > 1:
+        td = td[::keep]
+    return IdentificationResult(
+        names=RIGID_NAMES,
+        theta=theta,
+        std=std,
+        relative_error=rel,
+        sigma=sigma,
+        condition=cond,
+        n_rows=int(lsq.rows),
+        options={
+            "cutoff_hz": cutoff_hz,
+            "filter_order": filter_order,
+            "decimate": decimate,
+            "n_border": n_border,
+            "T_s": T_s,
+        },
+        t=td if keep is not None else np.empty(0),
+        y=Wk[:, 4].copy(),
+        y_hat=Wk[:, :4] @ theta,
+        q_dot=Wk[:, 1].copy(),
+        q_ddot=Wk[:, 0].copy(),
+        axis=axis,
+        side="motor",
+        cov=cov,
+    )
 
 
 def _finish(

@@ -1404,3 +1404,111 @@ def _trace_from_frame(df: Any, mapping: Any, need: list[str]) -> Trace:
     if missing:
         raise DataError("missing required column in the DataFrame", column=missing[0])
     return Trace({str(c): df[c].to_numpy(dtype=np.float64) for c in df.columns})
+
+
+# --------------------------------------------------------------------------------------
+# recordings longer than the fit's sample budget
+# --------------------------------------------------------------------------------------
+#: Block over which the window selection averages the motor velocity [s].
+SELECT_BLOCK_S = 0.01
+#: Hysteresis of the reversal count, as a fraction of the largest block velocity [-].
+SELECT_HYSTERESIS = 0.05
+
+
+def reversal_blocks(theta_b: np.ndarray, B: int, T_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Blocks at which the motor reverses, and blocks in which it moves, from its position at
+    every ``B``-th sample.
+
+    The block velocity is (θ[(k+1)B] − θ[kB]) / (B T_s); a block moves when its |velocity|
+    exceeds :data:`SELECT_HYSTERESIS` × the largest; a reversal is a change of sign between
+    consecutive moving blocks (a Schmitt trigger: the blocks in between keep the direction).
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        Index (block) of every reversal, ascending; boolean mask of the moving blocks.
+    """
+    vb = np.diff(theta_b) / (B * T_s)
+    vmax = float(np.abs(vb).max()) if vb.size else 0.0
+    if not vmax > 0:
+        return np.empty(0, dtype=np.int64), np.zeros(vb.size, bool)
+    moving = np.abs(vb) > SELECT_HYSTERESIS * vmax
+    idx = np.flatnonzero(moving)
+    sgn = np.sign(vb[idx])
+    return idx[1:][sgn[1:] != sgn[:-1]], moving
+
+
+def select_window(stream: Any, max_samples: int) -> tuple[Trace, dict[str, Any] | None]:
+    """The recording, or its most informative stretch of ``max_samples`` samples, as a Trace.
+
+    A two-mass fit is a nonlinear least-squares problem whose Jacobian has one row per
+    window (1 ms) and whose cost grows with the recording; what identifies δ, δ1 and K_S are
+    the traversals of the gap, i.e. the motor's reversals. A recording of at most
+    ``max_samples`` samples is returned whole (the chunks concatenated, bit-identical to
+    :func:`drivelash.io.load_trace`); a longer one is scanned once for the motor's position
+    at every :data:`SELECT_BLOCK_S`, and the contiguous stretch of ``max_samples`` samples
+    with the most reversals (:func:`reversal_blocks`) is read in a second pass (among equal
+    counts, the one in motion longest, then the earliest). One
+    contiguous stretch: the integral equations and the position fusion
+    run over consecutive samples (no seams).
+
+    Parameters
+    ----------
+    stream : TraceStream
+        The validated recording (``theta_m``, ``theta_l``, ``torque_m``).
+    max_samples : int
+        ``[identification] max_samples``.
+
+    Returns
+    -------
+    (Trace, dict or None)
+        The data to fit and, when a stretch was chosen, what was chosen (first sample, length,
+        times [s], reversals in it and in the whole recording).
+    """
+    n, T_s = stream.n_samples, stream.T_s
+    if n <= max_samples:
+        parts = {c: [] for c in stream.names}
+        for ch in stream.chunks():
+            for c in parts:
+                parts[c].append(ch[c])
+        return Trace({c: np.concatenate(v) for c, v in parts.items()}, meta=dict(stream.meta)), None
+    B = max(1, int(round(SELECT_BLOCK_S / T_s)))
+    pos: list[np.ndarray] = []
+    for ch in stream.chunks():
+        s = (-ch.row0) % B
+        pos.append(ch["theta_m"][s::B].copy())
+    theta_b = np.concatenate(pos)
+    rev, moving = reversal_blocks(theta_b, B, T_s)
+    L = int(max_samples)
+    nb = L // B  # whole blocks inside a stretch
+    starts = np.arange(0, (n - L) // B + 1)
+    score = np.searchsorted(rev, starts + nb, side="left") - np.searchsorted(rev, starts, side="left")
+    cum = np.concatenate(([0], np.cumsum(moving)))
+    moved = cum[np.minimum(starts + nb, moving.size)] - cum[np.minimum(starts, moving.size)]
+    # most reversals; among those, the most moving blocks; then the earliest
+    best = int(np.argmax(score * (nb + 1) + moved)) if score.size else 0
+    first = best * B
+    cols: dict[str, list[np.ndarray]] = {c: [] for c in stream.names}
+    for ch in stream.chunks():
+        a, b = max(first, ch.row0), min(first + L, ch.row0 + len(ch["t"]))
+        if a >= b:
+            continue
+        for c in cols:
+            cols[c].append(ch[c][a - ch.row0 : b - ch.row0].copy())
+    tr = Trace({c: np.concatenate(v) for c, v in cols.items()}, meta=dict(stream.meta))
+    info = {
+        "first_sample": first,
+        "samples": L,
+        "start_s": float(tr["t"][0]),
+        "stop_s": float(tr["t"][-1]),
+        "recording_samples": n,
+        "reversals": int(score[best]) if score.size else 0,
+        "reversals_in_recording": int(rev.size),
+        "moving_fraction": float(moved[best] / max(nb, 1)) if score.size else 0.0,
+        "rule": (
+            f"the contiguous {L} samples ([identification] max_samples) with the most motor reversals,"
+            " then the most motion"
+            f" ({SELECT_BLOCK_S * 1e3:g} ms block velocity, hysteresis {SELECT_HYSTERESIS:g} × its maximum)"
+        ),
+    }
+    return tr, info

@@ -472,6 +472,10 @@ class IdentificationSection(Table):
     torque_offset : float, optional
         Two-mass model: known offset of the recorded motor torque [N·m], fixed instead of
         fitted (give 0 for an absolute torque on an axis loaded by gravity).
+    max_samples : int
+        Two-mass model: samples fitted at most (default 480 000 = 60 s at 8 kHz). A longer
+        recording is fitted on its contiguous stretch of that length with the most motor
+        reversals (``drivelash identify`` says which).
     """
 
     cutoff_hz: float = Field(default=100.0, gt=0)
@@ -484,6 +488,7 @@ class IdentificationSection(Table):
     equations: Literal["both", "motor"] = "both"
     encoder_delay: bool = False
     torque_offset: float | None = None
+    max_samples: int = Field(default=480_000, ge=1000)
 
 
 # ----------------------------------------------------------------------------- files
