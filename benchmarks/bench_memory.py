@@ -1,4 +1,4 @@
-"""Memory of ``drivelash estimate`` on a long 8 kHz recording (issue 15, acceptance 2).
+"""Memory of ``drivelash estimate``, ``observe`` and ``identify`` on a long 8 kHz recording (issue 15).
 
 Writes a recording of ``--minutes`` at 8 kHz (60 min = 28.8 M samples) as Parquet and as
 CSV in a temporary directory (in chunks: the writer never holds the recording), runs
@@ -18,6 +18,13 @@ number). The prefix spans many chunks (5 min = 2.4 M samples = 10 chunks of 2**1
 The recording: 60 s of the simulated bench test ``bench-0A`` (0.5 Hz position sine, in
 periodic steady state after 10 s), its last 50 s tiled with continued time — the numbers
 are a drive's, the content repeats.
+
+``observe`` and ``identify`` (rigid IDIM-LS, and ``--model two-mass``) are measured the same
+way (``--commands``): baselines ``load_trace`` + ``observe_disturbance`` / ``identify`` /
+``identify_from_config`` (the library calls a notebook user makes), whose figures the streamed
+command must reproduce (observe: the JSON figures bit for bit; identify: the parameters bit for
+bit, since the library call runs the same pipeline on the whole trace; two-mass: within
+``[identification] max_samples`` the same fit, beyond it the command fits a stretch).
 
 Run: ``make bench`` (a 10-minute recording and a 2-minute prefix, to keep ``make bench``
 short) or ``.venv/bin/python benchmarks/bench_memory.py --minutes 60 --prefix-minutes 5``
@@ -145,6 +152,73 @@ def in_memory_cmd(path: Path, json_out: Path) -> list[str]:
     return [sys.executable, "-c", _IN_MEMORY, str(path), str(CONFIG), str(json_out)]
 
 
+def observe_cmd(path: Path, json_out: Path) -> list[str]:
+    return [*estimate_cmd(path, json_out)[:3], "observe", *estimate_cmd(path, json_out)[4:]]
+
+
+def identify_cmd(path: Path, json_out: Path, model: str = "rigid") -> list[str]:
+    toml = json_out.with_suffix(".toml")
+    return [*estimate_cmd(path, json_out)[:3], "identify", *estimate_cmd(path, json_out)[4:],
+            "--model", model, "-o", str(toml)]  # fmt: skip
+
+
+#: In-memory baselines of observe / identify: the whole recording, then the library call; the
+#: figures the command must reproduce go into the JSON.
+_IN_MEMORY_OFFLINE = """
+import sys
+from drivelash.io import load_config, load_trace
+from drivelash.io.outputs import write_json
+cmd, path, cfgp, out = sys.argv[1:5]
+cfg = load_config(cfgp)
+if cmd == "observe":
+    from drivelash.estimation.identify import observe_disturbance
+    tr = load_trace(path, cfg, required=["torque_m"])
+    d = cfg.drivetrain
+    res = observe_disturbance(tr, J=d.J_m, beta=d.beta_m)
+    write_json(out, res.as_dict())
+elif cmd == "identify":
+    from drivelash.estimation.identify import identify
+    tr = load_trace(path, cfg, required=["theta_m", "torque_m"])
+    write_json(out, identify(tr, cfg.identification_or_default(), cfg.drivetrain).as_dict())
+else:
+    from drivelash.estimation.identify_two_mass import identify_from_config
+    tr = load_trace(path, cfg, required=["theta_m", "theta_l", "torque_m"])
+    write_json(out, identify_from_config(tr, cfg, model="two-mass").as_dict())
+"""
+
+#: command name → (streamed command, baseline argument)
+COMMANDS = {
+    "estimate": (estimate_cmd, None),
+    "observe": (observe_cmd, "observe"),
+    "identify": (identify_cmd, "identify"),
+    "identify-two-mass": (lambda p, j: identify_cmd(p, j, "two-mass"), "two-mass"),
+}
+
+
+def baseline_cmd(command: str, path: Path, json_out: Path) -> list[str]:
+    """The named in-memory baseline of ``command`` (see the module docstring)."""
+    if command == "estimate":
+        return in_memory_cmd(path, json_out)
+    arg = COMMANDS[command][1]
+    return [sys.executable, "-c", _IN_MEMORY_OFFLINE, str(arg), str(path), str(CONFIG), str(json_out)]
+
+
+def same_figures(command: str, ref_j: Path, got_j: Path) -> tuple[bool, str]:
+    """Whether the streamed command's JSON reproduces the baseline's figures, and a note."""
+    if command == "estimate":
+        same = ref_j.read_text() == got_j.read_text()
+        got, ref = json.loads(got_j.read_text()), json.loads(ref_j.read_text())
+        return same, f"JSON byte-identical: {same} (δ̂ {got['delta']!r} vs {ref['delta']!r})"
+    ref, got = json.loads(ref_j.read_text()), json.loads(got_j.read_text())
+    if "window" in got:  # longer than [identification] max_samples: the command fits a stretch
+        w = got["window"]
+        rev = f"{w['reversals']} of {w['reversals_in_recording']} reversals"
+        return True, f"the command fitted samples {w['first_sample']}+{w['samples']} ({rev}); not compared"
+    keys = [k for k in ref if k != "generator"]
+    same = all(got.get(k) == ref[k] for k in keys)
+    return same, f"{len(keys)} JSON figures equal the baseline's: {same}"
+
+
 def _row(label: str, m: dict, n: int) -> str:
     return (
         f"{label:34s} peak RSS {m['rss'] / 2**20:7.0f} MiB  wall {m['wall']:7.1f} s  "
@@ -157,37 +231,40 @@ def main() -> None:
     ap.add_argument("--minutes", type=float, default=10.0, help="Length of the long recording [min].")
     ap.add_argument("--prefix-minutes", type=float, default=2.0, help="Prefix, bit-identity [min].")
     ap.add_argument("--formats", default="parquet,csv")
+    ap.add_argument("--commands", default=",".join(COMMANDS), help="Commands to measure.")
     ap.add_argument("--dir", type=Path, default=None, help="Work directory (default: a temporary one).")
     a = ap.parse_args()
     formats = tuple(a.formats.split(","))
+    commands = [c for c in a.commands.split(",") if c]
     failed = False
     with tempfile.TemporaryDirectory(dir=a.dir) as tmp:
         d = Path(tmp)
-        seg, _ = _tile(a.minutes)
-        # the prefix first: baseline and bit-identity
+        seg, _ = _tile(max(a.minutes, a.prefix_minutes))
+        # the prefix first: baseline and identity of the figures
         pq_pre, csv_pre, n_pre = write_recording(d, a.prefix_minutes, seg, formats)
         print(f"prefix: {n_pre} samples ({a.prefix_minutes:g} min at 8 kHz), {len(COLUMNS)} columns")
         for fmt, path in (("parquet", pq_pre), ("csv", csv_pre)):
             if fmt not in formats:
                 continue
-            ref_j, got_j = d / f"prefix-{fmt}-mem.json", d / f"prefix-{fmt}-stream.json"
-            base = measure(in_memory_cmd(path, ref_j))
-            m = measure(estimate_cmd(path, got_j))
-            if base["rc"] != 0 or m["rc"] != 0:
-                print(f"{fmt} prefix: failed: {(base['err'] or m['err']).strip()[-300:]}")
-                failed = True
-                continue
-            print(_row(f"{fmt} prefix, in-memory (baseline)", base, n_pre))
-            print(_row(f"{fmt} prefix, drivelash estimate", m, n_pre)
-                  + f"  {m['rss'] / base['rss']:.2f}× baseline RSS,"
-                  + f" {m['wall'] / base['wall']:.2f}× its wall")  # fmt: skip
-            ref, got = json.loads(ref_j.read_text()), json.loads(got_j.read_text())
-            same = ref_j.read_text() == got_j.read_text()
-            print(f"{fmt} prefix: JSON summary streamed vs in-memory: "
-                  f"{'byte-identical' if same else 'DIFFERENT'}"
-                  f" (δ̂ {got['delta']!r} vs {ref['delta']!r})")  # fmt: skip
-            failed |= not same
+            for cmd in commands:
+                ref_j, got_j = d / f"prefix-{fmt}-{cmd}-mem.json", d / f"prefix-{fmt}-{cmd}-stream.json"
+                base = measure(baseline_cmd(cmd, path, ref_j))
+                m = measure(COMMANDS[cmd][0](path, got_j))
+                if base["rc"] != 0 or m["rc"] != 0:
+                    print(f"{fmt} prefix {cmd}: failed: {(base['err'] or m['err']).strip()[-300:]}")
+                    failed = True
+                    continue
+                print(_row(f"{fmt} prefix, {cmd} in-memory (baseline)", base, n_pre))
+                print(_row(f"{fmt} prefix, drivelash {cmd}", m, n_pre)
+                      + f"  {m['rss'] / base['rss']:.2f}× baseline RSS,"
+                      + f" {m['wall'] / base['wall']:.2f}× its wall")  # fmt: skip
+                same, note = same_figures(cmd, ref_j, got_j)
+                print(f"{fmt} prefix {cmd}: streamed vs in-memory: {note}")
+                failed |= not same
             path.unlink()
+        if a.minutes <= 0:
+            print(f"load average: {os.getloadavg()}")
+            sys.exit(1 if failed else 0)
         # the long recording
         t0 = time.perf_counter()
         pq_path, csv_path, n = write_recording(d, a.minutes, seg, formats)
@@ -196,16 +273,17 @@ def main() -> None:
         for fmt, path in (("parquet", pq_path), ("csv", csv_path)):
             if fmt not in formats:
                 continue
-            m = measure(estimate_cmd(path, d / f"{fmt}.json"))
-            if m["rc"] != 0:
-                print(f"{fmt}: estimate failed (exit {m['rc']}): {m['err'].strip().splitlines()[-1:]}")
-                failed = True
-                continue
-            size = path.stat().st_size
-            met = "met" if m["rss"] < GOAL_BYTES else "NOT met"
-            print(_row(f"{fmt}, drivelash estimate", m, n)
-                  + f"  file {size / 2**20:.0f} MiB  goal < 1 GiB: {met}"
-                  + ("" if a.minutes == 60 else f" (at {a.minutes:g} min, not 60)"))  # fmt: skip
+            for cmd in commands:
+                m = measure(COMMANDS[cmd][0](path, d / f"{fmt}-{cmd}.json"))
+                if m["rc"] != 0:
+                    print(f"{fmt}: {cmd} failed (exit {m['rc']}): {m['err'].strip().splitlines()[-1:]}")
+                    failed = True
+                    continue
+                size = path.stat().st_size
+                met = "met" if m["rss"] < GOAL_BYTES else "NOT met"
+                print(_row(f"{fmt}, drivelash {cmd}", m, n)
+                      + f"  file {size / 2**20:.0f} MiB  goal < 1 GiB: {met}"
+                      + ("" if a.minutes == 60 else f" (at {a.minutes:g} min, not 60)"))  # fmt: skip
             path.unlink()
     print(f"load average: {os.getloadavg()}")
     if failed:

@@ -318,3 +318,52 @@ def test_two_mass_longer_than_budget_fits_the_moving_stretch(
     # negative control: the first samples (what a naive cut would fit) stand still
     with pytest.raises(Exception, match="moving windows"):
         identify_from_config(whole.slice(0, STILL), conf, model="two-mass")
+
+
+# --------------------------------------------------------------------------- peak RSS (slow)
+GIB = 1 << 30
+
+
+def _bench_memory():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("bench_memory", ROOT / "benchmarks" / "bench_memory.py")
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@pytest.fixture(scope="module", params=["parquet", "csv"])
+def one_hour(request, tmp_path_factory):
+    """A 1-hour 8 kHz recording (28.8 M samples) written in chunks (benchmarks/bench_memory.py)."""
+    bm = _bench_memory()
+    seg, _ = bm._tile(60.0)
+    d = tmp_path_factory.mktemp(f"hour-{request.param}")
+    pq_path, csv_path, n = bm.write_recording(d, 60.0, seg, formats=(request.param,))
+    path = pq_path if request.param == "parquet" else csv_path
+    yield path, n
+    path.unlink()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("command", ["observe", "identify", "identify-two-mass"])
+def test_one_hour_8khz_offline_peak_rss_below_1_gib(one_hour, command, tmp_path):
+    """Acceptance (issue 15 item 5): ``observe`` and ``identify`` (rigid, two-mass) on a 1-hour
+    8 kHz recording, peak RSS < 1 GiB (the child's ``ru_maxrss``, as for ``estimate``)."""
+    bm = _bench_memory()
+    path, n = one_hour
+    js = tmp_path / "o.json"
+    m = bm.measure(bm.COMMANDS[command][0](path, js))
+    assert m["rc"] == 0, m["err"]
+    assert n == 28_800_000
+    s = json.loads(js.read_text())
+    if command == "observe":
+        assert s["constant_velocity_samples"] > 1_000_000
+    elif command == "identify":
+        assert s["n_rows"] == -(-(n - 100) // 10)
+    else:
+        assert s["window"]["samples"] == 480_000 and s["window"]["recording_samples"] == n
+    print(f"\n{path.suffix} {command}: peak RSS {m['rss'] / 2**20:.0f} MiB, {m['rss'] / n:.1f} B/sample, "
+          f"wall {m['wall']:.1f} s")  # fmt: skip
+    assert m["rss"] < GIB, f"peak RSS {m['rss'] / 2**20:.0f} MiB"

@@ -407,6 +407,7 @@ def identify_rigid_stream(
     if plot_rows is not None:
         keep = max(1, m_dec // plot_rows)
     t_dec: list[np.ndarray] = []
+    t_step = decimate * (keep or 1)
     with make(n, 1, spill_dir) as qf:
         filtfilt_to_spill(filt, (ch["theta_m"] for ch in chunks()), n, qf, back_rows=back_rows)
 
@@ -423,8 +424,9 @@ def identify_rigid_stream(
                 if a >= b:
                     continue
                 _, dq, ddq = gradient_rows(read, n, a, b, T_s, 2)
-                s = (-(a - lo)) % decimate
-                t_dec.append(ch["t"][a - r0 : b - r0][s::decimate].copy())
+                if keep is not None:  # time of every keep-th decimated row
+                    s = (-(a - lo)) % t_step
+                    t_dec.append(ch["t"][a - r0 : b - r0][s::t_step].copy())
                 tau = ch["torque_m"][a - r0 : b - r0]
                 yield np.column_stack([ddq, dq, np.sign(dq), np.ones_like(dq), tau])
 
@@ -457,9 +459,7 @@ def identify_rigid_stream(
                 held.close()
     theta, std, rel, sigma, cond, cov = lsq.solve()
     Wk = np.concatenate(kept) if kept else np.empty((0, 5))
-    td = np.concatenate(t_dec)[: lsq.rows]
-    if keep is not None and keep > 1:
-        td = td[::keep]
+    td = np.concatenate(t_dec)[: len(Wk)] if t_dec else np.empty(0)
     return IdentificationResult(
         names=RIGID_NAMES,
         theta=theta,
@@ -475,7 +475,7 @@ def identify_rigid_stream(
             "n_border": n_border,
             "T_s": T_s,
         },
-        t=td if keep is not None else np.empty(0),
+        t=td,
         y=Wk[:, 4].copy(),
         y_hat=Wk[:, :4] @ theta,
         q_dot=Wk[:, 1].copy(),
