@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from scipy import signal
+from tests.cli.test_estimate_stream import GIB, _bench_memory
 from tests.cli_runner import run_in_process
 
 from drivelash.estimation.identify import DEFAULT_RHO, observe_disturbance
@@ -55,6 +56,16 @@ def _reference_observer(trace: Trace, J: float, beta: float) -> tuple[np.ndarray
     return v, d, float(d[cv & (v > 0)].mean()), float(d[cv & (v < 0)].mean())
 
 
+def _perturbed(path: Path, tmp: Path, du: float) -> Path:
+    """The recording with torque sample 20 000 moved by ``du`` [N·m] (and run dirs a/, b/)."""
+    tr = load_trace(path)
+    u = tr["torque_m"].copy()
+    u[20000] += du
+    (tmp / "a").mkdir()
+    (tmp / "b").mkdir()
+    return write_trace(tr.with_columns({"torque_m": u}), tmp / "bad.parquet")
+
+
 def _observe(path: Path, tmp: Path, capsys, out_ext: str = "parquet") -> tuple[str, Trace]:
     out, js = tmp / f"obs.{out_ext}", tmp / "obs.json"
     code, _, err = run_in_process(
@@ -93,15 +104,28 @@ def test_observe_streamed_equals_whole_signal(recording, ext, tmp_path, monkeypa
     assert np.array_equal(out1["disturbance"], out["disturbance"])
 
 
+def test_observe_report_same_from_many_chunks(recording, tmp_path, monkeypatch, capsys):
+    """--report from a run over many chunks is the report of one chunk, byte for byte (the
+    thinned series are taken at the same sample indices)."""
+    html = []
+    for rows in (str(CHUNK), None):
+        if rows is None:
+            monkeypatch.delenv("DRIVELASH_CHUNK_ROWS")
+        else:
+            monkeypatch.setenv("DRIVELASH_CHUNK_ROWS", rows)
+        out = tmp_path / f"o{len(html)}.html"
+        code, _, err = run_in_process(
+            ["observe", str(recording["parquet"]), "-c", str(CONFIG), "--report", str(out)], capsys
+        )
+        assert code == 0, err
+        html.append(out.read_bytes())
+    assert html[0] == html[1] and b"data:image/png;base64," in html[0]
+
+
 def test_observe_negative_control_one_sample(recording, tmp_path, monkeypatch, capsys):
     """The comparison is sensitive: one torque sample moved by 1e-9 N·m changes d̂ and the JSON."""
     monkeypatch.setenv("DRIVELASH_CHUNK_ROWS", str(CHUNK))
-    tr = load_trace(recording["parquet"])
-    u = tr["torque_m"].copy()
-    u[20000] += 1e-9
-    bad = write_trace(tr.with_columns({"torque_m": u}), tmp_path / "bad.parquet")
-    (tmp_path / "a").mkdir()
-    (tmp_path / "b").mkdir()
+    bad = _perturbed(recording["parquet"], tmp_path, 1e-9)
     text_a, out_a = _observe(recording["parquet"], tmp_path / "a", capsys)
     text_b, out_b = _observe(bad, tmp_path / "b", capsys)
     assert not np.array_equal(out_a["disturbance"], out_b["disturbance"])
@@ -216,12 +240,7 @@ def test_identify_rigid_streamed_equals_whole_signal(recording, ext, tmp_path, m
 def test_identify_negative_control_one_sample(recording, tmp_path, monkeypatch, capsys):
     """One torque sample moved by 1e-6 N·m changes the identified values."""
     monkeypatch.setenv("DRIVELASH_CHUNK_ROWS", str(CHUNK))
-    tr = load_trace(recording["parquet"])
-    u = tr["torque_m"].copy()
-    u[20000] += 1e-6
-    bad = write_trace(tr.with_columns({"torque_m": u}), tmp_path / "bad.parquet")
-    (tmp_path / "a").mkdir()
-    (tmp_path / "b").mkdir()
+    bad = _perturbed(recording["parquet"], tmp_path, 1e-6)
     a = _identify(recording["parquet"], tmp_path / "a", capsys)
     b = _identify(bad, tmp_path / "b", capsys)
     assert a["parameters"]["F_c"]["value"] != b["parameters"]["F_c"]["value"]
@@ -321,19 +340,6 @@ def test_two_mass_longer_than_budget_fits_the_moving_stretch(
 
 
 # --------------------------------------------------------------------------- peak RSS (slow)
-GIB = 1 << 30
-
-
-def _bench_memory():
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("bench_memory", ROOT / "benchmarks" / "bench_memory.py")
-    assert spec is not None and spec.loader is not None
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
 @pytest.fixture(scope="module", params=["parquet", "csv"])
 def one_hour(request, tmp_path_factory):
     """A 1-hour 8 kHz recording (28.8 M samples) written in chunks (benchmarks/bench_memory.py)."""

@@ -324,10 +324,7 @@ def identify_rigid(
         Names ``M``, ``F_v``, ``F_c``, ``offset``.
     """
     return identify_rigid_stream(
-        trace_chunks(trace),
-        len(trace),
-        trace.T_s,
-        list(trace.names),
+        *_whole(trace),
         cutoff_hz=cutoff_hz,
         filter_order=filter_order,
         decimate=decimate,
@@ -820,6 +817,11 @@ def trace_chunks(trace: Trace, rows: int = 1 << 18) -> Any:
     return chunks
 
 
+def _whole(trace: Trace) -> tuple[Any, int, float, list[str]]:
+    """The arguments (chunks, n, T_s, names) of a streamed pipeline over a whole Trace."""
+    return trace_chunks(trace), len(trace), trace.T_s, list(trace.names)
+
+
 def observe_disturbance(
     trace: Trace,
     *,
@@ -852,10 +854,7 @@ def observe_disturbance(
         STSMO gains; default from ρ = :data:`DEFAULT_RHO` by Levant's rule.
     """
     return observe_stream(
-        trace_chunks(trace),
-        len(trace),
-        trace.T_s,
-        list(trace.names),
+        *_whole(trace),
         J=J,
         beta=beta,
         k1=k1,
