@@ -61,3 +61,21 @@ def test_gradient_rows_bit_identical():
         g = gradient_rows(lambda s, e: x[s:e], 1000, a, b, 1e-3, order=2)
         assert np.array_equal(g[0], x[a:b]) and np.array_equal(g[1], d1[a:b])
         assert np.array_equal(g[2], d2[a:b])
+
+
+def test_spill_full_disk_is_one_line_and_leaves_nothing(tmp_path, monkeypatch):
+    """A full disk while spilling is a ResourceError naming DRIVELASH_SPILL_DIR; the file goes."""
+    import errno
+    import os
+
+    from drivelash.errors import ResourceError
+
+    def full(*a, **k):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr("drivelash.io.spill.os.pwrite", full)
+    with pytest.raises(ResourceError, match="DRIVELASH_SPILL_DIR"), Spill(1000, 1, tmp_path) as sp:
+        sp.write(0, np.ones(10))
+    assert list(tmp_path.iterdir()) == []
+    with pytest.raises(ResourceError, match="DRIVELASH_SPILL_DIR"):
+        Spill(10, 1, tmp_path / "missing")

@@ -77,8 +77,16 @@ class Spill:
         view = memoryview(a).cast("B")
         off = int(start) * self.k * 8
         done = 0
-        while done < len(view):
-            done += os.pwrite(self._fd, view[done:], off + done)
+        try:
+            while done < len(view):
+                done += os.pwrite(self._fd, view[done:], off + done)
+        except OSError as e:
+            from drivelash.errors import ResourceError
+
+            raise ResourceError(
+                f"{self.path.parent}: cannot write the spill file ({e.strerror}, "
+                f"{self.n * self.k * 8 / 2**20:.0f} MiB needed); set {ENV_SPILL_DIR} to a directory with room"
+            ) from None
 
     def read(self, start: int, stop: int) -> np.ndarray:
         """Rows ``start:stop`` as a new ``(m, k)`` array."""
