@@ -79,3 +79,16 @@ def test_spill_full_disk_is_one_line_and_leaves_nothing(tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []
     with pytest.raises(ResourceError, match="DRIVELASH_SPILL_DIR"):
         Spill(10, 1, tmp_path / "missing")
+
+
+@pytest.mark.parametrize("n", [0, 5, 128, 129, 1000, 65537, 300_001])
+def test_pairwise_sum_over_chunks_is_numpy_mean(n):
+    """The observer's streamed mean equals np.mean of the whole array bit for bit."""
+    from drivelash.estimation.identify import PairwiseSum
+
+    x = np.random.default_rng(n).normal(size=n) * 1e-3 + 0.004
+    for rows in (7, 4999, max(n, 1)):
+        ps = PairwiseSum(n)
+        for a in range(0, n, rows):
+            ps.add(x[a : a + rows])
+        assert (ps.mean() == float(x.mean())) if n else np.isnan(ps.mean())

@@ -740,47 +740,79 @@ def constant_velocity_mask(
     return m
 
 
-#: Masked values summed per block by :class:`BlockSum` (numpy's pairwise sum inside a block).
-SUM_BLOCK = 1 << 16
+#: Leaf size of numpy's pairwise summation (``PW_BLOCKSIZE`` in numpy's ``loops_utils``).
+PAIRWISE_LEAF = 128
 
 
-class BlockSum:
-    """A sum that does not depend on how the values arrive in chunks.
+class PairwiseSum:
+    """numpy's pairwise sum of ``n`` values that arrive in chunks, bit for bit.
 
-    Values are cut into consecutive blocks of :data:`SUM_BLOCK` (in arrival order, across
-    chunks); each block is summed by ``np.sum`` and the block sums by ``math.fsum``. The
-    whole-array and the streamed observer use this one sum, so their means are equal bit
-    for bit whatever the chunk size.
+    ``np.sum`` of a contiguous float64 array splits ``n`` values recursively at
+    ``n2 = n // 2 − (n // 2) % 8`` down to leaves of at most 128 values, each summed by its
+    unrolled loop. With ``n`` known up front the leaves are fixed: each leaf is summed by
+    ``np.sum`` as soon as its values have arrived, and the leaf sums are added in the same
+    tree at the end. ``mean()`` equals ``np.mean`` of the concatenated values exactly
+    (``tests/estimation/test_zero_phase.py``); memory: one leaf sum per ≤ 128 values.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, n: int) -> None:
+        self.n = int(n)
+        self.count = 0
+        sizes: list[int] = []
+        stack = [self.n] if self.n > 0 else []
+        while stack:  # leaves in order (depth first, left before right)
+            m = stack.pop()
+            if m <= PAIRWISE_LEAF:
+                sizes.append(m)
+            else:
+                m2 = m // 2
+                m2 -= m2 % 8
+                stack += [m - m2, m2]
+        self._sizes = sizes
+        self._sums = np.empty(len(sizes))
+        self._leaf = 0
         self._buf: list[np.ndarray] = []
         self._have = 0
-        self._sums: list[float] = []
-        self.count = 0
 
     def add(self, x: np.ndarray) -> None:
-        """Append values (any length)."""
+        """Append values (any length; ``n`` in total)."""
         if x.size == 0:
             return
+        self.count += x.size
+        if self.count > self.n:
+            raise ValueError(f"more than the announced {self.n} values")
         self._buf.append(np.asarray(x, dtype=np.float64))
         self._have += x.size
-        self.count += x.size
-        if self._have >= SUM_BLOCK:
+        if self._leaf < len(self._sizes) and self._have >= self._sizes[self._leaf]:
             a = np.concatenate(self._buf)
-            k = (a.size // SUM_BLOCK) * SUM_BLOCK
-            self._sums.extend(float(np.sum(b)) for b in a[:k].reshape(-1, SUM_BLOCK))
-            rest = a[k:].copy()
+            pos = 0
+            while self._leaf < len(self._sizes) and a.size - pos >= self._sizes[self._leaf]:
+                k = self._sizes[self._leaf]
+                self._sums[self._leaf] = np.sum(a[pos : pos + k])
+                pos += k
+                self._leaf += 1
+            rest = a[pos:]
             self._buf, self._have = ([rest] if rest.size else []), rest.size
 
-    def mean(self) -> float:
-        """Mean of every value added (NaN when none)."""
-        import math
+    def total(self) -> np.float64:
+        """The sum (all ``n`` values must have arrived)."""
+        if self.count != self.n:
+            raise ValueError(f"{self.count} of {self.n} values arrived")
+        it = iter(self._sums)
 
-        if self.count == 0:
-            return float("nan")
-        tail = [float(np.sum(np.concatenate(self._buf)))] if self._buf else []
-        return math.fsum(self._sums + tail) / self.count
+        def tree(m: int) -> np.float64:
+            if m <= PAIRWISE_LEAF:
+                return next(it)
+            m2 = m // 2
+            m2 -= m2 % 8
+            left = tree(m2)
+            return left + tree(m - m2)
+
+        return tree(self.n) if self.n else np.float64(0.0)
+
+    def mean(self) -> float:
+        """``np.mean`` of the values (NaN when there are none)."""
+        return float(self.total() / self.n) if self.n else float("nan")
 
 
 class _ArraySpill:
@@ -893,7 +925,7 @@ def observe_stream(
     (:func:`~drivelash.estimation.zero_phase.filtfilt_to_spill`) and a central difference;
     a pass over the velocity for max |q̇| and max |q̈| (the constant-velocity thresholds);
     then the STSMO over the chunks with its state carried, the constant-velocity means
-    accumulated by :class:`BlockSum`.
+    summed by :class:`PairwiseSum` (the samples on them are counted first, from the velocity).
 
     Parameters
     ----------
@@ -962,9 +994,24 @@ def observe_stream(
             if v0 is None:
                 v0 = float(v[0])
             vmax, amax = max(vmax, float(np.abs(v).max())), max(amax, float(np.abs(acc).max()))
-        obs = SuperTwistingObserver(params, omega0=float(v0))
         skip = min(n // 10, int(round(0.5 / T_s)))
-        pos_sum, neg_sum = BlockSum(), BlockSum()
+
+        def mask(a: int, v: np.ndarray, acc: np.ndarray) -> np.ndarray:
+            cv = (np.abs(acc) < 0.05 * amax) & (np.abs(v) > 0.2 * vmax)
+            if a < skip:
+                cv[: skip - a] = False
+            return cv
+
+        # samples on the constant-velocity stretches, forward / backward (numpy's pairwise
+        # sum, reproduced in PairwiseSum, needs the count up front)
+        n_pos = n_neg = 0
+        for a in range(0, n, back_rows):
+            v, acc = vel_acc(a, min(n, a + back_rows))
+            cv = mask(a, v, acc)
+            n_pos += int(np.count_nonzero(cv & (v > 0)))
+            n_neg += int(np.count_nonzero(cv & (v < 0)))
+        obs = SuperTwistingObserver(params, omega0=float(v0))
+        pos_sum, neg_sum = PairwiseSum(n_pos), PairwiseSum(n_neg)
         kept: dict[str, list[np.ndarray]] = {"t": [], "v": [], "d": [], "cv": []}
         row = 0
         for ch in chunks():
@@ -972,9 +1019,7 @@ def observe_stream(
             v, acc = vel_acc(row, row + m)
             _, phi = obs.run(v, (ch["torque_m"] - beta * v) / J)
             d = -J * phi
-            cv = (np.abs(acc) < 0.05 * amax) & (np.abs(v) > 0.2 * vmax)
-            if row < skip:
-                cv[: skip - row] = False
+            cv = mask(row, v, acc)
             pos_sum.add(d[cv & (v > 0)])
             neg_sum.add(d[cv & (v < 0)])
             if sink is not None:
