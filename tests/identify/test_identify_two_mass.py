@@ -18,6 +18,9 @@ from drivelash.estimation.identify_two_mass import (
     fuse_position,
     identify_two_mass,
     quantisation_step,
+    start_weight_for,
+    velocity_feedback,
+    window_data,
 )
 from drivelash.io.config import loads_config
 from drivelash.sim.engine import simulate
@@ -182,3 +185,35 @@ def test_negative_shaft_damping_is_flagged_implausible():
     assert line.startswith("D_S = -6570") and "negative shaft damping" in line
     ok = {"D_S": ParameterEstimate("D_S", -100.0, 900.0, -1864.0, 1664.0, "N·m·s/rad")}
     assert _plausibility(ok) == []
+
+
+def test_velocity_feedback_gain_is_the_controllers_proportional_gain():
+    """A P controller on a noisy recorded velocity: the regression of Δu on Δω_m returns K_p
+    (1 %); the same torque without velocity noise (Δω carries the motion, not the noise) and an
+    open-loop torque (no response to the noise) give no feedback."""
+    rng = np.random.default_rng(3)
+    n, T_s, K_p, sig = 200_000, 125e-6, 0.48, 0.03
+    t = np.arange(n) * T_s
+    w_true = 2.0 * np.sin(2 * np.pi * 0.7 * t)
+    w_meas = w_true + sig * rng.standard_normal(n)
+    u = K_p * (2.0 * np.sin(2 * np.pi * 0.7 * t + 0.1) - w_meas)
+    assert velocity_feedback(u, w_meas, sig) == pytest.approx(K_p, rel=0.01)
+    assert velocity_feedback(K_p * (1.0 - w_true), w_true, 0.0) is None  # negative control: no noise
+    assert velocity_feedback(np.sin(2 * np.pi * 0.7 * t), w_meas, sig) is None  # open loop
+
+
+def test_start_weight_decorrelates_the_window_torque(bench_0c):
+    """α = g M / (1 + g) with g = K_p T_s / J_m: the closed form of the zero of
+    g − α (1 + g)/M (module docstring of ``start_weight_for``), bounded to [0, 2]; 0 without
+    detected feedback."""
+    d = window_data(bench_0c, 1.0)
+    K = d.info["velocity_feedback_gain"]
+    assert K is not None and K > 0
+    J_m = RIG_DRIVETRAIN.J_m
+    g = K * d.T_s / J_m
+    a = start_weight_for(d, J_m)
+    assert a == pytest.approx(g * d.M / (1 + g), rel=1e-12)
+    assert abs(g - a * (1 + g) / d.M) < 1e-12
+    assert start_weight_for(d, 1e-9) == 2.0  # bounded
+    d.info["velocity_feedback_gain"] = None
+    assert start_weight_for(d, J_m) == 0.0

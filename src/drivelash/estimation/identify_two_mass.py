@@ -36,19 +36,26 @@ Method: **integral equation error** on short windows (one staged pipeline, all i
 6. *Intervals.* Heteroscedasticity- and autocorrelation-consistent sandwich covariance
    (Newey–West, Bartlett kernel, Andrews' AR(1) plug-in bandwidth) of the stacked
    scores; 95 % intervals ± 1.96 σ. See ``docs/assumptions.md`` for the measured coverage.
+7. *Closed-loop bracket.* Where the recorded torque answers the noise of the recorded motor
+   velocity (a velocity controller on that signal, :func:`velocity_feedback`), the look-back
+   of step 3 still leaves the controller's one-sample-delayed answer to the noise before a
+   window in the window's torque. The fit is repeated with the starting velocity weighted
+   towards the window's first sample by the first-order decorrelating weight
+   (:func:`start_weight_for`), and the result is the centre of both fits with their
+   difference in the covariance (:func:`fit_bracketed`).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 from numba import njit
 
 from drivelash.errors import DataError, ParameterError
-from drivelash.estimation.identify_result import DriveIdentification, ParameterEstimate
+from drivelash.estimation.identify_result import Z95, DriveIdentification, ParameterEstimate
 from drivelash.io.trace import Trace
 
 #: Target window length of the integral equations [s] (M = round(WINDOW_S/T_s), at least 2).
@@ -68,6 +75,15 @@ MIN_CONTACT_WINDOWS = 20
 LOAD_TRAVEL_FACTOR = 10.0
 #: Samples before a window used to extrapolate its starting velocity.
 _LOOKBACK = 4
+#: The closed-loop start-velocity correction needs the velocity noise to make up at least this
+#: share of the variance of the sample-to-sample velocity differences (see docs/assumptions.md).
+FEEDBACK_NOISE_SHARE = 0.5
+#: Upper bound of the start-velocity weight α (α = 1: the sample at the window start).
+MAX_START_WEIGHT = 2.0
+#: The α iteration stops when α moves less than this ...
+START_WEIGHT_TOL = 0.02
+#: ... or after this many refits.
+MAX_START_WEIGHT_FITS = 4
 
 PARAM_NAMES = (
     "J_m",
@@ -213,12 +229,33 @@ class WindowData:
     dth: np.ndarray
     dw: np.ndarray
     wl: np.ndarray
+    a_m_back: np.ndarray | None = None
+    a_l_back: np.ndarray | None = None
+    a_m_start: np.ndarray | None = None
+    a_l_start: np.ndarray | None = None
+    start_weight: float = 0.0
     info: dict[str, Any] = field(default_factory=dict)
 
     @property
     def n_win(self) -> int:
         """Number of windows."""
         return self.a_m.size
+
+    def with_start_weight(self, alpha: float) -> WindowData:
+        """The same windows with the starting velocity α ω(t_k) + (1 − α) ω̂_before(t_k).
+
+        ``α = 0`` extrapolates from the samples before the window (``a_m_back``), ``α = 1``
+        takes the sample at the window start (``a_m_start``); the accelerations are linear
+        in α. See :func:`closed_loop_start_weight`.
+        """
+        if self.a_m_back is None or self.a_m_start is None or self.a_l_back is None or self.a_l_start is None:
+            raise ValueError("window data without the two starting-velocity variants")
+        return replace(
+            self,
+            a_m=(1.0 - alpha) * self.a_m_back + alpha * self.a_m_start,
+            a_l=(1.0 - alpha) * self.a_l_back + alpha * self.a_l_start,
+            start_weight=float(alpha),
+        )
 
 
 def _interior_mean(x: np.ndarray, start: int, M: int, nw: int) -> np.ndarray:
@@ -286,6 +323,9 @@ def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> Window
 
     a_m = (wm[k1] - start_velocity(wm)) / (M * T_s)
     a_l = (wl[k1] - start_velocity(wl)) / (M * T_s)
+    a_m_start = (wm[k1] - wm[k0]) / (M * T_s)
+    a_l_start = (wl[k1] - wl[k0]) / (M * T_s)
+    feedback = velocity_feedback(u, wm, info_m["sigma_omega"]) if "omega_m" not in derived else None
     U = u[s0 : s0 + nw * M].reshape(nw, M).mean(axis=1)
     WM = _interior_mean(wm, s0, M, nw)
     WL = _interior_mean(wl, s0, M, nw)
@@ -325,6 +365,10 @@ def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> Window
         dth=dth,
         dw=dw,
         wl=wl_mid,
+        a_m_back=a_m,
+        a_l_back=a_l,
+        a_m_start=a_m_start,
+        a_l_start=a_l_start,
         info={
             "window_samples": M,
             "window_s": M * T_s,
@@ -336,8 +380,30 @@ def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> Window
             "standstill_m": thr_m,
             "standstill_l": thr_l,
             "derived_velocity": derived,
+            "velocity_feedback_gain": feedback,
         },
     )
+
+
+def velocity_feedback(u: np.ndarray, omega_m: np.ndarray, sigma_omega: float) -> float | None:
+    """Instantaneous response of the recorded torque to the noise of the recorded motor velocity.
+
+    K̂ = −Σ Δu Δω_m / Σ Δω_m² over sample-to-sample differences [N·m·s/rad]: a velocity
+    controller acting on the recorded velocity (u_k = K_p (ω_cmd − ω_m,k) + …) gives K_p.
+    Returned only where the velocity noise makes up at least :data:`FEEDBACK_NOISE_SHARE` of
+    the variance of Δω_m (otherwise the differences carry the motion, not the noise, and the
+    regression would measure the plant instead of the controller) and K̂ > 0; else ``None``.
+    """
+    du = np.diff(u)
+    dw = np.diff(omega_m)
+    v = float(dw @ dw)
+    if v <= 0.0 or not (sigma_omega > 0.0):
+        return None
+    share = 2.0 * sigma_omega**2 * dw.size / v
+    if share < FEEDBACK_NOISE_SHARE:
+        return None
+    k = -float(du @ dw) / v
+    return k if k > 0.0 else None
 
 
 # --------------------------------------------------------------------------------------
@@ -781,6 +847,8 @@ class TwoMassFit:
     lags: int
     nfev: int
     cost: float
+    #: Start-velocity weight of the decorrelated end of the closed-loop bracket (0: none).
+    start_weight: float = 0.0
 
 
 def _start_vector(prob: TwoMassProblem, start: GridStart, data: WindowData) -> np.ndarray:
@@ -843,6 +911,80 @@ def fit_two_mass(
     lags = andrews_bandwidth(g)
     cov = hac_covariance(J, g, lags)
     return TwoMassFit(prob.full(x), cov, prob, lags, prob.nfev, float(res.cost) if res is not None else 0.0)
+
+
+def start_weight_for(data: WindowData, J_m: float) -> float:
+    """Start-velocity weight α that decorrelates a window's torque from its starting velocity.
+
+    A velocity controller acting on the recorded motor velocity feeds the noise e_k of a
+    sample into the torque: directly (−K_p e_k in u_k) and, one sample later, through the
+    motor's velocity step −g e_k, g = K_p T_s / J_m, which the controller answers with
+    +K_p g e_k in every later u. For a window [k_0, k_0 + M) the covariance of its mean
+    torque with the noise of the starting velocity α ω(k_0) + (1 − α) ω̂_before is then
+    ∝ g − α (1 + g)/M (the look-back ω̂_before carries only the delayed path): it vanishes
+    at α = g M / (1 + g). α = 0 is exact for open-loop recordings (no feedback detected).
+    """
+    K = data.info.get("velocity_feedback_gain")
+    if K is None or not (J_m > 0.0):
+        return 0.0
+    g = K * data.T_s / J_m
+    return float(min(max(g * data.M / (1.0 + g), 0.0), MAX_START_WEIGHT))
+
+
+def closed_loop_refit(data: WindowData, fit: TwoMassFit, start: GridStart, **kw: Any) -> TwoMassFit | None:
+    """Refit at the start-velocity weight α of :func:`start_weight_for` at the fit's own J_m.
+
+    α depends on J_m, which depends on α: the fixed point α = w(J_m(α)) is found by the
+    secant method from α = 0 (at most :data:`MAX_START_WEIGHT_FITS` refits), each refit
+    starting from the previous parameters with the same contacts. ``None`` when no velocity
+    feedback is detected or α stays below :data:`START_WEIGHT_TOL`.
+    """
+    if data.info.get("velocity_feedback_gain") is None or data.a_m_start is None:
+        return None
+    sides = fit.problem.sides
+    a_prev, h_prev = 0.0, -start_weight_for(data, fit.p[I_JM])
+    if abs(h_prev) < START_WEIGHT_TOL:
+        return None
+    a = -h_prev
+    out = fit
+    for _ in range(MAX_START_WEIGHT_FITS):
+        d2 = data.with_start_weight(a)
+        out = fit_two_mass(d2, sides=sides, start=replace(start, x0=out.p.copy()), **kw)
+        out.start_weight = a
+        h = a - start_weight_for(d2, out.p[I_JM])
+        if abs(h) < START_WEIGHT_TOL or h == h_prev:
+            break
+        a, a_prev, h_prev = a - h * (a - a_prev) / (h - h_prev), a, h
+        a = float(min(max(a, 0.0), MAX_START_WEIGHT))
+    return out
+
+
+def fit_bracketed(
+    data: WindowData, sides: tuple[bool, bool] | None = None, start: GridStart | None = None, **kw: Any
+) -> TwoMassFit:
+    """:func:`fit_two_mass`, bracketed against closed-loop velocity noise.
+
+    On a recording whose motor velocity is fed back (:func:`velocity_feedback`), the look-back
+    fit (α = 0) is biased one way (the controller's delayed answer to the noise of the samples
+    before a window is in the window's torque: J_m high) and the fit at the first-order
+    decorrelating weight α of :func:`start_weight_for` the other way or not at all (that weight
+    assumes the motor's velocity step persists through the window; a decaying step needs a
+    smaller α). The truth lies between: the result is their centre, with the covariance
+    (C₀ + C₁)/2 + ΔΔᵀ/z²₉₅ (Δ: the difference of the two fits), so every 95 % interval
+    holds both estimates. Without detected feedback this is the plain fit.
+    """
+    if start is None:
+        start = grid_start(data, equations=kw.get("equations", "both"), torque_offset=kw.get("torque_offset"))
+    f0 = fit_two_mass(data, sides=sides, start=start, **kw)
+    f1 = closed_loop_refit(data, f0, start, **kw)
+    if f1 is None:
+        return f0
+    free = f0.problem.free
+    dx = f1.p[free] - f0.p[free]
+    p = f0.p.copy()
+    p[free] = 0.5 * (f0.p[free] + f1.p[free])
+    cov = 0.5 * (f0.cov_free + f1.cov_free) + np.outer(dx, dx) / Z95**2
+    return TwoMassFit(p, cov, f0.problem, max(f0.lags, f1.lags), f0.nfev + f1.nfev, f0.cost, f1.start_weight)
 
 
 # --------------------------------------------------------------------------------------
@@ -1020,11 +1162,11 @@ def identify_two_mass(
     data = window_data(trace, N, window_s=window_s)
     kw: dict[str, Any] = {"equations": equations, "fit_delay": fit_delay, "torque_offset": torque_offset}
     start = grid_start(data, equations=equations, torque_offset=torque_offset)
-    fit = fit_two_mass(data, start=start, **kw)
+    fit = fit_bracketed(data, start=start, **kw)
     if fit_delay and fit.p[I_TAU] != 0.0 and any(fit.problem.sides):
         # contacts again on the delay-corrected Δθ
         start = grid_start(data, equations=equations, tau=float(fit.p[I_TAU]), torque_offset=torque_offset)
-        fit = fit_two_mass(data, start=start, **kw)
+        fit = fit_bracketed(data, start=start, **kw)
     ev = _contact_evidence(fit)
     notes: list[str] = []
     sides = fit.problem.sides
@@ -1046,7 +1188,7 @@ def identify_two_mass(
             )
             sides = (not keep_hi, keep_hi)
             both = fit
-            fit = fit_two_mass(data, sides=sides, start=start, **kw)
+            fit = fit_bracketed(data, sides=sides, start=start, **kw)
             ev = _contact_evidence(fit)
             unconfirmed = (both, keep_hi)
     if any(sides) and not all(sides):
@@ -1054,7 +1196,7 @@ def identify_two_mass(
         if not _side_ok(ev, side, 1.0 if sides[1] else -1.0):
             sides = (False, False)
             start = motor_only_start(data, torque_offset=torque_offset)
-            fit = fit_two_mass(data, sides=sides, start=start, **kw)
+            fit = fit_bracketed(data, sides=sides, start=start, **kw)
             ev = _contact_evidence(fit)
             unconfirmed = None
     return _build_result(trace, data, fit, ev, notes, unconfirmed)
@@ -1238,6 +1380,7 @@ def _build_result(
         "motor_windows_used": int(prob.im.size),
         "load_windows_used": int(prob.il.size),
         "hac_lags": fit.lags,
+        "start_weight": fit.start_weight,
         "nfev": fit.nfev,
         "contact_points": {"c_lo": float(p[I_CLO]), "c_hi": float(p[I_CHI])},
         "evidence": ev,
@@ -1270,6 +1413,12 @@ def _build_result(
             f"integral equation error on {data.M}-sample windows ({1e3 * data.M * data.T_s:.3g} ms), "
             "RTS-fused positions, scipy least_squares (Levenberg–Marquardt), "
             f"Newey–West HAC covariance ({fit.lags} lags)"
+            + (
+                f"; closed-loop bracket: centre of the look-back fit and the fit at start-velocity weight "
+                f"{fit.start_weight:.3g}, their difference in the intervals"
+                if fit.start_weight
+                else ""
+            )
         ),
         signals=signals,
     )
