@@ -107,6 +107,24 @@ def recording_start(path: Path, spec: TimeSpec, meta: dict[str, Any] | None = No
         ) from None
 
 
+#: Largest recording [bytes] read into memory once, hashed and decoded from the same bytes
+#: (docs/assumptions.md); a larger file is hashed in a streamed pass and read again by the loader.
+HASH_IN_MEMORY_BYTES = 256 << 20
+
+
+def read_and_hash(path: Path) -> tuple[str, bytes | None, OSError | None]:
+    """SHA-256 (hex) of a file and, when it is at most :data:`HASH_IN_MEMORY_BYTES`, its bytes
+    (the loader decodes those: the file is read once and the hash is of the bytes estimated)."""
+    try:
+        if path.stat().st_size <= HASH_IN_MEMORY_BYTES:
+            data = path.read_bytes()
+            return hashlib.sha256(data).hexdigest(), data, None
+    except OSError:
+        pass  # the streamed hash below names the error
+    digest, exc = content_hash(path)
+    return digest, None, exc
+
+
 def content_hash(path: str | Path) -> tuple[str, OSError | None]:
     """SHA-256 (hex) of a file's bytes; for an unreadable file a marker
     ``unreadable:<hash of the path>`` and the error."""
@@ -146,7 +164,7 @@ def estimate_recording(task: RecordingTask) -> EstimateRow:
         config_hash=task.config_hash,
         code_version=task.code_version,
     )
-    digest, exc = content_hash(path)
+    digest, data, exc = read_and_hash(path)
     if exc is not None:
         return EstimateRow(
             **base,
@@ -162,7 +180,8 @@ def estimate_recording(task: RecordingTask) -> EstimateRow:
     start = duration = rate = n = None
     try:
         cfg = task.drive
-        trace = load_trace(path, cfg, required=INPUT_COLUMNS)
+        trace = load_trace(path, cfg, required=INPUT_COLUMNS, data=data)
+        data = None  # the decoded columns do not refer to the file's bytes
         n = len(trace)
         T_s = trace.T_s
         duration = n * T_s
