@@ -53,3 +53,54 @@ def test_kernel_equals_numpy_definition(seed):
 def test_standstill_has_no_motion():
     t = np.arange(100) * 1e-3
     assert unit_ratio_sums(t, np.zeros(100), np.zeros(100), 2)[2:] == (0, -1)
+
+
+# --- the loader's other compiled passes: equal to the numpy rules they replace ---------------
+@pytest.mark.parametrize("seed", range(4))
+def test_wrap_scan_equals_numpy_rule(seed):
+    """``wrap_scan`` = (all finite, any |diff| > half) as ``unwrap_encoder`` wrote it in numpy."""
+    from drivelash.io._unitcheck import wrap_scan
+
+    rng = np.random.default_rng(seed)
+    for n in (1, 2, 5, 1000):
+        x = np.cumsum(rng.normal(0, 0.3, n))
+        if seed == 1:
+            x = np.mod(x, 1.0)  # wrapped: jumps of ≈ 1
+        if seed == 2 and n > 1:
+            x[n // 2] = np.nan
+        if seed == 3 and n > 1:
+            x[-1] = np.inf
+        finite = bool(np.all(np.isfinite(x)))
+        jump = bool(np.any(np.abs(np.diff(x)) > 0.5)) if finite else False
+        assert wrap_scan(x, 0.5) == (finite, jump), n
+
+
+def test_step_scan_and_time_check_rules():
+    """``step_scan`` finds the first non-increasing step and the step range; the time check's
+    shortcut gives what the full rules give: none of uniform, jittered-within-tolerance, ms
+    stamps read as s, a duplicate, or a gap (negative controls: each is still refused)."""
+    from drivelash.errors import DataError
+    from drivelash.io._unitcheck import step_scan
+    from drivelash.io.config import SamplingSection
+    from drivelash.io.load import _check_time
+
+    rng = np.random.default_rng(0)
+    t = np.cumsum(rng.uniform(0.9999, 1.0001, 1000)) * 125e-6
+    first, lo, hi = step_scan(t)
+    d = np.diff(t)
+    assert (first, lo, hi) == (-1, d.min(), d.max())
+    t2 = t.copy()
+    t2[500] = t2[499]
+    assert step_scan(t2)[0] == 499
+    sampling = SamplingSection()
+    assert _check_time(t, "f", "t", sampling, []) is None  # within tolerance: the shortcut
+    gap = t.copy()
+    gap[700:] += 1e-3  # one interval 9× the median
+    with pytest.raises(DataError, match="row 700: non-uniform sampling"):
+        _check_time(gap, "f", "t", sampling, [])
+    with pytest.raises(DataError, match="duplicated time stamp"):
+        _check_time(t2, "f", "t", sampling, [])
+    ms = np.arange(1000.0)  # ms stamps read as seconds: whole numbers, 1 s steps
+    with pytest.raises(DataError, match="implausible sample period"):
+        _check_time(ms, "f", "t", sampling, [], lambda: True)
+    assert _check_time(ms, "f", "t", sampling, [], lambda: False) is None  # declared: 1 s is fine

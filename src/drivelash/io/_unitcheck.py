@@ -94,3 +94,40 @@ def unit_ratio_sums(t: np.ndarray, th: np.ndarray, om: np.ndarray, k: int) -> tu
             if first < 0:
                 first = i
     return s_od, s_dd, cnt, first
+
+
+@njit(cache=True)
+def wrap_scan(x: np.ndarray, half: float) -> tuple[bool, bool]:
+    """(every sample finite, some step |x[i+1] − x[i]| > ``half``) in one pass: the loader's
+    test whether a position column may have wrapped (``load.unwrap_encoder`` goes on only then)."""
+    finite = True
+    jump = False
+    n = x.size
+    for i in range(n):
+        if not np.isfinite(x[i]):
+            finite = False
+            break
+    if not finite:
+        return False, False
+    for i in range(n - 1):
+        if abs(x[i + 1] - x[i]) > half:
+            jump = True
+            break
+    return finite, jump
+
+
+@njit(cache=True)
+def step_scan(t: np.ndarray) -> tuple[int, float, float]:
+    """First row whose time step ``t[i+1] − t[i]`` is ≤ 0 (−1: none), and the smallest and
+    largest step (``load._check_time`` without the step array)."""
+    lo = np.inf
+    hi = -np.inf
+    for i in range(t.size - 1):
+        d = t[i + 1] - t[i]
+        if not d > 0:
+            return i, lo, hi
+        if d < lo:
+            lo = d
+        if d > hi:
+            hi = d
+    return -1, lo, hi

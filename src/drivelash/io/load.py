@@ -18,7 +18,7 @@ special case.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -158,7 +158,13 @@ def unwrap_encoder(x: np.ndarray, modulus: float) -> tuple[np.ndarray, int, int 
     first_row : int or None
         Row of the first sample after the first wrap.
     """
-    if x.size < 2 or not np.all(np.isfinite(x)) or modulus <= 0:
+    if x.size < 2 or modulus <= 0:
+        return x, 0, None
+    from drivelash.io._unitcheck import wrap_scan
+
+    # one compiled pass decides the common case (finite, no step beyond half the modulus)
+    finite, jump = wrap_scan(np.ascontiguousarray(x, dtype=np.float64), 0.5 * modulus)
+    if not (finite and jump):
         return x, 0, None
     d = np.diff(x)
     jumps = np.abs(d) > 0.5 * modulus
@@ -302,14 +308,26 @@ def _check_time(
     column: str,
     sampling: SamplingSection,
     warnings: list[str],
-    integral: bool = False,
+    integral: bool | Callable[[], bool] = False,
 ) -> np.ndarray | None:
     """Validate the time column; return a uniform grid to resample onto, or None.
 
-    ``integral``: the time column holds whole numbers in the file (for the plausibility rule).
+    ``integral``: the time column holds whole numbers in the file (for the plausibility rule),
+    or a function that tells (called only when a step reaches 1 s).
     """
     if t.size < 3:
         raise DataError(f"only {t.size} sample(s); need at least 3", path=path, column=column)
+    from drivelash.io._unitcheck import step_scan
+
+    first_bad, lo, hi = step_scan(np.ascontiguousarray(t, dtype=np.float64))
+    if first_bad < 0 and hi <= MAX_PLAUSIBLE_T_S and (hi - lo) / lo <= sampling.tolerance:
+        # every step lies in [lo, hi] and so does the median: no step deviates from it by more
+        # than (hi − lo)/lo (rounding is monotone), and no median can be implausible unless a
+        # step reaches 1 s in a column of whole numbers — the rules below would pass, exactly
+        if hi < 1.0 or not (integral() if callable(integral) else integral):
+            return None
+    if callable(integral):
+        integral = integral()
     steps = np.diff(t)
     if np.any(steps <= 0):
         i = int(np.flatnonzero(steps <= 0)[0])
@@ -496,6 +514,7 @@ def load_trace(
     required: Iterable[str] = (),
     resample: bool | None = None,
     check_saturation: bool = True,
+    data: bytes | None = None,
 ) -> Trace:
     """Read, map, convert and validate a recording.
 
@@ -516,6 +535,9 @@ def load_trace(
         uniform grid by linear interpolation (recorded in ``meta["warnings"]``).
     check_saturation : bool
         Refuse torque/force columns clipped at a constant extreme.
+    data : bytes, optional
+        The file's content when the caller has already read it (e.g. to hash it): a Parquet
+        file is decoded from it instead of being read again.
 
     Returns
     -------
@@ -532,7 +554,9 @@ def load_trace(
     cmap, sampling = _mapping_from(mapping)
     if resample is not None:
         sampling = sampling.model_copy(update={"resample": resample})
-    return trace_from_table(read_raw(p), cmap, sampling, required=required, check_saturation=check_saturation)
+    return trace_from_table(
+        read_raw(p, data), cmap, sampling, required=required, check_saturation=check_saturation
+    )
 
 
 def trace_from_table(
@@ -574,7 +598,10 @@ def trace_from_table(
     _check_finite(cols, origin, spath)
     t_src = table.columns.get(origin.get("t", ""))
     t_declared = cmap is not None and any(cm.column == "t" for cm in cmap.values())
-    integral = not t_declared and t_src is not None and bool(np.all(t_src == np.round(t_src)))
+
+    def integral() -> bool:
+        return not t_declared and t_src is not None and bool(np.all(t_src == np.round(t_src)))
+
     grid = _check_time(cols["t"], spath, origin.get("t", "t"), sampling, warnings, integral)
     if grid is not None:
         t_old = cols["t"]
