@@ -192,3 +192,51 @@ def test_subcount_reconstruction_removes_quantisation():
     # passes the low-pass, so the worst case is only a fraction of a count
     assert np.sqrt(np.mean(rec**2)) < q / 20
     assert rec.max() < q / 4
+
+
+# --- helpers of the streaming session: equal to the numpy they replace -----------------------
+def test_block_minmax_equals_reduceat():
+    """Per-history-block min/max of δ̂ folded in block by block = np.minimum/maximum.reduceat
+    over the block starts (what ``_Track.add`` computed before), NaN propagating as in numpy."""
+    from drivelash.estimation import deadzone as dz
+
+    rng = np.random.default_rng(3)
+    n, Bh = 10_007, 97
+    d = rng.normal(size=n)
+    d[[5, 4000]] = np.nan
+    out = np.zeros((n, dz.N_OUT))
+    out[:, dz.O_DELTA] = d
+    nb = -(-n // Bh)
+    dmin, dmax = np.full(nb, np.inf), np.full(nb, -np.inf)
+    rmin, rmax = dmin.copy(), dmax.copy()
+    for row0 in range(0, n, 1234):  # blocks that straddle history blocks
+        blk = out[row0 : row0 + 1234]
+        dz.block_minmax(blk, row0, Bh, dmin, dmax)
+        b0, b1 = row0 // Bh, (row0 + blk.shape[0] - 1) // Bh + 1
+        starts = np.arange(b0, b1) * Bh - row0
+        starts[0] = 0
+        np.minimum(rmin[b0:b1], np.minimum.reduceat(blk[:, 0], starts), out=rmin[b0:b1])
+        np.maximum(rmax[b0:b1], np.maximum.reduceat(blk[:, 0], starts), out=rmax[b0:b1])
+    np.testing.assert_array_equal(dmin, rmin)
+    np.testing.assert_array_equal(dmax, rmax)
+    assert np.isnan(dmin[0]) and np.isnan(dmax[4000 // Bh])
+
+
+def test_block_samples_copies_and_names_the_first_bad_value():
+    """The kernel's input block equals np.column_stack of the columns; the first non-finite
+    value in row-major order is named (row, then leftmost column), as np.argwhere gave it."""
+    from drivelash.errors import DataError
+    from drivelash.estimation.estimator import INPUT_COLUMNS, _block_samples
+
+    rng = np.random.default_rng(1)
+    blk = {c: rng.normal(size=50) for c in (*INPUT_COLUMNS, "torque_m")}
+    np.testing.assert_array_equal(
+        _block_samples(blk, 0, True), np.column_stack([blk[c] for c in (*INPUT_COLUMNS, "torque_m")])
+    )
+    blk["omega_l"][30] = np.inf
+    blk["theta_l"][30] = np.nan
+    blk["torque_m"][12] = np.nan
+    with pytest.raises(DataError, match="torque_m.*row 112|row 112.*torque_m"):
+        _block_samples(blk, 100, True)
+    with pytest.raises(DataError, match="theta_l.*row 130|row 130.*theta_l"):
+        _block_samples(blk, 100, False)

@@ -568,3 +568,36 @@ def initial_state(params: np.ndarray, delta0: float = 0.0) -> np.ndarray:
     for i in range(NTH):
         st[S_PM + NTH * i + i] = params[P_P0 + i]
     return st
+
+
+# -- helpers of the streaming session (estimator._Track, estimator._block_samples) ------
+@njit(cache=True)
+def block_minmax(out, row0, Bh, dmin, dmax):
+    """Fold column ``O_DELTA`` of an output block into per-history-block min/max, in place.
+
+    Row ``i`` of ``out`` is global sample ``row0 + i`` and belongs to history block
+    ``(row0 + i) // Bh`` of ``dmin``/``dmax``; a NaN stays NaN (as ``np.minimum``/``np.maximum``).
+    """
+    for i in range(out.shape[0]):
+        b = (row0 + i) // Bh
+        v = out[i, O_DELTA]
+        lo = dmin[b]
+        if v < lo or v != v:
+            if lo == lo:
+                dmin[b] = v
+        hi = dmax[b]
+        if v > hi or v != v:
+            if hi == hi:
+                dmax[b] = v
+
+
+@njit(cache=True)
+def copy_column_finite(dst, j, src):
+    """``dst[:, j] = src``; returns the first row whose value is not finite (−1: none)."""
+    first = -1
+    for i in range(src.shape[0]):
+        v = src[i]
+        dst[i, j] = v
+        if first < 0 and not np.isfinite(v):
+            first = i
+    return first

@@ -297,12 +297,19 @@ def _block_samples(blk: Block, row0: int, use_torque: bool) -> np.ndarray:
     if missing:
         raise DataError(f"missing column(s) {', '.join(missing)} needed by the estimator", column=missing[0])
     cols = list(INPUT_COLUMNS) + ([TORQUE_COLUMN] if use_torque else [])
-    data = np.column_stack([np.asarray(blk[c], dtype=np.float64) for c in cols])
-    bad = ~np.isfinite(data)
-    if bad.any():
-        row, col = np.argwhere(bad)[0]
+    src = [np.asarray(blk[c], dtype=np.float64) for c in cols]
+    n = src[0].shape[0]
+    if any(a.ndim != 1 or a.shape[0] != n for a in src):
+        raise ValueError("the estimator's input columns must be 1-D and of equal length")
+    data = np.empty((n, len(cols)))
+    # one compiled pass per column copies it and finds its first non-finite row; the first bad
+    # value in row-major order is the smallest such row (then the leftmost column)
+    bad = [dz.copy_column_finite(data, j, a) for j, a in enumerate(src)]
+    rows = [(r, j) for j, r in enumerate(bad) if r >= 0]
+    if rows:
+        row, col = min(rows)
         raise DataError("value is not finite (NaN or inf)", column=cols[col], row=int(row0 + row))
-    return np.ascontiguousarray(data)
+    return data
 
 
 def scan_blocks(blocks: Callable[[], Iterable[Block]], N: float) -> MotionSummary:
@@ -367,15 +374,13 @@ class _Track:
         n = out.shape[0]
         d = out[:, dz.O_DELTA]
         if n:
-            # min/max per history block: the rows of block b are contiguous, so reduceat over
-            # the block starts gives what np.minimum.at over the block index gives, in one pass
-            b0, b1 = row0 // self.Bh, (row0 + n - 1) // self.Bh + 1
-            starts = np.arange(b0, b1) * self.Bh - row0
-            starts[0] = 0
-            blk = slice(b0, b1)
-            np.minimum(self.dmin[blk], np.minimum.reduceat(d, starts), out=self.dmin[blk])
-            np.maximum(self.dmax[blk], np.maximum.reduceat(d, starts), out=self.dmax[blk])
+            # min/max of δ̂ per history block, one compiled pass over the block's rows
+            dz.block_minmax(out, row0, self.Bh, self.dmin, self.dmax)
             if truth is not None and self.emin is not None and self.emax is not None:
+                b0, b1 = row0 // self.Bh, (row0 + n - 1) // self.Bh + 1
+                starts = np.arange(b0, b1) * self.Bh - row0
+                starts[0] = 0
+                blk = slice(b0, b1)
                 e = d - truth
                 np.minimum(self.emin[blk], np.minimum.reduceat(e, starts), out=self.emin[blk])
                 np.maximum(self.emax[blk], np.maximum.reduceat(e, starts), out=self.emax[blk])
