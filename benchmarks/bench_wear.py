@@ -17,12 +17,21 @@ scale-out case of docs/scaling.md is one 60 s recording per axis and day):
 Goals (issue 10): ≥ 1000× real time per core; Dask 2 workers ≥ 1.7× serial; memory flat.
 The load average is printed: figures taken on a shared machine are lower bounds.
 
-Run: ``make bench`` or ``.venv/bin/python benchmarks/bench_wear.py [--recordings N]``.
+``--stages`` also measures what each stage of the ingest costs per sample in isolation
+(:func:`stage_costs`, best of ``--repeats``, CPU time) and the ceiling that the work which must
+be done puts on the throughput: hashing the file, decoding the Parquet columns, the motion pass
+and the estimator kernel, once for the chosen law and once for the δ1 check (both laws run
+over every sample and both change stored figures). Everything else (mapping, validation, the
+kernel's input block, the verdict, the store) is overhead on top of that ceiling.
+
+Run: ``make bench`` or ``.venv/bin/python benchmarks/bench_wear.py [--recordings N] [--stages]``.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
+import math
 import os
 import subprocess
 import sys
@@ -60,6 +69,98 @@ def _peak_rss_mb(fleet: Path, db: Path) -> float:
         check=True,
     )
     return float(r.stdout.strip().splitlines()[-1])
+
+
+def _stages_of(axis, path: Path) -> tuple[int, dict[str, object], set[str]]:
+    """(samples, stage label → zero-argument callable, labels of the work that must be done)."""
+    import numpy as np
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    import drivelash.estimation.estimator as est
+    from drivelash.commands.estimate import estimate_trace
+    from drivelash.estimation import deadzone as dz
+    from drivelash.io.formats import read_raw
+    from drivelash.io.load import _mapping_from, trace_from_table
+    from drivelash.wear.estimate import content_hash
+
+    cmap, sampling = _mapping_from(axis.drive)
+    table = read_raw(path)
+    trace = trace_from_table(table, cmap, sampling, required=est.INPUT_COLUMNS)
+    n = len(trace)
+    data = Path(path).read_bytes()
+    names = list(table.columns)
+    seen: dict = {}
+    run_session = est._run_session
+
+    def spy(setup, blocks, keep, error_since=()):
+        seen["setup"] = setup
+        return run_session(setup, blocks, keep, error_since)
+
+    est._run_session = spy
+    try:
+        estimate_trace(axis.drive, trace, axis.method, keep="decimated")
+    finally:
+        est._run_session = run_session
+    setup = seen["setup"]
+    x = est.samples_of(trace)
+    out = np.empty((n, dz.N_OUT))
+    N = axis.drive.to_drivetrain_params().N
+
+    def decode() -> list:
+        tab = pq.read_table(pa.BufferReader(data), columns=names, use_threads=False)
+        return [c.to_numpy() for c in tab.columns]
+
+    stages: dict[str, object] = {
+        "hash: SHA-256 of the file (in memory)": lambda: hashlib.sha256(data).digest(),
+        "read: Parquet decode of the columns (pyarrow, in memory, one thread)": decode,
+        "motion pass (scan_blocks)": lambda: est.scan_blocks(est.trace_blocks(trace), N),
+    }
+    for label, cfg in (("chosen law", setup.config), ("delta1 check law", setup.check_config)):
+        if cfg is None:
+            continue
+        prm = est.build_params(setup.drivetrain, setup.delta1, cfg, setup.T_s, (2 * n) // 3)
+        s0 = dz.initial_state(prm, cfg.delta0)
+        stages[f"estimator kernel, {label}"] = lambda s0=s0, prm=prm: dz.deadzone_run_into(s0, x, prm, out)
+    required = set(stages)
+    stages.update(
+        {
+            "drivelash: hash the file (content_hash)": lambda: content_hash(path),
+            "drivelash: read the file (read_raw)": lambda: read_raw(path),
+            "drivelash: map + validate (trace_from_table)": lambda: trace_from_table(
+                table, cmap, sampling, required=est.INPUT_COLUMNS
+            ),
+            "drivelash: estimate_trace (both laws, verdict)": lambda: estimate_trace(
+                axis.drive, trace, axis.method, keep="decimated"
+            ),
+        }
+    )
+    return n, stages, required
+
+
+def stage_costs(files: list, repeats: int = 3) -> dict[str, float]:
+    """CPU time per sample [s] of each ingest stage, measured in isolation (best of ``repeats``).
+
+    ``files``: (axis, path) pairs. The estimator's two laws are run with the parameters the
+    ingest gives them (captured from one ``estimate_trace`` call per recording). The key
+    ``"__required__"`` holds the sum over the work that must be done.
+    """
+    tot: dict[str, float] = {}
+    n_tot = 0
+    required: set[str] = set()
+    for a, p in files:
+        n, stages, required = _stages_of(a, p)
+        n_tot += n
+        for k, f in stages.items():
+            b = math.inf
+            for _ in range(repeats):
+                c0 = time.process_time()
+                f()  # type: ignore[operator]
+                b = min(b, time.process_time() - c0)
+            tot[k] = tot.get(k, 0.0) + b
+    out = {k: v / n_tot for k, v in tot.items()}
+    out["__required__"] = sum(v for k, v in out.items() if k in required)
+    return out
 
 
 def store_rate(url: str, n: int) -> tuple[float, float | None]:
@@ -140,6 +241,11 @@ def main() -> None:
     ap.add_argument(
         "--pg", default=None, help="also measure the writer on this PostgreSQL URL (empty database)"
     )
+    ap.add_argument(
+        "--fleet", type=Path, default=None, help="an existing simulated fleet (A/B on the same files)"
+    )
+    ap.add_argument("--stages", action="store_true", help="also measure each stage's cost per sample")
+    ap.add_argument("--repeats", type=int, default=3, help="best of this many runs per stage (--stages)")
     args = ap.parse_args()
 
     from dataclasses import replace
@@ -156,7 +262,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="bench-wear-") as tmp:
         root = Path(tmp)
         t0 = time.perf_counter()
-        fl = _fleet(root, args.recordings, RECORDING_S, seed=1)
+        fl = args.fleet or _fleet(root, args.recordings, RECORDING_S, seed=1)
         fleet = load_fleet(fl / "fleet.toml")
         files = [(a, p) for a in fleet.axes for p in a.files()]
         data_s = len(files) * RECORDING_S
@@ -180,6 +286,22 @@ def main() -> None:
         c0 = time.process_time()
         ingest(one, Store(root / "warm.sqlite"), workers=1)
         warm_cpu = time.process_time() - c0
+
+        if args.stages:
+            T_s = 1.0 / 8000.0
+            cost = stage_costs(files, args.repeats)
+            req = cost.pop("__required__")
+            print(
+                f"per-sample CPU cost of each stage in isolation (best of {args.repeats}), load "
+                f"{os.getloadavg()[0]:.1f}:"
+            )
+            for k, v in cost.items():
+                print(f"  {k:70s} {1e9 * v:7.1f} ns/sample")
+            print(
+                f"ceiling from the work that must be done (hash + decode + motion pass + both laws): "
+                f"{1e9 * req:.1f} ns/sample -> {T_s / req:.0f}x real time per core at 8 kHz "
+                f"(goal 1000x needs <= {1e9 * T_s / 1000:.0f} ns/sample)"
+            )
 
         st = Store(root / "serial.sqlite")
         c0, w0 = time.process_time(), time.perf_counter()
