@@ -578,26 +578,36 @@ def block_minmax(out, row0, Bh, dmin, dmax):
     Row ``i`` of ``out`` is global sample ``row0 + i`` and belongs to history block
     ``(row0 + i) // Bh`` of ``dmin``/``dmax``; a NaN stays NaN (as ``np.minimum``/``np.maximum``).
     """
-    for i in range(out.shape[0]):
+    n = out.shape[0]
+    i = 0
+    while i < n:
         b = (row0 + i) // Bh
-        v = out[i, O_DELTA]
+        end = min(n, (b + 1) * Bh - row0)
         lo = dmin[b]
-        if v < lo or v != v:
-            if lo == lo:
-                dmin[b] = v
         hi = dmax[b]
-        if v > hi or v != v:
-            if hi == hi:
-                dmax[b] = v
+        for k in range(i, end):
+            v = out[k, O_DELTA]
+            if (v < lo or v != v) and lo == lo:
+                lo = v
+            if (v > hi or v != v) and hi == hi:
+                hi = v
+        dmin[b] = lo
+        dmax[b] = hi
+        i = end
 
 
 @njit(cache=True)
-def copy_column_finite(dst, j, src):
-    """``dst[:, j] = src``; returns the first row whose value is not finite (−1: none)."""
-    first = -1
-    for i in range(src.shape[0]):
-        v = src[i]
-        dst[i, j] = v
-        if first < 0 and not np.isfinite(v):
-            first = i
-    return first
+def stack_finite(cols, data):
+    """``data[i, j] = cols[j][i]`` row by row; returns the first (row, column) in row-major
+    order whose value is not finite, or (−1, −1)."""
+    bad_i = -1
+    bad_j = -1
+    m = len(cols)
+    for i in range(data.shape[0]):
+        for j in range(m):
+            v = cols[j][i]
+            data[i, j] = v
+            if bad_i < 0 and not np.isfinite(v):
+                bad_i = i
+                bad_j = j
+    return bad_i, bad_j

@@ -297,17 +297,13 @@ def _block_samples(blk: Block, row0: int, use_torque: bool) -> np.ndarray:
     if missing:
         raise DataError(f"missing column(s) {', '.join(missing)} needed by the estimator", column=missing[0])
     cols = list(INPUT_COLUMNS) + ([TORQUE_COLUMN] if use_torque else [])
-    src = [np.asarray(blk[c], dtype=np.float64) for c in cols]
+    src = tuple(np.ascontiguousarray(blk[c], dtype=np.float64) for c in cols)
     n = src[0].shape[0]
     if any(a.ndim != 1 or a.shape[0] != n for a in src):
         raise ValueError("the estimator's input columns must be 1-D and of equal length")
     data = np.empty((n, len(cols)))
-    # one compiled pass per column copies it and finds its first non-finite row; the first bad
-    # value in row-major order is the smallest such row (then the leftmost column)
-    bad = [dz.copy_column_finite(data, j, a) for j, a in enumerate(src)]
-    rows = [(r, j) for j, r in enumerate(bad) if r >= 0]
-    if rows:
-        row, col = min(rows)
+    row, col = dz.stack_finite(src, data)  # one compiled pass: copy, first bad value row-major
+    if row >= 0:
         raise DataError("value is not finite (NaN or inf)", column=cols[col], row=int(row0 + row))
     return data
 
