@@ -126,11 +126,20 @@ def test_process_pool_results_identical_to_serial(small_fleet, serial_store, tmp
     assert _values(st2) == _values(st)
 
 
-def test_dask_local_cluster_identical_to_serial(small_fleet, serial_store, tmp_path):
-    """A real LocalCluster (2 worker processes): bit-identical results."""
+def test_dask_local_cluster_identical_to_serial(small_fleet, serial_store, tmp_path, monkeypatch):
+    """A real LocalCluster (2 worker processes): bit-identical results. Its workers run with
+    the allocator settings of this process: Dask's default MALLOC_TRIM_THRESHOLD_ (which costs
+    +60–75 % CPU per recording, docs/scaling.md) is not set in them, nor left in os.environ."""
+    from drivelash.wear.ingest import DaskRunner
+
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
     st, _ = serial_store
     st3 = Store(tmp_path / "d.sqlite")
-    ingest(load_fleet(small_fleet / "fleet.toml"), st3, workers=2, dask="local")
+    with DaskRunner("local", 2) as runner:
+        env = runner.client.run(os.environ.get, "MALLOC_TRIM_THRESHOLD_")
+        ingest(load_fleet(small_fleet / "fleet.toml"), st3, dask=runner)
+    assert len(env) == 2 and set(env.values()) == {None}
+    assert "MALLOC_TRIM_THRESHOLD_" not in os.environ
     assert _values(st3) == _values(st)
 
 

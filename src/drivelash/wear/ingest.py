@@ -37,6 +37,8 @@ MAX_ATTEMPTS = 3
 #: Rows per committed batch, and the longest time between commits [s].
 BATCH_SIZE = 64
 BATCH_SECONDS = 2.0
+#: Dask setting left unset for the workers of ``--dask local`` (see :class:`DaskRunner`).
+LOCAL_WORKER_ENV_KEY = "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_"
 
 
 class SchedulerError(DrivelashError):
@@ -172,13 +174,20 @@ class DaskRunner:
         self.cluster = None
         try:
             if address == "local":
-                self.cluster = LocalCluster(
-                    n_workers=max(1, workers),
-                    threads_per_worker=1,
-                    processes=True,
-                    dashboard_address=None,
-                    silence_logs=logging.CRITICAL,
-                )
+                import dask
+
+                # the workers get the memory allocator the serial process has: Dask's default
+                # MALLOC_TRIM_THRESHOLD_=65536 turns off glibc's dynamic mmap threshold, so every
+                # large temporary is mapped and page-faulted afresh (measured: +60–75 % CPU per
+                # recording, docs/scaling.md); None unsets it (and keeps it out of os.environ)
+                with dask.config.set({LOCAL_WORKER_ENV_KEY: None}):
+                    self.cluster = LocalCluster(
+                        n_workers=max(1, workers),
+                        threads_per_worker=1,
+                        processes=True,
+                        dashboard_address=None,
+                        silence_logs=logging.CRITICAL,
+                    )
                 self.client = Client(self.cluster)
             else:
                 self.client = Client(address, timeout=f"{timeout:g}s")
