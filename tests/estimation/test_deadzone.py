@@ -240,3 +240,22 @@ def test_block_samples_copies_and_names_the_first_bad_value():
         _block_samples(blk, 100, True)
     with pytest.raises(DataError, match="theta_l.*row 130|row 130.*theta_l"):
         _block_samples(blk, 100, False)
+
+
+def test_motion_block_stats_equal_numpy():
+    """Pass 1's per-block min, max and smallest step above the floor in one compiled pass =
+    np.min, np.max and the masked np.diff it replaced (with and without the previous sample,
+    a quantised signal, a NaN)."""
+    from drivelash.estimation.motion import STEP_FLOOR, _block_stats
+
+    rng = np.random.default_rng(2)
+    for x, prev in (
+        (np.round(rng.normal(size=1000) * 512) / 512, np.nan),
+        (np.round(rng.normal(size=1000) * 512) / 512, 0.25),
+        (np.full(10, 3.0), 3.0),
+        (np.array([1.0, np.nan, 2.0, 2.5]), np.nan),
+    ):
+        d = np.abs(np.diff(x, prepend=prev)) if np.isfinite(prev) else np.abs(np.diff(x))
+        d = d[d > STEP_FLOOR]
+        ref = (np.min(x), np.max(x), np.min(d) if d.size else np.inf)
+        np.testing.assert_array_equal(np.array(_block_stats(x, prev, STEP_FLOOR)), np.array(ref))

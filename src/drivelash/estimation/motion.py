@@ -44,15 +44,36 @@ STEP_FLOOR = 1e-12
 COUNT_FLOOR = 2.0 * math.pi / 2**24
 
 
-def _min_step(x: np.ndarray, prev: float) -> float:
-    """Smallest step |x_k − x_k−1| above :data:`STEP_FLOOR` in a block [rad].
+@njit(cache=True)
+def _block_stats(x, prev, floor):
+    """(min, max, smallest step |x_k − x_k−1| above ``floor``) of a block in one pass.
 
-    ``prev`` is the sample before the block (NaN at the start of the recording).
+    ``prev`` is the sample before the block (NaN at the start of the recording: no step into
+    the first sample). A NaN sample makes min and max NaN (as ``np.min``/``np.max``) and is no
+    step (as the comparison ``d > floor`` of the array version); an empty block gives
+    (inf, −inf, inf).
     """
-    x = np.asarray(x, dtype=np.float64)
-    d = np.abs(np.diff(x, prepend=prev)) if math.isfinite(prev) else np.abs(np.diff(x))
-    d = d[d > STEP_FLOOR]
-    return float(np.min(d)) if d.size else math.inf
+    lo = np.inf
+    hi = -np.inf
+    step = np.inf
+    nan = False
+    p = prev
+    for i in range(x.shape[0]):
+        v = x[i]
+        if v != v:
+            nan = True
+        else:
+            if v < lo:
+                lo = v
+            if v > hi:
+                hi = v
+        d = abs(v - p)
+        if d > floor and d < step:
+            step = d
+        p = v
+    if nan:
+        return np.nan, np.nan, step
+    return lo, hi, step
 
 
 @njit(cache=True)
@@ -232,12 +253,16 @@ class MotionScanner:
             self._u.append(np.asarray(torque_m[start::B], dtype=np.float64))
         else:
             self._has_u = False
-        self.th_m_min = min(self.th_m_min, float(np.min(theta_m)) / self.N)
-        self.th_m_max = max(self.th_m_max, float(np.max(theta_m)) / self.N)
-        self.th_l_min = min(self.th_l_min, float(np.min(theta_l)))
-        self.th_l_max = max(self.th_l_max, float(np.max(theta_l)))
-        self.step_m = min(self.step_m, _min_step(theta_m, self._last_m))
-        self.step_l = min(self.step_l, _min_step(theta_l, self._last_l))
+        # min, max and smallest step of each position in one compiled pass
+        f64 = np.float64
+        lo_m, hi_m, st_m = _block_stats(np.ascontiguousarray(theta_m, dtype=f64), self._last_m, STEP_FLOOR)
+        lo_l, hi_l, st_l = _block_stats(np.ascontiguousarray(theta_l, dtype=f64), self._last_l, STEP_FLOOR)
+        self.th_m_min = min(self.th_m_min, float(lo_m) / self.N)
+        self.th_m_max = max(self.th_m_max, float(hi_m) / self.N)
+        self.th_l_min = min(self.th_l_min, float(lo_l))
+        self.th_l_max = max(self.th_l_max, float(hi_l))
+        self.step_m = min(self.step_m, float(st_m))
+        self.step_l = min(self.step_l, float(st_l))
         self._last_m = float(theta_m[-1])
         self._last_l = float(theta_l[-1])
         self.t_last = float(t[-1])
