@@ -155,6 +155,7 @@ def main() -> None:
     from drivelash.te.learn.fit import fit_te_model, prepare_campaign, split_of, stack_runs
     from drivelash.te.learn.network import MLPRegressor
     from drivelash.te.learn.stacked import StackedTERegressor
+    from drivelash.te.protocol.bench import model_context
     from drivelash.te.protocol.campaign import load_campaign
     from drivelash.te.runtime.persist import load_model, save_model
 
@@ -181,6 +182,7 @@ def main() -> None:
             )
 
         # -- 2. prediction speed --------------------------------------------------------
+        trained.context = model_context(camp, MAX_LOAD, HOLDOUT)  # a model file is self-contained
         mdir = save_model(trained, tmp / "model")
         model = load_model(mdir)
         bench_predict(trained, model)
