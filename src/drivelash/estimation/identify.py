@@ -454,31 +454,49 @@ def identify_rigid_stream(
         finally:
             if held is not None:
                 held.close()
-    theta, std, rel, sigma, cond, cov = lsq.solve()
     Wk = np.concatenate(kept) if kept else np.empty((0, 5))
     td = np.concatenate(t_dec)[: len(Wk)] if t_dec else np.empty(0)
+    options = {
+        "cutoff_hz": cutoff_hz,
+        "filter_order": filter_order,
+        "decimate": decimate,
+        "n_border": n_border,
+    }
+    return _result(
+        RIGID_NAMES, lsq.solve(), lsq.rows, {**options, "T_s": T_s}, td, Wk[:, :4], Wk[:, 4], axis, "motor"
+    )
+
+
+def _result(
+    names: tuple[str, ...],
+    solution: tuple[np.ndarray, np.ndarray, float, float, float, np.ndarray],
+    n_rows: int,
+    options: dict[str, Any],
+    t: np.ndarray,
+    Wd: np.ndarray,
+    yd: np.ndarray,
+    axis: str,
+    side: str,
+) -> IdentificationResult:
+    """The :class:`IdentificationResult` of a solved system (``solution`` from :class:`ChunkedLSQ`);
+    ``t``, ``Wd``, ``yd``: the decimated rows kept for plots."""
+    theta, std, rel, sigma, cond, cov = solution
     return IdentificationResult(
-        names=RIGID_NAMES,
+        names=names,
         theta=theta,
         std=std,
         relative_error=rel,
         sigma=sigma,
         condition=cond,
-        n_rows=int(lsq.rows),
-        options={
-            "cutoff_hz": cutoff_hz,
-            "filter_order": filter_order,
-            "decimate": decimate,
-            "n_border": n_border,
-            "T_s": T_s,
-        },
-        t=td,
-        y=Wk[:, 4].copy(),
-        y_hat=Wk[:, :4] @ theta,
-        q_dot=Wk[:, 1].copy(),
-        q_ddot=Wk[:, 0].copy(),
+        n_rows=int(n_rows),
+        options=options,
+        t=t,
+        y=yd,
+        y_hat=Wd @ theta,
+        q_dot=Wd[:, 1].copy(),
+        q_ddot=Wd[:, 0].copy(),
         axis=axis,
-        side="motor",
+        side=side,
         cov=cov,
     )
 
@@ -500,30 +518,15 @@ def _finish(
     Wd = np.column_stack([_decimate(W[:, j], decimate) for j in range(W.shape[1])])
     yd = _decimate(y, decimate)
     td = t[::decimate][: yd.size]
-    theta, std, rel, sigma, cond, cov = _solve(Wd, yd, names)
-    return IdentificationResult(
-        names=names,
-        theta=theta,
-        std=std,
-        relative_error=rel,
-        sigma=sigma,
-        condition=cond,
-        n_rows=int(yd.size),
-        options={
-            "cutoff_hz": cutoff_hz,
-            "filter_order": filter_order,
-            "decimate": decimate,
-            "n_border": n_border,
-            "T_s": trace.T_s,
-        },
-        t=td,
-        y=yd,
-        y_hat=Wd @ theta,
-        q_dot=Wd[:, 1],
-        q_ddot=Wd[:, 0],
-        axis=str(trace.meta.get("axis", "rotary")),
-        side=side,
-        cov=cov,
+    options = {
+        "cutoff_hz": cutoff_hz,
+        "filter_order": filter_order,
+        "decimate": decimate,
+        "n_border": n_border,
+    }
+    axis = str(trace.meta.get("axis", "rotary"))
+    return _result(
+        names, _solve(Wd, yd, names), yd.size, {**options, "T_s": trace.T_s}, td, Wd, yd, axis, side
     )
 
 
