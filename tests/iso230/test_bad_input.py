@@ -19,7 +19,6 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import drivelash.cli
 from drivelash.io import Trace
 from drivelash.iso230.synthetic import SyntheticAxis, synthetic_recording, synthetic_table
 
@@ -158,22 +157,15 @@ CASES = [
 ]
 
 
-#: Usage errors go through ``cli.main`` (h1-safety's fix of issue 15 item 1, not yet on main
-#: when this was written): until it lands they print a traceback — a known miss, not hidden.
-_USAGE_MISS = pytest.mark.xfail(
-    not hasattr(drivelash.cli, "_usage_error_line"),
-    strict=True,
-    reason="known miss: typer usage errors end in a traceback (exit 1) until h1-safety's cli fix"
-    " (issue 15 item 1) is on main; goal: one line, exit 2",
-)
+#: Usage errors (typer's own: missing argument, unknown option, option without value) go through
+#: ``cli.main`` too: one line, exit 2 (issue 15 item 1).
 USAGE = [
-    pytest.param("missing argument", [], "Missing argument", marks=_USAGE_MISS, id="missing argument"),
-    pytest.param("unknown option", [*GOOD, "--bogus"], "--bogus", marks=_USAGE_MISS, id="unknown option"),
+    pytest.param("missing argument", [], "Missing argument", id="missing argument"),
+    pytest.param("unknown option", [*GOOD, "--bogus"], "--bogus", id="unknown option"),
     pytest.param(
         "option without value",
         [*GOOD, "--json", J, "--report", R, "--axis"],
         "--axis",
-        marks=_USAGE_MISS,
         id="option no value",
     ),
 ]
