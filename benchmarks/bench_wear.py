@@ -80,8 +80,8 @@ def _stages_of(axis, path: Path) -> tuple[int, dict[str, object], set[str]]:
     import pyarrow.parquet as pq
 
     import drivelash.estimation.estimator as est
-    from drivelash.commands.estimate import estimate_trace
     from drivelash.estimation import deadzone as dz
+    from drivelash.estimation.pipeline import estimate_trace
     from drivelash.io.formats import read_raw
     from drivelash.io.load import _mapping_from, trace_from_table
     from drivelash.wear.estimate import content_hash

@@ -82,8 +82,8 @@ def test_stored_figures_are_those_of_drivelash_estimate(small_fleet, serial_stor
     full series kept, bit for bit."""
     import math
 
-    from drivelash.commands.estimate import estimate_trace
     from drivelash.estimation.estimator import INPUT_COLUMNS
+    from drivelash.estimation.pipeline import estimate_trace
     from drivelash.io import load_trace
 
     st, _ = serial_store

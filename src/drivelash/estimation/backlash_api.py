@@ -76,7 +76,7 @@ def estimate_from_config(
     delta1: float | None = None,
 ) -> BacklashEstimate:
     """Run the online estimator on ``trace`` as ``drivelash estimate`` does
-    (:func:`drivelash.commands.estimate.estimate_trace`) and build the command's summary.
+    (:func:`drivelash.estimation.pipeline.estimate_trace`) and build the command's summary.
 
     Parameters
     ----------
@@ -91,8 +91,8 @@ def estimate_from_config(
     delta1 : float, optional
         Known offset δ1 [rad]; replaces ``[backlash] delta1``.
     """
-    from drivelash.commands.estimate import MAEE_FRACTION, SS_FRACTION, estimate_summary, estimate_trace
     from drivelash.errors import DrivelashError
+    from drivelash.estimation.pipeline import MAEE_FRACTION, SS_FRACTION, estimate_summary, estimate_trace
     from drivelash.io.config import BacklashSection, DrivetrainSection
     from drivelash.metrics import maee, steady_state_peak
 

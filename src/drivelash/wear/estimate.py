@@ -3,7 +3,7 @@
 :func:`estimate_recording` is the single adapter between the wear tracker and the backlash
 estimator: it hashes the file, reads and validates it with the axis's drive configuration
 (:func:`drivelash.io.load_trace`), finds its start time, and runs the same estimator with the
-same tuning as ``drivelash estimate`` (:func:`drivelash.commands.estimate.estimate_trace`).
+same tuning as ``drivelash estimate`` (:func:`drivelash.estimation.pipeline.estimate_trace`).
 A recording that cannot be read or validated becomes a ``failed`` row with its one-line reason;
 nothing raises out of a worker.
 
@@ -149,8 +149,8 @@ def estimate_recording(task: RecordingTask) -> EstimateRow:
         ``status="ok"`` with δ̂ and the estimator's verdicts, or ``status="failed"`` with
         the one-line reason (the recording is still identified by its content hash).
     """
-    from drivelash.commands.estimate import estimate_trace
     from drivelash.estimation.estimator import INPUT_COLUMNS
+    from drivelash.estimation.pipeline import estimate_trace
     from drivelash.io import load_trace
 
     t0 = time.perf_counter()
