@@ -851,8 +851,7 @@ class TwoMassFit:
     start_weight: float = 0.0
     #: Covariance of the measurement noise alone (HAC; ``cov_free`` without the systematic part).
     cov_noise: np.ndarray | None = None
-    #: Window-length sensitivity (:func:`window_sensitivity`): window lengths [samples] and the
-    #: shifts of the reported parameters; empty when not computed.
+    #: Window-length sensitivity (:func:`window_sensitivity`); empty when not computed.
     systematic: dict[str, Any] = field(default_factory=dict)
 
 
@@ -1210,21 +1209,45 @@ def identify_two_mass(
 
 #: Window lengths (multiples of the fit's M) of the window-length sensitivity fits.
 SENSITIVITY_WINDOWS = (2, 4)
+#: A window-length shift counts as systematic when its χ² statistic against the noise of both
+#: fits exceeds this quantile of χ²(rank) (see docs/assumptions.md).
+SENSITIVITY_LEVEL = 0.95
+
+
+def shift_statistic(dx: np.ndarray, cov_a: np.ndarray, cov_b: np.ndarray) -> tuple[float, int]:
+    """χ² statistic Δᵀ(C_a + C_b)⁺Δ of a parameter shift and the rank of C_a + C_b.
+
+    C_a + C_b is the variance of the difference of two estimates whose noises are independent;
+    fits of the same recording have positively correlated noises, so the true variance of the
+    difference is smaller and the test is conservative (it calls a shift systematic only when
+    even independent noises could not produce it). Computed on the correlation scale (the
+    parameters differ by 10 orders of magnitude).
+    """
+    V = cov_a + cov_b
+    s = np.sqrt(np.clip(np.diag(V), 1e-300, None))
+    R = V / np.outer(s, s)
+    u = dx / s
+    w, Q = np.linalg.eigh(R)
+    keep = w > 1e-10 * max(float(w.max()), 1e-300)
+    proj = Q[:, keep].T @ u
+    return float(np.sum(proj**2 / w[keep])), int(keep.sum())
 
 
 def window_sensitivity(trace: Trace, fit: TwoMassFit, start: GridStart, **kw: Any) -> TwoMassFit:
-    """``fit`` with the window-length sensitivity of its parameters in the covariance.
+    """``fit`` with the systematic error its window length causes added to the covariance.
 
     The HAC covariance carries the measurement noise only; the equation-error fit also has a
     systematic error that depends on the window (the interior means standing in for the
     integrals of ω and sgn ω, the extrapolated starting velocity, the closed loop's answer to
-    the velocity noise at the window edges, the fused positions' resolution — all change with
-    M). The fit is repeated, with the same contacts and from its own parameters, at windows of
-    k·M samples for k in :data:`SENSITIVITY_WINDOWS`; each shift Δ_k of the free parameters
-    (a finite-difference estimate of the window bias: for a bias ∝ M^−p, Δ_2 is (1 − 2^−p)
-    times the bias at M, Δ_4 (1 − 4^−p) times it) enters as the systematic covariance
-    (Σ_k Δ_k Δ_kᵀ) / n_k added to the fit's own. The point estimate is unchanged. A window the
-    recording is too short for (:func:`window_data` needs 50 windows) is skipped.
+    the velocity noise at the window edges, the resolution of the fused positions — all change
+    with M). The fit is repeated, with the same contacts and from its own parameters, at
+    windows of k·M samples for k in :data:`SENSITIVITY_WINDOWS`. A shift Δ_k of the free
+    parameters that the noise of the two fits cannot explain (:func:`shift_statistic` above
+    the :data:`SENSITIVITY_LEVEL` quantile of χ²) is a finite-difference estimate of the
+    window bias — for a bias ∝ M^−p, Δ_2 is (1 − 2^−p) and Δ_4 (1 − 4^−p) times the bias at M —
+    and enters the covariance as Σ_k Δ_k Δ_kᵀ (over the significant shifts). The point
+    estimate is unchanged. A window the recording is too short for (:func:`window_data` needs
+    50 windows) is skipped.
 
     Parameters
     ----------
@@ -1233,20 +1256,24 @@ def window_sensitivity(trace: Trace, fit: TwoMassFit, start: GridStart, **kw: An
     fit : TwoMassFit
         The final fit (its contacts and equations are kept).
     start : GridStart
-        Its start (contacts found by the grid); the start values are the fit's parameters.
+        Its start; the start values of the sensitivity fits are ``fit``'s parameters.
     **kw
         ``equations``, ``fit_delay``, ``torque_offset`` as for :func:`fit_bracketed`.
 
     Returns
     -------
     TwoMassFit
-        ``fit`` with the systematic covariance added and ``systematic`` set (the shifts Δ_k
-        of the reported parameters, per window length).
+        ``fit`` with the systematic covariance added, ``cov_noise`` the covariance without it
+        and ``systematic`` what was found (window lengths [samples], χ² statistic, degrees of
+        freedom, threshold, whether the shift was counted, shifts of the reported parameters).
     """
+    from scipy.stats import chi2
+
     d = fit.problem.d
     free = fit.problem.free
-    shifts: list[np.ndarray] = []
-    windows: list[int] = []
+    rep, A, _ = _linear_transform(fit.problem.names, fit.p)
+    cov_sys = np.zeros_like(fit.cov_free)
+    found: list[dict[str, Any]] = []
     for k in SENSITIVITY_WINDOWS:
         M2 = k * d.M
         try:
@@ -1257,23 +1284,24 @@ def window_sensitivity(trace: Trace, fit: TwoMassFit, start: GridStart, **kw: An
             continue
         f2 = fit_bracketed(d2, sides=fit.problem.sides, start=replace(start, x0=fit.p.copy()), **kw)
         dx = f2.p[free] - fit.p[free]
-        if not np.all(np.isfinite(dx)):
+        if not (np.all(np.isfinite(dx)) and np.all(np.isfinite(f2.cov_free))):
             continue
-        shifts.append(dx)
-        windows.append(M2)
-    if not shifts:
-        return replace(fit, systematic={"windows": [], "shift": {}})
-    cov_sys = sum(np.outer(dx, dx) for dx in shifts) / len(shifts)
-    rep, A, _ = _linear_transform(fit.problem.names, fit.p)
-    table = {
-        n: [float(v) for v in col] for n, col in zip(rep, (A @ np.column_stack(shifts)), strict=True)
-    }
-    return replace(
-        fit,
-        cov_free=fit.cov_free + cov_sys,
-        cov_noise=fit.cov_free,
-        systematic={"windows": windows, "shift": table},
-    )
+        H, dof = shift_statistic(dx, fit.cov_free, f2.cov_free)
+        thr = float(chi2.ppf(SENSITIVITY_LEVEL, max(dof, 1)))
+        counted = H > thr
+        if counted:
+            cov_sys += np.outer(dx, dx)
+        found.append(
+            {
+                "window_samples": M2,
+                "chi2": H,
+                "dof": dof,
+                "threshold": thr,
+                "counted": bool(counted),
+                "shift": {n: float(v) for n, v in zip(rep, A @ dx, strict=True)},
+            }
+        )
+    return replace(fit, cov_free=fit.cov_free + cov_sys, cov_noise=fit.cov_free, systematic={"fits": found})
 
 
 def _fit_estimates(fit: TwoMassFit) -> dict[str, tuple[float, float]]:
@@ -1454,6 +1482,7 @@ def _build_result(
         "motor_windows_used": int(prob.im.size),
         "load_windows_used": int(prob.il.size),
         "hac_lags": fit.lags,
+        "systematic": fit.systematic,
         "start_weight": fit.start_weight,
         "nfev": fit.nfev,
         "contact_points": {"c_lo": float(p[I_CLO]), "c_hi": float(p[I_CHI])},
@@ -1487,6 +1516,13 @@ def _build_result(
             f"integral equation error on {data.M}-sample windows ({1e3 * data.M * data.T_s:.3g} ms), "
             "RTS-fused positions, scipy least_squares (Levenberg–Marquardt), "
             f"Newey–West HAC covariance ({fit.lags} lags)"
+            + (
+                "; window-length sensitivity in the intervals (shift at "
+                + ", ".join(f"{f['window_samples']}" for f in fit.systematic.get("fits", []) if f["counted"])
+                + "-sample windows)"
+                if any(f["counted"] for f in fit.systematic.get("fits", []))
+                else ""
+            )
             + (
                 f"; closed-loop bracket: centre of the look-back fit and the fit at start-velocity weight "
                 f"{fit.start_weight:.3g}, their difference in the intervals"
