@@ -18,6 +18,7 @@ from drivelash.estimation.identify_two_mass import (
     fuse_position,
     identify_two_mass,
     quantisation_step,
+    shift_statistic,
     start_weight_for,
     velocity_feedback,
     window_data,
@@ -217,3 +218,35 @@ def test_start_weight_decorrelates_the_window_torque(bench_0c):
     assert start_weight_for(d, 1e-9) == 2.0  # bounded
     d.info["velocity_feedback_gain"] = None
     assert start_weight_for(d, J_m) == 0.0
+
+
+def test_shift_statistic_is_the_chi2_of_the_difference():
+    """Δᵀ(C_a + C_b)⁻¹Δ against a direct solve on parameters 10 orders of magnitude apart, and the
+    rank (and the pseudo-inverse) when a direction carries no variance."""
+    rng = np.random.default_rng(3)
+    scale = np.array([1e6, 1e-4, 1.0])
+    L = rng.standard_normal((3, 3))
+    Ca = (L @ L.T + 0.5 * np.eye(3)) * np.outer(scale, scale)
+    Cb = 0.3 * Ca + np.diag(0.1 * scale**2)
+    dx = rng.standard_normal(3) * scale
+    H, dof = shift_statistic(dx, Ca, Cb)
+    assert dof == 3
+    assert H == pytest.approx(float(dx @ np.linalg.solve(Ca + Cb, dx)), rel=1e-9)
+    # a direction with no variance: rank 2, the shift along it is not counted
+    P = np.diag([1.0, 1.0, 0.0])
+    H2, dof2 = shift_statistic(P @ dx, P @ Ca @ P, P @ Cb @ P)
+    V = (Ca + Cb)[:2, :2]
+    assert dof2 == 2 and H2 == pytest.approx(float(dx[:2] @ np.linalg.solve(V, dx[:2])), rel=1e-9)
+
+
+def test_window_sensitivity_is_reported(ident_0c):
+    """The two sensitivity fits (2M, 4M) are in the result with their χ² verdict, and the reported
+    standard errors are at least the noise-only ones (equal where no shift was counted)."""
+    sysm = ident_0c.fit["systematic"]
+    assert [f["window_samples"] for f in sysm["fits"]] == [16, 32]
+    for f in sysm["fits"]:
+        assert f["dof"] >= 1 and f["threshold"] > 0 and f["counted"] == (f["chi2"] > f["threshold"])
+    counted = any(f["counted"] for f in sysm["fits"])
+    for n, s0 in sysm["std_noise"].items():
+        s = ident_0c[n].std
+        assert s >= s0 * (1 - 1e-9) and (counted or s == pytest.approx(s0, rel=1e-9)), n

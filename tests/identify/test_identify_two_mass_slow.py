@@ -12,11 +12,13 @@
 
 from __future__ import annotations
 
+import functools
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 import pytest
 
+from drivelash.estimation.identify_result import Z95
 from drivelash.estimation.identify_two_mass import identify_two_mass
 from drivelash.io.trace import Trace
 from drivelash.physics.drivetrain import plant_params_array, rhs
@@ -139,6 +141,79 @@ def test_interval_coverage_over_100_seeds():
     print(f"coverage of the 95 % intervals over {len(z)} seeds: δ {cover[0]:.2f}, K_S {cover[1]:.2f}")
     assert 0.90 <= cover[0] <= 0.98, cover
     assert 0.90 <= cover[1] <= 0.98, cover
+
+
+# --------------------------------------------------------------------------------------
+# interval honesty on the 48 random drives ("no confidently wrong estimate")
+# --------------------------------------------------------------------------------------
+#: Share of the random drives (those on which the parameters are identified) whose 95 %
+#: intervals of both parameters hold the truth (docs/assumptions.md, "Window-length sensitivity").
+HONEST_SHARE = 0.90
+#: ... and no estimate farther from the truth than this many of its standard errors.
+HONEST_MAX_Z = 4.0
+
+
+@functools.cache
+def _random_z() -> tuple[tuple[str, dict[str, float], dict[str, float]], ...]:
+    """(drive, z with the reported std, z with the noise-only std) of K_S, J_l, δ, δ1 on the 48
+    random drives (identified parameters only)."""
+    rows = []
+    for seed in range(4):
+        for case, drivetrain, bl, trace in _random_cases(seed):
+            r = identify_two_mass(trace, drivetrain.N)
+            truth = {"K_S": drivetrain.K_S, "J_l": drivetrain.J_l, "delta": bl.delta, "delta1": bl.delta1}
+            noise = r.fit.get("systematic", {}).get("std_noise", {})
+            z, z0 = {}, {}
+            for n, v in truth.items():
+                if r[n].identifiable:
+                    z[n] = (r[n].value - v) / r[n].std
+                    z0[n] = (r[n].value - v) / noise[n]
+            rows.append((f"{seed}/{case}", z, z0))
+    return tuple(rows)
+
+
+def _honesty(names: tuple[str, ...], which: int) -> tuple[int, int, float, str]:
+    """(drives with both covered, drives with both identified, max |z|, drive of the max)."""
+    covered = count = 0
+    zmax, worst = 0.0, ""
+    for row in _random_z():
+        z = row[which]
+        if not all(n in z for n in names):
+            continue
+        count += 1
+        covered += all(abs(z[n]) <= Z95 for n in names)
+        for n in names:
+            if abs(z[n]) > zmax:
+                zmax, worst = abs(z[n]), f"{row[0]} {n}"
+    return covered, count, zmax, worst
+
+
+@pytest.mark.slow
+def test_random_drive_intervals_of_K_S_and_J_l_are_honest():
+    """On ≥ 90 % of the random drives the 95 % intervals of K_S and J_l both hold the truth and no
+    |z| exceeds 4. Negative control: the noise-only (HAC) intervals, the identification before
+    the window-length sensitivity, cover both on about half the drives with |z| up to 221."""
+    covered, count, zmax, worst = _honesty(("K_S", "J_l"), 1)
+    print(f"K_S and J_l covered on {covered}/{count} drives, max |z| {zmax:.2f} ({worst})")
+    assert count >= 40
+    assert covered >= HONEST_SHARE * count, (covered, count)
+    assert zmax <= HONEST_MAX_Z, (zmax, worst)
+    covered0, count0, zmax0, _ = _honesty(("K_S", "J_l"), 2)
+    assert count0 == count and covered0 < 0.6 * count and zmax0 > 50.0, (covered0, zmax0)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="known miss: the 95 % intervals of δ and δ1 both hold the truth on MEASURED_DELTA drives, "
+    "max |z| MEASURED_ZMAX; goal ≥ 90 % and |z| ≤ 4 (as for K_S and J_l); because the remaining "
+    "errors (a few µrad, ~0.1 of an encoder count) do not depend on the window length, so the "
+    "window-length sensitivity does not see them (docs/assumptions.md)",
+)
+def test_random_drive_intervals_of_delta_are_honest():
+    covered, count, zmax, worst = _honesty(("delta", "delta1"), 1)
+    print(f"δ and δ1 covered on {covered}/{count} drives, max |z| {zmax:.2f} ({worst})")
+    assert covered >= HONEST_SHARE * count and zmax <= HONEST_MAX_Z, (covered, count, zmax, worst)
 
 
 # --------------------------------------------------------------------------------------
