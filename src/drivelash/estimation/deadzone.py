@@ -118,7 +118,10 @@ S_DIS_N, S_DIS_D, S_DIS_DS, S_DIS_S, S_DIS_SS, S_DIS_DD, S_TQF_L = 59, 60, 61, 6
 S_RAW_TRAV, S_RAW_SIDE, S_PEAK_TQ = 66, 67, 68
 #: filtered residual in lower / upper contact from P_K0 on: Σ e_f², count (each side)
 S_E2_LO, S_N_LO, S_E2_HI, S_N_HI = 69, 70, 71, 72
-N_STATE = 73
+#: time [s] for which a confirmed contact torque has been measured where the model sees none
+#: (signed: > 0 upper contact, < 0 lower contact; the flank-recovery bound)
+S_NOCON_T = 73
+N_STATE = 74
 
 # -- output columns -----------------------------------------------------------------
 O_DELTA, O_PHI, O_OMEGA_HAT, O_SIGMA_WIN, O_DTHETA, O_TORQUE_HAT, O_TORQUE_MEAS, O_TRAV, O_DELTA1 = range(9)
@@ -396,6 +399,32 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, u, p, out, i_out):
             delta = state[S_DTH_MAX] + delta1
         if est_d1 and tq < -2.0 * thr and -delta1 < state[S_DTH_MIN]:
             state[S_TH + 2] = -state[S_DTH_MIN]
+        # flank recovery: a confirmed contact torque on the far side of the modelled gap's
+        # centre that the model does not show (κ T_l below T_thr: the modelled flank lies
+        # beyond the current Δθ) for longer than P_RESET_T places the flank too far out. The
+        # law receives no gradient there (∂T_l/∂δ = 0 inside the modelled gap), so an estimate
+        # that overshot past the Δθ the motion reaches in contact stays there, whatever the
+        # largest Δθ ever seen (a start-up transient) allows. The flank is then put at the
+        # current Δθ, which a contact torque shows to lie at or beyond the true flank; the
+        # law refines it from there.
+        k_now = state[S_TH + 1]
+        mid_m = 0.5 * (delta - 2.0 * delta1)
+        if tq > 2.0 * thr and dtheta > mid_m and k_now * T_hat < thr:
+            if state[S_NOCON_T] < 0.0:
+                state[S_NOCON_T] = 0.0
+            state[S_NOCON_T] += T_s
+            if state[S_NOCON_T] > p[P_RESET_T] and delta - delta1 > dtheta:
+                delta = dtheta + delta1
+                state[S_NOCON_T] = 0.0
+        elif est_d1 and tq < -2.0 * thr and dtheta < mid_m and k_now * T_hat > -thr:
+            if state[S_NOCON_T] > 0.0:
+                state[S_NOCON_T] = 0.0
+            state[S_NOCON_T] -= T_s
+            if state[S_NOCON_T] < -p[P_RESET_T] and -delta1 < dtheta:
+                state[S_TH + 2] = -dtheta
+                state[S_NOCON_T] = 0.0
+        else:
+            state[S_NOCON_T] = 0.0
     if delta < 0.0:
         delta = 0.0
     if delta > delta_max:
