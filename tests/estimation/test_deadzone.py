@@ -55,7 +55,9 @@ def test_jitted_equals_pure_python(short_bench_trace, method, monkeypatch):
     s0 = dz.initial_state(p)
     s_jit, out_jit = dz.deadzone_run(s0, x, p)
     # replace every jitted callee by its Python function, so nothing below runs compiled
-    for n in ("deadzone_run_into", "deadzone_step", "_projection_fast", "_atan_diff", "sgn"):
+    jitted = ("deadzone_run_into", "deadzone_step", "_observe", "_law", "_projection_fast", "_atan_diff")
+    jitted += ("sgn",)
+    for n in jitted:
         monkeypatch.setattr(dz, n, getattr(dz, n).py_func)
     s_py, out_py = dz.deadzone_run.py_func(s0, x, p)
     # same operations in the same order; 1e-12 allows for libm vs numba intrinsics (atan, exp)

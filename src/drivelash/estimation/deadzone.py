@@ -119,9 +119,10 @@ S_RAW_TRAV, S_RAW_SIDE, S_PEAK_TQ = 66, 67, 68
 #: filtered residual in lower / upper contact from P_K0 on: Σ e_f², count (each side)
 S_E2_LO, S_N_LO, S_E2_HI, S_N_HI = 69, 70, 71, 72
 #: time [s] for which a confirmed contact torque has been measured where the model sees none
-#: (signed: > 0 upper contact, < 0 lower contact; the flank-recovery bound)
-S_NOCON_T = 73
-N_STATE = 74
+#: (signed: > 0 upper contact, < 0 lower contact) and the model torque κ T_l filtered as the
+#: measured one (the flank-recovery bound)
+S_NOCON_T, S_TQM = 73, 74
+N_STATE = 75
 
 # -- output columns -----------------------------------------------------------------
 O_DELTA, O_PHI, O_OMEGA_HAT, O_SIGMA_WIN, O_DTHETA, O_TORQUE_HAT, O_TORQUE_MEAS, O_TRAV, O_DELTA1 = range(9)
@@ -185,20 +186,37 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, u, p, out, i_out):
     ``u`` is the recorded motor torque [N·m] (NaN when the recording has none; the shaft
     torque then comes from the load observer). ``p`` must come from
     :func:`~drivelash.estimation.estimator.build_params` (derived entries filled).
+    The sample is :func:`_observe` (what does not depend on δ̂) followed by :func:`_law`.
+    """
+    obs = _observe(state, theta_m, omega_m, theta_l, omega_l, u, p)
+    _law(state, obs, omega_l, p, out, i_out)
+
+
+#: Entries of the parameter array that :func:`_observe` reads: two laws whose arrays agree on
+#: them observe a recording identically (:func:`deadzone_run2_into` observes it once for both).
+OBSERVE_PARAMS = (
+    P_J_L, P_N, P_T_CL, P_BETA_L, P_K1, P_K2, P_TS, P_METHOD, P_OMEGA_C, P_OMEGA_EPS, P_TSRC,
+    P_T_CM, P_BETA_M, P_K1M, P_K2M, P_C_POS, P_A_Q, P_INV_N, P_INV_J, P_INV_JM,
+)  # fmt: skip
+#: State entries that :func:`_observe` alone writes (copied to the second law's state after
+#: :func:`deadzone_run2_into`).
+OBSERVE_STATE = (
+    S_XHAT, S_INIT, S_DTH_MIN, S_DTH_MAX, S_OMEGA_HAT, S_Z, S_OMEGA_M_HAT, S_Z_M, S_TQF,
+)  # fmt: skip
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _observe(state, theta_m, omega_m, theta_l, omega_l, u, p):
+    """The part of a sample that does not depend on δ̂ (nor on the law's other parameters):
+    Δθ (reconstructed in the default method) and its range, the STSMO on ω_l, the motor-side
+    observer and the filtered shaft torque; updates the :data:`OBSERVE_STATE` entries.
+
+    Returns (Δθ, Δω, φ̂, ω̂_l before the update, J_l φ̂, shaft torque of the chosen source,
+    speed on that side, motor source used, filtered shaft torque, smallest and largest Δθ).
     """
     J_l = p[P_J_L]
-    delta1 = p[P_DELTA1]
-    alpha = p[P_ALPHA]
     T_s = p[P_TS]
     default = p[P_METHOD] > 0.5
-    delta_max = p[P_DELTA_MAX]
-    thr = p[P_T_THR]
-    k_idx = state[S_COUNT]
-    acc = k_idx >= p[P_K0]
-
-    est_d1 = default and p[P_EST_D1] > 0.5
-    if est_d1:
-        delta1 = state[S_TH + 2]
 
     # relative coordinates (8)–(9), load side
     inv_N = p[P_INV_N]
@@ -254,6 +272,33 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, u, p, out, i_out):
         T_raw = T_load
         v_side = omega_l
 
+    # filtered shaft torque of the chosen source (excitation monitor, κ gate, offsets)
+    tq_raw = state[S_TQF] + p[P_A_Q] * (T_raw - state[S_TQF])
+    state[S_TQF] = tq_raw
+    return (
+        dtheta, domega, phi, w_hat, T_load, T_raw, v_side, motor, tq_raw,
+        state[S_DTH_MIN], state[S_DTH_MAX],
+    )  # fmt: skip
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _law(state, obs, omega_l, p, out, i_out):
+    """The part of a sample that depends on δ̂: model torque, adaptive law, bounds, excitation
+    monitor and verdict accumulators, from :func:`_observe`'s ``obs``; writes row ``i_out``."""
+    dtheta, domega, phi, w_hat, T_load, T_raw, v_side, motor, tq_raw, dth_min, dth_max = obs
+    delta1 = p[P_DELTA1]
+    alpha = p[P_ALPHA]
+    T_s = p[P_TS]
+    default = p[P_METHOD] > 0.5
+    delta_max = p[P_DELTA_MAX]
+    thr = p[P_T_THR]
+    k_idx = state[S_COUNT]
+    acc = k_idx >= p[P_K0]
+
+    est_d1 = default and p[P_EST_D1] > 0.5
+    if est_d1:
+        delta1 = state[S_TH + 2]
+
     # model torque (12) and sensitivity (46)–(50), sharing the bracket of (11):
     # B = π + atan(α(Δθ − δ + δ1)) − atan(α(Δθ + δ1)),  K_BL = K_S B / π,  χ1 = ½(1 + sgn Δθ) B
     delta = state[S_DELTA]
@@ -268,9 +313,6 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, u, p, out, i_out):
     chi2 = arg * alpha / (1.0 + z * z)
     g = -(chi1 + chi2) * (1.0 / math.pi)  # ∂T_l/∂δ / K_S
 
-    # filtered shaft torque of the chosen source (excitation monitor, κ gate, offsets)
-    tq_raw = state[S_TQF] + p[P_A_Q] * (T_raw - state[S_TQF])
-    state[S_TQF] = tq_raw
     lo = -delta1
     hi = delta - delta1
     # torque offset learnt in the gap, where the shaft carries no torque: what the source
@@ -395,28 +437,31 @@ def deadzone_step(state, theta_m, omega_m, theta_l, omega_l, u, p, out, i_out):
         # Δθ, the lower one −δ1 below the smallest). Without this bound an estimate that
         # overshot the data range receives no gradient (the model sees no contact anywhere)
         # and stays there; inside the range it never acts.
-        if tq > 2.0 * thr and delta - delta1 > state[S_DTH_MAX]:
-            delta = state[S_DTH_MAX] + delta1
-        if est_d1 and tq < -2.0 * thr and -delta1 < state[S_DTH_MIN]:
-            state[S_TH + 2] = -state[S_DTH_MIN]
+        if tq > 2.0 * thr and delta - delta1 > dth_max:
+            delta = dth_max + delta1
+        if est_d1 and tq < -2.0 * thr and -delta1 < dth_min:
+            state[S_TH + 2] = -dth_min
         # flank recovery: a confirmed contact torque on the far side of the modelled gap's
-        # centre that the model does not show (κ T_l below T_thr: the modelled flank lies
-        # beyond the current Δθ) for longer than P_RESET_T places the flank too far out. The
-        # law receives no gradient there (∂T_l/∂δ = 0 inside the modelled gap), so an estimate
-        # that overshot past the Δθ the motion reaches in contact stays there, whatever the
-        # largest Δθ ever seen (a start-up transient) allows. The flank is then put at the
-        # current Δθ, which a contact torque shows to lie at or beyond the true flank; the
-        # law refines it from there.
-        k_now = state[S_TH + 1]
+        # centre that the model does not show (κ T_l, filtered as the measured torque, below
+        # T_thr: the modelled flank lies beyond the current Δθ) for longer than P_RESET_T
+        # places the flank too far out. The law receives no gradient there (∂T_l/∂δ = 0
+        # inside the modelled gap), so an estimate that overshot past the Δθ the motion
+        # reaches in contact stays there, whatever the largest Δθ ever seen (a start-up
+        # transient) allows. The flank is then put at the current Δθ, which a contact torque
+        # shows to lie at or beyond the true flank; the law refines it from there.
+        tqm = state[S_TQM] + p[P_A_Q] * (state[S_TH + 1] * T_hat - state[S_TQM])
+        state[S_TQM] = tqm
         mid_m = 0.5 * (delta - 2.0 * delta1)
-        if tq > 2.0 * thr and dtheta > mid_m and k_now * T_hat < thr:
+        if state[S_TRAV] < 2.0:
+            state[S_NOCON_T] = 0.0
+        elif tq > 2.0 * thr and dtheta > mid_m and tqm < thr:
             if state[S_NOCON_T] < 0.0:
                 state[S_NOCON_T] = 0.0
             state[S_NOCON_T] += T_s
             if state[S_NOCON_T] > p[P_RESET_T] and delta - delta1 > dtheta:
                 delta = dtheta + delta1
                 state[S_NOCON_T] = 0.0
-        elif est_d1 and tq < -2.0 * thr and dtheta < mid_m and k_now * T_hat > -thr:
+        elif est_d1 and tq < -2.0 * thr and dtheta < mid_m and tqm > -thr:
             if state[S_NOCON_T] > 0.0:
                 state[S_NOCON_T] = 0.0
             state[S_NOCON_T] -= T_s
