@@ -65,6 +65,41 @@ def test_jitted_equals_pure_python(short_bench_trace, method, monkeypatch):
     np.testing.assert_allclose(s_py, s_jit, rtol=0, atol=1e-12)
 
 
+@pytest.mark.parametrize("torque", [False, True])
+def test_two_laws_observed_once_equal_two_runs(short_bench_trace, torque):
+    """The chosen law and the δ1 check observed once (``deadzone_run2_into``, what the
+    estimator runs) give bit for bit the states and outputs of two separate runs, in chunks,
+    with the load observer and with the motor-side torque; laws that observe the recording
+    differently (paper vs default) are refused by ``observe_shared``."""
+    trace, bl = short_bench_trace
+    cols = list(INPUT_COLUMNS) + (["torque_m"] if torque else [])
+    x = np.ascontiguousarray(np.column_stack([trace[c][:20000] for c in cols]))
+    cfg = EstimatorConfig.tuned(RIG_ESTIMATOR, TS, 0.5, torque_source="motor" if torque else "load")
+    chk = EstimatorConfig.tuned(
+        RIG_ESTIMATOR,
+        TS,
+        0.5,
+        torque_source=cfg.torque_source,
+        estimate_offset=True,
+        estimate_stiffness=False,
+    )
+    pa, pb = build_params(RIG_ESTIMATOR, bl, cfg, TS, 12000), build_params(RIG_ESTIMATOR, bl, chk, TS, 12000)
+    assert not np.array_equal(pa, pb)  # two different laws
+    sa, sb = dz.initial_state(pa), dz.initial_state(pb)
+    assert dz.observe_shared(sa, sb, pa, pb)
+    ra, oa = dz.deadzone_run(sa, x, pa)
+    rb, ob = dz.deadzone_run(sb, x, pb)
+    fa, fb = np.empty_like(oa), np.empty_like(ob)
+    for a in range(0, len(x), 7001):
+        blk = slice(a, a + 7001)
+        sa, sb = dz.deadzone_run2_into(sa, sb, x[blk], pa, pb, fa[blk], fb[blk])
+    for got, want in ((fa, oa), (fb, ob), (sa, ra), (sb, rb)):
+        np.testing.assert_array_equal(got.view(np.int64), want.view(np.int64))
+    assert oa[-1, dz.O_DELTA] != ob[-1, dz.O_DELTA]  # control: the laws do differ
+    paper = build_params(RIG_ESTIMATOR, bl, EstimatorConfig.tuned(RIG_ESTIMATOR, TS, 0.5, method="paper"), TS)
+    assert not dz.observe_shared(dz.initial_state(paper), dz.initial_state(pa), paper, pa)
+
+
 def test_projection_keeps_inside_and_stops_outside():
     dmax, eps = 0.5, 0.1
     assert dz.projection(0.1, 3.0, dmax, eps) == 3.0

@@ -602,6 +602,43 @@ def deadzone_run_into(state, samples, params, out):
     return st
 
 
+@njit(cache=True, error_model="numpy")
+def deadzone_run2_into(state_a, state_b, samples, params_a, params_b, out_a, out_b):
+    """Two laws over the same block, observed once: ``(state_a, state_b)`` after the block.
+
+    Each sample is :func:`_observe`-d once (on law a's state) and both laws' :func:`_law` run
+    on the result; the :data:`OBSERVE_STATE` entries are then copied to law b's state. The
+    two laws must agree on :data:`OBSERVE_PARAMS` and their observer states must be equal
+    (:func:`observe_shared`); the results are then bit-identical to two
+    :func:`deadzone_run_into` calls. Outputs as :func:`deadzone_run_into`, one buffer per law.
+    """
+    sa = state_a.copy()
+    sb = state_b.copy()
+    n = samples.shape[0]
+    has_u = samples.shape[1] > 4
+    for i in range(n):
+        u = samples[i, 4] if has_u else math.nan
+        w_l = samples[i, 3]
+        obs = _observe(sa, samples[i, 0], samples[i, 1], samples[i, 2], w_l, u, params_a)
+        _law(sa, obs, w_l, params_a, out_a, i)
+        _law(sb, obs, w_l, params_b, out_b, i)
+    for k in OBSERVE_STATE:
+        sb[k] = sa[k]
+    return sa, sb
+
+
+def observe_shared(
+    state_a: np.ndarray, state_b: np.ndarray, params_a: np.ndarray, params_b: np.ndarray
+) -> bool:
+    """Whether two laws observe a recording identically (:func:`deadzone_run2_into` applies):
+    equal :data:`OBSERVE_PARAMS` entries and equal observer states (bitwise)."""
+    ip, ist = list(OBSERVE_PARAMS), list(OBSERVE_STATE)
+    return bool(
+        np.array_equal(params_a[ip].view(np.int64), params_b[ip].view(np.int64))
+        and np.array_equal(state_a[ist].view(np.int64), state_b[ist].view(np.int64))
+    )
+
+
 def derive_params(p: np.ndarray) -> np.ndarray:
     """Fill the derived entries of a parameter array in place (and return it).
 

@@ -410,13 +410,33 @@ class _Law:
         self.track = track
         self._buf = np.empty((0, dz.N_OUT))
 
-    def feed(self, row0: int, x: np.ndarray, t: np.ndarray, truth: np.ndarray | None) -> None:
-        n = x.shape[0]
+    def _out(self, n: int) -> np.ndarray:
         if self._buf.shape[0] < n:
             self._buf = np.empty((n, dz.N_OUT))
-        out = self._buf[:n]
+        return self._buf[:n]
+
+    def feed(self, row0: int, x: np.ndarray, t: np.ndarray, truth: np.ndarray | None) -> None:
+        out = self._out(x.shape[0])
         self.state = dz.deadzone_run_into(self.state, x, self.params, out)
         self.track.add(row0, t, out, truth)
+
+    def feed_with(
+        self, other: _Law, row0: int, x: np.ndarray, t: np.ndarray, truth: np.ndarray | None
+    ) -> None:
+        """Feed this law and ``other`` together, observing the block once when they observe it
+        alike (:func:`~drivelash.estimation.deadzone.observe_shared`: the chosen law and the δ1
+        check of the default method); the results are those of two :meth:`feed` calls, bit for bit."""
+        if not dz.observe_shared(self.state, other.state, self.params, other.params):
+            self.feed(row0, x, t, truth)
+            other.feed(row0, x, t, truth)
+            return
+        n = x.shape[0]
+        out_a, out_b = self._out(n), other._out(n)
+        self.state, other.state = dz.deadzone_run2_into(
+            self.state, other.state, x, self.params, other.params, out_a, out_b
+        )
+        self.track.add(row0, t, out_a, truth)
+        other.track.add(row0, t, out_b, truth)
 
     def acc(self) -> dict[str, float]:
         s = self.state
@@ -592,9 +612,10 @@ def _run_session(
         x = _block_samples(blk, row, has_torque)
         t = np.asarray(blk["t"], dtype=np.float64)
         truth = np.asarray(blk["delta_true"], dtype=np.float64) if has_truth else None
-        main.feed(row, x, t, truth)
         if check is not None:
-            check.feed(row, x, t, truth)
+            main.feed_with(check, row, x, t, truth)
+        else:
+            main.feed(row, x, t, truth)
         if cross is not None:
             cross.feed(row, x, t, None)
         row += x.shape[0]
