@@ -132,10 +132,10 @@ def _stages_of(axis, path: Path) -> tuple[int, dict[str, object], set[str]]:
     if len(laws) == 2 and dz.observe_shared(laws[0][0], laws[1][0], laws[0][1], laws[1][1]):
         # what the estimator runs: both laws over one observation of each sample (the two
         # single-law stages above are shown for comparison, not counted)
-        (sa, pa), (sb, pb) = laws
+        (s_a, p_a), (s_b, p_b) = laws  # (not `pa`: that is pyarrow here)
         out_b = np.empty_like(out)
         label = "estimator kernel, both laws observed once (as run)"
-        stages[label] = lambda: dz.deadzone_run2_into(sa, sb, x, pa, pb, out, out_b)
+        stages[label] = lambda: dz.deadzone_run2_into(s_a, s_b, x, p_a, p_b, out, out_b)
         required = (required - {k for k in stages if k.startswith("estimator kernel, ")}) | {label}
     stages.update(
         {
