@@ -50,7 +50,16 @@ columns at the sample (φ̂_k, ω̂_l,k before its update, Δθ used, T_l(x_k, �
 the update).
 
 Both methods end every step with the hard bounds 0 ≤ δ̂ ≤ δ_max (the projection keeps δ̂
-inside the ball of radius δ_max in continuous time; an Euler step could overshoot it).
+inside the ball of radius δ_max in continuous time; an Euler step could overshoot it). The
+default method's switch ``P_BOUND`` adds two data-consistency bounds: while a contact torque
+is confirmed, a flank no further out than the largest (smallest) Δθ ever seen; and the *flank
+recovery* — a confirmed contact torque that the model does not show for ``P_RESET_T``, once
+the gap was crossed twice, puts the flank at the current Δθ (the law has no gradient inside
+its modelled gap, so an overshoot past the Δθ the motion reaches in contact would stay).
+
+A sample is :func:`_observe` (Δθ, the STSMO, the motor-side observer, the filtered shaft
+torque: nothing that depends on δ̂) followed by :func:`_law`; :func:`deadzone_run2_into` runs
+two laws that observe alike (the chosen law and the δ1 check) over one observation.
 
 Excitation monitor (both methods): σ_k = g_k² — the paper's σ(x) (45) evaluated at the
 current estimate (σ(x, Λ) = (χ1 + χ2)²/π² = (∂T_l/∂δ/K_S)²; with the paper's Λ > δ_max it

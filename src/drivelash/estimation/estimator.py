@@ -15,7 +15,8 @@ Two passes (:func:`estimate_blocks`)
 1. :class:`~drivelash.estimation.motion.MotionScanner` over θ_m, θ_l and the motor torque:
    reversal frequency f_r, travel, torque RMS (cheap; decimated by global sample index).
 2. The kernel, block by block, twice in lockstep: the chosen law and the *δ1 check* (the
-   default law with δ1 estimated jointly and the stiffness scale held at 1). Everything the
+   default law with δ1 estimated jointly and the stiffness scale held at 1), each sample
+   observed once for both when they observe alike (``deadzone_run2_into``). Everything the
    verdict needs is accumulated while streaming — kernel sums over the last third, Δθ range,
    traversal counters, per-block min/max of δ̂ (:data:`HISTORY_BLOCKS` blocks) — so a file
    read in chunks and the same data in memory give the same result.
