@@ -54,7 +54,9 @@ def test_every_excited_recording_within_1_mrad(fleet):
     mrad; all converged. Before the estimator's flank recovery (docs/assumptions.md): max 4.123
     mrad (M12-Z_20260209T070100: flank overshot at 0.12 s beyond the Δθ the motion reaches in
     contact, no gradient there, not converged) and 33 truly excited recordings of M12-Z and
-    M20-Y judged unexcited ("information during 0.0 % of the last window", the same overshoot)."""
+    M20-Y judged unexcited ("information during 0.0 % of the last window", the same overshoot).
+    The four tests of this file pass on that store (forecast: 38/38 within ±15 %, coverage
+    34/38 = 0.895; jumps on their 2nd recording; 212 unexcited flagged, truth 212)."""
     out, st, truth = fleet
     index, rows = _errors(out, st, truth)
     exc = [r for r in rows if r["status"] == "ok" and r["excitation_ok"]]
