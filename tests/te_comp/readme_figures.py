@@ -18,6 +18,19 @@ quoted an earlier model's figures (training 0.050, held-out 0.063, 3500–5000 N
 network 95–96 %, 87.2 %, ≥ 89 % / ≥ 46 %) that the current code no longer gives
 (0.0515, 0.0619, 0.341 µm, 93.9–95.2 %, 86.86 %, 88.8 % / 45.6 %). The issue's goals
 (``tests/te_learn/test_campaign_acceptance.py``) are unchanged.
+
+Correction (session 5, 2026-11-27): "the current code no longer gives" the earlier figures was a
+misattribution. On this session's machine (a CPU with AVX-512 and AMX) main's code gives the
+earlier figures again — training 0.0499 µm (+x 0.0497, −x 0.0501), held-out 0.0634 µm, 3500–5000 N
+0.313 µm (11.9 %), average 87.21 % — and the code at 2d96274 fits a model that predicts the same TE
+to 2e-19 m. The seed-0 fit depends on the CPU's floating-point order (the Hyperband search picks
+another trial), so on that CPU type the slow test fails four figures and the +x training-MAE
+known miss passes (XPASS, strict). Measured with ``DRIVELASH_TE_SEED0=DIR .venv/bin/python -m
+pytest -m slow -n 0 tests/te_comp/test_readme_te_figures_slow.py
+tests/te_learn/test_campaign_acceptance.py`` on the four directories of the README's commands.
+The figures and tolerances below are left as measured on the reference machine: making the fit
+reproducible (a model selection that does not flip on such differences) is the fix, not a wider
+tolerance.
 """
 
 from __future__ import annotations
