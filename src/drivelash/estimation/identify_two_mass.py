@@ -852,8 +852,6 @@ class TwoMassFit:
     cost: float
     #: Start-velocity weight of the decorrelated end of the closed-loop bracket (0: none).
     start_weight: float = 0.0
-    #: Covariance of the measurement noise alone (HAC; ``cov_free`` without the systematic part).
-    cov_noise: np.ndarray | None = None
     #: Window-length sensitivity (:func:`window_sensitivity`); empty when not computed.
     systematic: dict[str, Any] = field(default_factory=dict)
 
@@ -1267,11 +1265,10 @@ def window_sensitivity(trace: Trace, fit: TwoMassFit, start: GridStart, **kw: An
     Returns
     -------
     TwoMassFit
-        ``fit`` with the systematic covariance added, ``cov_noise`` the covariance without it
-        and ``systematic`` what was found: per sensitivity fit the window length [samples], χ²
-        statistic, degrees of freedom, threshold, whether the shift was counted and the shifts
-        of the reported parameters; ``std_noise`` the noise-only standard errors of the reported
-        parameters (SI units).
+        ``fit`` with the systematic covariance added and ``systematic`` what was found: per
+        sensitivity fit the window length [samples], χ² statistic, degrees of freedom,
+        threshold, whether the shift was counted and the shifts of the reported parameters;
+        ``std_noise`` the noise-only standard errors of the reported parameters (SI units).
     """
     from scipy.stats import chi2
 
@@ -1307,13 +1304,8 @@ def window_sensitivity(trace: Trace, fit: TwoMassFit, start: GridStart, **kw: An
                 "shift": {n: float(v) for n, v in zip(rep, A @ dx, strict=True)},
             }
         )
-    std_noise = np.sqrt(np.clip(np.diag(A @ fit.cov_free @ A.T), 0, None))
-    return replace(
-        fit,
-        cov_free=fit.cov_free + cov_sys,
-        cov_noise=fit.cov_free,
-        systematic={"fits": found, "std_noise": {n: float(v) for n, v in zip(rep, std_noise, strict=True)}},
-    )
+    std_noise = {n: s for n, (_, s) in _fit_estimates(fit).items()}  # fit's covariance: noise only
+    return replace(fit, cov_free=fit.cov_free + cov_sys, systematic={"fits": found, "std_noise": std_noise})
 
 
 def _fit_estimates(fit: TwoMassFit) -> dict[str, tuple[float, float]]:
