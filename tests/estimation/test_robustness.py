@@ -377,3 +377,34 @@ def test_mismatch_sweep_independent_random_drives():
         if r.confidently_wrong or r.worse_than_paper or r.paper_confidently_wrong
     ]
     assert not bad, bad
+
+
+_D1_INTERVAL_MISS = pytest.mark.xfail(
+    strict=True,
+    reason="known miss: default law, δ1 +2 mrad on the independent rig: error +1.976 mrad, 95 % "
+    "half-width 1.972 mrad (misses the truth by 4 µrad); because the joint δ/δ1 law itself does "
+    "not correct an offset of the order of the contact deflection (the δ1 ±2/−4 mrad known miss "
+    "above), so the distance to it does not reach the truth either; flagged and not converged",
+)
+
+
+@pytest.mark.parametrize("method", [pytest.param("default", marks=_D1_INTERVAL_MISS), "paper"])
+def test_interval_reaches_the_joint_law_when_delta1_is_inconsistent(rig_trace, method):
+    """A δ1 the data contradict (check "inconsistent", not switched): the 95 % interval must hold
+    the truth, since the joint δ/δ1 law's δ is an alternative the data support (it is added to the
+    half-width like the paper/default disagreement). Negative control: without that term the
+    interval misses the truth on at least one offset (a narrow interval around the wrong δ1's δ̂:
+    bench-0A with bench-0B's δ1 and --method paper showed ±1.9 mrad around a 419 mrad error)."""
+    seen = missed_without = 0
+    for e in D1_OFFSETS:
+        r = _run(RIG, rig_trace, RIG.delta1 + e, method)
+        if r.extra.get("delta1_check_result") != "inconsistent":
+            continue
+        seen += 1
+        gap = r.extra["delta1_check_gap"]
+        assert gap == pytest.approx(abs(r.delta - r.extra["delta1_check_delta"]), abs=0)
+        lo, hi = r.delta_interval
+        assert lo <= RIG.delta <= hi, (method, e, r.delta - RIG.delta, r.delta_std)
+        half_without = 1.96 * r.delta_std - gap
+        missed_without += abs(r.delta - RIG.delta) > half_without
+    assert seen >= 1 and missed_without >= 1, (seen, missed_without)
