@@ -27,6 +27,8 @@ _EXPORTS: dict[str, str] = {
     # stage 1
     "MLPRegressor": "network",
     "tune_mlp": "network",
+    "PINNED_NUMERICS": "numerics",
+    "pin_training_numerics": "numerics",
     # the stack
     "StackedTERegressor": "stacked",
     "default_trees": "stacked",

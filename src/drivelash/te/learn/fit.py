@@ -221,6 +221,10 @@ def fit_te_model(
         k: [r for r in runs[k] if split_of(r.meta["load"], max_load, holdout_loads) == "train"] for k in keys
     }
     data = {k: stack_runs(trains[k], pipeline) for k in keys}
+    # before the worker processes start: they inherit the pinned CPU code path
+    from drivelash.te.learn.numerics import pin_training_numerics
+
+    info["numerics"] = pin_training_numerics()
     if n_jobs > 1 and len(keys) > 1:
         from joblib import Parallel, delayed
 

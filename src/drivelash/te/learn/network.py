@@ -194,6 +194,9 @@ class MLPRegressor(RegressorMixin, BaseEstimator):
         max_epochs: int,
         epoch_callback: Callable[[int, float], None] | None,
     ) -> None:
+        from drivelash.te.learn.numerics import pin_training_numerics
+
+        self.numerics_ = pin_training_numerics()
         import torch
 
         rng = np.random.default_rng(int(self.random_state))
@@ -294,9 +297,14 @@ def tune_mlp(
     best : MLPRegressor
         The fitted network of the best trial.
     info : dict
-        ``best_params``, ``best_val_mae``, ``n_trials``, ``n_pruned``.
+        ``best_params``, ``best_val_mae``, ``n_trials``, ``n_pruned``, ``numerics`` (the CPU
+        code path of torch, :func:`~drivelash.te.learn.numerics.pin_training_numerics`).
     """
     import optuna
+
+    from drivelash.te.learn.numerics import pin_training_numerics
+
+    numerics = pin_training_numerics()
     import torch
 
     torch.set_num_threads(int(torch_threads))
@@ -305,8 +313,14 @@ def tune_mlp(
     pruner = optuna.pruners.HyperbandPruner(
         min_resource=3, max_resource=int(base.max_epochs), reduction_factor=3
     )
+    # A fixed study name: Hyperband assigns each trial to a bracket by crc32(study name, trial
+    # number), and Optuna's default name carries a random UUID - the pruning, and with it the
+    # chosen network, changed from run to run of the same command on the same data.
     study = optuna.create_study(
-        direction="minimize", sampler=optuna.samplers.TPESampler(seed=seed), pruner=pruner
+        study_name=f"drivelash-te-stage1-seed{int(seed)}",
+        direction="minimize",
+        sampler=optuna.samplers.TPESampler(seed=seed),
+        pruner=pruner,
     )
     kept: dict[int, MLPRegressor] = {}
 
@@ -338,4 +352,5 @@ def tune_mlp(
         "best_val_mae": float(best_trial.value),
         "n_trials": len(study.trials),
         "n_pruned": int(n_pruned),
+        "numerics": numerics,
     }

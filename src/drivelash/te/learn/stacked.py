@@ -264,6 +264,9 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
                 torch_threads=self.torch_threads,
             )
         else:
+            from drivelash.te.learn.numerics import pin_training_numerics
+
+            pin_training_numerics()
             import torch
 
             torch.set_num_threads(int(self.torch_threads))

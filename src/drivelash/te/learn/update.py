@@ -240,6 +240,9 @@ def update_trained(
     rec: dict[str, Any] = {"stage": stage, "update_stride": int(update_stride), "directions": {}}
     if not any(runs.get(k) for k in trained.models):
         raise DataError("no update pass in any direction of the model")
+    from drivelash.te.learn.numerics import pin_training_numerics
+
+    rec["numerics"] = pin_training_numerics()
     import torch
 
     torch.set_num_threads(2)
