@@ -37,9 +37,10 @@ def test_training_mae_neg_direction(evaluation):
     strict=True,
     reason="known miss: measured 0.0546 um in +x on the seed-0 campaign (goal <= 0.05 um; -x 0.0456 um"
     " passes) with the training code path pinned in session 6 (fixed Hyperband study name, torch AVX2"
-    " kernels and oneMKL AVX2 branch: the same on every run and every Intel CPU with AVX2); before the pin the figure followed"
-    " the run and the CPU (0.0531 um in session 3, 0.0497 um on an AVX-512 CPU in session 5); the +x"
-    " network Hyperband chooses (width 32, lr 0.0064) does not reach the goal on this campaign",
+    " kernels and oneMKL AVX2 branch: the same on every run and every Intel CPU with AVX2); before the pin"
+    " the figure followed the run and the CPU (0.0531 um in session 3, 0.0497 um on an AVX-512 CPU in"
+    " session 5); the +x network Hyperband chooses (width 32, lr 0.0064) does not reach the goal on"
+    " this campaign",
 )
 def test_training_mae_pos_direction(evaluation):
     assert _train_mae(evaluation, "pos") <= 0.05
