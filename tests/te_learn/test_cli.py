@@ -51,6 +51,9 @@ def test_fit_and_evaluate_on_a_quick_campaign(tmp_path):
     assert r.returncode == 0, r.stderr
     meta = json.loads((model / "model.json").read_text())
     assert meta["info"]["max_load"] == 3000.0
+    # the CPU code path of the training is pinned, recorded and told (tests/te_learn/test_numerics.py)
+    assert meta["info"]["numerics"]["pinned"] is True, meta["info"]["numerics"]
+    assert "torch code path: ATen AVX2, MKL_CBWR=AVX2 (pinned" in r.stdout + r.stderr
     r = _run("te", "evaluate", str(model), str(camp))
     assert r.returncode == 0, r.stderr
     assert "stacked" in r.stdout and "hgb" in r.stdout
