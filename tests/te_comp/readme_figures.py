@@ -33,8 +33,10 @@ AVX2 branch on every CPU. The learning figures and the loop margins
 0.8 %, raw motor torque 6.5) were re-measured on that path (session 6, worktree of 7512ffd:
 ``pytest -m slow tests/te_learn tests/te_comp tests/te_axis tests/te_bench``): training 0.0501 µm
 (+x 0.0546, −x 0.0456), held-out 0.0582 µm (3.6 %), 3500–5000 N 0.369 µm (14.0 %); every
-``te validate`` figure (86.9 %, ≥ 88 % / ≥ 77 % / ≥ 45 %, 19 → 2.1 µm, 0.16, 77 → 95 %) held at
-its quoted value. Tolerances unchanged.
+``te validate`` figure (86.9 %, ≥ 88 % / ≥ 77 % / ≥ 45 %, 19 → 2.1 µm, 0.16, 77 → 95 %) held within
+its tolerance; two were re-quoted at their measured value: the average 86.98 % (now "87.0 %") and
+the lowest beyond-range pass 44.2 % (quoted "≥ 45 %", now "≥ 44 %": 44.2 was inside the ±1 tolerance
+but "≥ 45" was not true). Tolerances unchanged.
 """
 
 from __future__ import annotations
@@ -54,10 +56,10 @@ FIGURES: dict[str, tuple[float, float, str]] = {
     "stage1_share_min_pct": (94.0, 1.0, "the network carries 94–95 % of the output"),
     "stage1_share_max_pct": (95.0, 1.0, "the network carries 94–95 % of the output"),
     # -- compensation (te validate)
-    "average_improvement_pct": (86.9, 0.1, "by 86.9 %\non average"),
+    "average_improvement_pct": (87.0, 0.1, "by 87.0 %\non average"),
     "min_in_range_pass_pct": (88.0, 1.0, "in the training range ≥ 88 % per pass"),
     "min_in_range_section_pct": (77.0, 1.0, "≥ 77 % per section"),
-    "min_beyond_range_pass_pct": (45.0, 1.0, "beyond it ≥ 45 %"),
+    "min_beyond_range_pass_pct": (44.0, 1.0, "beyond it ≥ 44 %"),
     "reversal_uncomp_um": (19.0, 1.0, "the reversal error falls from 19 µm to 2.1 µm (−89 %)"),
     "reversal_comp_um": (2.1, 0.1, "the reversal error falls from 19 µm to 2.1 µm (−89 %)"),
     "reversal_reduction_pct": (89.0, 1.0, "the reversal error falls from 19 µm to 2.1 µm (−89 %)"),
