@@ -81,3 +81,26 @@ def test_another_code_path_changes_the_fit(fits):
     a, c = fits["default"], fits["scalar"]
     assert c["numerics"]["ATEN_CPU_CAPABILITY"] == "default" and not c["numerics"]["pinned"]
     assert a["sha"] != c["sha"]
+
+
+def test_too_late_a_pin_is_reported_not_hidden():
+    """A torch operation before the pin fixes torch's kernels: the record says "not pinned" and a
+    warning names the kernels in use (on a CPU whose best path is AVX2 the two coincide and the
+    record is honestly "pinned")."""
+    code = (
+        "import json, warnings, torch\n"
+        "torch.zeros(3) + 1\n"
+        "from drivelash.te.learn.numerics import pin_training_numerics\n"
+        "with warnings.catch_warnings(record=True) as w:\n"
+        "    warnings.simplefilter('always')\n"
+        "    r = pin_training_numerics()\n"
+        "print(json.dumps({'r': r, 'w': [str(x.message) for x in w]}))\n"
+    )
+    e = {k: v for k, v in os.environ.items() if k not in ("ATEN_CPU_CAPABILITY", "MKL_CBWR")}
+    out = subprocess.run([sys.executable, "-c", code], env=e, capture_output=True, text=True, check=True)
+    res = json.loads(out.stdout.strip().splitlines()[-1])
+    r = res["r"]
+    if r["aten_in_use"] == "AVX2":
+        assert r["pinned"] and not res["w"]
+    else:
+        assert not r["pinned"] and any(r["aten_in_use"] in m for m in res["w"]), res

@@ -6,7 +6,7 @@ and the network's training is chaotic in the last bit: on the seed-0 campaign th
 ``drivelash te fit`` gave a +x training MAE of 0.0497 µm on a CPU with AVX-512 and
 0.0546 µm with the AVX2 branch forced on that same CPU (Hyperband chose another learning
 rate: 0.0121 against 0.0064), so the README's figures held only on the CPU type they were
-measured on (docs/assumptions.md, "TE training numerics").
+measured on (docs/assumptions.md, "Transmission-error learning", stage 1).
 
 :func:`pin_training_numerics` selects the AVX2 branch of both before the first torch
 operation of the process — ``ATEN_CPU_CAPABILITY=avx2`` and ``MKL_CBWR=AVX2`` (oneMKL's
@@ -59,9 +59,10 @@ def pin_training_numerics() -> dict[str, Any]:
     if in_use.lower() != asked.lower() and not getattr(pin_training_numerics, "_warned", False):
         pin_training_numerics._warned = True  # type: ignore[attr-defined]
         warnings.warn(
-            f"torch already runs its {in_use} kernels in this process (ATEN_CPU_CAPABILITY="
-            f"{asked} came too late): the fitted TE network may differ from other machines'; "
-            "set ATEN_CPU_CAPABILITY=avx2 and MKL_CBWR=AVX2 before the first torch operation",
+            f"torch runs its {in_use} kernels in this process, not the {asked} asked for (set"
+            " after the first torch operation, or not supported by this CPU): the fitted TE network"
+            " may differ from other machines'; set ATEN_CPU_CAPABILITY=avx2 and MKL_CBWR=AVX2 before"
+            " the first torch operation",
             UserWarning,
             stacklevel=2,
         )
