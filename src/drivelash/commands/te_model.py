@@ -96,12 +96,12 @@ def run_fit(
         f"fit both directions (Hyperband + grid search) in {trained.info['fit_time_total_s']:.1f} s "
         f"(total with preprocessing {total:.1f} s) -> {model_dir}"
     )
-    num = trained.info.get("numerics", {})
+    num = trained.info["numerics"]  # always recorded by fit_te_model
     echo(
-        f"torch code path: ATen {num.get('aten_in_use', '?')}, MKL_CBWR={num.get('MKL_CBWR', '?')} ("
+        f"torch code path: ATen {num['aten_in_use']}, MKL_CBWR={num['MKL_CBWR']} ("
         + (
             "pinned: the same network on every Intel CPU with AVX2"
-            if num.get("pinned")
+            if num["pinned"]
             else "not the pinned AVX2 path: the network may differ on other machines"
         )
         + ")"

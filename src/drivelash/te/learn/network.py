@@ -196,7 +196,7 @@ class MLPRegressor(RegressorMixin, BaseEstimator):
     ) -> None:
         from drivelash.te.learn.numerics import pin_training_numerics
 
-        self.numerics_ = pin_training_numerics()
+        pin_training_numerics()  # every training path (fit, fine_tune, each Hyperband trial)
         import torch
 
         rng = np.random.default_rng(int(self.random_state))
