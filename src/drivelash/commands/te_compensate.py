@@ -57,6 +57,8 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
                 model, drive, outs.staging(d), cfg, updater=upd, progress=typer.echo, figures=te_figures
             )
         typer.echo(format_summary(summary))
+        if quick:
+            typer.echo(quick_verdict(summary))
         typer.echo(f"outputs in {out}/")
 
     @te_app.command("export")
@@ -138,6 +140,23 @@ def _check_grid(lo: float, hi: float, dx_mm: float, tmax: float, step: float, vr
     # the table in memory, and the CSV text (~40 bytes per row, 2 flanks) written from it
     check_budget(table_bytes(int(n_x), int(n_torque)) + 40.0 * 2 * n_x * n_torque, what=what, option=option)
     return int(n_torque)
+
+
+#: Goal of the reduced protocol (issue 12: quick path with defaults): average improvement.
+QUICK_GOAL_AVERAGE = 0.60
+
+
+def quick_verdict(summary: dict) -> str:
+    """One line for ``te validate --quick``: the table's limits are the full protocol's; the quick
+    run's own goal is ≥ 60 % average improvement with no section made worse."""
+    p = summary["passes"]
+    met = p["average_improvement"] >= QUICK_GOAL_AVERAGE and p["min_section"] > 0.0
+    return (
+        "--quick ran the reduced protocol (the quick campaign's stroke, 3 loads); the limits above are"
+        f" the full protocol's. Its own goal - average >= {QUICK_GOAL_AVERAGE:.0%} with no section made"
+        f" worse - is {'met' if met else 'NOT MET'}: average {p['average_improvement']:.1%},"
+        f" worst section {p['min_section']:+.1%}"
+    )
 
 
 def format_summary(summary: dict) -> str:

@@ -119,6 +119,7 @@ def summarize_passes(rows: list[dict[str, Any]], train_max_load: float) -> dict[
         if np.any(load > train_max_load)
         else float("nan"),  # fmt: skip
         "min_in_range_section": float(np.min(imp[load <= train_max_load])),
+        "min_section": float(np.min(imp)),
         "pass_averages": [
             {"direction": k[0], "velocity": k[1], "load": k[2], "improvement": v}
             for k, v in sorted(avg.items())
