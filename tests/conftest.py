@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 
@@ -33,8 +35,11 @@ def _source_hash() -> str:
     return h.hexdigest()[:16]
 
 
-def _te_step(workdir, name: str, args: list[str]) -> None:
-    """Run ``drivelash ARGS`` once (marker file ``.done-NAME``); a half-done step is redone."""
+def _te_step(workdir, name: str, args) -> None:
+    """Run ``drivelash ARGS`` once (marker file ``.done-NAME``); a half-done step is redone.
+
+    ``args`` may instead be a callable ``args(workdir)`` (a Python step that writes ``NAME``).
+    """
     import shutil
     import subprocess
     import sys
@@ -45,6 +50,10 @@ def _te_step(workdir, name: str, args: list[str]) -> None:
     target = workdir / name
     if target.exists():
         shutil.rmtree(target)
+    if callable(args):
+        args(workdir)
+        marker.write_text("ok\n")
+        return
     log = workdir / f"{name}.log"
     with log.open("w") as fh:
         cmd = [sys.executable, "-m", "drivelash.cli", *args]
@@ -84,8 +93,9 @@ def te_seed0():
     return {k: d / k for k in ("C", "M", "E", "V")}
 
 
-def _te_run(tag: str, steps: list[tuple[str, list[str]]]) -> dict:
-    """Run TE command steps once in a cached directory keyed by ``tag`` and the source hash."""
+def _te_run(tag: str, steps: list[tuple[str, Any]]) -> dict:
+    """Run TE command steps once in a cached directory keyed by ``tag`` and the source hash
+    (a step is ``(NAME, ARGS)``, see :func:`_te_step`)."""
     import os
     from pathlib import Path
 
@@ -125,5 +135,35 @@ def te_custom_axis():
             ("C", ["te", "campaign", "--config", axis, "-o", "C", "--seed", "0"]),
             ("M", ["te", "fit", "C", "-o", "M"]),
             ("V", ["te", "validate", "M", "-o", "V"]),
+        ],
+    )
+
+
+@pytest.fixture(scope="session")
+def te_round_trip(te_seed0):
+    """Issue 12's round trip, once per test run: the seed-0 campaign written as CNC traces
+    (``tests/te_axis/cnc.py``), then ``te import cnc/axis.toml -o C2``, ``te fit C2 -o M2``,
+    ``te evaluate M2 C2 -o E2``. Cached like :func:`te_seed0` (keyed also by the campaign's
+    path and the exporter's source), so the pytest-xdist workers share one run instead of
+    each building its own. Returns the directories ``cnc``, ``C2``, ``M2``, ``E2``.
+    """
+    import hashlib
+
+    exporter = _REPO / "tests" / "te_axis" / "cnc.py"
+    key = hashlib.sha256(str(te_seed0["C"].resolve()).encode() + exporter.read_bytes()).hexdigest()[:8]
+
+    def export(workdir) -> None:
+        from drivelash.te.protocol.campaign import load_campaign
+        from te_axis.cnc import export_cnc
+
+        export_cnc(load_campaign(te_seed0["C"]), workdir / "cnc")
+
+    return _te_run(
+        f"te-round-trip-{key}",
+        [
+            ("cnc", export),
+            ("C2", ["te", "import", "cnc/axis.toml", "-o", "C2"]),
+            ("M2", ["te", "fit", "C2", "-o", "M2"]),
+            ("E2", ["te", "evaluate", "M2", "C2", "-o", "E2"]),
         ],
     )

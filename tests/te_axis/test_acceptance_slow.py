@@ -128,20 +128,12 @@ def test_moved_model_gives_identical_results(te_quick, tmp_path):
 
 
 @pytest.fixture(scope="module")
-def round_trip(te_seed0, tmp_path_factory):
-    """The seed-0 campaign as CNC traces -> ``te import`` -> ``te fit`` -> ``te evaluate``."""
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    from drivelash.te.protocol.campaign import load_campaign
-    from te_axis.cnc import export_cnc
-
-    tmp = tmp_path_factory.mktemp("round_trip")
-    axis = export_cnc(load_campaign(te_seed0["C"]), tmp / "cnc")
-    _cli("te", "import", str(axis), "-o", "C2", cwd=tmp)
-    _cli("te", "fit", "C2", "-o", "M2", cwd=tmp)
-    _cli("te", "evaluate", "M2", "C2", "-o", "E2", cwd=tmp)
+def round_trip(te_seed0, te_round_trip):
+    """The seed-0 campaign as CNC traces -> ``te import`` -> ``te fit`` -> ``te evaluate``
+    (built once per run by the ``te_round_trip`` fixture of tests/conftest.py)."""
     e1 = json.loads((te_seed0["E"] / "evaluation.json").read_text())["summary"]
-    e2 = json.loads((tmp / "E2" / "evaluation.json").read_text())["summary"]
-    return {"sim": e1, "imported": e2, "model": json.loads((tmp / "M2" / "model.json").read_text())}
+    e2 = json.loads((te_round_trip["E2"] / "evaluation.json").read_text())["summary"]
+    return {"sim": e1, "imported": e2, "model": json.loads((te_round_trip["M2"] / "model.json").read_text())}
 
 
 def _round_trip_mae(round_trip, split: str) -> float:
