@@ -250,3 +250,25 @@ def test_window_sensitivity_is_reported(ident_0c):
     for n, s0 in sysm["std_noise"].items():
         s = ident_0c[n].std
         assert s >= s0 * (1 - 1e-9) and (counted or s == pytest.approx(s0, rel=1e-9)), n
+
+
+def test_interval_text_shows_the_width_of_a_narrow_interval():
+    """The printed 95 % interval (CLI table, HTML report) resolves its own width: bench-0A's
+    δ = 1.02699 rad ± 0.05 mrad used to print as [1.0269, 1.027] — upper bound rounded away,
+    width unreadable. Wide intervals keep 5 significant digits; an undetermined one prints inf."""
+    from drivelash.estimation.identify_result import ParameterEstimate as P
+
+    narrow = P.normal("delta", 1.02699, 2.50043e-05)
+    text = narrow.interval_text()
+    assert text == "[1.026941, 1.027039]"
+    lo, hi = (float(v) for v in text.strip("[]").split(","))
+    assert hi - lo == pytest.approx(narrow.high - narrow.low, rel=0.02)  # the width survives printing
+    assert P.normal("J_m", 8.43231e-4, 1.46836e-5).interval_text() == "[0.00081445, 0.00087201]"
+    assert P.normal("torque_offset", 6.83282e-5, 2.02492e-4).interval_text() == "[-0.00032855, 0.00046521]"
+    # trailing zeros kept: both bounds at the same resolution (δ1 of the same fit)
+    assert P("delta1", 0.513497, 1.38e-5, 0.51347, 0.513524).interval_text() == "[0.513470, 0.513524]"
+    assert P.unknown("K_S", "not seen").interval_text() == "[-inf, inf]"
+    # negative control: the old format loses the width (1.027 − 1.0269 = 0.1 mrad, twice the truth)
+    old = f"[{narrow.low:.5g}, {narrow.high:.5g}]"
+    lo_o, hi_o = (float(v) for v in old.strip("[]").split(","))
+    assert hi_o - lo_o != pytest.approx(narrow.high - narrow.low, rel=0.02)

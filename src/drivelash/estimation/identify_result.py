@@ -119,6 +119,20 @@ class ParameterEstimate:
         """True if ``x`` lies in the 95 % interval."""
         return self.low <= x <= self.high
 
+    def interval_text(self, digits: int = 5) -> str:
+        """The 95 % interval as ``"[low, high]"``, with the digits its width needs.
+
+        At least ``digits`` significant digits (trailing zeros kept, so both bounds show the
+        same resolution), more when the interval is narrow against its
+        position: the width of the interval shows with two significant digits (δ = 1.02699 rad
+        ± 0.05 mrad prints as ``[1.026941, 1.027039]``, not ``[1.0269, 1.027]``).
+        """
+        lo, hi = self.low, self.high
+        if math.isfinite(lo) and math.isfinite(hi) and hi > lo:
+            digits = max(digits, math.ceil(math.log10(max(abs(lo), abs(hi)) / (hi - lo))) + 2)
+        digits = min(digits, 15)
+        return f"[{lo:#.{digits}g}, {hi:#.{digits}g}]"
+
 
 @dataclass
 class DriveIdentification:
@@ -212,7 +226,7 @@ class DriveIdentification:
         head = list(comments or [])
         for p in self.parameters.values():
             if p.identifiable:
-                head.append(f"{p.name} = {p.value:.6g} {p.unit}, 95 % CI [{p.low:.6g}, {p.high:.6g}]")
+                head.append(f"{p.name} = {p.value:.6g} {p.unit}, 95 % CI {p.interval_text(6)}")
             else:
                 head.append(f"{p.name}: not identified ({p.reason})")
         head.append(f"backlash: {self.reason}")

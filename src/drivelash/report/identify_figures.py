@@ -27,7 +27,7 @@ def _fmt_param(p: Any) -> list[Any]:
             bound = f"[{p.low:.4g}, {p.high:.4g}]"
         return [p.name, p.unit, "not identifiable", "", bound, p.reason]
     rel = 100 * p.std / abs(p.value) if p.value else float("nan")
-    return [p.name, p.unit, p.value, p.std, f"[{p.low:.5g}, {p.high:.5g}]", f"{rel:.2f} %"]
+    return [p.name, p.unit, p.value, p.std, p.interval_text(), f"{rel:.3g} %"]
 
 
 def _acf(x: np.ndarray, lags: int) -> np.ndarray:
