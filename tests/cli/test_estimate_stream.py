@@ -102,7 +102,29 @@ def test_decimated_plot_and_report_are_written(recording, tmp_path, monkeypatch,
     )
     assert code == 0, err
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
-    assert "data:image/png;base64," in html.read_text()
+    text = html.read_text()
+    assert "data:image/png;base64," in text
+    # the report states δ̂ with its 95 % interval, the one the JSON gives (δ̂ ± 1.96 delta_std) ...
+    js = json.loads(_streamed_json(recording["parquet"], tmp_path / "e.json", capsys))
+    lo, hi = 1e3 * (js["delta"] - 1.96 * js["delta_std"]), 1e3 * (js["delta"] + 1.96 * js["delta_std"])
+    assert f"[{lo:.3f}, {hi:.3f}]" in text
+    # ... and keeps the estimator's raw statistics apart, with their units named
+    assert "Estimator diagnostics (the JSON&#x27;s extra), SI units" in text  # HTML-escaped quote
+
+
+def test_streamed_series_keep_the_recorded_torque(recording):
+    """The decimated series behind --plot/--report carry the motor torque when the recording has
+    it (the report's overview drew positions and velocities only, though the law used the torque)."""
+    from drivelash.estimation.pipeline import estimate_stream
+    from drivelash.io.stream import TraceStream
+
+    cfg = load_config(CONFIG)
+    with TraceStream(recording["parquet"], cfg, required=INPUT_COLUMNS, chunk_rows=CHUNK) as stream:
+        core, res, series = estimate_stream(cfg, stream, None, series=True)
+    assert "torque_m" in series and series["torque_m"].size == series["t"].size > 100
+    full = load_trace(recording["parquet"], cfg, required=INPUT_COLUMNS)
+    idx = np.searchsorted(full["t"], series["t"])
+    assert np.array_equal(series["torque_m"], full["torque_m"][idx])  # decimated, not altered
 
 
 def test_long_file_streams_within_a_budget_that_refuses_whole_reads(recording, tmp_path, monkeypatch, capsys):

@@ -174,7 +174,7 @@ def estimate_summary(cfg: Any, res: Any, motion: Any, samples: int, T_s: float) 
 #: Columns the estimator reads from a recording (the others are not read).
 _ESTIMATE_COLUMNS = ("theta_m", "omega_m", "theta_l", "omega_l", "torque_m", "delta_true")
 #: Columns kept, decimated like the result's series, for ``--plot`` / ``--report``.
-_PLOT_COLUMNS = ("t", "theta_m", "omega_m", "theta_l", "omega_l", "delta_true")
+_PLOT_COLUMNS = ("t", "theta_m", "omega_m", "theta_l", "omega_l", "torque_m", "delta_true")
 
 
 def estimate_stream(

@@ -207,6 +207,11 @@ def render_estimate_report(trace: Any, result: Any, config: Any = None, *, title
     )
     figs_rows: list[list[Any]] = [
         ["final δ̂ [mrad]", 1e3 * float(dh[-1]) if dh.size else float("nan")],
+    ]
+    lo, hi = getattr(result, "delta_interval", (float("nan"), float("nan")))
+    if np.isfinite(lo) and np.isfinite(hi):
+        figs_rows.append(["95 % interval of δ̂ [mrad]", f"[{1e3 * lo:.3f}, {1e3 * hi:.3f}]"])
+    figs_rows += [
         ["converged", str(bool(getattr(result, "converged", False)))],
         [
             "convergence time [s]",
@@ -219,13 +224,20 @@ def render_estimate_report(trace: Any, result: Any, config: Any = None, *, title
     if delta_true is not None:
         figs_rows.append(["true δ (final) [mrad]", 1e3 * float(delta_true[-1])])
         figs_rows.append(["error of final δ̂ [%]", 100 * (float(dh[-1]) / float(delta_true[-1]) - 1)])
-    for k, v in (getattr(result, "extra", {}) or {}).items():
-        if isinstance(v, int | float | str | bool):
-            figs_rows.append([k, v])
+    # the estimator's own statistics, as in the JSON's "extra" (SI units, not converted)
+    extra = getattr(result, "extra", {}) or {}
+    diag_rows = [[k, v] for k, v in extra.items() if isinstance(v, int | float | str | bool)]
     sec_est = Section(
         "Deadzone estimate",
         raw=[verdict_html],
-        tables=[("Figures of merit", ["quantity", "value"], figs_rows)],
+        tables=[
+            ("Figures of merit", ["quantity", "value"], figs_rows),
+            (
+                "Estimator diagnostics (the JSON's extra), SI units: rad, rad/s, N·m, s",
+                ["key", "value"],
+                diag_rows,
+            ),
+        ],
         figures=[
             Figure("delta", "Deadzone estimate over time; green: excitation present.", draw_delta, (10, 3.6)),
             Figure(
