@@ -120,6 +120,14 @@ def test_observe_report_same_from_many_chunks(recording, tmp_path, monkeypatch, 
         assert code == 0, err
         html.append(out.read_bytes())
     assert html[0] == html[1] and b"data:image/png;base64," in html[0]
+    # the summary names what each figure is and its unit (rotary axis: kg·m², N·m·s/rad, N·m)
+    text = html[0].decode()
+    for label in (
+        "J, inertia assumed [kg·m²]",
+        "β, viscous friction assumed [N·m·s/rad]",
+        "mean d̂, forward constant-velocity stretches [N·m]",
+    ):
+        assert label in text, label
 
 
 def test_observe_negative_control_one_sample(recording, tmp_path, monkeypatch, capsys):

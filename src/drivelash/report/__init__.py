@@ -479,7 +479,16 @@ def render_observe_report(
         for ax in axes:
             ax.grid(alpha=0.3)
 
-    rows = [[k, v] for k, v in est.as_dict().items()]
+    labels = {
+        "J": f"J, inertia assumed [{u['mass']}]",
+        "beta": f"β, viscous friction assumed [{u['visc']}]",
+        "k1": "k1, STSMO gain",
+        "k2": "k2, STSMO gain",
+        "mean_disturbance_forward": f"mean d̂, forward constant-velocity stretches [{u['force']}]",
+        "mean_disturbance_backward": f"mean d̂, backward constant-velocity stretches [{u['force']}]",
+        "constant_velocity_samples": "constant-velocity samples",
+    }
+    rows = [[labels.get(k, k), v] for k, v in est.as_dict().items()]
     sections = [
         Section("Recording", raw=_warnings_html(trace), figures=[_overview_figure(trace)]),
         Section(
