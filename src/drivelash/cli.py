@@ -68,6 +68,38 @@ for _name in _COMMAND_MODULES:
     _mod.register(app, te_app)
 
 
+def _escape_markup(cmd: Any) -> Any:
+    """Escape Rich markup in the help of ``cmd``, its parameters and its subcommands (in place).
+
+    The help texts name TOML tables and units in square brackets (``[drivetrain]``, ``[mm]``);
+    typer renders help with Rich markup, which took them for style tags and dropped them
+    ("write / TOML" for "write [drivetrain]/[backlash] TOML"). Escaped, they print as written.
+    """
+    from rich.markup import escape
+
+    for attr in ("help", "short_help"):
+        text = getattr(cmd, attr, None)
+        if text:
+            setattr(cmd, attr, escape(text))
+    for param in getattr(cmd, "params", ()):
+        if getattr(param, "help", None):
+            param.help = escape(param.help)
+    for sub in getattr(cmd, "commands", {}).values():
+        _escape_markup(sub)
+    return cmd
+
+
+_command: Any = None
+
+
+def _click_command() -> Any:
+    """The click command of ``app`` with its help texts escaped (built once)."""
+    global _command
+    if _command is None:
+        _command = _escape_markup(typer.main.get_command(app))
+    return _command
+
+
 class Terminated(BaseException):  # noqa: N818 - mirrors KeyboardInterrupt
     """Raised in the main thread on SIGTERM, so ``with``-blocks clean up (staged outputs)."""
 
@@ -121,7 +153,7 @@ def main(argv: list[str] | None = None) -> None:
                 warnings.simplefilter("error", RuntimeWarning)
             else:
                 warnings.simplefilter("ignore", RuntimeWarning)
-            rv = app(args=argv, prog_name="drivelash", standalone_mode=False)
+            rv = _click_command()(args=argv, prog_name="drivelash", standalone_mode=False)
         if isinstance(rv, int) and not isinstance(rv, bool) and rv != 0:
             sys.exit(rv)  # typer returns the code of an Exit (e.g. 130 after Ctrl-C)
     except DrivelashError as exc:
