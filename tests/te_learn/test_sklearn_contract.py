@@ -22,7 +22,14 @@ from drivelash.te.learn.stacked import StackedTERegressor, default_trees
 
 @pytest.fixture(autouse=True)
 def _one_torch_thread():
-    """One torch thread, as the learner uses (per-op threading of a 16-node net only costs)."""
+    """One torch thread, as the learner uses (per-op threading of a 16-node net only costs).
+
+    The code path is pinned first, as every training entry point does: touching torch before
+    the pin fixes its kernels for the process, and the first fit here then warned (under
+    pytest-xdist, whenever this file's tests were the first of a worker to use torch)."""
+    from drivelash.te.learn.numerics import pin_training_numerics
+
+    pin_training_numerics()
     import torch
 
     n = torch.get_num_threads()
