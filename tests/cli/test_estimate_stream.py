@@ -108,6 +108,7 @@ def test_decimated_plot_and_report_are_written(recording, tmp_path, monkeypatch,
     js = json.loads(_streamed_json(recording["parquet"], tmp_path / "e.json", capsys))
     lo, hi = 1e3 * (js["delta"] - 1.96 * js["delta_std"]), 1e3 * (js["delta"] + 1.96 * js["delta_std"])
     assert f"[{lo:.3f}, {hi:.3f}]" in text
+    assert f"<td>{1e3 * js['delta']:.6g}</td>" in text  # the JSON's δ̂
     # ... and keeps the estimator's raw statistics apart, with their units named
     assert "Estimator diagnostics (the JSON&#x27;s extra), SI units" in text  # HTML-escaped quote
 

@@ -205,9 +205,9 @@ def render_estimate_report(trace: Any, result: Any, config: Any = None, *, title
         f'<p class="{cls}">Excitation: {"sufficient" if ok else "insufficient"} — '
         f"{_esc(getattr(result, 'reason', ''))}</p>"
     )
-    figs_rows: list[list[Any]] = [
-        ["final δ̂ [mrad]", 1e3 * float(dh[-1]) if dh.size else float("nan")],
-    ]
+    # the reported estimate (the JSON's δ̂), not the last point of the (decimated) series
+    d_final = float(getattr(result, "delta", dh[-1] if dh.size else float("nan")))
+    figs_rows: list[list[Any]] = [["final δ̂ [mrad]", 1e3 * d_final]]
     lo, hi = getattr(result, "delta_interval", (float("nan"), float("nan")))
     if np.isfinite(lo) and np.isfinite(hi):
         figs_rows.append(["95 % interval of δ̂ [mrad]", f"[{1e3 * lo:.3f}, {1e3 * hi:.3f}]"])
@@ -223,7 +223,7 @@ def render_estimate_report(trace: Any, result: Any, config: Any = None, *, title
     ]
     if delta_true is not None:
         figs_rows.append(["true δ (final) [mrad]", 1e3 * float(delta_true[-1])])
-        figs_rows.append(["error of final δ̂ [%]", 100 * (float(dh[-1]) / float(delta_true[-1]) - 1)])
+        figs_rows.append(["error of final δ̂ [%]", 100 * (d_final / float(delta_true[-1]) - 1)])
     # the estimator's own statistics, as in the JSON's "extra" (SI units, not converted)
     extra = getattr(result, "extra", {}) or {}
     diag_rows = [[k, v] for k, v in extra.items() if isinstance(v, int | float | str | bool)]
