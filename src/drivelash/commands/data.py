@@ -334,7 +334,7 @@ def run_identify_two_mass(
             if prm.identifiable:
                 table.add_row(prm.name, f"{prm.value:.6g}", prm.interval_text(), prm.unit, "")
             else:
-                table.add_row(prm.name, "–", f"[{prm.low:.4g}, {prm.high:.4g}]", prm.unit, prm.reason)
+                table.add_row(prm.name, "–", prm.interval_text(4), prm.unit, prm.reason)
         console.print(table)
         console.print(f"backlash: {result.reason}")
         for w in result.warnings:

@@ -123,9 +123,9 @@ class ParameterEstimate:
         """The 95 % interval as ``"[low, high]"``, with the digits its width needs.
 
         At least ``digits`` significant digits (trailing zeros kept, so both bounds show the
-        same resolution), more when the interval is narrow against its
-        position: the width of the interval shows with two significant digits (δ = 1.02699 rad
-        ± 0.05 mrad prints as ``[1.026941, 1.027039]``, not ``[1.0269, 1.027]``).
+        same resolution), more when the interval is narrow against its position: the width
+        shows with two significant digits (δ = 1.02699 rad ± 0.05 mrad prints as
+        ``[1.026941, 1.027039]``, not ``[1.0269, 1.027]``). A one-sided bound prints ``inf``.
         """
         lo, hi = self.low, self.high
         if math.isfinite(lo) and math.isfinite(hi) and hi > lo:

@@ -1447,9 +1447,7 @@ def _build_result(
         ordered["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0)
         ordered["delta1"] = ParameterEstimate.unknown("delta1", "the fit is implausible")
         if fit_delta is not None:
-            notes.append(
-                f"implausible fit: δ = {fit_delta.value:.4g} rad [{fit_delta.low:.4g}, {fit_delta.high:.4g}]"
-            )
+            notes.append(f"implausible fit: δ = {fit_delta.value:.4g} rad {fit_delta.interval_text(4)}")
     elif warnings:
         reason += f"; the fit is implausible as well ({warnings[0].split(':')[0]})"
         ordered["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0)  # no bound from it

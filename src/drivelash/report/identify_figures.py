@@ -24,7 +24,7 @@ def _fmt_param(p: Any) -> list[Any]:
     if not p.identifiable:
         bound = ""
         if math.isfinite(p.low) or math.isfinite(p.high):
-            bound = f"[{p.low:.4g}, {p.high:.4g}]"
+            bound = p.interval_text(4)
         return [p.name, p.unit, "not identifiable", "", bound, p.reason]
     rel = 100 * p.std / abs(p.value) if p.value else float("nan")
     return [p.name, p.unit, p.value, p.std, p.interval_text(), f"{rel:.3g} %"]
