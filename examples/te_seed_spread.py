@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from drivelash.te.learn.baselines import compare, split_summary
-from drivelash.te.learn.fit import default_holdout, fit_te_model, prepare_campaign, split_of
+from drivelash.te.learn.fit import TrainedTEModel, default_holdout, fit_te_model, prepare_campaign, split_of
 from drivelash.te.learn.network import MLPRegressor
 from drivelash.te.learn.stacked import StackedTERegressor
 from drivelash.te.protocol.campaign import load_campaign
@@ -39,7 +39,7 @@ MAX_LOAD, N_TRIALS, MAX_EPOCHS = 3000.0, 10, 40
 class _Mean:
     """Predictor of one direction: the mean TE_def [µm] of several fitted models."""
 
-    def __init__(self, models: list, direction: int) -> None:
+    def __init__(self, models: list[TrainedTEModel], direction: int) -> None:
         self.models, self.direction = models, direction
 
     def predict(self, X: np.ndarray) -> np.ndarray:
@@ -57,7 +57,7 @@ def main() -> None:
     holdout = default_holdout(camp.loads, MAX_LOAD)
     pipeline, geo, runs = prepare_campaign(camp)
 
-    def fit(seed: int, data: dict) -> object:
+    def fit(seed: int, data: dict) -> TrainedTEModel:
         est = StackedTERegressor(
             nn=MLPRegressor(max_epochs=MAX_EPOCHS, random_state=seed), n_trials=N_TRIALS, random_state=seed
         )
