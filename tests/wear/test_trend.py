@@ -261,3 +261,27 @@ def test_estimates_without_uncertainty_get_the_median_weight():
         fit_trend(days, y, None, 0.2),
     )
     assert abs(mixed.params["a"] - full.params["a"]) < 0.2 * abs(none.params["a"] - full.params["a"])
+
+
+def test_crossing_is_judged_at_the_latest_recording_even_if_it_left_the_fit():
+    """Found in the README tour (simulate fleet --seed 3, axis M01/X, accelerating wear with
+    k = 0.30/day): the latest estimate (123.3 mrad, truth 123.3, threshold 113.1 mrad crossed on
+    day 6.51 by the truth) was left out as an outlier, and the forecast was made from the last
+    *inlier* (day 5.98): status showed "δ now 123.29 > threshold, −0.5 days left" with only a
+    "may be crossed" alarm. The fitted curve at the latest recording is above the threshold:
+    crossed, with the crossing inside the data."""
+    days = np.array([0.0, 1.020833, 2.016667, 2.975, 3.961111, 5.001389, 5.977778, 6.997917])
+    y = np.array([0.06363977, 0.06661984, 0.07051425, 0.07559566, 0.08258061, 0.09257294, 0.10531709,
+                  0.12327462])  # fmt: skip
+    thr = 0.1131179257480831
+    tr = fit_trend(days, y, np.full(days.size, 1e-4), thr)
+    assert tr.model == "accelerating"
+    assert float(tr.curve(days[-1:])[0][0]) > thr  # the fit itself puts "now" above the threshold
+    assert tr.forecast.crossed
+    assert days[-3] < tr.forecast.t_cross < days[-1]  # truth: day 6.51
+    # negative control: judged at the last inlier, as before, it is not crossed
+    from drivelash.wear.trend import _forecast
+
+    assert not tr.inlier[-1]  # the case: the latest estimate is out of the fit
+    last_in = float(days[tr.inlier][-1])
+    assert not _forecast(tr, last_in, last_in, thr).crossed

@@ -496,7 +496,8 @@ def fit_trend(
     trend.params = chosen.params
     trend._curve = chosen.curve
     if threshold is not None:
-        trend.forecast = _forecast(trend, float(ti[-1]), float(ti[-1] - ti[0]), threshold)
+        # "now" is the latest recording, also when the outlier test left it out of the fit
+        trend.forecast = _forecast(trend, float(t[-1]), float(ti[-1] - ti[0]), threshold)
     return trend
 
 
