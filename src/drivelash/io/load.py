@@ -200,6 +200,20 @@ def _mapping_from(mapping: Any) -> tuple[dict[str, ColumnMap] | None, SamplingSe
     raise TypeError(f"mapping must be a DriveConfig, a dict of column maps or None, got {type(mapping)}")
 
 
+def _sample_down(cols: dict[str, np.ndarray], max_rate_hz: float) -> dict[str, Any] | None:
+    """``{"k", "T_s", "samples"}`` of the file when keeping every k-th sample (k > 1) meets
+    ``max_rate_hz`` [Hz], else None (too few samples, no usable interval, or already slow)."""
+    t = cols.get("t")
+    if t is None or t.size < 3 or not max_rate_hz > 0:
+        return None
+    d = np.diff(t[:4097])
+    T_s = float(np.median(d))
+    if not (math.isfinite(T_s) and T_s > 0):
+        return None  # the time checks report it
+    k = int(math.floor(1.0 / (T_s * max_rate_hz) * (1 + 1e-9)))
+    return {"k": k, "T_s": T_s, "samples": int(t.size)} if k > 1 else None
+
+
 def _apply_mapping(
     table: RawTable, cmap: dict[str, ColumnMap] | None, sampling: SamplingSection, warnings: list[str]
 ) -> tuple[dict[str, np.ndarray], dict[str, str], dict[str, str]]:
@@ -515,6 +529,7 @@ def load_trace(
     resample: bool | None = None,
     check_saturation: bool = True,
     data: bytes | None = None,
+    max_rate_hz: float | None = None,
 ) -> Trace:
     """Read, map, convert and validate a recording.
 
@@ -538,6 +553,9 @@ def load_trace(
     data : bytes, optional
         The file's content when the caller has already read it (e.g. to hash it): a Parquet
         file is decoded from it instead of being read again.
+    max_rate_hz : float, optional
+        Keep every k-th sample, k the largest integer with ``rate / k >= max_rate_hz``
+        (see :func:`trace_from_table`); default: every sample.
 
     Returns
     -------
@@ -555,7 +573,12 @@ def load_trace(
     if resample is not None:
         sampling = sampling.model_copy(update={"resample": resample})
     return trace_from_table(
-        read_raw(p, data), cmap, sampling, required=required, check_saturation=check_saturation
+        read_raw(p, data),
+        cmap,
+        sampling,
+        required=required,
+        check_saturation=check_saturation,
+        max_rate_hz=max_rate_hz,
     )
 
 
@@ -566,8 +589,17 @@ def trace_from_table(
     *,
     required: Iterable[str] = (),
     check_saturation: bool = True,
+    max_rate_hz: float | None = None,
 ) -> Trace:
-    """Map, convert and validate source columns (the part of :func:`load_trace` after reading)."""
+    """Map, convert and validate source columns (the part of :func:`load_trace` after reading).
+
+    With ``max_rate_hz`` a recording sampled faster keeps every k-th sample (k ≥ 1, the
+    largest integer with ``rate / k >= max_rate_hz``; the rate from the median of the first
+    4096 intervals): the columns are mapped, unwrapped and checked for non-finite values at
+    the full rate, then sampled down; the other checks and the trace see the kept samples.
+    Plain sampling, no anti-aliasing filter: what a trace recorded at the lower rate would
+    hold. ``meta["sampled_down"]`` records ``k``, the file's sample period [s] and samples.
+    """
     spath = table.path
     warnings: list[str] = []
     cols, kinds, origin = _apply_mapping(table, cmap, sampling, warnings)
@@ -595,7 +627,10 @@ def trace_from_table(
             path=spath,
             column=missing[0],
         )
-    _check_finite(cols, origin, spath)
+    _check_finite(cols, origin, spath)  # every sample: a corrupt file is refused either way
+    down = _sample_down(cols, max_rate_hz) if max_rate_hz is not None else None
+    if down is not None:
+        cols = {k: np.ascontiguousarray(v[:: down["k"]]) for k, v in cols.items()}
     t_src = table.columns.get(origin.get("t", ""))
     t_declared = cmap is not None and any(cm.column == "t" for cm in cmap.values())
 
@@ -632,6 +667,8 @@ def trace_from_table(
     )
     if prismatic:
         meta["units"] = dict(PRISMATIC_UNITS)
+    if down is not None:
+        meta["sampled_down"] = down
     if table.scalars:
         meta["scalars"] = {k: float(v) for k, v in table.scalars.items()}
     if cmap is not None:
