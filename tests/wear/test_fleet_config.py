@@ -140,3 +140,28 @@ def test_cli_missing_fleet_file(tmp_path):
         timeout=120,
     )
     assert r.returncode == 2 and "no such fleet file" in r.stderr and r.stderr.count("\n") == 1
+
+
+def test_estimate_rate_default_full_and_hash(tmp_path):
+    """``[fleet] estimate_rate_hz``: 1 kHz unless set; "full" means every sample; the rate is
+    part of the estimate's identity (another rate is another estimate), and the full rate keeps
+    the hash of a fleet written before the key existed."""
+    from drivelash.wear.fleet import config_hash
+
+    default = load_fleet(_write(tmp_path, GOOD)).axes[0]
+    assert default.estimate_rate_hz == 1000.0
+    full = load_fleet(_write(tmp_path, GOOD.replace("[fleet]", '[fleet]\nestimate_rate_hz = "full"'))).axes[0]
+    assert full.estimate_rate_hz is None
+    two = load_fleet(_write(tmp_path, GOOD.replace("[fleet]", "[fleet]\nestimate_rate_hz = 2000"))).axes[0]
+    assert two.estimate_rate_hz == 2000.0
+    assert full.drive_hash == config_hash(full.drive, "default")
+    assert len({default.drive_hash, full.drive_hash, two.drive_hash}) == 3
+
+
+@pytest.mark.parametrize("value", ["0", "-5.0", '"fast"', "nan", "inf"])
+def test_bad_estimate_rate_is_one_line_naming_the_key(tmp_path, value):
+    p = _write(tmp_path, GOOD.replace("[fleet]", f"[fleet]\nestimate_rate_hz = {value}"))
+    with pytest.raises(ConfigError) as exc:
+        load_fleet(p)
+    msg = str(exc.value)
+    assert "\n" not in msg and "table [fleet], key 'estimate_rate_hz'" in msg, msg

@@ -44,6 +44,7 @@ def _values(store: Store) -> list[dict]:
         "converged",
         "start_time",
         "samples",
+        "estimate_rate_hz",
     )
     return sorted(
         ({k: r[k] for k in keys} for r in store.estimates()), key=lambda r: (r["axis"], r["content_hash"])
@@ -78,8 +79,10 @@ def test_estimates_match_truth_and_failures_are_rows(small_fleet, serial_store):
 
 def test_stored_figures_are_those_of_drivelash_estimate(small_fleet, serial_store):
     """The ingest runs the estimator without keeping its output series (``keep="decimated"``, to
-    spare the copies); every stored figure equals the one ``drivelash estimate`` computes with the
-    full series kept, bit for bit."""
+    spare the copies) on every k-th sample (the fleet's ``estimate_rate_hz``, 1 kHz by default:
+    k = 8 for these 8 kHz recordings); every stored figure equals the one the estimator computes
+    on the same samples with the full series kept, bit for bit, and the recording row keeps the
+    file's own rate and length."""
     import math
 
     from drivelash.estimation.estimator import INPUT_COLUMNS
@@ -91,15 +94,52 @@ def test_stored_figures_are_those_of_drivelash_estimate(small_fleet, serial_stor
     rows = [r for r in st.estimates() if r["status"] == "ok"][:12]
     assert any(r["excitation_ok"] for r in rows)
     for r in rows:
-        drive = fleet[r["axis"]].drive
-        res, _ = estimate_trace(drive, load_trace(r["path"], drive, required=INPUT_COLUMNS))
-        assert res.t.size == r["samples"]  # the full series
+        ax = fleet[r["axis"]]
+        assert ax.estimate_rate_hz == 1000.0
+        tr = load_trace(r["path"], ax.drive, required=INPUT_COLUMNS, max_rate_hz=ax.estimate_rate_hz)
+        res, _ = estimate_trace(ax.drive, tr)
+        assert r["sample_rate_hz"] == pytest.approx(8000.0) and r["samples"] == 64000  # the file's
+        assert res.t.size == len(range(0, r["samples"], 8)) == 8000  # the full series of the kept samples
+        assert r["estimate_rate_hz"] == pytest.approx(1000.0, rel=1e-9)
         assert r["delta"] == res.delta and r["excitation_ok"] == res.excitation_ok, r["path"]
         assert r["converged"] == res.converged and r["reason"] == res.reason
         std = res.delta_std if math.isfinite(res.delta_std) and res.delta_std > 0 else None
         assert r["delta_std"] == std
         d1 = res.extra.get("delta1_estimate", res.extra.get("delta1_check"))
         assert r["delta1_estimate"] == (None if d1 is None else float(d1))
+
+
+def test_full_rate_on_request_is_another_estimate(small_fleet, serial_store, tmp_path):
+    """``estimate_rate_hz = "full"``: every sample, the figure ``drivelash estimate`` gives
+    (negative control of the 1 kHz default: the rate is applied, so the figures differ — by less
+    than the 1 mrad goal — and they are stored as another estimate of the same recordings)."""
+    from dataclasses import replace
+
+    from drivelash.estimation.estimator import INPUT_COLUMNS
+    from drivelash.estimation.pipeline import estimate_trace
+    from drivelash.io import load_trace
+
+    st, _ = serial_store
+    d = copy_fleet(small_fleet, tmp_path / "f")
+    toml = d / "fleet.toml"
+    text = toml.read_text()
+    assert "\nestimate_rate_hz = 1000 " in text  # as `simulate fleet` writes it
+    toml.write_text(text.replace("\nestimate_rate_hz = 1000 ", '\nestimate_rate_hz = "full" ', 1))
+    fleet = load_fleet(toml)
+    ax = next(a for a in fleet.axes if a.name == "M01/Y")  # M01/X holds the added corrupt files
+    one = replace(fleet, axes=(ax,))
+    full = Store(tmp_path / "full.sqlite")
+    ingest(one, full, workers=1)
+    by_hash = {r["content_hash"]: r for r in st.estimates() if r["axis"] == ax.name}
+    rows = [r for r in full.estimates() if r["status"] == "ok" and r["excitation_ok"]]
+    assert len(rows) >= 5
+    for r in rows:
+        assert r["estimate_rate_hz"] == pytest.approx(8000.0, rel=1e-9)
+        res, _ = estimate_trace(ax.drive, load_trace(r["path"], ax.drive, required=INPUT_COLUMNS))
+        assert r["delta"] == res.delta and res.t.size == r["samples"]
+        k = by_hash[r["content_hash"]]
+        assert k["config_hash"] != r["config_hash"]
+        assert k["delta"] != r["delta"] and abs(k["delta"] - r["delta"]) < 1e-3
 
 
 def test_unexcited_never_enter_the_trend(serial_store):
@@ -248,7 +288,7 @@ def test_postgresql_store_ingest_and_forecast(small_fleet, serial_store, pg_url)
     """The same ingest on a real PostgreSQL server gives the same values and forecasts."""
     st, _ = serial_store
     pg = Store(pg_url)
-    assert pg.revision() == "0001"
+    assert pg.revision() == "0002"
     ingest(load_fleet(small_fleet / "fleet.toml"), pg, workers=1)
     assert _values(pg) == _values(st)
     rep = ingest(load_fleet(small_fleet / "fleet.toml"), pg, workers=1)

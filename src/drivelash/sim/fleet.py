@@ -267,6 +267,7 @@ def simulate_fleet(
         'db = "wear.sqlite"',
         "horizon_days = 30",
         "not_excited_alarm = 5",
+        "estimate_rate_hz = 1000  # estimate on every 8th sample of the 8 kHz recordings ('full': all)",
         'time = { from = "filename", pattern = \'_(\\d{8}T\\d{6})\\.\', format = "%Y%m%dT%H%M%S" }',
         "",
     ]

@@ -51,6 +51,7 @@ class RecordingTask:
     method: str
     config_hash: str
     code_version: str
+    estimate_rate_hz: float | None = None
 
 
 def recording_start(path: Path, spec: TimeSpec, meta: dict[str, Any] | None = None) -> datetime:
@@ -180,10 +181,11 @@ def estimate_recording(task: RecordingTask) -> EstimateRow:
     start = duration = rate = n = None
     try:
         cfg = task.drive
-        trace = load_trace(path, cfg, required=INPUT_COLUMNS, data=data)
+        trace = load_trace(path, cfg, required=INPUT_COLUMNS, data=data, max_rate_hz=task.estimate_rate_hz)
         data = None  # the decoded columns do not refer to the file's bytes
-        n = len(trace)
-        T_s = trace.T_s
+        down = trace.meta.get("sampled_down")  # the recording's own figures, not the kept samples'
+        n = int(down["samples"]) if down else len(trace)
+        T_s = float(down["T_s"]) if down else trace.T_s
         duration = n * T_s
         rate = 1.0 / T_s
         start = recording_start(path, task.time, trace.meta)
@@ -208,6 +210,7 @@ def estimate_recording(task: RecordingTask) -> EstimateRow:
             excitation_ok=bool(res.excitation_ok),
             converged=bool(res.converged),
             runtime_s=time.perf_counter() - t0,
+            estimate_rate_hz=1.0 / trace.T_s,
         )
     except DrivelashError as exc:
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__

@@ -8,6 +8,7 @@ Example::
     method = "default"            # estimator law used for every axis
     horizon_days = 30             # alarm when the forecast crossing may lie within this horizon
     not_excited_alarm = 5         # alarm after this many consecutive recordings without excitation
+    estimate_rate_hz = 1000       # estimate on every k-th sample, rate/k >= this; "full": every sample
     time = { from = "filename", pattern = '(\\d{8}T\\d{6})', format = "%Y%m%dT%H%M%S" }
 
     [[axis]]
@@ -93,7 +94,15 @@ class FleetSection(_Strict):
     method: Literal["default", "paper"] = "default"
     horizon_days: float = Field(default=30.0, gt=0)
     not_excited_alarm: int = Field(default=5, ge=1)
+    estimate_rate_hz: float | Literal["full"] = 1000.0
     time: TimeSpec | None = None
+
+    @field_validator("estimate_rate_hz")
+    @classmethod
+    def _rate(cls, v: float | str) -> float | str:
+        if v != "full" and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise ValueError(f"must be a rate in Hz > 0 or 'full', got {v!r}")
+        return v
 
 
 class AxisSection(_Strict):
@@ -160,6 +169,9 @@ class AxisSpec:
         How the start time is found.
     method : str
         Estimator law.
+    estimate_rate_hz : float or None
+        Estimation rate [Hz]: recordings sampled faster are estimated on every k-th sample
+        (``rate / k >= estimate_rate_hz``); None: every sample.
     horizon_days : float
         Forecast-alarm horizon [days].
     not_excited_alarm : int
@@ -177,6 +189,7 @@ class AxisSpec:
     method: str
     horizon_days: float
     not_excited_alarm: int
+    estimate_rate_hz: float | None = None
 
     @property
     def machine(self) -> str:
@@ -247,9 +260,12 @@ def _format(source: str, err: dict[str, Any], data: dict[str, Any]) -> str:
     return f"{source}: table {table}, key '{key}': {msg}"
 
 
-def config_hash(drive: DriveConfig, method: str) -> str:
-    """SHA-256 (hex) of the drive configuration's canonical JSON and the method."""
-    doc = {"drive": drive.model_dump(mode="json", exclude_none=True), "method": method}
+def config_hash(drive: DriveConfig, method: str, estimate_rate_hz: float | None = None) -> str:
+    """SHA-256 (hex) of the drive configuration's canonical JSON, the method and the
+    estimation rate (absent at the full rate, so those hashes are unchanged)."""
+    doc: dict[str, Any] = {"drive": drive.model_dump(mode="json", exclude_none=True), "method": method}
+    if estimate_rate_hz is not None:
+        doc["estimate_rate_hz"] = float(estimate_rate_hz)
     return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()
 
 
@@ -291,13 +307,14 @@ def parse_fleet(data: dict[str, Any], path: Path) -> Fleet:
             drive.require("backlash")
         except DrivelashError as exc:
             raise ConfigError(f"{src}: table {table}, key 'drive': {exc}") from None
+        rate = None if doc.fleet.estimate_rate_hz == "full" else float(doc.fleet.estimate_rate_hz)
         thr = a.threshold if a.threshold_unit == "rad" else a.threshold / float(a.transmission or 1.0)
         axes.append(
             AxisSpec(
                 name=a.id,
                 drive_path=drive_path,
                 drive=drive,
-                drive_hash=config_hash(drive, doc.fleet.method),
+                drive_hash=config_hash(drive, doc.fleet.method, rate),
                 recordings=str(base / a.recordings) if not Path(a.recordings).is_absolute() else a.recordings,
                 threshold_rad=float(thr),
                 transmission=a.transmission,
@@ -305,6 +322,7 @@ def parse_fleet(data: dict[str, Any], path: Path) -> Fleet:
                 method=doc.fleet.method,
                 horizon_days=doc.fleet.horizon_days,
                 not_excited_alarm=doc.fleet.not_excited_alarm,
+                estimate_rate_hz=rate,
             )
         )
     return Fleet(path=path, name=doc.fleet.name, db=doc.fleet.db, axes=tuple(axes))

@@ -84,7 +84,18 @@ def plan(fleet: Fleet, store: Store) -> tuple[dict[str, int], list[RecordingTask
                 skipped += 1
                 continue
             tasks.append(
-                RecordingTask(a.name, str(p), size, mtime, a.drive, a.time, a.method, a.drive_hash, ver)
+                RecordingTask(
+                    a.name,
+                    str(p),
+                    size,
+                    mtime,
+                    a.drive,
+                    a.time,
+                    a.method,
+                    a.drive_hash,
+                    ver,
+                    a.estimate_rate_hz,
+                )
             )
     return ids, tasks, skipped
 

@@ -107,6 +107,7 @@ estimate_t = sa.Table(
     sa.Column("converged", sa.Boolean),
     sa.Column("runtime_s", sa.Float),
     sa.Column("created_at", sa.DateTime),
+    sa.Column("estimate_rate_hz", sa.Float),
 )
 measurement_t = sa.Table(
     "measurement",
@@ -177,6 +178,9 @@ class EstimateRow:
         The estimator's verdicts.
     runtime_s : float
         Wall time of read + validate + estimate in the worker [s].
+    estimate_rate_hz : float or None
+        Rate of the samples the estimator saw [Hz] (the recording's rate, or less when the
+        fleet's ``estimate_rate_hz`` keeps every k-th sample); None when nothing was estimated.
     """
 
     axis: str
@@ -199,6 +203,7 @@ class EstimateRow:
     excitation_ok: bool | None = None
     converged: bool | None = None
     runtime_s: float = 0.0
+    estimate_rate_hz: float | None = None
 
     def values(self) -> dict[str, Any]:
         """The result fields only (what must be bit-identical between runs)."""
@@ -472,6 +477,7 @@ class Store:
                         "converged": r.converged,
                         "runtime_s": r.runtime_s,
                         "created_at": now,
+                        "estimate_rate_hz": _finite(r.estimate_rate_hz),
                     }
                 )
             if ins:
