@@ -86,3 +86,26 @@ def test_report_names_the_store_by_its_label_when_given(serial_store, tmp_path):
     assert label in labelled and db not in labelled
     plain = run_report(db, tmp_path / "b.html", quiet=True).read_text()  # negative control
     assert db in plain and label not in plain
+
+
+def test_report_says_at_which_rate_delta_was_estimated(report_html):
+    """The small fleet's 8 kHz recordings were estimated at the 1 kHz default: the overview says
+    so (a reader comparing with `drivelash estimate` on one file needs to know)."""
+    html = report_html.read_text()
+    assert "δ was estimated at 1000 Hz (every 8th sample of 8000 Hz recordings)" in html
+
+
+def test_rate_sentence_full_mixed_and_old_rows():
+    from drivelash.report.fleet import rate_sentence
+
+    def rows(*pairs):
+        return [{"rows": [{"status": "ok", "sample_rate_hz": f, "estimate_rate_hz": e} for f, e in pairs]}]
+
+    assert "on every sample (8000 Hz)" in rate_sentence(rows((8000.0, 8000.0)))
+    mixed = rate_sentence(rows((8000.0, 1000.0), (8000.0, 1000.0), (4000.0, 4000.0), (8000.0, None)))
+    assert "at 1000 Hz (every 8th sample of 8000 Hz recordings): 2 recordings" in mixed
+    assert "on every sample (4000 Hz): 1 recording;" in mixed and "not recorded" in mixed
+    assert "every 2nd sample of 2000 Hz" in rate_sentence(rows((2000.0, 1000.0)))
+    assert "every 3rd sample" in rate_sentence(rows((3000.0, 1000.0)))
+    assert "every 12th sample" in rate_sentence(rows((12000.0, 1000.0)))
+    assert rate_sentence([{"rows": [{"status": "failed"}]}]) == ""

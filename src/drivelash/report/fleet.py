@@ -256,6 +256,34 @@ def _crossing_chart(summaries: list[dict[str, Any]]) -> Figure | None:
     )
 
 
+def rate_sentence(summaries: list[dict[str, Any]]) -> str:
+    """How the stored estimates sampled their recordings, e.g. "δ was estimated at 1000 Hz
+    (every 8th sample of the 8000 Hz recordings) …" — from the rows' ``estimate_rate_hz``."""
+    from collections import Counter
+
+    kinds: Counter[str] = Counter()
+    for s in summaries:
+        for r in s.get("rows", []):
+            if r.get("status") != "ok":
+                continue
+            fs, er = r.get("sample_rate_hz"), r.get("estimate_rate_hz")
+            if er is None or fs is None:
+                kinds["at a rate not recorded (stored before revision 0002: every sample)"] += 1
+            elif abs(er - fs) <= 1e-6 * fs:
+                kinds[f"on every sample ({fs:.6g} Hz)"] += 1
+            else:
+                k = round(fs / er)
+                nth = f"{k}{'th' if 10 <= k % 100 <= 20 else {1: 'st', 2: 'nd', 3: 'rd'}.get(k % 10, 'th')}"
+                kinds[f"at {er:.6g} Hz (every {nth} sample of {fs:.6g} Hz recordings)"] += 1
+    if not kinds:
+        return ""
+    parts = [k if len(kinds) == 1 else f"{k}: {n} recording{'s' * (n != 1)}" for k, n in kinds.most_common()]
+    return (
+        "δ was estimated " + "; ".join(parts) + " — fleet.toml's [fleet] estimate_rate_hz "
+        '(1000 unless set, "full" for every sample; docs/assumptions.md, "Estimation rate").'
+    )
+
+
 def render_fleet_report(
     summaries: list[dict[str, Any]], measurements: dict[str, list[dict[str, Any]]], *, title: str, store: str
 ) -> str:
@@ -279,7 +307,8 @@ def render_fleet_report(
         paragraphs=[
             f"{len(summaries)} axes, {n_rec} recordings in {store}; {len(alarms)} active alarms. "
             "Only recordings with sufficient excitation and a converged estimate enter a trend. "
-            "Axes are sorted by the forecast time to their maintenance threshold.",
+            "Axes are sorted by the forecast time to their maintenance threshold. "
+            + rate_sentence(summaries),
         ],
         tables=[("", OVERVIEW_HEADER, overview_rows(summaries))],
     )
