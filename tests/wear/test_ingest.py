@@ -394,3 +394,40 @@ def test_cli_ingest_with_unreadable_recordings_exit_2_after_storing(tmp_path):
     assert err[-1].startswith("drivelash: error: ") and "recordings failed (stored as failed" in err[-1]
     rows = Store(db, create=False).estimates()
     assert len(rows) == 5 and sum(r["status"] == "failed" for r in rows) == len(warnings)
+
+
+def test_a_second_configuration_does_not_count_a_recording_twice(small_fleet, serial_store, tmp_path):
+    """The same recordings ingested again under another configuration (here every sample instead
+    of 1 kHz; a new drive file, method or drivelash version does the same) are new estimates of
+    the same recordings: the trend takes one per recording — the axis's current configuration's
+    — not both (before session 8 it took both: every recording twice in the fit)."""
+    from dataclasses import replace
+
+    from drivelash.wear.alarms import axis_summary
+
+    st = Store(tmp_path / "w.sqlite")
+    fleet = load_fleet(small_fleet / "fleet.toml")
+    name = "M01/Y"
+    ax = next(a for a in fleet.axes if a.name == name)
+    ingest(replace(fleet, axes=(ax,)), st, workers=1)
+    axis_row = next(a for a in st.axes() if a["name"] == name)
+    before = axis_summary(st, axis_row)
+    n_rec = len({r["content_hash"] for r in st.estimates(name)})
+    assert before["recordings"] == n_rec
+    from drivelash.wear.fleet import config_hash
+
+    full = replace(ax, estimate_rate_hz=None, drive_hash=config_hash(ax.drive, ax.method))
+    ingest(replace(fleet, axes=(full,)), st, workers=1)
+    rows = st.estimates(name)
+    assert len(rows) == 2 * n_rec  # both configurations are kept in the store
+    axis_row = next(a for a in st.axes() if a["name"] == name)
+    assert axis_row["drive_hash"] == full.drive_hash
+    after = axis_summary(st, axis_row)
+    assert after["recordings"] == n_rec and after["used"] == before["used"]
+    assert {r["config_hash"] for r in after["used_rows"]} == {full.drive_hash}
+    # and back: the 1 kHz configuration is current again, its estimates are used (nothing new)
+    ingest(replace(fleet, axes=(ax,)), st, workers=1)
+    axis_row = next(a for a in st.axes() if a["name"] == name)
+    again = axis_summary(st, axis_row)
+    assert {r["config_hash"] for r in again["used_rows"]} == {ax.drive_hash}
+    assert [r["delta"] for r in again["used_rows"]] == [r["delta"] for r in before["used_rows"]]

@@ -68,9 +68,10 @@ def deadzone_from_store(store: Any, axis: str, when: datetime) -> Deadzone | Non
     Returns None when the history holds no usable estimate for the axis.
     """
     naive = when.astimezone(UTC).replace(tzinfo=None)
+    ax = next((a for a in store.axes() if a["name"] == axis), {"name": axis})
     rows = [
         r
-        for r in store.estimates(axis)
+        for r in store.current_estimates(ax)
         if r.get("status") == "ok"
         and r.get("excitation_ok")
         and r.get("delta") is not None

@@ -102,7 +102,7 @@ def _day(t: datetime | None) -> str:
 
 def axis_summary(store: Store, axis: dict[str, Any]) -> dict[str, Any]:
     """Trend, forecast and alarms of one axis (a dict of plain values plus ``trend``)."""
-    rows = store.estimates(axis["name"])
+    rows = store.current_estimates(axis)
     trend, used = analyse(rows, axis["threshold_rad"])
     alarms = axis_alarms(axis, rows, trend)
     fc = trend.forecast

@@ -212,6 +212,22 @@ class EstimateRow:
         return d
 
 
+def one_per_recording(rows: Sequence[dict[str, Any]], config_hash: str | None) -> list[dict[str, Any]]:
+    """Of :meth:`Store.estimates` rows, one per recording (``content_hash``), order kept: the
+    newest (highest id) with ``config_hash`` if any, else the newest of that recording."""
+
+    def rank(r: dict[str, Any]) -> tuple[bool, int]:
+        return (r["config_hash"] == config_hash, r["id"])
+
+    best: dict[str, dict[str, Any]] = {}
+    for r in rows:
+        b = best.get(r["content_hash"])
+        if b is None or rank(r) > rank(b):
+            best[r["content_hash"]] = r
+    keep = {id(r) for r in best.values()}
+    return [r for r in rows if id(r) in keep]
+
+
 def _url(db: str | Path) -> sa.URL:
     s = str(db)
     try:
@@ -510,6 +526,14 @@ class Store:
         if axis is not None:
             q = q.where(axis_t.c.name == axis)
         return [dict(r._mapping) for r in self._read(q)]
+
+    def current_estimates(self, axis: dict[str, Any]) -> list[dict[str, Any]]:
+        """One estimate per recording of ``axis`` (a row of :meth:`axes`): the one of the axis's
+        current configuration (its ``drive_hash``: drive file, method, estimation rate) from
+        the newest drivelash version, else the newest estimate of that recording. What trends,
+        alarms and reports use: the store keeps the estimates of every configuration, and a
+        recording estimated under two of them is still one recording."""
+        return one_per_recording(self.estimates(axis["name"]), axis.get("drive_hash"))
 
     def counts(self) -> dict[str, int]:
         """Rows per table (for status lines and tests)."""
