@@ -324,6 +324,9 @@ def test_cli_status_forecast_report(small_fleet, serial_store, tmp_path):
     doc = json.loads(out.read_text())
     assert doc["axis"] == "M01/X" and doc["generator"].startswith("drivelash ")
     assert len(doc["estimates"]) == len(st.estimates("M01/X"))
+    ok = [e for e in doc["estimates"] if e["status"] == "ok"]
+    assert ok and all(e["sample_rate_hz"] == pytest.approx(8000.0) for e in ok)
+    assert all(e["estimate_rate_hz"] == pytest.approx(1000.0) for e in ok)  # the fleet's default
     r = subprocess.run(
         [sys.executable, "-m", "drivelash.cli", "track", "forecast", "M01/Q", "--db", db],
         capture_output=True,

@@ -183,6 +183,8 @@ def forecast_json(s: dict[str, Any]) -> dict[str, Any]:
                 "excitation_ok": r["excitation_ok"],
                 "converged": r["converged"],
                 "reason": r["reason"],
+                "sample_rate_hz": r["sample_rate_hz"],
+                "estimate_rate_hz": r["estimate_rate_hz"],
             }
             for r in s["rows"]
         ],
