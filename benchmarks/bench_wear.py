@@ -272,6 +272,11 @@ def main() -> None:
     ap.add_argument(
         "--fleet", type=Path, default=None, help="an existing simulated fleet (A/B on the same files)"
     )
+    ap.add_argument(
+        "--rate",
+        default=None,
+        help="estimate_rate_hz of the default-rate runs (Hz or 'full'; default: the fleet's, 1000)",
+    )
     ap.add_argument("--stages", action="store_true", help="also measure each stage's cost per sample")
     ap.add_argument("--repeats", type=int, default=3, help="best of this many runs per stage (--stages)")
     args = ap.parse_args()
@@ -296,6 +301,15 @@ def main() -> None:
         t0 = time.perf_counter()
         fl = args.fleet or _fleet(root, args.recordings, RECORDING_S, seed=1)
         fleet = load_fleet(fl / "fleet.toml")
+        if args.rate is not None:  # another estimation rate for the default-rate runs
+            r = None if args.rate == "full" else float(args.rate)
+            fleet = replace(
+                fleet,
+                axes=tuple(
+                    replace(a, estimate_rate_hz=r, drive_hash=config_hash(a.drive, a.method, r))
+                    for a in fleet.axes
+                ),
+            )
         files = [(a, p) for a in fleet.axes for p in a.files()]
         data_s = len(files) * RECORDING_S
         print(

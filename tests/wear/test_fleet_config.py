@@ -165,3 +165,28 @@ def test_bad_estimate_rate_is_one_line_naming_the_key(tmp_path, value):
         load_fleet(p)
     msg = str(exc.value)
     assert "\n" not in msg and "table [fleet], key 'estimate_rate_hz'" in msg, msg
+
+
+def test_rate_accuracy_example_runs_on_a_simulated_fleet(small_fleet):
+    """examples/fleet_rate_accuracy.py (whose figures docs/assumptions.md quotes for the
+    acceptance fleet): on the small fleet both rates stay within the 1 mrad goal, and the 1 kHz
+    row is not the full-rate row (the rate is applied)."""
+    root = Path(__file__).resolve().parents[2]
+    r = subprocess.run(
+        [
+            sys.executable,
+            str(root / "examples" / "fleet_rate_accuracy.py"),
+            str(small_fleet),
+            "--rates",
+            "full,1000",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert r.returncode == 0, r.stderr[-2000:]
+    rows = {ln.split()[0]: ln.split() for ln in r.stdout.splitlines()[1:]}
+    assert set(rows) == {"full", "1000"}
+    for cols in rows.values():
+        assert int(cols[1]) >= 10 and float(cols[2]) < 1.0 and cols[5] == "0"  # n, max mrad, verdicts off
+    assert rows["full"][2:4] != rows["1000"][2:4]
