@@ -94,9 +94,11 @@ def run_ingest(
         for reason in rep.failures:
             typer.echo(f"drivelash: warning: {reason}", err=True)
         c = Console()
+        hz = fleet.axes[0].estimate_rate_hz  # fleet-wide ([fleet] estimate_rate_hz)
+        rate = "every sample" if hz is None else f"at most {hz:g} Hz: every k-th sample of faster recordings"
         c.print(
-            f"[bold]{fleet.name}[/bold]: {rep.planned} new recordings estimated "
-            f"({rep.stored} stored in {rep.batches} transactions, {rep.failed} failed), "
+            f"[bold]{fleet.name}[/bold]: {rep.planned} new recordings estimated ({rate}; "
+            f"{rep.stored} stored in {rep.batches} transactions, {rep.failed} failed), "
             f"{rep.skipped} already in the store; {rep.wall_s:.1f} s -> {store.name}"
         )
     return rep
