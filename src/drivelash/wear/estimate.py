@@ -183,9 +183,10 @@ def estimate_recording(task: RecordingTask) -> EstimateRow:
         cfg = task.drive
         trace = load_trace(path, cfg, required=INPUT_COLUMNS, data=data, max_rate_hz=task.estimate_rate_hz)
         data = None  # the decoded columns do not refer to the file's bytes
+        T_est = trace.T_s  # sample period the estimator sees (a median over the kept samples: once)
         down = trace.meta.get("sampled_down")  # the recording's own figures, not the kept samples'
         n = int(down["samples"]) if down else len(trace)
-        T_s = float(down["T_s"]) if down else trace.T_s
+        T_s = float(down["T_s"]) if down else T_est
         duration = n * T_s
         rate = 1.0 / T_s
         start = recording_start(path, task.time, trace.meta)
@@ -210,7 +211,7 @@ def estimate_recording(task: RecordingTask) -> EstimateRow:
             excitation_ok=bool(res.excitation_ok),
             converged=bool(res.converged),
             runtime_s=time.perf_counter() - t0,
-            estimate_rate_hz=1.0 / trace.T_s,
+            estimate_rate_hz=1.0 / T_est,
         )
     except DrivelashError as exc:
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
