@@ -289,7 +289,6 @@ def main() -> None:
     from drivelash.io import load_trace
     from drivelash.wear import Store, ingest, load_fleet
     from drivelash.wear.estimate import estimate_recording
-    from drivelash.wear.fleet import config_hash
     from drivelash.wear.ingest import plan
 
     print(
@@ -303,13 +302,7 @@ def main() -> None:
         fleet = load_fleet(fl / "fleet.toml")
         if args.rate is not None:  # another estimation rate for the default-rate runs
             r = None if args.rate == "full" else float(args.rate)
-            fleet = replace(
-                fleet,
-                axes=tuple(
-                    replace(a, estimate_rate_hz=r, drive_hash=config_hash(a.drive, a.method, r))
-                    for a in fleet.axes
-                ),
-            )
+            fleet = replace(fleet, axes=tuple(a.at_rate(r) for a in fleet.axes))
         files = [(a, p) for a in fleet.axes for p in a.files()]
         data_s = len(files) * RECORDING_S
         print(
@@ -360,13 +353,7 @@ def main() -> None:
 
         # the same recordings at their full rate (estimate_rate_hz = "full"), and the named
         # baseline at the fleet's rate: the library calls a user would loop over
-        full_fleet = replace(
-            fleet,
-            axes=tuple(
-                replace(a, estimate_rate_hz=None, drive_hash=config_hash(a.drive, a.method))
-                for a in fleet.axes
-            ),
-        )
+        full_fleet = replace(fleet, axes=tuple(a.at_rate(None) for a in fleet.axes))
         c0 = time.process_time()
         ingest(full_fleet, Store(root / "serial-full.sqlite"), workers=1)
         full_cpu = time.process_time() - c0

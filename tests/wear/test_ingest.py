@@ -421,7 +421,8 @@ def test_a_second_configuration_does_not_count_a_recording_twice(small_fleet, se
     assert before["recordings"] == n_rec
     from drivelash.wear.fleet import config_hash
 
-    full = replace(ax, estimate_rate_hz=None, drive_hash=config_hash(ax.drive, ax.method))
+    full = ax.at_rate(None)
+    assert full.drive_hash == config_hash(ax.drive, ax.method) != ax.drive_hash
     ingest(replace(fleet, axes=(full,)), st, workers=1)
     rows = st.estimates(name)
     assert len(rows) == 2 * n_rec  # both configurations are kept in the store

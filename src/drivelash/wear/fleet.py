@@ -42,7 +42,7 @@ import json
 import math
 import re
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -190,6 +190,15 @@ class AxisSpec:
     horizon_days: float
     not_excited_alarm: int
     estimate_rate_hz: float | None = None
+
+    def at_rate(self, estimate_rate_hz: float | None) -> AxisSpec:
+        """This axis estimated at another rate (None: every sample), with the config hash
+        that rate gives — the two always change together."""
+        return replace(
+            self,
+            estimate_rate_hz=estimate_rate_hz,
+            drive_hash=config_hash(self.drive, self.method, estimate_rate_hz),
+        )
 
     @property
     def machine(self) -> str:
