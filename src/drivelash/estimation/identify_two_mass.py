@@ -30,9 +30,11 @@ Method: **integral equation error** on short windows (one staged pipeline, all i
    static friction and sticking are not in the model.
 5. *Contacts.* A grid over the two contact points (quantiles of Δθ, and "never reached")
    with the model linear in the other parameters picks the start and whether each
-   contact is seen; :func:`scipy.optimize.least_squares` (trust-region reflective,
+   contact is seen; :func:`scipy.optimize.least_squares` (Levenberg–Marquardt,
    analytic Jacobian) then fits all parameters, reweights both equations by their
-   residual standard deviation and fits again.
+   residual standard deviation and fits again. Where the grid's best pair has an
+   unphysical linear solution (1/J_m, K_S or K_S/J_l ≤ 0), the best pair with physical
+   signs is fitted too and the better-explaining fit kept (:func:`fit_from_grid`).
 6. *Intervals.* Heteroscedasticity- and autocorrelation-consistent sandwich covariance
    (Newey–West, Bartlett kernel, Andrews' AR(1) plug-in bandwidth) of the stacked
    scores; 95 % intervals ± 1.96 σ. See ``docs/assumptions.md`` for the measured coverage.
@@ -637,6 +639,7 @@ def grid_start(
     equations: str = "both",
     tau: float = 0.0,
     torque_offset: float | None = None,
+    physical: bool = False,
 ) -> GridStart:
     """Contact points from a grid of Δθ quantiles (and "never reached" on either side).
 
@@ -646,7 +649,9 @@ def grid_start(
     likelihood n_m log SSE_m + n_l log SSE_l wins. Physical start values follow from the
     winning coefficients. With ``equations="motor"`` only the motor equation counts; ``tau``
     is an encoder delay [s] applied to Δθ (Δθ − τ ω_l); a given ``torque_offset`` [N·m] is
-    subtracted from the torque instead of fitted.
+    subtracted from the torque instead of fitted. ``physical=True`` admits only pairs whose
+    linear solution has 1/J_m > 0 and, with a contact, K_S/J_m > 0 and K_S/J_l > 0 (the
+    second start of :func:`fit_from_grid`); ``DataError`` when no pair has.
     """
     d = data
     u0 = 0.0 if torque_offset is None else float(torque_offset)
@@ -742,6 +747,13 @@ def grid_start(
     valid = (sse_m > 0) & ((sse_l > 0) | (not use_l))
     obj = np.full(A.size, np.inf)
     obj[valid] = nm * np.log(sse_m[valid]) + (nl * np.log(sse_l[valid]) if use_l else 0.0)
+    if physical:
+        phys = beta_m[:, 0] > 0
+        has_k = (A < K) | (B < K)
+        phys &= ~has_k | (beta_m[:, 4] < 0)
+        if use_l:
+            phys &= ~has_k | (beta_l[:, 0] > 0)
+        obj[~phys] = np.inf
     k = int(np.argmin(obj))
     if not np.isfinite(obj[k]):
         raise DataError("identification failed: no contact configuration explains the data")
@@ -1122,6 +1134,54 @@ def _plausibility(params: dict[str, ParameterEstimate]) -> list[str]:
     return out
 
 
+def start_is_physical(start: GridStart) -> bool:
+    """Whether the grid's linear start has J_m > 0 and, where a contact is seen, K_S > 0 and J_l > 0."""
+    x = start.x0
+    if not x[I_JM] > 0.0:
+        return False
+    return not any(start.sides) or bool(x[I_KS] > 0.0 and x[I_JL] > 0.0)
+
+
+def concentrated_objective(fit: TwoMassFit) -> float:
+    """n_m log SSE_m + n_l log SSE_l of ``fit`` on the look-back accelerations (α = 0) — the
+    criterion of :func:`grid_start`, comparable between fits with other weights or contacts."""
+    prob = fit.problem
+    d = prob.d if prob.d.start_weight == 0.0 else prob.d.with_start_weight(0.0)
+    q = TwoMassProblem(d, prob.sides, equations=prob.equations)
+    am, al, _ = q.predict(fit.p)
+    sm = float(np.sum((d.a_m - am)[q.im] ** 2))
+    out = q.im.size * math.log(sm) if sm > 0 else -math.inf
+    if q.il.size:
+        sl = float(np.sum((d.a_l - al)[q.il] ** 2))
+        out += q.il.size * math.log(sl) if sl > 0 else -math.inf
+    return out
+
+
+def fit_from_grid(data: WindowData, *, tau: float = 0.0, **kw: Any) -> tuple[GridStart, TwoMassFit]:
+    """Grid start and bracketed fit; a second start where the grid's best is unphysical.
+
+    The grid's best contact pair can come with a negative 1/J_m, K_S or K_S/J_l (the motor
+    inertia weakly excited next to a stiff shaft): the fit from it then stays in that
+    basin. The best pair with physical signs is fitted as well and the fit with the lower
+    :func:`concentrated_objective` is kept — a recording whose signs are wrong (torque or
+    encoder sign) keeps its unphysical fit, which explains it better, and the plausibility
+    check names the cause. Where the best pair is physical this is the plain fit.
+    """
+    eq, u0 = kw.get("equations", "both"), kw.get("torque_offset")
+    start = grid_start(data, equations=eq, tau=tau, torque_offset=u0)
+    fit = fit_bracketed(data, start=start, **kw)
+    if start_is_physical(start):
+        return start, fit
+    try:
+        alt = grid_start(data, equations=eq, tau=tau, torque_offset=u0, physical=True)
+    except DataError:  # no contact pair with physical signs
+        return start, fit
+    alt_fit = fit_bracketed(data, start=alt, **kw)
+    if concentrated_objective(alt_fit) < concentrated_objective(fit):
+        return alt, alt_fit
+    return start, fit
+
+
 def identify_two_mass(
     trace: Trace,
     N: float,
@@ -1166,12 +1226,10 @@ def identify_two_mass(
         raise ParameterError("identification", "equations", f"must be 'both' or 'motor', got {equations!r}")
     data = window_data(trace, N, window_s=window_s)
     kw: dict[str, Any] = {"equations": equations, "fit_delay": fit_delay, "torque_offset": torque_offset}
-    start = grid_start(data, equations=equations, torque_offset=torque_offset)
-    fit = fit_bracketed(data, start=start, **kw)
+    start, fit = fit_from_grid(data, **kw)
     if fit_delay and fit.p[I_TAU] != 0.0 and any(fit.problem.sides):
         # contacts again on the delay-corrected Δθ
-        start = grid_start(data, equations=equations, tau=float(fit.p[I_TAU]), torque_offset=torque_offset)
-        fit = fit_bracketed(data, start=start, **kw)
+        start, fit = fit_from_grid(data, tau=float(fit.p[I_TAU]), **kw)
     ev = _contact_evidence(fit)
     notes: list[str] = []
     sides = fit.problem.sides
