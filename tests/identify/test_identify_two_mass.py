@@ -280,3 +280,25 @@ def test_interval_text_shows_the_width_of_a_narrow_interval():
     old = f"[{narrow.low:.5g}, {narrow.high:.5g}]"
     lo_o, hi_o = (float(v) for v in old.strip("[]").split(","))
     assert hi_o - lo_o != pytest.approx(narrow.high - narrow.low, rel=0.02)
+
+
+def test_positive_parameter_whose_interval_reaches_zero_is_marked_weakly_determined():
+    """An inertia or stiffness whose 95 % interval reaches 0 is printed with a note (table, JSON,
+    TOML comment); negative controls: the same value with a narrow interval, and a friction
+    term (not positive by its physics) whose interval spans 0, carry none."""
+    from drivelash.estimation.identify_result import DriveIdentification, ParameterEstimate
+
+    weak = ParameterEstimate.normal("J_m", 4.0e-4, 4.7e-4)  # random drive 1/0, session 9
+    assert weak.low < 0 and weak.note == "weakly determined: the 95 % interval reaches 0"
+    assert weak.as_dict()["note"] == weak.note
+    assert ParameterEstimate.normal("J_m", 4.0e-4, 1.0e-5).note == ""
+    assert "note" not in ParameterEstimate.normal("J_m", 4.0e-4, 1.0e-5).as_dict()
+    assert ParameterEstimate.normal("T_Cm", -3.7e-4, 5.9e-3).note == ""
+    gone = ParameterEstimate.unknown("K_S", "the torque never reversed across the gap")
+    assert gone.note == gone.reason
+    r = DriveIdentification(
+        "two-mass", {"J_m": weak}, ("J_m",), np.eye(1), N=2.0, reason="both contacts seen"
+    )
+    lines = [ln for ln in r.to_toml().splitlines() if ln.startswith("# J_m")]
+    # 4e-4 ∓ 1.959964 · 4.7e-4
+    assert lines == ["# J_m = 0.0004 kg·m², 95 % CI [-0.000521183, 0.00132118] — " + weak.note], lines

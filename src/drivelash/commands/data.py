@@ -332,7 +332,7 @@ def run_identify_two_mass(
             table.add_column(col, justify="right")
         for prm in result.parameters.values():
             if prm.identifiable:
-                table.add_row(prm.name, f"{prm.value:.6g}", prm.interval_text(), prm.unit, "")
+                table.add_row(prm.name, f"{prm.value:.6g}", prm.interval_text(), prm.unit, prm.note)
             else:
                 table.add_row(prm.name, "–", prm.interval_text(4), prm.unit, prm.reason)
         console.print(table)

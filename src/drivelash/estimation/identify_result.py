@@ -39,6 +39,10 @@ UNITS: dict[str, str] = {
     "encoder_delay": "s",
 }
 
+#: Parameters positive by their physics (inertias, stiffness): a 95 % interval reaching 0 means
+#: the recording hardly determines them (:attr:`ParameterEstimate.note`).
+POSITIVE = ("J_m", "J_l", "K_S")
+
 #: Two-sided 95 % quantile of the standard normal distribution.
 Z95 = 1.959963984540054
 
@@ -113,7 +117,20 @@ class ParameterEstimate:
         }
         if self.reason:
             d["reason"] = self.reason
+        elif self.note:
+            d["note"] = self.note
         return d
+
+    @property
+    def note(self) -> str:
+        """What a reader must know beside the number: the reason when not identifiable; for a
+        parameter positive by its physics (:data:`POSITIVE`) whose 95 % interval reaches 0, that the
+        recording hardly determines it; otherwise empty."""
+        if not self.identifiable:
+            return self.reason
+        if self.name in POSITIVE and self.low <= 0.0:
+            return "weakly determined: the 95 % interval reaches 0"
+        return ""
 
     def covers(self, x: float) -> bool:
         """True if ``x`` lies in the 95 % interval."""
@@ -226,7 +243,10 @@ class DriveIdentification:
         head = list(comments or [])
         for p in self.parameters.values():
             if p.identifiable:
-                head.append(f"{p.name} = {p.value:.6g} {p.unit}, 95 % CI {p.interval_text(6)}")
+                head.append(
+                    f"{p.name} = {p.value:.6g} {p.unit}, 95 % CI {p.interval_text(6)}"
+                    + (f" — {p.note}" if p.note else "")
+                )
             else:
                 head.append(f"{p.name}: not identified ({p.reason})")
         head.append(f"backlash: {self.reason}")

@@ -27,7 +27,14 @@ def _fmt_param(p: Any) -> list[Any]:
             bound = p.interval_text(4)
         return [p.name, p.unit, "not identifiable", "", bound, p.reason]
     rel = 100 * p.std / abs(p.value) if p.value else float("nan")
-    return [p.name, p.unit, p.value, p.std, p.interval_text(), f"{rel:.3g} %"]
+    return [
+        p.name,
+        p.unit,
+        p.value,
+        p.std,
+        p.interval_text(),
+        f"{rel:.3g} %" + (f" — {p.note}" if p.note else ""),
+    ]
 
 
 def _acf(x: np.ndarray, lags: int) -> np.ndarray:
