@@ -1177,6 +1177,8 @@ def fit_from_grid(data: WindowData, *, tau: float = 0.0, **kw: Any) -> tuple[Gri
     except DataError:  # no contact pair with physical signs
         return start, fit
     alt_fit = fit_bracketed(data, start=alt, **kw)
+    if alt_fit.problem.il.size != fit.problem.il.size:  # other equations: objectives not comparable
+        return start, fit
     if concentrated_objective(alt_fit) < concentrated_objective(fit):
         return alt, alt_fit
     return start, fit
