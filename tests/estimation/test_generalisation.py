@@ -71,6 +71,8 @@ MAEE_GOAL = 1e-3  # rad, over the last 20 s
 CONV_GOAL = 10.0  # s, into the 10 mrad band
 #: Cases that miss the MAEE goal, with the measured value (checked by the strict xfail below).
 KNOWN_MISS = {(0, 0): 1.33e-3}
+#: ... and their mean error over the scored window [rad]: a steady bias, not a slow settling.
+KNOWN_BIAS = {(0, 0): -0.90e-3}
 #: Cases whose ``converged`` verdict is a known miss (checked by the strict xfail below).
 KNOWN_NOT_CONVERGED = {(1, 0), (1, 2)}
 
@@ -99,6 +101,8 @@ def test_random_drives(seed):
         m = maee(t, d, bl.delta, t[-1] - 20.0)
         if (seed, case) in KNOWN_MISS:  # the miss is the one reported, not a drifting one
             assert m == pytest.approx(KNOWN_MISS[(seed, case)], rel=0.02), where
+            late = t >= t[-1] - 20.0
+            assert np.mean(d[late] - bl.delta) == pytest.approx(KNOWN_BIAS[(seed, case)], abs=0.05e-3), where
         else:
             assert m <= MAEE_GOAL, where
         c = convergence_time(t, d, bl.delta, 10e-3)
@@ -109,9 +113,12 @@ def test_random_drives(seed):
 @pytest.mark.xfail(
     strict=True,
     reason="known miss: measured MAEE 1.33 mrad on random drive seed 0 / case 0, goal 1 mrad (the "
-    "bench target transferred); a soft drive (load-side resonance near the 60 rad/s end of the "
-    "sweep) on which δ̂ converges slowly (10 mrad band after 1.8 s) and is still settling in the "
-    "scored window under the leakage λ = ω_r/25 chosen for paper-sim (docs/assumptions.md)",
+    "bench target transferred); a soft drive (load-side resonance 62 rad/s, near the 60 rad/s end of "
+    "the sweep; δ = 107 mrad) on which δ̂ enters the 10 mrad band after 1.8 s and from 5 s on holds a "
+    "steady bias of −0.90 mrad (mean over the last 20 s) with ±0.2 mrad ripple; the same drive "
+    "simulated with ideal sensors gives −0.88 mrad, without the load's Stribeck friction "
+    "−0.91 mrad, so neither the sensors nor that friction cause it; the cause is not found "
+    "(session 9)",
 )
 def test_known_miss_soft_drive_seed0_case0():
     ((_, bl, res),) = _estimate(0, 0)
