@@ -121,12 +121,51 @@ def test_default_law_corrects_delta1_offsets(rig_trace):
     "+1.98 / −3.73 / −6.22 mrad error, each flagged (δ1 inconsistent, not converged) but not "
     "corrected; goal: corrected within 1 mrad, because the joint law's switch conditions "
     "(residual ratio < 0.8, lower/upper asymmetry > 1.5) are not met when the offset is of the "
-    "order of the contact deflection (≈ 1 mrad here) or moves the lower contact into the gap",
+    "order of the contact deflection (≈ 1 mrad here) or moves the lower contact into the gap. "
+    "Item 4's other route is met: with --identify the offline δ1 replaces the contradicted one "
+    "(test_identify_supplies_delta1_the_recording_contradicts: −0.29 mrad for each)",
 )
 def test_default_law_corrects_small_delta1_offsets(rig_trace):
     for e in (2e-3, -2e-3, -4e-3):
         r = _run(RIG, rig_trace, RIG.delta1 + e)
         assert r.converged and abs(r.delta - RIG.delta) <= 1e-3, (e, r.delta - RIG.delta)
+
+
+def _rig_config(delta1: float):
+    """The rig's true drive train and a stated δ1 [rad] as a drive configuration."""
+    from drivelash.io.config import loads_config
+
+    dt = RIG.drivetrain()
+    rows = "\n".join(
+        f"{k} = {float(getattr(dt, k))!r}"
+        for k in ("N", "J_m", "J_l", "K_S", "D_S", "T_Cm", "T_Cl", "beta_m", "beta_l")
+    )
+    return loads_config(f"[drivetrain]\n{rows}\n[backlash]\ndelta1 = {delta1!r}\n")
+
+
+@pytest.mark.parametrize("e", [2e-3, -2e-3, -4e-3])
+def test_identify_supplies_delta1_the_recording_contradicts(rig_trace, e):
+    """Item 4 of issue 11, its second route: with ``--identify`` the offline result supplies δ1.
+    A configured δ1 off by +2 / −2 / −4 mrad — the offsets the online law flags but does not
+    correct (strict xfail above) — lies outside the identified δ1's interval (rig: 92.885 mrad,
+    [92.73, 93.04]): the identified δ1 is used, with a warning naming both, and δ̂ is within 1 mrad
+    and converged. Negative controls: the online law alone on the same configuration is off by
+    more than 1 mrad and not converged; the true δ1 is kept (no warning)."""
+    from drivelash.estimation.backlash_api import estimate_with_identification
+
+    est = estimate_with_identification(rig_trace, _rig_config(RIG.delta1 + e))
+    s = est.summary
+    assert s["delta1_source"] == "identification" and s["delta1_configured"] == RIG.delta1 + e
+    assert abs(s["delta1"] - RIG.delta1) <= 0.3e-3, s["delta1"]
+    assert any(w.startswith("[backlash] delta1 = ") and "is used" in w for w in s["warnings"]), s["warnings"]
+    assert s["converged"] and abs(s["delta"] - RIG.delta) <= 1e-3, (s["delta"] - RIG.delta, s["warnings"])
+    alone = _run(RIG, rig_trace, RIG.delta1 + e)
+    assert not alone.converged and abs(alone.delta - RIG.delta) > 1e-3
+    if e == 2e-3:
+        kept = estimate_with_identification(rig_trace, _rig_config(RIG.delta1)).summary
+        assert kept["delta1_source"] == "config" and "delta1_configured" not in kept
+        assert not any(w.startswith("[backlash] delta1") for w in kept["warnings"])
+        assert kept["converged"] and abs(kept["delta"] - RIG.delta) <= 1e-3
 
 
 @pytest.mark.parametrize("e", [10e-3, -36e-3])

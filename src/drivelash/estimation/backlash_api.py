@@ -203,6 +203,15 @@ def _needs_identification(cfg: Any) -> bool:
     return dt is None or any(getattr(dt, k) is None for k in ("J_m", "J_l", "K_S", "D_S"))
 
 
+def _delta1_floor(cfg: Any) -> float:
+    """The δ1 check's tolerance [rad]: a configured δ1 this close to the data's is consistent
+    (``[estimator] offset_switch``, at least :data:`~drivelash.params.OFFSET_FLOOR`)."""
+    from drivelash.params import OFFSET_FLOOR
+
+    given = cfg.estimator.given() if cfg.estimator is not None else {}
+    return max(float(given.get("offset_switch", OFFSET_FLOOR)), OFFSET_FLOOR)
+
+
 def estimate_with_identification(
     trace: Trace, cfg: Any, *, method: str | None = "default"
 ) -> BacklashEstimate:
@@ -213,7 +222,10 @@ def estimate_with_identification(
     (:func:`drivelash.identify_drive`). The summary carries both the offline δ with its 95 %
     interval (``identification``) and the online δ̂ with its uncertainty when the estimator
     reports one (``delta_std``; otherwise only the offline interval counts), and
-    ``agreement`` says whether they differ beyond their intervals (a warning). When the recording
+    ``agreement`` says whether they differ beyond their intervals (a warning). A configured δ1
+    that lies outside the identified δ1's 95 % interval and farther from it than the δ1 check's
+    tolerance (``offset_switch``, at least 1 mrad) is replaced by the identified δ1, with a
+    warning and ``delta1_configured`` in the summary. When the recording
     cannot give the drive (implausible fit, load side or backlash not seen), the online law
     is not run: ``online_run`` is false with the reason, ``excitation_ok`` false.
     """
@@ -243,6 +255,26 @@ def estimate_with_identification(
     bl = cfg.backlash
     d1_cfg = bl.delta1 if bl is not None and "delta1" in bl.model_fields_set else None
     d1 = d1_cfg
+    d1_note = None
+    if why is None and d1_cfg is not None:
+        p = ident.parameters.get("delta1")
+        floor = _delta1_floor(cfg)
+        if (
+            p is not None
+            and p.identifiable
+            and not p.covers(d1_cfg)
+            and abs(p.value - d1_cfg) > floor
+            and 0.0 <= p.value <= max(ident["delta"].value, 0.0)
+        ):
+            # the recording contradicts the configured δ1 (item 4 of issue 11: the offline
+            # result supplies δ1): the online law gets the identified one, and the user is told
+            d1 = float(p.value)
+            d1_note = (
+                f"[backlash] delta1 = {1e3 * d1_cfg:.4g} mrad lies outside the recording's 95 % interval "
+                f"[{1e3 * p.low:.4g}, {1e3 * p.high:.4g}] mrad and differs by more than the δ1 check's "
+                f"{1e3 * floor:.3g} mrad: the identified δ1 = {1e3 * p.value:.4g} mrad is used "
+                "(wrong δ1 or an offset between the encoders)"
+            )
     if why is None and d1 is None:
         p = ident.parameters.get("delta1")
         if p is None or not p.identifiable:
@@ -279,8 +311,11 @@ def estimate_with_identification(
     s["online_run"] = True
     s["identification"] = off
     s["drivetrain_used"] = {k: float(v) for k, v in dt.__dict__.items()}
-    s["delta1_source"] = "config" if d1_cfg is not None else "identification"
+    s["delta1_source"] = "identification" if d1_cfg is None or d1_note else "config"
     s.setdefault("warnings", [])
+    if d1_note:
+        s["delta1_configured"] = d1_cfg
+        s["warnings"].append(d1_note)
     std_on = s.get("delta_std")
     if std_on is not None and not math.isfinite(std_on):
         std_on = None
