@@ -88,3 +88,27 @@ def test_params_are_validated():
         Iso230Params(coverage=1.0)
     with pytest.raises(ParameterError, match="Iso230Params.targets: contains a target twice"):
         Iso230Params(targets=(0.0, 0.0))
+
+
+def test_rotary_summary_names_its_unit(tmp_path, capsys):
+    """The command's summary line ends with the deviation unit in brackets; Rich took ``[arcsec]``
+    (and ``[mm]``-like labels) for a style tag and printed nothing (found in session 9). Negative
+    control: the same text printed without escaping loses the unit."""
+    from rich.console import Console
+
+    from drivelash.commands.iso230 import _print_summary
+
+    rows = [(P, j, d, -d * 5.0) for P in (0.0, 90.0, 180.0) for j in range(1, 6) for d in (1, -1)]
+    p = tmp_path / "rot.csv"
+    pd.DataFrame(rows, columns=["deg", "run", "direction", "err"]).to_csv(p, index=False)
+    mapping = {
+        "deg": {"column": "P_target", "unit": "deg"},
+        "run": {"column": "run"},
+        "direction": {"column": "direction"},
+        "err": {"column": "x_dev", "unit": "arcsec"},
+    }
+    _print_summary(evaluate(read_measurement(p, mapping).approaches), None)
+    first = capsys.readouterr().out.splitlines()[0]
+    assert first.rstrip().endswith("runs per direction  [arcsec]"), first
+    Console().print("runs per direction  [arcsec]")
+    assert "[arcsec]" not in capsys.readouterr().out

@@ -154,6 +154,7 @@ def run_identify(
             force=force,
         )
     from rich.console import Console
+    from rich.markup import escape
     from rich.table import Table
 
     from drivelash.estimation.identify import cross_test, identify
@@ -244,7 +245,7 @@ def run_identify(
         console.print(table)
         console.print(f"relative force error: {100 * result.relative_error:.2f} %")
         if ct is not None:
-            console.print(f"cross-test on {cross}: {100 * ct.relative_error:.2f} %")
+            console.print(f"cross-test on {escape(str(cross))}: {100 * ct.relative_error:.2f} %")
         if out is None:
             sys.stdout.write(fragment)
     return summary
@@ -272,6 +273,7 @@ def run_identify_two_mass(
     (``plausible: false``, the backlash verdict saying why δ is not determined).
     """
     from rich.console import Console
+    from rich.markup import escape
     from rich.table import Table
 
     from drivelash.errors import DataError
@@ -332,11 +334,11 @@ def run_identify_two_mass(
             table.add_column(col, justify="right")
         for prm in result.parameters.values():
             if prm.identifiable:
-                table.add_row(prm.name, f"{prm.value:.6g}", prm.interval_text(), prm.unit, prm.note)
+                table.add_row(prm.name, f"{prm.value:.6g}", prm.interval_text(), prm.unit, escape(prm.note))
             else:
-                table.add_row(prm.name, "–", prm.interval_text(4), prm.unit, prm.reason)
+                table.add_row(prm.name, "–", prm.interval_text(4), prm.unit, escape(prm.reason))
         console.print(table)
-        console.print(f"backlash: {result.reason}")
+        console.print(f"backlash: {escape(result.reason)}")
         for w in result.warnings:
             typer.echo(f"drivelash: warning: {w}", err=True)
         if out is None and result.plausible:

@@ -140,6 +140,7 @@ def run_estimate(
 
 def _print_summary(s: dict[str, Any]) -> None:
     from rich.console import Console
+    from rich.markup import escape
 
     c = Console()
     verdict = "[green]sufficient[/green]" if s["excitation_ok"] else "[red]INSUFFICIENT[/red]"
@@ -155,11 +156,11 @@ def _print_summary(s: dict[str, Any]) -> None:
                 f"[{1e3 * d['ci95'][0]:.3f}, {1e3 * d['ci95'][1]:.3f}] mrad"
             )
         else:
-            c.print(f"  offline δ not determined: {ident['reason']}")
+            c.print(f"  offline δ not determined: {escape(ident['reason'])}")
     if s["delta"] is None:  # --identify could not give the drive
-        c.print(f"  [yellow]{s['reason']}[/yellow]")
+        c.print(f"  [yellow]{escape(s['reason'])}[/yellow]")
         for w in s.get("warnings", []):
-            c.print(f"  [yellow]warning:[/yellow] {w}")
+            c.print(f"  [yellow]warning:[/yellow] {escape(w)}")
         return
     std = s.get("delta_std")
     pm = f" ± {1e3 * 1.96 * std:.2f} mrad (95 %)" if std is not None and math.isfinite(std) else ""
@@ -169,7 +170,7 @@ def _print_summary(s: dict[str, Any]) -> None:
             f"  true δ = {1e3 * s['delta_true']:.3f} mrad, MAEE = {1e3 * s['maee_rad']:.3f} mrad, "
             f"steady-state peak = {1e3 * s['steady_state_peak_rad']:.3f} mrad"
         )
-    c.print(f"  excitation {verdict}: {s['reason']}")
+    c.print(f"  excitation {verdict}: {escape(s['reason'])}")
     conv = s["convergence_time_s"]
     if s["converged"]:
         after = f" after {conv:.2f} s" if conv is not None else ""
@@ -179,9 +180,9 @@ def _print_summary(s: dict[str, Any]) -> None:
     if s.get("delta1_check_result") not in (None, "not run"):
         d1 = s.get("delta1_estimate")
         d1s = f" (data: {1e3 * d1:.2f} mrad)" if d1 is not None else ""
-        c.print(f"  δ1 check: {s['delta1_check_result']}{d1s}")
+        c.print(f"  δ1 check: {escape(str(s['delta1_check_result']))}{d1s}")
     for w in s.get("warnings", []):
-        c.print(f"  [yellow]warning:[/yellow] {w}")
+        c.print(f"  [yellow]warning:[/yellow] {escape(w)}")
 
 
 def run_reproduce(
@@ -193,6 +194,7 @@ def run_reproduce(
     files appear together at the end, replacing a previous ``reproduce`` output.
     """
     from rich.console import Console
+    from rich.markup import escape
 
     from drivelash.io.outputs import Outputs
 
@@ -202,7 +204,7 @@ def run_reproduce(
         assert target is not None
         result = _reproduce_into(outputs.staging(target), quick, workers, console)
     files = [target / f.name for f in result["files"]]
-    console.print(f"[green]wrote {', '.join(str(f) for f in files)}[/green]")
+    console.print(f"[green]wrote {escape(', '.join(str(f) for f in files))}[/green]")
     return result | {"files": files}
 
 

@@ -173,12 +173,13 @@ def drift_warning(dr: Any, res: Any) -> str:
 
 def _print_summary(res: Any, comparison: Any | None) -> None:
     from rich.console import Console
+    from rich.markup import escape
 
     from drivelash.report.iso230 import display_units  # no matplotlib import at module level
 
     _, _, dl, df = display_units(res.unit)
     c = Console()
-    c.print(f"[bold]ISO 230-2[/bold]: {res.m} targets × {res.n} runs per direction  [{dl}]")
+    c.print(f"[bold]ISO 230-2[/bold]: {res.m} targets × {res.n} runs per direction  {escape(f'[{dl}]')}")
     c.print(f"  A = {res.A * df:.3f}   (A↑ {res.A_up * df:.3f}, A↓ {res.A_down * df:.3f})")
     lo, hi = res.B_interval
     c.print(

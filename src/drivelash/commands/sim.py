@@ -55,13 +55,14 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
     def scenarios() -> None:
         """List the built-in simulation scenarios with one-line descriptions."""
         from rich.console import Console
+        from rich.markup import escape
         from rich.table import Table
 
         from drivelash.sim.scenarios import list_scenarios
 
         table = Table("name", "duration [s]", "description", box=None)
         for sc in list_scenarios():
-            table.add_row(sc.name, f"{sc.duration:g}", sc.description)
+            table.add_row(escape(sc.name), f"{sc.duration:g}", escape(sc.description))
         Console().print(table)
 
     @app.command()

@@ -119,6 +119,7 @@ def run_status(db: str, quiet: bool = False, label: str | None = None) -> list[d
     staging directory that is renamed afterwards, so the URL would name a path that is gone).
     """
     from rich.console import Console
+    from rich.markup import escape
     from rich.table import Table
 
     from drivelash.report.fleet import OVERVIEW_HEADER, overview_rows
@@ -129,14 +130,14 @@ def run_status(db: str, quiet: bool = False, label: str | None = None) -> list[d
         table = Table(*OVERVIEW_HEADER, box=None, title=f"wear status — {label or store.name}")
         for row, s in zip(overview_rows(summ), summ, strict=True):
             style = "red" if s["crossed"] or s["alarms"] else None
-            table.add_row(*row, style=style)
+            table.add_row(*(escape(str(x)) for x in row), style=style)
         c = Console()
         if not c.is_terminal:
             c = Console(width=200)
         c.print(table)
         for s in summ:
             for a in s["alarms"]:
-                c.print(f"[red]alarm[/red] {a.kind}: {a.message}")
+                c.print(f"[red]alarm[/red] {escape(a.kind)}: {escape(a.message)}")
     return summ
 
 
@@ -224,6 +225,7 @@ def run_forecast(axis: str, db: str, json_out: str | None = None, quiet: bool = 
 
 def _print_forecast(s: dict[str, Any]) -> None:
     from rich.console import Console
+    from rich.markup import escape
 
     c = Console()
     mr = lambda x: "–" if x is None or not math.isfinite(x) else f"{1e3 * x:.3f} mrad"  # noqa: E731
@@ -249,7 +251,7 @@ def _print_forecast(s: dict[str, Any]) -> None:
     for cp in s["change_points"]:
         c.print(f"  jump of {1e3 * cp['size_rad']:+.2f} mrad at {day(cp['time'])}")
     for a in s["alarms"]:
-        c.print(f"  [red]alarm[/red] {a.kind}: {a.message}")
+        c.print(f"  [red]alarm[/red] {escape(a.kind)}: {escape(a.message)}")
 
 
 def run_report(
