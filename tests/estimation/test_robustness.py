@@ -161,6 +161,11 @@ def test_identify_supplies_delta1_the_recording_contradicts(rig_trace, e):
     assert s["converged"] and abs(s["delta"] - RIG.delta) <= 1e-3, (s["delta"] - RIG.delta, s["warnings"])
     alone = _run(RIG, rig_trace, RIG.delta1 + e)
     assert not alone.converged and abs(alone.delta - RIG.delta) > 1e-3
+    # README figures: "δ̂ within 0.29 mrad, where the online law alone is off by +2.0 / −3.7 / −6.2 mrad"
+    assert s["delta"] - RIG.delta == pytest.approx(-0.288e-3, abs=0.005e-3)
+    assert alone.delta - RIG.delta == pytest.approx(
+        {2e-3: 1.976e-3, -2e-3: -3.729e-3, -4e-3: -6.222e-3}[e], abs=0.05e-3
+    )
     if e == 2e-3:
         kept = estimate_with_identification(rig_trace, _rig_config(RIG.delta1)).summary
         assert kept["delta1_source"] == "config" and "delta1_configured" not in kept
