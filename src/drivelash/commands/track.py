@@ -127,7 +127,7 @@ def run_status(db: str, quiet: bool = False, label: str | None = None) -> list[d
     store, summ = _summaries(db)
     store.close()
     if not quiet:
-        table = Table(*OVERVIEW_HEADER, box=None, title=f"wear status — {label or store.name}")
+        table = Table(*OVERVIEW_HEADER, box=None, title=f"wear status — {escape(str(label or store.name))}")
         for row, s in zip(overview_rows(summ), summ, strict=True):
             style = "red" if s["crossed"] or s["alarms"] else None
             table.add_row(*(escape(str(x)) for x in row), style=style)
