@@ -316,14 +316,13 @@ def test_second_physical_start_on_random_drive_1_0():
         concentrated_objective,
         fit_bracketed,
         grid_start,
-        start_is_physical,
     )
     from estimation.test_generalisation import random_drive
 
     drivetrain, bl, trace = random_drive(np.random.default_rng(1), 0)
     data = window_data(trace, drivetrain.N)
     start = grid_start(data)
-    assert not start_is_physical(start)
+    assert not start.physical
     first = fit_bracketed(data, start=start)
     assert first.p[I_JM] < 0.0
     r = identify_two_mass(trace, drivetrain.N)

@@ -325,7 +325,6 @@ def test_unphysical_grid_start_is_not_the_answer(seed, case):
         concentrated_objective,
         fit_bracketed,
         grid_start,
-        start_is_physical,
         window_data,
     )
 
@@ -334,7 +333,7 @@ def test_unphysical_grid_start_is_not_the_answer(seed, case):
             continue
         data = window_data(trace, drivetrain.N)
         start = grid_start(data)
-        assert not start_is_physical(start)
+        assert not start.physical
         old = fit_bracketed(data, start=start)  # negative control: the first start alone
         assert old.p[I_JM] < 0.0
         new = fit_bracketed(data, start=grid_start(data, physical=True))

@@ -630,6 +630,9 @@ class GridStart:
     x0: np.ndarray
     objective: float
     table: dict[str, Any]
+    #: Whether the linear solution of the chosen pair has physical signs (1/J_m > 0 and, with a
+    #: contact, K_S/J_m > 0 and K_S/J_l > 0); see :func:`fit_from_grid`.
+    physical: bool = True
 
 
 def grid_start(
@@ -747,12 +750,12 @@ def grid_start(
     valid = (sse_m > 0) & ((sse_l > 0) | (not use_l))
     obj = np.full(A.size, np.inf)
     obj[valid] = nm * np.log(sse_m[valid]) + (nl * np.log(sse_l[valid]) if use_l else 0.0)
+    phys = beta_m[:, 0] > 0  # 1/J_m > 0 ...
+    has_k = (A < K) | (B < K)
+    phys &= ~has_k | (beta_m[:, 4] < 0)  # ... θ5 = −K_S/(N J_m) < 0 ...
+    if use_l:
+        phys &= ~has_k | (beta_l[:, 0] > 0)  # ... K_S/J_l > 0
     if physical:
-        phys = beta_m[:, 0] > 0
-        has_k = (A < K) | (B < K)
-        phys &= ~has_k | (beta_m[:, 4] < 0)
-        if use_l:
-            phys &= ~has_k | (beta_l[:, 0] > 0)
         obj[~phys] = np.inf
     k = int(np.argmin(obj))
     if not np.isfinite(obj[k]):
@@ -783,6 +786,7 @@ def grid_start(
         x0=x,
         objective=float(obj[k]),
         table={"candidates": cands, "pairs": int(A.size), "windows_used": int(sel.size)},
+        physical=bool(phys[k]),
     )
 
 
@@ -806,7 +810,7 @@ def motor_only_start(data: WindowData, *, torque_offset: float | None = None) ->
     x = np.zeros(NP)
     x[I_JL] = 1.0
     x[[I_JM, I_BM, I_TCM, I_U0]] = [J_m, th[1] * J_m, th[2] * J_m, th[3] * J_m]
-    return GridStart(-np.inf, np.inf, (False, False), x, float("nan"), {"motor_only": True})
+    return GridStart(-np.inf, np.inf, (False, False), x, float("nan"), {"motor_only": True}, bool(th[0] > 0))
 
 
 # --------------------------------------------------------------------------------------
@@ -1134,26 +1138,17 @@ def _plausibility(params: dict[str, ParameterEstimate]) -> list[str]:
     return out
 
 
-def start_is_physical(start: GridStart) -> bool:
-    """Whether the grid's linear start has J_m > 0 and, where a contact is seen, K_S > 0 and J_l > 0."""
-    x = start.x0
-    if not x[I_JM] > 0.0:
-        return False
-    return not any(start.sides) or bool(x[I_KS] > 0.0 and x[I_JL] > 0.0)
-
-
 def concentrated_objective(fit: TwoMassFit) -> float:
-    """n_m log SSE_m + n_l log SSE_l of ``fit`` on the look-back accelerations (α = 0) — the
-    criterion of :func:`grid_start`, comparable between fits with other weights or contacts."""
-    prob = fit.problem
-    d = prob.d if prob.d.start_weight == 0.0 else prob.d.with_start_weight(0.0)
-    q = TwoMassProblem(d, prob.sides, equations=prob.equations)
-    am, al, _ = q.predict(fit.p)
-    sm = float(np.sum((d.a_m - am)[q.im] ** 2))
-    out = q.im.size * math.log(sm) if sm > 0 else -math.inf
-    if q.il.size:
-        sl = float(np.sum((d.a_l - al)[q.il] ** 2))
-        out += q.il.size * math.log(sl) if sl > 0 else -math.inf
+    """n_m log SSE_m + n_l log SSE_l of ``fit`` on its own windows — the criterion of
+    :func:`grid_start`, independent of the equations' weights (a :func:`fit_bracketed` result
+    carries the look-back windows, α = 0, whichever end of the bracket it centres)."""
+    prob, d = fit.problem, fit.problem.d
+    am, al, _ = prob.predict(fit.p)
+    sm = float(np.sum((d.a_m - am)[prob.im] ** 2))
+    out = prob.im.size * math.log(sm) if sm > 0 else -math.inf
+    if prob.il.size:
+        sl = float(np.sum((d.a_l - al)[prob.il] ** 2))
+        out += prob.il.size * math.log(sl) if sl > 0 else -math.inf
     return out
 
 
@@ -1170,7 +1165,7 @@ def fit_from_grid(data: WindowData, *, tau: float = 0.0, **kw: Any) -> tuple[Gri
     eq, u0 = kw.get("equations", "both"), kw.get("torque_offset")
     start = grid_start(data, equations=eq, tau=tau, torque_offset=u0)
     fit = fit_bracketed(data, start=start, **kw)
-    if start_is_physical(start):
+    if start.physical:
         return start, fit
     try:
         alt = grid_start(data, equations=eq, tau=tau, torque_offset=u0, physical=True)
