@@ -238,6 +238,15 @@ Method = Literal["paper", "default"]
 
 #: δ1 check: a configured δ1 within this of the joint law's δ̂1 is consistent [rad].
 OFFSET_FLOOR = 1e-3
+
+
+def delta1_tolerance(offset_switch: float = OFFSET_FLOOR) -> float:
+    """Distance [rad] up to which a configured δ1 is consistent with the data's: ``offset_switch``
+    (``[estimator]``), never below :data:`OFFSET_FLOOR` (the online δ1 check and, with
+    ``estimate --identify``, the comparison with the identified δ1)."""
+    return max(float(offset_switch), OFFSET_FLOOR)
+
+
 #: The motor-side shaft torque is used when N T_C,m ≤ this × the expected shaft torque.
 MOTOR_FRICTION_RATIO = 2.0
 #: … and N² J_m ≤ this × J_l.

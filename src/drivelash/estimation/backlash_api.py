@@ -203,15 +203,6 @@ def _needs_identification(cfg: Any) -> bool:
     return dt is None or any(getattr(dt, k) is None for k in ("J_m", "J_l", "K_S", "D_S"))
 
 
-def _delta1_floor(cfg: Any) -> float:
-    """The δ1 check's tolerance [rad]: a configured δ1 this close to the data's is consistent
-    (``[estimator] offset_switch``, at least :data:`~drivelash.params.OFFSET_FLOOR`)."""
-    from drivelash.params import OFFSET_FLOOR
-
-    given = cfg.estimator.given() if cfg.estimator is not None else {}
-    return max(float(given.get("offset_switch", OFFSET_FLOOR)), OFFSET_FLOOR)
-
-
 def estimate_with_identification(
     trace: Trace, cfg: Any, *, method: str | None = "default"
 ) -> BacklashEstimate:
@@ -230,6 +221,7 @@ def estimate_with_identification(
     is not run: ``online_run`` is false with the reason, ``excitation_ok`` false.
     """
     from drivelash.estimation.identify_two_mass import identify_from_config
+    from drivelash.params import OFFSET_FLOOR, delta1_tolerance
 
     ident = identify_from_config(trace, cfg, model="two-mass")
     off = {
@@ -258,7 +250,8 @@ def estimate_with_identification(
     d1_note = None
     if why is None and d1_cfg is not None:
         p = ident.parameters.get("delta1")
-        floor = _delta1_floor(cfg)
+        given = cfg.estimator.given() if cfg.estimator is not None else {}
+        floor = delta1_tolerance(given.get("offset_switch", OFFSET_FLOOR))
         if (
             p is not None
             and p.identifiable

@@ -65,6 +65,7 @@ from drivelash.params import (
     DrivetrainParams,
     EstimatorConfig,
     Method,
+    delta1_tolerance,
 )
 
 __all__ = [
@@ -759,7 +760,7 @@ def _verdict(
             residual_rms_anchored=a_main["residual_rms"],
             residual_rms_joint=a_chk["residual_rms"],
         )
-        floor = max(cfg.offset_switch, OFFSET_FLOOR)
+        floor = delta1_tolerance(cfg.offset_switch)
         ratio = a_chk["residual_rms"] / a_main["residual_rms"] if a_main["residual_rms"] > 0 else math.nan
         # per contact side: a wrong δ1 spoils the anchored law's fit in the *lower* contact
         # (where δ1 anchors it) and not the joint law's; a wrong torque model spoils both sides
