@@ -157,30 +157,28 @@ def _print_summary(s: dict[str, Any]) -> None:
             )
         else:
             c.print(f"  offline δ not determined: {escape(ident['reason'])}")
-    if s["delta"] is None:  # --identify could not give the drive
+    if s["delta"] is None:  # --identify could not give the drive: its reason and the warnings only
         c.print(f"  [yellow]{escape(s['reason'])}[/yellow]")
-        for w in s.get("warnings", []):
-            c.print(f"  [yellow]warning:[/yellow] {escape(w)}")
-        return
-    std = s.get("delta_std")
-    pm = f" ± {1e3 * 1.96 * std:.2f} mrad (95 %)" if std is not None and math.isfinite(std) else ""
-    c.print(f"  δ̂ = {1e3 * s['delta']:.3f} mrad{pm}   (δ1 = {1e3 * s['delta1']:.3f} mrad)")
-    if "delta_true" in s:
-        c.print(
-            f"  true δ = {1e3 * s['delta_true']:.3f} mrad, MAEE = {1e3 * s['maee_rad']:.3f} mrad, "
-            f"steady-state peak = {1e3 * s['steady_state_peak_rad']:.3f} mrad"
-        )
-    c.print(f"  excitation {verdict}: {escape(s['reason'])}")
-    conv = s["convergence_time_s"]
-    if s["converged"]:
-        after = f" after {conv:.2f} s" if conv is not None else ""
-        c.print(f"  converged (band {1e3 * s['convergence_band_rad']:.2g} mrad){after}")
     else:
-        c.print("  [yellow]not converged[/yellow] — do not use this estimate")
-    if s.get("delta1_check_result") not in (None, "not run"):
-        d1 = s.get("delta1_estimate")
-        d1s = f" (data: {1e3 * d1:.2f} mrad)" if d1 is not None else ""
-        c.print(f"  δ1 check: {escape(str(s['delta1_check_result']))}{d1s}")
+        std = s.get("delta_std")
+        pm = f" ± {1e3 * 1.96 * std:.2f} mrad (95 %)" if std is not None and math.isfinite(std) else ""
+        c.print(f"  δ̂ = {1e3 * s['delta']:.3f} mrad{pm}   (δ1 = {1e3 * s['delta1']:.3f} mrad)")
+        if "delta_true" in s:
+            c.print(
+                f"  true δ = {1e3 * s['delta_true']:.3f} mrad, MAEE = {1e3 * s['maee_rad']:.3f} mrad, "
+                f"steady-state peak = {1e3 * s['steady_state_peak_rad']:.3f} mrad"
+            )
+        c.print(f"  excitation {verdict}: {escape(s['reason'])}")
+        conv = s["convergence_time_s"]
+        if s["converged"]:
+            after = f" after {conv:.2f} s" if conv is not None else ""
+            c.print(f"  converged (band {1e3 * s['convergence_band_rad']:.2g} mrad){after}")
+        else:
+            c.print("  [yellow]not converged[/yellow] — do not use this estimate")
+        if s.get("delta1_check_result") not in (None, "not run"):
+            d1 = s.get("delta1_estimate")
+            d1s = f" (data: {1e3 * d1:.2f} mrad)" if d1 is not None else ""
+            c.print(f"  δ1 check: {escape(str(s['delta1_check_result']))}{d1s}")
     for w in s.get("warnings", []):
         c.print(f"  [yellow]warning:[/yellow] {escape(w)}")
 
