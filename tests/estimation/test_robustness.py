@@ -158,6 +158,10 @@ def test_identify_supplies_delta1_the_recording_contradicts(rig_trace, e):
     assert s["delta1_source"] == "identification" and s["delta1_configured"] == RIG.delta1 + e
     assert abs(s["delta1"] - RIG.delta1) <= 0.3e-3, s["delta1"]
     assert any(w.startswith("[backlash] delta1 = ") and "is used" in w for w in s["warnings"]), s["warnings"]
+    # both values and the interval to the µrad (with 4 significant digits the interval of the
+    # README's bench-0A run printed as "[513.5, 513.5] mrad")
+    w = next(w for w in s["warnings"] if w.startswith("[backlash]"))
+    assert f"delta1 = {1e3 * (RIG.delta1 + e):.3f} mrad" in w and f"δ1 = {1e3 * s['delta1']:.3f} mrad" in w, w
     assert s["converged"] and abs(s["delta"] - RIG.delta) <= 1e-3, (s["delta"] - RIG.delta, s["warnings"])
     alone = _run(RIG, rig_trace, RIG.delta1 + e)
     assert not alone.converged and abs(alone.delta - RIG.delta) > 1e-3

@@ -263,9 +263,9 @@ def estimate_with_identification(
             # result supplies δ1): the online law gets the identified one, and the user is told
             d1 = float(p.value)
             d1_note = (
-                f"[backlash] delta1 = {1e3 * d1_cfg:.4g} mrad lies outside the recording's 95 % interval "
-                f"[{1e3 * p.low:.4g}, {1e3 * p.high:.4g}] mrad and differs by more than the δ1 check's "
-                f"{1e3 * floor:.3g} mrad: the identified δ1 = {1e3 * p.value:.4g} mrad is used "
+                f"[backlash] delta1 = {1e3 * d1_cfg:.3f} mrad lies outside the recording's 95 % interval "
+                f"[{1e3 * p.low:.3f}, {1e3 * p.high:.3f}] mrad and differs by more than the δ1 check's "
+                f"{1e3 * floor:.3g} mrad: the identified δ1 = {1e3 * p.value:.3f} mrad is used "
                 "(wrong δ1 or an offset between the encoders)"
             )
     if why is None and d1 is None:
