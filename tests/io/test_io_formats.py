@@ -152,3 +152,58 @@ def test_quoted_csv_header_as_pyarrow_writes_it(tmp_path):
     np.testing.assert_array_equal(tr["theta_m"], np.sin(50 * t))
     streamed = np.concatenate([c["theta_m"] for c in iter_trace_chunks(p, chunk_rows=64)])
     np.testing.assert_array_equal(streamed, tr["theta_m"])
+
+
+def _european_csv(path, t, cols, first_row_integers=False):
+    """``;``-separated, decimal commas — a spreadsheet's export in a German locale."""
+    names = ["t", *cols]
+    lines = [";".join(names)]
+    for i, ti in enumerate(t):
+        vals = [ti, *(cols[c][i] for c in cols)]
+        text = [repr(float(v)).replace(".", ",") for v in vals]
+        if first_row_integers and i == 0:
+            text = [str(int(round(v))) for v in vals]
+        lines.append(";".join(text))
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("first_row_integers", [False, True])
+def test_decimal_comma_csv_reads_the_same_numbers(tmp_path, first_row_integers):
+    """``0,05;1,2`` (``;``-separated, decimal commas) loads bit-identical to the ``.`` file, in
+    the whole-file and the streamed reader; with an integer first row the streamed reader's
+    first guess (``.``) fails and the strict reader decides from every cell."""
+    from drivelash.io.stream import iter_trace_chunks
+
+    t = np.arange(400) / 1000.0
+    theta = np.sin(7 * t) * 1.5
+    theta[0] = 0.0
+    p = _european_csv(tmp_path / "de.csv", t, {"theta_m": theta}, first_row_integers)
+    assert "0,00" in p.read_text() or first_row_integers
+    tr = load_trace(p)
+    np.testing.assert_array_equal(tr["theta_m"], theta)
+    np.testing.assert_array_equal(tr["t"], t)
+    streamed = np.concatenate([c["theta_m"] for c in iter_trace_chunks(p, chunk_rows=64)])
+    np.testing.assert_array_equal(streamed, theta)
+    # negative control: the same text comma-separated is not numbers (no guessing there)
+    q = tmp_path / "comma.csv"
+    q.write_text('t,theta_m\n"0,5","1,5"\n"1,5","2,5"\n')
+    with pytest.raises(DataError, match=r"comma.csv, column 't', row 0: not a number: '0,5'"):
+        load_trace(q)
+
+
+def test_mixed_decimal_marks_are_refused_naming_the_cell(tmp_path):
+    """A point in a decimal-comma file (``1.234,5`` or one row written elsewhere) is ambiguous:
+    one line naming file, column, row and the cell; never a number read either way."""
+    from drivelash.io.stream import iter_trace_chunks
+
+    p = tmp_path / "mixed.csv"
+    p.write_text("t;theta_m\n0,0;0,5\n0,001;1.5\n0,002;2,5\n")
+    msg = (
+        r"mixed.csv, column 'theta_m', row 1: decimal point in '1.5' where the file's numbers"
+        r" have decimal commas"
+    )
+    with pytest.raises(DataError, match=msg):
+        load_trace(p)
+    with pytest.raises(DataError, match=msg):
+        list(iter_trace_chunks(p, chunk_rows=2))

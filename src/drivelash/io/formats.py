@@ -168,6 +168,12 @@ def _sniff_sep(header: str) -> str:
     return r"\s+" if " " in header.strip() else ","
 
 
+def _decimal_mark(sep: str, line: str) -> str:
+    """The decimal mark of a CSV data line: ``,`` where the separator is not a comma and the
+    line has one (the European layout, ``0,05;1,2``), else ``.``."""
+    return "," if sep != "," and "," in line else "."
+
+
 def _header_tokens(header: str, sep: str) -> list[str]:
     """Column names of a CSV header line; quoted names (``"t","theta_m"``, as pyarrow and
     Excel write them) are unquoted."""
@@ -270,6 +276,9 @@ def _read_csv(p: Path) -> RawTable:
         raise DataError(f"malformed CSV: {msg}", path=str(p)) from None
     cols: dict[str, np.ndarray] = {}
     seen: set[str] = set()
+    # Decimal commas (``0,05;1,2``, a European spreadsheet's export): a comma in any cell of a
+    # file that is not comma-separated; a point anywhere in such a file is then ambiguous.
+    comma = sep != "," and any(df[c].str.contains(",", regex=False, na=False).any() for c in df.columns)
     for c in df.columns:
         name = str(c).strip()
         if name in seen:
@@ -277,12 +286,23 @@ def _read_csv(p: Path) -> RawTable:
         seen.add(name)
         s = df[c].fillna("").astype(str).str.strip()
         obj = s.to_numpy(dtype=object)
+        if comma:
+            dotted = np.flatnonzero(s.str.contains(".", regex=False).to_numpy())
+            if dotted.size:
+                raise DataError(
+                    f"decimal point in {str(obj[dotted[0]])[:40]!r} where the file's numbers have"
+                    " decimal commas (mixed decimal marks; thousands separators are not read)",
+                    path=str(p),
+                    column=name,
+                    row=int(dotted[0]),
+                )
+        num = s.str.replace(",", ".", regex=False).to_numpy(dtype=object) if comma else obj
         try:
-            vals = np.array(obj, dtype=np.float64)  # Python float(): exact, accepts nan/inf
+            vals = np.array(num, dtype=np.float64)  # Python float(): exact, accepts nan/inf
         except (ValueError, TypeError, OverflowError):
             for row, text in enumerate(obj):
                 try:
-                    float(text)
+                    float(num[row])
                 except (ValueError, TypeError, OverflowError):
                     what = "empty field" if text == "" else f"not a number: {str(text)[:40]!r}"
                     raise DataError(what, path=str(p), column=name, row=row) from None
@@ -477,6 +497,7 @@ class _CsvLayout:
     tokens: list[str]
     sep: str
     meta: dict[str, Any]
+    decimal: str = "."  # the first data row's decimal mark (``,`` in ``0,05;1,2``)
 
 
 def _csv_layout(p: Path) -> _CsvLayout:
@@ -502,6 +523,12 @@ def _csv_layout(p: Path) -> _CsvLayout:
             break
         if header is None:
             raise DataError("file is empty (no header and no data rows)", path=str(p))
+        first = ""
+        while not first.strip():
+            raw = fh.readline()
+            if not raw:
+                break
+            first = raw.decode("utf-8", "replace")
         fh.seek(max(offset, size - 65536))
         tail = fh.read().decode("utf-8", "replace")
     sep = _sniff_sep(header)
@@ -520,7 +547,7 @@ def _csv_layout(p: Path) -> _CsvLayout:
                 path=str(p),
                 row=_count_rows(p, offset) - 1,
             )
-    return _CsvLayout(offset, tokens, sep, meta)
+    return _CsvLayout(offset, tokens, sep, meta, _decimal_mark(sep, first))
 
 
 def _count_rows(p: Path, start: int) -> int:
@@ -581,6 +608,7 @@ class CsvSource(ColumnSource):
                 parse_options=pcsv.ParseOptions(delimiter=self._layout.sep),
                 convert_options=pcsv.ConvertOptions(
                     column_types={n: pa.float64() for n in self._layout.tokens},
+                    decimal_point=self._layout.decimal,
                     include_columns=names,
                     strings_can_be_null=False,
                     quoted_strings_can_be_null=False,
