@@ -209,20 +209,6 @@ class Trace:
             np.savetxt(fh, data, delimiter=",", header=header, comments="", fmt="%.17g")
         return path
 
-    @classmethod
-    def from_csv(cls, path: str | Path) -> Trace:
-        """Read a file written by :meth:`to_csv` (plain numeric CSV with header)."""
-        import pandas as pd
-
-        path = Path(path)
-        meta: dict[str, Any] = {}
-        with path.open("r", encoding="utf-8") as fh:
-            first = fh.readline()
-        if first.startswith("# drivelash.meta "):
-            meta = json.loads(first[len("# drivelash.meta ") :])
-        df = pd.read_csv(path, comment="#", float_precision="round_trip")
-        return cls({c: df[c].to_numpy(dtype=np.float64) for c in df.columns}, meta)
-
     def save(self, path: str | Path) -> Path:
         """Write by extension (any format :func:`drivelash.io.formats.write_trace` knows)."""
         from drivelash.io.formats import write_trace
