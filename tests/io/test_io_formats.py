@@ -207,3 +207,35 @@ def test_mixed_decimal_marks_are_refused_naming_the_cell(tmp_path):
         load_trace(p)
     with pytest.raises(DataError, match=msg):
         list(iter_trace_chunks(p, chunk_rows=2))
+
+
+def test_csv_with_a_byte_order_mark_reads_its_first_column(tmp_path):
+    """Excel's "CSV UTF-8" starts with a BOM: the first column is still ``t`` (before: "missing
+    required column 't'"), whole and streamed, bit-identical to the file without it."""
+    from drivelash.io.stream import iter_trace_chunks
+
+    t = np.arange(300) / 1000.0
+    body = "t,theta_m\n" + "".join(f"{float(a)!r},{float(np.sin(a))!r}\n" for a in t)
+    plain = tmp_path / "plain.csv"
+    plain.write_text(body)
+    bom = tmp_path / "bom.csv"
+    bom.write_bytes(b"\xef\xbb\xbf" + body.encode())
+    ref = load_trace(plain)
+    tr = load_trace(bom)
+    assert tr.names == ref.names
+    np.testing.assert_array_equal(tr["t"], ref["t"])
+    np.testing.assert_array_equal(tr["theta_m"], ref["theta_m"])
+    streamed = np.concatenate([c["t"] for c in iter_trace_chunks(bom, chunk_rows=64)])
+    np.testing.assert_array_equal(streamed, t)
+
+
+def test_utf16_and_spreadsheet_files_say_how_to_save_them(tmp_path):
+    """A spreadsheet's "Unicode Text" (UTF-16) and an .xlsx: one line that names the fix."""
+    u16 = tmp_path / "sheet.csv"
+    u16.write_text("t\ttheta_m\n0\t0\n0.001\t0.5\n", encoding="utf-16")
+    with pytest.raises(DataError, match=r"sheet.csv: wrong file type: .*UTF-16 text.*save it as CSV UTF-8"):
+        load_trace(u16)
+    x = tmp_path / "sheet.xlsx"
+    x.write_bytes(b"PK\x03\x04")
+    with pytest.raises(DataError, match=r"sheet.xlsx: unsupported file type '.xlsx'.*save the sheet as CSV"):
+        load_trace(x)

@@ -72,7 +72,7 @@ class RawTable:
 
 # --------------------------------------------------------------------------- sniffing
 def _sniff(head: bytes) -> str:
-    """Format suggested by the first bytes of a file: a name from FORMATS or 'text'/'binary'."""
+    """Format suggested by the first bytes of a file: a name from FORMATS or 'text', 'utf16' or 'binary'."""
     if head.startswith(b"PAR1"):
         return "parquet"
     if head.startswith(_HDF5_MAGIC):
@@ -83,6 +83,8 @@ def _sniff(head: bytes) -> str:
         return "mat"
     if len(head) >= 520 and head[512:520] == _HDF5_MAGIC:
         return "hdf5"
+    if head.startswith((b"\xff\xfe", b"\xfe\xff")):
+        return "utf16"
     if b"\x00" in head:
         return "binary"
     try:
@@ -113,8 +115,10 @@ def detect_format(path: str | Path) -> str:
         raise DataError("is a directory, expected a recording file", path=str(p))
     ext = p.suffix.lower()
     if ext not in EXTENSIONS:
+        hint = "; save the sheet as CSV" if ext in (".xlsx", ".xls", ".xlsm", ".ods") else ""
         raise DataError(
-            f"unsupported file type '{ext or '(no extension)'}' (supported: .csv, .parquet, .h5/.hdf5, .mat)",
+            f"unsupported file type '{ext or '(no extension)'}' (supported: .csv, .parquet, .h5/.hdf5,"
+            f" .mat){hint}",
             path=str(p),
         )
     if p.stat().st_size == 0:
@@ -126,6 +130,7 @@ def detect_format(path: str | Path) -> str:
     described = {
         "text": "text (CSV?)",
         "binary": "unrecognised binary data",
+        "utf16": "UTF-16 text (a spreadsheet's \"Unicode Text\"): save it as CSV UTF-8",
         "parquet": "Parquet",
         "hdf5": "HDF5",
         "mat": "MATLAB v5",
@@ -227,7 +232,7 @@ def _read_csv(p: Path) -> RawTable:
 
     raw = p.read_bytes()
     try:
-        text = raw.decode("utf-8")
+        text = raw.decode("utf-8").removeprefix("\ufeff")  # Excel's "CSV UTF-8" starts with a BOM
     except UnicodeDecodeError:
         text = raw.decode("latin-1")
     meta: dict[str, Any] = {}
@@ -513,6 +518,8 @@ def _csv_layout(p: Path) -> _CsvLayout:
                 break
             offset += len(raw)
             line = raw.decode("utf-8", "replace").rstrip("\r\n")
+            if offset == len(raw):  # first line: a byte-order mark (Excel's "CSV UTF-8") is no text
+                line = line.removeprefix("\ufeff")
             if header is None and line.startswith("#"):
                 if line.startswith("# drivelash.meta "):
                     meta = _parse_meta(line[len("# drivelash.meta ") :])
