@@ -130,7 +130,7 @@ def detect_format(path: str | Path) -> str:
     described = {
         "text": "text (CSV?)",
         "binary": "unrecognised binary data",
-        "utf16": "UTF-16 text (a spreadsheet's \"Unicode Text\"): save it as CSV UTF-8",
+        "utf16": 'UTF-16 text (a spreadsheet\'s "Unicode Text"): save it as CSV UTF-8',
         "parquet": "Parquet",
         "hdf5": "HDF5",
         "mat": "MATLAB v5",
