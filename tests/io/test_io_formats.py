@@ -239,3 +239,44 @@ def test_utf16_and_spreadsheet_files_say_how_to_save_them(tmp_path):
     x.write_bytes(b"PK\x03\x04")
     with pytest.raises(DataError, match=r"sheet.xlsx: unsupported file type '.xlsx'.*save the sheet as CSV"):
         load_trace(x)
+
+
+PREAMBLE = "Drive trace export\nDate;27.11.2026\nAxis: X1\n\n"
+
+
+@pytest.mark.parametrize("sep", [";", ","])
+def test_a_tools_preamble_above_the_header_is_skipped_and_said(tmp_path, sep):
+    """Lines a drive tool writes above the table (name, date, axis) are skipped: the same
+    numbers as the file without them, whole and streamed, and a warning naming what was
+    skipped (before: "column 'Drive', row 0: not a number")."""
+    from drivelash.io.stream import iter_trace_chunks
+
+    t = np.arange(500) / 1000.0
+    body = f"t{sep}theta_m\n" + "".join(f"{float(a)!r}{sep}{float(np.cos(a))!r}\n" for a in t)
+    plain = tmp_path / "plain.csv"
+    plain.write_text(body)
+    pre = tmp_path / "pre.csv"
+    pre.write_text(PREAMBLE + body)
+    ref, tr = load_trace(plain), load_trace(pre)
+    np.testing.assert_array_equal(tr["theta_m"], ref["theta_m"])
+    np.testing.assert_array_equal(tr["t"], ref["t"])
+    warn = "skipped 3 line(s) above the column header (a preamble starting 'Drive trace export')"
+    assert warn in tr.meta["warnings"]
+    assert not ref.meta["warnings"]
+    chunks = list(iter_trace_chunks(pre, chunk_rows=128))
+    np.testing.assert_array_equal(np.concatenate([c["theta_m"] for c in chunks]), ref["theta_m"])
+    assert warn in chunks[0].meta["warnings"]
+
+
+def test_no_header_search_where_the_first_line_fits(tmp_path):
+    """The search runs only when the first line's width differs from the next line's: a bad
+    cell in the first data row is still named there (not taken as a header), and a preamble
+    without a numeric table below it keeps the first line's error."""
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t,theta_m\n0,abc\n0.001,0.5\n0.002,0.7\n")
+    with pytest.raises(DataError, match=r"bad.csv, column 'theta_m', row 0: not a number: 'abc'"):
+        load_trace(bad)
+    junk = tmp_path / "junk.csv"
+    junk.write_text(PREAMBLE + "t;theta_m\n0;x\n1;y\n")
+    with pytest.raises(DataError, match=r"junk.csv, column 'Drive'"):
+        load_trace(junk)

@@ -57,3 +57,17 @@ def test_fuzz_arbitrary_bytes_as_csv(data):
 @given(st.binary(max_size=300), st.sampled_from(["x.parquet", "x.h5", "x.mat"]))
 def test_fuzz_arbitrary_bytes_as_binary_formats(data, name):
     _check(data, name)
+
+
+def test_empty_header_name_with_a_cell_pyarrow_refuses(tmp_path):
+    """Found by the fuzzer (seed 7): a header ending in a separator (an empty name) and a cell
+    pyarrow refuses (``1_000``) sent the streamed reader to the strict one mid-file, which named
+    the column ``Unnamed: 5`` — a raw ``KeyError: ''``. Now one line."""
+    p = tmp_path / "k.csv"
+    p.write_text("\n0.0,1.0,2.0,3.0,4.0,\n0.0,0.0,0.0,0.0,0.0,1_000")
+    try:
+        load_trace(p, required=["theta_m"])
+    except DrivelashError as exc:
+        assert "\n" not in str(exc) and "k.csv" in str(exc)
+    else:  # pragma: no cover - the file has no time column
+        raise AssertionError("loaded a file without a time column")

@@ -173,6 +173,63 @@ def _sniff_sep(header: str) -> str:
     return r"\s+" if " " in header.strip() else ","
 
 
+#: lines searched for the column header below a tool's preamble (``Name: Scope``, ``Date;…``)
+PREAMBLE_MAX_LINES = 50
+
+
+def _fields(line: str, sep: str) -> list[str]:
+    return line.split() if sep == r"\s+" else line.split(sep)
+
+
+def _numeric_row(line: str, sep: str) -> bool:
+    """Every field of ``line`` is a number (decimal commas where ``sep`` is not a comma)."""
+    fields = [f.strip().strip('"').strip() for f in _fields(line, sep)]
+    if sep != ",":
+        fields = [f.replace(",", ".") for f in fields]
+    try:
+        [float(f) for f in fields]  # noqa: B018 - only whether each field parses
+    except ValueError:
+        return False
+    return bool(fields)
+
+
+def _same_width(header: str, row: str) -> bool:
+    """``row`` has as many fields as ``header`` names columns (split by the header's separator)."""
+    sep = _sniff_sep(header)
+    return len(_header_tokens(header, sep)) == len(_fields(row, sep))
+
+
+def _header_index(lines: list[str]) -> int:
+    """Index of the column header among the first non-blank lines of a CSV file.
+
+    The first line, unless its field count differs from the line below it: then a tool wrote
+    a preamble above the table, and the header is the first line that has as many fields as
+    the numeric row below it and is not itself numeric. Where no line fits, the first line
+    (the reader then names the problem as before).
+    """
+    if len(lines) < 2 or _same_width(lines[0], lines[1]):
+        return 0
+    for i in range(1, len(lines) - 1):
+        sep = _sniff_sep(lines[i])
+        if (
+            _same_width(lines[i], lines[i + 1])
+            and _numeric_row(lines[i + 1], sep)
+            and not _numeric_row(lines[i], sep)
+        ):
+            return i
+    return 0
+
+
+def _preamble_warning(meta: dict[str, Any], preamble: list[str]) -> None:
+    """Record the skipped preamble in ``meta["warnings"]`` (printed by every command)."""
+    first = preamble[0].strip()
+    first = first if len(first) <= 40 else first[:40] + "…"
+    meta["warnings"] = [
+        *meta.get("warnings", []),
+        f"skipped {len(preamble)} line(s) above the column header (a preamble starting {first!r})",
+    ]
+
+
 def _decimal_mark(sep: str, line: str) -> str:
     """The decimal mark of a CSV data line: ``,`` where the separator is not a comma and the
     line has one (the European layout, ``0,05;1,2``), else ``.``."""
@@ -246,6 +303,17 @@ def _read_csv(p: Path) -> RawTable:
     body_nonblank = [ln for ln in body if ln.strip()]
     if not body_nonblank:
         raise DataError("file is empty (no header and no data rows)", path=str(p))
+    h = _header_index(body_nonblank[: PREAMBLE_MAX_LINES + 2])
+    if h:
+        _preamble_warning(meta, body_nonblank[:h])
+        seen = 0
+        for pos, ln in enumerate(body):
+            if ln.strip():
+                if seen == h:
+                    body = body[pos:]
+                    break
+                seen += 1
+        body_nonblank = body_nonblank[h:]
     header = body_nonblank[0]
     sep = _sniff_sep(header)
     tokens = _header_tokens(header, sep)
@@ -284,8 +352,10 @@ def _read_csv(p: Path) -> RawTable:
     # Decimal commas (``0,05;1,2``, a European spreadsheet's export): a comma in any cell of a
     # file that is not comma-separated; a point anywhere in such a file is then ambiguous.
     comma = sep != "," and any(df[c].str.contains(",", regex=False, na=False).any() for c in df.columns)
-    for c in df.columns:
-        name = str(c).strip()
+    # the header's own names, as the streamed reader has them (pandas renames an empty one
+    # "Unnamed: k", and the streamed reader falls back to this one mid-file)
+    names = tokens if len(tokens) == len(df.columns) else [str(c).strip() for c in df.columns]
+    for c, name in zip(df.columns, names, strict=True):
         if name in seen:
             raise DataError("duplicated column name in the header", path=str(p), column=name)
         seen.add(name)
@@ -510,9 +580,9 @@ def _csv_layout(p: Path) -> _CsvLayout:
     size = p.stat().st_size
     meta: dict[str, Any] = {}
     offset = 0
-    header: str | None = None
+    cands: list[tuple[str, int]] = []  # the first non-blank lines and the offsets after them
     with p.open("rb") as fh:
-        while True:
+        while len(cands) < PREAMBLE_MAX_LINES + 2:
             raw = fh.readline()
             if not raw:
                 break
@@ -520,22 +590,21 @@ def _csv_layout(p: Path) -> _CsvLayout:
             line = raw.decode("utf-8", "replace").rstrip("\r\n")
             if offset == len(raw):  # first line: a byte-order mark (Excel's "CSV UTF-8") is no text
                 line = line.removeprefix("\ufeff")
-            if header is None and line.startswith("#"):
+            if not cands and line.startswith("#"):
                 if line.startswith("# drivelash.meta "):
                     meta = _parse_meta(line[len("# drivelash.meta ") :])
                 continue
-            if not line.strip():
-                continue
-            header = line
-            break
-        if header is None:
+            if line.strip():
+                cands.append((line, offset))
+                if len(cands) == 2 and _same_width(cands[0][0], cands[1][0]):
+                    break  # the usual file: header, then a row with as many fields
+        if not cands:
             raise DataError("file is empty (no header and no data rows)", path=str(p))
-        first = ""
-        while not first.strip():
-            raw = fh.readline()
-            if not raw:
-                break
-            first = raw.decode("utf-8", "replace")
+        h = _header_index([c for c, _ in cands])
+        if h:
+            _preamble_warning(meta, [c for c, _ in cands[:h]])
+        header, offset = cands[h]
+        first = cands[h + 1][0] if h + 1 < len(cands) else ""
         fh.seek(max(offset, size - 65536))
         tail = fh.read().decode("utf-8", "replace")
     sep = _sniff_sep(header)
