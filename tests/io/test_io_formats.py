@@ -280,3 +280,69 @@ def test_no_header_search_where_the_first_line_fits(tmp_path):
     junk.write_text(PREAMBLE + "t;theta_m\n0;x\n1;y\n")
     with pytest.raises(DataError, match=r"junk.csv, column 'Drive'"):
         load_trace(junk)
+
+
+def _stamped_csv(path, t, theta, sep=","):
+    import pandas as pd
+
+    stamps = (pd.Timestamp("2026-11-27 13:00:00") + pd.to_timedelta(t, unit="s")).strftime(
+        "%Y-%m-%d %H:%M:%S.%f"
+    )
+    path.write_text(
+        f"time{sep}theta_m\n" + "".join(f"{a}{sep}{float(b)!r}\n" for a, b in zip(stamps, theta, strict=True))
+    )
+    return path
+
+
+def test_iso_time_stamps_are_seconds_from_the_first(tmp_path):
+    """A logger's time column of ISO 8601 stamps (``2026-11-27 13:00:00.125000``) is read as
+    seconds from the first stamp (exact to the µs the file holds), whole and streamed; the
+    first stamp is kept in ``meta["time_origin"]``."""
+    from drivelash.io.stream import iter_trace_chunks
+
+    t = np.arange(600) * 1e-3
+    theta = np.sin(3 * t)
+    p = _stamped_csv(tmp_path / "stamped.csv", t, theta)
+    tr = load_trace(p)
+    np.testing.assert_allclose(tr["t"], t, rtol=0, atol=1e-12)
+    assert tr.T_s == pytest.approx(1e-3, rel=1e-12)
+    np.testing.assert_array_equal(tr["theta_m"], theta)
+    assert tr.meta["time_origin"] == {"time": "2026-11-27T13:00:00+00:00"}
+    streamed = np.concatenate([c["t"] for c in iter_trace_chunks(p, chunk_rows=100)])
+    np.testing.assert_array_equal(streamed, tr["t"])
+    # in a ';' file with decimal commas the stamps keep their decimal point
+    q = tmp_path / "de.csv"
+    q.write_text(p.read_text().replace(",", ";").replace(";0.", ";0,").replace(";-0.", ";-0,"))
+    np.testing.assert_allclose(load_trace(q)["theta_m"], theta, rtol=0, atol=0)
+
+
+def test_time_stamps_refuse_a_time_unit_and_name_a_bad_stamp(tmp_path):
+    """Seconds from stamps scaled again by ``time_unit = "ms"`` would be a silent factor 1000:
+    refused, whole and streamed. A cell that is not a stamp is named by its row."""
+    from drivelash.io.stream import iter_trace_chunks
+
+    t = np.arange(50) * 1e-3
+    p = _stamped_csv(tmp_path / "stamped.csv", t, np.cos(t))
+    msg = r"stamped.csv, column 'time': holds ISO 8601 time stamps .* its unit is 's', not 'ms'"
+    with pytest.raises(DataError, match=msg):
+        load_trace(p, _ms_config(tmp_path))
+    with pytest.raises(DataError, match=msg):
+        list(iter_trace_chunks(p, _ms_config(tmp_path)))
+    with pytest.raises(DataError, match=msg):
+        load_trace(p, {"time": {"column": "t", "unit": "ms"}, "theta_m": {"column": "theta_m"}})
+    text = p.read_text().splitlines()
+    text[4] = "13:00:00.003," + text[4].split(",")[1]
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join(text) + "\n")
+    with pytest.raises(
+        DataError, match=r"bad.csv, column 'time', row 3: not an ISO 8601 time: '13:00:00.003'"
+    ):
+        load_trace(bad)
+
+
+def _ms_config(tmp_path):
+    from drivelash.io.config import load_config
+
+    c = tmp_path / "ms.toml"
+    c.write_text('[sampling]\ntime_unit = "ms"\n')
+    return load_config(c)

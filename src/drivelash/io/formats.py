@@ -17,6 +17,7 @@ import contextlib
 import io
 import json
 import os
+import re
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -230,6 +231,45 @@ def _preamble_warning(meta: dict[str, Any], preamble: list[str]) -> None:
     ]
 
 
+#: an ISO 8601 date and time at the start of a cell (``2026-11-27 13:00:00.125``, ``…T…Z``)
+_ISO_TIME = re.compile(r"^\d{4}-\d{2}-\d{2}[ T]\d{2}:\d{2}")
+
+
+def _timestamp_columns(tokens: list[str], first_row: str, sep: str) -> list[str]:
+    """Columns whose first data cell is an ISO 8601 date and time (a logger's time stamps)."""
+    if sep == r"\s+":  # a space inside the time stamp would split it
+        return []
+    cells = [f.strip().strip('"') for f in _fields(first_row, sep)]
+    if len(cells) != len(tokens):
+        return []
+    return [name for name, cell in zip(tokens, cells, strict=True) if _ISO_TIME.match(cell)]
+
+
+def _seconds_from_timestamps(s: Any, p: Path, name: str, meta: dict[str, Any]) -> np.ndarray:
+    """ISO 8601 time stamps → seconds from the first (exact to the nanosecond); the first is
+    kept in ``meta["time_origin"]``. One line naming the row of a cell that is not one."""
+    import pandas as pd
+
+    try:
+        dt = pd.to_datetime(s, format="ISO8601", utc=True)
+    except (ValueError, TypeError, OverflowError):
+        dt = None
+    if dt is None or dt.isna().any():
+        for row, text in enumerate(s):
+            try:
+                ok = not pd.isna(pd.to_datetime(text, format="ISO8601", utc=True))
+            except (ValueError, TypeError, OverflowError):
+                ok = False
+            if not ok:
+                what = "empty field" if text == "" else f"not an ISO 8601 time: {str(text)[:40]!r}"
+                raise DataError(
+                    f"{what} (the column's first cell is a time stamp)", path=str(p), column=name, row=row
+                )
+    ns = (dt - dt.iloc[0]).to_numpy().astype("timedelta64[ns]").astype(np.int64)
+    meta.setdefault("time_origin", {})[name] = dt.iloc[0].isoformat()
+    return ns / 1e9
+
+
 def _decimal_mark(sep: str, line: str) -> str:
     """The decimal mark of a CSV data line: ``,`` where the separator is not a comma and the
     line has one (the European layout, ``0,05;1,2``), else ``.``."""
@@ -347,19 +387,29 @@ def _read_csv(p: Path) -> RawTable:
     except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError, csv_error()) as exc:
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise DataError(f"malformed CSV: {msg}", path=str(p)) from None
+    stamps = _timestamp_columns(tokens, body_nonblank[1], sep)
+    if stamps:
+        meta["timestamp_columns"] = stamps
     cols: dict[str, np.ndarray] = {}
     seen: set[str] = set()
     # Decimal commas (``0,05;1,2``, a European spreadsheet's export): a comma in any cell of a
     # file that is not comma-separated; a point anywhere in such a file is then ambiguous.
-    comma = sep != "," and any(df[c].str.contains(",", regex=False, na=False).any() for c in df.columns)
     # the header's own names, as the streamed reader has them (pandas renames an empty one
     # "Unnamed: k", and the streamed reader falls back to this one mid-file)
     names = tokens if len(tokens) == len(df.columns) else [str(c).strip() for c in df.columns]
+    comma = sep != "," and any(
+        df[c].str.contains(",", regex=False, na=False).any()
+        for c, name in zip(df.columns, names, strict=True)
+        if name not in stamps
+    )
     for c, name in zip(df.columns, names, strict=True):
         if name in seen:
             raise DataError("duplicated column name in the header", path=str(p), column=name)
         seen.add(name)
         s = df[c].fillna("").astype(str).str.strip()
+        if name in stamps:
+            cols[name] = _seconds_from_timestamps(s.str.strip('"'), p, name, meta)
+            continue
         obj = s.to_numpy(dtype=object)
         if comma:
             dotted = np.flatnonzero(s.str.contains(".", regex=False).to_numpy())
@@ -573,6 +623,7 @@ class _CsvLayout:
     sep: str
     meta: dict[str, Any]
     decimal: str = "."  # the first data row's decimal mark (``,`` in ``0,05;1,2``)
+    stamps: list[str] = field(default_factory=list)  # columns of ISO 8601 time stamps
 
 
 def _csv_layout(p: Path) -> _CsvLayout:
@@ -623,7 +674,9 @@ def _csv_layout(p: Path) -> _CsvLayout:
                 path=str(p),
                 row=_count_rows(p, offset) - 1,
             )
-    return _CsvLayout(offset, tokens, sep, meta, _decimal_mark(sep, first))
+    return _CsvLayout(
+        offset, tokens, sep, meta, _decimal_mark(sep, first), _timestamp_columns(tokens, first, sep)
+    )
 
 
 def _count_rows(p: Path, start: int) -> int:
@@ -650,14 +703,16 @@ class CsvSource(ColumnSource):
         self._layout = _csv_layout(p)
         self._strict: RawTable | None = None
         lay = self._layout
-        if lay.sep == r"\s+":  # pyarrow splits on one character: the strict reader (whole)
+        if lay.sep == r"\s+" or lay.stamps:  # pyarrow splits on one character / reads no time
+            # stamps as float: the strict reader (whole file, within the memory budget)
             n = len(next(iter(self._strict_table().columns.values())))
         else:
             n = self._count_arrow()
         if n == 0:
             raise DataError("no data rows below the header", path=str(p))
         names = list(self._strict.columns) if self._strict is not None else lay.tokens
-        super().__init__(str(p), "csv", names, n, {}, lay.meta)
+        meta = self._strict.meta if self._strict is not None else lay.meta
+        super().__init__(str(p), "csv", names, n, {}, meta)
 
     def _strict_table(self) -> RawTable:
         if self._strict is None:

@@ -110,9 +110,21 @@ def _one_rev(cm: ColumnMap) -> float | None:
     return {"rad": 2 * math.pi, "deg": 360.0, "rev": 1.0, "counts": cm.counts_per_rev}.get(cm.unit)
 
 
+def time_stamp_unit(table: Any, source: str, unit: str) -> None:
+    """A column of ISO 8601 time stamps is read as seconds from the first: its unit is ``s``
+    (a ``ms`` in ``[columns]`` or ``[sampling] time_unit`` would scale the seconds again)."""
+    if source in table.meta.get("timestamp_columns", ()) and unit != "s":
+        raise DataError(
+            f"holds ISO 8601 time stamps (read as seconds from the first), so its unit is 's', not {unit!r}",
+            path=table.path,
+            column=source,
+        )
+
+
 def _factor(cm: ColumnMap, table: RawTable, source: str) -> float:
     """Multiplicative factor from file units to SI for one mapped column."""
     path = table.path
+    time_stamp_unit(table, source, cm.unit)
     if cm.unit == "counts":
         if cm.counts_per_rev is None:
             raise DataError("unit 'counts' needs counts_per_rev in [columns]", path=path, column=source)
@@ -226,6 +238,7 @@ def _apply_mapping(
         cols = dict(table.columns)
         origin = {k: k for k in cols}
         if "t" in cols and sampling.time_unit != "s":
+            time_stamp_unit(table, "t", sampling.time_unit)
             cols["t"] = cols["t"] * _TO_SI[sampling.time_unit]
         for k in cols:
             if k.startswith("theta"):
@@ -607,6 +620,7 @@ def trace_from_table(
     if "t" not in cols and sampling.sample_rate is None:
         for name in ("t", "time"):  # an unmapped time column in [sampling] time_unit
             if name in table.columns:
+                time_stamp_unit(table, name, sampling.time_unit)
                 cols = {"t": table.columns[name] * _TO_SI[sampling.time_unit], **cols}
                 origin["t"] = name
                 break
