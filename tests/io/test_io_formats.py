@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import scipy.io
 
-from drivelash.errors import DataError
+from drivelash.errors import DataError, DrivelashError
 from drivelash.io import load_trace, read_raw, write_trace
 from drivelash.io.formats import detect_format
 from identify.helpers import emps_file, simulated_trace
@@ -346,3 +346,15 @@ def _ms_config(tmp_path):
     c = tmp_path / "ms.toml"
     c.write_text('[sampling]\ntime_unit = "ms"\n')
     return load_config(c)
+
+
+def test_time_stamped_file_over_the_budget_says_why_it_is_read_whole(tmp_path, monkeypatch):
+    """Time stamps are read by the strict (whole-file) reader: over the memory budget the
+    one-line error names the stamps as the reason and Parquet as the way out."""
+    from drivelash.io.stream import iter_trace_chunks
+
+    t = np.arange(20000) * 1e-3
+    p = _stamped_csv(tmp_path / "big.csv", t, np.sin(t))
+    monkeypatch.setenv("DRIVELASH_MEMORY_BUDGET", "1M")
+    with pytest.raises(DrivelashError, match=r"strict pass \(time stamps in column 'time'\).*Parquet"):
+        list(iter_trace_chunks(p))

@@ -718,10 +718,19 @@ class CsvSource(ColumnSource):
         if self._strict is None:
             from drivelash.io.budget import check_budget
 
+            lay = self._layout
+            why = (
+                f"time stamps in column {lay.stamps[0]!r}"
+                if lay.stamps
+                else "whitespace-separated"
+                if lay.sep == r"\s+"
+                else "pyarrow refused the file"
+            )
             check_budget(
                 self._p.stat().st_size * STRICT_CSV_FACTOR,
-                what=f"{self._p}: the CSV reader's strict pass (pyarrow refused the file)",
-                option="fix the file (pyarrow's error names the column) or raise the budget",
+                what=f"{self._p}: the CSV reader's strict pass ({why})",
+                option="convert the file to Parquet, fix it (pyarrow's error names the column)"
+                " or raise the budget",
             )
             self._strict = _read_csv(self._p)
         return self._strict
