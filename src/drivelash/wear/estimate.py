@@ -97,6 +97,9 @@ def recording_start(path: Path, spec: TimeSpec, meta: dict[str, Any] | None = No
     col = raw.columns.get(spec.column or "")
     if col is None or col.size == 0:
         raise DataError("no such column for the start time", path=str(path), column=spec.column)
+    stamp = raw.meta.get("time_origin", {}).get(spec.column)
+    if stamp is not None:  # ISO 8601 stamps: the reader kept the first (the column is seconds from it)
+        return utc_naive(datetime.fromisoformat(stamp))  # type: ignore[return-value]
     v = float(col[0]) * {"s": 1.0, "ms": 1e-3, "us": 1e-6}[spec.unit]
     if not math.isfinite(v):
         raise DataError("start time stamp is not finite", path=str(path), column=spec.column, row=0)

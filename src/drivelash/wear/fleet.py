@@ -24,7 +24,7 @@ How the recording's start time is found (``time`` per axis, or the fleet default
 * ``from = "filename"``: ``pattern`` is a regular expression whose first group (or group
   ``time``) is parsed with ``format`` (``strptime``; UTC unless the format has ``%z``);
 * ``from = "column"``: the first value of file column ``column`` is a POSIX time stamp in
-  ``unit`` (s, ms, us);
+  ``unit`` (s, ms, us), or the column's first ISO 8601 stamp (``2026-03-02T08:15:00+01:00``);
 * ``from = "metadata"``: key ``key`` (default ``start_time``) of the file's own metadata
   (the ``drivelash.meta`` block of Parquet/CSV/HDF5/MAT files), ISO 8601;
 * ``from = "mtime"``: the file's modification time (last resort: copies change it).
