@@ -500,7 +500,7 @@ class EstimatorConfig:
             omega_c=10.0 * w_r,
             tau_f=max(2.0 / w_n, 4.0 * T_s),
             lam=w_r / 25.0,
-            P_max=min(16.0 * w_r, 0.5 * w_n),
+            P_max=min(16.0 * w_r, 1.0 * w_n),
             omega_eps=0.0,
             T_thr=T_thr,
             window=max(2.0 / f_exc, 1.0),

@@ -53,7 +53,7 @@ def test_bench_scenario(name):
 #: bracket gives J_l −2.75 %, K_S −2.44 %, δ +0.081 mrad with the truth inside the intervals
 #: (``test_closed_loop_bracket_makes_seed0_case11_honest``). Seed 0 / case 0 (online MAEE with the
 #: identified parameters 1.593 mrad, with the true ones 1.318) left it in session 10: the online
-#: law's least-squares gain is capped at half the shaft resonance (docs/assumptions.md, "P0 =
+#: law's least-squares gain is capped at the shaft resonance (docs/assumptions.md, "P0 =
 #: P_max"), and the drive is now asserted by ``test_random_drives`` like the others.
 KNOWN_MISS = {
     (1, 0): "known miss: K_S measured −7.10 %, J_l −8.63 %, goal ±5 %; δ −0.075 mrad, δ1 −0.038 mrad "
