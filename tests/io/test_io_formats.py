@@ -358,3 +358,46 @@ def test_time_stamped_file_over_the_budget_says_why_it_is_read_whole(tmp_path, m
     monkeypatch.setenv("DRIVELASH_MEMORY_BUDGET", "1M")
     with pytest.raises(DrivelashError, match=r"strict pass \(time stamps in column 'time'\).*Parquet"):
         list(iter_trace_chunks(p))
+
+
+def test_rows_wider_than_the_header_are_refused_not_shifted(tmp_path):
+    """A header naming 2 columns above rows of 3 fields: pandas would take the first field as
+    an index and shift every column (t read from the second field) — a silent wrong number.
+    One line naming the row instead, whole and streamed."""
+    from drivelash.io.stream import iter_trace_chunks
+
+    p = tmp_path / "wide.csv"
+    p.write_text("t,theta_m\n0,1,2\n0.001,1.1,2.1\n0.002,1.2,2.2\n")
+    msg = r"wide.csv, row 0: 3 fields where the header names 2 columns"
+    with pytest.raises(DataError, match=msg):
+        load_trace(p)
+    with pytest.raises(DataError, match=msg):
+        list(iter_trace_chunks(p))
+
+
+@pytest.mark.parametrize(
+    ("name", "text"),
+    [
+        ("every_row.csv", "t,theta_m,\n{rows}"),  # a separator ending every line, header too
+        ("data_rows.csv", "t,theta_m\n{rows}"),  # ... only the data rows
+        ("empty_rows.csv", "t;theta_m\n{rows_sc};;\n;;\n"),  # a spreadsheet's empty rows at the end
+    ],
+)
+def test_trailing_separators_and_empty_rows_hold_no_value(tmp_path, name, text):
+    """Separators at the end of every row and rows of separators only at the end of the file
+    (spreadsheet exports) carry no value: the same numbers as the clean file, whole and streamed
+    (before: "row 0: empty field" without a column name, or "row 399: empty field")."""
+    from drivelash.io.stream import iter_trace_chunks
+
+    t = np.arange(400) / 1000.0
+    x = np.sin(t)
+    rows = "".join(f"{float(a)!r},{float(b)!r},\n" for a, b in zip(t, x, strict=True))
+    rows_sc = "".join(f"{float(a)!r};{float(b)!r};\n" for a, b in zip(t, x, strict=True))
+    p = tmp_path / name
+    p.write_text(text.format(rows=rows, rows_sc=rows_sc))
+    tr = load_trace(p)
+    assert tr.names == ["t", "theta_m"]
+    np.testing.assert_array_equal(tr["t"], t)
+    np.testing.assert_array_equal(tr["theta_m"], x)
+    streamed = np.concatenate([c["theta_m"] for c in iter_trace_chunks(p, chunk_rows=100)])
+    np.testing.assert_array_equal(streamed, x)

@@ -18,6 +18,7 @@ import io
 import json
 import os
 import re
+import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -270,6 +271,20 @@ def _seconds_from_timestamps(s: Any, p: Path, name: str, meta: dict[str, Any]) -
     return ns / 1e9
 
 
+def _check_row_widths(rows: list[str], sep: str, n: int, p: Path) -> None:
+    """A data row wider than the header is an error unless the extra fields are empty (a
+    separator at the end of each row); one line naming the first such row."""
+    for row, line in enumerate(rows[1:]):
+        fields = _fields(line, sep)
+        if len(fields) > n and "".join(fields[n:]).strip():
+            raise DataError(
+                f"{len(fields)} fields where the header names {n} columns (a column without a"
+                " name, or a separator inside a value?)",
+                path=str(p),
+                row=row,
+            )
+
+
 def _decimal_mark(sep: str, line: str) -> str:
     """The decimal mark of a CSV data line: ``,`` where the separator is not a comma and the
     line has one (the European layout, ``0,05;1,2``), else ``.``."""
@@ -358,7 +373,13 @@ def _read_csv(p: Path) -> RawTable:
     sep = _sniff_sep(header)
     tokens = _header_tokens(header, sep)
     n_fields = len(tokens)
-    dup = next((h for i, h in enumerate(tokens) if h in tokens[:i]), None)
+    # rows of separators only (``;;;;`` — a spreadsheet's formatted but empty rows) at the end
+    # hold no value: blank lines
+    while len(body_nonblank) > 1 and not "".join(_fields(body_nonblank[-1], sep)).strip():
+        body_nonblank.pop()
+        while body and not "".join(_fields(body[-1], sep)).strip():
+            body.pop()
+    dup = next((h for i, h in enumerate(tokens) if h and h in tokens[:i]), None)
     if dup is not None:
         raise DataError("duplicated column name in the header", path=str(p), column=dup)
     if len(body_nonblank) < 2:
@@ -376,33 +397,40 @@ def _read_csv(p: Path) -> RawTable:
             row=len(body_nonblank) - 2,
         )
     try:
-        df = pd.read_csv(
-            io.StringIO("\n".join(body)),
-            sep=sep,
-            engine="c" if sep != r"\s+" else "python",
-            skipinitialspace=True,
-            dtype=str,
-            keep_default_na=False,
-        )
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", pd.errors.ParserWarning)
+            df = pd.read_csv(
+                io.StringIO("\n".join(body)),
+                sep=sep,
+                engine="c" if sep != r"\s+" else "python",
+                skipinitialspace=True,
+                dtype=str,
+                keep_default_na=False,
+                index_col=False,  # never the first column as an index when rows are wider
+            )
     except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError, csv_error()) as exc:
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise DataError(f"malformed CSV: {msg}", path=str(p)) from None
+    if any(issubclass(w.category, pd.errors.ParserWarning) for w in caught):
+        _check_row_widths(body_nonblank, sep, n_fields, p)
     stamps = _timestamp_columns(tokens, body_nonblank[1], sep)
     if stamps:
         meta["timestamp_columns"] = stamps
     cols: dict[str, np.ndarray] = {}
     seen: set[str] = set()
-    # Decimal commas (``0,05;1,2``, a European spreadsheet's export): a comma in any cell of a
-    # file that is not comma-separated; a point anywhere in such a file is then ambiguous.
     # the header's own names, as the streamed reader has them (pandas renames an empty one
     # "Unnamed: k", and the streamed reader falls back to this one mid-file)
     names = tokens if len(tokens) == len(df.columns) else [str(c).strip() for c in df.columns]
+    # Decimal commas (``0,05;1,2``, a European spreadsheet's export): a comma in any cell of a
+    # file that is not comma-separated; a point anywhere in such a file is then ambiguous.
     comma = sep != "," and any(
         df[c].str.contains(",", regex=False, na=False).any()
         for c, name in zip(df.columns, names, strict=True)
         if name not in stamps
     )
     for c, name in zip(df.columns, names, strict=True):
+        if not name:  # no name in the header (a trailing separator): nothing can map it
+            continue
         if name in seen:
             raise DataError("duplicated column name in the header", path=str(p), column=name)
         seen.add(name)
@@ -660,7 +688,7 @@ def _csv_layout(p: Path) -> _CsvLayout:
         tail = fh.read().decode("utf-8", "replace")
     sep = _sniff_sep(header)
     tokens = _header_tokens(header, sep)
-    dup = next((h for i, h in enumerate(tokens) if h in tokens[:i]), None)
+    dup = next((h for i, h in enumerate(tokens) if h and h in tokens[:i]), None)
     if dup is not None:
         raise DataError("duplicated column name in the header", path=str(p), column=dup)
     lines = [ln for ln in tail.splitlines() if ln.strip()]
@@ -710,7 +738,7 @@ class CsvSource(ColumnSource):
             n = self._count_arrow()
         if n == 0:
             raise DataError("no data rows below the header", path=str(p))
-        names = list(self._strict.columns) if self._strict is not None else lay.tokens
+        names = list(self._strict.columns) if self._strict is not None else [t for t in lay.tokens if t]
         meta = self._strict.meta if self._strict is not None else lay.meta
         super().__init__(str(p), "csv", names, n, {}, meta)
 
