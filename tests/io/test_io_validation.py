@@ -74,6 +74,15 @@ def _bad_cases(tmp: Path) -> dict[str, tuple[Path, str, str | None, int | None]]
     c = _good()
     c["omega_m"] = c["omega_m"] * 60 / (2 * np.pi)  # rpm in a rad/s column
     cases["units_rpm"] = (_csv(tmp / "rpm.csv", c), "rpm", "omega_m", None)
+    c = _good()
+    c["t"] = c["t"] * 1e3  # ms in a time column read as s (a silent 1000× slower drive)
+    cases["units_time_ms"] = (_csv(tmp / "ms.csv", c), "time in ms read as s", "omega_m", None)
+    c = _good()
+    c["theta_m"] = c["theta_m"] * 1e3  # a position 1000× its velocity's integral (mm against m/s)
+    cases["units_x1000"] = (_csv(tmp / "mm.csv", c), "position in mm against a velocity", "omega_m", None)
+    c = _good()
+    c["t"] = c["t"] * 1e6  # µs
+    cases["units_time_us"] = (_csv(tmp / "us.csv", c), "time stamps in us?", "t", None)  # T_s check
     good = _csv(tmp / "good.csv", _good())
     text = good.read_text()
     (tmp / "trunc.csv").write_text(text[: len(text) - 30])  # cut mid-line, fields lost
@@ -104,7 +113,8 @@ def _bad_cases(tmp: Path) -> dict[str, tuple[Path, str, str | None, int | None]]
 
 CASE_NAMES = [
     "missing_column", "nan", "inf", "duplicated_time", "backwards_time", "non_uniform", "constant",
-    "saturated", "units_deg", "units_rpm", "truncated_csv", "truncated_parquet", "truncated_mat",
+    "saturated", "units_deg", "units_rpm", "units_time_ms", "units_x1000", "units_time_us", "truncated_csv",
+    "truncated_parquet", "truncated_mat",
     "truncated_hdf5", "wrong_type_parquet", "wrong_type_csv", "wrong_extension", "empty", "header_only",
     "not_a_number",
 ]  # fmt: skip
@@ -128,7 +138,7 @@ def test_bad_input_is_one_line_data_error(cases, name):
         assert f"column '{column}'" in msg, msg
     if row is not None:
         assert f"row {row}" in msg, msg
-    elif name in ("saturated", "units_deg", "units_rpm"):
+    elif name in ("saturated", "units_deg", "units_rpm", "units_time_ms", "units_x1000"):
         assert "row " in msg
 
 

@@ -446,13 +446,20 @@ def _check_units(cols: Mapping[str, np.ndarray], origin: Mapping[str, str], path
 
 
 def check_unit_ratio(ratio: float, side: str, path: str, column: str, row: int) -> None:
-    """Refuse a velocity/derivative-of-position ratio that is a known unit mix-up factor."""
+    """Refuse a velocity/derivative-of-position ratio that is a known unit mix-up factor: an
+    angle or speed unit (57.3, 9.55) or a factor 1000 / 10⁶ (time in ms or µs read as s, or
+    mm against m on a linear axis)."""
     for factor, hint in (
         (180.0 / math.pi, "velocity looks like deg/s (or position like rad where deg was meant)"),
         (60.0 / (2 * math.pi), "velocity looks like rpm"),
         (math.pi / 180.0, "position looks like deg (declare unit 'deg')"),
         (2 * math.pi / 60.0, "position/velocity units inconsistent by 9.55 (rpm vs rad/s?)"),
-    ):
+        (1e3, "time in ms read as s ([sampling] time_unit = 'ms' or the time column's unit), or a"
+         " velocity in mm/s against a position in m?"),
+        (1e6, "time in µs read as s ([sampling] time_unit = 'us' or the time column's unit), or a"
+         " velocity in µm/s against a position in m?"),
+        (1e-3, "time in s declared as ms, or a position in mm against a velocity in m/s?"),
+    ):  # fmt: skip
         if abs(ratio / factor - 1) < UNIT_FACTOR_TOLERANCE:
             raise DataError(
                 f"implausible units: velocity is {ratio:.4g}× the derivative of"
