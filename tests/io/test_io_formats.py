@@ -330,6 +330,9 @@ def test_time_stamps_refuse_a_time_unit_and_name_a_bad_stamp(tmp_path):
         list(iter_trace_chunks(p, _ms_config(tmp_path)))
     with pytest.raises(DataError, match=msg):
         load_trace(p, {"time": {"column": "t", "unit": "ms"}, "theta_m": {"column": "theta_m"}})
+    # mapped in s: the seconds as read
+    tr = load_trace(p, {"time": {"column": "t", "unit": "s"}, "theta_m": {"column": "theta_m"}})
+    np.testing.assert_allclose(tr["t"], t, rtol=0, atol=1e-12)
     text = p.read_text().splitlines()
     text[4] = "13:00:00.003," + text[4].split(",")[1]
     bad = tmp_path / "bad.csv"
