@@ -34,7 +34,7 @@ Inputs: J_l, K_S, T_C,l (estimator side), T_s, f_r and, when known, the recordin
 * STSMO: ρ = (K_S/J_l) · ω_r · 1 rad, k1 = 1.5 s √ρ, k2 = 1.1 s² ρ, s = min(1, 0.1/(ω_n T_s));
   motor side likewise with ρ_m = K_S ω_r/(N J_m), ω_n,m = √(K_S/(N² J_m));
 * paper law: γ = ω_n/16;
-* default law: τ_f = max(2/ω_n, 4 T_s), P_max = 16 ω_r, λ = ω_r/25, ω_c = 10 ω_r,
+* default law: τ_f = max(2/ω_n, 4 T_s), P_max = min(16 ω_r, ω_n), λ = ω_r/25, ω_c = 10 ω_r,
   stiffness-scale gain q = 0.1; gain reset when the residual stays above 3 θ_def for 2 τ_f
   in informative samples; gap offset learning at rate ω_r above 5 % of v_typ;
 * excitation window max(2/f_r, 1 s); δ_max = 2 rad, ε_δ = 0.1, δ0 = 0.
