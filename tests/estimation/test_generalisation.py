@@ -71,7 +71,7 @@ MAEE_GOAL = 1e-3  # rad, over the last 20 s
 CONV_GOAL = 10.0  # s, into the 10 mrad band
 #: Cases that miss the MAEE goal, with the measured value. Seed 0 / case 0 (1.33 mrad, a steady
 #: −0.90 mrad bias) left in session 10: the least-squares gain is capped at the shaft
-#: resonance (``test_gain_below_the_shaft_resonance_on_the_soft_drive`` below).
+#: resonance (``test_gain_capped_at_the_shaft_resonance_on_the_soft_drive`` below).
 KNOWN_MISS: dict[tuple[int, int], float] = {}
 #: ... and their mean error over the scored window [rad]: a steady bias, not a slow settling.
 KNOWN_BIAS: dict[tuple[int, int], float] = {}
@@ -111,7 +111,7 @@ def test_random_drives(seed):
         assert c is not None and c <= CONV_GOAL, where
 
 
-def test_gain_below_the_shaft_resonance_on_the_soft_drive():
+def test_gain_capped_at_the_shaft_resonance_on_the_soft_drive():
     """Seed 0 / case 0 (ω_n = 62 rad/s, f_r = 1.52 Hz, δ = 107 mrad) meets 1 mrad because the
     least-squares gain P_max = min(16 ω_r, ω_n) is no faster than the shaft resonance (measured
     session 10: MAEE 0.399 mrad). Negative control: the uncapped 16 ω_r = 153 /s lets δ̂ and κ
@@ -124,12 +124,12 @@ def test_gain_below_the_shaft_resonance_on_the_soft_drive():
     w_n = np.sqrt(drivetrain.K_S / drivetrain.J_l)
     assert cfg.P_max == pytest.approx(w_n, rel=1e-12)
     assert w_n < 16 * 2 * np.pi * f_r  # the cap binds on this drive
-    late = lambda r: r.t >= r.t[-1] - 20.0  # noqa: E731
     res = DeadzoneEstimator(drivetrain, bl, TS, cfg).run(trace)
     assert maee(res.t, res.delta_hat, bl.delta, res.t[-1] - 20.0) == pytest.approx(0.399e-3, rel=0.05)
     unc = DeadzoneEstimator(drivetrain, bl, TS, replace(cfg, P_max=16 * 2 * np.pi * f_r)).run(trace)
     assert maee(unc.t, unc.delta_hat, bl.delta, unc.t[-1] - 20.0) == pytest.approx(1.318e-3, rel=0.02)
-    assert np.mean(unc.delta_hat[late(unc)] - bl.delta) == pytest.approx(-0.90e-3, abs=0.05e-3)
+    late = unc.t >= unc.t[-1] - 20.0
+    assert np.mean(unc.delta_hat[late] - bl.delta) == pytest.approx(-0.90e-3, abs=0.05e-3)
     assert unc.extra["stiffness_scale"] == pytest.approx(0.977, abs=0.002)
 
 
