@@ -404,3 +404,31 @@ def test_trailing_separators_and_empty_rows_hold_no_value(tmp_path, name, text):
     np.testing.assert_array_equal(tr["theta_m"], x)
     streamed = np.concatenate([c["theta_m"] for c in iter_trace_chunks(p, chunk_rows=100)])
     np.testing.assert_array_equal(streamed, x)
+
+
+@pytest.mark.parametrize("tz", [None, "Europe/Berlin"])
+@pytest.mark.parametrize("as_index", [False, True])
+def test_parquet_time_stamp_column_is_seconds_from_the_first(tmp_path, tz, as_index):
+    """A pandas datetime64 column (or index) written to Parquet is the time axis in seconds from
+    its first stamp, whole and streamed, like ISO 8601 stamps in a CSV (before: the column was
+    dropped — "missing required column 't'" for a file that has one)."""
+    import pandas as pd
+
+    from drivelash.io.stream import iter_trace_chunks
+
+    t = np.arange(3000) * 125e-6
+    stamps = pd.Timestamp("2026-11-27 13:00:00", tz=tz) + pd.to_timedelta(t, unit="s")
+    df = pd.DataFrame({"t": stamps, "theta_m": np.sin(5 * t)})
+    p = tmp_path / "stamped.parquet"
+    (df.set_index("t") if as_index else df).to_parquet(p)
+    tr = load_trace(p)
+    # the stamps hold whole nanoseconds (pandas rounded t to them): exactly those, in seconds
+    np.testing.assert_array_equal(tr["t"], (stamps - stamps[0]).asi8 / 1e9)
+    np.testing.assert_allclose(tr["t"], t, rtol=0, atol=1.5e-9)  # pandas truncates t to whole ns
+    assert tr.T_s == pytest.approx(125e-6, rel=1e-9)
+    np.testing.assert_array_equal(tr["theta_m"], np.sin(5 * t))
+    assert tr.meta["time_origin"]["t"].startswith("2026-11-27T13:00:00")
+    streamed = np.concatenate([c["t"] for c in iter_trace_chunks(p, chunk_rows=700)])
+    np.testing.assert_array_equal(streamed, tr["t"])
+    with pytest.raises(DataError, match=r"column 't': holds ISO 8601 time stamps .* not 'ms'"):
+        load_trace(p, _ms_config(tmp_path))

@@ -32,3 +32,16 @@ def test_start_from_an_iso_stamp_column_is_the_first_stamp(tmp_path):
     assert recording_start(p, spec) == datetime(2026, 3, 2, 7, 15, 0)
     with pytest.raises(DataError, match="no such column for the start time"):
         recording_start(p, TimeSpec.model_validate({"from": "column", "column": "stamp"}))
+
+
+def test_start_from_a_parquet_time_stamp_column(tmp_path):
+    """A pandas datetime64 column in Parquet (tz-aware): the start is its first stamp in UTC."""
+    import pandas as pd
+
+    p = tmp_path / "r.parquet"
+    stamps = pd.Timestamp("2026-03-02 08:15:00", tz="Europe/Berlin") + pd.to_timedelta(
+        np.arange(5) * 1e-3, unit="s"
+    )
+    pd.DataFrame({"time": stamps, "theta_m": np.arange(5.0)}).to_parquet(p)
+    spec = TimeSpec.model_validate({"from": "column", "column": "time"})
+    assert recording_start(p, spec) == datetime(2026, 3, 2, 7, 15, 0)

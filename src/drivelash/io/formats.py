@@ -617,9 +617,35 @@ class ParquetSource(ColumnSource):
         names = [
             str(f.name)
             for f in schema
-            if pa.types.is_integer(f.type) or pa.types.is_floating(f.type) or pa.types.is_boolean(f.type)
+            if pa.types.is_integer(f.type)
+            or pa.types.is_floating(f.type)
+            or pa.types.is_boolean(f.type)
+            or pa.types.is_timestamp(f.type)
         ]
+        # time-stamp columns (pandas datetime64, a logger's clock): seconds from the first stamp,
+        # as the CSV reader reads ISO 8601 stamps; the first is kept in meta["time_origin"]
+        self._origin_ns: dict[str, int] = {}
+        for f in schema:
+            if pa.types.is_timestamp(f.type) and int(self._pf.metadata.num_rows) > 0:
+                first = next(self._pf.iter_batches(batch_size=1, columns=[f.name])).column(0)
+                if first.null_count:
+                    raise DataError("empty time stamp", path=str(p), column=str(f.name), row=0)
+                self._origin_ns[str(f.name)] = int(first.cast(pa.timestamp("ns", f.type.tz))[0].value)
+                meta.setdefault("timestamp_columns", []).append(str(f.name))
+                meta.setdefault("time_origin", {})[str(f.name)] = first[0].as_py().isoformat()
         super().__init__(str(p), "parquet", names, int(self._pf.metadata.num_rows), {}, meta)
+
+    def _column(self, col: Any, name: str) -> np.ndarray:
+        """One Arrow column as float64 [file units]; time stamps as seconds from the first."""
+        import pyarrow as pa
+
+        origin = self._origin_ns.get(name)
+        if origin is None:
+            # float64 columns stay the (read-only) Arrow buffers: no copy (≈ 40 % of the read)
+            return col.to_numpy(zero_copy_only=False).astype(np.float64, copy=False)
+        ns = col.cast(pa.timestamp("ns", col.type.tz)).cast(pa.int64())
+        v = ns.to_numpy(zero_copy_only=False)  # int64, or float64 with NaN where a stamp is missing
+        return (v - origin) / 1e9 if v.dtype.kind == "i" else (v - float(origin)) / 1e9
 
     def chunks(
         self, names: list[str], chunk_rows: int = DEFAULT_CHUNK_ROWS
@@ -628,11 +654,7 @@ class ParquetSource(ColumnSource):
 
         try:
             for batch in self._pf.iter_batches(batch_size=max(1, chunk_rows), columns=list(names)):
-                # float64 columns stay the (read-only) Arrow buffers: no copy (≈ 40 % of the read)
-                yield {
-                    n: batch.column(i).to_numpy(zero_copy_only=False).astype(np.float64, copy=False)
-                    for i, n in enumerate(names)
-                }
+                yield {n: self._column(batch.column(i), n) for i, n in enumerate(names)}
         except (pa.ArrowException, OSError, ValueError) as exc:
             raise DataError(
                 f"unreadable Parquet file (truncated or corrupt?): {_arrow_error(exc)}", path=self.path
