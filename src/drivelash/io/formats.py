@@ -361,13 +361,7 @@ def _read_csv(p: Path) -> RawTable:
     h = _header_index(body_nonblank[: PREAMBLE_MAX_LINES + 2])
     if h:
         _preamble_warning(meta, body_nonblank[:h])
-        seen = 0
-        for pos, ln in enumerate(body):
-            if ln.strip():
-                if seen == h:
-                    body = body[pos:]
-                    break
-                seen += 1
+        body = body[[i for i, ln in enumerate(body) if ln.strip()][h] :]
         body_nonblank = body_nonblank[h:]
     header = body_nonblank[0]
     sep = _sniff_sep(header)

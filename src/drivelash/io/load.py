@@ -121,6 +121,13 @@ def time_stamp_unit(table: Any, source: str, unit: str) -> None:
         )
 
 
+def time_factor(table: Any, name: str, sampling: SamplingSection) -> float:
+    """SI factor of an unmapped time column in ``[sampling] time_unit`` (refused on time stamps
+    in another unit than s); one rule for the whole-file loader and the stream."""
+    time_stamp_unit(table, name, sampling.time_unit)
+    return _TO_SI[sampling.time_unit]
+
+
 def _factor(cm: ColumnMap, table: RawTable, source: str) -> float:
     """Multiplicative factor from file units to SI for one mapped column."""
     path = table.path
@@ -238,8 +245,7 @@ def _apply_mapping(
         cols = dict(table.columns)
         origin = {k: k for k in cols}
         if "t" in cols and sampling.time_unit != "s":
-            time_stamp_unit(table, "t", sampling.time_unit)
-            cols["t"] = cols["t"] * _TO_SI[sampling.time_unit]
+            cols["t"] = cols["t"] * time_factor(table, "t", sampling)
         for k in cols:
             if k.startswith("theta"):
                 cols[k] = _unwrapped(cols[k], 2 * math.pi, path, k, "one revolution", warnings)
@@ -627,8 +633,7 @@ def trace_from_table(
     if "t" not in cols and sampling.sample_rate is None:
         for name in ("t", "time"):  # an unmapped time column in [sampling] time_unit
             if name in table.columns:
-                time_stamp_unit(table, name, sampling.time_unit)
-                cols = {"t": table.columns[name] * _TO_SI[sampling.time_unit], **cols}
+                cols = {"t": table.columns[name] * time_factor(table, name, sampling), **cols}
                 origin["t"] = name
                 break
     if "t" not in cols:

@@ -73,15 +73,14 @@ class _Col:
 
 def _plan(src: ColumnSource, cmap: dict[str, ColumnMap] | None, sampling: SamplingSection) -> list[_Col]:
     """The Trace columns of ``src`` under the mapping (the rules of ``load._apply_mapping``)."""
-    from drivelash.io.load import _TO_SI, _factor, _one_rev, check_mapped_column, time_stamp_unit
+    from drivelash.io.load import _factor, _one_rev, check_mapped_column, time_factor
 
     path = src.path
     plan: list[_Col] = []
     if cmap is None:
         for k in src.names:
             if k == "t":
-                time_stamp_unit(src, "t", sampling.time_unit)
-                plan.append(_Col("t", "t", _TO_SI[sampling.time_unit], affine=False))
+                plan.append(_Col("t", "t", time_factor(src, "t", sampling), affine=False))
             elif k.startswith("theta"):
                 plan.append(_Col(k, k, 1.0, affine=False, modulus=2 * math.pi, jump="one revolution"))
             else:
@@ -115,8 +114,7 @@ def _plan(src: ColumnSource, cmap: dict[str, ColumnMap] | None, sampling: Sampli
     if "t" not in made and sampling.sample_rate is None:
         for name in ("t", "time"):  # an unmapped time column in [sampling] time_unit
             if name in src.names:
-                time_stamp_unit(src, name, sampling.time_unit)
-                plan.insert(0, _Col("t", name, _TO_SI[sampling.time_unit], affine=False))
+                plan.insert(0, _Col("t", name, time_factor(src, name, sampling), affine=False))
                 break
     return plan
 
