@@ -383,6 +383,7 @@ def _recording_files(d: Path) -> dict[str, tuple[str, str]]:
         "non-increasing-time": ("back.csv", "back.csv"),
         "ns-time-stamps": ("ns.csv", "ns.csv"),
         "missing-column": ("nocol.csv", "nocol.csv"),
+        "units-row-contradicts": ("units.csv", "units.csv"),
     }
 
 
@@ -410,6 +411,13 @@ def _write_bad_recordings(d: Path) -> None:
     # no theta_m and no torque_m: every command that reads a recording needs one of them
     c = {k: v for k, v in sig.items() if k not in ("theta_m", "torque_m")}
     write_trace(Trace(c), d / "nocol.csv")
+    # a DAQ's units row under the header that says theta_m is in degrees (the numbers are rad)
+    lines = (d / "rec.csv").read_text().splitlines(keepends=True)
+    h = next(i for i, ln in enumerate(lines) if not ln.startswith("#"))
+    names = lines[h].strip().split(",")
+    units = {"t": "s", "theta_m": "deg", "theta_l": "rad", "omega_m": "rad/s", "omega_l": "rad/s"}
+    row = ",".join(units.get(n, "Nm") for n in names) + "\n"
+    (d / "units.csv").write_text("".join([*lines[: h + 1], row, *lines[h + 1 :]]))
 
 
 def _recording_class(name: str) -> Callable[[Cmd, Path], list[Case] | str]:

@@ -282,6 +282,212 @@ def test_no_header_search_where_the_first_line_fits(tmp_path):
         load_trace(junk)
 
 
+def _units_csv(path, units: str | None, *, head: str = "", sep: str = ";"):
+    """t, theta_m, omega_m, torque_m in SI with an optional units row below the header."""
+    t = np.arange(600) / 1000.0
+    cols = [t, np.sin(t), np.cos(t), 0.3 * np.sin(3 * t)]
+    rows = "".join(sep.join(repr(float(c[k])) for c in cols) + "\n" for k in range(t.size))
+    names = sep.join(["t", "theta_m", "omega_m", "torque_m"])
+    path.write_text(head + names + "\n" + (units + "\n" if units is not None else "") + rows)
+    return path
+
+
+def _both_ways(path, mapping=None):
+    """theta_m and torque_m of ``path``, read whole and streamed (they must agree)."""
+    from drivelash.io.stream import iter_trace_chunks
+
+    whole = load_trace(path, mapping)
+    chunks = list(iter_trace_chunks(path, mapping, chunk_rows=128))
+    for n in ("t", "theta_m", "torque_m"):
+        np.testing.assert_array_equal(np.concatenate([c[n] for c in chunks]), whole[n])
+    assert chunks[0].meta.get("column_units") == whole.meta.get("column_units")
+    return whole
+
+
+@pytest.mark.parametrize(
+    "units",
+    ["s;rad;rad/s;N·m", "[s];[rad];[rad/s];[Nm]", " (s) ; rad ; rad/s ; N.m ", ";rad;;Nm"],
+)
+def test_a_units_row_below_the_header_is_read_and_checked(tmp_path, units):
+    """A DAQ's units row under the column names (``s;rad;rad/s;N·m``, bracketed or with the
+    usual spellings of N·m) is not data: the same numbers as the file without it, whole and
+    streamed, and the units it states are kept (before: "column 't', row 0: not a number")."""
+    ref = load_trace(_units_csv(tmp_path / "plain.csv", None))
+    tr = _both_ways(_units_csv(tmp_path / "units.csv", units))
+    for n in ("t", "theta_m", "omega_m", "torque_m"):
+        np.testing.assert_array_equal(tr[n], ref[n])
+    assert tr.meta["column_units"]["theta_m"] == "rad"
+    assert "column_units" not in ref.meta
+
+
+def test_a_units_row_below_a_preamble(tmp_path):
+    """Preamble, names, units, numbers (a drive tool's export): both skipped, both said."""
+    ref = load_trace(_units_csv(tmp_path / "plain.csv", None))
+    tr = _both_ways(_units_csv(tmp_path / "pre.csv", "s;rad;rad/s;Nm", head=PREAMBLE))
+    np.testing.assert_array_equal(tr["theta_m"], ref["theta_m"])
+    assert any("skipped 3 line(s)" in w for w in tr.meta["warnings"])
+    assert tr.meta["column_units"] == {"t": "s", "theta_m": "rad", "omega_m": "rad/s", "torque_m": "N·m"}
+
+
+@pytest.mark.parametrize(
+    ("units", "mapping", "message"),
+    [
+        # unmapped: read as SI under its Trace name, the file says degrees
+        (
+            "s;deg;rad/s;Nm",
+            None,
+            r"column 'theta_m': the file's units row says 'deg', but the column"
+            r" would be read in 'rad'; map it in \[columns.theta_m\] with unit = 'deg'",
+        ),
+        # the time column in ms, [sampling] time_unit left at s
+        (
+            "ms;rad;rad/s;Nm",
+            None,
+            r"column 't': the file's units row says 'ms', but the column would"
+            r" be read in 's'; set \[sampling\] time_unit = 'ms'",
+        ),
+        # mapped with another unit than the file states
+        (
+            "s;rad;rpm;Nm",
+            {"omega_m": {"column": "omega_m", "unit": "rad/s"}},
+            r"column 'omega_m': the file's units row says 'rpm', but the column would be read in"
+            r" 'rad/s'; set unit = 'rpm' in \[columns.omega_m\]",
+        ),
+        # mapped without a unit (dimensionless, scale by hand): the stated unit must be declared
+        (
+            "s;deg;rad/s;Nm",
+            {"theta_m": {"column": "theta_m", "scale": 0.0174533}},
+            r"column 'theta_m': the file's units row says 'deg', but the column would be read in '1'",
+        ),
+        # a units row with a unit drivelash does not read
+        (
+            "s;rad;rad/s;kNm",
+            None,
+            r"column 'torque_m': the file's units row names 'kNm', not a unit drivelash reads",
+        ),
+    ],
+)
+def test_a_units_row_that_contradicts_the_reading_is_refused(tmp_path, units, mapping, message):
+    """Where the file states a unit and the column would be read in another, one line naming
+    the file, column, both units and where to declare it — never a silent factor of 57.3."""
+    from drivelash.io.stream import iter_trace_chunks
+
+    f = _units_csv(tmp_path / "u.csv", units)
+    with pytest.raises(DataError, match=r"u\.csv, " + message):
+        load_trace(f, mapping)
+    with pytest.raises(DataError, match=r"u\.csv, " + message):
+        list(iter_trace_chunks(f, mapping, chunk_rows=128))
+
+
+def test_a_units_row_declared_in_the_mapping_converts(tmp_path):
+    """The stated units declared in [columns] (spelled either way: ``Nm`` / ``N·m``): read
+    and converted as any mapped column. Negative control: the same file read as SI is refused."""
+    t = np.arange(600) / 1000.0
+    deg = np.degrees(np.sin(t))
+    f = tmp_path / "deg.csv"
+    f.write_text(
+        "t;pos;omega_m;torque_m\nms;°;rad/s;Nm\n"
+        + "".join(
+            f"{float(1e3 * a)!r};{float(b)!r};{float(np.cos(a))!r};{float(np.sin(3 * a))!r}\n"
+            for a, b in zip(t, deg, strict=True)
+        )
+    )
+    mapping = {
+        "pos": {"column": "theta_m", "unit": "deg"},
+        "t": {"column": "t", "unit": "ms"},
+        "torque_m": {"column": "torque_m", "unit": "N·m"},
+    }
+    tr = _both_ways(f, mapping)
+    np.testing.assert_allclose(tr["theta_m"], np.sin(t), rtol=0, atol=1e-15)
+    np.testing.assert_allclose(tr["t"], t, rtol=0, atol=1e-15)
+    with pytest.raises(DataError, match=r"column 't': the file's units row says 'ms'"):
+        load_trace(f, {"pos": {"column": "theta_m", "unit": "deg"}})
+
+
+def test_a_data_row_that_names_one_unit_is_still_data(tmp_path):
+    """A units row has at least half of its cells naming units, and a number is never a unit:
+    a first data row with bad cells keeps its error (``1;m;x`` is a value, a unit-like cell and
+    a bad one — not a units row, so no row is dropped unseen)."""
+    f = tmp_path / "bad.csv"
+    f.write_text("t;theta_m;omega_m\n1;m;x\n0.001;0.5;1\n0.002;0.7;1\n")
+    with pytest.raises(DataError, match=r"bad.csv, column 'theta_m', row 0: not a number: 'm'"):
+        load_trace(f)
+
+
+def test_a_unit_the_reader_does_not_know_matters_only_where_read(tmp_path):
+    """An extra channel's unit (``°C`` of a temperature) is no reason to refuse the file while
+    the channel is not read; mapping it makes the unknown unit the error."""
+    t = np.arange(600) / 1000.0
+    f = tmp_path / "temp.csv"
+    f.write_text(
+        "t;theta_m;omega_m;temp\ns;rad;rad/s;°C\n"
+        + "".join(f"{float(a)!r};{float(np.sin(a))!r};{float(np.cos(a))!r};21.5\n" for a in t)
+    )
+    tr = load_trace(f)
+    np.testing.assert_array_equal(tr["theta_m"], np.array([float(np.sin(a)) for a in t]))
+    assert tr.meta["column_units"]["temp"] == "°C"
+    with pytest.raises(
+        DataError, match=r"temp.csv, column 'temp': the file's units row names '°C', not a unit"
+    ):
+        load_trace(f, {"temp": {"column": "torque_m", "unit": "N·m"}})
+
+
+@pytest.mark.parametrize("fmt", ["hdf5", "parquet"])
+def test_a_unit_attribute_is_checked_like_a_units_row(tmp_path, fmt):
+    """An HDF5 dataset's ``units`` attribute or a Parquet field's ``unit`` metadata states the
+    column's unit the same way: degrees read as rad refused (naming where the file says it),
+    declared in the mapping converted. Negative control: the same file without the attribute
+    is read as rad without a word: with no velocity column to compare against (the plausibility
+    check of theta against omega), the statement is the only evidence."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    t = np.arange(600) / 1000.0
+    deg = np.degrees(np.sin(t))
+
+    def write(path, unit):
+        if fmt == "hdf5":
+            with h5py.File(path, "w") as f:
+                f["t"], f["theta_m"], f["torque_m"] = t, deg, np.cos(t)
+                if unit:
+                    f["theta_m"].attrs["units"] = unit
+        else:
+            tab = pa.table({"t": t, "theta_m": deg, "torque_m": np.cos(t)})
+            if unit:
+                tab = tab.cast(tab.schema.set(1, tab.schema.field(1).with_metadata({b"unit": unit.encode()})))
+            pq.write_table(tab, path)
+        return path
+
+    f = write(tmp_path / f"a.{'h5' if fmt == 'hdf5' else 'parquet'}", "deg")
+    where = "unit attribute" if fmt == "hdf5" else "unit metadata"
+    with pytest.raises(
+        DataError, match=rf"column 'theta_m': the file's {where} says 'deg', but the column would"
+    ):
+        load_trace(f)
+    tr = load_trace(f, {"theta_m": {"column": "theta_m", "unit": "deg"}})
+    np.testing.assert_allclose(tr["theta_m"], np.sin(t), rtol=0, atol=1e-15)
+    bare = load_trace(write(tmp_path / f"b.{'h5' if fmt == 'hdf5' else 'parquet'}", None))
+    np.testing.assert_array_equal(bare["theta_m"], deg)  # no statement: nothing to check against
+
+
+def test_stated_units_of_a_source_are_not_checked_again_on_a_written_trace(tmp_path):
+    """A trace loaded from a file whose units row says ``ms`` (mapped: read as s) and written
+    back by drivelash keeps that provenance in its metadata; reading the written file does not
+    check its seconds against the source's ``ms``."""
+    t = np.arange(600) / 1000.0
+    f = tmp_path / "ms.csv"
+    f.write_text(
+        "t;theta_m;omega_m\nms;rad;rad/s\n"
+        + "".join(f"{float(1e3 * a)!r};{float(np.sin(a))!r};{float(np.cos(a))!r}\n" for a in t)
+    )
+    tr = load_trace(f, {"t": {"column": "t", "unit": "ms"}})
+    assert tr.meta["column_units"]["t"] == "ms"
+    for ext in ("csv", "parquet", "h5"):
+        back = load_trace(write_trace(tr, tmp_path / f"back.{ext}"))
+        np.testing.assert_array_equal(back["t"], tr["t"])
+        assert "column_units" not in back.meta
+
+
 def _stamped_csv(path, t, theta, sep=","):
     import pandas as pd
 
@@ -314,6 +520,50 @@ def test_iso_time_stamps_are_seconds_from_the_first(tmp_path):
     q = tmp_path / "de.csv"
     q.write_text(p.read_text().replace(",", ";").replace(";0.", ";0,").replace(";-0.", ";-0,"))
     np.testing.assert_allclose(load_trace(q)["theta_m"], theta, rtol=0, atol=0)
+
+
+def test_dotted_day_first_time_stamps_are_read_as_iso(tmp_path):
+    """A German-locale tool's stamps (``27.11.2026 13:00:00,125``, day first, comma before the
+    milliseconds, values with decimal commas) are the same times as ISO 8601 stamps: identical
+    seconds, whole and streamed, the first stamp in ``meta["time_origin"]``. Negative control:
+    the ISO file of the same times gives the same array."""
+    import pandas as pd
+
+    from drivelash.io.stream import iter_trace_chunks
+
+    t = np.arange(600) * 1e-3
+    theta = np.round(np.sin(3 * t), 9)
+    stamps = pd.Timestamp("2026-11-05 07:03:00") + pd.to_timedelta(t, unit="s")
+    dotted = [f"{a.strftime('%d.%m.%Y %H:%M:%S')},{a.microsecond // 1000:03d}" for a in stamps]
+    p = tmp_path / "dotted.csv"
+    p.write_text(
+        "time;theta_m\n"
+        + "".join(
+            f"{a};{float(b)!r}\n".replace(".", ",").replace(",", ".", 2)
+            for a, b in zip(dotted, theta, strict=True)
+        )
+    )
+    assert p.read_text().splitlines()[2] == "05.11.2026 07:03:00,001;0,002999996"
+    iso = _stamped_csv(tmp_path / "iso.csv", t, theta)
+    tr, ref = load_trace(p), load_trace(iso)
+    np.testing.assert_array_equal(tr["t"], ref["t"])
+    np.testing.assert_array_equal(tr["theta_m"], theta)
+    assert tr.meta["time_origin"] == {"time": "2026-11-05T07:03:00+00:00"}
+    np.testing.assert_array_equal(
+        np.concatenate([c["t"] for c in iter_trace_chunks(p, chunk_rows=100)]), tr["t"]
+    )
+
+
+def test_a_date_with_slashes_is_named_not_guessed(tmp_path):
+    """``11/05/2026`` is 5 November or 11 May: not guessed, one line saying why and what to write."""
+    p = tmp_path / "slashed.csv"
+    p.write_text("time,theta_m\n11/05/2026 07:03:00.000,0.1\n11/05/2026 07:03:00.001,0.2\n")
+    with pytest.raises(
+        DataError,
+        match=r"slashed.csv, column 'time', row 0: a date with slashes .* is not read: "
+        r"month/day or day/month is not known; write ISO 8601",
+    ):
+        load_trace(p)
 
 
 def test_time_stamps_refuse_a_time_unit_and_name_a_bad_stamp(tmp_path):

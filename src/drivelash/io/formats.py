@@ -206,20 +206,98 @@ def _header_index(lines: list[str]) -> int:
 
     The first line, unless its field count differs from the line below it: then a tool wrote
     a preamble above the table, and the header is the first line that has as many fields as
-    the numeric row below it and is not itself numeric. Where no line fits, the first line
-    (the reader then names the problem as before).
+    the numeric row below it (or below its units row, :func:`units_row`) and is not itself
+    numeric. Where no line fits, the first line (the reader then names the problem as before).
     """
     if len(lines) < 2 or _same_width(lines[0], lines[1]):
         return 0
     for i in range(1, len(lines) - 1):
         sep = _sniff_sep(lines[i])
-        if (
-            _same_width(lines[i], lines[i + 1])
-            and _numeric_row(lines[i + 1], sep)
-            and not _numeric_row(lines[i], sep)
-        ):
+        if not _same_width(lines[i], lines[i + 1]) or _numeric_row(lines[i], sep):
+            continue
+        below = i + 1
+        if _unit_cells(_header_tokens(lines[i], sep), lines[i + 1], sep) and i + 2 < len(lines):
+            below = i + 2  # names, units, then the numbers (a DAQ's export)
+        if _same_width(lines[i], lines[below]) and _numeric_row(lines[below], sep):
             return i
     return 0
+
+
+#: How drive tools and DAQ exports write the units a ``[columns]`` unit names (a cell of a
+#: units row may also be bracketed: ``[rad]``, ``(deg)``); see docs/assumptions.md "Units row".
+UNIT_ALIASES = {
+    "N.m": "N·m",
+    "N*m": "N·m",
+    "Nm": "N·m",
+    "°": "deg",
+    "°/s": "deg/s",
+    "1/min": "rpm",
+    "U/min": "rpm",
+    "µs": "us",
+    "µm": "um",
+    "inc": "counts",
+    "-": "1",
+}
+
+
+def unit_name(text: str) -> str | None:
+    """The ``[columns]`` unit a cell names (``rad``, ``[rad]``, ``(Nm)``, ``°``), else None (a
+    number is never a unit here: ``1`` in a data row is a value)."""
+    from drivelash.io.config import UNIT_KIND
+
+    u = text.strip().strip('"').strip()
+    if len(u) >= 2 and u[0] + u[-1] in ("[]", "()", "{}"):
+        u = u[1:-1].strip()
+    u = UNIT_ALIASES.get(u, u)
+    try:
+        float(u)
+        return None
+    except ValueError:
+        return u if u in UNIT_KIND else None
+
+
+def _unit_cells(tokens: list[str], line: str, sep: str) -> dict[str, str]:
+    """The non-empty cells of a units row by column: the unit each names, or the cell's text
+    where it names none. Empty when ``line`` is not a units row: another width than the header,
+    numeric, or fewer than half of its non-empty cells naming a unit."""
+    cells = [c.strip().strip('"').strip() for c in _fields(line, sep)]
+    if len(cells) != len(tokens) or _numeric_row(line, sep):
+        return {}
+    out = {name: (unit_name(c), c) for name, c in zip(tokens, cells, strict=True) if name and c}
+    known = sum(u is not None for u, _ in out.values())
+    if known == 0 or 2 * known < len(out):
+        return {}
+    return {name: u if u is not None else c for name, (u, c) in out.items()}
+
+
+def units_row(tokens: list[str], line: str, sep: str) -> dict[str, str] | None:
+    """The units a row below the CSV header states (``s;rad;rad/s;Nm``, a DAQ's export), by
+    column, or None when ``line`` is a data row.
+
+    A units row has the header's width, is not numeric, and at least half of its non-empty
+    cells name a unit ``[columns]`` knows (bracketed or in a spelling of :data:`UNIT_ALIASES`).
+    A cell that names none (``°C`` of a temperature channel, ``kNm``) is kept as written: it
+    matters only if that column is read, and then :func:`drivelash.io.load.stated_unit`
+    refuses it (the reader cannot check it).
+    """
+    return _unit_cells(tokens, line, sep) or None
+
+
+#: Attribute / field-metadata keys holding a column's unit (HDF5 datasets, Parquet fields).
+UNIT_ATTRS = ("unit", "units", "Unit", "Units")
+
+
+def stated_unit_attr(attrs: dict[Any, Any]) -> str | None:
+    """The unit a column's attribute states (``unit``/``units``, text or bytes), as
+    :func:`unit_name` reads it, else as written; None without one."""
+    for key in UNIT_ATTRS:
+        for k in (key, key.encode()):
+            if k in attrs:
+                v = attrs[k]
+                v = v.decode("utf-8", "replace") if isinstance(v, bytes | np.bytes_) else v
+                if isinstance(v, str | np.str_) and str(v).strip():
+                    return unit_name(str(v)) or str(v).strip()
+    return None
 
 
 def _preamble_warning(meta: dict[str, Any], preamble: list[str]) -> None:
@@ -234,6 +312,19 @@ def _preamble_warning(meta: dict[str, Any], preamble: list[str]) -> None:
 
 #: an ISO 8601 date and time at the start of a cell (``2026-11-27 13:00:00.125``, ``…T…Z``)
 _ISO_TIME = re.compile(r"^\d{4}-\d{2}-\d{2}[ T]\d{2}:\d{2}")
+#: a dotted day.month.year date and time (``27.11.2026 13:00:00,125``: German-locale tools)
+_DOTTED_TIME = re.compile(r"^(\d{1,2})\.(\d{1,2})\.(\d{4})([ T]\d{1,2}:\d{2}(?::\d{2})?)(?:[.,](\d+))?")
+#: a date with slashes: month/day or day/month (not read: the order is not known)
+_SLASHED_DATE = re.compile(r"^\d{1,2}/\d{1,2}/\d{2,4}\b")
+
+
+def _as_iso(text: str) -> str:
+    """A dotted ``DD.MM.YYYY hh:mm:ss[,.]fff`` stamp rewritten as ISO 8601; other text as it is."""
+    m = _DOTTED_TIME.match(text)
+    if m is None:
+        return text
+    d, mo, y, hms, frac = m.groups()
+    return f"{y}-{int(mo):02d}-{int(d):02d}{hms}" + (f".{frac}" if frac else "") + text[m.end() :]
 
 
 def _timestamp_columns(tokens: list[str], first_row: str, sep: str) -> list[str]:
@@ -243,26 +334,34 @@ def _timestamp_columns(tokens: list[str], first_row: str, sep: str) -> list[str]
     cells = [f.strip().strip('"') for f in _fields(first_row, sep)]
     if len(cells) != len(tokens):
         return []
-    return [name for name, cell in zip(tokens, cells, strict=True) if _ISO_TIME.match(cell)]
+    return [
+        name
+        for name, cell in zip(tokens, cells, strict=True)
+        if _ISO_TIME.match(cell) or _DOTTED_TIME.match(cell)
+    ]
 
 
 def _seconds_from_timestamps(s: Any, p: Path, name: str, meta: dict[str, Any]) -> np.ndarray:
     """ISO 8601 time stamps → seconds from the first (exact to the nanosecond); the first is
-    kept in ``meta["time_origin"]``. One line naming the row of a cell that is not one."""
+    kept in ``meta["time_origin"]``. Dotted day-first stamps (``27.11.2026 13:00:00,125``) are
+    read as the same ISO 8601 time. One line naming the row of a cell that is not one."""
     import pandas as pd
 
+    cells = s
+    if len(s) and _DOTTED_TIME.match(str(s.iloc[0])):
+        s = s.map(_as_iso)
     try:
         dt = pd.to_datetime(s, format="ISO8601", utc=True)
     except (ValueError, TypeError, OverflowError):
         dt = None
     if dt is None or dt.isna().any():
-        for row, text in enumerate(s):
+        for row, (text, cell) in enumerate(zip(s, cells, strict=True)):
             try:
                 ok = not pd.isna(pd.to_datetime(text, format="ISO8601", utc=True))
             except (ValueError, TypeError, OverflowError):
                 ok = False
             if not ok:
-                what = "empty field" if text == "" else f"not an ISO 8601 time: {str(text)[:40]!r}"
+                what = "empty field" if text == "" else f"not an ISO 8601 time: {str(cell)[:40]!r}"
                 raise DataError(
                     f"{what} (the column's first cell is a time stamp)", path=str(p), column=name, row=row
                 )
@@ -335,7 +434,12 @@ def _parse_meta(text: Any) -> dict[str, Any]:
         meta = json.loads(str(text))
     except (ValueError, TypeError):
         return {}
-    return meta if isinstance(meta, dict) else {}
+    if not isinstance(meta, dict):
+        return {}
+    # what a reader found in the file itself (its units row, unit attributes), never what an
+    # earlier load of another file wrote into the metadata: a trace written back in SI keeps
+    # the source's stated units in its meta, which must not be checked against it again
+    return {k: v for k, v in meta.items() if k not in ("column_units", "column_units_from")}
 
 
 # --------------------------------------------------------------------------- readers
@@ -358,7 +462,7 @@ def _read_csv(p: Path) -> RawTable:
     body_nonblank = [ln for ln in body if ln.strip()]
     if not body_nonblank:
         raise DataError("file is empty (no header and no data rows)", path=str(p))
-    h = _header_index(body_nonblank[: PREAMBLE_MAX_LINES + 2])
+    h = _header_index(body_nonblank[: PREAMBLE_MAX_LINES + 3])
     if h:
         _preamble_warning(meta, body_nonblank[:h])
         body = body[[i for i, ln in enumerate(body) if ln.strip()][h] :]
@@ -376,6 +480,11 @@ def _read_csv(p: Path) -> RawTable:
     dup = next((h for i, h in enumerate(tokens) if h and h in tokens[:i]), None)
     if dup is not None:
         raise DataError("duplicated column name in the header", path=str(p), column=dup)
+    units = units_row(tokens, body_nonblank[1], sep) if len(body_nonblank) > 1 else None
+    if units is not None:  # the file states its units: checked against the mapping when loaded
+        meta["column_units"], meta["column_units_from"] = units, "units row"
+        del body[next(i for i in range(1, len(body)) if body[i].strip())]
+        del body_nonblank[1]
     if len(body_nonblank) < 2:
         raise DataError("no data rows below the header", path=str(p))
     # truncation: last data line with fewer fields than the header, file not ending in newline
@@ -452,6 +561,12 @@ def _read_csv(p: Path) -> RawTable:
                     float(num[row])
                 except (ValueError, TypeError, OverflowError):
                     what = "empty field" if text == "" else f"not a number: {str(text)[:40]!r}"
+                    if _SLASHED_DATE.match(str(text)):
+                        what = (
+                            f"a date with slashes ({str(text)[:40]!r}) is not read: month/day or"
+                            " day/month is not known; write ISO 8601 (2026-11-27 13:00:00) or"
+                            " DD.MM.YYYY, or a time column in seconds"
+                        )
                     raise DataError(what, path=str(p), column=name, row=row) from None
             raise DataError("unparseable values", path=str(p), column=name) from None
         cols[name] = vals
@@ -616,6 +731,11 @@ class ParquetSource(ColumnSource):
             or pa.types.is_boolean(f.type)
             or pa.types.is_timestamp(f.type)
         ]
+        stated = {str(f.name): stated_unit_attr(dict(f.metadata or {})) for f in schema}
+        units = {k: u for k, u in stated.items() if u is not None}
+        if units:  # a field's "unit" metadata: checked against the mapping when loaded
+            meta["column_units"] = units
+            meta["column_units_from"] = "unit metadata"
         # time-stamp columns (pandas datetime64, a logger's clock): seconds from the first stamp,
         # as the CSV reader reads ISO 8601 stamps; the first is kept in meta["time_origin"]
         self._origin_ns: dict[str, int] = {}
@@ -677,7 +797,7 @@ def _csv_layout(p: Path) -> _CsvLayout:
     offset = 0
     cands: list[tuple[str, int]] = []  # the first non-blank lines and the offsets after them
     with p.open("rb") as fh:
-        while len(cands) < PREAMBLE_MAX_LINES + 2:
+        while len(cands) < PREAMBLE_MAX_LINES + 3:
             raw = fh.readline()
             if not raw:
                 break
@@ -692,17 +812,27 @@ def _csv_layout(p: Path) -> _CsvLayout:
             if line.strip():
                 cands.append((line, offset))
                 if len(cands) == 2 and _same_width(cands[0][0], cands[1][0]):
-                    break  # the usual file: header, then a row with as many fields
+                    sep0 = _sniff_sep(cands[0][0])
+                    if not _unit_cells(_header_tokens(cands[0][0], sep0), cands[1][0], sep0):
+                        break  # the usual file: header, then a row with as many fields
+                if len(cands) == 3 and _same_width(cands[0][0], cands[1][0]):
+                    break  # header, units row, first data row
         if not cands:
             raise DataError("file is empty (no header and no data rows)", path=str(p))
         h = _header_index([c for c, _ in cands])
         if h:
             _preamble_warning(meta, [c for c, _ in cands[:h]])
         header, offset = cands[h]
+        sep = _sniff_sep(header)
+        below = cands[h + 1][0] if h + 1 < len(cands) else ""
+        units = units_row(_header_tokens(header, sep), below, sep) if below else None
+        if units is not None:  # the data start below the units row
+            meta["column_units"], meta["column_units_from"] = units, "units row"
+            offset = cands[h + 1][1]
+            h += 1
         first = cands[h + 1][0] if h + 1 < len(cands) else ""
         fh.seek(max(offset, size - 65536))
         tail = fh.read().decode("utf-8", "replace")
-    sep = _sniff_sep(header)
     tokens = _header_tokens(header, sep)
     dup = next((h for i, h in enumerate(tokens) if h and h in tokens[:i]), None)
     if dup is not None:
@@ -912,6 +1042,7 @@ class Hdf5Source(ColumnSource):
         order: list[str] = []
         scalars: dict[str, float] = {}
         found: dict[str, _H5Column] = {}
+        units: dict[str, str] = {}  # a dataset's "unit"/"units" attribute
         try:
             if _META_KEY in f.attrs:
                 meta = _parse_meta(f.attrs[_META_KEY])
@@ -950,12 +1081,16 @@ class Hdf5Source(ColumnSource):
                     return
                 if obj.size == 1:
                     scalars[name] = float(np.asarray(obj[()]).reshape(-1)[0])
+                    return
                 elif obj.ndim == 1:
                     found[name] = _H5Column(name, "1d", obj.shape[0])
                 elif obj.ndim == 2 and obj.shape[0] == 1:
                     found[name] = _H5Column(name, "row", obj.shape[1])
                 elif obj.ndim == 2 and obj.shape[1] == 1:
                     found[name] = _H5Column(name, "col", obj.shape[0])
+                u = stated_unit_attr(dict(obj.attrs))
+                if u is not None and name in found:
+                    units[name] = u
 
             f.visititems(visit)
         except (OSError, KeyError, ValueError, RuntimeError) as exc:
@@ -966,7 +1101,11 @@ class Hdf5Source(ColumnSource):
         found = {k: c for k, c in found.items() if c.length == n}
         base = [k.rsplit("/", 1)[-1] for k in found]
         if len(set(base)) == len(base):  # shorter names when unambiguous: 'trace/theta_m' → 'theta_m'
+            units = {b: units[k] for b, k in zip(base, found, strict=True) if k in units}
             found = {b: c for b, c in zip(base, found.values(), strict=True)}
+        if units:  # checked against the mapping when loaded, as a CSV units row
+            meta["column_units"] = units
+            meta["column_units_from"] = "unit attribute"
         if order:  # column order as written by drivelash
             found = {k: found[k] for k in order if k in found} | {
                 k: v for k, v in found.items() if k not in order

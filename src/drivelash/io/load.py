@@ -121,10 +121,45 @@ def time_stamp_unit(table: Any, source: str, unit: str) -> None:
         )
 
 
+def stated_unit(table: Any, source: str, unit: str, fix: Callable[[str], str]) -> None:
+    """A column whose unit the file states (a units row below the CSV header, an HDF5 dataset's
+    or a Parquet field's ``unit`` attribute; kept in ``meta["column_units"]``) is refused when
+    it would be read in another unit, or when the stated unit is not one drivelash reads: one
+    line naming the column, both units and ``fix(stated)`` (where to declare the stated unit)."""
+    from drivelash.io.formats import UNIT_ALIASES
+
+    stated = table.meta.get("column_units", {}).get(source)
+    if stated is None:
+        return
+    where = table.meta.get("column_units_from", "units row")
+    if stated not in UNIT_KIND:
+        raise DataError(
+            f"the file's {where} names {stated!r}, not a unit drivelash reads (known: "
+            f"{', '.join(UNIT_KIND)}; also {', '.join(UNIT_ALIASES)}); the column cannot be checked",
+            path=table.path,
+            column=source,
+        )
+    if UNIT_ALIASES.get(stated, stated) != UNIT_ALIASES.get(unit, unit):
+        raise DataError(
+            f"the file's {where} says {stated!r}, but the column would be read in {unit!r}; {fix(stated)}",
+            path=table.path,
+            column=source,
+        )
+
+
+def passthrough_unit(table: Any, name: str) -> None:
+    """An unmapped column read under its Trace name is in SI (:data:`TRACE_UNITS`): refused when
+    the file states another unit for it; one rule for the whole-file loader and the stream."""
+    if name in TRACE_UNITS and name != "t":
+        stated_unit(table, name, TRACE_UNITS[name], lambda u: f"map it in [columns.{name}] with unit = {u!r}")
+
+
 def time_factor(table: Any, name: str, sampling: SamplingSection) -> float:
     """SI factor of an unmapped time column in ``[sampling] time_unit`` (refused on time stamps
-    in another unit than s); one rule for the whole-file loader and the stream."""
+    in another unit than s, or where the file states another unit); one rule for the whole-file
+    loader and the stream."""
     time_stamp_unit(table, name, sampling.time_unit)
+    stated_unit(table, name, sampling.time_unit, lambda u: f"set [sampling] time_unit = {u!r}")
     return _TO_SI[sampling.time_unit]
 
 
@@ -132,6 +167,7 @@ def _factor(cm: ColumnMap, table: RawTable, source: str) -> float:
     """Multiplicative factor from file units to SI for one mapped column."""
     path = table.path
     time_stamp_unit(table, source, cm.unit)
+    stated_unit(table, source, cm.unit, lambda u: f"set unit = {u!r} in [columns.{source}]")
     if cm.unit == "counts":
         if cm.counts_per_rev is None:
             raise DataError("unit 'counts' needs counts_per_rev in [columns]", path=path, column=source)
@@ -244,9 +280,10 @@ def _apply_mapping(
     if cmap is None:
         cols = dict(table.columns)
         origin = {k: k for k in cols}
-        if "t" in cols and sampling.time_unit != "s":
-            cols["t"] = cols["t"] * time_factor(table, "t", sampling)
+        if "t" in cols and (f := time_factor(table, "t", sampling)) != 1.0:
+            cols["t"] = cols["t"] * f
         for k in cols:
+            passthrough_unit(table, k)
             if k.startswith("theta"):
                 cols[k] = _unwrapped(cols[k], 2 * math.pi, path, k, "one revolution", warnings)
         return cols, kinds, origin
@@ -263,6 +300,7 @@ def _apply_mapping(
     # [columns] table need only name what must be renamed or converted.
     for name, raw in table.columns.items():
         if name in TRACE_UNITS and name != "t" and name not in cols and name not in cmap:
+            passthrough_unit(table, name)
             if name.startswith("theta"):
                 raw = _unwrapped(raw, 2 * math.pi, path, name, "one revolution", warnings)
             cols[name] = raw

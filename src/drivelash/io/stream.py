@@ -73,7 +73,7 @@ class _Col:
 
 def _plan(src: ColumnSource, cmap: dict[str, ColumnMap] | None, sampling: SamplingSection) -> list[_Col]:
     """The Trace columns of ``src`` under the mapping (the rules of ``load._apply_mapping``)."""
-    from drivelash.io.load import _factor, _one_rev, check_mapped_column, time_factor
+    from drivelash.io.load import _factor, _one_rev, check_mapped_column, passthrough_unit, time_factor
 
     path = src.path
     plan: list[_Col] = []
@@ -82,8 +82,10 @@ def _plan(src: ColumnSource, cmap: dict[str, ColumnMap] | None, sampling: Sampli
             if k == "t":
                 plan.append(_Col("t", "t", time_factor(src, "t", sampling), affine=False))
             elif k.startswith("theta"):
+                passthrough_unit(src, k)
                 plan.append(_Col(k, k, 1.0, affine=False, modulus=2 * math.pi, jump="one revolution"))
             else:
+                passthrough_unit(src, k)
                 plan.append(_Col(k, k, 1.0, affine=False))
         cmap = {}
     made: set[str] = {c.name for c in plan}
@@ -108,6 +110,7 @@ def _plan(src: ColumnSource, cmap: dict[str, ColumnMap] | None, sampling: Sampli
         made.add(cm.column)
     for name in src.names:
         if name in TRACE_UNITS and name != "t" and name not in made and name not in cmap:
+            passthrough_unit(src, name)
             mod = 2 * math.pi if name.startswith("theta") else None
             plan.append(_Col(name, name, 1.0, affine=False, modulus=mod, jump="one revolution"))
             made.add(name)
