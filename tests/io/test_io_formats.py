@@ -299,7 +299,8 @@ def _both_ways(path, mapping=None):
     whole = load_trace(path, mapping)
     chunks = list(iter_trace_chunks(path, mapping, chunk_rows=128))
     for n in ("t", "theta_m", "torque_m"):
-        np.testing.assert_array_equal(np.concatenate([c[n] for c in chunks]), whole[n])
+        if n in whole.columns:
+            np.testing.assert_array_equal(np.concatenate([c[n] for c in chunks]), whole[n])
     assert chunks[0].meta.get("column_units") == whole.meta.get("column_units")
     return whole
 
@@ -552,6 +553,43 @@ def test_dotted_day_first_time_stamps_are_read_as_iso(tmp_path):
     np.testing.assert_array_equal(
         np.concatenate([c["t"] for c in iter_trace_chunks(p, chunk_rows=100)]), tr["t"]
     )
+
+
+@pytest.mark.parametrize("layout", ["iso", "daq"])
+def test_a_preamble_above_time_stamped_rows_is_found(tmp_path, layout):
+    """The header below a preamble is found when the rows under it start with time stamps
+    (before: the rows had to be all numbers, so the first preamble line became the header and
+    'decimal point in 05.11.2026' was reported). ``daq``: a German DAQ export as written —
+    preamble, names, a units row with an empty time cell and an unread °C channel, dotted
+    stamps with a comma before the fraction, decimal commas; mapped by a config, the same
+    numbers as the SI file, whole and streamed."""
+    import pandas as pd
+
+    t = np.arange(600) * 1e-3
+    theta = np.sin(3 * t)
+    stamps = pd.Timestamp("2026-11-05 07:03:00") + pd.to_timedelta(t, unit="s")
+    if layout == "iso":
+        cells = [
+            (a.strftime("%Y-%m-%d %H:%M:%S.%f"), repr(float(b))) for a, b in zip(stamps, theta, strict=True)
+        ]
+        text = PREAMBLE + "time;theta_m\n" + "".join(f"{a};{b}\n" for a, b in cells)
+        mapping = None
+    else:
+        cells = [
+            (
+                f"{a.strftime('%d.%m.%Y %H:%M:%S')},{a.microsecond:06d}",
+                repr(float(np.degrees(b))).replace(".", ","),
+            )
+            for a, b in zip(stamps, theta, strict=True)
+        ]
+        text = PREAMBLE + "Zeit;Pos;Temp\n;°;°C\n" + "".join(f"{a};{b};21,5\n" for a, b in cells)
+        mapping = {"Zeit": {"column": "t", "unit": "s"}, "Pos": {"column": "theta_m", "unit": "deg"}}
+    f = tmp_path / f"{layout}.csv"
+    f.write_text(text)
+    tr = _both_ways(f, mapping)
+    np.testing.assert_allclose(tr["t"], t, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(tr["theta_m"], theta, rtol=0, atol=1e-15 if layout == "daq" else 0)
+    assert any("skipped 3 line(s)" in w for w in tr.meta["warnings"])
 
 
 def test_a_date_with_slashes_is_named_not_guessed(tmp_path):

@@ -218,9 +218,23 @@ def _header_index(lines: list[str]) -> int:
         below = i + 1
         if _unit_cells(_header_tokens(lines[i], sep), lines[i + 1], sep) and i + 2 < len(lines):
             below = i + 2  # names, units, then the numbers (a DAQ's export)
-        if _same_width(lines[i], lines[below]) and _numeric_row(lines[below], sep):
+        if _same_width(lines[i], lines[below]) and _data_row(lines[below], sep):
             return i
     return 0
+
+
+def _data_row(line: str, sep: str) -> bool:
+    """Every field of ``line`` is a number or a time stamp (ISO 8601 or dotted day-first): a
+    row of the table below a preamble."""
+    fields = [f.strip().strip('"').strip() for f in _fields(line, sep)]
+    rest = [f for f in fields if not (_ISO_TIME.match(f) or _DOTTED_TIME.match(f))]
+    if sep != ",":
+        rest = [f.replace(",", ".") for f in rest]
+    try:
+        [float(f) for f in rest]  # noqa: B018 - only whether each field parses
+    except ValueError:
+        return False
+    return bool(fields)
 
 
 #: How drive tools and DAQ exports write the units a ``[columns]`` unit names (a cell of a
