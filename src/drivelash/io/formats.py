@@ -183,13 +183,15 @@ def _fields(line: str, sep: str) -> list[str]:
     return line.split() if sep == r"\s+" else line.split(sep)
 
 
-def _numeric_row(line: str, sep: str) -> bool:
-    """Every field of ``line`` is a number (decimal commas where ``sep`` is not a comma)."""
+def _numeric_row(line: str, sep: str, *, stamps: bool = False) -> bool:
+    """Every field of ``line`` is a number (decimal commas where ``sep`` is not a comma) or,
+    with ``stamps``, a time stamp (ISO 8601 or dotted day-first): a row of a table."""
     fields = [f.strip().strip('"').strip() for f in _fields(line, sep)]
+    values = [f for f in fields if not (stamps and (_ISO_TIME.match(f) or _DOTTED_TIME.match(f)))]
     if sep != ",":
-        fields = [f.replace(",", ".") for f in fields]
+        values = [f.replace(",", ".") for f in values]
     try:
-        [float(f) for f in fields]  # noqa: B018 - only whether each field parses
+        [float(f) for f in values]  # noqa: B018 - only whether each field parses
     except ValueError:
         return False
     return bool(fields)
@@ -206,8 +208,9 @@ def _header_index(lines: list[str]) -> int:
 
     The first line, unless its field count differs from the line below it: then a tool wrote
     a preamble above the table, and the header is the first line that has as many fields as
-    the numeric row below it (or below its units row, :func:`units_row`) and is not itself
-    numeric. Where no line fits, the first line (the reader then names the problem as before).
+    the row of numbers and time stamps below it (or below its units row, :func:`units_row`)
+    and is not itself numeric. Where no line fits, the first line (the reader then names the
+    problem as before).
     """
     if len(lines) < 2 or _same_width(lines[0], lines[1]):
         return 0
@@ -218,23 +221,9 @@ def _header_index(lines: list[str]) -> int:
         below = i + 1
         if _unit_cells(_header_tokens(lines[i], sep), lines[i + 1], sep) and i + 2 < len(lines):
             below = i + 2  # names, units, then the numbers (a DAQ's export)
-        if _same_width(lines[i], lines[below]) and _data_row(lines[below], sep):
+        if _same_width(lines[i], lines[below]) and _numeric_row(lines[below], sep, stamps=True):
             return i
     return 0
-
-
-def _data_row(line: str, sep: str) -> bool:
-    """Every field of ``line`` is a number or a time stamp (ISO 8601 or dotted day-first): a
-    row of the table below a preamble."""
-    fields = [f.strip().strip('"').strip() for f in _fields(line, sep)]
-    rest = [f for f in fields if not (_ISO_TIME.match(f) or _DOTTED_TIME.match(f))]
-    if sep != ",":
-        rest = [f.replace(",", ".") for f in rest]
-    try:
-        [float(f) for f in rest]  # noqa: B018 - only whether each field parses
-    except ValueError:
-        return False
-    return bool(fields)
 
 
 #: How drive tools and DAQ exports write the units a ``[columns]`` unit names (a cell of a
