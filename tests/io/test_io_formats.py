@@ -317,7 +317,9 @@ def test_a_units_row_below_the_header_is_read_and_checked(tmp_path, units):
     tr = _both_ways(_units_csv(tmp_path / "units.csv", units))
     for n in ("t", "theta_m", "omega_m", "torque_m"):
         np.testing.assert_array_equal(tr[n], ref[n])
-    assert tr.meta["column_units"]["theta_m"] == "rad"
+    from drivelash.io.formats import unit_name
+
+    assert unit_name(tr.meta["column_units"]["theta_m"]) == "rad"  # kept as written ("[rad]")
     assert "column_units" not in ref.meta
 
 
@@ -327,7 +329,7 @@ def test_a_units_row_below_a_preamble(tmp_path):
     tr = _both_ways(_units_csv(tmp_path / "pre.csv", "s;rad;rad/s;Nm", head=PREAMBLE))
     np.testing.assert_array_equal(tr["theta_m"], ref["theta_m"])
     assert any("skipped 3 line(s)" in w for w in tr.meta["warnings"])
-    assert tr.meta["column_units"] == {"t": "s", "theta_m": "rad", "omega_m": "rad/s", "torque_m": "N·m"}
+    assert tr.meta["column_units"] == {"t": "s", "theta_m": "rad", "omega_m": "rad/s", "torque_m": "Nm"}
 
 
 @pytest.mark.parametrize(
@@ -417,20 +419,48 @@ def test_a_data_row_that_names_one_unit_is_still_data(tmp_path):
 
 def test_a_unit_the_reader_does_not_know_matters_only_where_read(tmp_path):
     """An extra channel's unit (``°C`` of a temperature) is no reason to refuse the file while
-    the channel is not read; mapping it makes the unknown unit the error."""
+    the channel is not read. A read column in a unit drivelash does not know (``kNm``) is refused
+    where it would be read as SI, and read with a warning where the user's mapping states unit
+    and scale. ``%`` (a drive trace's torque in % of rated) is dimensionless: SI refused with
+    the hint to map it with its scale; mapped as unit "1" with the scale, read silently."""
     t = np.arange(600) / 1000.0
-    f = tmp_path / "temp.csv"
-    f.write_text(
-        "t;theta_m;omega_m;temp\ns;rad;rad/s;°C\n"
-        + "".join(f"{float(a)!r};{float(np.sin(a))!r};{float(np.cos(a))!r};21.5\n" for a in t)
-    )
-    tr = load_trace(f)
-    np.testing.assert_array_equal(tr["theta_m"], np.array([float(np.sin(a)) for a in t]))
-    assert tr.meta["column_units"]["temp"] == "°C"
+    tq = 0.4 * np.sin(3 * t)
+
+    def write(name, unit, values):
+        f = tmp_path / name
+        f.write_text(
+            f"t;theta_m;omega_m;torque_m;temp\ns;rad;rad/s;{unit};°C\n"
+            + "".join(
+                f"{float(a)!r};{float(np.sin(a))!r};{float(np.cos(a))!r};{float(v)!r};21.5\n"
+                for a, v in zip(t, values, strict=True)
+            )
+        )
+        return f
+
+    plain = load_trace(write("nm.csv", "Nm", tq))
+    np.testing.assert_array_equal(plain["torque_m"], np.array([float(v) for v in tq]))
+    assert plain.meta["column_units"]["temp"] == "°C" and not plain.meta["warnings"]
+    knm = write("knm.csv", "kNm", tq / 1e3)
     with pytest.raises(
-        DataError, match=r"temp.csv, column 'temp': the file's units row names '°C', not a unit"
+        DataError,
+        match=r"knm.csv, column 'torque_m': the file's units row names 'kNm', not a unit drivelash reads"
+        r" .*map it in \[columns.torque_m\] with the unit and scale to SI",
     ):
-        load_trace(f, {"temp": {"column": "torque_m", "unit": "N·m"}})
+        load_trace(knm)
+    tr = _both_ways(knm, {"torque_m": {"column": "torque_m", "unit": "N·m", "scale": 1000.0}})
+    np.testing.assert_allclose(tr["torque_m"], tq, rtol=1e-15, atol=0)
+    assert tr.meta["warnings"] == [
+        f"{knm}, column 'torque_m': the file's units row names 'kNm', which drivelash cannot check;"
+        " read as [columns.torque_m] unit = 'N·m' with its scale"
+    ]
+    pct = write("pct.csv", "%", 100.0 * tq / 2.0)  # rated torque 2 N·m
+    with pytest.raises(
+        DataError, match=r"says '%', but .* map it in \[columns.torque_m\] with unit = '1' and its scale to SI"
+    ):
+        load_trace(pct)
+    tr = _both_ways(pct, {"torque_m": {"column": "torque_m", "unit": "1", "scale": 0.02}})
+    np.testing.assert_allclose(tr["torque_m"], tq, rtol=1e-14, atol=1e-17)
+    assert not tr.meta["warnings"]
 
 
 @pytest.mark.parametrize("fmt", ["hdf5", "parquet"])

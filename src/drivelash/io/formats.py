@@ -239,38 +239,43 @@ UNIT_ALIASES = {
     "µs": "us",
     "µm": "um",
     "inc": "counts",
+    "sec": "s",
+    "msec": "ms",
+    "rad/sec": "rad/s",
+    "deg/sec": "deg/s",
     "-": "1",
+    "%": "1",
 }
 
 
-def unit_name(text: str) -> str | None:
-    """The ``[columns]`` unit a cell names (``rad``, ``[rad]``, ``(Nm)``, ``°``), else None (a
-    number is never a unit here: ``1`` in a data row is a value)."""
+def unit_name(text: str, *, number: bool = False) -> str | None:
+    """The ``[columns]`` unit a cell names (``rad``, ``[rad]``, ``(Nm)``, ``°``), else None.
+    A number (``1``) names none unless ``number``: in a row that may be data it is a value."""
     from drivelash.io.config import UNIT_KIND
 
     u = text.strip().strip('"').strip()
     if len(u) >= 2 and u[0] + u[-1] in ("[]", "()", "{}"):
         u = u[1:-1].strip()
     u = UNIT_ALIASES.get(u, u)
-    try:
-        float(u)
-        return None
-    except ValueError:
-        return u if u in UNIT_KIND else None
+    if not number:
+        try:
+            float(u)
+            return None
+        except ValueError:
+            pass
+    return u if u in UNIT_KIND else None
 
 
 def _unit_cells(tokens: list[str], line: str, sep: str) -> dict[str, str]:
-    """The non-empty cells of a units row by column: the unit each names, or the cell's text
-    where it names none. Empty when ``line`` is not a units row: another width than the header,
-    numeric, or fewer than half of its non-empty cells naming a unit."""
+    """The non-empty cells of a units row by column, as written (``[rad]``, ``%``). Empty when
+    ``line`` is not a units row: another width than the header, numeric, or fewer than half of
+    its non-empty cells naming a unit (:func:`unit_name`)."""
     cells = [c.strip().strip('"').strip() for c in _fields(line, sep)]
     if len(cells) != len(tokens) or _numeric_row(line, sep):
         return {}
-    out = {name: (unit_name(c), c) for name, c in zip(tokens, cells, strict=True) if name and c}
-    known = sum(u is not None for u, _ in out.values())
-    if known == 0 or 2 * known < len(out):
-        return {}
-    return {name: u if u is not None else c for name, (u, c) in out.items()}
+    out = {name: c for name, c in zip(tokens, cells, strict=True) if name and c}
+    known = sum(unit_name(c) is not None for c in out.values())
+    return out if known and 2 * known >= len(out) else {}
 
 
 def units_row(tokens: list[str], line: str, sep: str) -> dict[str, str] | None:
@@ -279,9 +284,8 @@ def units_row(tokens: list[str], line: str, sep: str) -> dict[str, str] | None:
 
     A units row has the header's width, is not numeric, and at least half of its non-empty
     cells name a unit ``[columns]`` knows (bracketed or in a spelling of :data:`UNIT_ALIASES`).
-    A cell that names none (``°C`` of a temperature channel, ``kNm``) is kept as written: it
-    matters only if that column is read, and then :func:`drivelash.io.load.stated_unit`
-    refuses it (the reader cannot check it).
+    Cells are kept as written; one that names no unit we know (``°C`` of a temperature channel,
+    ``kNm``) matters only if that column is read (:func:`drivelash.io.load.stated_unit`).
     """
     return _unit_cells(tokens, line, sep) or None
 
@@ -291,15 +295,15 @@ UNIT_ATTRS = ("unit", "units", "Unit", "Units")
 
 
 def stated_unit_attr(attrs: dict[Any, Any]) -> str | None:
-    """The unit a column's attribute states (``unit``/``units``, text or bytes), as
-    :func:`unit_name` reads it, else as written; None without one."""
+    """The unit a column's attribute states (``unit``/``units``, text or bytes), as written;
+    None without one."""
     for key in UNIT_ATTRS:
         for k in (key, key.encode()):
             if k in attrs:
                 v = attrs[k]
                 v = v.decode("utf-8", "replace") if isinstance(v, bytes | np.bytes_) else v
                 if isinstance(v, str | np.str_) and str(v).strip():
-                    return unit_name(str(v)) or str(v).strip()
+                    return str(v).strip()
     return None
 
 

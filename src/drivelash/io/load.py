@@ -121,27 +121,40 @@ def time_stamp_unit(table: Any, source: str, unit: str) -> None:
         )
 
 
-def stated_unit(table: Any, source: str, unit: str, fix: Callable[[str], str]) -> None:
+def stated_unit(
+    table: Any, source: str, unit: str, fix: Callable[[str], str], warnings: list[str] | None = None
+) -> None:
     """A column whose unit the file states (a units row below the CSV header, an HDF5 dataset's
     or a Parquet field's ``unit`` attribute; kept in ``meta["column_units"]``) is refused when
-    it would be read in another unit, or when the stated unit is not one drivelash reads: one
-    line naming the column, both units and ``fix(stated)`` (where to declare the stated unit)."""
-    from drivelash.io.formats import UNIT_ALIASES
+    it would be read in another unit: one line naming the column, both units and ``fix(stated)``
+    (where to declare the stated unit). A stated unit drivelash does not read (``kNm``) is an
+    error where the column would be read as SI, and a warning (into ``warnings``) where the
+    user's ``[columns]`` entry maps it: unit and scale are then the user's statement."""
+    from drivelash.io.formats import UNIT_ALIASES, unit_name
 
     stated = table.meta.get("column_units", {}).get(source)
     if stated is None:
         return
     where = table.meta.get("column_units_from", "units row")
-    if stated not in UNIT_KIND:
+    canon = unit_name(stated, number=True)
+    if canon is None and warnings is not None:
+        warnings.append(
+            f"{table.path}, column {source!r}: the file's {where} names {stated!r}, which drivelash"
+            f" cannot check; read as [columns.{source}] unit = {unit!r} with its scale"
+        )
+        return
+    if canon is None:
         raise DataError(
             f"the file's {where} names {stated!r}, not a unit drivelash reads (known: "
-            f"{', '.join(UNIT_KIND)}; also {', '.join(UNIT_ALIASES)}); the column cannot be checked",
+            f"{', '.join(UNIT_KIND)}; also {', '.join(UNIT_ALIASES)}); map it in [columns.{source}]"
+            " with the unit and scale to SI",
             path=table.path,
             column=source,
         )
-    if UNIT_ALIASES.get(stated, stated) != UNIT_ALIASES.get(unit, unit):
+    if UNIT_ALIASES.get(canon, canon) != UNIT_ALIASES.get(unit, unit):
+        fix_it = fix(canon) + (" and its scale to SI" if canon == "1" else "")
         raise DataError(
-            f"the file's {where} says {stated!r}, but the column would be read in {unit!r}; {fix(stated)}",
+            f"the file's {where} says {stated!r}, but the column would be read in {unit!r}; {fix_it}",
             path=table.path,
             column=source,
         )
@@ -163,11 +176,11 @@ def time_factor(table: Any, name: str, sampling: SamplingSection) -> float:
     return _TO_SI[sampling.time_unit]
 
 
-def _factor(cm: ColumnMap, table: RawTable, source: str) -> float:
+def _factor(cm: ColumnMap, table: RawTable, source: str, warnings: list[str] | None = None) -> float:
     """Multiplicative factor from file units to SI for one mapped column."""
     path = table.path
     time_stamp_unit(table, source, cm.unit)
-    stated_unit(table, source, cm.unit, lambda u: f"set unit = {u!r} in [columns.{source}]")
+    stated_unit(table, source, cm.unit, lambda u: f"set unit = {u!r} in [columns.{source}]", warnings)
     if cm.unit == "counts":
         if cm.counts_per_rev is None:
             raise DataError("unit 'counts' needs counts_per_rev in [columns]", path=path, column=source)
@@ -293,7 +306,7 @@ def _apply_mapping(
         modulus = cm.wrap if cm.wrap is not None else (_one_rev(cm) if kind == "angle" else None)
         if modulus is not None and cm.column.startswith("theta"):
             raw = _unwrapped(raw, modulus, path, source, f"{modulus:g} {cm.unit}", warnings)
-        cols[cm.column] = raw * _factor(cm, table, source) * cm.scale + cm.offset
+        cols[cm.column] = raw * _factor(cm, table, source, warnings) * cm.scale + cm.offset
         kinds[cm.column] = kind
         origin[cm.column] = source
     # Unmapped source columns that already carry a Trace name pass through as SI, so a

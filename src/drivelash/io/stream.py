@@ -71,8 +71,11 @@ class _Col:
         return raw * self.factor if self.factor != 1.0 else raw
 
 
-def _plan(src: ColumnSource, cmap: dict[str, ColumnMap] | None, sampling: SamplingSection) -> list[_Col]:
-    """The Trace columns of ``src`` under the mapping (the rules of ``load._apply_mapping``)."""
+def _plan(
+    src: ColumnSource, cmap: dict[str, ColumnMap] | None, sampling: SamplingSection, warnings: list[str]
+) -> list[_Col]:
+    """The Trace columns of ``src`` under the mapping (the rules of ``load._apply_mapping``);
+    ``warnings`` receives what the mapping could not check."""
     from drivelash.io.load import _factor, _one_rev, check_mapped_column, passthrough_unit, time_factor
 
     path = src.path
@@ -98,7 +101,7 @@ def _plan(src: ColumnSource, cmap: dict[str, ColumnMap] | None, sampling: Sampli
             _Col(
                 cm.column,
                 source,
-                _factor(cm, src, source),  # type: ignore[arg-type]
+                _factor(cm, src, source, warnings),  # type: ignore[arg-type]
                 cm.scale,
                 cm.offset,
                 True,
@@ -205,7 +208,8 @@ class TraceStream:
     def _setup(self, cmap: Any, sampling: SamplingSection, columns: Any) -> None:
         src = self._src
         spath = str(self.path)
-        plan = _plan(src, cmap, sampling)
+        plan_warnings: list[str] = []
+        plan = _plan(src, cmap, sampling, plan_warnings)
         names = [c.name for c in plan]
         if "t" not in names and sampling.sample_rate is None:
             raise DataError(
@@ -229,7 +233,7 @@ class TraceStream:
             plan = [c for c in plan if c.name in want]
         self._plan = plan
         self.n_samples = src.n_rows
-        self._warnings: list[str] = []
+        self._warnings: list[str] = plan_warnings
         self._unwrap: dict[str, float] = {}
         self.names = ["t", *[c.name for c in plan if c.name != "t"]]
         self.meta: dict[str, Any] = {}
