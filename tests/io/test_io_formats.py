@@ -455,7 +455,8 @@ def test_a_unit_the_reader_does_not_know_matters_only_where_read(tmp_path):
     ]
     pct = write("pct.csv", "%", 100.0 * tq / 2.0)  # rated torque 2 N·m
     with pytest.raises(
-        DataError, match=r"says '%', but .* map it in \[columns.torque_m\] with unit = '1' and its scale to SI"
+        DataError,
+        match=r"says '%', but .* map it in \[columns.torque_m\] with unit = '1'" r" and its scale to SI",
     ):
         load_trace(pct)
     tr = _both_ways(pct, {"torque_m": {"column": "torque_m", "unit": "1", "scale": 0.02}})

@@ -69,6 +69,19 @@ def test_estimate_report_is_self_contained_with_rendered_figures(tmp_path, estim
     assert sorted(p.name for p in tmp_path.iterdir()) == ["est.html"]
 
 
+def test_report_states_the_recording_start_from_its_time_stamps(tmp_path, estimate_run):
+    """A recording whose time column held stamps (a logger's clock) names its start in the
+    report's Recording section; one without stamps does not invent one."""
+    from dataclasses import replace
+
+    tr, result, cfg = estimate_run
+    plain = write_estimate_report(tmp_path / "plain.html", tr, result, cfg).read_text()
+    assert "Recorded from" not in plain
+    stamped = replace(tr, meta={**tr.meta, "time_origin": {"Zeit": "2026-11-05T07:03:00+00:00"}})
+    html = write_estimate_report(tmp_path / "stamped.html", stamped, result, cfg).read_text()
+    assert "Recorded from 2026-11-05T07:03:00+00:00 (the first time stamp of column &#x27;Zeit&#x27;" in html
+
+
 def test_excitation_shading_follows_sigma_window(estimate_run):
     """The δ̂(t) figure shades excited stretches: with σ-window zeroed, no green shading is drawn."""
     import dataclasses

@@ -49,9 +49,15 @@ def _units(trace: Any) -> dict[str, str]:
 
 
 def _warnings_html(trace: Any) -> list[str]:
+    """The recording's start (a time-stamp column's first stamp) and its load warnings."""
     import html
 
-    return [f'<div class="warn">{html.escape(w)}</div>' for w in trace.meta.get("warnings", [])]
+    start = [
+        f"<p>Recorded from {html.escape(str(stamp))} (the first time stamp of column"
+        f" {html.escape(repr(str(col)))}; the time axis is in seconds from it).</p>"
+        for col, stamp in trace.meta.get("time_origin", {}).items()
+    ]
+    return start + [f'<div class="warn">{html.escape(w)}</div>' for w in trace.meta.get("warnings", [])]
 
 
 def _overview_figure(trace: Any) -> Figure:
