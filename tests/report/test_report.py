@@ -79,7 +79,10 @@ def test_report_states_the_recording_start_from_its_time_stamps(tmp_path, estima
     assert "Recorded from" not in plain
     stamped = replace(tr, meta={**tr.meta, "time_origin": {"Zeit": "2026-11-05T07:03:00+00:00"}})
     html = write_estimate_report(tmp_path / "stamped.html", stamped, result, cfg).read_text()
-    assert "Recorded from 2026-11-05T07:03:00+00:00 (the first time stamp of column &#x27;Zeit&#x27;" in html
+    assert "Recorded from 2026-11-05T07:03:00+00:00 — the first time stamp of column &#x27;Zeit&#x27;" in html
+    naive = replace(tr, meta={**tr.meta, "time_origin": {"Zeit": "2026-11-05T07:03:00"}})
+    html = write_estimate_report(tmp_path / "naive.html", naive, result, cfg).read_text()
+    assert "Recorded from 2026-11-05T07:03:00 (no time zone in the file) — the first" in html
 
 
 def test_excitation_shading_follows_sigma_window(estimate_run):

@@ -373,7 +373,11 @@ def _seconds_from_timestamps(s: Any, p: Path, name: str, meta: dict[str, Any]) -
                     f"{what} (the column's first cell is a time stamp)", path=str(p), column=name, row=row
                 )
     ns = (dt - dt.iloc[0]).to_numpy().astype("timedelta64[ns]").astype(np.int64)
-    meta.setdefault("time_origin", {})[name] = dt.iloc[0].isoformat()
+    # the first stamp as the file states it: in UTC where the file gives a zone, else without
+    # one (as a naive Parquet time stamp is kept; the wear store takes a naive stamp as UTC)
+    zoned = pd.to_datetime(s.iloc[0], format="ISO8601").tzinfo is not None
+    first = dt.iloc[0] if zoned else dt.iloc[0].tz_convert(None)
+    meta.setdefault("time_origin", {})[name] = first.isoformat()
     return ns / 1e9
 
 

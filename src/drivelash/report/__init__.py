@@ -14,6 +14,7 @@ One self-contained file per run (figures as embedded PNGs, no scripts, no networ
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -48,15 +49,21 @@ def _units(trace: Any) -> dict[str, str]:
     return {"pos": "rad", "vel": "rad/s", "force": "N·m", "mass": "kg·m²", "visc": "N·m·s/rad"}
 
 
+#: an ISO 8601 time that ends in a zone (``Z``, ``+01:00``)
+_ZONED = re.compile(r"(Z|[+-]\d{2}:?\d{2})$")
+
+
 def _warnings_html(trace: Any) -> list[str]:
     """The recording's start (a time-stamp column's first stamp) and its load warnings."""
     import html
 
-    start = [
-        f"<p>Recorded from {html.escape(str(stamp))} (the first time stamp of column"
-        f" {html.escape(repr(str(col)))}; the time axis is in seconds from it).</p>"
-        for col, stamp in trace.meta.get("time_origin", {}).items()
-    ]
+    start = []
+    for col, stamp in trace.meta.get("time_origin", {}).items():
+        zone = "" if _ZONED.search(str(stamp)) else " (no time zone in the file)"
+        start.append(
+            f"<p>Recorded from {html.escape(str(stamp))}{zone} — the first time stamp of column"
+            f" {html.escape(repr(str(col)))}; the time axis is in seconds from it.</p>"
+        )
     return start + [f'<div class="warn">{html.escape(w)}</div>' for w in trace.meta.get("warnings", [])]
 
 
