@@ -623,6 +623,27 @@ def test_a_preamble_above_time_stamped_rows_is_found(tmp_path, layout):
     assert any("skipped 3 line(s)" in w for w in tr.meta["warnings"])
 
 
+@pytest.mark.parametrize("units", [False, True])
+def test_a_key_value_preamble_is_skipped(tmp_path, units):
+    """``Maschine;M01`` / ``Achse;X`` above the table (a drive tool's key;value lines, as wide
+    as each other): before, the first of them was taken as the header ("column 'Maschine'").
+    The table is found among lines of another width, whole and streamed. A first data row with
+    a bad cell under a fitting header is still named there (no search: it holds a number)."""
+    ref = load_trace(_units_csv(tmp_path / "plain.csv", None))
+    head = "Maschine;M01\nAchse;X\nDatum;27.11.2026\n\n"
+    f = _units_csv(tmp_path / "kv.csv", "s;rad;rad/s;Nm" if units else None, head=head)
+    tr = _both_ways(f)
+    np.testing.assert_array_equal(tr["theta_m"], ref["theta_m"])
+    assert any(
+        "skipped 3 line(s) above the column header (a preamble starting 'Maschine;M01')" in w
+        for w in tr.meta["warnings"]
+    )
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t;theta_m;omega_m\n0;abc;x\n0.001;0.5;1\n")
+    with pytest.raises(DataError, match=r"bad.csv, column 'theta_m', row 0: not a number: 'abc'"):
+        load_trace(bad)
+
+
 def test_a_date_with_slashes_is_named_not_guessed(tmp_path):
     """``11/05/2026`` is 5 November or 11 May: not guessed, one line saying why and what to write."""
     p = tmp_path / "slashed.csv"

@@ -203,19 +203,44 @@ def _same_width(header: str, row: str) -> bool:
     return len(_header_tokens(header, sep)) == len(_fields(row, sep))
 
 
+def _width(line: str) -> int:
+    """Fields of ``line`` split by its own separator."""
+    return len(_header_tokens(line, _sniff_sep(line)))
+
+
+def _usual_start(header: str, row: str) -> bool:
+    """``header`` over ``row`` is how a table starts: ``row`` as wide, and a row of numbers and
+    time stamps or at least one number in it (a data row with a bad cell is still data)."""
+    if not _same_width(header, row):
+        return False
+    sep = _sniff_sep(header)
+    if _numeric_row(row, sep, stamps=True):
+        return True
+    return any(_numeric_row(f, sep) for f in _fields(row, sep) if f.strip())
+
+
 def _header_index(lines: list[str]) -> int:
     """Index of the column header among the first non-blank lines of a CSV file.
 
-    The first line, unless its field count differs from the line below it: then a tool wrote
-    a preamble above the table, and the header is the first line that has as many fields as
-    the row of numbers and time stamps below it (or below its units row, :func:`units_row`)
-    and is not itself numeric. Where no line fits, the first line (the reader then names the
-    problem as before).
+    The first line, where the line below it starts a table (:func:`_usual_start`) or is its
+    units row (:func:`units_row`). Otherwise a tool wrote a preamble above the table — lines of
+    other widths, or ``key;value`` lines (then the header is sought among lines of another width
+    than the first) — and the header is the first line that has as many fields as the row of
+    numbers and time stamps below it (or below its units row) and is not itself numeric. Where
+    no line fits, the first line (the reader then names the problem as before).
     """
-    if len(lines) < 2 or _same_width(lines[0], lines[1]):
+    if len(lines) < 2:
         return 0
+    skip_width = None
+    if _same_width(lines[0], lines[1]):
+        sep0 = _sniff_sep(lines[0])
+        if _usual_start(lines[0], lines[1]) or _unit_cells(_header_tokens(lines[0], sep0), lines[1], sep0):
+            return 0
+        skip_width = _width(lines[0])  # key;value lines above the table
     for i in range(1, len(lines) - 1):
         sep = _sniff_sep(lines[i])
+        if _width(lines[i]) == skip_width:
+            continue
         if not _same_width(lines[i], lines[i + 1]) or _numeric_row(lines[i], sep):
             continue
         below = i + 1
@@ -822,12 +847,12 @@ def _csv_layout(p: Path) -> _CsvLayout:
                 continue
             if line.strip():
                 cands.append((line, offset))
-                if len(cands) == 2 and _same_width(cands[0][0], cands[1][0]):
-                    sep0 = _sniff_sep(cands[0][0])
-                    if not _unit_cells(_header_tokens(cands[0][0], sep0), cands[1][0], sep0):
-                        break  # the usual file: header, then a row with as many fields
+                if len(cands) == 2 and _usual_start(cands[0][0], cands[1][0]):
+                    break  # the usual file: header, then a row with as many fields
                 if len(cands) == 3 and _same_width(cands[0][0], cands[1][0]):
-                    break  # header, units row, first data row
+                    sep0 = _sniff_sep(cands[0][0])
+                    if _unit_cells(_header_tokens(cands[0][0], sep0), cands[1][0], sep0):
+                        break  # header, units row, first data row
         if not cands:
             raise DataError("file is empty (no header and no data rows)", path=str(p))
         h = _header_index([c for c, _ in cands])
