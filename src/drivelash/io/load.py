@@ -110,17 +110,6 @@ def _one_rev(cm: ColumnMap) -> float | None:
     return {"rad": 2 * math.pi, "deg": 360.0, "rev": 1.0, "counts": cm.counts_per_rev}.get(cm.unit)
 
 
-def time_stamp_unit(table: Any, source: str, unit: str) -> None:
-    """A column of ISO 8601 time stamps is read as seconds from the first: its unit is ``s``
-    (a ``ms`` in ``[columns]`` or ``[sampling] time_unit`` would scale the seconds again)."""
-    if source in table.meta.get("timestamp_columns", ()) and unit != "s":
-        raise DataError(
-            f"holds ISO 8601 time stamps (read as seconds from the first), so its unit is 's', not {unit!r}",
-            path=table.path,
-            column=source,
-        )
-
-
 def stated_unit(
     table: Any, source: str, unit: str, fix: Callable[[str], str], warnings: list[str] | None = None
 ) -> None:
@@ -129,9 +118,17 @@ def stated_unit(
     it would be read in another unit: one line naming the column, both units and ``fix(stated)``
     (where to declare the stated unit). A stated unit drivelash does not read (``kNm``) is an
     error where the column would be read as SI, and a warning (into ``warnings``) where the
-    user's ``[columns]`` entry maps it: unit and scale are then the user's statement."""
+    user's ``[columns]`` entry maps it: unit and scale are then the user's statement. A column
+    of time stamps states ``s`` (read as seconds from the first: a ``ms`` in ``[columns]`` or
+    ``[sampling] time_unit`` would scale the seconds again)."""
     from drivelash.io.formats import UNIT_ALIASES, unit_name
 
+    if source in table.meta.get("timestamp_columns", ()) and unit != "s":
+        raise DataError(
+            f"holds ISO 8601 time stamps (read as seconds from the first), so its unit is 's', not {unit!r}",
+            path=table.path,
+            column=source,
+        )
     stated = table.meta.get("column_units", {}).get(source)
     if stated is None:
         return
@@ -168,10 +165,9 @@ def passthrough_unit(table: Any, name: str) -> None:
 
 
 def time_factor(table: Any, name: str, sampling: SamplingSection) -> float:
-    """SI factor of an unmapped time column in ``[sampling] time_unit`` (refused on time stamps
-    in another unit than s, or where the file states another unit); one rule for the whole-file
+    """SI factor of an unmapped time column in ``[sampling] time_unit`` (refused where the file
+    states another unit, time stamps included: :func:`stated_unit`); one rule for the whole-file
     loader and the stream."""
-    time_stamp_unit(table, name, sampling.time_unit)
     stated_unit(table, name, sampling.time_unit, lambda u: f"set [sampling] time_unit = {u!r}")
     return _TO_SI[sampling.time_unit]
 
@@ -179,7 +175,6 @@ def time_factor(table: Any, name: str, sampling: SamplingSection) -> float:
 def _factor(cm: ColumnMap, table: RawTable, source: str, warnings: list[str] | None = None) -> float:
     """Multiplicative factor from file units to SI for one mapped column."""
     path = table.path
-    time_stamp_unit(table, source, cm.unit)
     stated_unit(table, source, cm.unit, lambda u: f"set unit = {u!r} in [columns.{source}]", warnings)
     if cm.unit == "counts":
         if cm.counts_per_rev is None:

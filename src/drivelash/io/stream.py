@@ -82,13 +82,12 @@ def _plan(
     plan: list[_Col] = []
     if cmap is None:
         for k in src.names:
+            passthrough_unit(src, k)
             if k == "t":
                 plan.append(_Col("t", "t", time_factor(src, "t", sampling), affine=False))
             elif k.startswith("theta"):
-                passthrough_unit(src, k)
                 plan.append(_Col(k, k, 1.0, affine=False, modulus=2 * math.pi, jump="one revolution"))
             else:
-                passthrough_unit(src, k)
                 plan.append(_Col(k, k, 1.0, affine=False))
         cmap = {}
     made: set[str] = {c.name for c in plan}

@@ -53,7 +53,7 @@ def _units(trace: Any) -> dict[str, str]:
 _ZONED = re.compile(r"(Z|[+-]\d{2}:?\d{2})$")
 
 
-def _warnings_html(trace: Any) -> list[str]:
+def _recording_html(trace: Any) -> list[str]:
     """The recording's start (a time-stamp column's first stamp) and its load warnings."""
     import html
 
@@ -212,7 +212,7 @@ def render_estimate_report(trace: Any, result: Any, config: Any = None, *, title
         for ax in axes:
             ax.grid(alpha=0.3)
 
-    sec_over = Section("Recording", raw=_warnings_html(trace), figures=[_overview_figure(trace)])
+    sec_over = Section("Recording", raw=_recording_html(trace), figures=[_overview_figure(trace)])
     cls = "verdict-ok" if ok else "verdict-bad"
     verdict_html = (
         f'<p class="{cls}">Excitation: {"sufficient" if ok else "insufficient"} — '
@@ -428,7 +428,7 @@ def render_identify_report(
             )
         )
     sections = [
-        Section("Recording", raw=_warnings_html(trace), figures=[_overview_figure(trace)]),
+        Section("Recording", raw=_recording_html(trace), figures=[_overview_figure(trace)]),
         Section(
             f"IDIM-LS, {result.side} side",
             paragraphs=[
@@ -503,7 +503,7 @@ def render_observe_report(
     }
     rows = [[labels.get(k, k), v] for k, v in est.as_dict().items()]
     sections = [
-        Section("Recording", raw=_warnings_html(trace), figures=[_overview_figure(trace)]),
+        Section("Recording", raw=_recording_html(trace), figures=[_overview_figure(trace)]),
         Section(
             "Disturbance observer (super-twisting)",
             paragraphs=[

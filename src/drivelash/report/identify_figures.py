@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from drivelash.report import _overview_figure, _param_tables, _thin, _warnings_html, _write
+from drivelash.report import _overview_figure, _param_tables, _recording_html, _thin, _write
 from drivelash.report.html import Figure, Section, render_html
 
 
@@ -63,7 +63,7 @@ def render_two_mass_report(trace: Any, result: Any, config: Any = None, *, onlin
     sig = result.signals
     p = result.parameters
     verdict_cls = "verdict-ok" if result.backlash_visible else "verdict-bad"
-    raw = _warnings_html(trace)
+    raw = _recording_html(trace)
     raw.append(f'<p class="{verdict_cls}">Backlash: {html.escape(result.reason)}</p>')
     raw += [f'<div class="warn">{html.escape(w)}</div>' for w in result.warnings]
     raw += [f'<div class="warn">{html.escape(n)}</div>' for n in result.fit.get("notes", [])]
