@@ -279,7 +279,10 @@ class Store:
             if path and path != ":memory:":
                 p = Path(path)
                 if not create and not p.is_file():
-                    raise StoreError(f"{p}: no such store (run `drivelash track ingest` first or give --db)")
+                    raise StoreError(
+                        f"{p}: no such store (run `drivelash track ingest` first, or give --fleet FLEET.toml"
+                        " or --db)"
+                    )
                 if not p.parent.is_dir():
                     raise StoreError(f"{p}: directory {p.parent} does not exist")
             kw["connect_args"] = {"timeout": 30.0}
