@@ -58,6 +58,7 @@ def test_standard_deviations_reported_and_plausible(result):
 
 def test_relative_error_close_to_published(result):
     assert result.relative_error == pytest.approx(0.0408, abs=0.005)
+    assert result.notes == []  # a rigid axis: no "needs --model two-mass" warning
 
 
 def test_cross_test_on_pulses_file(result, pulses):

@@ -175,6 +175,22 @@ def test_rigid_model_through_the_same_api():
     assert r["J_m"].value > 0
 
 
+def test_rigid_model_on_a_drive_with_backlash_says_it_does_not_fit():
+    """bench-0A (δ = 1.027 rad) through the rigid model: J_m comes out 6.7× low with a 60 %
+    relative torque error — said in the reason, the JSON notes and the TOML comments, not only
+    as a bare percentage. Negative control: the rigid EMPS axis (4 %) has no note
+    (test_identify_emps.py)."""
+    from drivelash.estimation.identify import RIGID_POOR_FIT
+
+    tr = get_scenario("bench-0A").simulate(duration=6.0, seed=1)
+    r = dl.identify_drive(tr, model="rigid")
+    rel = r.fit["relative_error"]
+    assert rel > 2 * RIGID_POOR_FIT
+    assert r["J_m"].value < 0.5 * RIG_DRIVETRAIN.J_m  # the confidently wrong number it warns about
+    assert "needs --model two-mass" in r.reason
+    assert r.fit["notes"] and f"leaves {100 * rel:.0f} % of the torque unexplained" in r.fit["notes"][0]
+
+
 def test_public_namespace_is_curated():
     import drivelash
 

@@ -218,6 +218,7 @@ def run_identify(
         "identified: " + ", ".join(f"{n} = {result[n]:.6g} ± {result.std_of(n):.2g}" for n in result.names),
         f"relative force error {100 * result.relative_error:.2f} %"
         + (f"; cross-test {100 * ct.relative_error:.2f} % on {cross}" if ct else ""),
+        *(f"warning: {note}" for note in result.notes),
     ]
     fragment = drivetrain_fragment(merged, comments)
     summary["drivetrain"] = merged
@@ -244,6 +245,8 @@ def run_identify(
             table.add_row(n, f"{v:.6g}", f"{s:.3g}", f"{100 * s / abs(v):.2f}" if v else "-")
         console.print(table)
         console.print(f"relative force error: {100 * result.relative_error:.2f} %")
+        for note in result.notes:
+            console.print(f"warning: {escape(note)}")
         if ct is not None:
             console.print(f"cross-test on {escape(str(cross))}: {100 * ct.relative_error:.2f} %")
         if out is None:

@@ -38,6 +38,10 @@ from drivelash.errors import DataError, ParameterError
 from drivelash.io.trace import Trace
 
 RIGID_NAMES = ("M", "F_v", "F_c", "offset")
+#: Relative torque error above which the rigid model is said not to describe the drive [-]
+#: (EMPS, a rigid axis: 0.040, cross-test 0.060; bench-0A, backlash 1.027 rad: 0.60 with
+#: J_m 6.7× low; docs/assumptions.md).
+RIGID_POOR_FIT = 0.2
 LOAD_NAMES = ("J_l", "beta_l", "T_Cl", "offset")
 
 
@@ -100,9 +104,21 @@ class IdentificationResult:
         """Standard deviation of parameter ``name``."""
         return float(self.std[self.names.index(name)])
 
+    @property
+    def notes(self) -> list[str]:
+        """Warnings about the fit itself: the rigid model leaves much of the torque unexplained."""
+        if not self.relative_error > RIGID_POOR_FIT:
+            return []
+        return [
+            f"the rigid model leaves {100 * self.relative_error:.0f} % of the torque unexplained "
+            f"(relative error above {100 * RIGID_POOR_FIT:.0f} %): these are not the drive's values — "
+            "a drive with backlash or a compliant shaft needs --model two-mass"
+        ]
+
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready summary (no arrays)."""
         return {
+            "notes": self.notes,
             "side": self.side,
             "axis": self.axis,
             "parameters": {

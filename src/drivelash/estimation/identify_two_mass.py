@@ -1657,7 +1657,7 @@ def rigid_result(result: Any) -> DriveIdentification:
         correlation=corr,
         N=1.0,
         backlash_visible=False,
-        reason="rigid model: no backlash",
+        reason="; ".join(["rigid model: no backlash", *result.notes]),
         warnings=warnings,
         fit={"implausible": bool(warnings), **result.as_dict()},
         method="IDIM-LS (zero-phase Butterworth, central differences, parallel decimation)",
