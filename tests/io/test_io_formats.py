@@ -586,14 +586,15 @@ def test_dotted_day_first_time_stamps_are_read_as_iso(tmp_path):
     )
 
 
-@pytest.mark.parametrize("layout", ["iso", "daq"])
+@pytest.mark.parametrize("layout", ["iso", "daq", "daq-dash"])
 def test_a_preamble_above_time_stamped_rows_is_found(tmp_path, layout):
     """The header below a preamble is found when the rows under it start with time stamps
     (before: the rows had to be all numbers, so the first preamble line became the header and
     'decimal point in 05.11.2026' was reported). ``daq``: a German DAQ export as written —
     preamble, names, a units row with an empty time cell and an unread °C channel, dotted
     stamps with a comma before the fraction, decimal commas; mapped by a config, the same
-    numbers as the SI file, whole and streamed."""
+    numbers as the SI file, whole and streamed. ``daq-dash``: the units row writes ``-`` above
+    the stamps (before: refused, and the fix it named — unit = '1' — was refused too)."""
     import pandas as pd
 
     t = np.arange(600) * 1e-3
@@ -613,13 +614,14 @@ def test_a_preamble_above_time_stamped_rows_is_found(tmp_path, layout):
             )
             for a, b in zip(stamps, theta, strict=True)
         ]
-        text = PREAMBLE + "Zeit;Pos;Temp\n;°;°C\n" + "".join(f"{a};{b};21,5\n" for a, b in cells)
+        dash = "-" if layout == "daq-dash" else ""
+        text = PREAMBLE + f"Zeit;Pos;Temp\n{dash};°;°C\n" + "".join(f"{a};{b};21,5\n" for a, b in cells)
         mapping = {"Zeit": {"column": "t", "unit": "s"}, "Pos": {"column": "theta_m", "unit": "deg"}}
     f = tmp_path / f"{layout}.csv"
     f.write_text(text)
     tr = _both_ways(f, mapping)
     np.testing.assert_allclose(tr["t"], t, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(tr["theta_m"], theta, rtol=0, atol=1e-15 if layout == "daq" else 0)
+    np.testing.assert_allclose(tr["theta_m"], theta, rtol=0, atol=1e-15 if layout.startswith("daq") else 0)
     assert any("skipped 3 line(s)" in w for w in tr.meta["warnings"])
 
 

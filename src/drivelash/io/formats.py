@@ -281,13 +281,13 @@ def unit_name(text: str, *, number: bool = False) -> str | None:
     u = text.strip().strip('"').strip()
     if len(u) >= 2 and u[0] + u[-1] in ("[]", "()", "{}"):
         u = u[1:-1].strip()
-    u = UNIT_ALIASES.get(u, u)
     if not number:
         try:
-            float(u)
+            float(u)  # the cell as written: '-' (dimensionless) is no number, '1' is
             return None
         except ValueError:
             pass
+    u = UNIT_ALIASES.get(u, u)
     return u if u in UNIT_KIND else None
 
 

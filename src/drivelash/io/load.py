@@ -120,15 +120,19 @@ def stated_unit(
     error where the column would be read as SI, and a warning (into ``warnings``) where the
     user's ``[columns]`` entry maps it: unit and scale are then the user's statement. A column
     of time stamps states ``s`` (read as seconds from the first: a ``ms`` in ``[columns]`` or
-    ``[sampling] time_unit`` would scale the seconds again)."""
+    ``[sampling] time_unit`` would scale the seconds again); what a units row writes above the
+    stamps (``-``, ``hh:mm:ss``) is not checked."""
     from drivelash.io.formats import UNIT_ALIASES, unit_name
 
-    if source in table.meta.get("timestamp_columns", ()) and unit != "s":
-        raise DataError(
-            f"holds ISO 8601 time stamps (read as seconds from the first), so its unit is 's', not {unit!r}",
-            path=table.path,
-            column=source,
-        )
+    if source in table.meta.get("timestamp_columns", ()):
+        if unit != "s":
+            raise DataError(
+                "holds ISO 8601 time stamps (read as seconds from the first), so its unit is 's', "
+                f"not {unit!r}",
+                path=table.path,
+                column=source,
+            )
+        return  # the stamps state their unit; a units-row cell above them ('-', 'hh:mm:ss') is a label
     stated = table.meta.get("column_units", {}).get(source)
     if stated is None:
         return
