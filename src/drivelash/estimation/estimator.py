@@ -85,8 +85,10 @@ __all__ = [
 INPUT_COLUMNS = ("theta_m", "omega_m", "theta_l", "omega_l")
 #: Optional column: the recorded motor torque [N·m] (shaft torque from the motor side).
 TORQUE_COLUMN = "torque_m"
-#: Least share of the excitation window in which the law must receive information
-#: (∫σ dt / window ≥ ε_σ) for ``excitation_ok``.
+#: Least information in the excitation window for ``excitation_ok``: ∫g² dt / window ≥ ε_σ,
+#: g = ∂T_l/∂δ / K_S (≈ 1 in the upper contact, 0 in the gap, larger at the contact edges — so
+#: the figure is no share of time and may exceed 1; it was printed as "% of the window" until
+#: session 12).
 SIGMA_FRACTION_MIN = 0.01
 #: δ1 check: the joint law replaces the anchored one only if its residual (RMS of the filtered
 #: torque residual over the last third) is below this fraction of the anchored law's.
@@ -712,13 +714,14 @@ def _verdict(
     elif sigma_frac < SIGMA_FRACTION_MIN:
         ok = False
         reason = (
-            f"too little excitation in the last {win:.3g} s: the estimate received information "
-            f"during {100 * sigma_frac:.1f} % of it (needs {100 * SIGMA_FRACTION_MIN:g} %)"
+            f"too little excitation in the last {win:.3g} s: its information (∫g² dt / window, g the "
+            f"shaft torque's sensitivity to δ per K_S) is {sigma_frac:.3g}, needs {SIGMA_FRACTION_MIN:g}"
         )
     else:
         ok = True
         reason = (
-            f"{n_trav} crossings of the gap; information during {100 * sigma_frac:.0f} % of the last window"
+            f"{n_trav} crossings of the gap; information {sigma_frac:.2f} in the last window "
+            f"(∫g² dt / window, needs {SIGMA_FRACTION_MIN:g})"
         )
 
     # --- δ1 check and the law reported -------------------------------------------
