@@ -423,6 +423,25 @@ def _check_finite(cols: Mapping[str, np.ndarray], origin: Mapping[str, str], pat
             )
 
 
+#: What to do about non-uniform sampling, on the command line …
+RESAMPLE_HINT = "resample explicitly with --resample or [sampling] resample = true"
+#: … and in Python (the notebook API has no --resample option).
+RESAMPLE_HINT_API = (
+    "resample explicitly: [sampling] resample = true in the configuration, or read it with "
+    "drivelash.load_trace(path, cfg, resample=True) / drivelash.Trace.from_frame(df, cfg, resample=True) "
+    "and pass that Trace"
+)
+
+
+def in_python_terms(exc: DataError) -> DataError:
+    """``exc`` with the command-line hint (``--resample``) replaced by what to do in Python
+    (:data:`RESAMPLE_HINT_API`); for the notebook API's callers."""
+    text = str(exc)
+    if RESAMPLE_HINT in text:
+        exc.args = (text.replace(RESAMPLE_HINT, RESAMPLE_HINT_API),)
+    return exc
+
+
 #: Longest plausible sample period of a drive recording [s] (docs/assumptions.md).
 MAX_PLAUSIBLE_T_S = 10.0
 
@@ -496,7 +515,7 @@ def _check_time(
             raise DataError(
                 f"non-uniform sampling: interval {steps[i]:.6g} s vs median {med:.6g} s"
                 f" (deviation {dev[i]:.1%} > tolerance {sampling.tolerance:.1%});"
-                " resample explicitly with --resample or [sampling] resample = true",
+                f" {RESAMPLE_HINT}",
                 path=path,
                 column=column,
                 row=i + 1,

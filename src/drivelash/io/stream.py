@@ -298,7 +298,7 @@ class TraceStream:
 
     # ------------------------------------------------------------------ validation
     def _validate(self) -> None:
-        from drivelash.io.load import _check_plausible_period
+        from drivelash.io.load import RESAMPLE_HINT, _check_plausible_period
 
         spath = str(self.path)
         plan = self._plan
@@ -405,7 +405,7 @@ class TraceStream:
             raise DataError(
                 f"non-uniform sampling: interval {step:.6g} s vs median {med:.6g} s"
                 f" (deviation {abs(step - med) / med:.1%} > tolerance {tol:.1%});"
-                " resample explicitly with --resample or [sampling] resample = true",
+                f" {RESAMPLE_HINT}",
                 path=spath,
                 column=tcol,
                 row=row,
