@@ -64,7 +64,8 @@ def _row(doc: dict) -> tuple[str, str, str]:
     if d["identifiable"]:
         val = f"{_mrad(d['value'])} [{_mrad(d['ci95'][0])}, {_mrad(d['ci95'][1])}]"
     else:
-        val = f"not determined (≥ {_mrad(d['ci95'][0])})" if d["ci95"][0] > 0 else "not determined"
+        low = d["ci95"][0]  # None (JSON null) when the interval is open
+        val = f"not determined (≥ {_mrad(low)})" if low is not None and low > 0 else "not determined"
     return val, "yes" if doc["backlash_visible"] else "no", doc["backlash_reason"]
 
 
@@ -84,7 +85,8 @@ def recording_report(rec: str, docs: dict[int, dict]) -> str:
         ok = "yes" if doc["plausible"] else "no"
         on = doc["online"]
         online = _mrad(on["delta"]) if on["delta"] is not None else on["reason"]
-        lines.append(f"| {axis} | {val} | {online} | {seen} | {why} | {ks_s} | {rel:.2f} | {ok} |")
+        rel_s = f"{rel:.2f}" if rel is not None else "–"
+        lines.append(f"| {axis} | {val} | {online} | {seen} | {why} | {ks_s} | {rel_s} | {ok} |")
     lines.append("")
     for axis, doc in docs.items():
         for w in doc["warnings"]:

@@ -11,7 +11,8 @@ def lazy_names(
     package: str, names: dict[str, str], namespace: dict[str, Any]
 ) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
     """``__getattr__`` and ``__dir__`` for ``package``: each name in ``names`` (→ defining
-    module) is imported on first use and cached in ``namespace`` (the package's globals)."""
+    module) is imported on first use and cached in ``namespace`` (the package's globals);
+    ``dir(package)`` lists the package's ``__all__`` (``names`` when it has none)."""
 
     def __getattr__(name: str) -> Any:
         mod = names.get(name)
@@ -22,6 +23,8 @@ def lazy_names(
         return value
 
     def __dir__() -> list[str]:
-        return sorted(set(namespace) | set(names))
+        # the curated namespace (python-control style): ``__all__``, not the module's internals
+        # (``TYPE_CHECKING``, the lazy table, imported helpers)
+        return sorted(namespace.get("__all__", names))
 
     return __getattr__, __dir__

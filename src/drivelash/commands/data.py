@@ -137,7 +137,9 @@ def run_identify(
     from drivelash.io import load_config as _load_config
 
     if model is None:
-        model = _load_config(config_path).identification_or_default().model
+        from drivelash.estimation.identify_api import resolve_model
+
+        model = resolve_model(_load_config(config_path), None, fallback="rigid")
     if model not in ("rigid", "two-mass"):
         raise DrivelashError(f"--model: must be 'rigid' or 'two-mass', got {model!r}")
     if model == "two-mass":
@@ -280,7 +282,8 @@ def run_identify_two_mass(
     from rich.table import Table
 
     from drivelash.errors import DataError
-    from drivelash.estimation.identify_two_mass import identify_from_config, select_window
+    from drivelash.estimation.identify_api import identify_checked
+    from drivelash.estimation.identify_two_mass import select_window
     from drivelash.io import load_config
     from drivelash.io.outputs import HTML_EXTENSIONS, JSON_EXTENSIONS, TOML_EXTENSIONS, Outputs
 
@@ -296,7 +299,7 @@ def run_identify_two_mass(
             print_warnings(stream.meta)
         # a recording longer than the fit's budget: its most informative stretch (stated)
         trace, window = select_window(stream, opts.max_samples)
-    result = identify_from_config(trace, cfg, model="two-mass")
+    result = identify_checked(trace, cfg, model="two-mass")
     # an impossible drive (negative inertia or friction) never goes into a config file; the
     # diagnosis alone (--json / --report without --out) is still written, with the verdict
     diagnosis_only = out is None and (json_t is not None or report_t is not None)

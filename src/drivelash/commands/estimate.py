@@ -80,7 +80,7 @@ def run_estimate(
     together at the end (:class:`drivelash.io.outputs.Outputs`): a failing plot leaves none.
     """
     from drivelash.errors import DrivelashError
-    from drivelash.estimation.backlash_api import estimate_with_identification
+    from drivelash.estimation.backlash_api import IDENTIFY_COLUMNS, estimate_with_identification
     from drivelash.estimation.estimator import INPUT_COLUMNS
     from drivelash.estimation.pipeline import estimate_stream
     from drivelash.io import load_config, load_trace
@@ -98,7 +98,8 @@ def run_estimate(
         if not identify:
             cfg.require("backlash")
         if identify:  # the offline identification needs the whole recording (read within the budget)
-            trace = load_trace(trace_path, cfg, required=[*INPUT_COLUMNS, "torque_m"])
+            # what the identification needs; the online law's velocities are checked when it runs
+            trace = load_trace(trace_path, cfg, required=IDENTIFY_COLUMNS)
             if not quiet:
                 print_warnings(trace.meta)
             est = estimate_with_identification(trace, cfg, method=method)

@@ -13,13 +13,22 @@ truth metrics, JSON) is this module's.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+from drivelash.io.outputs import jsonable
 from drivelash.io.trace import Trace
 
-__all__ = ["BacklashEstimate", "estimate_backlash", "estimate_from_config", "estimate_with_identification"]
+__all__ = [
+    "IDENTIFY_COLUMNS",
+    "BacklashEstimate",
+    "estimate_backlash",
+    "estimate_from_config",
+    "estimate_with_identification",
+    "with_columns",
+]
 
 
 @dataclass
@@ -29,12 +38,15 @@ class BacklashEstimate:
     Attributes
     ----------
     delta : float
-        Final estimate δ̂ [rad].
+        Final estimate δ̂ [rad] (NaN when ``identify`` could not run the online law).
+    warnings : list of str
+        The estimate's warnings (``summary["warnings"]``).
     summary : dict
         Exactly what ``drivelash estimate --json`` writes (without the ``trace``/``config``
-        paths): δ̂ [rad], δ1 [rad], excitation verdict and reason, convergence, sample period
-        ``T_s`` [s], detected excitation frequency [Hz], gains, and MAEE / steady-state peak
-        [rad] when the recording carries the true δ.
+        paths; plain JSON types, a non-finite number is None as the command's null): δ̂ [rad],
+        δ1 [rad], excitation verdict and reason, convergence, sample period ``T_s`` [s],
+        detected excitation frequency [Hz], gains, and MAEE / steady-state peak [rad] when the
+        recording carries the true δ.
     result : EstimationResult
         The estimator's time series (δ̂(t) [rad], φ̂, ω̂_l, Δθ, torques, traversals).
     trace : Trace
@@ -50,8 +62,10 @@ class BacklashEstimate:
 
     @property
     def delta(self) -> float:
-        """Final δ̂ [rad]."""
-        return float(self.summary["delta"])
+        """Final δ̂ [rad]; NaN when the online law was not run (``identify=True`` and the
+        recording could not give the drive: ``summary["reason"]`` says why)."""
+        d = self.summary["delta"]
+        return math.nan if d is None else float(d)
 
     @property
     def converged(self) -> bool:
@@ -63,8 +77,45 @@ class BacklashEstimate:
         """The excitation verdict."""
         return bool(self.summary["excitation_ok"])
 
+    @property
+    def warnings(self) -> list[str]:
+        """The warnings of the estimate (``summary["warnings"]``; empty when there are none)."""
+        return list(self.summary.get("warnings") or [])
+
+    @property
+    def method(self) -> str:
+        """The adaptation law that ran: ``"default"`` or ``"paper"``."""
+        return str(self.summary["method"])
+
     def __getitem__(self, key: str) -> Any:
         return self.summary[key]
+
+    def __repr__(self) -> str:
+        d = self.summary.get("delta")
+        delta = "not run" if d is None else f"{1e3 * float(d):.4g} mrad"
+        return (
+            f"BacklashEstimate(delta={delta}, converged={self.converged}, "
+            f"excitation_ok={self.excitation_ok}, method={self.summary.get('method')!r}, "
+            f"samples={self.summary.get('samples')}, warnings={len(self.warnings)})"
+        )
+
+
+#: Columns ``estimate --identify`` reads before the identification has spoken: what the two-mass
+#: identification needs (ω_m, ω_l are differentiated from the positions when absent); the online
+#: law's velocities are checked only when it runs (:func:`estimate_with_identification`).
+IDENTIFY_COLUMNS = ("theta_m", "theta_l", "torque_m")
+
+
+def _check_delta1(delta1: Any) -> None:
+    """The ``delta1`` argument: a finite number ≥ 0 [rad] (a ParameterError naming the argument,
+    not the configuration file it replaces)."""
+    from drivelash.errors import ParameterError
+
+    ok = isinstance(delta1, (int, float)) and not isinstance(delta1, bool)
+    if not (ok and math.isfinite(delta1) and delta1 >= 0):
+        raise ParameterError(
+            "estimate_backlash", "delta1", f"the argument must be a finite number >= 0 [rad], got {delta1!r}"
+        )
 
 
 def estimate_from_config(
@@ -102,6 +153,7 @@ def estimate_from_config(
     if drivetrain is not None:  # the same validation path as a [drivetrain] table
         update["drivetrain"] = DrivetrainSection(**asdict(drivetrain))
     if delta1 is not None:
+        _check_delta1(delta1)
         old = cfg.backlash
         given = {k: getattr(old, k) for k in old.model_fields_set} if old is not None else {}
         update["backlash"] = BacklashSection(**{**given, "delta1": float(delta1)})
@@ -116,7 +168,8 @@ def estimate_from_config(
         summary["delta_true"] = float(truth[-1])
         summary["maee_rad"] = maee(t, res.delta_hat, truth, float(t[-1]) - MAEE_FRACTION * T)
         summary["steady_state_peak_rad"] = steady_state_peak(t, res.delta_hat, truth, SS_FRACTION * T)
-    return BacklashEstimate(summary=summary, result=res, trace=trace, gains=res.config)
+    # the command's JSON: non-finite numbers are null (the project's one JSON sanitiser)
+    return BacklashEstimate(summary=jsonable(summary), result=res, trace=trace, gains=res.config)
 
 
 def estimate_backlash(
@@ -124,13 +177,16 @@ def estimate_backlash(
     drivetrain: Any = None,
     delta1: float | None = None,
     *,
-    method: str = "default",
+    method: str | None = None,
     columns: Any = None,
+    identify: bool = False,
 ) -> BacklashEstimate:
     """Estimate the deadzone (backlash) angle δ of a drive train from a recording.
 
     The same computation as ``drivelash estimate TRACE --config DRIVE.toml`` (same tuning,
-    same numbers; the command's JSON is ``result.summary`` plus the two paths).
+    same numbers; the command's JSON is ``result.summary`` plus the two paths). Arguments
+    play the command's options: ``method`` is ``--method``, ``identify`` is ``--identify``;
+    left at their defaults, the configuration decides, as for the command.
 
     Parameters
     ----------
@@ -138,24 +194,35 @@ def estimate_backlash(
         The recording: θ_m, ω_m, θ_l, ω_l (motor side / load side, [rad], [rad/s]) and time
         ``t`` [s]. A DataFrame is mapped and validated like a file (``columns``, or the
         configuration's ``[columns]`` table); a path is read with
-        :func:`drivelash.load_trace`.
+        :func:`drivelash.load_trace`. A Trace is already mapped to SI: ``columns`` is refused
+        with it.
     drivetrain : DriveConfig, str, Path or DrivetrainParams
         The drive: a configuration (``[drivetrain]``, ``[backlash] delta1``, optional
-        ``[estimator]`` gains and ``[columns]``), its TOML path, or the parameters alone
-        (then ``delta1`` is required).
+        ``[estimator]`` gains, ``[columns]`` and ``[sampling]``), its TOML path, or the
+        parameters alone (then ``delta1`` is required).
     delta1 : float, optional
-        Known offset δ1 [rad] of the gap (replaces ``[backlash] delta1``).
-    method : {"default", "paper"}
-        ``"default"`` (the improved law) or ``"paper"`` (the paper's gradient law).
+        Known offset δ1 [rad] of the gap (replaces ``[backlash] delta1``; finite, ≥ 0).
+    method : {"default", "paper"}, optional
+        Adaptation law: ``"default"`` (the improved law) or ``"paper"`` (the paper's gradient
+        law). None (default): ``[estimator] method`` of the configuration, else ``"default"``
+        — as ``drivelash estimate`` without ``--method``.
     columns : dict, optional
-        Column mapping for a DataFrame or a file: source name → trace column, or a
-        ``{"column": …, "unit": …}`` table as in ``[columns]``.
+        Column mapping for a DataFrame or a file, replacing the configuration's ``[columns]``
+        only (its ``[sampling]`` is kept): *source column → Trace column*, each value the
+        Trace column's name (``{"pos_load": "theta_l"}``, values in that column's SI unit) or
+        a ``{"column": …, "unit": …}`` table as in ``[columns]``.
+    identify : bool
+        ``drivelash estimate --identify``: identify the drive offline first (two-mass model,
+        95 % intervals); the drive-train values and δ1 the configuration does not set come from
+        it (:func:`estimate_with_identification`). Needs θ_m, θ_l and torque_m; ω_m, ω_l
+        only when the online law runs.
 
     Returns
     -------
     BacklashEstimate
-        ``.delta`` [rad], ``.converged``, ``.excitation_ok``, ``.summary`` (the command's
-        JSON), ``.result`` (time series).
+        ``.delta`` [rad], ``.converged``, ``.excitation_ok``, ``.warnings``, ``.summary`` (the
+        command's JSON), ``.result`` (time series; None when ``identify`` could not run the
+        online law).
 
     Examples
     --------
@@ -172,6 +239,10 @@ def estimate_backlash(
     from drivelash.io.config import DriveConfig, load_config
     from drivelash.params import DrivetrainParams
 
+    if method not in (None, "paper", "default"):
+        raise ParameterError(
+            "estimate_backlash", "method", f"must be 'paper', 'default' or None, got {method!r}"
+        )
     dt_params = None
     if isinstance(drivetrain, (str, Path)):
         cfg = load_config(drivetrain)
@@ -180,6 +251,12 @@ def estimate_backlash(
     elif isinstance(drivetrain, DrivetrainParams):
         cfg = DriveConfig()
         dt_params = drivetrain
+        if identify:
+            raise ParameterError(
+                "estimate_backlash",
+                "identify",
+                "needs a configuration (DriveConfig or path), not DrivetrainParams",
+            )
         if delta1 is None:
             raise ParameterError(
                 "estimate_backlash", "delta1", "required when drivetrain is a DrivetrainParams"
@@ -194,8 +271,48 @@ def estimate_backlash(
             "drivetrain",
             f"must be a DriveConfig, a path or DrivetrainParams, got {type(drivetrain).__name__}",
         )
-    trace = as_trace(data, columns if columns is not None else cfg, list(INPUT_COLUMNS), "estimate_backlash")
+    if identify:
+        if delta1 is not None:  # as [backlash] delta1 of the file: a configured δ1
+            _check_delta1(delta1)
+            given = (
+                {k: getattr(cfg.backlash, k) for k in cfg.backlash.model_fields_set} if cfg.backlash else {}
+            )
+            from drivelash.io.config import BacklashSection
+
+            cfg = cfg.model_copy(update={"backlash": BacklashSection(**{**given, "delta1": float(delta1)})})
+        need = list(IDENTIFY_COLUMNS)
+    else:
+        need = list(INPUT_COLUMNS)
+    trace = as_trace(data, with_columns(cfg, columns, data, "estimate_backlash"), need, "estimate_backlash")
+    if identify:
+        return estimate_with_identification(trace, cfg, method=method)
     return estimate_from_config(trace, cfg, method=method, drivetrain=dt_params, delta1=delta1)
+
+
+def with_columns(cfg: Any, columns: Any, data: Any, caller: str) -> Any:
+    """The mapping of ``data``: ``cfg`` with its ``[columns]`` replaced by ``columns`` (its
+    ``[sampling]`` kept), or ``cfg`` when ``columns`` is None.
+
+    ``columns`` with a :class:`~drivelash.io.trace.Trace` is a :class:`ParameterError`: a
+    Trace is already mapped to SI units, a mapping cannot apply to it.
+    """
+    from drivelash.errors import ParameterError
+    from drivelash.io.load import column_maps
+
+    if columns is None:
+        return cfg
+    if isinstance(data, Trace):
+        raise ParameterError(
+            caller,
+            "columns",
+            "data is a Trace, already mapped to SI units, so a column mapping cannot apply: pass the "
+            "DataFrame or the file with columns=, or the Trace without columns=",
+        )
+    if not isinstance(columns, Mapping):
+        raise ParameterError(
+            caller, "columns", f"must be a dict source column → Trace column, got {type(columns).__name__}"
+        )
+    return cfg.model_copy(update={"columns": column_maps(columns)})
 
 
 def _needs_identification(cfg: Any) -> bool:
@@ -234,8 +351,9 @@ def estimate_with_identification(
         "drivetrain": ident.to_config()["drivetrain"],
     }
     base = None
-    if cfg.drivetrain is not None:
-        base = {k: v for k, v in cfg.drivetrain.model_dump().items() if v is not None}
+    if cfg.drivetrain is not None:  # only what the user set: a default (friction 0) is not a value
+        dt_cfg = cfg.drivetrain
+        base = {k: getattr(dt_cfg, k) for k in dt_cfg.model_fields_set if getattr(dt_cfg, k) is not None}
     missing = [
         k for k in ("J_m", "J_l", "K_S", "D_S") if k not in (base or {}) and k not in off["drivetrain"]
     ]
@@ -279,9 +397,20 @@ def estimate_with_identification(
             )
         else:
             d1 = float(p.value)
+    if why is None:
+        from drivelash.estimation.estimator import INPUT_COLUMNS
+
+        lacking = [c for c in INPUT_COLUMNS if c not in trace]
+        if lacking:  # the identification differentiated positions; the online law needs recorded velocities
+            why = (
+                f"the recording has no {' and no '.join(repr(c) for c in lacking)}: the online law needs the "
+                "recorded velocities (map them in [columns]); the offline identification did not need them"
+            )
     if why is not None:
+        from drivelash.estimation.pipeline import _estimator_overrides
+
         summary: dict[str, Any] = {
-            "method": method or "default",
+            "method": _estimator_overrides(cfg, method)[0],
             "delta": None,
             "delta1": d1,
             "excitation_ok": False,
@@ -294,7 +423,7 @@ def estimate_with_identification(
             "identification": off,
             "warnings": [f"online estimate not run: {why}"],
         }
-        return BacklashEstimate(summary=summary, result=None, trace=trace, gains=None)
+        return BacklashEstimate(summary=jsonable(summary), result=None, trace=trace, gains=None)
     from drivelash.params import DrivetrainParams
 
     vals = {**off["drivetrain"], **(base or {})}  # the configuration's own values win
@@ -333,4 +462,5 @@ def estimate_with_identification(
             s["warnings"].append(msg)
     else:
         s["agreement"] = {"offline_delta": None, "reason": dp.reason, "disagree": None}
+    est.summary = jsonable(s)
     return est

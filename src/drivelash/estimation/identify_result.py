@@ -279,16 +279,22 @@ class DriveIdentification:
         return DrivetrainParams(**{k: v for k, v in vals.items() if k in keep and v is not None})
 
     def as_dict(self) -> dict[str, Any]:
-        """JSON-ready summary (no arrays except the small correlation matrix)."""
-        return {
-            "model": self.model,
-            "method": self.method,
-            "N": self.N,
-            "parameters": {k: p.as_dict() for k, p in self.parameters.items()},
-            "correlation": {"names": list(self.names), "matrix": np.asarray(self.correlation).tolist()},
-            "backlash_visible": self.backlash_visible,
-            "backlash_reason": self.reason,
-            "plausible": self.plausible,
-            "warnings": list(self.warnings),
-            "fit": self.fit,
-        }
+        """JSON-ready summary (no arrays except the small correlation matrix): plain JSON types,
+        a non-finite number (an open interval's ∞, an undetermined value) is None, as the
+        command's JSON writes it (:func:`drivelash.io.outputs.jsonable`)."""
+        from drivelash.io.outputs import jsonable
+
+        return jsonable(
+            {
+                "model": self.model,
+                "method": self.method,
+                "N": self.N,
+                "parameters": {k: p.as_dict() for k, p in self.parameters.items()},
+                "correlation": {"names": list(self.names), "matrix": np.asarray(self.correlation).tolist()},
+                "backlash_visible": self.backlash_visible,
+                "backlash_reason": self.reason,
+                "plausible": self.plausible,
+                "warnings": list(self.warnings),
+                "fit": self.fit,
+            }
+        )

@@ -1718,23 +1718,28 @@ def as_trace(data: Any, mapping: Any, need: list[str], caller: str) -> Trace:
     """A Trace from a Trace, a pandas DataFrame (validated like a file) or a path.
 
     ``mapping`` is a DriveConfig or a ``[columns]``-style dict; ``need`` the required columns;
-    ``caller`` names the API function in the error message.
+    ``caller`` names the API function in the error message. A loading error's command-line hint
+    (``--resample``) is put in Python terms (:func:`drivelash.io.load.in_python_terms`).
     """
     from pathlib import Path
 
     from drivelash.io import load_trace
+    from drivelash.io.load import in_python_terms
 
     if isinstance(data, Trace):
         return data
-    if isinstance(data, (str, Path)):
-        return load_trace(data, mapping, required=need)
     import pandas as pd
 
-    if not isinstance(data, pd.DataFrame):
+    if not isinstance(data, (str, Path, pd.DataFrame)):
         raise ParameterError(
             caller, "data", f"must be a Trace, a pandas DataFrame or a path, got {type(data).__name__}"
         )
-    return _trace_from_frame(data, mapping, need)
+    try:
+        if isinstance(data, (str, Path)):
+            return load_trace(data, mapping, required=need)
+        return _trace_from_frame(data, mapping, need)
+    except DataError as exc:  # a Python caller: no --resample option to point to
+        raise in_python_terms(exc) from None
 
 
 def _trace_from_frame(df: Any, mapping: Any, need: list[str]) -> Trace:

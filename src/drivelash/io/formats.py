@@ -47,6 +47,15 @@ _META_KEY = "drivelash_meta"
 _ORDER_KEY = "drivelash_columns"
 
 
+def stamps_to_seconds(ns: np.ndarray, origin_ns: int) -> np.ndarray:
+    """Time stamps or durations [ns] as seconds [s] from ``origin_ns`` [ns].
+
+    ``ns``: int64 (exact subtraction before the division), or float64 with NaN where a stamp is
+    missing. One rule for the Parquet reader and :meth:`drivelash.io.trace.Trace.from_frame`.
+    """
+    return (ns - origin_ns) / 1e9 if ns.dtype.kind == "i" else (ns - float(origin_ns)) / 1e9
+
+
 @dataclass
 class RawTable:
     """Source columns of a file, before mapping and validation.
@@ -766,6 +775,7 @@ class ParquetSource(ColumnSource):
             or pa.types.is_floating(f.type)
             or pa.types.is_boolean(f.type)
             or pa.types.is_timestamp(f.type)
+            or pa.types.is_duration(f.type)
         ]
         stated = {str(f.name): stated_unit_attr(dict(f.metadata or {})) for f in schema}
         units = {k: u for k, u in stated.items() if u is not None}
@@ -776,6 +786,8 @@ class ParquetSource(ColumnSource):
         # as the CSV reader reads ISO 8601 stamps; the first is kept in meta["time_origin"]
         self._origin_ns: dict[str, int] = {}
         for f in schema:
+            if pa.types.is_duration(f.type):  # elapsed time (pandas timedelta64): seconds as they are
+                self._origin_ns[str(f.name)] = 0
             if pa.types.is_timestamp(f.type) and int(self._pf.metadata.num_rows) > 0:
                 first = next(self._pf.iter_batches(batch_size=1, columns=[f.name])).column(0)
                 if first.null_count:
@@ -793,9 +805,12 @@ class ParquetSource(ColumnSource):
         if origin is None:
             # float64 columns stay the (read-only) Arrow buffers: no copy (≈ 40 % of the read)
             return col.to_numpy(zero_copy_only=False).astype(np.float64, copy=False)
-        ns = col.cast(pa.timestamp("ns", col.type.tz)).cast(pa.int64())
-        v = ns.to_numpy(zero_copy_only=False)  # int64, or float64 with NaN where a stamp is missing
-        return (v - origin) / 1e9 if v.dtype.kind == "i" else (v - float(origin)) / 1e9
+        if pa.types.is_duration(col.type):
+            ns = col.cast(pa.duration("ns")).cast(pa.int64())
+        else:
+            ns = col.cast(pa.timestamp("ns", col.type.tz)).cast(pa.int64())
+        # int64, or float64 with NaN where a stamp is missing
+        return stamps_to_seconds(ns.to_numpy(zero_copy_only=False), origin)
 
     def chunks(
         self, names: list[str], chunk_rows: int = DEFAULT_CHUNK_ROWS

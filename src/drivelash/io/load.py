@@ -255,16 +255,69 @@ def _unwrapped(
 
 
 def _mapping_from(mapping: Any) -> tuple[dict[str, ColumnMap] | None, SamplingSection]:
+    """The column mapping and ``[sampling]`` of ``mapping`` (see :func:`load_trace`).
+
+    ``mapping``: None, a DriveConfig, the path of a configuration file, or a dict
+    *source column → Trace column*: each value a Trace column name (``{"pos_load": "theta_l"}``:
+    the source column ``pos_load`` becomes ``theta_l``, in that column's SI unit), a ``[columns]``-style
+    table (``{"column": "theta_l", "unit": "deg"}``) or a :class:`ColumnMap`. A dict carries no
+    ``[sampling]`` (the defaults). Anything else, or an invalid entry, is a one-line
+    :class:`~drivelash.errors.ParameterError` naming the key.
+    """
+    from drivelash.errors import ParameterError
+
     if mapping is None:
         return None, SamplingSection()
+    if isinstance(mapping, (str, Path)):
+        from drivelash.io.config import load_config
+
+        mapping = load_config(mapping)
     if isinstance(mapping, DriveConfig):
         return mapping.columns, mapping.sampling_or_default()
     if isinstance(mapping, Mapping):
-        out = {}
-        for k, v in mapping.items():
-            out[str(k)] = v if isinstance(v, ColumnMap) else ColumnMap.model_validate(v)
-        return out, SamplingSection()
-    raise TypeError(f"mapping must be a DriveConfig, a dict of column maps or None, got {type(mapping)}")
+        return column_maps(mapping), SamplingSection()
+    raise ParameterError(
+        "mapping",
+        type(mapping).__name__,
+        "must be a DriveConfig, a configuration path, a dict source column → Trace column (name or "
+        "[columns]-style table) or None",
+    )
+
+
+def column_maps(mapping: Mapping[Any, Any], what: str = "columns") -> dict[str, ColumnMap]:
+    """``{source: ColumnMap}`` from a dict *source column → Trace column name or table*.
+
+    A string value is the Trace column, its values in that column's SI unit
+    (:data:`drivelash.io.trace.UNITS`: ``t`` in s, ``theta_m`` in rad, …; ``"1"`` for another
+    name); a dict is a ``[columns.<source>]`` table. An invalid entry raises a one-line
+    :class:`~drivelash.errors.ParameterError` naming ``<what>.<source>[.<key>]``.
+    """
+    import pydantic
+
+    from drivelash.errors import ParameterError
+
+    out: dict[str, ColumnMap] = {}
+    for k, v in mapping.items():
+        if isinstance(v, ColumnMap):
+            out[str(k)] = v
+            continue
+        if isinstance(v, str):  # the Trace column, in its SI unit (the unit of an unmapped column)
+            v = {"column": v, "unit": TRACE_UNITS.get(v, "1")}
+        if not isinstance(v, Mapping):
+            raise ParameterError(
+                what,
+                str(k),
+                f"must be a Trace column name or a table like {{'column': 'theta_l', 'unit': 'deg'}}, "
+                f"got {type(v).__name__}",
+            )
+        try:
+            out[str(k)] = ColumnMap.model_validate(dict(v))
+        except pydantic.ValidationError as exc:
+            e = exc.errors()[0]
+            loc = ".".join(str(x) for x in e.get("loc", ()))
+            msg = str(e.get("msg", "invalid")).removeprefix("Value error, ")
+            raise ParameterError(what, f"{k}.{loc}" if loc else str(k), msg) from None
+    return out
 
 
 def _sample_down(cols: dict[str, np.ndarray], max_rate_hz: float) -> dict[str, Any] | None:
@@ -343,6 +396,26 @@ def check_mapped_column(source: str, cm: ColumnMap, available: list[str], taken:
     return kind
 
 
+def unread_column(name: str, cmap: Mapping[str, ColumnMap] | None, required: Iterable[str]) -> bool:
+    """True for a source column that no drivelash computation reads: without a mapping, a
+    column that carries no Trace name (:data:`drivelash.io.trace.UNITS`), is not required and is
+    not the time (``t``/``time``) — e.g. a logger's status flag. With a mapping only mapped and
+    Trace-named columns are taken, so none is unread. One rule for the file loader and the stream."""
+    if cmap is not None or name in TRACE_UNITS or name in ("t", "time"):
+        return False
+    return name not in set(required)
+
+
+def unread_note(path: str, column: str, what: str, row: int, bad: int) -> str:
+    """The warning for an unread column (:func:`unread_column`) with ``bad`` NaN/inf values
+    (``what``: ``"NaN"`` or ``"infinite value"``, the first in ``row``): such a column is left
+    out of the trace instead of refusing the recording (the file loader's and the stream's text)."""
+    return (
+        f"{path}, column '{column}', row {row}: {what} ({bad} bad sample(s)) in a column drivelash"
+        " does not read; left out of the trace"
+    )
+
+
 def _check_finite(cols: Mapping[str, np.ndarray], origin: Mapping[str, str], path: str) -> None:
     for name, a in cols.items():
         bad = ~np.isfinite(a)
@@ -352,6 +425,25 @@ def _check_finite(cols: Mapping[str, np.ndarray], origin: Mapping[str, str], pat
             raise DataError(
                 f"{what} ({int(bad.sum())} bad sample(s))", path=path, column=origin.get(name, name), row=row
             )
+
+
+#: What to do about non-uniform sampling, on the command line …
+RESAMPLE_HINT = "resample explicitly with --resample or [sampling] resample = true"
+#: … and in Python (the notebook API has no --resample option).
+RESAMPLE_HINT_API = (
+    "resample explicitly: [sampling] resample = true in the configuration, or read it with "
+    "drivelash.load_trace(path, cfg, resample=True) / drivelash.Trace.from_frame(df, cfg, resample=True) "
+    "and pass that Trace"
+)
+
+
+def in_python_terms(exc: DataError) -> DataError:
+    """``exc`` with the command-line hint (``--resample``) replaced by what to do in Python
+    (:data:`RESAMPLE_HINT_API`); for the notebook API's callers."""
+    text = str(exc)
+    if RESAMPLE_HINT in text:
+        exc.args = (text.replace(RESAMPLE_HINT, RESAMPLE_HINT_API),)
+    return exc
 
 
 #: Longest plausible sample period of a drive recording [s] (docs/assumptions.md).
@@ -427,7 +519,7 @@ def _check_time(
             raise DataError(
                 f"non-uniform sampling: interval {steps[i]:.6g} s vs median {med:.6g} s"
                 f" (deviation {dev[i]:.1%} > tolerance {sampling.tolerance:.1%});"
-                " resample explicitly with --resample or [sampling] resample = true",
+                f" {RESAMPLE_HINT}",
                 path=path,
                 column=column,
                 row=i + 1,
@@ -613,12 +705,15 @@ def load_trace(
     ----------
     path : str or Path
         CSV, Parquet, HDF5 or MATLAB (v5/v7.3) file.
-    mapping : DriveConfig or dict, optional
+    mapping : DriveConfig, str, Path or dict, optional
         Column mapping: a configuration (its ``[columns]`` and ``[sampling]``
-        tables) or a dict source name → :class:`~drivelash.io.config.ColumnMap`
-        (or equivalent dict). Without one, columns must already carry the Trace
-        names in SI units; with one, unmapped columns that carry a Trace name are
-        taken as SI as they are.
+        tables) or its TOML path, or a dict *source column → Trace column*: the
+        Trace column's name (``{"pos_load": "theta_l"}``, values taken as SI), a
+        ``[columns]``-style table (``{"column": "theta_l", "unit": "deg"}``) or a
+        :class:`~drivelash.io.config.ColumnMap`. Without one, columns must already
+        carry the Trace names in SI units; with one, unmapped columns that carry a
+        Trace name are taken as SI as they are. Anything else is a
+        :class:`~drivelash.errors.ParameterError`.
     required : iterable of str
         Trace columns the caller needs (``t`` is always required).
     resample : bool, optional
@@ -677,6 +772,7 @@ def trace_from_table(
     hold. ``meta["sampled_down"]`` records ``k``, the file's sample period [s] and samples.
     """
     spath = table.path
+    required = list(required)
     warnings: list[str] = []
     cols, kinds, origin = _apply_mapping(table, cmap, sampling, warnings)
 
@@ -703,7 +799,15 @@ def trace_from_table(
             path=spath,
             column=missing[0],
         )
-    _check_finite(cols, origin, spath)  # every sample: a corrupt file is refused either way
+    for name in [k for k in cols if unread_column(k, cmap, required)]:
+        bad = ~np.isfinite(cols[name])
+        if bad.any():  # a column no computation reads does not refuse the recording
+            row = int(np.flatnonzero(bad)[0])
+            what = "NaN" if np.isnan(cols[name][row]) else "infinite value"
+            warnings.append(unread_note(spath, origin.get(name, name), what, row, int(bad.sum())))
+            del cols[name]
+            origin.pop(name, None)
+    _check_finite(cols, origin, spath)  # every sample of what is read: a corrupt file is refused either way
     down = _sample_down(cols, max_rate_hz) if max_rate_hz is not None else None
     if down is not None:
         cols = {k: np.ascontiguousarray(v[:: down["k"]]) for k, v in cols.items()}

@@ -230,7 +230,11 @@ class TraceStream:
             if unknown:
                 raise DataError(f"no such column (have: {', '.join(have)})", path=spath, column=unknown[0])
             plan = [c for c in plan if c.name in want]
+        from drivelash.io.load import unread_column
+
         self._plan = plan
+        #: columns no computation reads: NaN/inf leaves them out instead of refusing the file
+        self._unread = {c.name for c in plan if unread_column(c.name, cmap, self._required)}
         self.n_samples = src.n_rows
         self._warnings: list[str] = plan_warnings
         self._unwrap: dict[str, float] = {}
@@ -294,7 +298,7 @@ class TraceStream:
 
     # ------------------------------------------------------------------ validation
     def _validate(self) -> None:
-        from drivelash.io.load import _check_plausible_period
+        from drivelash.io.load import RESAMPLE_HINT, _check_plausible_period
 
         spath = str(self.path)
         plan = self._plan
@@ -335,7 +339,7 @@ class TraceStream:
                             st.first_jump = base + int(np.flatnonzero(jumps)[0]) + 1
                     st.last_raw = float(r[-1])
                     st.raw_lo, st.raw_hi = min(st.raw_lo, float(r.min())), max(st.raw_hi, float(r.max()))
-            if any(stats[c.name].first_bad is not None for c in plan):
+            if any(stats[c.name].first_bad is not None for c in plan if c.name not in self._unread):
                 continue
             t = self._t_chunk(row, m, raw)
             tc = self._t_col()
@@ -359,6 +363,17 @@ class TraceStream:
 
                     check_budget(8.0 * n, what=f"{spath}: the exact median of {n} irregular sample intervals")
                     all_steps = [np.repeat(np.array(list(step_vals)), list(step_vals.values()))]
+        # an unread column with NaN/inf is left out (the loader's rule, load.unread_column)
+        from drivelash.io.load import unread_note
+
+        for c in [c for c in plan if c.name in self._unread and stats[c.name].first_bad is not None]:
+            st = stats.pop(c.name)
+            what = "NaN" if st.first_bad_nan else "infinite value"
+            self._warnings.append(unread_note(spath, c.source, what, st.first_bad, st.bad))
+            plan = [p for p in plan if p.name != c.name]
+        if len(plan) != len(self._plan):
+            self._plan = plan
+            self.names = ["t", *[c.name for c in plan if c.name != "t"]]
         # the first problem in the loader's order: non-finite values, time, constant, …
         for c in plan:
             st = stats[c.name]
@@ -390,7 +405,7 @@ class TraceStream:
             raise DataError(
                 f"non-uniform sampling: interval {step:.6g} s vs median {med:.6g} s"
                 f" (deviation {abs(step - med) / med:.1%} > tolerance {tol:.1%});"
-                " resample explicitly with --resample or [sampling] resample = true",
+                f" {RESAMPLE_HINT}",
                 path=spath,
                 column=tcol,
                 row=row,

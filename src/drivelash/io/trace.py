@@ -144,26 +144,77 @@ class Trace:
         Parameters
         ----------
         df : pandas.DataFrame
-            Columns by name (numeric ones are used, as from a file); errors name ``<DataFrame>``.
+            Columns by name, read as from a file (errors name ``<DataFrame>``): numeric and
+            boolean columns as they are; a ``datetime64`` column (time stamps, with or without a
+            zone) as seconds [s] from its first stamp, as the Parquet reader reads them (the first
+            stamp in ``meta["time_origin"]``); a ``timedelta64`` column as seconds [s]. A time
+            index named ``t`` (or ``time``) is used as that column. Other non-numeric columns
+            are ignored unless they are read (a Trace name or a mapped source): then they are
+            refused (``not numeric (dtype object)``). Duplicate or MultiIndex column names are
+            refused.
         mapping, required, resample, check_saturation
-            As for :func:`~drivelash.io.load_trace`.
+            As for :func:`~drivelash.io.load_trace` (a dict maps *source column → Trace column*).
         """
+        import pandas as pd
+
         from drivelash.io.formats import RawTable
         from drivelash.io.load import _mapping_from, trace_from_table
 
-        cols: dict[str, np.ndarray] = {}
-        for name in df.columns:
-            a = np.asarray(df[name])
-            if a.dtype.kind in "biuf" and a.ndim == 1:
-                cols[str(name)] = a.astype(np.float64)
-        if not cols:
-            raise DataError("no numeric columns found", path="<DataFrame>")
-        if len(df) == 0:
-            raise DataError("no data rows", path="<DataFrame>")
+        where = "<DataFrame>"
+        required = list(required)
+        if not isinstance(df, pd.DataFrame):
+            raise DataError(f"must be a pandas DataFrame, got {type(df).__name__}", path=where)
+        if isinstance(df.columns, pd.MultiIndex):
+            raise DataError(
+                f"MultiIndex column names ({df.columns[0]!r}, …): flatten them, e.g. "
+                "df.columns = ['_'.join(map(str, c)) for c in df.columns]",
+                path=where,
+            )
+        dup = df.columns[df.columns.duplicated()]
+        if len(dup):
+            raise DataError("duplicate column name", path=where, column=str(dup[0]))
+        if df.index.name in ("t", "time") and df.index.name not in df.columns:
+            df = df.reset_index()  # the time as the index: the same column as from a file
         cmap, sampling = _mapping_from(mapping)
         if resample is not None:
             sampling = sampling.model_copy(update={"resample": resample})
-        table = RawTable(cols, {}, {}, "<DataFrame>", "DataFrame")
+        read = set(UNITS) | {"t", "time", *required} | set(cmap or {})
+        cols: dict[str, np.ndarray] = {}
+        meta: dict[str, Any] = {}
+        for name in df.columns:
+            col = df[name]
+            key = str(name)
+            kind = col.dtype.kind
+            if kind == "M":  # time stamps: seconds from the first, as the Parquet reader reads them
+                from drivelash.io.formats import stamps_to_seconds
+
+                stamps = pd.DatetimeIndex(col)
+                if len(stamps) and pd.isna(stamps[0]):
+                    raise DataError("empty time stamp", path=where, column=key, row=0)
+                cols[key] = stamps_to_seconds(_ns(stamps), int(stamps[0].value) if len(stamps) else 0)
+                meta.setdefault("timestamp_columns", []).append(key)
+                meta.setdefault("time_origin", {})[key] = stamps[0].isoformat()
+                continue
+            if kind == "m":  # durations: seconds
+                from drivelash.io.formats import stamps_to_seconds
+
+                cols[key] = stamps_to_seconds(_ns(pd.TimedeltaIndex(col)), 0)
+                continue
+            a = np.asarray(col)
+            if a.dtype.kind in "biuf" and a.ndim == 1:
+                cols[key] = a.astype(np.float64)
+            elif key in read:
+                raise DataError(
+                    f"not numeric (dtype {col.dtype}): convert it, e.g. "
+                    f"df[{key!r}] = pd.to_numeric(df[{key!r}])",
+                    path=where,
+                    column=key,
+                )
+        if not cols:
+            raise DataError("no numeric columns found", path=where)
+        if len(df) == 0:
+            raise DataError("no data rows", path=where)
+        table = RawTable(cols, {}, meta, where, "DataFrame")
         return trace_from_table(table, cmap, sampling, required=required, check_saturation=check_saturation)
 
     def to_pandas(self):  # noqa: ANN201 - pandas is an optional import at call time
@@ -214,3 +265,15 @@ class Trace:
         from drivelash.io.formats import write_trace
 
         return write_trace(self, path)
+
+
+def _ns(index: Any) -> np.ndarray:
+    """Nanoseconds of a pandas Datetime/TimedeltaIndex: int64, or float64 with NaN at NaT
+    (what the Parquet reader gets from Arrow)."""
+    v = index.as_unit("ns").asi8
+    nat = np.asarray(index.isna())
+    if not nat.any():
+        return v
+    out = v.astype(np.float64)
+    out[nat] = np.nan
+    return out
