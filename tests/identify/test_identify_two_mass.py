@@ -389,3 +389,17 @@ def test_few_gap_crossings_withhold_the_backlash_and_the_stiffness():
     ok = identify_two_mass(_slow_sine_0c(0.2, 3), 1.0)
     assert ok.backlash_visible and "4 traversals" in ok.reason, ok.reason
     assert ok["delta"].covers(bl.delta) and ok["K_S"].covers(RIG_DRIVETRAIN.K_S)
+
+
+@pytest.mark.parametrize("N", [0.5, 2.0, 10.0])
+def test_a_gear_ratio_the_positions_contradict_is_named(bench_0c, N):
+    """A wrong [drivetrain] N (true 1): before, the fit blamed the recording — N = 0.5 "the load
+    stayed on the lower flank", N = 10 "no contact", N = 2 "torque sign or gain". Now one line
+    naming N and the ratio the positions move in (1.016 here: cov(θ_m, θ_l)/var(θ_l), biased by
+    the 105 mrad gap over 1.9 rad of travel). Negative control: N = 1 identifies
+    (test_bench_short_recording_within_limits), and so does every N the data cannot tell from 1."""
+    with pytest.raises(ParameterError, match=rf"drivetrain.N: {N:g} contradicts the recording.*ratio 1\.01"):
+        identify_two_mass(bench_0c, N)
+    from drivelash.estimation.identify_two_mass import check_gear_ratio
+
+    check_gear_ratio(bench_0c["theta_m"], bench_0c["theta_l"], 1.0)  # no error with the true N

@@ -274,6 +274,52 @@ def _interior_mean(x: np.ndarray, start: int, M: int, nw: int) -> np.ndarray:
     return x[start : start + nw * M].reshape(nw, M)[:, 1:].mean(axis=1)
 
 
+#: The recorded positions contradict the configured gear ratio when the ratio fitted to them
+#: differs by more than this fraction ...
+GEAR_RATIO_TOLERANCE = 0.1
+#: ... and Δθ = θ_m/N − θ_l spans this many times more with the configured N than with the
+#: fitted ratio, while the load travelled this many times the fitted ratio's Δθ span (it was
+#: driven through the gear, not moving inside the gap); see docs/assumptions.md.
+GEAR_RATIO_SPAN_FACTOR = 4.0
+
+
+def check_gear_ratio(th_m: np.ndarray, th_l: np.ndarray, N: float, src: Any = None) -> None:
+    """Refuse a configured gear ratio N the recorded positions contradict.
+
+    The ratio the positions move in, N̂ = cov(θ_m, θ_l)/var(θ_l), differs from N by less than
+    the gap's share of the load travel on a drive with the right N (the gap is bounded, the
+    travel is not). A wrong N (a forgotten belt stage, N and 1/N swapped, motor counts per load
+    revolution) makes Δθ = θ_m/N − θ_l follow the load travel: every later verdict ("the load
+    stayed on one flank", "no contact") would blame the recording instead of N.
+
+    Raises
+    ------
+    ParameterError
+        ``N`` differs from N̂ by more than :data:`GEAR_RATIO_TOLERANCE`, Δθ with N spans more
+        than :data:`GEAR_RATIO_SPAN_FACTOR` times Δθ with N̂, and the load travelled as many
+        times that span.
+    """
+    dl = th_l - th_l.mean()
+    var_l = float(dl @ dl)
+    if not var_l > 0.0:
+        return
+    N_hat = float((th_m - th_m.mean()) @ dl) / var_l
+    if not (math.isfinite(N_hat) and N_hat > 0.0) or abs(N_hat / N - 1.0) <= GEAR_RATIO_TOLERANCE:
+        return
+    span_hat = float(np.ptp(th_m / N_hat - th_l))
+    span_cfg = float(np.ptp(th_m / N - th_l))
+    travel = float(np.ptp(th_l))
+    if span_cfg > GEAR_RATIO_SPAN_FACTOR * span_hat and travel > GEAR_RATIO_SPAN_FACTOR * span_hat:
+        raise ParameterError(
+            "drivetrain",
+            "N",
+            f"{N:.6g} contradicts the recording{f' {src}' if src else ''}: its motor and load positions "
+            f"move in the ratio {N_hat:.4g} (Δθ = θ_m/N − θ_l spans {1e3 * span_cfg:.4g} mrad with N, "
+            f"{1e3 * span_hat:.4g} mrad with {N_hat:.4g}, over a load travel of {travel:.4g} rad) — "
+            "check N, the encoder scales and units",
+        )
+
+
 def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> WindowData:
     """Preprocess a two-mass recording into :class:`WindowData`.
 
@@ -297,6 +343,7 @@ def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> Window
     M = max(2, int(round(window_s / T_s)))
     n = len(trace)
     th_m, th_l, u = trace["theta_m"], trace["theta_l"], trace["torque_m"]
+    check_gear_ratio(th_m, th_l, N, src)
     derived = []
     vel = {}
     for side, th in (("m", th_m), ("l", th_l)):
