@@ -58,9 +58,12 @@ class IngestReport:
     wall_s: float = 0.0
     compute_s: float = 0.0
     failures: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
 
 
-def plan(fleet: Fleet, store: Store) -> tuple[dict[str, int], list[RecordingTask], int]:
+def plan(
+    fleet: Fleet, store: Store, warnings: list[str] | None = None
+) -> tuple[dict[str, int], list[RecordingTask], int]:
     """Register the axes and list the recordings still to estimate.
 
     Returns
@@ -71,6 +74,8 @@ def plan(fleet: Fleet, store: Store) -> tuple[dict[str, int], list[RecordingTask
         Recordings without an estimate of this method/config/code version, by axis and path.
     skipped : int
         Recordings already stored.
+
+    ``warnings`` (when given) receives one line per axis whose ``recordings`` glob matches no file.
     """
     ids = store.upsert_axes(fleet.axes)
     ver = code_version()
@@ -78,7 +83,10 @@ def plan(fleet: Fleet, store: Store) -> tuple[dict[str, int], list[RecordingTask
     skipped = 0
     for a in fleet.axes:
         known = store.known_files(ids[a.name], a.method, a.drive_hash, ver)
-        for p in a.files():
+        files = a.files()
+        if not files and warnings is not None:
+            warnings.append(f"{fleet.path}: axis {a.name!r}: 'recordings' = {a.recordings!r} matches no file")
+        for p in files:
             size, mtime = file_facts(p)
             if (str(p), size, mtime) in known:
                 skipped += 1
@@ -299,8 +307,11 @@ def _ingest(
     update_alarms: bool,
     t0: float,
 ) -> IngestReport:
-    ids, tasks, skipped = plan(fleet, store)
-    rep = IngestReport(planned=len(tasks), skipped=skipped, axes=[a.name for a in fleet.axes])
+    warnings: list[str] = []
+    ids, tasks, skipped = plan(fleet, store, warnings)
+    rep = IngestReport(
+        planned=len(tasks), skipped=skipped, axes=[a.name for a in fleet.axes], warnings=warnings
+    )
     if runner is not None:
         results = runner.run(tasks, compute)
     elif workers > 1 and len(tasks) > 1:
