@@ -93,6 +93,8 @@ def run_ingest(
     if not quiet:
         for w in rep.warnings:
             typer.echo(f"drivelash: warning: {w}", err=True)
+        for w in rep.duplicates:
+            typer.echo(f"drivelash: warning: duplicate recording: {w}", err=True)
         for reason in rep.failures:
             typer.echo(f"drivelash: warning: {reason}", err=True)
         c = Console()
@@ -101,7 +103,9 @@ def run_ingest(
         c.print(
             f"[bold]{fleet.name}[/bold]: {rep.planned} new recordings estimated ({rate}; "
             f"{rep.stored} stored in {rep.batches} transactions, {rep.failed} failed), "
-            f"{rep.skipped} already in the store; {rep.wall_s:.1f} s -> {store.name}"
+            f"{rep.skipped} already in the store"
+            + (f" ({rep.redated} re-dated: the time specification changed)" if rep.redated else "")
+            + f"; {rep.wall_s:.1f} s -> {store.name}"
         )
     return rep
 

@@ -51,7 +51,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from drivelash.errors import ConfigError, DrivelashError
 from drivelash.io.config import DriveConfig, load_config
 
-__all__ = ["AxisSpec", "Fleet", "TimeSpec", "load_fleet", "parse_fleet"]
+__all__ = ["AxisSpec", "Fleet", "TimeSpec", "load_fleet", "parse_fleet", "time_spec_hash"]
 
 
 class _Strict(BaseModel):
@@ -290,6 +290,13 @@ def _format(source: str, err: dict[str, Any], data: dict[str, Any]) -> str:
     if not isinstance(got, dict | list) and kind != "value_error":
         msg = f"{msg} (got {got!r})"
     return f"{source}: table {table}, key '{key}': {msg}"
+
+
+def time_spec_hash(spec: TimeSpec) -> str:
+    """SHA-256 (hex) of a ``time`` specification's canonical JSON: stored with each recording's
+    start time, so a changed specification re-dates the recordings (``wear.ingest.redate``)."""
+    doc = spec.model_dump(mode="json", by_alias=True)
+    return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()
 
 
 def config_hash(drive: DriveConfig, method: str, estimate_rate_hz: float | None = None) -> str:

@@ -59,6 +59,8 @@ class IngestReport:
     compute_s: float = 0.0
     failures: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    redated: int = 0
+    duplicates: list[str] = field(default_factory=list)
 
 
 def plan(
@@ -106,6 +108,54 @@ def plan(
                 )
             )
     return ids, tasks, skipped
+
+
+def redate(fleet: Fleet, store: Store) -> list[tuple[int, object, str]]:
+    """(recording id, start time, spec hash) for every stored recording (with an ``ok``
+    estimate) of the fleet whose ``time`` specification changed since it was dated (or is
+    unknown: stored before revision 0003). Reads only what the specification needs (nothing
+    for ``filename``, a stat for ``mtime``, the file for ``column``/``metadata``); nothing is
+    written here.
+
+    Raises
+    ------
+    ConfigError
+        A recording cannot be dated with the new specification (e.g. no such time column):
+        one line naming the fleet file, the axis, the key and the file.
+    """
+    from drivelash.errors import ConfigError
+    from drivelash.io.formats import read_raw
+    from drivelash.wear.estimate import recording_start
+    from drivelash.wear.fleet import time_spec_hash
+
+    names = {a["name"]: a["id"] for a in store.axes()}
+    out: list[tuple[int, object, str]] = []
+    for k, a in enumerate(fleet.axes):
+        if a.name not in names:
+            continue
+        h = time_spec_hash(a.time)
+        dated = store.dated_files(names[a.name])
+        done: set[int] = set()
+        for p in a.files():
+            hit = dated.get((str(p), *file_facts(p)))
+            if hit is None or hit[1] == h or hit[0] in done:
+                continue
+            try:
+                meta = read_raw(p).meta if a.time.source == "metadata" else None
+                start = recording_start(p, a.time, meta)
+            except DrivelashError as exc:
+                what = a.time.column if a.time.source == "column" else a.time.key
+                key = {"column": "time.column", "metadata": "time.key"}.get(a.time.source, "time")
+                reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+                reason = reason.removeprefix(f"{p}, ").removeprefix(f"{p}: ")
+                raise ConfigError(
+                    f"{fleet.path}: table [[axis]] #{k + 1} (id {a.name!r}), key '{key}'"
+                    f"{f' = {what!r}' if a.time.source in ('column', 'metadata') else ''}: "
+                    f"cannot re-date {p} with the changed time specification ({reason}); nothing was written"
+                ) from None
+            done.add(hit[0])
+            out.append((hit[0], start, h))
+    return out
 
 
 # ------------------------------------------------------------------------------------ executors
@@ -307,6 +357,7 @@ def _ingest(
     update_alarms: bool,
     t0: float,
 ) -> IngestReport:
+    changes = redate(fleet, store)  # a recording that cannot be re-dated: error, nothing written
     warnings: list[str] = []
     ids, tasks, skipped = plan(fleet, store, warnings)
     rep = IngestReport(
@@ -318,6 +369,7 @@ def _ingest(
         results = _processes(tasks, compute, workers)
     else:
         results = _serial(tasks, compute)
+    rep.redated = store.redate(changes)  # one transaction
     batch: list[EstimateRow] = []
     last = time.monotonic()
     done = 0
@@ -325,7 +377,7 @@ def _ingest(
     def flush() -> None:
         nonlocal batch, last
         if batch:
-            rep.stored += store.commit_batch(batch, ids)
+            rep.stored += store.commit_batch(batch, ids, rep.duplicates)
             rep.batches += 1
         batch = []
         last = time.monotonic()
