@@ -190,3 +190,41 @@ def test_rate_accuracy_example_runs_on_a_simulated_fleet(small_fleet):
     for cols in rows.values():
         assert int(cols[1]) >= 10 and float(cols[2]) < 1.0 and cols[5] == "0"  # n, max mrad, verdicts off
     assert rows["full"][2:4] != rows["1000"][2:4]
+
+
+@pytest.mark.parametrize(
+    ("value", "key"),
+    [
+        ("true", "threshold"),
+        ('"0.08"', "threshold"),
+    ],
+)
+def test_threshold_must_be_a_number_not_a_bool_or_string(tmp_path, value, key):
+    """Exploration: `threshold = true` became 1000 mrad and `threshold = "0.08"` was accepted."""
+    p = _write(tmp_path, GOOD.replace("threshold = 0.2\n", f"threshold = {value}\n", 1))
+    with pytest.raises(ConfigError) as exc:
+        load_fleet(p)
+    msg = str(exc.value)
+    assert "\n" not in msg and msg.startswith(str(p.resolve()))
+    assert f"table [[axis]] #1 (id 'M01/X'), key '{key}': must be a number" in msg, msg
+    # negative control: an integer and a float are numbers
+    for ok, rad in (("1", 1.0), ("0.08", 0.08)):
+        q = _write(tmp_path, GOOD.replace("threshold = 0.2\n", f"threshold = {ok}\n", 1))
+        assert load_fleet(q).axes[0].threshold_rad == rad
+
+
+def test_horizon_as_string_is_an_error(tmp_path):
+    p = _write(tmp_path, GOOD.replace("[fleet]\n", '[fleet]\nhorizon_days = "30"\n', 1))
+    with pytest.raises(ConfigError, match=r"table \[fleet\], key 'horizon_days': must be a number"):
+        load_fleet(p)
+
+
+def test_a_glob_matching_no_file_is_a_warning_naming_axis_and_pattern(tmp_path):
+    from drivelash.wear import Store, ingest
+
+    p = _write(tmp_path, GOOD)
+    f = load_fleet(p)
+    rep = ingest(f, Store(tmp_path / "w.sqlite"), workers=1, update_alarms=False)
+    assert len(rep.warnings) == len(f.axes)
+    a = f.axes[0]
+    assert rep.warnings[0] == f"{p.resolve()}: axis 'M01/X': 'recordings' = {a.recordings!r} matches no file"

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 import os
+import re
+import shutil
 import signal
 import sqlite3
 import subprocess
@@ -288,7 +290,7 @@ def test_postgresql_store_ingest_and_forecast(small_fleet, serial_store, pg_url)
     """The same ingest on a real PostgreSQL server gives the same values and forecasts."""
     st, _ = serial_store
     pg = Store(pg_url)
-    assert pg.revision() == "0002"
+    assert pg.revision() == "0003"
     ingest(load_fleet(small_fleet / "fleet.toml"), pg, workers=1)
     assert _values(pg) == _values(st)
     rep = ingest(load_fleet(small_fleet / "fleet.toml"), pg, workers=1)
@@ -437,3 +439,29 @@ def test_a_second_configuration_does_not_count_a_recording_twice(small_fleet, se
     again = axis_summary(st, axis_row)
     assert {r["config_hash"] for r in again["used_rows"]} == {ax.drive_hash}
     assert [r["delta"] for r in again["used_rows"]] == [r["delta"] for r in before["used_rows"]]
+
+
+def test_status_and_forecast_judge_with_the_fleet_current_threshold(small_fleet, serial_store, tmp_path):
+    """Exploration: a threshold lowered in fleet.toml was ignored by `track status --fleet` until
+    the next ingest (the store's copy of 167.30 mrad was used)."""
+    from drivelash.commands.track import run_forecast, run_status
+
+    st, _ = serial_store
+    db = str(st.url.database)
+    src = (small_fleet / "fleet.toml").read_text()
+    fleet = load_fleet(small_fleet / "fleet.toml")
+    a = fleet.axes[0]
+    stored = next(x for x in st.axes() if x["name"] == a.name)["threshold_rad"]
+    low = 0.001  # below every estimate: the axis has crossed it
+    shutil.copytree(small_fleet, tmp_path / "f", ignore=shutil.ignore_patterns("recordings", "wear.sqlite*"))
+    edited = tmp_path / "f" / "fleet.toml"
+    edited.write_text(re.sub(r"(?m)^threshold = [0-9.eE+-]+$", f"threshold = {low!r}", src, count=1))
+    new = load_fleet(edited)
+    assert new.axes[0].threshold_rad == low and stored != low
+    s = next(x for x in run_status(db, quiet=True, fleet=new) if x["axis"] == a.name)
+    assert s["threshold_rad"] == low and s["crossed"] and any(x.kind == "threshold" for x in s["alarms"])
+    doc = run_forecast(a.name, db, quiet=True, fleet=new)
+    assert doc["threshold_rad"] == low and doc["crossed"]
+    # negative control: without the fleet file the store's threshold judges, not crossed
+    s = next(x for x in run_status(db, quiet=True) if x["axis"] == a.name)
+    assert s["threshold_rad"] == stored and not s["crossed"]

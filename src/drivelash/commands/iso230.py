@@ -128,8 +128,20 @@ def run_iso230(
             }
             if store is not None and axis is not None:
                 rot = cfg.transmission.factor("rad") if (res.unit == "rad" and cfg.transmission) else None
+                target: Any = store
+                if res.unit == "m" and factor is None:
+                    tr_mm, why = _config_transmission_mm(cfg)
+                    if tr_mm is not None:
+                        target = _WithTransmission(store, tr_mm)
+                    else:
+                        warnings.append(
+                            f"the check is stored in m only and cannot be shown as a deadzone (rad) beside "
+                            f"the estimates: axis {axis} has no transmission in {store.name} and {why} — add "
+                            f"'transmission = <mm of load travel per rad>' to its [[axis]] in fleet.toml "
+                            "(then `drivelash track ingest`) or a [transmission] table to the iso230 config"
+                        )
                 mid = store_check(
-                    store,
+                    target,
                     axis,
                     measurement,
                     when,
@@ -156,6 +168,29 @@ def run_iso230(
             h = summary["history"]
             typer.echo(f"stored as measurement {h['measurement_id']} of axis {h['axis']} in {h['store']}")
     return summary
+
+
+def _config_transmission_mm(cfg: Any) -> tuple[float | None, str]:
+    """(mm of load travel per rad from the iso230 config's [transmission], or None and why not)."""
+    from drivelash.errors import DrivelashError
+
+    if cfg.transmission is None:
+        return None, f"{cfg.source} has no [transmission] table"
+    try:
+        return float(cfg.transmission.factor("m")) * 1e3, ""
+    except DrivelashError as exc:
+        return None, f"{cfg.source}: [transmission] does not give one ({str(exc).splitlines()[0]})"
+
+
+class _WithTransmission:
+    """The store, with the iso230 config's transmission for the check's conversion to rad
+    (used only when the axis has none in the store)."""
+
+    def __init__(self, store: Any, mm_per_rad: float) -> None:
+        self._store, self._tr = store, mm_per_rad
+
+    def add_measurement(self, *args: Any, **kw: Any) -> int:
+        return self._store.add_measurement(*args, transmission_mm_per_rad=self._tr, **kw)
 
 
 def drift_warning(dr: Any, res: Any) -> str:

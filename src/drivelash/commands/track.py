@@ -32,15 +32,15 @@ track_app = typer.Typer(
 )
 
 
-def _store_location(db: str | None, fleet: Path | None) -> str:
-    if db:
-        return db
+def _store_location(db: str | None, fleet: Path | None) -> tuple[str, Any]:
+    """(store URL, the parsed fleet or None): a given fleet file also supplies the thresholds
+    the axes are judged by (its current ones, not those stored at the last ingest)."""
     if fleet is not None:
         from drivelash.wear.fleet import load_fleet
 
         f = load_fleet(fleet)
-        return _fleet_db(f)
-    return "wear.sqlite"
+        return (db or _fleet_db(f)), f
+    return (db or "wear.sqlite"), None
 
 
 def _fleet_db(f: Any) -> str:
@@ -91,6 +91,10 @@ def run_ingest(
         if runner is not None:
             runner.close()
     if not quiet:
+        for w in rep.warnings:
+            typer.echo(f"drivelash: warning: {w}", err=True)
+        for w in rep.duplicates:
+            typer.echo(f"drivelash: warning: duplicate recording: {w}", err=True)
         for reason in rep.failures:
             typer.echo(f"drivelash: warning: {reason}", err=True)
         c = Console()
@@ -99,24 +103,29 @@ def run_ingest(
         c.print(
             f"[bold]{fleet.name}[/bold]: {rep.planned} new recordings estimated ({rate}; "
             f"{rep.stored} stored in {rep.batches} transactions, {rep.failed} failed), "
-            f"{rep.skipped} already in the store; {rep.wall_s:.1f} s -> {store.name}"
+            f"{rep.skipped} already in the store"
+            + (f" ({rep.redated} re-dated: the time specification changed)" if rep.redated else "")
+            + f"; {rep.wall_s:.1f} s -> {store.name}"
         )
     return rep
 
 
-def _summaries(db: str) -> tuple[Any, list[dict[str, Any]]]:
+def _summaries(db: str, fleet: Any = None) -> tuple[Any, list[dict[str, Any]]]:
     from drivelash.wear.alarms import fleet_summary
     from drivelash.wear.store import Store
 
     store = Store(db, create=False)
-    return store, fleet_summary(store)
+    return store, fleet_summary(store, fleet)
 
 
-def run_status(db: str, quiet: bool = False, label: str | None = None) -> list[dict[str, Any]]:
+def run_status(
+    db: str, quiet: bool = False, label: str | None = None, fleet: Any = None
+) -> list[dict[str, Any]]:
     """Body of ``track status``; returns the axis summaries (sorted by forecast time).
 
     ``label`` names the store in the title instead of its URL (the demo builds its store in a
-    staging directory that is renamed afterwards, so the URL would name a path that is gone).
+    staging directory that is renamed afterwards, so the URL would name a path that is gone);
+    ``fleet`` (a parsed fleet) supplies the thresholds the axes are judged by.
     """
     from rich.console import Console
     from rich.markup import escape
@@ -124,7 +133,7 @@ def run_status(db: str, quiet: bool = False, label: str | None = None) -> list[d
 
     from drivelash.report.fleet import OVERVIEW_HEADER, overview_rows
 
-    store, summ = _summaries(db)
+    store, summ = _summaries(db, fleet)
     store.close()
     if not quiet:
         table = Table(*OVERVIEW_HEADER, box=None, title=f"wear status — {escape(str(label or store.name))}")
@@ -154,6 +163,8 @@ def forecast_json(s: dict[str, Any]) -> dict[str, Any]:
         "recordings": s["recordings"],
         "used": s["used"],
         "unexcited": s["unexcited"],
+        "unconverged": s["unconverged"],
+        "unconverged_used": s["unconverged_used"],
         "failed": s["failed"],
         "outliers": s["outliers"],
         "last_recording": iso(s["last_recording"]),
@@ -194,10 +205,12 @@ def forecast_json(s: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def run_forecast(axis: str, db: str, json_out: str | None = None, quiet: bool = False) -> dict[str, Any]:
-    """Body of ``track forecast``; returns the JSON document."""
+def run_forecast(
+    axis: str, db: str, json_out: str | None = None, quiet: bool = False, fleet: Any = None
+) -> dict[str, Any]:
+    """Body of ``track forecast``; returns the JSON document (``fleet``: as in :func:`run_status`)."""
     from drivelash.io.outputs import JSON_EXTENSIONS, Outputs, dumps_json, write_json
-    from drivelash.wear.alarms import axis_summary
+    from drivelash.wear.alarms import axis_summary, judged_axes
     from drivelash.wear.store import Store
 
     with Outputs("track forecast") as out:
@@ -209,7 +222,7 @@ def run_forecast(axis: str, db: str, json_out: str | None = None, quiet: bool = 
         store = Store(db, create=False)
         try:
             store.axis_id(axis)
-            a = next(x for x in store.axes() if x["name"] == axis)
+            a = next(x for x in judged_axes(store, fleet) if x["name"] == axis)
             s = axis_summary(store, a)
         finally:
             store.close()
@@ -230,9 +243,16 @@ def _print_forecast(s: dict[str, Any]) -> None:
     c = Console()
     mr = lambda x: "–" if x is None or not math.isfinite(x) else f"{1e3 * x:.3f} mrad"  # noqa: E731
     day = lambda t: t.strftime("%Y-%m-%d %H:%M") if t is not None else "–"  # noqa: E731
+    conv = ""
+    if s.get("unconverged"):
+        conv = (
+            f", {s['unconverged']} excited but not converged ({s['unconverged_used']} of them in the trend, "
+            "weighted by their uncertainty)"
+        )
     c.print(
-        f"[bold]{s['axis']}[/bold]: {s['used']} of {s['recordings']} recordings used "
-        f"({s['unexcited']} not excited, {s['failed']} failed, {s['outliers']} outliers)"
+        f"[bold]{s['axis']}[/bold]: {s['used']} of {s['recordings']} recordings usable, "
+        f"{s['used'] - s['outliers']} in the fit ({s['outliers']} outliers left out; "
+        f"{s['unexcited']} not excited{conv}, {s['failed']} failed)"
     )
     c.print(
         f"  threshold {mr(s['threshold_rad'])}; fitted now {mr(s['current_rad'])} "
@@ -255,7 +275,12 @@ def _print_forecast(s: dict[str, Any]) -> None:
 
 
 def run_report(
-    db: str, out_path: Path, force: bool = False, quiet: bool = False, label: str | None = None
+    db: str,
+    out_path: Path,
+    force: bool = False,
+    quiet: bool = False,
+    label: str | None = None,
+    fleet: Any = None,
 ) -> Path:
     """Body of ``track report``; returns the written path (``label`` as in :func:`run_status`)."""
     from drivelash.io.outputs import HTML_EXTENSIONS, Outputs
@@ -263,7 +288,7 @@ def run_report(
 
     with Outputs("track report", force=force) as out:
         target = out.file(out_path, option="-o", kinds=HTML_EXTENSIONS)
-        store, summ = _summaries(db)
+        store, summ = _summaries(db, fleet)
         try:
             meas: dict[str, list[dict[str, Any]]] = {}
             for m in store.measurements():
@@ -352,31 +377,40 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
     @track_app.command("status")
     def status_cmd(
         db: str | None = typer.Option(None, "--db", help=db_help),
-        fleet: Path | None = typer.Option(None, "--fleet", help="Take the store from this fleet.toml."),
+        fleet: Path | None = typer.Option(
+            None, "--fleet", help="Take the store and the current thresholds from this fleet.toml."
+        ),
     ) -> None:
         """Table of the axes, soonest forecast threshold crossing first, with active alarms."""
-        run_status(_store_location(db, fleet))
+        url, f = _store_location(db, fleet)
+        run_status(url, fleet=f)
 
     @track_app.command("forecast")
     def forecast_cmd(
         axis: str = typer.Argument(..., help="machine/axis"),
         db: str | None = typer.Option(None, "--db", help=db_help),
-        fleet: Path | None = typer.Option(None, "--fleet", help="Take the store from this fleet.toml."),
+        fleet: Path | None = typer.Option(
+            None, "--fleet", help="Take the store and the current thresholds from this fleet.toml."
+        ),
         json_out: str | None = typer.Option(
             None, "--json", help="Write the forecast as JSON here ('-': stdout)."
         ),
     ) -> None:
         """Trend, growth model and forecast threshold crossing (90 % interval) of one axis."""
-        run_forecast(axis, _store_location(db, fleet), json_out)
+        url, f = _store_location(db, fleet)
+        run_forecast(axis, url, json_out, fleet=f)
 
     @track_app.command("report")
     def report_cmd(
         out: Path = typer.Option(..., "-o", "--out", help="HTML report to write."),
         db: str | None = typer.Option(None, "--db", help=db_help),
-        fleet: Path | None = typer.Option(None, "--fleet", help="Take the store from this fleet.toml."),
+        fleet: Path | None = typer.Option(
+            None, "--fleet", help="Take the store and the current thresholds from this fleet.toml."
+        ),
         force: bool = typer.Option(
             False, "--force", help="Replace an existing file that is not a drivelash output."
         ),
     ) -> None:
         """Write the self-contained HTML fleet report (overview, alarms, trend per axis)."""
-        run_report(_store_location(db, fleet), out, force=force)
+        url, f = _store_location(db, fleet)
+        run_report(url, out, force=force, fleet=f)

@@ -198,8 +198,12 @@ def _axis_figure(s: dict[str, Any], meas: list[dict[str, Any]]) -> Figure:
             ax.text(0.5, 0.5, "no recordings", transform=ax.transAxes, ha="center", va="center")
         ax.set_ylabel("deadzone δ [mrad]")
         ax.set_title(
-            f"{name}: {s['used']} of {s['recordings']} recordings used"
-            + (f", {s['outliers']} outliers" if s["outliers"] else ""),
+            f"{name}: {s['used']} of {s['recordings']} recordings usable"
+            + (
+                f", {s['used'] - s['outliers']} in the fit ({s['outliers']} outliers)"
+                if s["outliers"]
+                else ""
+            ),
             fontsize=10,
         )
         ax.grid(alpha=0.3)

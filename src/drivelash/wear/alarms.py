@@ -2,12 +2,17 @@
 
 Alarm kinds (each keyed so the same event is raised once and cleared when it no longer holds):
 
-* ``threshold`` — the fitted δ at the latest used recording is at or above the threshold;
+* ``threshold`` — the fitted δ at the latest used recording is at or above the threshold, or
+  the latest excited estimate lies above it by more than :data:`THRESHOLD_Z` of its stated
+  uncertainty (also when the trend cannot use it: too few estimates, an outlier or the first
+  recording after a jump);
 * ``forecast`` — the early (5 %) bound of the forecast crossing lies within the axis's
   horizon after its latest recording;
 * ``jump`` — a positive change point (sudden damage), keyed by its time;
-* ``not_excited`` — the latest N recordings (``[fleet] not_excited_alarm``) gave no usable
-  estimate because the motion did not excite the deadzone (failed files do not count).
+* ``not_excited`` / ``not_converged`` / ``no_estimate`` — the latest N recordings
+  (``[fleet] not_excited_alarm``) gave no usable estimate: all because the motion did not
+  excite the deadzone, all because the estimator did not converge and stated no uncertainty,
+  or a mix (failed files do not count).
 """
 
 from __future__ import annotations
@@ -17,10 +22,16 @@ from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
 
-from drivelash.wear.store import Store
-from drivelash.wear.trend import AxisTrend, analyse
+import numpy as np
 
-__all__ = ["Alarm", "axis_summary", "fleet_summary", "refresh_alarms"]
+from drivelash.wear.store import Store
+from drivelash.wear.trend import AxisTrend, analyse, usable
+
+__all__ = ["Alarm", "axis_summary", "fleet_summary", "judged_axes", "refresh_alarms"]
+
+#: A single estimate raises the threshold alarm when δ̂ − THRESHOLD_Z·σ ≥ threshold (σ its stated
+#: uncertainty, else the axis's noise scale): one-sided 95 % that the recording's δ is above.
+THRESHOLD_Z = 1.645
 
 
 @dataclass(frozen=True)
@@ -40,6 +51,37 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
     thr = axis["threshold_rad"]
     last_used = trend.to_time(float(trend.t[-1])) if trend.t.size else None
     fc = trend.forecast
+    ok_rows = sorted(
+        (r for r in rows if r["status"] == "ok"), key=lambda r: (r["start_time"] or datetime.min, r["path"])
+    )
+    latest = next((r for r in reversed(ok_rows) if r["excitation_ok"] and r["delta"] is not None), None)
+    single = None
+    if thr is not None and latest is not None and not (fc is not None and fc.crossed):
+        sd = latest["delta_std"] if latest["delta_std"] and math.isfinite(latest["delta_std"]) else None
+        s_use = sd if sd is not None else trend.sigma
+        if latest["delta"] - THRESHOLD_Z * s_use >= thr:
+            single = latest, sd
+    if single is not None:
+        r, sd = single
+        pm = f" ± {1e3 * sd:.2f}" if sd is not None else ""
+        why = (
+            f"estimate not converged: uncertainty ±{1e3 * 1.96 * sd:.2f} mrad (95 %)"
+            if not r["converged"] and sd is not None
+            else "estimate not converged, no uncertainty stated"
+            if not r["converged"]
+            else "not in the fitted trend yet: a jump or a bad recording, the next recording decides"
+            if trend.model is None or not _in_fit(trend, r)
+            else "the fitted trend is still below"
+        )
+        out.append(
+            Alarm(
+                "threshold",
+                "crossed",
+                f"{name}: latest estimate {1e3 * r['delta']:.2f}{pm} mrad ({_day(r['start_time'])}) above "
+                f"the threshold {1e3 * thr:.2f} mrad ({why})",
+                r["start_time"],
+            )
+        )
     if fc is not None and thr is not None:
         if fc.crossed:
             out.append(
@@ -74,26 +116,44 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
                     when,
                 )
             )
-    ok_rows = sorted(
-        (r for r in rows if r["status"] == "ok"), key=lambda r: (r["start_time"] or datetime.min, r["path"])
-    )
     run = 0
     for r in reversed(ok_rows):
-        if r["excitation_ok"] and r["converged"]:
+        if usable(r):
             break
         run += 1
     if run >= axis["not_excited_alarm"]:
-        first = ok_rows[-run]
-        out.append(
-            Alarm(
-                "not_excited",
-                "latest",
-                f"{name}: the last {run} recordings did not excite the deadzone "
-                f"(since {_day(first['start_time'])}: {first['reason']})",
-                ok_rows[-1]["start_time"],
+        tail = ok_rows[-run:]
+        first = tail[0]
+        unexc = sum(1 for r in tail if not r["excitation_ok"])
+        since = f"since {_day(first['start_time'])}"
+        if unexc == run:
+            kind, text = "not_excited", f"did not excite the deadzone ({since}: {first['reason']})"
+        elif unexc == 0:
+            kind, text = (
+                "not_converged",
+                f"gave estimates not converged and not usable ({since}: {first['reason']})",
             )
+        else:
+            kind, text = (
+                "no_estimate",
+                (
+                    f"gave no usable estimate ({unexc} did not excite the deadzone, "
+                    f"{run - unexc} not converged and not usable; {since})"
+                ),
+            )
+        out.append(
+            Alarm(kind, "latest", f"{name}: the last {run} recordings {text}", ok_rows[-1]["start_time"])
         )
     return out
+
+
+def _in_fit(trend: AxisTrend, r: dict[str, Any]) -> bool:
+    """Whether store row ``r`` is an inlier of the trend's fit."""
+    if trend.t0 is None or r["start_time"] is None:
+        return False
+    d = (r["start_time"] - trend.t0).total_seconds() / 86400.0
+    hit = (abs(trend.t - d) < 1e-9) & (trend.y == r["delta"])
+    return bool(np.any(hit & trend.inlier))
 
 
 def _day(t: datetime | None) -> str:
@@ -116,9 +176,14 @@ def axis_summary(store: Store, axis: dict[str, Any]) -> dict[str, Any]:
         "threshold_rad": axis["threshold_rad"],
         "recordings": len(rows),
         "used": len(used),
-        "unexcited": sum(
-            1 for r in rows if r["status"] == "ok" and not (r["excitation_ok"] and r["converged"])
+        "unexcited": sum(1 for r in rows if r["status"] == "ok" and not r["excitation_ok"]),
+        # excited, but the estimator did not converge (its 95 % uncertainty above its claim);
+        # those with a stated uncertainty are in "used", weighted by it
+        "unconverged": sum(
+            1 for r in rows if r["status"] == "ok" and r["excitation_ok"] and not r["converged"]
         ),
+        "unconverged_used": sum(1 for r in used if not r["converged"]),
+        "unusable": sum(1 for r in rows if r["status"] == "ok" and r["excitation_ok"] and not usable(r)),
         "failed": sum(1 for r in rows if r["status"] != "ok"),
         "outliers": int((~trend.inlier).sum()) if trend.t.size else 0,
         "last_recording": last_t,
@@ -148,10 +213,31 @@ def axis_summary(store: Store, axis: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def fleet_summary(store: Store) -> list[dict[str, Any]]:
+def judged_axes(store: Store, fleet: Any | None = None) -> list[dict[str, Any]]:
+    """The store's axes, with the judging settings (threshold, horizon, not-excited count,
+    transmission) of ``fleet`` (a :class:`~drivelash.wear.fleet.Fleet`) where it names the axis:
+    the store holds the values of the last ingest, the fleet file is what the user means now."""
+    axes = store.axes()
+    if fleet is None:
+        return axes
+    spec = {a.name: a for a in fleet.axes}
+    for a in axes:
+        f = spec.get(a["name"])
+        if f is not None:
+            a.update(
+                threshold_rad=f.threshold_rad,
+                horizon_days=f.horizon_days,
+                not_excited_alarm=f.not_excited_alarm,
+                transmission_mm_per_rad=f.transmission,
+            )
+    return axes
+
+
+def fleet_summary(store: Store, fleet: Any | None = None) -> list[dict[str, Any]]:
     """:func:`axis_summary` of every axis, sorted by forecast time to threshold (soonest first;
-    crossed axes first, axes without a forecast last)."""
-    out = [axis_summary(store, a) for a in store.axes()]
+    crossed axes first, axes without a forecast last); judged with ``fleet``'s current
+    thresholds when given (:func:`judged_axes`)."""
+    out = [axis_summary(store, a) for a in judged_axes(store, fleet)]
 
     def key(s: dict[str, Any]) -> tuple:
         if s["crossed"]:

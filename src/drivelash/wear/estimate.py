@@ -25,7 +25,7 @@ from typing import Any
 
 from drivelash.errors import DataError, DrivelashError
 from drivelash.io.config import DriveConfig
-from drivelash.wear.fleet import TimeSpec
+from drivelash.wear.fleet import TimeSpec, time_spec_hash
 from drivelash.wear.store import EstimateRow, utc_naive
 
 __all__ = ["RecordingTask", "code_version", "estimate_recording", "recording_start"]
@@ -167,6 +167,7 @@ def estimate_recording(task: RecordingTask) -> EstimateRow:
         method=task.method,
         config_hash=task.config_hash,
         code_version=task.code_version,
+        time_spec_hash=time_spec_hash(task.time),
     )
     digest, data, exc = read_and_hash(path)
     if exc is not None:

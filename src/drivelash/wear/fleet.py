@@ -51,11 +51,19 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from drivelash.errors import ConfigError, DrivelashError
 from drivelash.io.config import DriveConfig, load_config
 
-__all__ = ["AxisSpec", "Fleet", "TimeSpec", "load_fleet", "parse_fleet"]
+__all__ = ["AxisSpec", "Fleet", "TimeSpec", "load_fleet", "parse_fleet", "time_spec_hash"]
 
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+
+
+def _a_number(v: Any) -> Any:
+    """Before pydantic's coercion: a TOML boolean or string is not a number (``threshold = true``
+    became 1 rad, ``threshold = "0.08"`` was read as 0.08)."""
+    if isinstance(v, bool) or isinstance(v, str):
+        raise ValueError(f"must be a number, got {type(v).__name__} {v!r}")
+    return v
 
 
 class TimeSpec(_Strict):
@@ -97,6 +105,16 @@ class FleetSection(_Strict):
     estimate_rate_hz: float | Literal["full"] = 1000.0
     time: TimeSpec | None = None
 
+    @field_validator("horizon_days", "not_excited_alarm", mode="before")
+    @classmethod
+    def _numbers(cls, v: Any) -> Any:
+        return _a_number(v)
+
+    @field_validator("estimate_rate_hz", mode="before")
+    @classmethod
+    def _rate_type(cls, v: Any) -> Any:
+        return v if v == "full" else _a_number(v)
+
     @field_validator("estimate_rate_hz")
     @classmethod
     def _rate(cls, v: float | str) -> float | str:
@@ -122,6 +140,11 @@ class AxisSection(_Strict):
         if not re.fullmatch(r"[^/\s]+/[^/\s]+", v):
             raise ValueError(f"must be 'machine/axis' (one '/', no spaces), got {v!r}")
         return v
+
+    @field_validator("threshold", "transmission", mode="before")
+    @classmethod
+    def _numbers(cls, v: Any) -> Any:
+        return _a_number(v)
 
     @field_validator("threshold", "transmission")
     @classmethod
@@ -267,6 +290,13 @@ def _format(source: str, err: dict[str, Any], data: dict[str, Any]) -> str:
     if not isinstance(got, dict | list) and kind != "value_error":
         msg = f"{msg} (got {got!r})"
     return f"{source}: table {table}, key '{key}': {msg}"
+
+
+def time_spec_hash(spec: TimeSpec) -> str:
+    """SHA-256 (hex) of a ``time`` specification's canonical JSON: stored with each recording's
+    start time, so a changed specification re-dates the recordings (``wear.ingest.redate``)."""
+    doc = spec.model_dump(mode="json", by_alias=True)
+    return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()
 
 
 def config_hash(drive: DriveConfig, method: str, estimate_rate_hz: float | None = None) -> str:

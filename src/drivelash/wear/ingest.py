@@ -58,9 +58,14 @@ class IngestReport:
     wall_s: float = 0.0
     compute_s: float = 0.0
     failures: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    redated: int = 0
+    duplicates: list[str] = field(default_factory=list)
 
 
-def plan(fleet: Fleet, store: Store) -> tuple[dict[str, int], list[RecordingTask], int]:
+def plan(
+    fleet: Fleet, store: Store, warnings: list[str] | None = None
+) -> tuple[dict[str, int], list[RecordingTask], int]:
     """Register the axes and list the recordings still to estimate.
 
     Returns
@@ -71,6 +76,8 @@ def plan(fleet: Fleet, store: Store) -> tuple[dict[str, int], list[RecordingTask
         Recordings without an estimate of this method/config/code version, by axis and path.
     skipped : int
         Recordings already stored.
+
+    ``warnings`` (when given) receives one line per axis whose ``recordings`` glob matches no file.
     """
     ids = store.upsert_axes(fleet.axes)
     ver = code_version()
@@ -78,7 +85,10 @@ def plan(fleet: Fleet, store: Store) -> tuple[dict[str, int], list[RecordingTask
     skipped = 0
     for a in fleet.axes:
         known = store.known_files(ids[a.name], a.method, a.drive_hash, ver)
-        for p in a.files():
+        files = a.files()
+        if not files and warnings is not None:
+            warnings.append(f"{fleet.path}: axis {a.name!r}: 'recordings' = {a.recordings!r} matches no file")
+        for p in files:
             size, mtime = file_facts(p)
             if (str(p), size, mtime) in known:
                 skipped += 1
@@ -98,6 +108,54 @@ def plan(fleet: Fleet, store: Store) -> tuple[dict[str, int], list[RecordingTask
                 )
             )
     return ids, tasks, skipped
+
+
+def redate(fleet: Fleet, store: Store) -> list[tuple[int, object, str]]:
+    """(recording id, start time, spec hash) for every stored recording (with an ``ok``
+    estimate) of the fleet whose ``time`` specification changed since it was dated (or is
+    unknown: stored before revision 0003). Reads only what the specification needs (nothing
+    for ``filename``, a stat for ``mtime``, the file for ``column``/``metadata``); nothing is
+    written here.
+
+    Raises
+    ------
+    ConfigError
+        A recording cannot be dated with the new specification (e.g. no such time column):
+        one line naming the fleet file, the axis, the key and the file.
+    """
+    from drivelash.errors import ConfigError
+    from drivelash.io.formats import read_raw
+    from drivelash.wear.estimate import recording_start
+    from drivelash.wear.fleet import time_spec_hash
+
+    names = {a["name"]: a["id"] for a in store.axes()}
+    out: list[tuple[int, object, str]] = []
+    for k, a in enumerate(fleet.axes):
+        if a.name not in names:
+            continue
+        h = time_spec_hash(a.time)
+        dated = store.dated_files(names[a.name])
+        done: set[int] = set()
+        for p in a.files():
+            hit = dated.get((str(p), *file_facts(p)))
+            if hit is None or hit[1] == h or hit[0] in done:
+                continue
+            try:
+                meta = read_raw(p).meta if a.time.source == "metadata" else None
+                start = recording_start(p, a.time, meta)
+            except DrivelashError as exc:
+                what = a.time.column if a.time.source == "column" else a.time.key
+                key = {"column": "time.column", "metadata": "time.key"}.get(a.time.source, "time")
+                reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+                reason = reason.removeprefix(f"{p}, ").removeprefix(f"{p}: ")
+                raise ConfigError(
+                    f"{fleet.path}: table [[axis]] #{k + 1} (id {a.name!r}), key '{key}'"
+                    f"{f' = {what!r}' if a.time.source in ('column', 'metadata') else ''}: "
+                    f"cannot re-date {p} with the changed time specification ({reason}); nothing was written"
+                ) from None
+            done.add(hit[0])
+            out.append((hit[0], start, h))
+    return out
 
 
 # ------------------------------------------------------------------------------------ executors
@@ -299,14 +357,19 @@ def _ingest(
     update_alarms: bool,
     t0: float,
 ) -> IngestReport:
-    ids, tasks, skipped = plan(fleet, store)
-    rep = IngestReport(planned=len(tasks), skipped=skipped, axes=[a.name for a in fleet.axes])
+    changes = redate(fleet, store)  # a recording that cannot be re-dated: error, nothing written
+    warnings: list[str] = []
+    ids, tasks, skipped = plan(fleet, store, warnings)
+    rep = IngestReport(
+        planned=len(tasks), skipped=skipped, axes=[a.name for a in fleet.axes], warnings=warnings
+    )
     if runner is not None:
         results = runner.run(tasks, compute)
     elif workers > 1 and len(tasks) > 1:
         results = _processes(tasks, compute, workers)
     else:
         results = _serial(tasks, compute)
+    rep.redated = store.redate(changes)  # one transaction
     batch: list[EstimateRow] = []
     last = time.monotonic()
     done = 0
@@ -314,7 +377,7 @@ def _ingest(
     def flush() -> None:
         nonlocal batch, last
         if batch:
-            rep.stored += store.commit_batch(batch, ids)
+            rep.stored += store.commit_batch(batch, ids, rep.duplicates)
             rep.batches += 1
         batch = []
         last = time.monotonic()

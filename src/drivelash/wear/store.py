@@ -88,6 +88,16 @@ recording_t = sa.Table(
     sa.Column("duration_s", sa.Float),
     sa.Column("sample_rate_hz", sa.Float),
     sa.Column("samples", sa.BigInteger),
+    sa.Column("time_spec_hash", sa.String(64)),
+)
+recording_path_t = sa.Table(
+    "recording_path",
+    meta,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("recording_id", sa.Integer),
+    sa.Column("path", sa.Text),
+    sa.Column("size_bytes", sa.BigInteger),
+    sa.Column("mtime_ns", sa.BigInteger),
 )
 estimate_t = sa.Table(
     "estimate",
@@ -181,6 +191,9 @@ class EstimateRow:
     estimate_rate_hz : float or None
         Rate of the samples the estimator saw [Hz] (the recording's rate, or less when the
         fleet's ``estimate_rate_hz`` keeps every k-th sample); None when nothing was estimated.
+    time_spec_hash : str or None
+        SHA-256 of the ``time`` specification ``start_time`` was found with
+        (:func:`drivelash.wear.fleet.time_spec_hash`).
     """
 
     axis: str
@@ -204,6 +217,7 @@ class EstimateRow:
     converged: bool | None = None
     runtime_s: float = 0.0
     estimate_rate_hz: float | None = None
+    time_spec_hash: str | None = None
 
     def values(self) -> dict[str, Any]:
         """The result fields only (what must be bit-identical between runs)."""
@@ -401,15 +415,76 @@ class Store:
                 estimate_t.c.code_version == code_version,
             )
         )
-        return {(r.path, int(r.size_bytes), int(r.mtime_ns)) for r in self._read(q)}
+        out = {(r.path, int(r.size_bytes), int(r.mtime_ns)) for r in self._read(q)}
+        q2 = (
+            sa.select(recording_path_t.c.path, recording_path_t.c.size_bytes, recording_path_t.c.mtime_ns)
+            .join(recording_t, recording_t.c.id == recording_path_t.c.recording_id)
+            .join(estimate_t, estimate_t.c.recording_id == recording_t.c.id)
+            .where(
+                recording_t.c.axis_id == axis_id,
+                estimate_t.c.method == method,
+                estimate_t.c.config_hash == config_hash,
+                estimate_t.c.code_version == code_version,
+            )
+        )
+        out.update((r.path, int(r.size_bytes), int(r.mtime_ns)) for r in self._read(q2))
+        return out
 
-    def commit_batch(self, rows: Sequence[EstimateRow], axis_ids: dict[str, int]) -> int:
+    def dated_files(
+        self, axis_id: int
+    ) -> dict[tuple[str, int, int], tuple[int, str | None, datetime | None]]:
+        """(path, size, mtime_ns) → (recording id, time_spec_hash, start_time) of the axis's
+        recordings that have an ``ok`` estimate (under any of the paths they were seen as)."""
+        ok = sa.select(estimate_t.c.recording_id).where(
+            estimate_t.c.status == "ok", estimate_t.c.axis_id == axis_id
+        )
+        cols = (recording_t.c.id, recording_t.c.time_spec_hash, recording_t.c.start_time)
+        q1 = sa.select(recording_t.c.path, recording_t.c.size_bytes, recording_t.c.mtime_ns, *cols).where(
+            recording_t.c.axis_id == axis_id, recording_t.c.id.in_(ok)
+        )
+        q2 = (
+            sa.select(
+                recording_path_t.c.path, recording_path_t.c.size_bytes, recording_path_t.c.mtime_ns, *cols
+            )
+            .join(recording_t, recording_t.c.id == recording_path_t.c.recording_id)
+            .where(recording_t.c.axis_id == axis_id, recording_t.c.id.in_(ok))
+        )
+        out = {}
+        for r in [*self._read(q1), *self._read(q2)]:
+            out[(r[0], int(r[1]), int(r[2]))] = (int(r[3]), r[4], r[5])
+        return out
+
+    def redate(self, changes: Sequence[tuple[int, datetime | None, str]]) -> int:
+        """Set (recording id, start time, time_spec_hash) in ONE transaction; returns how many
+        start times changed."""
+        if not changes:
+            return 0
+        moved = 0
+        with self.engine.begin() as conn:
+            for rid, start, h in changes:
+                old = conn.execute(
+                    sa.select(recording_t.c.start_time).where(recording_t.c.id == rid)
+                ).scalar()
+                new = utc_naive(start)
+                moved += old != new
+                conn.execute(
+                    sa.update(recording_t)
+                    .where(recording_t.c.id == rid)
+                    .values(start_time=new, time_spec_hash=h)
+                )
+        return moved
+
+    def commit_batch(
+        self, rows: Sequence[EstimateRow], axis_ids: dict[str, int], duplicates: list[str] | None = None
+    ) -> int:
         """Store a batch of results in ONE transaction; returns how many estimates were new.
 
         Idempotent: a recording (axis, content hash) is stored once; an estimate (recording,
         method, config hash, code version) is stored once — a repeated row is skipped. Set
         based: a handful of statements per batch, not per row (the writer is the one serial
-        part of an ingest).
+        part of an ingest). Every path a recording's content is seen under is kept
+        (``recording_path``); a file with the content of a recording whose stored path still
+        exists is a duplicate — the recording keeps its path, ``duplicates`` gets one line.
         """
         if not rows:
             return 0
@@ -418,16 +493,23 @@ class Store:
         with self.engine.begin() as conn:
             hashes = sorted({r.content_hash for _, r in keyed})
             rec_id: dict[tuple[int, str], int] = {}
+            rec_path: dict[tuple[int, str], str] = {}
             for k in range(0, len(hashes), 500):
-                q = sa.select(recording_t.c.id, recording_t.c.axis_id, recording_t.c.content_hash).where(
-                    recording_t.c.content_hash.in_(hashes[k : k + 500])
-                )
-                rec_id.update({(int(x.axis_id), x.content_hash): int(x.id) for x in conn.execute(q)})
+                q = sa.select(
+                    recording_t.c.id, recording_t.c.axis_id, recording_t.c.content_hash, recording_t.c.path
+                ).where(recording_t.c.content_hash.in_(hashes[k : k + 500]))
+                for x in conn.execute(q):
+                    rec_id[(int(x.axis_id), x.content_hash)] = int(x.id)
+                    rec_path[(int(x.axis_id), x.content_hash)] = x.path
             new_recs: dict[tuple[int, str], EstimateRow] = {}
             moved = []
             for aid, r in keyed:
                 key = (aid, r.content_hash)
-                if key in rec_id:
+                first = new_recs[key].path if key in new_recs else rec_path.get(key)
+                if first is not None and first != r.path and Path(first).is_file():
+                    if duplicates is not None:
+                        duplicates.append(f"{r.path}: same content as {first} (stored once, estimated once)")
+                elif key in rec_id:
                     moved.append({"rid": rec_id[key], "p": r.path, "s": r.size_bytes, "m": r.mtime_ns})
                 else:
                     new_recs.setdefault(key, r)
@@ -445,6 +527,7 @@ class Store:
                             "duration_s": r.duration_s,
                             "sample_rate_hz": r.sample_rate_hz,
                             "samples": r.samples,
+                            "time_spec_hash": r.time_spec_hash,
                         }
                         for (aid, h), r in new_recs.items()
                     ],
@@ -462,6 +545,36 @@ class Store:
                     .where(recording_t.c.id == sa.bindparam("rid"))
                     .values(path=sa.bindparam("p"), size_bytes=sa.bindparam("s"), mtime_ns=sa.bindparam("m")),
                     moved,
+                )
+            seen = [
+                {
+                    "rid_": rec_id[(aid, r.content_hash)],
+                    "p_": r.path,
+                    "s": r.size_bytes,
+                    "m": r.mtime_ns,
+                }
+                for aid, r in {
+                    (aid, r.path): (aid, r)
+                    for aid, r in keyed
+                    if not r.content_hash.startswith("unreadable:")
+                }.values()
+            ]
+            if seen:
+                conn.execute(
+                    sa.delete(recording_path_t).where(
+                        recording_path_t.c.recording_id == sa.bindparam("rid_"),
+                        recording_path_t.c.path == sa.bindparam("p_"),
+                    ),
+                    seen,
+                )
+                conn.execute(
+                    sa.insert(recording_path_t).values(
+                        recording_id=sa.bindparam("rid_"),
+                        path=sa.bindparam("p_"),
+                        size_bytes=sa.bindparam("s"),
+                        mtime_ns=sa.bindparam("m"),
+                    ),
+                    seen,
                 )
             rids = sorted({rec_id[(aid, r.content_hash)] for aid, r in keyed})
             have: set[tuple[int, str, str, str]] = set()
@@ -559,6 +672,7 @@ class Store:
         reference: str | None = None,
         key: str | None = None,
         details: dict[str, Any] | None = None,
+        transmission_mm_per_rad: float | None = None,
     ) -> int:
         """Store a backlash value from another source (e.g. an ISO 230-2 reversal value B).
 
@@ -584,6 +698,9 @@ class Store:
             (axis, source, key) again returns the existing row's id.
         details : dict, optional
             JSON-serialisable extras (e.g. the other ISO 230-2 quantities).
+        transmission_mm_per_rad : float, optional
+            mm of load travel per rad for the conversion to rad when the axis has no
+            transmission in the store (e.g. the ``[transmission]`` of an iso230 config).
 
         Returns
         -------
@@ -608,6 +725,7 @@ class Store:
             if old is not None:
                 return int(old.id)
             tr = conn.execute(sa.select(axis_t.c.transmission_mm_per_rad).where(axis_t.c.id == aid)).scalar()
+            tr = tr or transmission_mm_per_rad
             if unit == "rad":
                 v_rad, s_rad = float(value), std
             elif tr:

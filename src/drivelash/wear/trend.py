@@ -1,7 +1,8 @@
 """Per-axis wear trend: change points, outliers, growth models, forecast of the threshold crossing.
 
-Input: the axis's estimates in time order. Only estimates that are ``ok``, excited and
-converged enter (an unexcited recording never enters a trend). Steps (numbers in
+Input: the axis's estimates in time order. Only estimates that are ``ok`` and excited enter,
+and of those the converged ones and the unconverged ones with a stated uncertainty (weighted
+by it; :func:`usable`). An unexcited recording never enters a trend. Steps (numbers in
 docs/assumptions.md, "Wear tracking"):
 
 1. **Noise scale** σ̂: the MAD of second differences / √6 (insensitive to a trend and to
@@ -44,7 +45,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["AxisTrend", "ChangePoint", "Forecast", "analyse", "fit_trend", "systematic_std"]
+__all__ = ["AxisTrend", "ChangePoint", "Forecast", "analyse", "fit_trend", "systematic_std", "usable"]
 
 #: Lower bound of the noise scale σ̂ [rad] (estimates agree better than the encoder model).
 SIGMA_FLOOR = 2e-5
@@ -71,6 +72,12 @@ AICC_MARGIN = 2.0
 LEVEL = 0.90
 #: Fewest inliers for a forecast.
 MIN_POINTS = 5
+#: An excited estimate the estimator did not call converged enters the trend (weighted by 1/σ²)
+#: when its stated 95 % uncertainty 1.96·σ is at most this [rad]: 2.5× the estimator's 2 mrad
+#: claim, 1/8 of the smallest wear-to-threshold gap of the simulated fleets (40 mrad). The
+#: noise scale, change-point search and outlier test are unweighted, so a far less certain
+#: estimate (one of 260 mrad was seen) must stay out.
+UNCONVERGED_MAX_U95 = 5e-3
 #: Longest forecast look-ahead, in multiples of the data span (and at least 365 days).
 LOOKAHEAD_SPANS = 20.0
 
@@ -409,27 +416,52 @@ def _isotonic(t: np.ndarray, y: np.ndarray, w: np.ndarray, cps: list[ChangePoint
 
 
 def _local_resid(
-    t: np.ndarray, y: np.ndarray, cps: list[ChangePoint], half: int = 4
+    t: np.ndarray, y: np.ndarray, cps: list[ChangePoint], half: int = 4, keep: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Residual of each estimate from its neighbours: a robust (Huber) local quadratic through
     the 2·``half`` nearest recordings of its segment (±``half`` inside, one-sided at a segment's
     end, so the latest recording is judged by a quadratic too), the point itself left out —
     unbiased on accelerating wear and at a segment's end, not pulled by one outlier. Also
-    returns the median change between consecutive neighbours (the local wear step)."""
+    returns the median change between consecutive neighbours (the local wear step).
+    ``keep``: the recordings that may serve as neighbours (default all; outliers already
+    found are left out of the others' fits, :func:`_outliers`)."""
     r = np.zeros_like(y)
     step = np.zeros_like(y)
     edges = [0, *[c.index for c in cps], y.size]
+    ok = np.ones(y.size, dtype=bool) if keep is None else keep
     for a, b in zip(edges[:-1], edges[1:], strict=True):
+        nb = [j for j in range(a, b) if ok[j]]
         for i in range(a, b):
-            lo = min(max(a, i - half), max(a, b - 2 * half - 1))
-            hi = min(b, lo + 2 * half + 1)
-            idx = [j for j in range(lo, hi) if j != i]
+            cand = [j for j in nb if j != i]
+            # the 2·half neighbours nearest in order: ±half inside, one-sided at an end
+            pos = int(np.searchsorted(cand, i))
+            lo = min(max(0, pos - half), max(0, len(cand) - 2 * half))
+            idx = cand[lo : lo + 2 * half]
             if len(idx) < 4:
                 continue
             step[i] = float(np.median(np.abs(np.diff(y[idx]))))
             beta = _huber_poly(t[idx] - t[i], y[idx], 2 if len(idx) >= 6 else 1)
             r[i] = y[i] - float(beta[-1])
     return r, step
+
+
+def _outliers(t: np.ndarray, y: np.ndarray, cps: list[ChangePoint], sigma: float) -> np.ndarray:
+    """Inlier mask by the local-residual rule (module docstring, step 3), one outlier at a time:
+    the estimate that exceeds its limit by the largest factor leaves, and the others are judged
+    again without it. A single pass let one far estimate tilt every neighbour's local fit — a
+    jump on the latest of six recordings flagged all six, leaving no trend at all."""
+    n = y.size
+    inl = np.ones(n, dtype=bool)
+    floor = max(OUTLIER_SIGMA * sigma, OUTLIER_FLOOR)
+    for _ in range(n):
+        r, step = _local_resid(t, y, cps, keep=inl)
+        lim = np.maximum(floor, OUTLIER_STEPS * step)
+        ratio = np.where(inl, np.abs(r) / lim, 0.0)
+        worst = int(np.argmax(ratio))
+        if ratio[worst] <= 1.0:
+            break
+        inl[worst] = False
+    return inl
 
 
 def fit_trend(
@@ -474,8 +506,7 @@ def fit_trend(
     cps = detect_jumps(t, y, sigma) if n >= 4 else []
     inl = np.ones(n, dtype=bool)
     if n >= 5:
-        r, step = _local_resid(t, y, cps)
-        inl = np.abs(r) <= np.maximum(max(OUTLIER_SIGMA * sigma, OUTLIER_FLOOR), OUTLIER_STEPS * step)
+        inl = _outliers(t, y, cps, sigma)
     iso = _isotonic(t, y, w_all, cps) if n else y.copy()
     s_sys = systematic_std(s_in[inl], sigma)
     trend = AxisTrend(t0, t, y, inl, cps, sigma, None, {}, {}, None, threshold, iso, s_sys)
@@ -520,21 +551,25 @@ def _forecast(trend: AxisTrend, t_last: float, span: float, thr: float) -> Forec
     return Forecast(tc, te, tl if tl is not None else math.inf, False)
 
 
+def usable(r: dict[str, Any]) -> bool:
+    """Whether a store row enters the trend: ok, excited, with δ̂ and a start time, and either
+    converged or with a stated 95 % uncertainty 1.96·σ of at most :data:`UNCONVERGED_MAX_U95`
+    (an excited estimate the estimator did not call converged — its uncertainty above its
+    2 mrad claim — enters weighted by 1/σ²; docs/assumptions.md, "Wear tracking")."""
+    if r["status"] != "ok" or not r["excitation_ok"] or r["delta"] is None or r["start_time"] is None:
+        return False
+    if r["converged"]:
+        return True
+    s = r["delta_std"]
+    return s is not None and math.isfinite(s) and 0 < 1.96 * s <= UNCONVERGED_MAX_U95
+
+
 def analyse(rows: list[dict[str, Any]], threshold: float | None) -> tuple[AxisTrend, list[dict[str, Any]]]:
     """Trend of one axis from its store rows (``Store.estimates(axis)``).
 
-    Returns the trend of the used estimates and the used rows (ok, excited, converged, with a
-    start time), in time order.
+    Returns the trend of the used estimates and the used rows (:func:`usable`), in time order.
     """
-    used = [
-        r
-        for r in rows
-        if r["status"] == "ok"
-        and r["excitation_ok"]
-        and r["converged"]
-        and r["delta"] is not None
-        and r["start_time"] is not None
-    ]
+    used = [r for r in rows if usable(r)]
     used.sort(key=lambda r: (r["start_time"], r["path"]))
     if not used:
         return fit_trend(np.array([]), np.array([]), None, threshold, None), used

@@ -1,0 +1,106 @@
+"""Alarms on excited but unconverged estimates and on a jump at the latest recording
+(exploratory findings on ``track status``: a wearing axis shown as "not excited"; a jump above
+the threshold on the latest recording gave no model and no alarm)."""
+
+from __future__ import annotations
+
+from datetime import datetime, timedelta
+
+import numpy as np
+
+from drivelash.wear.alarms import axis_alarms
+from drivelash.wear.trend import analyse
+
+T0 = datetime(2026, 1, 5, 6, 0)
+
+
+def _rows(deltas, std, converged=True, excited=True):
+    return [
+        {
+            "status": "ok",
+            "excitation_ok": excited,
+            "converged": converged,
+            "delta": d,
+            "delta_std": std,
+            "start_time": T0 + timedelta(days=7 * i, minutes=13 * i),
+            "path": f"rec_{i:03d}.csv",
+            "reason": "18 crossings of the gap; information during 35 % of the last window",
+        }
+        for i, d in enumerate(deltas)
+    ]
+
+
+def _axis(threshold):
+    return {"name": "M02/Y", "threshold_rad": threshold, "horizon_days": 60.0, "not_excited_alarm": 3}
+
+
+#: δ̂ of the tester's M02/Y (rad), 2048-count encoder: σ ≈ 1.2 mrad, 95 % ±2.4 mrad > 2 mrad claim
+M02Y = [0.09368, 0.10578, 0.11684, 0.12799, 0.13965, 0.15104, 0.16259, 0.17414, 0.18515]
+
+
+def _alarms(rows, thr):
+    trend, used = analyse(rows, thr)
+    return trend, used, {a.kind: a for a in axis_alarms(_axis(thr), rows, trend)}
+
+
+def test_excited_unconverged_estimates_are_trended_and_raise_the_threshold_alarm():
+    rows = _rows(M02Y, 1.2e-3, converged=False)
+    trend, used, al = _alarms(rows, 0.1753)
+    assert len(used) == 9 and trend.model == "linear"
+    assert "not_excited" not in al and "not_converged" not in al
+    assert "threshold" in al
+    # fitted δ at the latest recording: the series' own linear trend, 185.1 mrad ± the noise
+    now = 1e3 * float(trend.curve(trend.t[-1:])[0][0])
+    assert abs(now - 185.1) < 0.5
+    # negative control: the same axis with a threshold far above -> a forecast, no threshold alarm
+    trend, used, al = _alarms(rows, 0.30)
+    assert "threshold" not in al and len(used) == 9 and trend.forecast.t_cross is not None
+
+
+def test_unconverged_without_usable_uncertainty_is_its_own_alarm_not_unexcited():
+    # σ = 260 mrad (seen in the tester's M01/X): no information; it must not read "not excited"
+    rows = _rows(M02Y[:4], 0.26, converged=False)
+    trend, used, al = _alarms(rows, 0.1753)
+    assert used == [] and "not_excited" not in al
+    assert al["not_converged"].message.startswith("M02/Y: the last 4 recordings gave estimates not converged")
+    # ... but the latest estimate (185 mrad) above a 100 mrad threshold by far more than 1.645 σ?
+    # 0.128 - 1.645*0.26 < 0.1: no threshold alarm from a meaningless estimate
+    assert "threshold" not in _alarms(rows, 0.10)[2]
+    # negative control: truly unexcited recordings keep the not_excited wording
+    al = _alarms(_rows(M02Y[:4], None, converged=False, excited=False), 0.1753)[2]
+    assert "not_excited" in al and "did not excite the deadzone" in al["not_excited"].message
+
+
+def test_unconverged_estimate_above_the_threshold_alarms_even_without_a_trend():
+    rows = _rows([0.1790, 0.1851], 1.2e-3, converged=False)  # two: too few for a model
+    trend, used, al = _alarms(rows, 0.1753)
+    assert trend.model is None
+    msg = al["threshold"].message
+    assert "latest estimate 185.10 ± 1.20 mrad" in msg and "uncertainty ±2.35 mrad" in msg
+    # negative control: 177 mrad is within 1.645 σ (2.0 mrad) of the threshold: no alarm yet
+    assert "threshold" not in _alarms(_rows([0.1760, 0.1770], 1.2e-3, converged=False), 0.1753)[2]
+
+
+#: The tester's j3: 5 recordings of linear wear, the 6th jumps 39.8 -> 65.2 mrad (σ 0.1 mrad)
+J3 = [0.034986, 0.036113, 0.037451, 0.038546, 0.039837, 0.065191]
+
+
+def test_jump_on_the_latest_recording_is_one_outlier_and_alarms_above_the_threshold():
+    rows = _rows(J3, 1.05e-4)
+    trend, used, al = _alarms(rows, 0.050)
+    assert len(used) == 6
+    # only the jump is left out (all 6 were: the jump tilted every neighbour's local line)
+    assert trend.inlier.tolist() == [True] * 5 + [False]
+    assert trend.model == "linear"
+    assert "latest estimate 65.19 ± 0.11 mrad" in al["threshold"].message
+    assert "the next recording decides" in al["threshold"].message
+    # negative control: the 6th continues the trend -> no outlier and no threshold alarm
+    calm = [*J3[:5], 0.041]
+    trend, used, al = _alarms(_rows(calm, 1.05e-4), 0.050)
+    assert trend.inlier.all() and "threshold" not in al
+
+
+def test_isolated_outlier_still_flagged_alone_in_the_middle():
+    y = np.array([30.0, 31.0, 32.0, 33.0, 34.0, 50.0, 36.0, 37.0, 38.0, 39.0]) * 1e-3
+    trend, _, _ = _alarms(_rows(list(y), 1e-4), 0.2)
+    assert (~trend.inlier).nonzero()[0].tolist() == [5]
