@@ -212,7 +212,7 @@ def run_identify(
     values = result.drivetrain_values()
     merged: dict[str, float] = {}
     if cfg.drivetrain is not None:
-        merged = {k: v for k, v in cfg.drivetrain.model_dump().items() if v is not None}
+        merged = {k: v for k, v in cfg.drivetrain.given().items() if v is not None}
     merged.update(values)
     unit = "N, N·s/m, kg (prismatic axis)" if result.axis == "prismatic" else "SI (N·m, N·m·s/rad, kg·m²)"
     comments = [
@@ -313,7 +313,7 @@ def run_identify_two_mass(
     # [drivetrain]: the configuration's values where the recording determined nothing
     merged = result.to_config()
     if cfg.drivetrain is not None:
-        base = {k: v for k, v in cfg.drivetrain.model_dump().items() if v is not None}
+        base = {k: v for k, v in cfg.drivetrain.given().items() if v is not None}
         merged["drivetrain"] = {**base, **merged["drivetrain"]}
     summary["config_tables"] = merged
     head = [
