@@ -165,6 +165,31 @@ def test_unidirectional_is_not_excitation(unidirectional_trace):
         assert "reverse" in r.reason
 
 
+def test_one_reversal_is_named_and_the_fallback_frequency_is_marked(tmp_path):
+    """Exactly one reversal (1 rad position sine at 0.05 Hz over 10 s): before, the reason said
+    "the motion never reverses (unidirectional)" and the JSON gave the 0.5 Hz fallback as the
+    excitation frequency as if measured (true 0.05 Hz). Negative control: bench-0C at 0.5 Hz
+    says "measured" (tested with the CLI's JSON, the summary both paths share)."""
+    import drivelash as dl
+    from drivelash.control.references import position_sine
+    from drivelash.sim.engine import simulate
+    from drivelash.sim.scenarios import RIG_DRIVETRAIN, get_scenario
+
+    sc = get_scenario("bench-0C")
+    ref = position_sine(10.0, sc.T_s, 1.0, 0.05)
+    tr = simulate(RIG_DRIVETRAIN, sc.plant_backlash, sc.gains, ref, sensors=sc.sensors, seed=3).to_trace()
+    from pathlib import Path
+
+    cfg = Path(__file__).resolve().parents[2] / "examples" / "drive_bench.toml"
+    est = dl.estimate_backlash(tr, cfg, delta1=0.0525)
+    assert not est.excitation_ok and est["reason"].startswith("the motion reverses only once")
+    assert est["excitation_frequency_hz"] == 0.5
+    assert est["excitation_frequency_source"] == "default (fewer than 3 motion reversals)"
+    ok = dl.estimate_backlash(sc.simulate(duration=6.0, seed=1), cfg, delta1=0.0525)
+    assert ok["excitation_frequency_source"] == "measured"
+    assert ok["excitation_frequency_hz"] == pytest.approx(0.5, rel=0.05)
+
+
 def test_reversing_motion_is_excitation(short_bench_trace):
     trace, bl = short_bench_trace
     r = DeadzoneEstimator(RIG_ESTIMATOR, bl, TS).run(trace)

@@ -690,8 +690,15 @@ def _verdict(
     elif mo.reversals < 2:
         ok = False
         reason = (
-            "the motion never reverses (unidirectional): only one contact side is seen, "
-            "so the gap cannot be measured; a back-and-forth motion is needed"
+            (
+                "the motion never reverses (unidirectional): only one contact side is seen, "
+                "so the gap cannot be measured; a back-and-forth motion is needed"
+            )
+            if mo.reversals == 0
+            else (
+                "the motion reverses only once: the gap is crossed once, too few to judge the "
+                "estimate; a back-and-forth motion (at least 2 reversals) is needed"
+            )
         )
     elif n_trav < 2:
         ok = False

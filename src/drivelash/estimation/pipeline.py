@@ -166,6 +166,9 @@ def estimate_summary(cfg: Any, res: Any, motion: Any, samples: int, T_s: float) 
         "samples": samples,
         "T_s": T_s,
         "excitation_frequency_hz": motion.f_exc,
+        "excitation_frequency_source": (
+            "measured" if motion.reversals >= 3 else "default (fewer than 3 motion reversals)"
+        ),
         **result_summary(res),
         "gains": res.config.to_dict(),
     }
