@@ -112,3 +112,55 @@ def test_wrong_gearbox_ratio_and_torque_sign_and_sampling():
     )
     f = _one(check_runs(recs, BENCH.r_eff, BENCH.tooth_pitch, BENCH.travel, 3000.0), "sampling")
     assert f.level == "error" and f.file == "run04.csv" and math.isfinite(float(f.message.split(" Hz")[0]))
+
+
+def test_one_file_listed_for_two_runs_is_an_error_naming_both():
+    runs = _runs()
+    recs = [record(r, f"run{i:02d}.csv") for i, r in enumerate(runs)]
+    # run06.csv (load 2000 N, +1) listed again in place of run 08 (3000 N, +1)
+    twice = [*recs[:8], dataclasses.replace(recs[6], load=3000.0), *recs[9:]]
+    rep = check_runs(twice, BENCH.r_eff, BENCH.tooth_pitch, BENCH.travel, 3000.0, source="axis.toml")
+    f = _one(rep, "duplicate")
+    assert f.level == "error" and f.file == "run06.csv"
+    assert "run 7 (load, direction +1, 2000 N) and run 9 (load, direction +1, 3000 N)" in f.message
+    # the same samples under another name: named with the first file
+    copy = [*recs[:8], dataclasses.replace(recs[6], label="copy.csv", load=3000.0), *recs[9:]]
+    rep = check_runs(copy, BENCH.r_eff, BENCH.tooth_pitch, BENCH.travel, 3000.0, source="axis.toml")
+    f = _one(rep, "duplicate")
+    assert f.level == "error" and f.file == "copy.csv" and "same samples as run06.csv" in f.message
+    # negative control: every file once → no duplicate finding
+    rep = check_runs(recs, BENCH.r_eff, BENCH.tooth_pitch, BENCH.travel, 3000.0, source="axis.toml")
+    assert not [x for x in rep.findings if x.check == "duplicate"]
+
+
+def test_torque_contradicting_the_load_labels_is_an_error_naming_both_runs():
+    runs = _runs()  # 0: geo +1, 1: geo −1, 2/3: 0 N, 4/5: 1000 N, 6/7: 2000 N, 8/9: 3000 N (+1/−1)
+    recs = [record(r, f"run{i:02d}.csv") for i, r in enumerate(runs)]
+    swapped = list(recs)  # 1000 N ↔ 3000 N labels of direction −1
+    swapped[5] = dataclasses.replace(recs[5], load=3000.0)
+    swapped[9] = dataclasses.replace(recs[9], load=1000.0)
+    rep = check_runs(swapped, BENCH.r_eff, BENCH.tooth_pitch, BENCH.travel, 3000.0, source="axis.toml")
+    errs = [f for f in rep.findings if f.check == "torque-load"]
+    assert len(errs) == 1 and errs[0].level == "error" and errs[0].file == "run05.csv"
+    # T = d·(F + F_CT)·r_eff/0.95 + d·T_Cm
+    t_at = {F: (F + BENCH.F_CT) * BENCH.r_eff / 0.95 + BENCH.T_Cm for F in (0.0, 1000.0, 3000.0)}
+    m = re.search(r"torque (\S+) N·m at the stated 3000 N \(load\) is below the (\S+) N·m of run09\.csv"
+                  r" at 1000 N \(load\), direction -1", errs[0].message)  # fmt: skip
+    assert m, errs[0].message
+    assert float(m[1]) == pytest.approx(-t_at[1000.0], abs=0.02)  # −3.71 N·m
+    assert float(m[2]) == pytest.approx(-t_at[3000.0], abs=0.02)  # −9.30 N·m
+    # a loaded pass listed as the geometric run (geometric ↔ 3000 N files of direction +1)
+    geo = list(recs)
+    geo[0] = dataclasses.replace(recs[8], kind="geometric", load=0.0)
+    geo[8] = dataclasses.replace(recs[0], kind="load", load=3000.0)
+    rep = check_runs(geo, BENCH.r_eff, BENCH.tooth_pitch, BENCH.travel, 3000.0, source="axis.toml")
+    errs = [f for f in rep.findings if f.check == "torque-load"]
+    assert len(errs) == 1 and errs[0].file == "run00.csv"  # the records keep their file names
+    assert "at the stated 3000 N (load)" in errs[0].message
+    assert "of run08.csv at 0 N (geometric), direction +1" in errs[0].message
+    # negative control: the clean campaign, and loads close together (100 N apart) in the right order
+    rep = check_runs(recs, BENCH.r_eff, BENCH.tooth_pitch, BENCH.travel, 3000.0, source="axis.toml")
+    assert not [f for f in rep.findings if f.check == "torque-load"]
+    assert rep.directions["pos"]["torque_order_tolerance_Nm"] == 0.5
+    close = [dataclasses.replace(r, **SHORT) for r in standard_runs(loads=(0.0, 1000.0, 1100.0, 3000.0))]
+    assert not [f for f in _check(close).findings if f.check == "torque-load"]

@@ -54,6 +54,16 @@ SPACING_WARN = 0.1
 #: Torque growth with load, relative to the rigid-lever value r_eff = d_p/(2 i_PG):
 #: warning outside [lo, hi] (efficiency of gearbox and mesh between 50 % and 100 %+).
 TORQUE_SLOPE_RANGE = (0.5, 2.0)
+#: Torque against the stated loads (runs of one direction at one velocity, geometric runs as
+#: 0 N with every velocity): a run with the higher load whose mean motor torque lies below the
+#: lower-load run's by more than TORQUE_ORDER_LEVER × r_eff × ΔF + TORQUE_ORDER_NOISE is an
+#: error. The lever term is a quarter of the torque the load difference should add; the noise
+#: term [N·m] is twice the spread of the mean torque of equal-load runs across 20–100 mm/s in
+#: the seed-0 campaign (0.23 N·m, viscous friction; within one velocity it is < 0.01 N·m).
+TORQUE_ORDER_LEVER = 0.25
+TORQUE_ORDER_NOISE = 0.5
+#: Runs of one velocity group: measured velocities within this ratio of the group's slowest.
+VELOCITY_GROUP = 1.1
 #: Relative deviation of a run's measured velocity from its listed velocity (warning).
 VELOCITY_WARN = 0.1
 #: Shortest motion of a run that is judged at all [m].
@@ -233,6 +243,7 @@ def check_runs(
     def add(level: str, check: str, file: str, msg: str) -> None:
         rep.findings.append(Finding(level, check, file, msg))
 
+    _duplicates(runs, add)
     lam_c = tooth_pitch / cutoff_factor  # shortest wavelength the model keeps [m]
     per_run: list[dict[str, Any]] = []
     for r in runs:
@@ -396,6 +407,7 @@ def check_runs(
             add("warning", "loads", source, f"2 training loads in direction {d:+d}; 3 or more recommended")
         if len(rr) >= 2:
             _mixed_zeros(rr, add)
+        ds["torque_order_tolerance_Nm"] = _torque_order(rr, r_eff, d, add)
         lr = [(r.load, i["torque_mean"] * d) for r, i in rr if r.kind == "load"]
         if len({f for f, _ in lr}) >= 2:
             f_arr, q_arr = np.array(lr).T
@@ -427,6 +439,86 @@ def check_runs(
         else:
             add("error", "coverage", source, "the geometric runs of the two directions do not overlap")
     return rep
+
+
+def _run_name(r: RunRecord) -> str:
+    what = f"{r.kind}, direction {r.direction:+d}"
+    return f"{what}, {r.load:g} N" if r.kind != "sine" else what
+
+
+def _duplicates(runs: Sequence[RunRecord], add: Any) -> None:
+    """The same file (or byte-identical samples) listed for two runs is an error naming both."""
+    import hashlib
+
+    seen: dict[Any, tuple[int, RunRecord]] = {}
+    for n, r in enumerate(runs):
+        h = hashlib.sha256()
+        for a in (r.t, r.x_T, r.theta_m, r.torque_m):
+            h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
+        for key in (("path", r.label), ("data", h.hexdigest())):
+            if key in seen:
+                m, q = seen[key]
+                same = "listed" if key[0] == "path" else f"holds the same samples as {q.label}, listed"
+                add(
+                    "error",
+                    "duplicate",
+                    r.label,
+                    f"{same} for two runs: run {m + 1} ({_run_name(q)}) and run {n + 1} ({_run_name(r)});"
+                    " one recording is one pass — fix the file names in [[runs]]",
+                )
+                break
+            seen[key] = (n, r)
+
+
+def _velocity_groups(rr: list[tuple[RunRecord, dict[str, Any]]]) -> list[list[tuple[RunRecord, dict]]]:
+    """Load runs grouped by measured velocity (within :data:`VELOCITY_GROUP` of the group's slowest)."""
+    load = sorted((p for p in rr if p[0].kind == "load"), key=lambda p: p[1]["velocity_measured"])
+    groups: list[list[tuple[RunRecord, dict]]] = []
+    for p in load:
+        if groups and p[1]["velocity_measured"] <= VELOCITY_GROUP * groups[-1][0][1]["velocity_measured"]:
+            groups[-1].append(p)
+        else:
+            groups.append([p])
+    return groups
+
+
+def _torque_order(rr: Iterable[tuple[RunRecord, dict[str, Any]]], r_eff: float, d: int, add: Any) -> float:
+    """Mean motor torques that contradict the stated loads (swapped labels, a loaded 'geometric' run).
+
+    Pairs of runs of direction ``d`` at comparable velocity (geometric runs count as 0 N at every
+    velocity): the higher-load run's torque d·T must not lie below the lower-load run's by more than
+    TORQUE_ORDER_LEVER·r_eff·ΔF + TORQUE_ORDER_NOISE. Each run is named in at most one finding
+    (the worst pair first). Returns the noise term [N·m] (for the report).
+    """
+    rr = list(rr)
+    geo = [p for p in rr if p[0].kind == "geometric"]
+    bad = []
+    for group in _velocity_groups(rr) or [[]]:
+        runs = group + geo
+        for i, (ra, ia) in enumerate(runs):
+            for rb, ib in runs[i + 1 :]:
+                (lo, il), (hi, ih) = sorted(((ra, ia), (rb, ib)), key=lambda p: p[0].load)
+                dF = hi.load - lo.load
+                if dF <= 0:
+                    continue
+                short = d * il["torque_mean"] - d * ih["torque_mean"]
+                tol = TORQUE_ORDER_LEVER * r_eff * dF + TORQUE_ORDER_NOISE
+                if short > tol:
+                    bad.append((short - tol, lo, il, hi, ih))
+    named: set[str] = set()
+    for _, lo, il, hi, ih in sorted(bad, key=lambda b: -b[0]):
+        if lo.label in named or hi.label in named:
+            continue
+        named.update((lo.label, hi.label))
+        add(
+            "error",
+            "torque-load",
+            hi.label,
+            f"mean motor torque {ih['torque_mean']:+.3g} N·m at the stated {hi.load:g} N ({hi.kind}) is below"
+            f" the {il['torque_mean']:+.3g} N·m of {lo.label} at {lo.load:g} N ({lo.kind}), direction {d:+d}:"
+            " the torque contradicts the load labels (swapped loads or files in [[runs]]?)",
+        )
+    return TORQUE_ORDER_NOISE
 
 
 def _mixed_zeros(rr: Iterable[tuple[RunRecord, dict[str, Any]]], add: Any) -> None:
