@@ -31,21 +31,9 @@ def _parse_loads(text: str) -> tuple[float, ...]:
 
 def _check_geometry(camp: Any, model: Any, path: Path) -> None:
     """A campaign of another axis (other module, teeth or ratio) is refused."""
-    from drivelash.errors import DataError
-    from drivelash.te.learn.preprocess import GearGeometry
+    from drivelash.te.protocol.campaign import check_same_axis
 
-    try:
-        g = GearGeometry.from_bench(camp.bench)
-    except Exception:  # noqa: BLE001 - a campaign without a bench block: nothing to compare
-        return
-    m = model.pipeline.geometry
-    for name in ("d_p", "n_t", "i_pg"):
-        a, b = float(getattr(g, name)), float(getattr(m, name))
-        if not np.isclose(a, b, rtol=1e-6, atol=0.0):
-            raise DataError(
-                f"{name} of the passes' axis is {a:g}, the model's is {b:g}: passes of another axis",
-                path=str(path / "manifest.json"),
-            )
+    check_same_axis(camp, model.pipeline.geometry, path / "manifest.json", "the model's")
 
 
 def _check_range(runs: dict[str, list[Any]], model: Any, tol: float = 1e-3) -> None:
