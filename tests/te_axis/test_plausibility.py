@@ -164,3 +164,44 @@ def test_torque_contradicting_the_load_labels_is_an_error_naming_both_runs():
     assert rep.directions["pos"]["torque_order_tolerance_Nm"] == 0.5
     close = [dataclasses.replace(r, **SHORT) for r in standard_runs(loads=(0.0, 1000.0, 1100.0, 3000.0))]
     assert not [f for f in _check(close).findings if f.check == "torque-load"]
+
+
+def _repeats(shift_mm: float):
+    """The standard runs plus two repeats of the 1000 N pass of direction +1 (50, 80 mm/s); the
+    first repeat's scale zero shifted by ``shift_mm``."""
+    runs = _runs()
+    extra = [dataclasses.replace(runs[4], velocity=v, zero_mm=z) for v, z in ((0.05, shift_mm), (0.08, 0.0))]
+    return [*runs, *extra]
+
+
+def test_a_zero_offset_against_repeats_at_the_same_load_is_an_error():
+    rep = _check(_repeats(0.03))  # 30 µm: below the 0.1 mm of the load-trend check, 1.5× the 20 µm limit
+    f = _one(rep, "mixed-zero")
+    assert f.level == "error" and f.file == "run10.csv"
+    m = re.search(r"TE offset \+(\d+\.\d) um from the 2 other runs of direction \+1 at 1000 N", f.message)
+    assert m and float(m[1]) == pytest.approx(30.0, abs=0.5), f.message
+    assert "limit 20 um" in f.message
+    with pytest.raises(DataError, match="run10.csv: implausible campaign: TE offset"):
+        rep.raise_errors()
+    f = _one(_check(_repeats(0.01)), "mixed-zero")  # 10 µm: doubtful
+    assert f.level == "warning" and f.file == "run10.csv" and "+10.0 um" in f.message
+    # negative control: repeats that agree give no finding at all
+    rep = _check(_repeats(0.0))
+    assert rep.errors == [] and rep.warnings == []
+
+
+def test_the_refusal_names_the_further_errors():
+    runs = _runs()
+    runs[3] = dataclasses.replace(runs[3], sign=-1)
+    runs[5] = dataclasses.replace(runs[5], sign=-1)
+    rep = _check(runs)
+    with pytest.raises(DataError) as exc:
+        rep.raise_errors()
+    msg = str(exc.value)
+    assert msg.startswith("run03.csv: implausible campaign:")
+    assert "(and 1 more error(s): run05.csv: ratio)" in msg
+    # negative control: one error, no tail
+    runs[5] = dataclasses.replace(runs[5], sign=1)
+    with pytest.raises(DataError) as exc:
+        _check(runs).raise_errors()
+    assert "more error" not in str(exc.value)

@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -45,6 +46,14 @@ ZERO_WARN = 0.5e-3
 MIXED_ERROR = 0.5e-3
 #: … warning [m].
 MIXED_WARN = 0.1e-3
+#: Offset of a run's median TE from the median of at least two other runs of its direction at
+#: the same load (repeats, e.g. at other velocities): error beyond max(MIXED_SAME_ERROR,
+#: MIXED_SAME_SCATTER × their spread), warning beyond max(MIXED_SAME_WARN, that) [m]. In the seed-0
+#: campaign equal-load runs agree to 0.35 µm; 20 µm is the whole load-dependent TE it learns
+#: (0 → 5000 N: 21 µm), so a zero offset that size would be learnt as load effect.
+MIXED_SAME_ERROR = 20e-6
+MIXED_SAME_WARN = 5e-6
+MIXED_SAME_SCATTER = 10.0
 #: Share of the recorded travel a geometric or load pass must cover (warning below).
 COVERAGE_WARN = 0.5
 #: Sample spacing over position, in cut-off wavelengths of the low-pass (3 × tooth mesh):
@@ -66,6 +75,8 @@ TORQUE_ORDER_NOISE = 0.5
 VELOCITY_GROUP = 1.1
 #: Relative deviation of a run's measured velocity from its listed velocity (warning).
 VELOCITY_WARN = 0.1
+#: Further errors named (file and check) after the first one in the one-line refusal.
+MORE_LISTED = 4
 #: Shortest motion of a run that is judged at all [m].
 MIN_MOTION = 5e-3
 #: Unit slips recognised in the ratio k (factor → description).
@@ -160,7 +171,9 @@ class PlausibilityReport:
         """Raise the first error as a one-line :class:`~drivelash.errors.DataError` (the others follow)."""
         errs = self.errors
         if errs:
-            more = f" (and {len(errs) - 1} more problem(s))" if len(errs) > 1 else ""
+            rest = [f"{Path(f.file).name}: {f.check}" for f in errs[1:]]
+            shown = ", ".join(rest[:MORE_LISTED]) + (", …" if len(rest) > MORE_LISTED else "")
+            more = f" (and {len(rest)} more error(s): {shown})" if rest else ""
             raise DataError(f"implausible campaign: {errs[0].message}{more}", path=errs[0].file)
 
     def to_dict(self) -> dict[str, Any]:
@@ -533,7 +546,30 @@ def _mixed_zeros(rr: Iterable[tuple[RunRecord, dict[str, Any]]], add: Any) -> No
         res = m - (icpt + slope * F)
     else:
         res = m - np.median(m)
-    for (r, _), e in zip(rr, res, strict=True):
+    for n, ((r, _), e) in enumerate(zip(rr, res, strict=True)):
+        same = [m[k] for k in range(len(rr)) if k != n and abs(F[k] - r.load) <= 1e-6]
+        if len(same) >= 2:  # repeats at this load: compare with them, not with the load trend
+            off = float(m[n] - np.median(same))
+            spread = MIXED_SAME_SCATTER * float(np.ptp(same))  # others that disagree: no verdict on this one
+            limit = max(MIXED_SAME_ERROR, spread)
+            if abs(off) > limit:
+                add(
+                    "error",
+                    "mixed-zero",
+                    r.label,
+                    f"TE offset {off * 1e6:+.1f} um from the {len(same)} other runs of direction"
+                    f" {r.direction:+d} at {r.load:g} N (they agree within {np.ptp(same) * 1e6:.2f} um;"
+                    f" limit {limit * 1e6:.0f} um): mixed position zeros between runs (homed in between?)",
+                )
+            elif abs(off) > max(MIXED_SAME_WARN, spread):
+                add(
+                    "warning",
+                    "mixed-zero",
+                    r.label,
+                    f"TE offset {off * 1e6:+.1f} um from the {len(same)} other runs of direction"
+                    f" {r.direction:+d} at {r.load:g} N",
+                )
+            continue
         if abs(e) > MIXED_ERROR:
             add(
                 "error",
