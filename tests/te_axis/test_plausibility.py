@@ -205,3 +205,32 @@ def test_the_refusal_names_the_further_errors():
     with pytest.raises(DataError) as exc:
         _check(runs).raise_errors()
     assert "more error" not in str(exc.value)
+
+
+def test_a_wrong_direction_label_is_named_as_such():
+    runs = _runs()
+    recs = [record(r, f"run{i:02d}.csv") for i, r in enumerate(runs)]
+    recs[4] = dataclasses.replace(recs[4], direction=-1)  # a +1 pass (50 → 450 mm) listed as −1
+    rep = check_runs(recs, BENCH.r_eff, BENCH.tooth_pitch, BENCH.travel, 3000.0, source="axis.toml")
+    f = _one(rep, "direction")
+    assert f.level == "error" and f.file == "run04.csv"
+    assert "moves in direction +1 (x_T from 50.0 to 450.0 mm), the run is listed as direction -1" in f.message
+    assert not [x for x in rep.findings if x.check == "torque"]  # no torque-sign advice for it
+    # negative control: the clean campaign has no direction finding
+    assert not [x for x in _check(_runs()).findings if x.check == "direction"]
+
+
+def test_sign_advice_accounts_for_a_scale_already_set():
+    runs = _runs()
+    recs = [record(r, f"run{i:02d}.csv") for i, r in enumerate(runs)]
+    recs[3] = dataclasses.replace(recs[3], theta_m=-recs[3].theta_m)
+    recs[4] = dataclasses.replace(recs[4], torque_m=-recs[4].torque_m)
+    args = (recs, BENCH.r_eff, BENCH.tooth_pitch, BENCH.travel, 3000.0)
+    rep = check_runs(*args, column_scales={"theta_m": -1.0, "torque_m": -1.0})
+    flipped = "already has scale = -1, which flips it: set scale = 1 on the {} column"
+    assert flipped.format("theta_m") in _one(rep, "ratio").message
+    assert flipped.format("torque_m") in _one(rep, "torque").message
+    # negative control: without a scale in the mapping, the plain advice
+    rep = check_runs(*args, column_scales={"theta_m": 1.0})
+    assert "set scale = -1 on the theta_m column in [columns]" in _one(rep, "ratio").message
+    assert "set scale = -1 on the torque_m column in [columns]" in _one(rep, "torque").message

@@ -202,13 +202,26 @@ def _ratio(x_T: np.ndarray, x_M: np.ndarray) -> float:
     return float(np.dot(a, b) / den) if den > 0 else float("nan")
 
 
-def _ratio_message(k: float, label_theta: str = "theta_m") -> str:
+def _sign_advice(column: str, scales: dict[str, float] | None) -> str:
+    """How to flip the sign of ``column`` given the ``scale`` its [columns] mapping already has."""
+    scale = (scales or {}).get(column)
+    if scale is None or scale == 1.0:
+        return f"set scale = -1 on the {column} column in [columns]"
+    if scale < 0:
+        return (
+            f"its [columns] mapping already has scale = {scale:g}, which flips it: set scale = {-scale:g}"
+            f" on the {column} column"
+        )
+    return f"set scale = {-scale:g} (now {scale:g}) on the {column} column in [columns]"
+
+
+def _ratio_message(k: float, label_theta: str = "theta_m", scales: dict[str, float] | None = None) -> str:
     if not math.isfinite(k):
         return "the motor angle does not move: check the theta_m column"
     if abs(k + 1.0) < 0.05:
         return (
             f"TE slope {1 - k:+.3f} m/m: the motor encoder counts against the linear scale"
-            f" (encoder sign) — set scale = -1 on the {label_theta} column in [columns]"
+            f" (encoder sign) — {_sign_advice(label_theta, scales)}"
         )
     for factor, text in _UNIT_SLIPS:
         if abs(k / factor - 1.0) < 0.05:
@@ -227,6 +240,7 @@ def check_runs(
     max_load: float = math.inf,
     cutoff_factor: float = 3.0,
     source: str = "campaign",
+    column_scales: dict[str, float] | None = None,
 ) -> PlausibilityReport:
     """Run every plausibility check on a campaign's runs.
 
@@ -246,6 +260,9 @@ def check_runs(
         Low-pass cut-off of the preprocessing, in tooth-mesh spatial frequencies.
     source : str
         File named by campaign-level findings (the axis file or the manifest).
+    column_scales : dict, optional
+        ``scale`` of the [columns] mapping per trace column (``theta_m``, ``torque_m``), so
+        that sign advice accounts for a sign already flipped there.
 
     Returns
     -------
@@ -294,7 +311,7 @@ def check_runs(
         )
         # 1. encoder sign, ratio and position units
         if not (math.isfinite(k) and abs(k - 1.0) <= RATIO_ERROR):
-            add("error", "ratio", r.label, _ratio_message(k))
+            add("error", "ratio", r.label, _ratio_message(k, scales=column_scales))
             info["gross"] = True
             continue
         if abs(k - 1.0) > RATIO_WARN:
@@ -340,7 +357,21 @@ def check_runs(
                 f"{spacing * 1e3:.3g} mm between samples is coarse for the tooth mesh"
                 f" (recommended <= {SPACING_WARN * lam_c * 1e3:.3g} mm, >= {rate_ok:.0f} Hz)",
             )
-        # 4. listed velocity
+        # 4. listed direction against the motion the scale recorded
+        if r.direction != 0 and r.kind != "sine":
+            moved = float(np.median(np.gradient(x, t)[mv]))
+            if np.sign(moved) != r.direction:
+                add(
+                    "error",
+                    "direction",
+                    r.label,
+                    f"the table moves in direction {int(np.sign(moved)):+d} (x_T from {x[mv][0] * 1e3:.1f} to"
+                    f" {x[mv][-1] * 1e3:.1f} mm), the run is listed as direction {r.direction:+d}:"
+                    " fix 'direction' of this run in [[runs]]",
+                )
+                info["gross"] = True
+                continue
+        # 5. listed velocity
         if r.velocity and r.kind != "sine" and abs(v_meas / r.velocity - 1.0) > VELOCITY_WARN:
             add(
                 "warning",
@@ -348,7 +379,7 @@ def check_runs(
                 r.label,
                 f"moves at {v_meas * 1e3:.4g} mm/s, listed as {r.velocity * 1e3:.4g} mm/s",
             )
-        # 5. torque sign on loaded passes
+        # 6. torque sign on loaded passes
         if (
             r.kind == "load"
             and r.load > 0
@@ -361,7 +392,7 @@ def check_runs(
                 r.label,
                 f"mean motor torque {info['torque_mean']:+.3g} N·m opposes the motion"
                 f" (direction {r.direction:+d}) under load: torque sign —"
-                " set scale = -1 on the torque_m column in [columns]",
+                f" {_sign_advice('torque_m', column_scales)}",
             )
     rep.runs = per_run
     judged = [(r, i) for r, i in zip(runs, per_run, strict=True) if "ratio" in i and not i.get("gross")]
