@@ -81,3 +81,41 @@ def test_default_holdout_from_the_campaign_loads():
     assert default_holdout([0.0, 1500.0, 3000.0, 4500.0], 3000.0) == ()
     # in range 0 … 4000 N: nearest to 1/3 and 5/6 of the span (1333, 3333 N)
     assert default_holdout([0, 1000, 2000, 3000, 4000, 6000], 5000.0) == (1000.0, 3000.0)
+
+
+@pytest.mark.parametrize(
+    ("text", "needle"),
+    [
+        (
+            "[geometry]\nhelix_angle = 19.53\n",
+            "table [geometry], key 'helix_angle': 19.53 is read in rad (19.53 rad = 1119°), the key is in"
+            " rad — 19.53° is 0.340863 rad",
+        ),
+        ("[geometry]\nalpha_n = 20\n", "key 'alpha_n': 20 is read in rad (20 rad = 1146°)"),
+        (
+            "[geometry]\nm_n = 3.0\n",
+            "table [geometry], key 'm_n': 3 is read in m (3 m), the module is in m — 3 mm is 0.003",
+        ),
+        ("[geometry]\nface_width = 40.0\n", "key 'face_width': 40 is read in m (40 m)"),
+        (
+            "[geometry]\ntravel = 1200\n",
+            "table [geometry], key 'travel': 1200 is read in m (1200 m), the travel is in m — 1200 mm is 1.2"
+            " (limit 100 m; no rack-and-pinion machine axis is longer)",
+        ),
+    ],
+)
+def test_unit_slips_in_the_geometry_are_named(tmp_path, text, needle):
+    p = tmp_path / "axis.toml"
+    p.write_text(text)
+    with pytest.raises(ConfigError) as exc:
+        load_axis(p)
+    assert needle in str(exc.value) and str(exc.value).startswith(str(p))
+    assert "must be < 60°" not in str(exc.value) and "two tooth pitches" not in str(exc.value)
+
+
+def test_plausible_geometry_at_the_unit_limits_is_accepted(tmp_path):
+    # negative control: a 100 m gantry, 50 mm module, 59° helix and 1 m face width are read as given
+    p = tmp_path / "axis.toml"
+    p.write_text("[geometry]\ntravel = 100.0\nm_n = 0.05\nhelix_angle = 1.03\nface_width = 1.0\nn_t = 20\n")
+    g = load_axis(p).bench().geometry
+    assert (g.travel, g.m_n, g.helix_angle, g.face_width) == (100.0, 0.05, 1.03, 1.0)

@@ -151,3 +151,42 @@ def test_cli_writes_the_score_and_refuses_bad_input(recorded, tmp_path):
     assert r.returncode == 2 and "not a campaign directory" in r.stderr and r.stderr.count("\n") == 1
     r = run("--uncompensated", str(u), "--compensated", str(c), "--gains", "x")
     assert r.returncode == 2 and "--gains" in r.stderr and "Traceback" not in r.stderr
+
+
+def _other_axis(src, dst):
+    """A copy of the campaign ``src`` whose pinion has 24 instead of 20 teeth (another d_p)."""
+    dst.mkdir()
+    man = json.loads((src / "manifest.json").read_text())
+    assert man["bench"]["n_t"] == 20
+    man["bench"]["n_t"] = 24
+    for r in man["runs"]:
+        (dst / r["file"]).write_bytes((src / r["file"]).read_bytes())
+    (dst / "manifest.json").write_text(json.dumps(man))
+    return dst
+
+
+def test_passes_of_another_axis_are_refused(recorded, tmp_path):
+    u, c = recorded["dirs"]["xd"]
+    other = _other_axis(u, tmp_path / "other")
+    with pytest.raises(DataError, match=r"d_p of the uncompensated passes' axis is 0\.10\d+, the compensated"
+                                        r" passes' is 0\.08\d+: passes of another axis"):  # fmt: skip
+        score_campaigns(load_campaign(other), load_campaign(c), ScoreConfig())
+    with pytest.raises(DataError, match="passes of another axis"):
+        score_campaigns(load_campaign(u), load_campaign(_other_axis(c, tmp_path / "o2")), ScoreConfig())
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")  # no numpy overflow warning reaches the user
+def test_implausible_identified_gains_are_not_used(recorded):
+    u, c = recorded["dirs"]["xd"]
+    # compensated and uncompensated swapped: eq. (3) cannot map the small TE onto the large error
+    s = score_campaigns(load_campaign(c), load_campaign(u), ScoreConfig(), gains="identify")
+    g = s["gains"]
+    assert g["used"] is None and "monitoring" not in s
+    assert g["identified"]["K_v"] > 1e4 or not np.isfinite(g["identified"]["K_v"])
+    assert "K_v" in g["implausible"] and "outside 0.5 ... 10000 1/s" in g["implausible"]
+    assert s["passes"]["average_improvement"] < 0
+    assert any("swapped" in w for w in s["warnings"]) and len(s["warnings"]) == 2
+    # negative control: the right order keeps the identified gains and the monitoring, no warning
+    s = score_campaigns(load_campaign(u), load_campaign(c), ScoreConfig(), gains="identify")
+    assert s["gains"]["used"]["K_v"] == pytest.approx(231.0, rel=0.01) and s["warnings"] == []
+    assert "implausible" not in s["gains"] and s["monitoring"]["median_relative_error"] < 0.05

@@ -124,3 +124,51 @@ def test_missing_campaign_is_refused_before_any_work(setup, tmp_path, capsys):
     code, out = _run(["te", "update", str(m1), str(tmp_path / "nope"), "-o", str(tmp_path / "o")], capsys)
     assert code == 2 and "manifest.json" in out, out
     assert not (tmp_path / "o").exists()
+
+
+def test_an_update_that_makes_the_model_worse_is_refused_unless_accepted(setup, capsys, monkeypatch):
+    import drivelash.te.learn.update as upd
+
+    root, m1, camp = setup
+    real = upd.update_errors
+
+    def worse(model, trained, runs):  # the update's figures, the after-MAE made 1.5× the before-MAE
+        e = real(model, trained, runs)
+        return {k: {**v, "after_um": 1.5 * v["before_um"]} for k, v in e.items()}
+
+    monkeypatch.setattr(upd, "update_errors", worse)
+    out_dir = root / "worse"
+    code, out = _run(["te", "update", str(m1), str(camp), "-o", str(out_dir)], capsys)
+    assert code == 2 and "Traceback" not in out, out
+    last = out.strip().splitlines()[-1]  # after the progress lines: the one error line
+    assert out.count("error") == 1 and last.startswith("drivelash: error:"), out
+    assert "the update makes the model worse (update passes neg: TE_def MAE" in last
+    assert "give --accept-worse" in out and not out_dir.exists()
+    code, out = _run(["te", "update", str(m1), str(camp), "-o", str(out_dir), "--accept-worse"], capsys)
+    assert code == 0, out
+    assert "is WORSE than its parent" in out and "--accept-worse" in out
+    rec = json.loads((out_dir / "update" / "update.json").read_text())
+    assert rec["accepted_worse"] is True and len(rec["worse"]) == 2
+    for key in ("pos", "neg"):
+        e = rec["mae_te_def_um"]["update"][key]
+        assert e["after_um"] == pytest.approx(1.5 * e["before_um"])
+
+
+def test_update_pins_the_numerics_like_te_fit_and_records_no_worsening(setup, tmp_path):
+    """The real entry point (a fresh process): no raw torch warning, the pinned code path recorded."""
+    import os
+    import subprocess
+    import sys
+
+    root, m1, camp = setup
+    out_dir = tmp_path / "m2"
+    env = {k: v for k, v in os.environ.items() if k not in ("ATEN_CPU_CAPABILITY", "MKL_CBWR")}
+    cmd = [sys.executable, "-m", "drivelash.cli", "te", "update", str(m1), str(camp), "-o", str(out_dir)]
+    r = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    assert r.returncode == 0, r.stderr
+    assert "Warning" not in r.stderr and "warning" not in r.stderr, r.stderr
+    rec = json.loads((out_dir / "update" / "update.json").read_text())
+    assert rec["numerics"]["ATEN_CPU_CAPABILITY"] == "avx2" and rec["numerics"]["MKL_CBWR"] == "AVX2"
+    assert rec["numerics"]["aten_in_use"].lower() in ("avx2", "default")
+    assert rec["numerics"]["pinned"] is (rec["numerics"]["aten_in_use"].lower() == "avx2")
+    assert rec["worse"] == [] and rec["accepted_worse"] is False

@@ -64,12 +64,42 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
     @te_app.command("export")
     def export_cmd(
         model_dir: Path = typer.Argument(..., help="Model directory (drivelash te fit)."),
-        out: Path = typer.Option(..., "-o", "--out", help="Table file, .csv or .json."),
-        dx_mm: float = typer.Option(0.2, "--dx-mm", help="Position step of the table [mm]."),
-        torque_max: float | None = typer.Option(
-            None, "--torque-max", help="Largest motor torque of the grid [N·m]; default: the training range."
+        out: Path = typer.Option(
+            ...,
+            "-o",
+            "--out",
+            help="Output file: .csv or .json (runtime table), .ini (SINUMERIK), .com (HEIDENHAIN).",
         ),
-        torque_step: float = typer.Option(0.5, "--torque-step", help="Torque step of the grid [N·m]."),
+        fmt: str | None = typer.Option(
+            None,
+            "--format",
+            help="table (position x torque, .csv/.json), sinumerik (.ini: $AA_ENC_COMP + direction CEC"
+            " tables) or heidenhain (.com: AXISPOS, axis, BACKLASH); default: from the extension.",
+        ),
+        dx_mm: float | None = typer.Option(
+            None, "--dx-mm", help="Position step of the table [mm] (table format; default 0.2)."
+        ),
+        torque_max: float | None = typer.Option(
+            None,
+            "--torque-max",
+            help="Largest motor torque of the grid [N·m], at most the training range (the default).",
+        ),
+        torque_step: float | None = typer.Option(
+            None, "--torque-step", help="Torque step of the grid [N·m] (table format; default 0.5)."
+        ),
+        step_mm: float | None = typer.Option(
+            None,
+            "--step-mm",
+            help=f"Distance of the CNC compensation points [mm] (default {CNC_STEP_MM:g}).",
+        ),
+        axis: str | None = typer.Option(
+            None, "--axis", help="Machine axis name (sinumerik, default X1) or axis key (heidenhain, X)."
+        ),
+        cec_tables: str | None = typer.Option(
+            None,
+            "--cec-tables",
+            help="SINUMERIK CEC table indices of the positive and negative direction (default 0,1).",
+        ),
         x_min: float | None = typer.Option(
             None, "--x-min", help="First position [m]; default: the start of the valid range."
         ),
@@ -80,27 +110,132 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
             False, "--force", help="Replace OUT even if it is not a drivelash output."
         ),
     ) -> None:
-        """Sample the model on a position x torque grid per direction and write it for a CNC."""
+        """Write the model for a CNC: the runtime table (position x torque per direction, .csv/.json)
+        or the no-load error per direction in a SINUMERIK (.ini) or HEIDENHAIN (.com) layout."""
+        from drivelash.errors import ParameterError
         from drivelash.io.outputs import Outputs
-        from drivelash.te.runtime.export import export_table
         from drivelash.te.runtime.persist import load_model
-        from drivelash.te.runtime.table import build_table
 
+        layout = _export_layout(fmt, out)
+        cnc = layout != "table"
+        table_opts = (("--dx-mm", dx_mm), ("--torque-max", torque_max), ("--torque-step", torque_step))
+        cnc_opts = (("--step-mm", step_mm), ("--axis", axis), ("--cec-tables", cec_tables))
+        for name, v in table_opts if cnc else cnc_opts:
+            if v is not None:
+                hint = "the compensation points' distance is --step-mm" if name == "--dx-mm" else ""
+                raise ParameterError(
+                    "te export", name, f"does not apply to --format {layout}" + (f" ({hint})" if hint else "")
+                )
+        if layout == "heidenhain" and cec_tables is not None:
+            raise ParameterError("te export", "--cec-tables", "applies to --format sinumerik only")
         with Outputs("te export", inputs=[model_dir], force=force) as outs:
-            target = outs.file(out, option="-o", kinds=(".csv", ".json"))
+            target = outs.file(out, option="-o", kinds=EXPORT_KINDS[layout])
             model = load_model(model_dir)
-            ctx = model.context
-            vr = ctx.valid_range
-            lo = vr.x_min if x_min is None else x_min
-            hi = vr.x_max if x_max is None else x_max
-            tmax = vr.torque_max if torque_max is None else torque_max
-            n_torque = _check_grid(lo, hi, dx_mm, tmax, torque_step, vr)
-            table = build_table(model, lo, hi, dx_mm * 1e-3, tmax, n_torque,
-                                meta={"model_dir": str(model_dir)})  # fmt: skip
-            export_table(table, outs.staging(target), ctx.compensator)
+            if cnc:
+                from drivelash.te.runtime.cnc import geometric_table, write_cnc
+
+                step = CNC_STEP_MM if step_mm is None else step_mm
+                tables = _parse_cec(cec_tables)
+                tab = geometric_table(model, step * 1e-3, x_min, x_max, source=str(model_dir))
+                write_cnc(tab, outs.staging(target), layout, axis, tables)
+            else:
+                table = _export_table(model, model_dir, outs.staging(target), x_min, x_max,
+                                      0.2 if dx_mm is None else dx_mm, torque_max,
+                                      0.5 if torque_step is None else torque_step)  # fmt: skip
+        if cnc:
+            typer.echo(
+                f"wrote {out}: {layout} compensation table, {tab.te_pos.size} points"
+                f" {tab.x0 * 1e3:.3f} ... {tab.x_max * 1e3:.3f} mm, step {tab.step * 1e3:g} mm, both"
+                " directions"
+                f" (no-load TE; valid range {tab.valid[0] * 1e3:.3f} ... {tab.valid[1] * 1e3:.3f} mm;"
+                f" interpolation <= {tab.interpolation_error * 1e6:.3f} um)"
+            )
+            return
         n = table.te.shape
         typer.echo(f"wrote {out}: {n[1]} positions x {n[2]} torques x 2 directions "
                    f"(x_T in mm, torque in N*m, TE in um)")  # fmt: skip
+
+
+#: Default distance of the CNC compensation points [mm]: linear interpolation of a meshing error
+#: of amplitude A and tooth pitch p between points h apart loses at most A·(πh/p)²/2 — 0.3 % of A
+#: for h = 1 mm, p = 9.4 mm (m_n 3 mm) — and ~400 points per metre fit any control's table.
+CNC_STEP_MM = 1.0
+#: Output extensions per layout of `te export`.
+EXPORT_KINDS = {"table": (".csv", ".json"), "sinumerik": (".ini",), "heidenhain": (".com",)}
+
+
+def _export_layout(fmt: str | None, out: Path) -> str:
+    """The layout from ``--format`` or, without it, from the output's extension."""
+    from drivelash.errors import ParameterError
+
+    ext = Path(out).suffix.lower()
+    by_ext = next((k for k, kinds in EXPORT_KINDS.items() if ext in kinds), None)
+    if fmt is None:
+        if by_ext is None:
+            shown = f"'{Path(out).suffix}'" if Path(out).suffix else "(none)"
+            raise ParameterError(
+                "te export",
+                "-o",
+                f"unsupported extension {shown} (use .csv, .json) for the table, .ini for --format sinumerik,"
+                " .com for --format heidenhain",
+            )
+        return by_ext
+    layout = fmt.strip().lower()
+    if layout not in EXPORT_KINDS:
+        raise ParameterError("te export", "--format", f"must be table, sinumerik or heidenhain, got {fmt!r}")
+    if by_ext is not None and by_ext != layout:
+        raise ParameterError(
+            "te export",
+            "-o",
+            f"extension '{Path(out).suffix}' is the {by_ext} format, not --format {layout}"
+            f" (use {', '.join(EXPORT_KINDS[layout])})",
+        )
+    return layout
+
+
+def _parse_cec(text: str | None) -> tuple[int, int]:
+    from drivelash.errors import ParameterError
+
+    if text is None:
+        return (0, 1)
+    try:
+        vals = tuple(int(v) for v in text.split(","))
+    except ValueError:
+        vals = ()
+    if len(vals) != 2:
+        raise ParameterError(
+            "te export",
+            "--cec-tables",
+            f"must be two table indices like 0,1 (positive,negative), got {text!r}",
+        )
+    return vals  # type: ignore[return-value]
+
+
+def _export_table(
+    model: object,
+    model_dir: Path,
+    path: Path,
+    x_min: float | None,
+    x_max: float | None,
+    dx_mm: float,
+    torque_max: float | None,
+    torque_step: float,
+) -> object:
+    """Build the runtime table over the model's measured range and write it (``te export``, table format)."""
+    from drivelash.te.runtime.export import export_table
+    from drivelash.te.runtime.table import build_table, measured_range
+
+    ctx = model.context  # type: ignore[attr-defined]
+    vr = ctx.valid_range
+    mlo, mhi = measured_range(model)
+    lo = mlo if x_min is None else x_min
+    hi = mhi if x_max is None else x_max
+    tmax = vr.torque_max if torque_max is None else torque_max
+    n_torque = _check_grid(lo, hi, dx_mm, tmax, torque_step, vr, (mlo, mhi))
+    table = build_table(model, lo, hi, dx_mm * 1e-3, tmax, n_torque,
+                        meta={"model_dir": str(model_dir)})  # fmt: skip
+    export_table(table, path, ctx.compensator)
+    return table
 
 
 #: Largest table `te export` writes [grid points per flank]: 10 M (e.g. 0.1 mm over 10 m × 100
@@ -108,8 +243,13 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
 MAX_TABLE_POINTS = 10_000_000
 
 
-def _check_grid(lo: float, hi: float, dx_mm: float, tmax: float, step: float, vr: object) -> int:
-    """Validate the export grid up front; returns the torque count (refuses absurd sizes)."""
+def _check_grid(
+    lo: float, hi: float, dx_mm: float, tmax: float, step: float, vr: object, measured: tuple[float, float]
+) -> int:
+    """Validate the export grid up front; returns the torque count (refuses absurd sizes).
+
+    ``measured``: the positions [m] where the model was measured
+    (:func:`~drivelash.te.runtime.table.measured_range`); ``vr.torque_max`` bounds the torques."""
     from drivelash.errors import ParameterError, ResourceError
     from drivelash.io.budget import check_budget
     from drivelash.te.runtime.table import table_bytes
@@ -120,11 +260,22 @@ def _check_grid(lo: float, hi: float, dx_mm: float, tmax: float, step: float, vr
     for name, v in (("--x-min", lo), ("--x-max", hi)):
         if not math.isfinite(v):
             raise ParameterError("te export", name.lstrip("-"), f"must be finite, got {v!r}")
-    if not vr.contains(lo, hi):  # type: ignore[attr-defined]
+    m_lo, m_hi = measured
+    tol = 1e-9
+    if lo < m_lo - tol or hi > m_hi + tol:
         raise ParameterError(
             "te export",
-            "x-min" if lo < vr.x_min else "x-max",  # type: ignore[attr-defined]
-            f"[{lo:.6g}, {hi:.6g}] m leaves the model's valid range [{vr.x_min:.6g}, {vr.x_max:.6g}] m",  # type: ignore[attr-defined]
+            "x-min" if lo < m_lo - tol else "x-max",
+            f"[{lo:.6g}, {hi:.6g}] m leaves the model's valid range [{m_lo:.6g}, {m_hi:.6g}] m"
+            " (where its no-load runs of both directions were measured)",
+        )
+    t_max = float(vr.torque_max)  # type: ignore[attr-defined]
+    if tmax > t_max * (1 + 1e-9):
+        raise ParameterError(
+            "te export",
+            "--torque-max",
+            f"{tmax:g} N·m is above the model's valid torque range 0 ... {t_max:.4g} N·m (its training"
+            " runs); the model would extrapolate — leave --torque-max out or lower it",
         )
     if not hi > lo:
         raise ParameterError("te export", "x-max", f"must exceed x-min ({lo:g} m), got {hi:g}")

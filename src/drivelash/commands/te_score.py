@@ -89,8 +89,11 @@ def format_score(result: dict) -> str:
         lines.append(f"  d={a['direction']:+d} v={a['velocity'] * 1e3:g} mm/s F={a['load']:g} N: "
                      f"{100 * a['improvement']:.1f} %")  # fmt: skip
     u = g["used"]
-    lines.append(f"eq. (3) gains ({g['source']}): K_v {u['K_v']:.4g} 1/s, K_p {u['K_p']:.4g} N*m*s/rad, "
-                 f"T_n {u['T_n'] * 1e3:.4g} ms")  # fmt: skip
+    if u is None:
+        lines.append(f"eq. (3) gains ({g['source']}): implausible ({g.get('implausible')}), not used")
+    else:
+        lines.append(f"eq. (3) gains ({g['source']}): K_v {u['K_v']:.4g} 1/s, K_p {u['K_p']:.4g} N*m*s/rad, "
+                     f"T_n {u['T_n'] * 1e3:.4g} ms")  # fmt: skip
     m = result.get("monitoring")
     if m:
         lines.append(f"monitoring: eq. (3) on the compensated passes' TE estimates the uncompensated "
@@ -99,4 +102,6 @@ def format_score(result: dict) -> str:
                      f"(measured {100 * m['average_improvement_measured']:.1f} %)")  # fmt: skip
     for u in result.get("unmatched", []):
         lines.append(f"warning: {u}")
+    for w in result.get("warnings", []):
+        lines.append(f"warning: {w}")
     return "\n".join(lines)

@@ -31,21 +31,9 @@ def _parse_loads(text: str) -> tuple[float, ...]:
 
 def _check_geometry(camp: Any, model: Any, path: Path) -> None:
     """A campaign of another axis (other module, teeth or ratio) is refused."""
-    from drivelash.errors import DataError
-    from drivelash.te.learn.preprocess import GearGeometry
+    from drivelash.te.protocol.campaign import check_same_axis
 
-    try:
-        g = GearGeometry.from_bench(camp.bench)
-    except Exception:  # noqa: BLE001 - a campaign without a bench block: nothing to compare
-        return
-    m = model.pipeline.geometry
-    for name in ("d_p", "n_t", "i_pg"):
-        a, b = float(getattr(g, name)), float(getattr(m, name))
-        if not np.isclose(a, b, rtol=1e-6, atol=0.0):
-            raise DataError(
-                f"{name} of the passes' axis is {a:g}, the model's is {b:g}: passes of another axis",
-                path=str(path / "manifest.json"),
-            )
+    check_same_axis(camp, model.pipeline.geometry, path / "manifest.json", "the model's")
 
 
 def _check_range(runs: dict[str, list[Any]], model: Any, tol: float = 1e-3) -> None:
@@ -85,8 +73,15 @@ def run_update(
     stride: int = 1,
     force: bool = False,
     echo: Any = print,
+    accept_worse: bool = False,
+    warn: Any = None,
 ) -> dict[str, Any]:
-    """Update MODEL on the passes of one or more campaign directories; write the new version to ``out``."""
+    """Update MODEL on the passes of one or more campaign directories; write the new version to ``out``.
+
+    An update that raises a direction's TE_def MAE on the update (or held-out) passes by more
+    than :data:`WORSE_REL` is refused unless ``accept_worse``; then it is written with a warning
+    (``warn``, default ``echo``) and recorded in ``update/update.json`` (``worse``).
+    """
     from drivelash.errors import DataError
     from drivelash.io.outputs import Outputs, write_json
     from drivelash.te.learn.update import (
@@ -132,12 +127,21 @@ def run_update(
         errors = {"update": update_errors(model, trained, train)}
         if any(held.values()):
             errors["held_out"] = update_errors(model, trained, {k: v for k, v in held.items() if v})
+        worse = worse_splits(errors)
+        if worse and not accept_worse:
+            raise DataError(
+                f"the update makes the model worse ({'; '.join(worse)}): nothing written;"
+                " give --accept-worse to write it anyway, or refit with te fit",
+                path=str(passes[0]),
+            )
         parent = parent_record(model_dir, model.meta)
         rec.update({
             "parent": parent,
             "passes": [str(p.resolve()) for p in passes],
             "holdout_loads": list(holdout_loads),
             "mae_te_def_um": errors,
+            "worse": worse,
+            "accepted_worse": bool(worse),
         })  # fmt: skip
         info = trained.info
         info["model_version"] = parent["model_version"] + 1
@@ -168,7 +172,29 @@ def run_update(
         write_json(stage_dir / "update" / "update.json", rec)
         fig_update(panels, errors, stage, stage_dir / "update" / "before_after.png")
     echo(format_update(rec, out))
+    if worse:
+        (warn or echo)(
+            f"warning: model version {rec['parent']['model_version'] + 1} in {out} is WORSE than its parent"
+            f" ({'; '.join(worse)}); written because of --accept-worse (recorded in update/update.json)"
+        )
     return rec
+
+
+#: An update is "worse" when a direction's TE_def MAE after it exceeds the MAE before by more
+#: than this share (on the update passes or, when given, the held-out passes).
+WORSE_REL = 0.05
+
+
+def worse_splits(errors: dict[str, dict[str, dict[str, Any]]]) -> list[str]:
+    """The splits/directions whose TE_def MAE the update raised by more than :data:`WORSE_REL`."""
+    out = []
+    names = {"update": "update passes", "held_out": "held-out passes"}
+    for split in ("held_out", "update"):
+        for key, e in sorted(errors.get(split, {}).items()):
+            b, a = float(e["before_um"]), float(e["after_um"])
+            if not a <= b * (1 + WORSE_REL):
+                out.append(f"{names[split]} {key}: TE_def MAE {b:.3f} um before, {a:.3f} um after")
+    return out
 
 
 def format_update(rec: dict[str, Any], out: Path) -> str:
@@ -203,6 +229,14 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
             1, "--stride", min=1, help="Every n-th 50 um grid row enters the tree refit."
         ),
         force: bool = typer.Option(False, "--force", help="Replace an existing output that is not ours."),
+        accept_worse: bool = typer.Option(
+            False,
+            "--accept-worse",
+            help="Write the new version even if it predicts the passes worse than its parent (warned).",
+        ),
     ) -> None:
         """Update MODEL_DIR for wear on PASSES (stage 2, or both stages) and write it as a new version."""
-        run_update(model_dir, passes, out, stage, _parse_loads(holdout_loads), stride, force, typer.echo)
+        run_update(
+            model_dir, passes, out, stage, _parse_loads(holdout_loads), stride, force, typer.echo,
+            accept_worse=accept_worse, warn=lambda line: typer.echo(f"drivelash: {line}", err=True),
+        )  # fmt: skip

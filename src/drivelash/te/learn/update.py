@@ -93,6 +93,11 @@ def restore_trained(directory: str | Path) -> tuple[Any, TrainedTEModel]:
         stage-2 inputs the saved trees use); geometric curves, offset lines, training
         record and (where the format has one) the model's context copied.
     """
+    from drivelash.te.learn.numerics import pin_training_numerics
+
+    # the restored network is trained on: fix torch's CPU code path before its first operation,
+    # as te fit does (pin_training_numerics; update_trained records what is in force)
+    pin_training_numerics()
     from drivelash.te.learn.stacked import StackedTERegressor, default_trees
     from drivelash.te.runtime.persist import load_model
 

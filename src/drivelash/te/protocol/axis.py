@@ -28,10 +28,11 @@ and key. Run files are relative to the axis file.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from drivelash.errors import ConfigError
 from drivelash.io.config import ColumnMap, ConfigFile, SamplingSection, Table, load_file, section
@@ -41,7 +42,6 @@ from drivelash.sim.rack_campaign import CampaignConfig, default_gains
 
 __all__ = ["AxisFile", "RunTable", "load_axis"]
 
-GeometrySection = section(RackGeometry, overrides=True)
 DriveSection = section(RackDrive, overrides=True)
 GainsSection = section(CascadeGains, overrides=True)
 CampaignSection = section(CampaignConfig, overrides=True)
@@ -80,6 +80,53 @@ class RunTable(Table):
         if self.kind == "geometric" and self.load != 0:
             raise ValueError(f"a geometric run has no load, got {self.load:g} N")
         return self
+
+
+#: Unit slips in [geometry] (SI: m, rad): a value beyond the limit is the other unit read as SI.
+#: Module: the largest racks have m_n ≈ 30–50 mm; 0.05 m. Face width: 1 m. Travel: no
+#: rack-and-pinion machine axis is longer than 100 m (and the virtual bench's memory grows with
+#: it: 0.42 GB at 2.2 m, 1.7 GB at 120 m, ≈ 13 GB at 1200 m). Angles: a helix angle ≥ 60° and a
+#: pressure angle ≥ 45° are not gears (RackGeometry refuses the first) — in degrees they are.
+GEOMETRY_LIMITS: dict[str, tuple[float, str]] = {
+    "m_n": (0.05, "m"),
+    "face_width": (1.0, "m"),
+    "travel": (100.0, "m"),
+    "helix_angle": (math.pi / 3, "rad"),
+    "alpha_n": (math.pi / 4, "rad"),
+}
+
+
+def _unit_slip(key: str, value: float) -> str | None:
+    """Why ``value`` of ``[geometry] key`` looks like a unit slip (None: plausible)."""
+    limit, unit = GEOMETRY_LIMITS[key]
+    if not value > limit:
+        return None
+    if unit == "rad":
+        deg = math.degrees(value)
+        hint = f" — {value:g}° is {math.radians(value):.6g} rad" if value < 90 else ""
+        return (
+            f"{value:g} is read in rad ({value:g} rad = {deg:.4g}°), the key is in rad{hint}"
+            f" (limit {math.degrees(limit):.0f}°)"
+        )
+    what = {"m_n": "the module", "face_width": "the face width", "travel": "the travel"}[key]
+    extra = "; no rack-and-pinion machine axis is longer" if key == "travel" else ""
+    return (
+        f"{value:g} is read in m ({value:g} m), {what} is in m — {value:g} mm is {value * 1e-3:g}"
+        f" (limit {limit:g} m{extra})"
+    )
+
+
+class GeometrySection(section(RackGeometry, overrides=True)):  # type: ignore[misc]
+    """``[geometry]`` (:class:`RackGeometry`) with the unit slips named (:data:`GEOMETRY_LIMITS`)."""
+
+    @field_validator(*GEOMETRY_LIMITS, mode="after")
+    @classmethod
+    def _units(cls, v: Any, info: Any) -> Any:
+        if isinstance(v, (int, float)) and math.isfinite(v):
+            why = _unit_slip(info.field_name, float(v))
+            if why:
+                raise ValueError(why)
+        return v
 
 
 class AxisFile(ConfigFile):

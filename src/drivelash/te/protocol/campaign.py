@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -32,7 +33,7 @@ from drivelash.physics.rack_pinion import RackPinionBench, TransmissionErrorMode
 from drivelash.sim.rack_axis import RackAxisSimulator
 from drivelash.sim.rack_campaign import SimulatorBlock
 
-__all__ = ["Campaign", "CampaignRun", "load_campaign", "measured_te"]
+__all__ = ["Campaign", "CampaignRun", "check_same_axis", "load_campaign", "measured_te"]
 
 
 @dataclass(frozen=True)
@@ -211,6 +212,43 @@ def load_campaign(directory: str | Path) -> Campaign:
     if camp.is_simulated:
         camp.simulator_block  # noqa: B018 - validated now, so a bad block fails early
     return camp
+
+
+def check_same_axis(
+    campaign: Any, geometry: Any, path: str | Path, whose: str, what: str = "the passes'"
+) -> None:
+    """Refuse ``campaign`` when its axis (pitch diameter, teeth, gearbox ratio) is not ``geometry``'s.
+
+    Parameters
+    ----------
+    campaign : Campaign
+        The passes to check.
+    geometry : GearGeometry
+        The reference (a model's ``pipeline.geometry``, or another campaign's
+        ``GearGeometry.from_bench``).
+    path : str or Path
+        File named in the error (the campaign's manifest).
+    whose, what : str
+        The reference and the campaign in the message, e.g. ``"the model's"``, ``"the passes'"``.
+
+    Raises
+    ------
+    DataError
+        ``d_p of the passes' axis is 0.0764, the model's is 0.0849: passes of another axis``.
+    """
+    from drivelash.te.learn.preprocess import GearGeometry
+
+    try:
+        g = GearGeometry.from_bench(campaign.bench)
+    except Exception:  # noqa: BLE001 - a campaign without a bench block: nothing to compare
+        return
+    for name in ("d_p", "n_t", "i_pg"):
+        a, b = float(getattr(g, name)), float(getattr(geometry, name))
+        if not np.isclose(a, b, rtol=1e-6, atol=0.0):
+            raise DataError(
+                f"{name} of {what} axis is {a:g}, {whose} is {b:g}: passes of another axis",
+                path=str(path),
+            )
 
 
 def measured_te(trace: Trace, bench: RackPinionBench) -> np.ndarray:

@@ -104,9 +104,11 @@ def import_campaign(
                 warn(w)
         traces.append(tr)
         records.append(record_of(str(path), r.kind, r.direction, r.load, r.velocity, tr))
+    scales = {m.column: float(m.scale) for m in (axis.columns or {}).values()}
     report = check_runs(
-        records, bench.r_eff, bench.tooth_pitch, bench.travel, max_load=max_load, source=str(axis_path)
-    )
+        records, bench.r_eff, bench.tooth_pitch, bench.travel, max_load=max_load, source=str(axis_path),
+        column_scales=scales,
+    )  # fmt: skip
     report.raise_errors()  # an error is the one line the user sees; warnings only when it goes on
     if warn is not None:
         for f in report.warnings:

@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -45,6 +46,14 @@ ZERO_WARN = 0.5e-3
 MIXED_ERROR = 0.5e-3
 #: … warning [m].
 MIXED_WARN = 0.1e-3
+#: Offset of a run's median TE from the median of at least two other runs of its direction at
+#: the same load (repeats, e.g. at other velocities): error beyond max(MIXED_SAME_ERROR,
+#: MIXED_SAME_SCATTER × their spread), warning beyond max(MIXED_SAME_WARN, that) [m]. In the seed-0
+#: campaign equal-load runs agree to 0.35 µm; 20 µm is the whole load-dependent TE it learns
+#: (0 → 5000 N: 21 µm), so a zero offset that size would be learnt as load effect.
+MIXED_SAME_ERROR = 20e-6
+MIXED_SAME_WARN = 5e-6
+MIXED_SAME_SCATTER = 10.0
 #: Share of the recorded travel a geometric or load pass must cover (warning below).
 COVERAGE_WARN = 0.5
 #: Sample spacing over position, in cut-off wavelengths of the low-pass (3 × tooth mesh):
@@ -54,8 +63,20 @@ SPACING_WARN = 0.1
 #: Torque growth with load, relative to the rigid-lever value r_eff = d_p/(2 i_PG):
 #: warning outside [lo, hi] (efficiency of gearbox and mesh between 50 % and 100 %+).
 TORQUE_SLOPE_RANGE = (0.5, 2.0)
+#: Torque against the stated loads (runs of one direction at one velocity, geometric runs as
+#: 0 N with every velocity): a run with the higher load whose mean motor torque lies below the
+#: lower-load run's by more than TORQUE_ORDER_LEVER × r_eff × ΔF + TORQUE_ORDER_NOISE is an
+#: error. The lever term is a quarter of the torque the load difference should add; the noise
+#: term [N·m] is twice the spread of the mean torque of equal-load runs across 20–100 mm/s in
+#: the seed-0 campaign (0.23 N·m, viscous friction; within one velocity it is < 0.01 N·m).
+TORQUE_ORDER_LEVER = 0.25
+TORQUE_ORDER_NOISE = 0.5
+#: Runs of one velocity group: measured velocities within this ratio of the group's slowest.
+VELOCITY_GROUP = 1.1
 #: Relative deviation of a run's measured velocity from its listed velocity (warning).
 VELOCITY_WARN = 0.1
+#: Further errors named (file and check) after the first one in the one-line refusal.
+MORE_LISTED = 4
 #: Shortest motion of a run that is judged at all [m].
 MIN_MOTION = 5e-3
 #: Unit slips recognised in the ratio k (factor → description).
@@ -150,7 +171,9 @@ class PlausibilityReport:
         """Raise the first error as a one-line :class:`~drivelash.errors.DataError` (the others follow)."""
         errs = self.errors
         if errs:
-            more = f" (and {len(errs) - 1} more problem(s))" if len(errs) > 1 else ""
+            rest = [f"{Path(f.file).name}: {f.check}" for f in errs[1:]]
+            shown = ", ".join(rest[:MORE_LISTED]) + (", …" if len(rest) > MORE_LISTED else "")
+            more = f" (and {len(rest)} more error(s): {shown})" if rest else ""
             raise DataError(f"implausible campaign: {errs[0].message}{more}", path=errs[0].file)
 
     def to_dict(self) -> dict[str, Any]:
@@ -179,13 +202,26 @@ def _ratio(x_T: np.ndarray, x_M: np.ndarray) -> float:
     return float(np.dot(a, b) / den) if den > 0 else float("nan")
 
 
-def _ratio_message(k: float, label_theta: str = "theta_m") -> str:
+def _sign_advice(column: str, scales: dict[str, float] | None) -> str:
+    """How to flip the sign of ``column`` given the ``scale`` its [columns] mapping already has."""
+    scale = (scales or {}).get(column)
+    if scale is None or scale == 1.0:
+        return f"set scale = -1 on the {column} column in [columns]"
+    if scale < 0:
+        return (
+            f"its [columns] mapping already has scale = {scale:g}, which flips it: set scale = {-scale:g}"
+            f" on the {column} column"
+        )
+    return f"set scale = {-scale:g} (now {scale:g}) on the {column} column in [columns]"
+
+
+def _ratio_message(k: float, label_theta: str = "theta_m", scales: dict[str, float] | None = None) -> str:
     if not math.isfinite(k):
         return "the motor angle does not move: check the theta_m column"
     if abs(k + 1.0) < 0.05:
         return (
             f"TE slope {1 - k:+.3f} m/m: the motor encoder counts against the linear scale"
-            f" (encoder sign) — set scale = -1 on the {label_theta} column in [columns]"
+            f" (encoder sign) — {_sign_advice(label_theta, scales)}"
         )
     for factor, text in _UNIT_SLIPS:
         if abs(k / factor - 1.0) < 0.05:
@@ -204,6 +240,7 @@ def check_runs(
     max_load: float = math.inf,
     cutoff_factor: float = 3.0,
     source: str = "campaign",
+    column_scales: dict[str, float] | None = None,
 ) -> PlausibilityReport:
     """Run every plausibility check on a campaign's runs.
 
@@ -223,6 +260,9 @@ def check_runs(
         Low-pass cut-off of the preprocessing, in tooth-mesh spatial frequencies.
     source : str
         File named by campaign-level findings (the axis file or the manifest).
+    column_scales : dict, optional
+        ``scale`` of the [columns] mapping per trace column (``theta_m``, ``torque_m``), so
+        that sign advice accounts for a sign already flipped there.
 
     Returns
     -------
@@ -233,6 +273,7 @@ def check_runs(
     def add(level: str, check: str, file: str, msg: str) -> None:
         rep.findings.append(Finding(level, check, file, msg))
 
+    _duplicates(runs, add)
     lam_c = tooth_pitch / cutoff_factor  # shortest wavelength the model keeps [m]
     per_run: list[dict[str, Any]] = []
     for r in runs:
@@ -270,7 +311,7 @@ def check_runs(
         )
         # 1. encoder sign, ratio and position units
         if not (math.isfinite(k) and abs(k - 1.0) <= RATIO_ERROR):
-            add("error", "ratio", r.label, _ratio_message(k))
+            add("error", "ratio", r.label, _ratio_message(k, scales=column_scales))
             info["gross"] = True
             continue
         if abs(k - 1.0) > RATIO_WARN:
@@ -316,7 +357,21 @@ def check_runs(
                 f"{spacing * 1e3:.3g} mm between samples is coarse for the tooth mesh"
                 f" (recommended <= {SPACING_WARN * lam_c * 1e3:.3g} mm, >= {rate_ok:.0f} Hz)",
             )
-        # 4. listed velocity
+        # 4. listed direction against the motion the scale recorded
+        if r.direction != 0 and r.kind != "sine":
+            moved = float(np.median(np.gradient(x, t)[mv]))
+            if np.sign(moved) != r.direction:
+                add(
+                    "error",
+                    "direction",
+                    r.label,
+                    f"the table moves in direction {int(np.sign(moved)):+d} (x_T from {x[mv][0] * 1e3:.1f} to"
+                    f" {x[mv][-1] * 1e3:.1f} mm), the run is listed as direction {r.direction:+d}:"
+                    " fix 'direction' of this run in [[runs]]",
+                )
+                info["gross"] = True
+                continue
+        # 5. listed velocity
         if r.velocity and r.kind != "sine" and abs(v_meas / r.velocity - 1.0) > VELOCITY_WARN:
             add(
                 "warning",
@@ -324,7 +379,7 @@ def check_runs(
                 r.label,
                 f"moves at {v_meas * 1e3:.4g} mm/s, listed as {r.velocity * 1e3:.4g} mm/s",
             )
-        # 5. torque sign on loaded passes
+        # 6. torque sign on loaded passes
         if (
             r.kind == "load"
             and r.load > 0
@@ -337,7 +392,7 @@ def check_runs(
                 r.label,
                 f"mean motor torque {info['torque_mean']:+.3g} N·m opposes the motion"
                 f" (direction {r.direction:+d}) under load: torque sign —"
-                " set scale = -1 on the torque_m column in [columns]",
+                f" {_sign_advice('torque_m', column_scales)}",
             )
     rep.runs = per_run
     judged = [(r, i) for r, i in zip(runs, per_run, strict=True) if "ratio" in i and not i.get("gross")]
@@ -396,6 +451,7 @@ def check_runs(
             add("warning", "loads", source, f"2 training loads in direction {d:+d}; 3 or more recommended")
         if len(rr) >= 2:
             _mixed_zeros(rr, add)
+        ds["torque_order_tolerance_Nm"] = _torque_order(rr, r_eff, d, add)
         lr = [(r.load, i["torque_mean"] * d) for r, i in rr if r.kind == "load"]
         if len({f for f, _ in lr}) >= 2:
             f_arr, q_arr = np.array(lr).T
@@ -429,6 +485,86 @@ def check_runs(
     return rep
 
 
+def _run_name(r: RunRecord) -> str:
+    what = f"{r.kind}, direction {r.direction:+d}"
+    return f"{what}, {r.load:g} N" if r.kind != "sine" else what
+
+
+def _duplicates(runs: Sequence[RunRecord], add: Any) -> None:
+    """The same file (or byte-identical samples) listed for two runs is an error naming both."""
+    import hashlib
+
+    seen: dict[Any, tuple[int, RunRecord]] = {}
+    for n, r in enumerate(runs):
+        h = hashlib.sha256()
+        for a in (r.t, r.x_T, r.theta_m, r.torque_m):
+            h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
+        for key in (("path", r.label), ("data", h.hexdigest())):
+            if key in seen:
+                m, q = seen[key]
+                same = "listed" if key[0] == "path" else f"holds the same samples as {q.label}, listed"
+                add(
+                    "error",
+                    "duplicate",
+                    r.label,
+                    f"{same} for two runs: run {m + 1} ({_run_name(q)}) and run {n + 1} ({_run_name(r)});"
+                    " one recording is one pass — fix the file names in [[runs]]",
+                )
+                break
+            seen[key] = (n, r)
+
+
+def _velocity_groups(rr: list[tuple[RunRecord, dict[str, Any]]]) -> list[list[tuple[RunRecord, dict]]]:
+    """Load runs grouped by measured velocity (within :data:`VELOCITY_GROUP` of the group's slowest)."""
+    load = sorted((p for p in rr if p[0].kind == "load"), key=lambda p: p[1]["velocity_measured"])
+    groups: list[list[tuple[RunRecord, dict]]] = []
+    for p in load:
+        if groups and p[1]["velocity_measured"] <= VELOCITY_GROUP * groups[-1][0][1]["velocity_measured"]:
+            groups[-1].append(p)
+        else:
+            groups.append([p])
+    return groups
+
+
+def _torque_order(rr: Iterable[tuple[RunRecord, dict[str, Any]]], r_eff: float, d: int, add: Any) -> float:
+    """Mean motor torques that contradict the stated loads (swapped labels, a loaded 'geometric' run).
+
+    Pairs of runs of direction ``d`` at comparable velocity (geometric runs count as 0 N at every
+    velocity): the higher-load run's torque d·T must not lie below the lower-load run's by more than
+    TORQUE_ORDER_LEVER·r_eff·ΔF + TORQUE_ORDER_NOISE. Each run is named in at most one finding
+    (the worst pair first). Returns the noise term [N·m] (for the report).
+    """
+    rr = list(rr)
+    geo = [p for p in rr if p[0].kind == "geometric"]
+    bad = []
+    for group in _velocity_groups(rr) or [[]]:
+        runs = group + geo
+        for i, (ra, ia) in enumerate(runs):
+            for rb, ib in runs[i + 1 :]:
+                (lo, il), (hi, ih) = sorted(((ra, ia), (rb, ib)), key=lambda p: p[0].load)
+                dF = hi.load - lo.load
+                if dF <= 0:
+                    continue
+                short = d * il["torque_mean"] - d * ih["torque_mean"]
+                tol = TORQUE_ORDER_LEVER * r_eff * dF + TORQUE_ORDER_NOISE
+                if short > tol:
+                    bad.append((short - tol, lo, il, hi, ih))
+    named: set[str] = set()
+    for _, lo, il, hi, ih in sorted(bad, key=lambda b: -b[0]):
+        if lo.label in named or hi.label in named:
+            continue
+        named.update((lo.label, hi.label))
+        add(
+            "error",
+            "torque-load",
+            hi.label,
+            f"mean motor torque {ih['torque_mean']:+.3g} N·m at the stated {hi.load:g} N ({hi.kind}) is below"
+            f" the {il['torque_mean']:+.3g} N·m of {lo.label} at {lo.load:g} N ({lo.kind}), direction {d:+d}:"
+            " the torque contradicts the load labels (swapped loads or files in [[runs]]?)",
+        )
+    return TORQUE_ORDER_NOISE
+
+
 def _mixed_zeros(rr: Iterable[tuple[RunRecord, dict[str, Any]]], add: Any) -> None:
     """Offsets of single runs against the others of a direction (load trend removed, Theil–Sen)."""
     from scipy.stats import theilslopes
@@ -441,7 +577,30 @@ def _mixed_zeros(rr: Iterable[tuple[RunRecord, dict[str, Any]]], add: Any) -> No
         res = m - (icpt + slope * F)
     else:
         res = m - np.median(m)
-    for (r, _), e in zip(rr, res, strict=True):
+    for n, ((r, _), e) in enumerate(zip(rr, res, strict=True)):
+        same = [m[k] for k in range(len(rr)) if k != n and abs(F[k] - r.load) <= 1e-6]
+        if len(same) >= 2:  # repeats at this load: compare with them, not with the load trend
+            off = float(m[n] - np.median(same))
+            spread = MIXED_SAME_SCATTER * float(np.ptp(same))  # others that disagree: no verdict on this one
+            limit = max(MIXED_SAME_ERROR, spread)
+            if abs(off) > limit:
+                add(
+                    "error",
+                    "mixed-zero",
+                    r.label,
+                    f"TE offset {off * 1e6:+.1f} um from the {len(same)} other runs of direction"
+                    f" {r.direction:+d} at {r.load:g} N (they agree within {np.ptp(same) * 1e6:.2f} um;"
+                    f" limit {limit * 1e6:.0f} um): mixed position zeros between runs (homed in between?)",
+                )
+            elif abs(off) > max(MIXED_SAME_WARN, spread):
+                add(
+                    "warning",
+                    "mixed-zero",
+                    r.label,
+                    f"TE offset {off * 1e6:+.1f} um from the {len(same)} other runs of direction"
+                    f" {r.direction:+d} at {r.load:g} N",
+                )
+            continue
         if abs(e) > MIXED_ERROR:
             add(
                 "error",

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -46,6 +47,7 @@ __all__ = [
     "PassError",
     "ScoreConfig",
     "identify_loop_gains",
+    "implausible_gains",
     "pass_path_error",
     "score_campaigns",
 ]
@@ -268,7 +270,10 @@ def identify_loop_gains(
     starts += [np.log([K_v, K_v * 20 * J_s, 4.0 / K_v]) for K_v in (30.0, 100.0, 300.0)]
     best = None
     for p0 in starts:
-        sol = least_squares(resid, p0, x_scale=1.0, method="trf", max_nfev=200)
+        # trial gains far off (e.g. swapped passes) overflow inside the solver: judged afterwards
+        # (implausible_gains), not printed as numpy warnings
+        with np.errstate(over="ignore", invalid="ignore"):
+            sol = least_squares(resid, p0, x_scale=1.0, method="trf", max_nfev=200)
         if best is None or sol.cost < best.cost:
             best = sol
     assert best is not None
@@ -329,7 +334,14 @@ def score_campaigns(
     say = progress or (lambda s: None)
     if gains not in ("auto", "axis", "identify"):
         raise ParameterError("te score", "--gains", f"must be auto, axis or identify, got {gains!r}")
+    from drivelash.te.learn.preprocess import GearGeometry
+    from drivelash.te.protocol.campaign import check_same_axis
+
     bench = unc.bench
+    # passes of another axis cannot be compared (the check of te update)
+    ref = GearGeometry.from_bench(comp.bench)
+    where = Path(unc.directory) / "manifest.json"
+    check_same_axis(unc, ref, where, "the compensated passes'", "the uncompensated passes'")
     pairs, unmatched = [], []
     for ru in unc.select(kind="load"):
         rc = comp.select(kind="load", direction=ru.direction, velocity=ru.velocity, load=ru.load)
@@ -366,6 +378,13 @@ def score_campaigns(
         )
     used = identified if (gains == "identify" or axis_gains is None) else axis_gains
     source = "identified" if used is identified else "axis file"
+    problem = implausible_gains(used) if used is identified else None
+    warnings: list[str] = []
+    if problem is not None:
+        warnings.append(
+            f"the identified eq. (3) gains are implausible ({problem}): no monitoring estimate; are"
+            " --uncompensated and --compensated swapped, or give the axis file's gains (--gains axis)"
+        )
     rows, mon = [], []
     for ru, _, _, cc, pu, pc in data:
         edges = section_edges(pu.x_lo, pu.x_hi, cfg.section_length)
@@ -374,9 +393,12 @@ def score_campaigns(
         # monitoring: (3) on the TE measured during the compensated pass
         t_c = np.asarray(cc["t"], dtype=np.float64)
         te = bench.te_from_measurement(np.asarray(cc["x_T"]), np.asarray(cc["theta_m"]))
-        e_est = predict_path_error(te, t_c, float(bench.J_s), used)
         m_c = np.isin(t_c, pc.t)
-        me = section_mae(np.asarray(cc["x_T"])[m_c], e_est[m_c], edges, cfg.min_count)
+        if problem is None:
+            e_est = predict_path_error(te, t_c, float(bench.J_s), used)
+            me = section_mae(np.asarray(cc["x_T"])[m_c], e_est[m_c], edges, cfg.min_count)
+        else:
+            me = np.full(edges.size - 1, np.nan)
         for i in range(edges.size - 1):
             if not (np.isfinite(mu[i]) and np.isfinite(mc[i])):
                 continue
@@ -403,9 +425,18 @@ def score_campaigns(
         "rows": rows,
         "passes": summarize_passes(rows, max_load),
         "set_position": sorted({d[4].set_position for d in data} | {d[5].set_position for d in data}),
-        "gains": {"used": _gains_dict(used), "source": source},
+        "gains": {"used": None if problem else _gains_dict(used), "source": source},
         "unmatched": unmatched,
     }
+    if problem is not None:
+        out["gains"]["implausible"] = problem
+    avg = out["passes"]["average_improvement"]
+    if avg < 0:
+        warnings.append(
+            f"the compensated passes are worse than the uncompensated ones (average {100 * avg:+.1f} %):"
+            " are --uncompensated and --compensated swapped?"
+        )
+    out["warnings"] = warnings
     if axis_gains is not None:
         out["gains"]["axis_file"] = _gains_dict(axis_gains)
     if identified is not None:
@@ -421,6 +452,25 @@ def score_campaigns(
             "average_improvement_measured": float(np.mean([m["improvement_measured"] for m in mon])),
         }
     return out
+
+
+#: Plausible position-loop gains K_v [1/s] of eq. (3): below 0.5 1/s (0.03 (m/min)/mm) no CNC axis
+#: is tuned; above 1e4 1/s the position loop would be faster than any servo velocity loop
+#: (≤ ~1 kHz bandwidth). K_p and T_n are less well determined by the passes (module doc): they
+#: must be finite and > 0.
+K_V_RANGE = (0.5, 1e4)
+
+
+def implausible_gains(g: CascadeGains) -> str | None:
+    """Why identified loop gains are not physical (None: plausible)."""
+    vals = {"K_v": g.K_v, "K_p": g.K_p, "T_n": g.T_n}
+    for name, v in vals.items():
+        if not (math.isfinite(v) and v > 0):
+            return f"{name} = {v!r}"
+    lo, hi = K_V_RANGE
+    if not lo <= g.K_v <= hi:
+        return f"K_v {g.K_v:.4g} 1/s outside {lo:g} ... {hi:g} 1/s"
+    return None
 
 
 def _axis_gains(campaign: Any) -> CascadeGains | None:

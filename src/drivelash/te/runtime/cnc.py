@@ -60,6 +60,9 @@ CNC_LAYOUTS = {"sinumerik": ".ini", "heidenhain": ".com"}
 #: Largest |TE| accepted in a CNC table [m]: a larger geometric error is a unit or sign
 #: mistake, not a rack (ISO 230-2 positioning deviations of such axes are tens of µm).
 TE_LIMIT = 1e-3
+#: Largest CEC table index accepted (``$AN_CEC[t, ...]``): only a guard against typos — the
+#: control checks the number of tables it is configured for when the init program is loaded.
+MAX_CEC_TABLE = 999
 #: Largest number of compensation points written.
 MAX_POINTS = 100_000
 
@@ -127,7 +130,9 @@ def geometric_table(
     step : float
         Distance of the compensation points [m].
     x_min, x_max : float, optional
-        Range [m]; default the model's valid range. Positions outside it are refused.
+        Range [m]; default the model's valid range — where it was measured: its stored
+        valid range ∩ the span of its no-load curves
+        (:func:`~drivelash.te.runtime.table.measured_range`). Positions outside it are refused.
     source : str
         Provenance written into the file.
 
@@ -135,7 +140,9 @@ def geometric_table(
     -------
     GeometricTable
     """
-    lo, hi = (float(v) for v in model.geometric_range())
+    from drivelash.te.runtime.table import measured_range
+
+    lo, hi = measured_range(model)
     a = lo if x_min is None else float(x_min)
     b = hi if x_max is None else float(x_max)
     if not (math.isfinite(step) and step > 0):
@@ -187,6 +194,17 @@ def _check_axis(axis: str) -> str:
     return axis
 
 
+def _check_cec(tables: tuple[int, int]) -> None:
+    ok = len(tables) == 2 and all(isinstance(t, int) and 0 <= t <= MAX_CEC_TABLE for t in tables)
+    if not ok or tables[0] == tables[1]:
+        raise ParameterError(
+            "te export",
+            "--cec-tables",
+            f"must be two different table indices 0 ... {MAX_CEC_TABLE} (positive, negative direction),"
+            f" got {','.join(str(t) for t in tables)}",
+        )
+
+
 def write_sinumerik(
     tab: GeometricTable, path: Path, axis: str = "X1", cec_tables: tuple[int, int] = (0, 1)
 ) -> Path:
@@ -204,6 +222,7 @@ def write_sinumerik(
         CEC table indices of the positive and negative direction.
     """
     axis = _check_axis(axis)
+    _check_cec(cec_tables)
     n = tab.te_pos.size
     mean = 0.5 * (tab.te_pos + tab.te_neg)
     lines = [
@@ -302,10 +321,17 @@ def _write(path: Path, lines: list[str]) -> Path:
     return path
 
 
-def write_cnc(tab: GeometricTable, path: Path, layout: str, axis: str | None = None) -> Path:
-    """Write ``tab`` in ``layout`` (``"sinumerik"``, ``"heidenhain"``) to ``path`` (may be a staging path)."""
+def write_cnc(
+    tab: GeometricTable,
+    path: Path,
+    layout: str,
+    axis: str | None = None,
+    cec_tables: tuple[int, int] = (0, 1),
+) -> Path:
+    """Write ``tab`` in ``layout`` (``"sinumerik"``, ``"heidenhain"``) to ``path`` (may be a staging path);
+    ``cec_tables`` (SINUMERIK only): the CEC table indices of the positive and negative direction."""
     if layout == "sinumerik":
-        return write_sinumerik(tab, path, axis or "X1")
+        return write_sinumerik(tab, path, axis or "X1", cec_tables)
     if layout == "heidenhain":
         return write_heidenhain(tab, path, axis or "X")
     raise ParameterError(

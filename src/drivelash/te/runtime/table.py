@@ -16,7 +16,16 @@ from numba import njit
 
 from drivelash.errors import DataError, ParameterError
 
-__all__ = ["DIRECTIONS", "TEPredictor", "TETable", "build_table", "table_bytes", "table_size", "table_te"]
+__all__ = [
+    "DIRECTIONS",
+    "TEPredictor",
+    "TETable",
+    "build_table",
+    "measured_range",
+    "table_bytes",
+    "table_size",
+    "table_te",
+]
 
 #: Direction codes: index 0 ⇔ positive flank (+1), index 1 ⇔ negative flank (−1).
 DIRECTIONS = (1, -1)
@@ -177,6 +186,24 @@ def build_table(
         te[d] = np.asarray(model.predict(X.ravel(), T.ravel(), sgn), dtype=np.float64).reshape(n_x, n_torque)
     torque0 = np.array([tq[0], -tq[-1]])
     return TETable(float(x_min), float(dx), torque0, np.array([step, step]), te, dict(meta or {}))
+
+
+def measured_range(model: Any) -> tuple[float, float]:
+    """Positions [m] where ``model`` was measured: its stored valid range (``context.valid_range``,
+    the span the no-load runs of both directions covered) ∩ the span its no-load curves hold
+    data (``geometric_range()``; outside it they are held flat, i.e. not measured).
+
+    A model without one of them is bounded by the other; with neither, ``(-inf, inf)``.
+    """
+    lo, hi = -math.inf, math.inf
+    vr = getattr(getattr(model, "context", None), "valid_range", None)
+    if vr is not None:
+        lo, hi = float(vr.x_min), float(vr.x_max)
+    geo = getattr(model, "geometric_range", None)
+    if geo is not None:
+        g_lo, g_hi = (float(v) for v in geo())
+        lo, hi = max(lo, g_lo), min(hi, g_hi)
+    return lo, hi
 
 
 def table_size(x_min: float, x_max: float, dx: float) -> int:
