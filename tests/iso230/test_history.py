@@ -45,6 +45,24 @@ class _Axis:
     not_excited_alarm: int = 5
 
 
+def laser_files(tmp_path: Path, extra: str = "") -> tuple[Path, Path]:
+    """A 9-target × 5-run laser table of :data:`AXIS` (12 µm lost motion) in mm / µm, and its
+    config (``extra`` appended, e.g. a ``[transmission]`` table)."""
+    tb = synthetic_table(AXIS, m=9, n=5, seed=6)
+    csv = tmp_path / "laser.csv"
+    pd.DataFrame(
+        {
+            "Target [mm]": tb["P_target"] * 1e3,
+            "Run": tb["run"].astype(int),
+            "Dir": tb["direction"].astype(int),
+            "Error [um]": tb["x_dev"] * 1e6,
+        }
+    ).to_csv(csv, index=False)
+    toml = tmp_path / "iso.toml"
+    toml.write_text(TABLE_TOML + extra, encoding="utf-8")
+    return csv, toml
+
+
 def _estimate(i: int, day: int, delta: float, **kw) -> EstimateRow:
     base = dict(
         axis="M01/X",
@@ -87,18 +105,7 @@ def setup(tmp_path) -> tuple[Path, Path, Path]:
         ids,
     )
     st.close()
-    tb = synthetic_table(AXIS, m=9, n=5, seed=6)
-    csv = tmp_path / "laser.csv"
-    pd.DataFrame(
-        {
-            "Target [mm]": tb["P_target"] * 1e3,
-            "Run": tb["run"].astype(int),
-            "Dir": tb["direction"].astype(int),
-            "Error [um]": tb["x_dev"] * 1e6,
-        }
-    ).to_csv(csv, index=False)
-    toml = tmp_path / "iso.toml"
-    toml.write_text(TABLE_TOML, encoding="utf-8")
+    csv, toml = laser_files(tmp_path)
     (tmp_path / "est.json").write_text(json.dumps({"delta": 12e-3 / K_MM, "excitation_ok": True}))
     return db, csv, toml
 

@@ -3,29 +3,11 @@ silently; the fleet report then showed '–' where README promises the check bes
 
 from __future__ import annotations
 
-import math
-
-import pandas as pd
 import pytest
+from tests.iso230.test_history import K_MM, LEAD, laser_files  # the same laser table and screw
 
 from drivelash.commands.iso230 import run_iso230
-from drivelash.iso230.synthetic import SyntheticAxis, synthetic_table
 from drivelash.wear.store import Store
-
-LEAD = 0.01  # m per screw revolution
-K_MM = LEAD / (2 * math.pi) * 1e3  # mm of load travel per rad
-TABLE_TOML = """
-[columns."Target [mm]"]
-column = "P_target"
-unit = "mm"
-[columns.Run]
-column = "run"
-[columns.Dir]
-column = "direction"
-[columns."Error [um]"]
-column = "x_dev"
-unit = "um"
-"""
 
 
 class _Axis:
@@ -38,19 +20,7 @@ def _setup(tmp_path, transmission: bool):
     db = tmp_path / "wear.sqlite"
     with Store(db) as st:
         st.upsert_axes([_Axis("M01/Y")])
-    tb = synthetic_table(SyntheticAxis(delta=12e-6, sigma=0.5e-6), m=9, n=5, seed=6)
-    csv = tmp_path / "laser.csv"
-    pd.DataFrame(
-        {
-            "Target [mm]": tb["P_target"] * 1e3,
-            "Run": tb["run"].astype(int),
-            "Dir": tb["direction"].astype(int),
-            "Error [um]": tb["x_dev"] * 1e6,
-        }
-    ).to_csv(csv, index=False)
-    toml = tmp_path / "iso.toml"
-    extra = f"\n[transmission]\nlead = {LEAD}\n" if transmission else ""
-    toml.write_text(TABLE_TOML + extra, encoding="utf-8")
+    csv, toml = laser_files(tmp_path, f"\n[transmission]\nlead = {LEAD}\n" if transmission else "")
     return db, csv, toml
 
 

@@ -252,7 +252,7 @@ def _check_grid(
     (:func:`~drivelash.te.runtime.table.measured_range`); ``vr.torque_max`` bounds the torques."""
     from drivelash.errors import ParameterError, ResourceError
     from drivelash.io.budget import check_budget
-    from drivelash.te.runtime.table import table_bytes
+    from drivelash.te.runtime.table import check_measured, table_bytes
 
     for name, v in (("--dx-mm", dx_mm), ("--torque-step", step), ("--torque-max", tmax)):
         if not (math.isfinite(v) and v > 0):
@@ -260,15 +260,7 @@ def _check_grid(
     for name, v in (("--x-min", lo), ("--x-max", hi)):
         if not math.isfinite(v):
             raise ParameterError("te export", name.lstrip("-"), f"must be finite, got {v!r}")
-    m_lo, m_hi = measured
-    tol = 1e-9
-    if lo < m_lo - tol or hi > m_hi + tol:
-        raise ParameterError(
-            "te export",
-            "x-min" if lo < m_lo - tol else "x-max",
-            f"[{lo:.6g}, {hi:.6g}] m leaves the model's valid range [{m_lo:.6g}, {m_hi:.6g}] m"
-            " (where its no-load runs of both directions were measured)",
-        )
+    check_measured(lo, hi, measured)
     t_max = float(vr.torque_max)  # type: ignore[attr-defined]
     if tmax > t_max * (1 + 1e-9):
         raise ParameterError(

@@ -59,19 +59,10 @@ def identify_drive(
         identifiable), correlation matrix, backlash verdict, plausibility warnings;
         ``to_config()`` gives the ``[drivetrain]``/``[backlash]`` tables of ``estimate``.
     """
-    from drivelash.errors import ParameterError
     from drivelash.estimation.backlash_api import with_columns
-    from drivelash.io.config import DriveConfig, load_config
+    from drivelash.estimation.identify_two_mass import as_drive_config
 
-    cfg = config
-    if isinstance(config, (str, Path)):
-        cfg = load_config(config)
-    elif config is None:
-        cfg = DriveConfig()
-    elif not isinstance(config, DriveConfig):
-        raise ParameterError(
-            "identify_drive", "config", f"must be a DriveConfig or a path, got {type(config).__name__}"
-        )
+    cfg = as_drive_config(config)
     if model is None:
         model = resolve_model(cfg, None, fallback="two-mass")
     cfg = with_columns(cfg, columns, data, "identify_drive")

@@ -1711,6 +1711,23 @@ def rigid_result(result: Any) -> DriveIdentification:
     )
 
 
+def as_drive_config(config: Any, owner: str = "identify_drive") -> Any:
+    """A configuration argument as a :class:`~drivelash.io.config.DriveConfig`: a TOML path is
+    loaded, None is the empty configuration; anything else is a ParameterError naming ``owner``."""
+    from pathlib import Path
+
+    from drivelash.io import load_config
+    from drivelash.io.config import DriveConfig
+
+    if isinstance(config, (str, Path)):
+        return load_config(config)
+    if config is None:
+        return DriveConfig()
+    if not isinstance(config, DriveConfig):
+        raise ParameterError(owner, "config", f"must be a DriveConfig or a path, got {type(config).__name__}")
+    return config
+
+
 def identify_from_config(
     data: Any,
     config: Any = None,
@@ -1720,23 +1737,12 @@ def identify_from_config(
     N: float | None = None,
 ) -> DriveIdentification:
     """Body of :func:`drivelash.identify_drive` and ``drivelash identify`` (see there)."""
-    from pathlib import Path
 
     from drivelash.errors import ConfigError
-    from drivelash.io import load_config
-    from drivelash.io.config import DriveConfig
 
     if model not in ("two-mass", "rigid"):
         raise ParameterError("identify_drive", "model", f"must be 'two-mass' or 'rigid', got {model!r}")
-    cfg = config
-    if isinstance(config, (str, Path)):
-        cfg = load_config(config)
-    elif config is None:
-        cfg = DriveConfig()
-    elif not isinstance(config, DriveConfig):
-        raise ParameterError(
-            "identify_drive", "config", f"must be a DriveConfig or a path, got {type(config)}"
-        )
+    cfg = as_drive_config(config)
     need = ["theta_m", "theta_l", "torque_m"] if model == "two-mass" else ["theta_m", "torque_m"]
     trace = as_trace(data, columns if columns is not None else cfg, need, "identify_drive")
     if model == "rigid":

@@ -75,15 +75,25 @@ axis_t = sa.Table(
     sa.Column("not_excited_alarm", sa.Integer),
     sa.Column("updated_at", sa.DateTime),
 )
+
+
+def _file_columns() -> list[sa.Column]:
+    """Where a recording's file was seen: path, size and modification time (``recording`` and,
+    for further files of the same content, ``recording_path``)."""
+    return [
+        sa.Column("path", sa.Text),
+        sa.Column("size_bytes", sa.BigInteger),
+        sa.Column("mtime_ns", sa.BigInteger),
+    ]
+
+
 recording_t = sa.Table(
     "recording",
     meta,
     sa.Column("id", sa.Integer, primary_key=True),
     sa.Column("axis_id", sa.Integer),
     sa.Column("content_hash", sa.String(64)),
-    sa.Column("path", sa.Text),
-    sa.Column("size_bytes", sa.BigInteger),
-    sa.Column("mtime_ns", sa.BigInteger),
+    *_file_columns(),
     sa.Column("start_time", sa.DateTime),
     sa.Column("duration_s", sa.Float),
     sa.Column("sample_rate_hz", sa.Float),
@@ -95,9 +105,7 @@ recording_path_t = sa.Table(
     meta,
     sa.Column("id", sa.Integer, primary_key=True),
     sa.Column("recording_id", sa.Integer),
-    sa.Column("path", sa.Text),
-    sa.Column("size_bytes", sa.BigInteger),
-    sa.Column("mtime_ns", sa.BigInteger),
+    *_file_columns(),
 )
 estimate_t = sa.Table(
     "estimate",
@@ -404,30 +412,24 @@ class Store:
 
     # -- recordings and estimates -------------------------------------------------------------
     def known_files(self, axis_id: int, method: str, config_hash: str, code_version: str) -> set[tuple]:
-        """(path, size, mtime_ns) of recordings of the axis that already have this estimate."""
-        q = (
-            sa.select(recording_t.c.path, recording_t.c.size_bytes, recording_t.c.mtime_ns)
-            .join(estimate_t, estimate_t.c.recording_id == recording_t.c.id)
-            .where(
-                recording_t.c.axis_id == axis_id,
-                estimate_t.c.method == method,
-                estimate_t.c.config_hash == config_hash,
-                estimate_t.c.code_version == code_version,
-            )
+        """(path, size, mtime_ns) of recordings of the axis that already have this estimate
+        (under any of the paths their content was seen as: ``recording`` and ``recording_path``)."""
+        same = (
+            recording_t.c.axis_id == axis_id,
+            estimate_t.c.method == method,
+            estimate_t.c.config_hash == config_hash,
+            estimate_t.c.code_version == code_version,
         )
-        out = {(r.path, int(r.size_bytes), int(r.mtime_ns)) for r in self._read(q)}
-        q2 = (
-            sa.select(recording_path_t.c.path, recording_path_t.c.size_bytes, recording_path_t.c.mtime_ns)
-            .join(recording_t, recording_t.c.id == recording_path_t.c.recording_id)
-            .join(estimate_t, estimate_t.c.recording_id == recording_t.c.id)
-            .where(
-                recording_t.c.axis_id == axis_id,
-                estimate_t.c.method == method,
-                estimate_t.c.config_hash == config_hash,
-                estimate_t.c.code_version == code_version,
-            )
-        )
-        out.update((r.path, int(r.size_bytes), int(r.mtime_ns)) for r in self._read(q2))
+        out: set[tuple] = set()
+        for files, joins in (
+            (recording_t, ()),
+            (recording_path_t, ((recording_t, recording_t.c.id == recording_path_t.c.recording_id),)),
+        ):
+            q = sa.select(files.c.path, files.c.size_bytes, files.c.mtime_ns)
+            for table, on in joins:
+                q = q.join(table, on)
+            q = q.join(estimate_t, estimate_t.c.recording_id == recording_t.c.id).where(*same)
+            out.update((r.path, int(r.size_bytes), int(r.mtime_ns)) for r in self._read(q))
         return out
 
     def dated_files(

@@ -140,7 +140,7 @@ def geometric_table(
     -------
     GeometricTable
     """
-    from drivelash.te.runtime.table import measured_range
+    from drivelash.te.runtime.table import check_measured, measured_range
 
     lo, hi = measured_range(model)
     a = lo if x_min is None else float(x_min)
@@ -149,14 +149,7 @@ def geometric_table(
         raise ParameterError("te export", "--step-mm", f"must be > 0, got {step * 1e3!r} mm")
     if not (math.isfinite(a) and math.isfinite(b) and b > a):
         raise ParameterError("te export", "--x-max", f"range [{a * 1e3:g}, {b * 1e3:g}] mm is empty")
-    tol = 1e-9
-    if a < lo - tol or b > hi + tol:
-        raise ParameterError(
-            "te export",
-            "--x-min" if a < lo - tol else "--x-max",
-            f"[{a * 1e3:.3f}, {b * 1e3:.3f}] mm leaves the model's valid range "
-            f"[{lo * 1e3:.3f}, {hi * 1e3:.3f}] mm (where its no-load runs recorded both directions)",
-        )
+    check_measured(a, b, (lo, hi), unit="mm")
     n = int(math.floor((b - a) / step + 1e-9)) + 1
     if n < 2:
         raise ParameterError("te export", "--step-mm", f"{step * 1e3:g} mm leaves fewer than 2 points")

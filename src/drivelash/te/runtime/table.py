@@ -206,6 +206,22 @@ def measured_range(model: Any) -> tuple[float, float]:
     return lo, hi
 
 
+def check_measured(a: float, b: float, measured: tuple[float, float], unit: str = "m") -> None:
+    """Refuse an export range [a, b] [m] that leaves :func:`measured_range`: a ParameterError
+    naming ``--x-min``/``--x-max`` with both ranges in ``unit`` (``"m"`` or ``"mm"``)."""
+    lo, hi = measured
+    tol = 1e-9
+    if a < lo - tol or b > hi + tol:
+        f, fmt = (1.0, ".6g") if unit == "m" else (1e3, ".3f")
+        raise ParameterError(
+            "te export",
+            "--x-min" if a < lo - tol else "--x-max",
+            f"[{a * f:{fmt}}, {b * f:{fmt}}] {unit} leaves the model's valid range "
+            f"[{lo * f:{fmt}}, {hi * f:{fmt}}] {unit} "
+            "(where its no-load runs of both directions were measured)",
+        )
+
+
 def table_size(x_min: float, x_max: float, dx: float) -> int:
     """Grid positions of a table over [x_min, x_max] [m] with step ``dx`` [m]."""
     return int(math.floor((x_max - x_min) / dx + 1e-9)) + 1
