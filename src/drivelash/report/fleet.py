@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from drivelash.report.html import Figure, Section, render_html
+from drivelash.wear.trend import UNCONVERGED_MAX_U95
 
 __all__ = ["render_fleet_report", "write_fleet_report"]
 
@@ -310,7 +311,9 @@ def render_fleet_report(
         "Fleet overview",
         paragraphs=[
             f"{len(summaries)} axes, {n_rec} recordings in {store}; {len(alarms)} active alarms. "
-            "Only recordings with sufficient excitation and a converged estimate enter a trend. "
+            "Only recordings with sufficient excitation enter a trend: converged estimates, and "
+            f"unconverged ones whose stated 95 % uncertainty is at most {1e3 * UNCONVERGED_MAX_U95:g} mrad, "
+            "weighted by it. "
             "Axes are sorted by the forecast time to their maintenance threshold. "
             + rate_sentence(summaries),
         ],
