@@ -18,6 +18,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+from drivelash.estimation.identify_result import IDENTIFY_NEEDS
 from drivelash.io.outputs import jsonable
 from drivelash.io.trace import Trace
 
@@ -103,7 +104,7 @@ class BacklashEstimate:
 #: Columns ``estimate --identify`` reads before the identification has spoken: what the two-mass
 #: identification needs (ω_m, ω_l are differentiated from the positions when absent); the online
 #: law's velocities are checked only when it runs (:func:`estimate_with_identification`).
-IDENTIFY_COLUMNS = ("theta_m", "theta_l", "torque_m")
+IDENTIFY_COLUMNS = IDENTIFY_NEEDS["two-mass"]
 
 
 def _check_delta1(delta1: Any) -> None:
@@ -116,6 +117,16 @@ def _check_delta1(delta1: Any) -> None:
         raise ParameterError(
             "estimate_backlash", "delta1", f"the argument must be a finite number >= 0 [rad], got {delta1!r}"
         )
+
+
+def _backlash_with_delta1(cfg: Any, delta1: Any) -> Any:
+    """``cfg``'s ``[backlash]`` table (the keys the user set) with ``delta1`` [rad] replaced by the
+    argument (checked: finite, ≥ 0)."""
+    from drivelash.io.config import BacklashSection
+
+    _check_delta1(delta1)
+    given = cfg.backlash.given() if cfg.backlash is not None else {}
+    return BacklashSection(**{**given, "delta1": float(delta1)})
 
 
 def estimate_from_config(
@@ -144,7 +155,7 @@ def estimate_from_config(
     """
     from drivelash.errors import DrivelashError
     from drivelash.estimation.pipeline import MAEE_FRACTION, SS_FRACTION, estimate_summary, estimate_trace
-    from drivelash.io.config import BacklashSection, DrivetrainSection
+    from drivelash.io.config import DrivetrainSection
     from drivelash.metrics import maee, steady_state_peak
 
     if method not in (None, "paper", "default"):
@@ -153,10 +164,7 @@ def estimate_from_config(
     if drivetrain is not None:  # the same validation path as a [drivetrain] table
         update["drivetrain"] = DrivetrainSection(**asdict(drivetrain))
     if delta1 is not None:
-        _check_delta1(delta1)
-        old = cfg.backlash
-        given = {k: getattr(old, k) for k in old.model_fields_set} if old is not None else {}
-        update["backlash"] = BacklashSection(**{**given, "delta1": float(delta1)})
+        update["backlash"] = _backlash_with_delta1(cfg, delta1)
     if update:
         cfg = cfg.model_copy(update=update)
     res, motion = estimate_trace(cfg, trace, method)
@@ -273,13 +281,7 @@ def estimate_backlash(
         )
     if identify:
         if delta1 is not None:  # as [backlash] delta1 of the file: a configured δ1
-            _check_delta1(delta1)
-            given = (
-                {k: getattr(cfg.backlash, k) for k in cfg.backlash.model_fields_set} if cfg.backlash else {}
-            )
-            from drivelash.io.config import BacklashSection
-
-            cfg = cfg.model_copy(update={"backlash": BacklashSection(**{**given, "delta1": float(delta1)})})
+            cfg = cfg.model_copy(update={"backlash": _backlash_with_delta1(cfg, delta1)})
         need = list(IDENTIFY_COLUMNS)
     else:
         need = list(INPUT_COLUMNS)
@@ -352,8 +354,7 @@ def estimate_with_identification(
     }
     base = None
     if cfg.drivetrain is not None:  # only what the user set: a default (friction 0) is not a value
-        dt_cfg = cfg.drivetrain
-        base = {k: getattr(dt_cfg, k) for k in dt_cfg.model_fields_set if getattr(dt_cfg, k) is not None}
+        base = {k: v for k, v in cfg.drivetrain.given().items() if v is not None}
     missing = [
         k for k in ("J_m", "J_l", "K_S", "D_S") if k not in (base or {}) and k not in off["drivetrain"]
     ]

@@ -90,10 +90,11 @@ def identify_checked(data: Any, cfg: Any, *, model: str, N: float | None = None)
     "recording stands still" would hide the cause: that is reported as the missing column.
     """
     from drivelash.errors import DataError
+    from drivelash.estimation.identify_result import IDENTIFY_NEEDS
     from drivelash.estimation.identify_two_mass import as_trace, identify_from_config
 
-    need = ["theta_m", "theta_l", "torque_m"] if model == "two-mass" else ["theta_m", "torque_m"]
-    trace = as_trace(data, cfg, need, "identify_drive") if model in ("two-mass", "rigid") else data
+    need = IDENTIFY_NEEDS.get(model)
+    trace = as_trace(data, cfg, list(need), "identify_drive") if need is not None else data
     try:
         return identify_from_config(trace, cfg, model=model, N=N)
     except DataError as exc:

@@ -45,6 +45,9 @@ POSITIVE = ("J_m", "J_l", "K_S")
 
 #: Two-sided 95 % quantile of the standard normal distribution.
 Z95 = 1.959963984540054
+#: Trace columns each identification model reads (ω_m, ω_l are differentiated from the
+#: positions when absent).
+IDENTIFY_NEEDS = {"two-mass": ("theta_m", "theta_l", "torque_m"), "rigid": ("theta_m", "torque_m")}
 
 
 @dataclass(frozen=True)

@@ -60,7 +60,7 @@ import numpy as np
 from numba import njit
 
 from drivelash.errors import DataError, ParameterError
-from drivelash.estimation.identify_result import Z95, DriveIdentification, ParameterEstimate
+from drivelash.estimation.identify_result import IDENTIFY_NEEDS, Z95, DriveIdentification, ParameterEstimate
 from drivelash.io.trace import Trace
 
 #: Target window length of the integral equations [s] (M = round(WINDOW_S/T_s), at least 2).
@@ -1743,7 +1743,7 @@ def identify_from_config(
     if model not in ("two-mass", "rigid"):
         raise ParameterError("identify_drive", "model", f"must be 'two-mass' or 'rigid', got {model!r}")
     cfg = as_drive_config(config)
-    need = ["theta_m", "theta_l", "torque_m"] if model == "two-mass" else ["theta_m", "torque_m"]
+    need = list(IDENTIFY_NEEDS[model])
     trace = as_trace(data, columns if columns is not None else cfg, need, "identify_drive")
     if model == "rigid":
         from drivelash.estimation.identify import identify
