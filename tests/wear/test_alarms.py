@@ -104,3 +104,20 @@ def test_isolated_outlier_still_flagged_alone_in_the_middle():
     y = np.array([30.0, 31.0, 32.0, 33.0, 34.0, 50.0, 36.0, 37.0, 38.0, 39.0]) * 1e-3
     trend, _, _ = _alarms(_rows(list(y), 1e-4), 0.2)
     assert (~trend.inlier).nonzero()[0].tolist() == [5]
+
+
+def test_correct_latest_estimate_on_accelerating_wear_after_a_gap_stays_in_the_fit():
+    """README flow (simulate fleet --machines 2 --axes 2 --recordings 12 --seed 3), M01/X: the
+    11th recording unexcited, the 12th δ̂ 130.39 mrad (truth 130.38) was a red × — the local
+    quadratic through the 8 before it predicts 125.2 mrad two days on."""
+    y = [63.59, 65.46, 67.70, 70.23, 73.53, 77.77, 82.64, 88.84, 96.46, 105.68, 130.39]
+    days = [*range(10), 11]
+    rows = _rows([1e-3 * v for v in y], 1e-4)
+    for r, d in zip(rows, days, strict=True):
+        r["start_time"] = T0 + timedelta(days=d)
+    trend, used, _ = _alarms(rows, 0.1131)
+    assert trend.inlier.all() and trend.model == "accelerating"
+    assert abs(1e3 * float(trend.curve(trend.t[-1:])[0][0]) - 130.39) < 0.1
+    # negative control: 10 mrad above the truth is still an outlier
+    rows[-1]["delta"] = 0.14038
+    assert _alarms(rows, 0.1131)[0].inlier.tolist() == [True] * 10 + [False]

@@ -263,25 +263,50 @@ def test_estimates_without_uncertainty_get_the_median_weight():
     assert abs(mixed.params["a"] - full.params["a"]) < 0.2 * abs(none.params["a"] - full.params["a"])
 
 
-def test_crossing_is_judged_at_the_latest_recording_even_if_it_left_the_fit():
+_README_M01X_DAYS = np.array([0.0, 1.020833, 2.016667, 2.975, 3.961111, 5.001389, 5.977778, 6.997917])
+_README_M01X_Y = np.array([0.06363977, 0.06661984, 0.07051425, 0.07559566, 0.08258061, 0.09257294,
+                           0.10531709, 0.12327462])  # fmt: skip
+_README_M01X_THR = 0.1131179257480831
+
+
+def test_correct_latest_estimate_on_accelerating_wear_stays_in_the_fit_and_crosses():
     """Found in the README tour (simulate fleet --seed 3, axis M01/X, accelerating wear with
     k = 0.30/day): the latest estimate (123.3 mrad, truth 123.3, threshold 113.1 mrad crossed on
-    day 6.51 by the truth) was left out as an outlier, and the forecast was made from the last
-    *inlier* (day 5.98): status showed "δ now 123.29 > threshold, −0.5 days left" with only a
-    "may be crossed" alarm. The fitted curve at the latest recording is above the threshold:
-    crossed, with the crossing inside the data."""
-    days = np.array([0.0, 1.020833, 2.016667, 2.975, 3.961111, 5.001389, 5.977778, 6.997917])
-    y = np.array([0.06363977, 0.06661984, 0.07051425, 0.07559566, 0.08258061, 0.09257294, 0.10531709,
-                  0.12327462])  # fmt: skip
-    thr = 0.1131179257480831
+    day 6.51 by the truth) was left out as an outlier (the local quadratic through the recordings
+    before it predicts less), and the forecast was made from the last *inlier* (day 5.98): status
+    showed "δ now 123.29 > threshold, −0.5 days left" with only a "may be crossed" alarm. The
+    axis's own growth model predicts it within its limit: it is wear, it stays in the fit, and the
+    crossing is inside the data."""
+    days, y, thr = _README_M01X_DAYS, _README_M01X_Y, _README_M01X_THR
     tr = fit_trend(days, y, np.full(days.size, 1e-4), thr)
     assert tr.model == "accelerating"
+    assert tr.inlier.all()  # session 12 left the latest (correct) estimate out
+    assert abs(float(tr.curve(days[-1:])[0][0]) - y[-1]) < 1e-4  # the fit passes through "now"
+    assert tr.forecast.crossed
+    assert days[-3] < tr.forecast.t_cross < days[-1]  # truth: day 6.51
+    # negative control: judged at the recording before, it is not crossed
+    from drivelash.wear.trend import _forecast
+
+    assert not _forecast(tr, float(days[-2]), float(days[-2]), thr).crossed
+
+
+def test_crossing_is_judged_at_the_latest_recording_even_if_it_left_the_fit():
+    """The same axis with a bad latest recording (95 mrad, 28 mrad below the wear the earlier
+    recordings show — e.g. an estimate from a recording that barely crossed the gap): it leaves
+    the fit, and the forecast is still made at the latest recording's time from the fitted curve
+    (above the threshold there), not at the last inlier — crossed, with the crossing inside the
+    data."""
+    days, thr = _README_M01X_DAYS, _README_M01X_THR
+    y = _README_M01X_Y.copy()
+    y[-1] = 0.095
+    tr = fit_trend(days, y, np.full(days.size, 1e-4), thr)
+    assert tr.model == "accelerating"
+    assert not tr.inlier[-1]  # the case: the latest estimate is out of the fit
     assert float(tr.curve(days[-1:])[0][0]) > thr  # the fit itself puts "now" above the threshold
     assert tr.forecast.crossed
     assert days[-3] < tr.forecast.t_cross < days[-1]  # truth: day 6.51
     # negative control: judged at the last inlier, as before, it is not crossed
     from drivelash.wear.trend import _forecast
 
-    assert not tr.inlier[-1]  # the case: the latest estimate is out of the fit
     last_in = float(days[tr.inlier][-1])
     assert not _forecast(tr, last_in, last_in, thr).crossed

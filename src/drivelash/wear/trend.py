@@ -17,7 +17,11 @@ docs/assumptions.md, "Wear tracking"):
 3. **Outliers**: residual from a robust local quadratic (Huber M-estimate by IRLS) through
    the 8 nearest recordings in the segment (±4, one-sided at its ends), the point itself left out; |r| >
    max(:data:`OUTLIER_SIGMA`·σ̂, :data:`OUTLIER_FLOOR`, :data:`OUTLIER_STEPS` × local wear step)
-   is an outlier and leaves the fit.
+   is an outlier and leaves the fit (one at a time, the farthest first). The latest
+   recordings left out this way rejoin when the growth model of step 4, fitted without them,
+   predicts them within the same limit: a one-sided local quadratic at the end of the series
+   lags wear that accelerates, so a correct latest estimate looked like an outlier; a jump or a
+   bad recording stays out.
 4. **Growth models** on the inliers, with one level-shift term per change point and weights
    1/σ_i² when the estimator gives uncertainties (else equal; the scale is estimated):
    *linear* δ = a + b t (``statsmodels`` WLS) and *accelerating* δ = a + v (e^{kt} − 1)/k,
@@ -445,11 +449,14 @@ def _local_resid(
     return r, step
 
 
-def _outliers(t: np.ndarray, y: np.ndarray, cps: list[ChangePoint], sigma: float) -> np.ndarray:
+def _outliers(
+    t: np.ndarray, y: np.ndarray, cps: list[ChangePoint], sigma: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Inlier mask by the local-residual rule (module docstring, step 3), one outlier at a time:
     the estimate that exceeds its limit by the largest factor leaves, and the others are judged
     again without it. A single pass let one far estimate tilt every neighbour's local fit — a
-    jump on the latest of six recordings flagged all six, leaving no trend at all."""
+    jump on the latest of six recordings flagged all six, leaving no trend at all. Returns the
+    inlier mask and each estimate's limit [rad]."""
     n = y.size
     inl = np.ones(n, dtype=bool)
     floor = max(OUTLIER_SIGMA * sigma, OUTLIER_FLOOR)
@@ -461,7 +468,7 @@ def _outliers(t: np.ndarray, y: np.ndarray, cps: list[ChangePoint], sigma: float
         if ratio[worst] <= 1.0:
             break
         inl[worst] = False
-    return inl
+    return inl, lim
 
 
 def fit_trend(
@@ -505,9 +512,39 @@ def fit_trend(
     sigma = noise_scale(y)
     cps = detect_jumps(t, y, sigma) if n >= 4 else []
     inl = np.ones(n, dtype=bool)
+    lim = np.full(n, np.inf)
     if n >= 5:
-        inl = _outliers(t, y, cps, sigma)
+        inl, lim = _outliers(t, y, cps, sigma)
     iso = _isotonic(t, y, w_all, cps) if n else y.copy()
+    trend = _fit_models(t, y, w_all, s_in, inl, cps, sigma, threshold, t0, iso)
+    # latest estimates the local test left out but the axis's own growth model (fitted without
+    # them) predicts within the same limit: wear that accelerated past the local quadratic, not
+    # outliers — they rejoin the fit (a jump or a bad recording stays out)
+    last_in = int(np.flatnonzero(inl)[-1]) if inl.any() else n
+    trail = np.arange(last_in + 1, n)
+    if trend.model is not None and trail.size:
+        dev = np.abs(y[trail] - trend.curve(t[trail])[0])
+        back = trail[np.cumprod(dev <= lim[trail]).astype(bool)]
+        if back.size:
+            inl = inl.copy()
+            inl[back] = True
+            trend = _fit_models(t, y, w_all, s_in, inl, cps, sigma, threshold, t0, iso)
+    return trend
+
+
+def _fit_models(
+    t: np.ndarray,
+    y: np.ndarray,
+    w_all: np.ndarray,
+    s_in: np.ndarray,
+    inl: np.ndarray,
+    cps: list[ChangePoint],
+    sigma: float,
+    threshold: float | None,
+    t0: datetime | None,
+    iso: np.ndarray,
+) -> AxisTrend:
+    """Growth models on the inliers, model choice and forecast (module docstring, steps 4–5)."""
     s_sys = systematic_std(s_in[inl], sigma)
     trend = AxisTrend(t0, t, y, inl, cps, sigma, None, {}, {}, None, threshold, iso, s_sys)
     ti, yi, wi = t[inl], y[inl], w_all[inl]
