@@ -212,6 +212,8 @@ def _identify(path: Path, tmp: Path, capsys) -> dict:
             str(path),
             "--config",
             str(CONFIG),
+            "--model",  # the recording maps theta_l and the config gives N: the default is two-mass
+            "rigid",
             "--json",
             str(js),
             "-o",

@@ -164,7 +164,42 @@ def test_notebook_api_same_numbers_from_trace_frame_and_file(tmp_path, bench_0c,
 
 def test_missing_gear_ratio_is_a_config_error(bench_0c):
     with pytest.raises(dl.ConfigError, match="'N'"):
-        dl.identify_drive(bench_0c)
+        dl.identify_drive(bench_0c, model="two-mass")
+
+
+def test_default_model_is_chosen_by_the_data_and_the_command_agrees(bench_0c, tmp_path, capsys):
+    """No --model and no [identification] model: two-mass when θ_l is recorded and N known, rigid
+    otherwise — the same rule for identify_drive and `drivelash identify` (session 12 left the API
+    at two-mass and the command at rigid: the same call gave different numbers)."""
+    import json
+
+    from tests.cli_runner import run_in_process
+
+    from drivelash.estimation.identify_api import resolve_model
+
+    p = tmp_path / "run.parquet"
+    bench_0c.to_parquet(p)
+    cfg = tmp_path / "drive.toml"
+    cfg.write_text("[drivetrain]\nN = 1.0\n")
+    api = dl.identify_drive(p, cfg)
+    js = tmp_path / "id.json"
+    code, out, err = run_in_process(["identify", str(p), "--config", str(cfg), "--json", str(js)], capsys)
+    assert code == 0, err
+    cli = json.loads(js.read_text())
+    assert api.model == cli["model"] == "two-mass"
+    assert cli["model_choice"] == "chosen by the data: theta_l recorded and N = 1 given"
+    assert cli["parameters"]["K_S"]["value"] == api["K_S"].value
+    assert "model: two-mass (chosen by the data" in err
+    # negative controls: without N, or without theta_l, the rigid IDIM-LS
+    none = loads_config("", "<test>")
+    assert resolve_model(none, None, names=["t", "theta_m", "theta_l", "torque_m"])[0] == "rigid"
+    assert resolve_model(none, None, names=["t", "theta_m", "torque_m"], N=2.0)[0] == "rigid"
+    assert dl.identify_drive(bench_0c).model == "rigid"
+    assert dl.identify_drive(bench_0c, N=1.0).model == "two-mass"
+    # an explicit choice wins: --model, then [identification] model
+    assert resolve_model(none, "rigid", names=["theta_l"], N=1.0) == ("rigid", "--model")
+    two = loads_config('[identification]\nmodel = "rigid"\n[drivetrain]\nN = 1.0\n')
+    assert resolve_model(two, None, names=["theta_l"])[0] == "rigid"
 
 
 def test_rigid_model_through_the_same_api():

@@ -136,10 +136,13 @@ def run_identify(
     from drivelash.errors import DrivelashError
     from drivelash.io import load_config as _load_config
 
+    why = "--model"
     if model is None:
         from drivelash.estimation.identify_api import resolve_model
+        from drivelash.io.stream import mapped_names
 
-        model = resolve_model(_load_config(config_path), None, fallback="rigid")
+        cfg0 = _load_config(config_path)
+        model, why = resolve_model(cfg0, None, names=mapped_names(trace_path, cfg0))
     if model not in ("rigid", "two-mass"):
         raise DrivelashError(f"--model: must be 'rigid' or 'two-mass', got {model!r}")
     if model == "two-mass":
@@ -154,6 +157,7 @@ def run_identify(
             resample=resample,
             quiet=quiet,
             force=force,
+            model_choice=why,
         )
     from rich.console import Console
     from rich.markup import escape
@@ -200,7 +204,13 @@ def run_identify(
         from drivelash.errors import DataError
 
         raise DataError(f"implausible identification, nothing written: {flags[0]}", path=str(trace_path))
-    summary: dict[str, Any] = {"trace": str(trace_path), "config": str(config_path), **result.as_dict()}
+    summary: dict[str, Any] = {
+        "trace": str(trace_path),
+        "config": str(config_path),
+        "model": "rigid",
+        "model_choice": why,
+        **result.as_dict(),
+    }
     ct = None
     vtrace = None
     if cross is not None:
@@ -216,7 +226,7 @@ def run_identify(
     merged.update(values)
     unit = "N, N·s/m, kg (prismatic axis)" if result.axis == "prismatic" else "SI (N·m, N·m·s/rad, kg·m²)"
     comments = [
-        f"drivelash identify {trace_path} ({result.side} side, IDIM-LS, units {unit})",
+        f"drivelash identify {trace_path} ({result.side} side, IDIM-LS, units {unit}; model rigid: {why})",
         "identified: " + ", ".join(f"{n} = {result[n]:.6g} ± {result.std_of(n):.2g}" for n in result.names),
         f"relative force error {100 * result.relative_error:.2f} %"
         + (f"; cross-test {100 * ct.relative_error:.2f} % on {cross}" if ct else ""),
@@ -247,6 +257,8 @@ def run_identify(
             table.add_row(n, f"{v:.6g}", f"{s:.3g}", f"{100 * s / abs(v):.2f}" if v else "-")
         console.print(table)
         console.print(f"relative force error: {100 * result.relative_error:.2f} %")
+        if why != "--model":
+            console.print(f"model: rigid ({escape(why)})")
         for note in result.notes:
             console.print(f"warning: {escape(note)}")
         if ct is not None:
@@ -266,6 +278,7 @@ def run_identify_two_mass(
     resample: bool = False,
     quiet: bool = False,
     force: bool = False,
+    model_choice: str = "--model",
 ) -> dict[str, Any]:
     """Body of ``drivelash identify --model two-mass`` (returns the JSON summary).
 
@@ -307,7 +320,13 @@ def run_identify_two_mass(
         raise DataError(
             f"implausible identification, nothing written: {result.warnings[0]}", path=str(trace_path)
         )
-    summary: dict[str, Any] = {"trace": str(trace_path), "config": str(config_path), **result.as_dict()}
+    summary: dict[str, Any] = {
+        "trace": str(trace_path),
+        "config": str(config_path),
+        "model": "two-mass",
+        "model_choice": model_choice,
+        **result.as_dict(),
+    }
     if window is not None:
         summary["window"] = window
     # [drivetrain]: the configuration's values where the recording determined nothing
@@ -317,7 +336,7 @@ def run_identify_two_mass(
         merged["drivetrain"] = {**base, **merged["drivetrain"]}
     summary["config_tables"] = merged
     head = [
-        f"drivelash identify {trace_path} --model two-mass (config {config_path})",
+        f"drivelash identify {trace_path} --model two-mass (config {config_path}; {model_choice})",
         f"method: {result.method}",
     ]
     if window is not None:
@@ -345,6 +364,8 @@ def run_identify_two_mass(
                 table.add_row(prm.name, "–", prm.interval_text(4), prm.unit, escape(prm.reason))
         console.print(table)
         console.print(f"backlash: {escape(result.reason)}")
+        if model_choice != "--model":
+            console.print(f"model: two-mass ({escape(model_choice)})")
         for w in result.warnings:
             typer.echo(f"drivelash: warning: {w}", err=True)
         if out is None and result.plausible:
@@ -532,7 +553,8 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
             None,
             "--model",
             help="rigid (IDIM-LS: inertia, friction) or two-mass (J_m, J_l, K_S, D_S, friction, "
-            "delta, delta1 with 95 % intervals); default: [identification] model, else rigid.",
+            "delta, delta1 with 95 % intervals); default: [identification] model, else two-mass when "
+            "theta_l is recorded and N given, rigid otherwise.",
         ),
         force: bool = typer.Option(False, "--force", help=FORCE_HELP),
     ) -> None:

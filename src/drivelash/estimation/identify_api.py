@@ -41,9 +41,10 @@ def identify_drive(
         ``"two-mass"``: J_m, J_l, K_S, D_S, Coulomb and viscous friction on both sides, a
         torque offset, δ and δ1 (needs θ_m, θ_l, torque_m and preferably ω_m, ω_l).
         ``"rigid"``: the motor-side IDIM-LS of :mod:`drivelash.estimation.identify`.
-        None (default): ``[identification] model`` when the configuration sets it — as
-        ``drivelash identify`` without ``--model`` — else ``"two-mass"`` (the API's default;
-        the command's is ``"rigid"``).
+        None (default): ``[identification] model`` when the configuration sets it, else chosen
+        by the data as ``drivelash identify`` without ``--model`` does: ``"two-mass"`` when
+        the recording maps θ_l and the gear ratio is known (``N`` or ``[drivetrain] N``),
+        ``"rigid"`` otherwise (:func:`resolve_model`).
     columns : dict, optional
         Column mapping for a DataFrame or a file, replacing the configuration's ``[columns]``
         only (its ``[sampling]`` is kept): *source column → Trace column*, each value the Trace
@@ -63,22 +64,53 @@ def identify_drive(
     from drivelash.estimation.identify_two_mass import as_drive_config
 
     cfg = as_drive_config(config)
-    if model is None:
-        model = resolve_model(cfg, None, fallback="two-mass")
     cfg = with_columns(cfg, columns, data, "identify_drive")
+    if model is None:
+        model, _ = resolve_model(cfg, None, names=_mapped_names(data, cfg), N=N)
     return identify_checked(data, cfg, model=model, N=N)
 
 
-def resolve_model(cfg: Any, model: str | None, *, fallback: str) -> str:
-    """The model to fit: ``model`` (``--model``) when given, else ``[identification] model``
-    when the configuration sets it, else ``fallback`` (the command: ``"rigid"``; the API:
-    ``"two-mass"``)."""
+def resolve_model(
+    cfg: Any, model: str | None, *, names: list[str], N: float | None = None
+) -> tuple[str, str]:
+    """The model to fit and why: ``model`` (``--model``) when given, else ``[identification]
+    model`` when the configuration sets it, else by the data — ``"two-mass"`` when ``names``
+    (the recording's Trace columns under the mapping) hold θ_l and the gear ratio is known
+    (``N``, else ``[drivetrain] N``), ``"rigid"`` (motor-side IDIM-LS) otherwise.
+
+    The command and :func:`identify_drive` share this rule, so both fit the same model. A
+    recording with a load encoder is a two-mass drive to an expert (the rigid fit on one with
+    backlash only warns that it fits poorly); one without cannot show the gap.
+    """
     if model is not None:
-        return model
+        return model, "--model"
     ident = cfg.identification
     if ident is not None and "model" in ident.model_fields_set:
-        return str(ident.model)
-    return fallback
+        return str(ident.model), "[identification] model"
+    if N is None and cfg.drivetrain is not None:
+        N = cfg.drivetrain.given().get("N")
+    if "theta_l" in names and N is not None:
+        return "two-mass", f"chosen by the data: theta_l recorded and N = {float(N):g} given"
+    if "theta_l" in names:
+        return "rigid", "chosen by the data: theta_l recorded but no gear ratio ([drivetrain] N) for two-mass"
+    return "rigid", "chosen by the data: no load position theta_l recorded"
+
+
+def _mapped_names(data: Any, cfg: Any) -> list[str]:
+    """The Trace columns ``data`` (a Trace, a DataFrame or a path) has under ``cfg``'s
+    ``[columns]`` mapping, without reading its values."""
+    import pandas as pd
+
+    if isinstance(data, Trace):
+        return list(data.columns)
+    cmap = cfg.columns
+    if isinstance(data, pd.DataFrame):
+        return [cm.column for cm in cmap.values()] if cmap else [str(c) for c in data.columns]
+    if isinstance(data, (str, Path)):
+        from drivelash.io.stream import mapped_names
+
+        return mapped_names(data, cfg)
+    return []
 
 
 def identify_checked(data: Any, cfg: Any, *, model: str, N: float | None = None) -> DriveIdentification:

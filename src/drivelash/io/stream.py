@@ -141,6 +141,20 @@ class _Stats:
         self.raw_hi = -math.inf
 
 
+def mapped_names(path: str | Path, mapping: Any = None) -> list[str]:
+    """The Trace columns the file at ``path`` gives under ``mapping`` (as :class:`TraceStream`
+    and :func:`~drivelash.io.load_trace` map it), read from its header alone: no values are
+    loaded or checked."""
+    from drivelash.io.load import _mapping_from
+
+    cmap, sampling = _mapping_from(mapping)
+    src = open_source(Path(path))
+    try:
+        return [c.name for c in _plan(src, cmap, sampling, [])]
+    finally:
+        src.close()
+
+
 class TraceStream:
     """A validated recording, read in row chunks (see the module docstring).
 
