@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -456,3 +457,34 @@ def test_interval_reaches_the_joint_law_when_delta1_is_inconsistent(rig_trace, m
         half_without = 1.96 * r.delta_std - gap
         missed_without += abs(r.delta - RIG.delta) > half_without
     assert seen >= 1 and missed_without >= 1, (seen, missed_without)
+
+
+def test_estimate_outside_the_observed_range_is_no_measurement_and_delta1_is_named():
+    """Found by an exploratory tester (session 13): bench-0C (δ 105, δ1 52.5 mrad), 4 s, seed 1,
+    with examples/drive_bench.toml's δ1 = 93 mrad (bench-0B's): δ̂ 145.5 mrad (> the 120.8 mrad
+    Δθ range; the recording did cross the true gap) was printed ± 1.00 mrad (so a wear history
+    would take it: unconverged with u95 ≤ 5 mrad) and "δ1 check: consistent". The δ1 check now
+    names the δ1 the data give, and the interval reaches the joint law's δ (the truth)."""
+    import drivelash as dl
+    from drivelash.sim.scenarios import get_scenario
+
+    sc = get_scenario("bench-0C")
+    tr = sc.simulate(duration=4.0, seed=1)
+    truth = sc.plant_backlash
+    cfg = dl.load_config(Path(__file__).parents[2] / "examples" / "drive_bench.toml")
+    r = dl.estimate_backlash(tr, cfg)
+    assert r.delta > r.summary["dtheta_range"]
+    assert not r.converged
+    assert r.summary["delta1_check_result"] == "inconsistent"
+    lo, hi = r.summary["delta_interval_95"]
+    assert lo <= truth.delta <= hi
+    assert 1.96 * r.summary["delta_std"] > 5e-3  # not usable in a wear trend (UNCONVERGED_MAX_U95)
+    # the joint law's δ1 and δ: the truth within 3 mrad (measured 51.1 / 103.6 for 52.5 / 105)
+    assert abs(r.summary["delta1_estimate"] - truth.delta1) < 3e-3
+    assert abs(r.result.extra["delta1_check_delta"] - truth.delta) < 3e-3
+    assert any("δ1 is inconsistent" in w and "leaves the observed Δθ range" in w for w in r.warnings)
+    # negative control: the true δ1 — a measurement, no δ1 warning
+    ok = dl.estimate_backlash(tr, cfg, delta1=truth.delta1)
+    assert ok.excitation_ok and ok.delta <= ok.summary["dtheta_range"]
+    assert ok.summary["delta1_check_result"] != "inconsistent"
+    assert abs(ok.delta - truth.delta) < 2e-3

@@ -828,7 +828,8 @@ def _verdict(
     # --- plausibility (both methods) ------------------------------------------------
     dth_range = float(main.state[dz.S_DTH_MAX] - main.state[dz.S_DTH_MIN])
     extra["dtheta_range"] = dth_range
-    if final >= BOUND_FRACTION * cfg.delta_max:
+    at_bound = final >= BOUND_FRACTION * cfg.delta_max
+    if at_bound:
         warnings.append(
             f"δ̂ = {1e3 * final:.1f} mrad sits at its upper bound δ_max = {1e3 * cfg.delta_max:.0f} mrad: "
             "the true gap is larger or the data are not in rad / rad/s (check the units)"
@@ -838,6 +839,22 @@ def _verdict(
             f"δ̂ = {1e3 * final:.1f} mrad exceeds the whole Δθ range observed ({1e3 * dth_range:.1f} mrad): "
             "the gap was never crossed, the estimate is not a measurement"
         )
+        if offset_state == "consistent" and check is not None and abs(diff) > floor:
+            # the anchored law left the recording's range: its better torque fit is no evidence
+            # for the configured δ1; a joint law that stays inside the range is evidence against it
+            # (and its δ then widens the interval below, as for any inconsistent δ1)
+            d_joint = float(extra["delta1_check_delta"])
+            if d_joint <= dth_range:
+                offset_state = "inconsistent"
+                warnings.append(
+                    f"δ1 is inconsistent with the data: with δ1 = {1e3 * setup.delta1:.1f} mrad the "
+                    f"estimate leaves the observed Δθ range, while the joint δ/δ1 law puts the lower "
+                    f"contact {1e3 * diff:+.1f} mrad from it (δ1 ≈ {1e3 * float(extra['delta1_check']):.1f} "
+                    f"mrad, δ ≈ {1e3 * d_joint:.1f} mrad)"
+                )
+            else:
+                offset_state = "inconclusive"
+            extra["delta1_check_result"] = offset_state
     if default and not (KAPPA_LIMITS[0] < kappa < KAPPA_LIMITS[1]):
         warnings.append(
             f"the data disagree with the stated drive: the contact stiffness is {kappa:.2f}× the "
@@ -913,7 +930,13 @@ def _verdict(
     if offset_state == "inconsistent":
         d1_gap = abs(final - extra["delta1_check_delta"])
         extra["delta1_check_gap"] = d1_gap
-    std = _uncertainty(a, extra, cfg.theta_def, enc_bound + disagreement + d1_gap) if ok else math.nan
+    # at its projection bound δ̂ is the bound, not a measurement: no uncertainty either (a wear
+    # history takes an unconverged estimate only with a stated one)
+    std = (
+        _uncertainty(a, extra, cfg.theta_def, enc_bound + disagreement + d1_gap)
+        if ok and not at_bound
+        else math.nan
+    )
     claim = min(band, CLAIM_HALF_WIDTH)
     if ok and 1.96 * std > claim:
         # every bounded alternative that widens the interval is named; the rest (spread, δ1
