@@ -245,3 +245,34 @@ def test_output_may_not_overwrite_the_input(table, run_cli):
     code, _, err = run_cli(["iso230", str(csv), "-c", str(toml), "--json", str(csv)])
     assert code == 2 and "--json" in err
     assert csv.read_bytes() == before
+
+
+def test_unconverged_estimate_is_compared_only_with_its_uncertainty_and_said_so(table, tmp_path, run_cli):
+    """Found by an exploratory tester (session 13): an estimate the estimator called not converged
+    ("… the estimate is not a measurement") was compared without a word. With a stated
+    uncertainty the comparison runs and says the estimate did not converge, quoting the
+    estimator; without one it is refused (exit 2). Negative control: a converged one, no note."""
+    csv, toml = table
+    est = _estimate(tmp_path / "est.json", 12e-6, 0.3e-6)
+    data = json.loads(est.read_text())
+    said = "δ̂ = 145.5 mrad exceeds the whole Δθ range observed (120.8 mrad): the gap was never crossed"
+    est.write_text(
+        json.dumps({**data, "converged": False, "warnings": ["note: a note", said]}), encoding="utf-8"
+    )
+    j = tmp_path / "iso.json"
+    code, _, err = run_cli(["iso230", str(csv), "-c", str(toml), "--estimate", str(est), "--json", str(j)])
+    assert code == 0, err
+    w = json.loads(j.read_text())["warnings"]
+    assert any("did not converge" in x and said in x for x in w), w
+    bare = {k: v for k, v in data.items() if k != "delta_std"}
+    est.write_text(json.dumps({**bare, "converged": False, "warnings": [said]}), encoding="utf-8")
+    code, _, err = run_cli(
+        ["iso230", str(csv), "-c", str(toml), "--estimate", str(est), "--json", str(j), "--force"]
+    )
+    assert code == 2 and "did not converge and states no uncertainty" in err and "Traceback" not in err
+    est.write_text(json.dumps({**data, "converged": True}), encoding="utf-8")
+    code, _, err = run_cli(
+        ["iso230", str(csv), "-c", str(toml), "--estimate", str(est), "--json", str(j), "--force"]
+    )
+    assert code == 0, err
+    assert not any("did not converge" in x for x in json.loads(j.read_text())["warnings"])

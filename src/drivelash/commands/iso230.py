@@ -97,6 +97,8 @@ def run_iso230(
                 "time_from": when_how,
                 **res.to_dict(),
             }
+            if deadzone is not None and deadzone.note:
+                notes.append(deadzone.note)
             warnings = list(meas.warnings) + notes
             if meas.drift is not None:
                 dr = meas.drift

@@ -100,12 +100,15 @@ class Deadzone:
         Where it came from (file, or history store and axis).
     time : str, optional
         When the recording was made (ISO 8601), if known.
+    note : str, optional
+        What the comparison must say about the estimate (e.g. that it did not converge).
     """
 
     delta: float
     u_delta: float | None
     source: str
     time: str | None = None
+    note: str | None = None
 
 
 def read_deadzone(path: str | Path) -> Deadzone:
@@ -142,7 +145,27 @@ def read_deadzone(path: str | Path) -> Deadzone:
             " it cannot be compared",
             path=str(p),
         )
-    return Deadzone(float(delta), None if u is None else float(u), str(p), data.get("recording_time"))
+    note = None
+    if data.get("converged") is False:
+        said = [w for w in data.get("warnings") or [] if isinstance(w, str) and not w.startswith("note:")]
+        if u is None:
+            raise DataError(
+                "the estimate did not converge and states no uncertainty"
+                + (f" ({said[0]})" if said else "")
+                + "; it cannot be compared",
+                path=str(p),
+            )
+        note = unconverged_note(float(u), said[0] if said else None)
+    return Deadzone(float(delta), None if u is None else float(u), str(p), data.get("recording_time"), note)
+
+
+def unconverged_note(u: float, said: str | None) -> str:
+    """The comparison's warning for an estimate the estimator did not call converged, compared
+    with its stated standard uncertainty ``u`` [rad]; ``said`` its first warning, if any."""
+    return (
+        f"the deadzone estimate did not converge: compared with its stated uncertainty "
+        f"(u = {1e3 * u:.3g} mrad)" + (f"; the estimator said: {said}" if said else "")
+    )
 
 
 @dataclass(frozen=True)

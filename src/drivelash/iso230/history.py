@@ -63,20 +63,18 @@ def _sha256(path: Path) -> str:
 
 
 def deadzone_from_store(store: Any, axis: str, when: datetime) -> Deadzone | None:
-    """The axis's excited, converged estimate nearest to ``when`` (the last one before it first).
+    """The axis's estimate nearest to ``when`` (the last one before it first) among those its
+    wear trend uses (:func:`drivelash.wear.trend.usable`: excited, and converged or with a stated
+    95 % uncertainty of at most 5 mrad — then with a note saying so).
 
     Returns None when the history holds no usable estimate for the axis.
     """
+    from drivelash.iso230.compare import unconverged_note
+    from drivelash.wear.trend import usable
+
     naive = when.astimezone(UTC).replace(tzinfo=None)
     ax = next((a for a in store.axes() if a["name"] == axis), {"name": axis})
-    rows = [
-        r
-        for r in store.current_estimates(ax)
-        if r.get("status") == "ok"
-        and r.get("excitation_ok")
-        and r.get("delta") is not None
-        and r.get("start_time")
-    ]
+    rows = [r for r in store.current_estimates(ax) if usable(r)]
     if not rows:
         return None
     before = [r for r in rows if r["start_time"] <= naive]
@@ -86,6 +84,7 @@ def deadzone_from_store(store: Any, axis: str, when: datetime) -> Deadzone | Non
         None if best.get("delta_std") is None else float(best["delta_std"]),
         f"{store.name}, axis {axis}, recording {Path(best['path']).name}",
         best["start_time"].isoformat(timespec="seconds"),
+        None if best["converged"] else unconverged_note(float(best["delta_std"]), None),
     )
 
 
