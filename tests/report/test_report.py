@@ -178,3 +178,48 @@ def test_report_in_headless_chromium(tmp_path, estimate_run):
     # and the figure area is far from blank
     assert _non_blank(img) > 0.05
     shutil.copy(shot, tmp_path / "last-report-screenshot.png")
+
+
+def test_two_mass_report_of_a_geared_motor_only_fit_says_what_was_fitted():
+    """Found by an exploratory tester (session 13) on the KUKA report (axis 1, rec_B, N = 257,
+    ``equations = "motor"``, ``torque_offset = 0``): the overview drew θ_m (±130 rad) beside θ_l
+    (0.5 rad, a flat line), the text said "and a torque offset" (fixed at 0), and the load
+    equation was drawn (model ω̇_l ≡ 0 against the measured one) though it was not fitted. Now the
+    motor side is drawn at the load (θ_m/N), the text says what was fixed and left out, and only
+    the fitted equation is drawn. Negative control: a bench fit (N = 1, both equations, offset
+    fitted) keeps its text and both equations."""
+    from tests.identify.helpers import REPO
+
+    import drivelash as dl
+    from drivelash.report import _overview_figure
+    from drivelash.report.identify_figures import render_two_mass_report
+    from drivelash.sim.scenarios import get_scenario
+    from realdata import shared_data
+
+    mat = shared_data("kuka-kr300", "rec_B.mat")
+    cfg = dl.load_config(REPO / "examples" / "kuka" / "axis1.toml")
+    trace = dl.load_trace(mat, cfg, required=["theta_m", "theta_l", "torque_m"])
+    r = dl.identify_drive(trace, cfg)
+    html = render_two_mass_report(trace, r, cfg)
+    assert "torque offset fixed at 0 N·m" in html and "and a torque offset" not in html
+    assert "motor equation only" in html
+    assert _images(html)  # rendered
+    from matplotlib.figure import Figure as MplFigure
+
+    fig = MplFigure()
+    _overview_figure(trace, r.N).draw(fig)
+    pos = fig.axes[0]
+    spans = {ln.get_label(): float(np.ptp(ln.get_ydata())) for ln in pos.get_lines()}
+    m_label = next(k for k in spans if k.startswith("theta_m / N"))
+    assert spans[m_label] == pytest.approx(spans["theta_l"], rel=0.05)  # both at the load
+    assert "load side" in pos.get_ylabel()
+    # negative control: without N the motor side dwarfs the link by N
+    fig = MplFigure()
+    _overview_figure(trace).draw(fig)
+    spans = {ln.get_label(): float(np.ptp(ln.get_ydata())) for ln in fig.axes[0].get_lines()}
+    assert spans["theta_m"] > 100 * spans["theta_l"]
+
+    bench = get_scenario("bench-0B").simulate(duration=6.0)
+    rb = dl.identify_drive(bench, model="two-mass", N=1.0)
+    hb = render_two_mass_report(bench, rb, None)
+    assert "and a torque offset" in hb and "motor equation only" not in hb

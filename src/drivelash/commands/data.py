@@ -226,7 +226,8 @@ def run_identify(
     merged.update(values)
     unit = "N, N·s/m, kg (prismatic axis)" if result.axis == "prismatic" else "SI (N·m, N·m·s/rad, kg·m²)"
     comments = [
-        f"drivelash identify {trace_path} ({result.side} side, IDIM-LS, units {unit}; model rigid: {why})",
+        f"drivelash identify {trace_path} ({result.side} side, IDIM-LS, units {unit}; model rigid "
+        + (f"from {why})" if why in ("--model", "[identification] model") else f"{why})"),
         "identified: " + ", ".join(f"{n} = {result[n]:.6g} ± {result.std_of(n):.2g}" for n in result.names),
         f"relative force error {100 * result.relative_error:.2f} %"
         + (f"; cross-test {100 * ct.relative_error:.2f} % on {cross}" if ct else ""),
@@ -336,7 +337,12 @@ def run_identify_two_mass(
         merged["drivetrain"] = {**base, **merged["drivetrain"]}
     summary["config_tables"] = merged
     head = [
-        f"drivelash identify {trace_path} --model two-mass (config {config_path}; {model_choice})",
+        f"drivelash identify {trace_path} --model two-mass (config {config_path}; "
+        + (
+            f"model from {model_choice})"
+            if model_choice in ("--model", "[identification] model")
+            else f"{model_choice})"
+        ),
         f"method: {result.method}",
     ]
     if window is not None:

@@ -14,6 +14,7 @@ One self-contained file per run (figures as embedded PNGs, no scripts, no networ
 
 from __future__ import annotations
 
+import math
 import re
 from pathlib import Path
 from typing import Any
@@ -67,9 +68,13 @@ def _recording_html(trace: Any) -> list[str]:
     return start + [f'<div class="warn">{html.escape(w)}</div>' for w in trace.meta.get("warnings", [])]
 
 
-def _overview_figure(trace: Any) -> Figure:
+def _overview_figure(trace: Any, N: float | None = None) -> Figure:
+    """The recording's positions, velocities and torque against time. With a gear ratio ``N``
+    (≠ 1) and a load encoder, the motor side is drawn at the load (θ_m/N, ω_m/N) beside θ_l,
+    ω_l: on one axis θ_m would dwarf θ_l by N (a robot axis: N = 257, θ_l a flat line)."""
     u = _units(trace)
     names = [n for n in ("theta_m", "theta_l", "omega_m", "omega_l", "torque_m") if n in trace]
+    geared = N is not None and math.isfinite(N) and N > 0 and N != 1.0 and "theta_l" in trace
 
     def draw(fig: Any) -> None:
         groups = [
@@ -86,9 +91,13 @@ def _overview_figure(trace: Any) -> Figure:
         }
         for ax, g in zip(axes, groups, strict=True):
             for n in g:
-                t, y = _thin(trace["t"], trace[n])
-                ax.plot(t, y, lw=0.8, label=n)
-            ax.set_ylabel(labels.get(g[0].split("_")[0], g[0]))
+                scale = N if geared and n.endswith("_m") and not n.startswith("torque") else None
+                t, y = _thin(trace["t"], trace[n] / scale if scale else trace[n])
+                ax.plot(t, y, lw=0.8, label=f"{n} / N (N = {scale:.6g})" if scale else n)
+            label = labels.get(g[0].split("_")[0], g[0])
+            ax.set_ylabel(
+                label.replace(" [", ", load side [") if geared and g[0][:5] in ("theta", "omega") else label
+            )
             ax.grid(alpha=0.3)
             ax.legend(loc="upper right", fontsize=8)
         axes[-1].set_xlabel("time [s]")
@@ -212,7 +221,9 @@ def render_estimate_report(trace: Any, result: Any, config: Any = None, *, title
         for ax in axes:
             ax.grid(alpha=0.3)
 
-    sec_over = Section("Recording", raw=_recording_html(trace), figures=[_overview_figure(trace)])
+    dt = getattr(config, "drivetrain", None)
+    N_cfg = dt.given().get("N") if dt is not None and hasattr(dt, "given") else None
+    sec_over = Section("Recording", raw=_recording_html(trace), figures=[_overview_figure(trace, N_cfg)])
     cls = "verdict-ok" if ok else "verdict-bad"
     verdict_html = (
         f'<p class="{cls}">Excitation: {"sufficient" if ok else "insufficient"} — '

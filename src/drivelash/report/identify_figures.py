@@ -133,9 +133,14 @@ def render_two_mass_report(trace: Any, result: Any, config: Any = None, *, onlin
             characteristic(ax, (c - w, c + w))
             ax.set_title(f"zoom on the contact {name}", fontsize=9)
 
+    # the load equation is drawn only when it was fitted ([identification] equations = "motor"
+    # leaves it out: its "model" would be a flat line against a measured ω̇_l)
+    load_used = bool(fit.get("load_windows_used") or 0)
+    sides = [("m", sig["ok_m"])] + ([("l", sig["ok_l"])] if load_used else [])
+
     def draw_fit(fig: Any) -> None:
-        axes = fig.subplots(4, 1, sharex=True, height_ratios=[3, 1, 3, 1])
-        for k, (side, mask) in enumerate((("m", sig["ok_m"]), ("l", sig["ok_l"]))):
+        axes = fig.subplots(2 * len(sides), 1, sharex=True, height_ratios=[3, 1] * len(sides))
+        for k, (side, mask) in enumerate(sides):
             a, ah = sig[f"a_{side}"], sig[f"a_{side}_hat"]
             t, a_t, ah_t, m_t = _thin(sig["t"], a, ah, mask)
             ax, axr = axes[2 * k], axes[2 * k + 1]
@@ -153,7 +158,7 @@ def render_two_mass_report(trace: Any, result: Any, config: Any = None, *, onlin
     def draw_acf(fig: Any) -> None:
         ax = fig.subplots()
         lags = 40
-        for side, color in (("m", "#2a6fb0"), ("l", "#c0392b")):
+        for side, color in (("m", "#2a6fb0"), ("l", "#c0392b"))[: len(sides)]:
             mask = sig[f"ok_{side}"]
             if mask.sum() > lags + 2:
                 r = (sig[f"a_{side}"] - sig[f"a_{side}_hat"])[mask]
@@ -190,12 +195,17 @@ def render_two_mass_report(trace: Any, result: Any, config: Any = None, *, onlin
     figs = [
         Figure(
             "characteristic",
-            "Shaft torque seen by the motor vs Δθ (window means), and the identified deadzone.",
+            "Shaft torque seen by the motor vs Δθ (window means)"
+            + (", and the identified deadzone." if math.isfinite(K_S) else "; no deadzone identified."),
             draw_characteristic,
             (12, 4.5),
         ),
         Figure(
-            "fit", "Integral equations: measured and model accelerations, and residuals.", draw_fit, (10, 6.5)
+            "fit",
+            "Integral equations: measured and model accelerations, and residuals"
+            + ("." if load_used else " (motor equation only: the load equation was not fitted)."),
+            draw_fit,
+            (10, 6.5 if load_used else 3.6),
         ),
         Figure("acf", "Autocorrelation of the residuals.", draw_acf, (8, 3.2)),
     ]
@@ -203,16 +213,26 @@ def render_two_mass_report(trace: Any, result: Any, config: Any = None, *, onlin
         figs.append(
             Figure("correlation", "Correlation matrix of the identified parameters.", draw_corr, (7, 6))
         )
+    ident = getattr(config, "identification", None)
+    offset_text = (
+        f"{float(getattr(ident, 'torque_offset', 0.0) or 0.0):g} N·m ([identification] torque_offset)"
+    )
     sections = [
-        Section("Recording", raw=raw, figures=[_overview_figure(trace)]),
+        Section("Recording", raw=raw, figures=[_overview_figure(trace, result.N)]),
         Section(
             "Identified parameters (95 % intervals)",
             paragraphs=[
-                "Two-mass model with deadzone (spec 01 eqs 1–7, 10) and a torque offset; integral "
-                "equation error on short windows with positions fused from encoder and velocity; "
-                "scipy least_squares; heteroscedasticity- and autocorrelation-consistent (Newey–West) "
-                "covariance. A parameter the recording cannot determine carries the reason instead of "
-                "a number."
+                "Two-mass model with deadzone (spec 01 eqs 1–7, 10)"
+                + (
+                    " and a torque offset"
+                    if "torque_offset" in p
+                    else f"; torque offset fixed at {offset_text}"
+                )
+                + ("" if load_used else "; motor equation only (the load equation was not fitted)")
+                + "; integral equation error on short windows with positions fused from encoder and "
+                "velocity; scipy least_squares; heteroscedasticity- and autocorrelation-consistent "
+                "(Newey–West) covariance. A parameter the recording cannot determine carries the reason "
+                "instead of a number."
             ],
             tables=[
                 ("Parameters", ["parameter", "unit", "value", "std", "95 % interval", "std / note"], rows),
