@@ -269,3 +269,28 @@ def test_python_m_drivelash_dir_and_repr(rec):
         "BacklashEstimate(delta=105 mrad, converged=True, excitation_ok=True"
     )
     assert "samples=48000" in r and est.warnings == [] and isinstance(est.warnings, list)
+
+
+def test_kuka_estimate_identify_without_the_drive_writes_the_identification_report(tmp_path, capsys):
+    """Found by an exploratory tester (session 13): KUKA rec_B axis 1 with --identify and
+    --report: the online law cannot run (J_l, K_S, D_S not determined), the report was silently
+    skipped ("no --plot/--report written") and the whole offline reason printed three times. Now
+    --report holds the identification (with a note), the reason names each missing parameter's
+    own reason and what to do, and the console prints it once."""
+    from cli_runner import run_in_process
+
+    mat = shared_data("kuka-kr300", "rec_B.mat")
+    cfg = REPO / "examples" / "kuka" / "axis1.toml"
+    rep, js = tmp_path / "r.html", tmp_path / "r.json"
+    code, out, err = run_in_process(
+        ["estimate", str(mat), "-c", str(cfg), "--identify", "--report", str(rep), "--json", str(js)], capsys
+    )
+    assert code == 0, err
+    s = _json(js)
+    assert s["online_run"] is False
+    assert "does not determine J_l, K_S, D_S" in s["reason"] and "give them in [drivetrain]" in s["reason"]
+    assert any("--report holds the offline identification only" in w for w in s["warnings"])
+    html = rep.read_text(encoding="utf-8")
+    assert "drivelash identify (two-mass)" in html and "Identified parameters" in html
+    text = " ".join((out + err).split())
+    assert text.count("online estimate not run") == 1, text

@@ -117,12 +117,23 @@ def run_estimate(
                 core, res, trace = estimate_stream(
                     cfg, stream, method, series=plot_t is not None or report_t is not None
                 )
+        ident_report = None
         if res is None and (plot_t is not None or report_t is not None):
-            # --identify could not give the drive: the verdict only, no time series to draw
-            core.setdefault("warnings", []).append(
-                "no --plot/--report written: the online estimate was not run"
-            )
-            plot_t = report_t = None
+            # --identify could not give the drive: no online time series to draw; the report is
+            # the identification's (what the recording did determine, and why not the rest)
+            if plot_t is not None:
+                core.setdefault("warnings", []).append("no --plot written: the online estimate was not run")
+            if report_t is not None and identify and est.identification is not None:
+                from drivelash.report.identify_figures import render_two_mass_report
+
+                ident_report = render_two_mass_report(trace, est.identification, cfg)
+                core.setdefault("warnings", []).append(
+                    "note: --report holds the offline identification only: the online estimate was not run"
+                )
+            elif report_t is not None:
+                core.setdefault("warnings", []).append("no --report written: the online estimate was not run")
+                report_t = None
+            plot_t = None
         summary: dict[str, Any] = {"trace": str(trace_path), "config": str(config_path), **core}
         if json_t is not None:
             write_json(out.staging(json_t), summary)
@@ -130,7 +141,9 @@ def run_estimate(
             from drivelash.report.estimation_figures import estimate_figure
 
             estimate_figure(trace, res, out.staging(plot_t))
-        if report_t is not None:
+        if ident_report is not None and report_t is not None:
+            out.staging(report_t).write_text(ident_report, encoding="utf-8")
+        elif report_t is not None:
             from drivelash.report import write_estimate_report
 
             write_estimate_report(out.staging(report_t), trace, res, cfg)
@@ -181,6 +194,8 @@ def _print_summary(s: dict[str, Any]) -> None:
             d1s = f" (data: {1e3 * d1:.2f} mrad)" if d1 is not None else ""
             c.print(f"  δ1 check: {escape(str(s['delta1_check_result']))}{d1s}")
     for w in s.get("warnings", []):
+        if s["delta"] is None and w == s["reason"]:
+            continue  # printed just above
         c.print(f"  [yellow]warning:[/yellow] {escape(w)}")
 
 

@@ -54,12 +54,15 @@ class BacklashEstimate:
         The recording as the estimator saw it (SI units).
     gains : EstimatorConfig
         The tuning used.
+    identification : DriveIdentification or None
+        The offline identification when ``identify=True`` (``estimate --identify``), else None.
     """
 
     summary: dict[str, Any]
     result: Any
     trace: Trace
     gains: Any
+    identification: Any = None
 
     @property
     def delta(self) -> float:
@@ -362,7 +365,7 @@ def estimate_with_identification(
     if not ident.plausible:
         why = f"the identification is implausible ({ident.warnings[0].split(':')[0]})"
     elif missing:
-        why = f"the recording does not determine {', '.join(missing)} ({ident.reason})"
+        why = _undetermined(ident, missing)
     bl = cfg.backlash
     d1_cfg = bl.delta1 if bl is not None and "delta1" in bl.model_fields_set else None
     d1 = d1_cfg
@@ -424,7 +427,9 @@ def estimate_with_identification(
             "identification": off,
             "warnings": [f"online estimate not run: {why}"],
         }
-        return BacklashEstimate(summary=jsonable(summary), result=None, trace=trace, gains=None)
+        return BacklashEstimate(
+            summary=jsonable(summary), result=None, trace=trace, gains=None, identification=ident
+        )
     from drivelash.params import DrivetrainParams
 
     vals = {**off["drivetrain"], **(base or {})}  # the configuration's own values win
@@ -464,4 +469,20 @@ def estimate_with_identification(
     else:
         s["agreement"] = {"offline_delta": None, "reason": dp.reason, "disagree": None}
     est.summary = jsonable(s)
+    est.identification = ident
     return est
+
+
+def _undetermined(ident: Any, missing: list[str]) -> str:
+    """Why the online law cannot run: the drive-train parameters in ``missing`` that neither the
+    configuration nor the recording gives, each group with the identification's reason, and
+    what to do (give them in ``[drivetrain]``)."""
+    groups: dict[str, list[str]] = {}
+    for k in missing:
+        q = ident.parameters.get(k)
+        groups.setdefault(q.reason if q is not None and q.reason else "not identified", []).append(k)
+    parts = [f"{', '.join(ks)}: {why}" for why, ks in groups.items()]
+    return (
+        f"the recording does not determine {', '.join(missing)} ({'; '.join(parts)}); "
+        "give them in [drivetrain] to run the online law"
+    )
