@@ -276,3 +276,36 @@ def test_unconverged_estimate_is_compared_only_with_its_uncertainty_and_said_so(
     )
     assert code == 0, err
     assert not any("did not converge" in x for x in json.loads(j.read_text())["warnings"])
+
+
+def test_nominal_targets_written_in_mm_get_a_unit_hint(table, tmp_path, run_cli):
+    """Found by an exploratory tester (session 13): [iso230] targets written in mm (the file's
+    unit) were refused as "do not match" with no hint. Negative control: targets in m pass;
+    targets that are simply wrong get no unit hint."""
+    csv, toml = table
+    mm = sorted({float(v) for v in pd.read_csv(csv)["Target [mm]"]})
+    for targets, code_want, hint in (
+        (mm, 2, True),
+        ([v * 1e-3 for v in mm], 0, False),
+        ([v * 1e-3 + 0.05 for v in mm], 2, False),
+    ):
+        cfg = tmp_path / "t.toml"
+        cfg.write_text(toml.read_text() + f"\n[iso230]\ntargets = {targets}\n", encoding="utf-8")
+        code, _, err = run_cli(["iso230", str(csv), "-c", str(cfg)])
+        assert code == code_want, err
+        assert ("these look like mm" in err) is hint, err
+
+
+def test_deviations_in_mm_declared_as_um_are_warned(table, tmp_path, run_cli):
+    """Found by an exploratory tester (session 13): a deviation column in mm declared as µm gave
+    A = 0.021 µm, R = 0.013 µm without a word. Negative control: the right unit, no warning."""
+    csv, toml = table
+    df = pd.read_csv(csv)
+    bad = tmp_path / "mm.csv"
+    df.assign(**{"Error [um]": df["Error [um]"] * 1e-3}).to_csv(bad, index=False)  # mm values, µm label
+    for path, warned in ((bad, True), (csv, False)):
+        j = tmp_path / "o.json"
+        code, _, err = run_cli(["iso230", str(path), "-c", str(toml), "--json", str(j), "--force"])
+        assert code == 0, err
+        w = json.loads(j.read_text())["warnings"]
+        assert any("mm declared as µm" in x for x in w) is warned, w

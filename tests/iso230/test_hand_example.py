@@ -156,3 +156,25 @@ def test_refusals_are_one_line():
     uneven = r[~((r[:, 0] == 0.1) & (r[:, 2] == -1) & (r[:, 1] == 5))]
     with pytest.raises(DataError, match=r"unequal runs: target 100 mm has 4 run\(s\) in direction -"):
         approaches_from_rows(uneven[:, 0], uneven[:, 1], uneven[:, 2], uneven[:, 3])
+
+
+@pytest.mark.parametrize(
+    ("targets_mm", "warned"),
+    [
+        (np.linspace(0, 2000, 5), True),  # the tester's case: 5 targets over 2 m (ISO: ≥ 10)
+        (np.linspace(0, 2000, 10), False),
+        (np.linspace(0, 1200, 5), True),  # 1.2 m: ≥ 6
+        (np.linspace(0, 1200, 6), False),
+        (np.linspace(0, 800, 5), False),  # 0.8 m: the overall 5 is the larger
+        (np.linspace(0, 3000, 10), False),  # beyond 2 m the 2 m figure (10) is the least asked
+    ],
+)
+def test_targets_per_metre_of_travel(targets_mm, warned):
+    """ISO 230-2: at least five target positions per metre on linear axes up to 2 m (and five
+    overall). Found by an exploratory tester (session 13): 5 targets over 2000 mm passed silently."""
+    rng = np.random.default_rng(0)
+    rows = [(p * 1e-3, j, d, 1e-6 * rng.normal()) for p in targets_mm for j in range(5) for d in (1, -1)]
+    r = np.array(rows)
+    ap = approaches_from_rows(r[:, 0], r[:, 1], r[:, 2], r[:, 3])
+    per_m = [w for w in ap.warnings if "per metre" in w]
+    assert bool(per_m) is warned, ap.warnings

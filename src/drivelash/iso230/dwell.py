@@ -332,7 +332,8 @@ def detect_dwells(
         k = int(np.argmax(far))
         raise DataError(
             f"dwell at t = {arr[k, 0]:.6g} s (P_cmd = {_fmt_pos(pos[k], unit)}) matches no nominal target"
-            f" (nearest {_fmt_pos(float(centres[labels[k]]), unit)})",
+            f" (nearest {_fmt_pos(float(centres[labels[k]]), unit)})"
+            + targets_unit_hint(nominal_sorted, pos, unit, travel),
             path=source,
         )
     m = centres.size
@@ -456,3 +457,19 @@ def estimate_drift(d: Dwells) -> Drift:
         target_tolerance=1e-12,
     )
     return Drift(rate, u_rate, rate * gap, abs(gap) * u_rate, corrected)
+
+
+def targets_unit_hint(nominal: Any, measured: np.ndarray, unit: str, travel: float) -> str:
+    """A hint for an error about nominal ``[iso230] targets`` that match no measured position:
+    when the nominal ones divided by 1000 match (targets written in mm, or in mrad, where the
+    configuration takes m or rad), say so; else "". ``travel`` [m or rad] scales the match."""
+    if nominal is None or len(nominal) == 0 or len(measured) == 0:
+        return ""
+    nom = np.sort(np.asarray(nominal, dtype=np.float64)) * 1e-3
+    meas = np.asarray(measured, dtype=np.float64)
+    tol = 0.02 * max(travel, float(np.ptp(meas)), 1e-12)
+    near = np.abs(meas[:, None] - nom[None, :]).min(axis=1)
+    if np.all(near <= tol):
+        small = "mm" if unit == "m" else "mrad"
+        return f" — [iso230] targets are in {unit}; these look like {small} (divide by 1000)"
+    return ""

@@ -58,6 +58,10 @@ UP, DOWN = 1, -1
 STANDARD_RUNS = 5
 #: ISO 230-2: at least five target positions (and five per metre of travel up to 2 m).
 STANDARD_MIN_TARGETS = 5
+#: ISO 230-2 (linear axes up to 2 m): at least this many target positions per metre of travel.
+STANDARD_TARGETS_PER_M = 5
+#: … applied up to this travel [m] (longer axes: the 2 m figure, 10 targets, is the least asked).
+STANDARD_PER_M_UP_TO = 2.0
 
 #: Target positions closer than this fraction of the target range are one target.
 TARGET_TOLERANCE = 1e-6
@@ -297,6 +301,14 @@ def approaches_from_rows(
     warnings: list[str] = []
     if m < STANDARD_MIN_TARGETS:
         warnings.append(f"{m} target positions; ISO 230-2 asks for at least {STANDARD_MIN_TARGETS}")
+    elif unit == "m" and m > 1:
+        travel = float(np.max(centres) - np.min(centres))
+        need = math.ceil(STANDARD_TARGETS_PER_M * min(travel, STANDARD_PER_M_UP_TO) - 1e-9)
+        if m < need:
+            warnings.append(
+                f"{m} target positions over {1e3 * travel:.0f} mm; ISO 230-2 asks for at least "
+                f"{STANDARD_TARGETS_PER_M} per metre on axes up to {STANDARD_PER_M_UP_TO:g} m ({need} here)"
+            )
     if n < STANDARD_RUNS:
         warnings.append(f"{n} runs per direction; the ISO 230-2 standard test cycle has {STANDARD_RUNS}")
     return Approaches(centres, up, dn, runs_up, runs_dn, unit=unit, source=source, warnings=warnings)

@@ -26,7 +26,14 @@ from typing import Any, Literal
 import numpy as np
 
 from drivelash.errors import DataError, ParameterError
-from drivelash.iso230.dwell import Drift, DwellParams, Dwells, detect_dwells, estimate_drift
+from drivelash.iso230.dwell import (
+    Drift,
+    DwellParams,
+    Dwells,
+    detect_dwells,
+    estimate_drift,
+    targets_unit_hint,
+)
 from drivelash.iso230.evaluate import COVERAGE, Approaches, approaches_from_rows
 
 __all__ = ["Iso230Params", "Measurement", "read_measurement"]
@@ -41,6 +48,13 @@ MAX_DEVIATION_FRACTION = 0.01
 
 #: An offset of the reference larger than this fraction of the travel is reported.
 OFFSET_WARNING_FRACTION = 0.01
+
+#: Deviations of a linear axis spreading less than this over the whole test [m] are reported
+#: as a likely unit slip (docs/assumptions.md, "ISO 230-2"): 50 nm is below the positioning error
+#: of ultra-precision axes over their travel and below a laser interferometer's environmental
+#: uncertainty (≈ 1 ppm of the distance: 1 µm per m); a column in mm declared as µm reads
+#: 1000× small (the tester's 3–21 µm test read 3–21 nm).
+MIN_DEVIATION_SPREAD = 50e-9
 
 
 @dataclass(frozen=True)
@@ -189,6 +203,19 @@ def _check_spread(x: np.ndarray, travel: float, source: str, col: str, unit: str
         )
 
 
+def _tiny_warning(x: np.ndarray, unit: str, col: str) -> list[str]:
+    """A warning when the deviations of a linear axis spread less than :data:`MIN_DEVIATION_SPREAD`
+    — below what a machine axis positions to (a column in mm declared as µm reads 1000× small)."""
+    spread = float(np.ptp(x))
+    if unit == "m" and 0 < spread < MIN_DEVIATION_SPREAD:
+        return [
+            f"column {col!r}: the deviations spread over only {spread * 1e9:.3g} nm (all runs, all targets),"
+            f" below what a machine axis positions to ({MIN_DEVIATION_SPREAD * 1e9:.0f} nm): is the column in"
+            " a larger unit than [columns] says (mm declared as µm?)"
+        ]
+    return []
+
+
 def _offset_warning(x: np.ndarray, travel: float, unit: str) -> list[str]:
     off = float(np.median(x))
     if travel > 0 and abs(off) > OFFSET_WARNING_FRACTION * travel:
@@ -239,11 +266,12 @@ def _read_table(path: Path, mapping: Any, params: Iso230Params, table: Any) -> M
         nominal = np.sort(np.asarray(params.targets, dtype=np.float64))
         if nominal.size != ap.m or np.max(np.abs(nominal - ap.targets)) > 1e-4 * max(travel, 1e-300):
             raise DataError(
-                f"the table's {ap.m} targets do not match the {nominal.size} nominal [iso230] targets",
+                f"the table's {ap.m} targets do not match the {nominal.size} nominal [iso230] targets"
+                + targets_unit_hint(nominal, ap.targets, unit, travel),
                 path=src,
                 column=names["target"],
             )
-    warnings = list(table.meta.get("warnings", [])) + list(ap.warnings)
+    warnings = list(table.meta.get("warnings", [])) + list(ap.warnings) + _tiny_warning(x, unit, dev_col)
     return Measurement("table", unit, ap, None, None, None, src, warnings)  # type: ignore[arg-type]
 
 
