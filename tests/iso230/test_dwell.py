@@ -111,3 +111,22 @@ def test_drift_is_estimated_and_removed_from_the_lost_motion():
     assert with_drift.agree and with_drift.u_L_iso < 0.5e-6
     without = compare(res, truth, tr)
     assert abs(without.L_iso - AXIS.delta) > 2 * with_drift.u_L_iso
+
+
+def test_dwells_at_the_overrun_points_are_skipped_with_a_warning(recording):
+    """Found by an exploratory tester (session 13): a cycle that also dwells at its overrun
+    (reversal) points beyond the end targets was refused with or without nominal targets. Those
+    dwells are approached only outward: skipped, stated, and the approaches are the same as
+    without them. Negative control: a missing nominal end target is still refused."""
+    cols, truth1 = synthetic_recording(AXIS, m=21, n=5, seed=3, overrun_dwell=True)
+    ot = _sorted(truth1["P_target"], truth1["direction"], truth1["run"])
+    for nominal in (None, truth1["targets"]):
+        d = detect_dwells(cols["t"], cols["P_cmd"], cols["P_actual"], nominal=nominal)
+        assert d.approaches.m == 21 and d.approaches.n == 5 and d.t_start.size == 210
+        o = _sorted(d.target, d.direction, d.run)
+        np.testing.assert_allclose(d.target[o], truth1["P_target"][ot], rtol=0, atol=1e-12)
+        # as test_finds_every_dwell: drift and noise of the dwell mean → 0.1 µm
+        assert np.max(np.abs(d.deviation[o] - truth1["x_dev"][ot])) < 0.1e-6
+        assert any("overrun (reversal) points, skipped" in w for w in d.warnings), d.warnings
+    with pytest.raises(DataError, match=r"matches no nominal target"):
+        detect_dwells(cols["t"], cols["P_cmd"], cols["P_actual"], nominal=truth1["targets"][:-1])

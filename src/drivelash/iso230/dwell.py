@@ -327,6 +327,9 @@ def detect_dwells(
         if arr.shape[0] == 0:
             raise DataError("no dwell left after the rest positions", path=source)
         labels, centres, far = _assign(arr, nominal_sorted, tol, travel, p)
+    arr, labels, centres, far = _drop_overrun(
+        arr, (labels, centres, far), nominal_sorted, (tol, travel, p), unit, warnings, source
+    )
     pos = arr[:, 4]
     if far.any():
         k = int(np.argmax(far))
@@ -457,6 +460,56 @@ def estimate_drift(d: Dwells) -> Drift:
         target_tolerance=1e-12,
     )
     return Drift(rate, u_rate, rate * gap, abs(gap) * u_rate, corrected)
+
+
+def _drop_overrun(
+    arr: np.ndarray,
+    assigned: tuple[np.ndarray, np.ndarray, np.ndarray],
+    nominal: np.ndarray | None,
+    how: tuple[float, float, DwellParams],
+    unit: str,
+    warnings: list[str],
+    source: str,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Drop dwells at the test cycle's overrun points: beyond the outermost target, approached
+    only outward (the reversal before the next run's approach; ISO 230-2's standard cycle
+    overruns the end targets so that each is approached in both directions). With nominal
+    targets: every dwell outside their span; without: an outermost detected position whose
+    dwells all moved outward, with other targets inside. ``assigned`` is ``_assign``'s
+    (labels, centres, far), ``how`` its (tol, travel, params). Returns the re-assigned
+    (arr, labels, centres, far); a drop is reported in ``warnings``."""
+    labels, centres, far = assigned
+    tol, travel, p = how
+    dirs = arr[:, 5].astype(np.int64)
+    pos = arr[:, 4]
+    if nominal is not None and nominal.size:
+        out = np.zeros(pos.size, dtype=bool)
+        for beyond, outward in (
+            (far & (pos < nominal[0] - tol), DOWN),
+            (far & (pos > nominal[-1] + tol), UP),
+        ):
+            if beyond.any() and np.all(dirs[beyond] == outward):
+                out |= beyond
+    else:
+        out = np.zeros(pos.size, dtype=bool)
+        if centres.size > 2:
+            lo, hi = int(np.argmin(centres)), int(np.argmax(centres))
+            for lab, outward in ((lo, DOWN), (hi, UP)):
+                sel = labels == lab
+                if sel.any() and np.all(dirs[sel] == outward):
+                    out |= sel
+    if not out.any():
+        return arr, labels, centres, far
+    shown = ", ".join(sorted({_fmt_pos(float(x), unit) for x in pos[out]}))
+    warnings.append(
+        f"{int(out.sum())} dwell(s) at {shown}, beyond the outermost target and approached only outward:"
+        " taken as the cycle's overrun (reversal) points, skipped"
+    )
+    arr = arr[~out]
+    if arr.shape[0] == 0:
+        raise DataError("no dwell left after the overrun points", path=source)
+    labels, centres, far = _assign(arr, nominal, tol, travel, p)
+    return arr, labels, centres, far
 
 
 def targets_unit_hint(nominal: Any, measured: np.ndarray, unit: str, travel: float) -> str:

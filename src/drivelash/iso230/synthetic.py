@@ -164,6 +164,7 @@ def synthetic_recording(
     drift: float = 2e-8,
     noise: float = 0.3e-6,
     skip: tuple[tuple[int, int, int], ...] = (),
+    overrun_dwell: bool = False,
 ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
     """A raw recording of the ISO 230-2 standard test cycle, and its truth.
 
@@ -193,6 +194,9 @@ def synthetic_recording(
     skip : tuple of (target index, direction, run)
         Approaches whose dwell is left out (the axis passes through), for tests of
         refused recordings.
+    overrun_dwell : bool
+        Also dwell at each overrun (reversal) point beyond the end targets, as some CNC test
+        programs do (not an approach: the evaluation must skip it).
 
     Returns
     -------
@@ -221,6 +225,10 @@ def synthetic_recording(
             offsets.append(np.zeros(seg.size))
             count += seg.size
             x = start
+            if overrun_dwell:
+                pieces.append(np.full(rest, x))
+                offsets.append(np.zeros(rest))
+                count += rest
             for i in order:
                 seg = _move(x, P[i], feed, acc, T_s)
                 eps = rng.normal(0.0, axis.sigma)
