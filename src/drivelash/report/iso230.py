@@ -57,13 +57,15 @@ def draw_iso230_chart(fig: Any, result: Any, title: str | None = None) -> None:
     ax.plot(P, result.mean_bi * df, ":", color="#444", lw=1.0, label="x̄ (bidirectional mean)")
     ax.axhline(0.0, color="#888", lw=0.6)
     k = result.B_index
+    right = P[k] > 0.5 * (float(np.min(P)) + float(np.max(P)))  # label inside the frame
     ax.annotate(
         f"B = {result.B * df:.3g} {dl}",
         xy=(P[k], 0.5 * (result.mean_up[k] + result.mean_down[k]) * df),
-        xytext=(12, 0),
+        xytext=(-12 if right else 12, 0),
         textcoords="offset points",
         fontsize=9,
         va="center",
+        ha="right" if right else "left",
     )
     ax.vlines(P[k], result.mean_up[k] * df, result.mean_down[k] * df, color="#6a3d9a", lw=2.2)
     ax.set_xlabel(f"target position P_i [{pl}]")
@@ -126,7 +128,8 @@ def _reversal_figure(result: Any, comparison: Any | None) -> Figure:
 
     return Figure(
         "reversal",
-        "Reversal value at each target (as lost motion −B_i) with B, B̄ and the deadzone",
+        "Reversal value at each target (as lost motion −B_i) with B, B̄"
+        + (" and the estimated deadzone" if comparison is not None else ""),
         draw,
         (10.0, 3.6),
     )
@@ -313,7 +316,7 @@ def render_iso230_report(
         cs.tables.append(
             (
                 f"Lost motion at the load [{dl}] (expanded uncertainty U = 2u)",
-                ["source", "value", "u", "U"],
+                ["source", "value", "u", "U (B: 95 % interval)"],
                 [
                     [
                         "ISO test: −B̄"
