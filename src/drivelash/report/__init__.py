@@ -385,7 +385,7 @@ def render_identify_report(
         model = result.theta[1] * v + result.theta[2] * np.sign(v) + result.theta[3]
         ax.plot(v, model, color="#c0392b", lw=1.5, label="F_v q̇ + F_c sign q̇ + offset")
         ax.set_xlabel(f"velocity [{u['vel']}]")
-        ax.set_ylabel(f"[{u['force']}]")
+        ax.set_ylabel(f"friction {'force' if u['force'] == 'N' else 'torque'} [{u['force']}]")
         ax.set_title("Friction characteristic", fontsize=10)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
@@ -401,7 +401,7 @@ def render_identify_report(
             ax.plot(cross.t, cross.y, lw=0.9, label="measured")
             ax.plot(cross.t, cross.y_hat, "--", lw=0.9, label="model with identified parameters")
             ax.set_xlabel("time [s]")
-            ax.set_ylabel(f"[{u['force']}]")
+            ax.set_ylabel(f"{'force' if u['force'] == 'N' else 'torque'} [{u['force']}]")
             ax.set_title(f"Cross-test: relative error {100 * cross.relative_error:.2f} %", fontsize=10)
             ax.grid(alpha=0.3)
             ax.legend(fontsize=8)
