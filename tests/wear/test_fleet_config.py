@@ -228,3 +228,9 @@ def test_a_glob_matching_no_file_is_a_warning_naming_axis_and_pattern(tmp_path):
     assert len(rep.warnings) == len(f.axes)
     a = f.axes[0]
     assert rep.warnings[0] == f"{p.resolve()}: axis 'M01/X': 'recordings' = {a.recordings!r} matches no file"
+
+
+def test_fleet_file_with_utf8_bom_is_read(tmp_path):
+    p = _write(tmp_path, GOOD)
+    p.write_bytes(b"\xef\xbb\xbf" + p.read_bytes())
+    assert [a.name for a in load_fleet(p).axes] == ["M01/X", "M01/Y"]

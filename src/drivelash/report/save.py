@@ -15,7 +15,8 @@ def save_figure(fig: Any, path: str | Path, *, dpi: int = 110, **kwargs: Any) ->
     """Save ``fig`` to ``path`` (a staging path or a plain one) with our signature.
 
     The format comes from the final name (so ``Outputs.staging`` paths work); the
-    signature ``drivelash <version> <command>`` (:func:`~drivelash.io.outputs.signature`) goes into the PNG ``Software`` text chunk, the PDF
+    signature ``drivelash <version> <command>`` (:func:`~drivelash.io.outputs.signature`)
+    goes into the PNG ``Software`` text chunk, the PDF
     ``Creator`` or the SVG ``dc:creator``, which is how a later run recognises the file
     as its own output.
 

@@ -41,7 +41,6 @@ import hashlib
 import json
 import math
 import re
-import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
@@ -49,7 +48,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from drivelash.errors import ConfigError, DrivelashError
-from drivelash.io.config import DriveConfig, load_config
+from drivelash.io.config import DriveConfig, load_config, read_toml
 
 __all__ = ["AxisSpec", "Fleet", "TimeSpec", "load_fleet", "parse_fleet", "time_spec_hash"]
 
@@ -377,19 +376,5 @@ def load_fleet(path: str | Path) -> Fleet:
         configuration — one line naming file, table and key.
     """
     p = Path(path)
-    try:
-        text = p.read_bytes().decode("utf-8")
-    except FileNotFoundError:
-        raise ConfigError(f"{p}: no such fleet file") from None
-    except IsADirectoryError:
-        raise ConfigError(f"{p}: is a directory, not a fleet TOML file") from None
-    except OSError as exc:
-        raise ConfigError(f"{p}: cannot read ({exc.strerror or exc})") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{p}: not a UTF-8 text file (is this a fleet TOML?)") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        msg = str(exc).splitlines()[0] if str(exc) else "syntax error"
-        raise ConfigError(f"{p}: TOML syntax error: {msg}") from None
+    data = read_toml(p, "fleet")
     return parse_fleet(data, p.resolve())
