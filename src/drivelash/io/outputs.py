@@ -170,9 +170,7 @@ def jsonable(obj: Any) -> Any:
     raise TypeError(f"not JSON-serialisable: {type(obj).__name__}")
 
 
-def dumps_json(
-    obj: Mapping[str, Any], *, indent: int | None = 2, generator: str = GENERATOR
-) -> str:
+def dumps_json(obj: Mapping[str, Any], *, indent: int | None = 2, generator: str = GENERATOR) -> str:
     """Strict JSON text of a mapping with ``"generator": "drivelash <version>"`` first.
 
     Non-finite floats become ``null`` (JSON has no NaN/Infinity); numpy types are
