@@ -155,6 +155,29 @@ def test_integer_time_stamps_taken_as_seconds_are_refused_with_the_fix(tmp_path,
     assert TraceStream(p, cfg).T_s == load_trace(p, cfg).T_s
 
 
+def test_declared_time_unit_is_checked_against_the_period(tmp_path):
+    """Finding: KUKA rec_B with its time ×1000 and [columns] unit = "s" gave J_m = 20161 kg·m²
+    (truth ≈ 0.02) without a word: a declared unit was trusted. No velocity is mapped (as in
+    examples/kuka), so the period is the only evidence."""
+    from drivelash.io.config import DriveConfig
+
+    c = _signals(2000, 4e-3)  # 250 Hz
+    p = tmp_path / "kuka.csv"
+    rows = np.column_stack([np.round(c["t"] * 1e3), c["theta_m"], c["torque_m"]])
+    np.savetxt(p, rows, delimiter=",", header="time_ms,pos,tq", comments="", fmt="%.10g")
+
+    def cfg(unit: str) -> DriveConfig:
+        cols = {"time_ms": {"column": "t", "unit": unit}, "pos": {"column": "theta_m", "unit": "rad"}}
+        return DriveConfig.model_validate({"columns": {**cols, "tq": {"column": "torque_m", "unit": "N·m"}}})
+
+    for read in (lambda u: load_trace(p, cfg(u)), lambda u: TraceStream(p, cfg(u))):
+        with pytest.raises(DataError, match="implausible sample period 4 s") as ei:
+            read("s")
+        msg = str(ei.value)
+        assert "\n" not in msg and "column 'time_ms'" in msg and 'set unit = "ms" there' in msg, msg
+        assert read("ms").T_s == pytest.approx(4e-3, rel=1e-9)  # negative control: the right unit
+
+
 def test_plausible_slow_recordings_pass(tmp_path):
     c = _signals(500, 0.37)  # 2.7 Hz logging, non-integer seconds: plausible
     p = write_trace(Trace(c), tmp_path / "slow.parquet")
