@@ -634,6 +634,41 @@ def check_unit_ratio(ratio: float, side: str, path: str, column: str, row: int) 
             )
 
 
+#: Positions that share one scale on a prismatic axis (m of carriage travel): the motor and load
+#: positions, and a mapped reference (a Trace name ending in ``_ref``, e.g. EMPS ``qg``).
+_LINEAR_POSITIONS = ("theta_m", "theta_l")
+
+
+def check_position_spans(
+    spans: Mapping[str, float], kinds: Mapping[str, str | None], origin: Mapping[str, str], path: str
+) -> None:
+    """Refuse two mapped linear positions whose spans differ by a unit factor (10³ or 10⁶).
+
+    On a prismatic axis the motor position (in m of carriage travel), the load position and a
+    mapped reference all follow the same motion: their spans (max − min, SI) agree up to the
+    tracking error, backlash and deflection — far from a factor 1000. Only columns whose
+    declared unit is a length are compared (an angle pair differs by the gear ratio).
+    """
+    pos = [
+        n
+        for n in spans
+        if kinds.get(n) == "length" and (n in _LINEAR_POSITIONS or n.endswith("_ref"))
+        and spans[n] > 0 and math.isfinite(spans[n])
+    ]  # fmt: skip
+    for i, a in enumerate(pos):
+        for b in pos[i + 1 :]:
+            ratio = spans[a] / spans[b]
+            for factor in (1e3, 1e-3, 1e6, 1e-6):
+                if abs(ratio / factor - 1) < UNIT_FACTOR_TOLERANCE:
+                    raise DataError(
+                        f"implausible units: {a} spans {ratio:.4g}× {b} (column '{origin.get(b, b)}'),"
+                        " both positions of one linear axis: a position in mm declared as m (or m as"
+                        " mm)? — fix the unit in [columns]",
+                        path=path,
+                        column=origin.get(a, a),
+                    )
+
+
 @dataclass(frozen=True)
 class MappedTable:
     """Columns of a table that is not a time series, mapped and converted to SI.
@@ -839,6 +874,7 @@ def trace_from_table(
         _check_signals(
             {k: v for k, v in cols.items() if not k.startswith("torque")}, origin, spath, signal_names
         )
+    check_position_spans({k: float(np.ptp(v)) for k, v in cols.items()}, kinds, origin, spath)
     _check_units(cols, origin, spath)
 
     prismatic = kinds.get("theta_m") == "length" or kinds.get("omega_m") == "velocity"

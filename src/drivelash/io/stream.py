@@ -455,6 +455,7 @@ class TraceStream:
             SATURATION_FRACTION,
             SATURATION_MIN_RUN,
             SIGNAL_COLUMNS,
+            check_position_spans,
             check_unit_ratio,
         )
 
@@ -480,7 +481,17 @@ class TraceStream:
             and (self._check_saturation or not n.startswith("torque"))
         ]  # fmt: skip
         pairs = [s for s in ("m", "l") if f"theta_{s}" in plan and f"omega_{s}" in plan]
+
+        def spans() -> None:  # after the saturation checks, before the velocity check (the loader's order)
+            check_position_spans(
+                {n: stats[n].hi - stats[n].lo for n in plan if n != "t" and n in stats},
+                {n: c.kind for n, c in plan.items()},
+                {n: c.source for n, c in plan.items()},
+                spath,
+            )
+
         if not sat and not pairs:
+            spans()
             return
         k = max(1, min(25, self.n_samples // 50))
         sat_state = {
@@ -507,6 +518,7 @@ class TraceStream:
                         column=plan[n].source,
                         row=int(start),
                     )
+        spans()
         for s, acc in units.items():
             acc.finish()
             ratio, row = acc.ratio()
