@@ -774,3 +774,27 @@ def test_parquet_time_stamp_column_is_seconds_from_the_first(tmp_path, tz, as_in
     np.testing.assert_array_equal(streamed, tr["t"])
     with pytest.raises(DataError, match=r"column 't': holds ISO 8601 time stamps .* not 'ms'"):
         load_trace(p, _ms_config(tmp_path))
+
+
+def test_windows_1252_csv_is_named_with_byte_line_and_the_fix(tmp_path):
+    """Finding: a CSV saved by Excel on Windows (µ as byte 0xB5 in its header) was called
+    "unrecognised binary data"."""
+    p = tmp_path / "latin1.csv"
+    p.write_bytes("Target [mm],Run,Dir,Error [µm]\r\n0.0,1,1,-3.699\r\n50.0,1,1,-2.461\r\n".encode("cp1252"))
+    with pytest.raises(DataError) as ei:
+        read_raw(p)
+    msg = str(ei.value)
+    assert msg == (
+        f"{p}: not UTF-8 text (byte 0xB5 at line 1, position 28 — Windows-1252 'µ'?): save it as CSV UTF-8"
+    )
+    deg = tmp_path / "deg.csv"
+    deg.write_bytes("t,theta_m [°]\n0,1\n".encode("cp1252"))
+    with pytest.raises(DataError, match=r"byte 0xB0 at line 1, position 12 — Windows-1252 '°'"):
+        read_raw(deg)
+    # negative controls: binary data stays binary; the same header in UTF-8 is read
+    b = tmp_path / "bin.csv"
+    b.write_bytes(bytes(range(1, 256)) * 4)
+    with pytest.raises(DataError, match="unrecognised binary data"):
+        read_raw(b)
+    p.write_bytes("Target [mm],Run,Dir,Error [µm]\r\n0.0,1,1,-3.699\r\n50.0,1,1,-2.461\r\n".encode())
+    assert "Error [µm]" in read_raw(p).columns
