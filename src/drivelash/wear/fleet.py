@@ -53,6 +53,33 @@ from drivelash.io.config import DriveConfig, load_config, read_toml
 __all__ = ["AxisSpec", "Fleet", "TimeSpec", "load_fleet", "parse_fleet", "time_spec_hash"]
 
 
+#: Largest maintenance threshold on the backlash δ [rad at the load] taken as meant
+#: (docs/assumptions.md): the project's thresholds are 0.07–0.2 rad (simulated fleets:
+#: δ₀ + growth ≤ 0.2 rad); 0.5 rad (29°) is no backlash of a drive train, while a threshold
+#: written in mrad (86.46 for 0.08646 rad) lands far above it.
+MAX_THRESHOLD_RAD = 0.5
+
+
+def _threshold_slip(a: AxisSection) -> str | None:
+    """Why ``a.threshold`` looks like a unit slip (None: plausible)."""
+    if a.threshold_unit == "rad":
+        if a.threshold < MAX_THRESHOLD_RAD:
+            return None
+        return (
+            f"{a.threshold:g} rad ({math.degrees(a.threshold):.4g}°) at the load is no backlash threshold"
+            f" (limit {MAX_THRESHOLD_RAD:g} rad); the key is in rad — {a.threshold:g} mrad is"
+            f" threshold = {a.threshold * 1e-3:.6g}"
+        )
+    rad = a.threshold / float(a.transmission or 1.0)
+    if rad < MAX_THRESHOLD_RAD:
+        return None
+    return (
+        f"{a.threshold:g} mm is {rad:.4g} rad at the load (transmission {a.transmission:g} mm/rad),"
+        f" no backlash threshold (limit {MAX_THRESHOLD_RAD:g} rad); the key is in mm — {a.threshold:g} µm"
+        f" is threshold = {a.threshold * 1e-3:.6g}"
+    )
+
+
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
 
@@ -333,6 +360,9 @@ def parse_fleet(data: dict[str, Any], path: Path) -> Fleet:
         if a.id in seen:
             raise ConfigError(f"{src}: table {table}, key 'id': duplicate of [[axis]] #{seen[a.id] + 1}")
         seen[a.id] = k
+        slip = _threshold_slip(a)
+        if slip:
+            raise ConfigError(f"{src}: table {table}, key 'threshold': {slip}")
         spec = a.time or doc.fleet.time
         if spec is None:
             raise ConfigError(f"{src}: table {table}, key 'time': missing (and no [fleet] time default)")
