@@ -268,6 +268,26 @@ def test_a_tools_preamble_above_the_header_is_skipped_and_said(tmp_path, sep):
     assert warn in chunks[0].meta["warnings"]
 
 
+def test_table_reader_keeps_the_preamble_warning(tmp_path):
+    """Finding: a skipped preamble warned for a time series but not for a table (load_table
+    replaced the reader's warnings with the mapping's)."""
+    from drivelash.io.load import load_table
+
+    body = "Target [mm],Run,Dir,Error [um]\n" + "".join(f"{x}.0,1,1,-1.5\n" for x in range(10))
+    plain, pre = tmp_path / "plain.csv", tmp_path / "pre.csv"
+    plain.write_text(body)
+    pre.write_text(PREAMBLE + body)
+    mapping = {
+        "Target [mm]": {"column": "P_target", "unit": "mm"},
+        "Error [um]": {"column": "x_dev", "unit": "um"},
+    }
+    warn = "skipped 3 line(s) above the column header (a preamble starting 'Drive trace export')"
+    got = load_table(pre, mapping)
+    assert warn in got.meta["warnings"]
+    np.testing.assert_array_equal(got.columns["x_dev"], load_table(plain, mapping).columns["x_dev"])
+    assert not load_table(plain, mapping).meta["warnings"]  # negative control: no preamble, no warning
+
+
 def test_no_header_search_where_the_first_line_fits(tmp_path):
     """The search runs only when the first line's width differs from the next line's: a bad
     cell in the first data row is still named there (not taken as a header), and a preamble

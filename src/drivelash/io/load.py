@@ -736,7 +736,8 @@ def load_table(
     _check_finite(cols, origin, str(p))
     units = {cm.column: cm.unit for cm in (cmap or {}).values()}
     meta: dict[str, Any] = dict(table.meta)
-    meta.update({"source": str(p), "format": table.fmt, "warnings": warnings})
+    # the reader's warnings (a skipped preamble, …) first, then the mapping's — as load_trace
+    meta.update({"source": str(p), "format": table.fmt, "warnings": [*meta.get("warnings", []), *warnings]})
     return MappedTable(cols, kinds, units, origin, meta)
 
 
