@@ -24,7 +24,7 @@ from drivelash.estimation.backlash_api import estimate_from_config
 from drivelash.estimation.estimator import INPUT_COLUMNS
 from drivelash.io import load_config, load_trace
 from drivelash.io.formats import write_trace
-from drivelash.io.outputs import write_json
+from drivelash.io.outputs import Outputs, write_json
 from drivelash.io.trace import Trace
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -46,7 +46,11 @@ def recording(tmp_path_factory) -> dict[str, Path]:
 def _in_memory_json(path: Path, out: Path) -> str:
     cfg = load_config(CONFIG)
     est = estimate_from_config(load_trace(path, cfg, required=INPUT_COLUMNS), cfg, method=None)
-    write_json(out, {"trace": str(path), "config": str(CONFIG), **est.summary})
+    with Outputs("estimate", force=True) as o:  # the command's signature, as the CLI writes it
+        write_json(
+            o.staging(o.file(out, option="--json")),
+            {"trace": str(path), "config": str(CONFIG), **est.summary},
+        )
     return out.read_text()
 
 

@@ -366,3 +366,29 @@ def test_generated_tables_pickle_across_processes(tmp_path):
     )
     out = subprocess.run([sys.executable, "-c", code, str(blob)], capture_output=True, text=True, check=True)
     assert out.stdout.split(maxsplit=3) == ["30.0", "0.1", "12.0", "{'K_S': 12.0}\n"]
+
+
+@pytest.mark.parametrize(
+    ("example", "loader"),
+    [
+        ("drive_bench.toml", "drivelash.io.config:load_config"),
+        ("iso230_recording.toml", "drivelash.iso230.config:load_iso230_config"),
+        ("rack_axis.toml", "drivelash.te.protocol.axis:load_axis"),
+    ],
+)
+def test_config_with_utf8_bom_reads_like_without(tmp_path, example, loader):
+    """A TOML saved by a Windows editor starts with a BOM; every config loader accepts it."""
+    import importlib
+    from pathlib import Path
+
+    mod, name = loader.split(":")
+    load = getattr(importlib.import_module(mod), name)
+    src = Path(__file__).resolve().parents[2] / "examples" / example
+    bom = tmp_path / example
+    bom.write_bytes(b"\xef\xbb\xbf" + src.read_bytes())
+    assert repr(load(bom)).replace(str(bom), "X") == repr(load(src)).replace(str(src), "X")
+    # negative control: a BOM in the middle is still a syntax error naming the file
+    mid = tmp_path / f"mid_{example}"
+    mid.write_bytes(src.read_bytes() + b"\n\xef\xbb\xbf[x]\n")
+    with pytest.raises(ConfigError, match=f"^{mid}: "):
+        load(mid)

@@ -268,6 +268,26 @@ def test_a_tools_preamble_above_the_header_is_skipped_and_said(tmp_path, sep):
     assert warn in chunks[0].meta["warnings"]
 
 
+def test_table_reader_keeps_the_preamble_warning(tmp_path):
+    """Finding: a skipped preamble warned for a time series but not for a table (load_table
+    replaced the reader's warnings with the mapping's)."""
+    from drivelash.io.load import load_table
+
+    body = "Target [mm],Run,Dir,Error [um]\n" + "".join(f"{x}.0,1,1,-1.5\n" for x in range(10))
+    plain, pre = tmp_path / "plain.csv", tmp_path / "pre.csv"
+    plain.write_text(body)
+    pre.write_text(PREAMBLE + body)
+    mapping = {
+        "Target [mm]": {"column": "P_target", "unit": "mm"},
+        "Error [um]": {"column": "x_dev", "unit": "um"},
+    }
+    warn = "skipped 3 line(s) above the column header (a preamble starting 'Drive trace export')"
+    got = load_table(pre, mapping)
+    assert warn in got.meta["warnings"]
+    np.testing.assert_array_equal(got.columns["x_dev"], load_table(plain, mapping).columns["x_dev"])
+    assert not load_table(plain, mapping).meta["warnings"]  # negative control: no preamble, no warning
+
+
 def test_no_header_search_where_the_first_line_fits(tmp_path):
     """The search runs only when the first line's width differs from the next line's: a bad
     cell in the first data row is still named there (not taken as a header), and a preamble
@@ -774,3 +794,27 @@ def test_parquet_time_stamp_column_is_seconds_from_the_first(tmp_path, tz, as_in
     np.testing.assert_array_equal(streamed, tr["t"])
     with pytest.raises(DataError, match=r"column 't': holds ISO 8601 time stamps .* not 'ms'"):
         load_trace(p, _ms_config(tmp_path))
+
+
+def test_windows_1252_csv_is_named_with_byte_line_and_the_fix(tmp_path):
+    """Finding: a CSV saved by Excel on Windows (µ as byte 0xB5 in its header) was called
+    "unrecognised binary data"."""
+    p = tmp_path / "latin1.csv"
+    p.write_bytes("Target [mm],Run,Dir,Error [µm]\r\n0.0,1,1,-3.699\r\n50.0,1,1,-2.461\r\n".encode("cp1252"))
+    with pytest.raises(DataError) as ei:
+        read_raw(p)
+    msg = str(ei.value)
+    assert msg == (
+        f"{p}: not UTF-8 text (byte 0xB5 at line 1, position 28 — Windows-1252 'µ'?): save it as CSV UTF-8"
+    )
+    deg = tmp_path / "deg.csv"
+    deg.write_bytes("t,theta_m [°]\n0,1\n".encode("cp1252"))
+    with pytest.raises(DataError, match=r"byte 0xB0 at line 1, position 12 — Windows-1252 '°'"):
+        read_raw(deg)
+    # negative controls: binary data stays binary; the same header in UTF-8 is read
+    b = tmp_path / "bin.csv"
+    b.write_bytes(bytes(range(1, 256)) * 4)
+    with pytest.raises(DataError, match="unrecognised binary data"):
+        read_raw(b)
+    p.write_bytes("Target [mm],Run,Dir,Error [µm]\r\n0.0,1,1,-3.699\r\n50.0,1,1,-2.461\r\n".encode())
+    assert "Error [µm]" in read_raw(p).columns

@@ -75,8 +75,14 @@ def _bad_cases(tmp: Path) -> dict[str, tuple[Path, str, str | None, int | None]]
     c["omega_m"] = c["omega_m"] * 60 / (2 * np.pi)  # rpm in a rad/s column
     cases["units_rpm"] = (_csv(tmp / "rpm.csv", c), "rpm", "omega_m", None)
     c = _good()
-    c["t"] = c["t"] * 1e3  # ms in a time column read as s (a silent 1000× slower drive)
+    c["t"] = c["t"] / 10  # a 10 kHz drive (same motion in a tenth of the time) …
+    c["omega_m"] = c["omega_m"] * 10
+    c["t"] = c["t"] * 1e3  # … with ms in its time column read as s: 0.1 s steps, a plausible
+    # period, so only velocity against the derivative of position (1000×) shows it
     cases["units_time_ms"] = (_csv(tmp / "ms.csv", c), "time in ms read as s", "omega_m", None)
+    c = _good()
+    c["t"] = c["t"] * 1e3  # ms stamps of a 1 kHz drive read as s: 1 s steps, refused by the period
+    cases["units_time_ms_1khz"] = (_csv(tmp / "ms1k.csv", c), "time stamps in ms?", "t", None)
     c = _good()
     c["theta_m"] = c["theta_m"] * 1e3  # a position 1000× its velocity's integral (mm against m/s)
     cases["units_x1000"] = (_csv(tmp / "mm.csv", c), "position in mm against a velocity", "omega_m", None)
@@ -113,7 +119,8 @@ def _bad_cases(tmp: Path) -> dict[str, tuple[Path, str, str | None, int | None]]
 
 CASE_NAMES = [
     "missing_column", "nan", "inf", "duplicated_time", "backwards_time", "non_uniform", "constant",
-    "saturated", "units_deg", "units_rpm", "units_time_ms", "units_x1000", "units_time_us", "truncated_csv",
+    "saturated", "units_deg", "units_rpm", "units_time_ms", "units_time_ms_1khz", "units_x1000",
+    "units_time_us", "truncated_csv",
     "truncated_parquet", "truncated_mat",
     "truncated_hdf5", "wrong_type_parquet", "wrong_type_csv", "wrong_extension", "empty", "header_only",
     "not_a_number",

@@ -366,3 +366,55 @@ def test_two_processes_commit_whole_sets_never_mixed(tmp_path):
     rows = (tmp_path / "b.csv").read_text().splitlines()[1:]
     assert {r.rsplit(",", 1)[0] for r in rows} == {f"{a['who']},{a['i']}"} and a["i"] == 24
     assert sorted(os.listdir(tmp_path)) == ["a.json", "b.csv"]
+
+
+# --------------------------------------------------------------------------- which command
+def _write_kind(out: Outputs, target: Path) -> None:
+    from drivelash.report import save_figure
+    from drivelash.report.html import Section, render_html
+
+    stage = out.staging(target)
+    if target.suffix == ".json":
+        write_json(stage, {"v": 1})
+    elif target.suffix == ".html":
+        stage.write_text(render_html("t", [Section("s", paragraphs=["p"])]), encoding="utf-8")
+    else:
+        save_figure(_figure(), stage)
+
+
+@pytest.mark.parametrize("name", ["a.json", "r.html", "p.png", "p.pdf", "p.svg"])
+def test_another_commands_output_is_replaced_only_with_force(tmp_path, name):
+    """Finding: ``iso230 --json est.json`` silently replaced an ``estimate`` result."""
+    from drivelash.io.outputs import output_command
+
+    target = tmp_path / name
+    with Outputs("estimate") as out:
+        _write_kind(out, out.file(target, option="--json"))
+    assert output_command(target) == "estimate" and is_own_output(target)
+    before = target.read_bytes()
+    with pytest.raises(OutputError) as ei, Outputs("iso230") as out:
+        out.file(target, option="--json")
+    msg = str(ei.value)
+    assert "\n" not in msg and msg.startswith(f"--json {target}: ")
+    assert "written by 'drivelash estimate'" in msg and "--force" in msg
+    assert target.read_bytes() == before
+    with Outputs("estimate") as out:  # negative control: the same command re-runs freely
+        _write_kind(out, out.file(target, option="--json"))
+    with Outputs("iso230", force=True) as out:
+        _write_kind(out, out.file(target, option="--json"))
+    assert output_command(target) == "iso230"
+
+
+def test_signed_output_without_recorded_command_needs_force(tmp_path):
+    """A drivelash JSON written before the command was recorded may be any command's."""
+    legacy = tmp_path / "est.json"
+    legacy.write_text('{\n  "generator": "drivelash 0.1.0",\n  "delta": 0.105\n}\n')
+    with pytest.raises(OutputError, match="does not record which command wrote it .*; use --force"):
+        with Outputs("iso230") as out:
+            out.file(legacy, option="--json")
+    assert json.loads(legacy.read_text())["delta"] == 0.105
+    # kinds that never record the command (recordings) stay replaceable as before
+    rec = tmp_path / "run.parquet"
+    write_trace(_trace(), rec)
+    with Outputs("simulate") as out:
+        assert out.file(rec, option="-o") is not None

@@ -155,6 +155,29 @@ def test_integer_time_stamps_taken_as_seconds_are_refused_with_the_fix(tmp_path,
     assert TraceStream(p, cfg).T_s == load_trace(p, cfg).T_s
 
 
+def test_declared_time_unit_is_checked_against_the_period(tmp_path):
+    """Finding: KUKA rec_B with its time ×1000 and [columns] unit = "s" gave J_m = 20161 kg·m²
+    (truth ≈ 0.02) without a word: a declared unit was trusted. No velocity is mapped (as in
+    examples/kuka), so the period is the only evidence."""
+    from drivelash.io.config import DriveConfig
+
+    c = _signals(2000, 4e-3)  # 250 Hz
+    p = tmp_path / "kuka.csv"
+    rows = np.column_stack([np.round(c["t"] * 1e3), c["theta_m"], c["torque_m"]])
+    np.savetxt(p, rows, delimiter=",", header="time_ms,pos,tq", comments="", fmt="%.10g")
+
+    def cfg(unit: str) -> DriveConfig:
+        cols = {"time_ms": {"column": "t", "unit": unit}, "pos": {"column": "theta_m", "unit": "rad"}}
+        return DriveConfig.model_validate({"columns": {**cols, "tq": {"column": "torque_m", "unit": "N·m"}}})
+
+    for read in (lambda u: load_trace(p, cfg(u)), lambda u: TraceStream(p, cfg(u))):
+        with pytest.raises(DataError, match="implausible sample period 4 s") as ei:
+            read("s")
+        msg = str(ei.value)
+        assert "\n" not in msg and "column 'time_ms'" in msg and 'set unit = "ms" there' in msg, msg
+        assert read("ms").T_s == pytest.approx(4e-3, rel=1e-9)  # negative control: the right unit
+
+
 def test_plausible_slow_recordings_pass(tmp_path):
     c = _signals(500, 0.37)  # 2.7 Hz logging, non-integer seconds: plausible
     p = write_trace(Trace(c), tmp_path / "slow.parquet")
@@ -216,3 +239,32 @@ def test_trace_from_frame_makes_every_check_the_loader_makes(tmp_path):
         Trace.from_frame(pd.DataFrame(ns))
     with pytest.raises(DataError, match="missing required column"):
         Trace.from_frame(pd.DataFrame(c), required=["omega_l"])
+
+
+def test_linear_position_and_reference_1000x_apart_are_refused(tmp_path):
+    """Finding: EMPS qm declared in mm while in m gave M = 95 113 kg silently; the reference qg,
+    mapped in m, follows the same motion, so a factor 1000 between their spans is a unit slip."""
+    from drivelash.io.config import DriveConfig
+
+    c = _signals(3000)
+    x = 0.1 * np.sin(2 * np.pi * 0.5 * c["t"])  # carriage position [m]
+    p = tmp_path / "emps.csv"
+    rows = np.column_stack([c["t"], x + 1e-5 * np.cos(c["t"]), x, c["torque_m"]])
+    np.savetxt(p, rows, delimiter=",", header="t,qm,qg,f", comments="", fmt="%.12g")
+
+    def cfg(unit_qm: str, ref: str = "x_ref", unit_qg: str = "m") -> DriveConfig:
+        cols = {
+            "t": {"column": "t", "unit": "s"},
+            "qm": {"column": "theta_m", "unit": unit_qm},
+            "qg": {"column": ref, "unit": unit_qg},
+            "f": {"column": "torque_m", "unit": "N"},
+        }
+        return DriveConfig.model_validate({"columns": cols})
+
+    for read in (lambda k: load_trace(p, cfg(*k)), lambda k: TraceStream(p, cfg(*k))):
+        with pytest.raises(DataError, match=r"theta_m spans 0\.001× x_ref \(column 'qg'\)") as ei:
+            read(("mm",))
+        assert "\n" not in str(ei.value) and "column 'qm'" in str(ei.value)
+        assert read(("m",)).T_s == pytest.approx(1e-3)  # negative control: consistent units
+        # negative control: a second column in an angle unit is not compared (gear ratios)
+        assert read(("m", "theta_l", "deg")).T_s == pytest.approx(1e-3)

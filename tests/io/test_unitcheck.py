@@ -102,5 +102,12 @@ def test_step_scan_and_time_check_rules():
         _check_time(t2, "f", "t", sampling, [])
     ms = np.arange(1000.0)  # ms stamps read as seconds: whole numbers, 1 s steps
     with pytest.raises(DataError, match="implausible sample period"):
-        _check_time(ms, "f", "t", sampling, [], lambda: True)
-    assert _check_time(ms, "f", "t", sampling, [], lambda: False) is None  # declared: 1 s is fine
+        _check_time(ms, "f", "t", sampling, [])
+    # a unit declared in [columns] is checked against the data too (it used to be trusted: the
+    # KUKA recording with ms stamps declared as s gave J_m = 20161 kg·m² for 0.02)
+    with pytest.raises(DataError, match='declares unit = "s"; time stamps in ms'):
+        _check_time(ms, "f", "t", sampling, [], "s")
+    with pytest.raises(DataError, match="implausible sample period 4 s"):
+        _check_time(4.0 * ms + 0.25, "f", "t", sampling, [], "s")  # not whole seconds either
+    slow = np.arange(1000.0) * 0.1  # negative control: an ISO 230-2 series at 10 Hz
+    assert _check_time(slow, "f", "t", sampling, [], "s") is None

@@ -309,3 +309,26 @@ def test_deviations_in_mm_declared_as_um_are_warned(table, tmp_path, run_cli):
         assert code == 0, err
         w = json.loads(j.read_text())["warnings"]
         assert any("mm declared as µm" in x for x in w) is warned, w
+
+
+def test_json_of_another_command_is_not_overwritten_without_force(table, tmp_path, run_cli):
+    """Finding: `iso230 --json est.json` replaced an `estimate` result (any JSON starting with
+    {"generator": "drivelash …} counted as ours). Re-running iso230 onto its own output is free."""
+    from drivelash.io.outputs import Outputs, write_json
+
+    csv, toml = table
+    est = tmp_path / "est.json"
+    with Outputs("estimate") as o:
+        write_json(o.staging(o.file(est, option="--json")), {"delta": 0.105})
+    before = est.read_bytes()
+    code, _, err = run_cli(["iso230", str(csv), "-c", str(toml), "--json", str(est)])
+    assert code == 2 and err.count("\n") == 1, err
+    assert f"--json {est}: an existing file written by 'drivelash estimate', not by this command" in err
+    assert "--force" in err and est.read_bytes() == before
+    own = tmp_path / "iso.json"
+    for _ in range(2):  # negative control: the same command replaces its own output
+        code, _, err = run_cli(["iso230", str(csv), "-c", str(toml), "--json", str(own)])
+        assert code == 0, err
+    assert json.loads(own.read_text())["generator"].endswith(" iso230")
+    code, _, err = run_cli(["iso230", str(csv), "-c", str(toml), "--json", str(est), "--force"])
+    assert code == 0, err

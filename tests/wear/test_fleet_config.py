@@ -208,7 +208,9 @@ def test_threshold_must_be_a_number_not_a_bool_or_string(tmp_path, value, key):
     assert "\n" not in msg and msg.startswith(str(p.resolve()))
     assert f"table [[axis]] #1 (id 'M01/X'), key '{key}': must be a number" in msg, msg
     # negative control: an integer and a float are numbers
-    for ok, rad in (("1", 1.0), ("0.08", 0.08)):
+    # (the integer is in mm: an integer number of rad is no backlash threshold, see
+    # test_threshold_in_the_wrong_unit_is_refused)
+    for ok, rad in (('1\nthreshold_unit = "mm"\ntransmission = 10.0', 0.1), ("0.08", 0.08)):
         q = _write(tmp_path, GOOD.replace("threshold = 0.2\n", f"threshold = {ok}\n", 1))
         assert load_fleet(q).axes[0].threshold_rad == rad
 
@@ -228,3 +230,33 @@ def test_a_glob_matching_no_file_is_a_warning_naming_axis_and_pattern(tmp_path):
     assert len(rep.warnings) == len(f.axes)
     a = f.axes[0]
     assert rep.warnings[0] == f"{p.resolve()}: axis 'M01/X': 'recordings' = {a.recordings!r} matches no file"
+
+
+def test_fleet_file_with_utf8_bom_is_read(tmp_path):
+    p = _write(tmp_path, GOOD)
+    p.write_bytes(b"\xef\xbb\xbf" + p.read_bytes())
+    assert [a.name for a in load_fleet(p).axes] == ["M01/X", "M01/Y"]
+
+
+@pytest.mark.parametrize(
+    ("threshold", "expect"),
+    [
+        ("86.46", "key 'threshold': 86.46 rad (4954°) at the load is no backlash threshold (limit 0.5 rad);"
+         " the key is in rad — 86.46 mrad is threshold = 0.08646"),
+        ("0.5", "key 'threshold': 0.5 rad (28.65°) at the load is no backlash threshold"),
+        ('50\nthreshold_unit = "mm"\ntransmission = 1.59', "key 'threshold': 50 mm is 31.45 rad at the load"
+         " (transmission 1.59 mm/rad), no backlash threshold (limit 0.5 rad); the key is in mm — 50 µm is"
+         " threshold = 0.05"),
+    ],
+)  # fmt: skip
+def test_threshold_in_the_wrong_unit_is_refused(tmp_path, threshold, expect):
+    """Finding: `threshold = 86.46` (meant mrad) was 86 460 mrad, and the axis never alarmed."""
+    p = _write(tmp_path, GOOD.replace("threshold = 0.2\n", f"threshold = {threshold}\n", 1))
+    with pytest.raises(ConfigError) as exc:
+        load_fleet(p)
+    msg = str(exc.value)
+    assert "\n" not in msg and msg.startswith(f"{p.resolve()}: table [[axis]] #1 (id 'M01/X'), {expect}"), msg
+    # negative controls: just below the limit, in rad and in mm
+    for ok, rad in (("0.499", 0.499), ('0.79\nthreshold_unit = "mm"\ntransmission = 1.59', 0.79 / 1.59)):
+        q = _write(tmp_path, GOOD.replace("threshold = 0.2\n", f"threshold = {ok}\n", 1))
+        assert load_fleet(q).axes[0].threshold_rad == pytest.approx(rad)

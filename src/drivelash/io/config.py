@@ -691,16 +691,57 @@ def parse_file(data: Any, model: type[F], source: str = "<config>") -> F:
     return cfg
 
 
-def loads_file(text: str, model: type[F], source: str = "<config>") -> F:
-    """Parse configuration TOML text against a file model (see :func:`load_file`)."""
+def loads_toml(text: str, source: str) -> dict[str, Any]:
+    """Parse TOML text; a syntax error is one :class:`ConfigError` line naming ``source``."""
     try:
-        data = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         msg = str(exc).splitlines()[0] if str(exc) else "syntax error"
         raise ConfigError(f"{source}: TOML syntax error: {msg}") from None
     except (ValueError, TypeError, RecursionError) as exc:
         raise ConfigError(f"{source}: TOML syntax error ({type(exc).__name__})") from None
-    return parse_file(data, model, source)
+
+
+def read_toml(path: str | Path, kind: str = "configuration") -> dict[str, Any]:
+    """The TOML document of a file: the one reader of every configuration file.
+
+    The text is decoded as UTF-8 with an optional byte-order mark (``utf-8-sig``: Windows
+    editors save one, and a BOM is accepted on CSV recordings too).
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.toml`` file.
+    kind : str
+        What the file is, for messages (``"configuration"``, ``"fleet"``).
+
+    Raises
+    ------
+    ConfigError
+        Missing/unreadable file, a directory, not UTF-8, TOML syntax — one line.
+    """
+    p = Path(path)
+    try:
+        raw = p.read_bytes()
+    except FileNotFoundError:
+        raise ConfigError(f"{p}: no such {kind} file") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{p}: is a directory, not a {kind} file") from None
+    except OSError as exc:
+        raise ConfigError(f"{p}: cannot read ({exc.strerror or exc})") from None
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise ConfigError(
+            f"{p}: not a UTF-8 text file (byte 0x{raw[exc.start]:02X} at offset {exc.start};"
+            f" is this a TOML {kind} file?)"
+        ) from None
+    return loads_toml(text, str(p))
+
+
+def loads_file(text: str, model: type[F], source: str = "<config>") -> F:
+    """Parse configuration TOML text against a file model (see :func:`load_file`)."""
+    return parse_file(loads_toml(text.removeprefix("\ufeff"), source), model, source)
 
 
 def load_file(path: str | Path, model: type[F]) -> F:
@@ -709,7 +750,7 @@ def load_file(path: str | Path, model: type[F]) -> F:
     Parameters
     ----------
     path : str or Path
-        The ``.toml`` file.
+        The ``.toml`` file (UTF-8, a byte-order mark allowed; :func:`read_toml`).
     model : type
         A :class:`ConfigFile` subclass.
 
@@ -720,20 +761,7 @@ def load_file(path: str | Path, model: type[F]) -> F:
         closest valid key), missing key, wrong type or a value the parameter dataclass
         refuses — always one line.
     """
-    p = Path(path)
-    try:
-        raw = p.read_bytes()
-    except FileNotFoundError:
-        raise ConfigError(f"{p}: no such configuration file") from None
-    except IsADirectoryError:
-        raise ConfigError(f"{p}: is a directory, not a configuration file") from None
-    except OSError as exc:
-        raise ConfigError(f"{p}: cannot read ({exc.strerror or exc})") from None
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError:
-        raise ConfigError(f"{p}: not a UTF-8 text file (is this a TOML configuration?)") from None
-    return loads_file(text, model, source=str(p))
+    return parse_file(read_toml(path), model, str(Path(path)))
 
 
 def parse_config(data: dict[str, Any], source: str = "<config>") -> DriveConfig:

@@ -102,8 +102,36 @@ def _sniff(head: bytes) -> str:
         head.decode("utf-8")
     except UnicodeDecodeError as exc:
         if exc.start < len(head) - 4:  # not just a multi-byte char cut at the end
-            return "binary"
+            return "cp1252" if _windows_text(head) else "binary"
     return "text"
+
+
+def _windows_text(head: bytes) -> bool:
+    """Whether ``head`` reads as Windows-1252 text: every byte defined there, no control
+    character but tab, CR and LF (binary data has them; a spreadsheet's "CSV" does not)."""
+    try:
+        text = head.decode("cp1252")
+    except UnicodeDecodeError:
+        return False
+    return not any(ord(ch) < 32 and ch not in "\t\r\n" for ch in text)
+
+
+def not_utf8_problem(head: bytes) -> str:
+    """What is wrong with text that is not UTF-8: the first offending byte, its line and column
+    (1-based) and the character it is in Windows-1252 (a spreadsheet's "CSV" on Windows)."""
+    try:
+        head.decode("utf-8")
+        return "not UTF-8 text: save it as CSV UTF-8"
+    except UnicodeDecodeError as exc:
+        at = exc.start
+    line = head.count(b"\n", 0, at) + 1
+    col = at - (head.rfind(b"\n", 0, at) + 1) + 1
+    byte = head[at]
+    try:
+        ch = f" — Windows-1252 '{bytes([byte]).decode('cp1252')}'?"
+    except UnicodeDecodeError:
+        ch = ""
+    return f"not UTF-8 text (byte 0x{byte:02X} at line {line}, position {col}{ch}): save it as CSV UTF-8"
 
 
 def detect_format(path: str | Path) -> str:
@@ -141,6 +169,7 @@ def detect_format(path: str | Path) -> str:
     described = {
         "text": "text (CSV?)",
         "binary": "unrecognised binary data",
+        "cp1252": "text (not UTF-8)",
         "utf16": 'UTF-16 text (a spreadsheet\'s "Unicode Text"): save it as CSV UTF-8',
         "parquet": "Parquet",
         "hdf5": "HDF5",
@@ -148,6 +177,8 @@ def detect_format(path: str | Path) -> str:
         "mat73": "MATLAB v7.3",
     }
     if expected == "csv":
+        if kind == "cp1252":
+            raise DataError(not_utf8_problem(head), path=str(p))
         if kind != "text":
             raise DataError(
                 f"wrong file type: extension {ext} but the content is {described[kind]}", path=str(p)

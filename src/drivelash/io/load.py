@@ -446,35 +446,54 @@ def in_python_terms(exc: DataError) -> DataError:
     return exc
 
 
-#: Longest plausible sample period of a drive recording [s] (docs/assumptions.md).
-MAX_PLAUSIBLE_T_S = 10.0
+#: Sample period [s] from which a recording is refused as implausible, its time unit declared
+#: or not (docs/assumptions.md): the slowest series the project reads are ISO 230-2 time series
+#: at 10 Hz (0.1 s); drive recordings run at 100 Hz–10 kHz. Time stamps in ms read as seconds
+#: at ≤ 1 kHz (EMPS 1 kHz, KUKA 250 Hz) give 1–4 s.
+MAX_PLAUSIBLE_T_S = 1.0
 
 
 def _check_plausible_period(
-    med: float, integral: bool, path: str, column: str, sampling: SamplingSection
+    med: float,
+    path: str,
+    column: str,
+    sampling: SamplingSection,
+    declared: str | None = None,
 ) -> None:
     """Refuse a sample period that betrays time stamps in ns/µs/ms read as seconds.
 
-    Rules: a median period above :data:`MAX_PLAUSIBLE_T_S`, or an integer time column
-    whose median period is a whole number of at least one second (ms stamps at 1 kHz) —
-    unless the time column's unit is declared in ``[columns]``.
+    Rule: a median period of at least :data:`MAX_PLAUSIBLE_T_S` — also when the time
+    column's unit is declared in ``[columns]`` (``declared``): a declared unit is checked
+    against the data like an assumed one. (This replaces the former rules — above 10 s, or a
+    whole number of seconds in an integer column — which both pass 4 s of KUKA's ms stamps.)
     The message names the unit that gives a period closest to 1 ms.
     """
-    period = med / _TO_SI[sampling.time_unit]  # in the file's unit
-    if not (med > MAX_PLAUSIBLE_T_S or (integral and med >= 1.0 and med == round(med))):
+    if not med >= MAX_PLAUSIBLE_T_S:
         return
+    unit = declared or sampling.time_unit
+    period = med / _TO_SI[unit]  # in the file's unit
     cands = [
         (u, period * f) for u, f in (("ns", 1e-9), ("us", 1e-6), ("ms", 1e-3)) if 1e-7 <= period * f <= 1.0
     ]
     if cands:
         u, v = min(cands, key=lambda c: abs(math.log10(c[1]) + 3.0))
-        hint = (
-            f'time stamps in {u}? that gives {v:.6g} s; set [sampling] time_unit = "{u}"'
-            f" or unit = \"{u}\" in the [columns] entry of '{column}'"
-        )
+        if declared:
+            hint = (
+                f"the [columns] entry of '{column}' declares unit = \"{declared}\"; time stamps in {u}?"
+                f' that gives {v:.6g} s; set unit = "{u}" there'
+            )
+        else:
+            hint = (
+                f'time stamps in {u}? that gives {v:.6g} s; set [sampling] time_unit = "{u}"'
+                f" or unit = \"{u}\" in the [columns] entry of '{column}'"
+            )
     else:
         hint = "check the time column and its unit ([sampling] time_unit or [columns] unit)"
-    raise DataError(f"implausible sample period {med:.6g} s: {hint}", path=path, column=column)
+    raise DataError(
+        f"implausible sample period {med:.6g} s (recordings are sampled at ≥ 10 Hz): {hint}",
+        path=path,
+        column=column,
+    )
 
 
 def _check_time(
@@ -483,26 +502,23 @@ def _check_time(
     column: str,
     sampling: SamplingSection,
     warnings: list[str],
-    integral: bool | Callable[[], bool] = False,
+    declared: str | None = None,
 ) -> np.ndarray | None:
     """Validate the time column; return a uniform grid to resample onto, or None.
 
-    ``integral``: the time column holds whole numbers in the file (for the plausibility rule),
-    or a function that tells (called only when a step reaches 1 s).
+    ``declared``: the time column's unit as declared in ``[columns]`` (for the message of the
+    plausibility rule, :func:`_check_plausible_period`).
     """
     if t.size < 3:
         raise DataError(f"only {t.size} sample(s); need at least 3", path=path, column=column)
     from drivelash.io._unitcheck import step_scan
 
     first_bad, lo, hi = step_scan(np.ascontiguousarray(t, dtype=np.float64))
-    if first_bad < 0 and hi <= MAX_PLAUSIBLE_T_S and (hi - lo) / lo <= sampling.tolerance:
+    if first_bad < 0 and hi < MAX_PLAUSIBLE_T_S and (hi - lo) / lo <= sampling.tolerance:
         # every step lies in [lo, hi] and so does the median: no step deviates from it by more
-        # than (hi − lo)/lo (rounding is monotone), and no median can be implausible unless a
-        # step reaches 1 s in a column of whole numbers — the rules below would pass, exactly
-        if hi < 1.0 or not (integral() if callable(integral) else integral):
-            return None
-    if callable(integral):
-        integral = integral()
+        # than (hi − lo)/lo (rounding is monotone), and no median reaches MAX_PLAUSIBLE_T_S —
+        # the rules below would pass, exactly
+        return None
     steps = np.diff(t)
     if np.any(steps <= 0):
         i = int(np.flatnonzero(steps <= 0)[0])
@@ -511,7 +527,7 @@ def _check_time(
             f"{what}: t={float(t[i + 1])!r} after t={float(t[i])!r}", path=path, column=column, row=i + 1
         )
     med = float(np.median(steps))
-    _check_plausible_period(med, integral, path, column, sampling)
+    _check_plausible_period(med, path, column, sampling, declared)
     dev = np.abs(steps - med) / med
     if np.any(dev > sampling.tolerance):
         i = int(np.flatnonzero(dev > sampling.tolerance)[0])
@@ -618,6 +634,41 @@ def check_unit_ratio(ratio: float, side: str, path: str, column: str, row: int) 
             )
 
 
+#: Positions that share one scale on a prismatic axis (m of carriage travel): the motor and load
+#: positions, and a mapped reference (a Trace name ending in ``_ref``, e.g. EMPS ``qg``).
+_LINEAR_POSITIONS = ("theta_m", "theta_l")
+
+
+def check_position_spans(
+    spans: Mapping[str, float], kinds: Mapping[str, str | None], origin: Mapping[str, str], path: str
+) -> None:
+    """Refuse two mapped linear positions whose spans differ by a unit factor (10³ or 10⁶).
+
+    On a prismatic axis the motor position (in m of carriage travel), the load position and a
+    mapped reference all follow the same motion: their spans (max − min, SI) agree up to the
+    tracking error, backlash and deflection — far from a factor 1000. Only columns whose
+    declared unit is a length are compared (an angle pair differs by the gear ratio).
+    """
+    pos = [
+        n
+        for n in spans
+        if kinds.get(n) == "length" and (n in _LINEAR_POSITIONS or n.endswith("_ref"))
+        and spans[n] > 0 and math.isfinite(spans[n])
+    ]  # fmt: skip
+    for i, a in enumerate(pos):
+        for b in pos[i + 1 :]:
+            ratio = spans[a] / spans[b]
+            for factor in (1e3, 1e-3, 1e6, 1e-6):
+                if abs(ratio / factor - 1) < UNIT_FACTOR_TOLERANCE:
+                    raise DataError(
+                        f"implausible units: {a} spans {ratio:.4g}× {b} (column '{origin.get(b, b)}'),"
+                        " both positions of one linear axis: a position in mm declared as m (or m as"
+                        " mm)? — fix the unit in [columns]",
+                        path=path,
+                        column=origin.get(a, a),
+                    )
+
+
 @dataclass(frozen=True)
 class MappedTable:
     """Columns of a table that is not a time series, mapped and converted to SI.
@@ -685,7 +736,8 @@ def load_table(
     _check_finite(cols, origin, str(p))
     units = {cm.column: cm.unit for cm in (cmap or {}).values()}
     meta: dict[str, Any] = dict(table.meta)
-    meta.update({"source": str(p), "format": table.fmt, "warnings": warnings})
+    # the reader's warnings (a skipped preamble, …) first, then the mapping's — as load_trace
+    meta.update({"source": str(p), "format": table.fmt, "warnings": [*meta.get("warnings", []), *warnings]})
     return MappedTable(cols, kinds, units, origin, meta)
 
 
@@ -811,13 +863,8 @@ def trace_from_table(
     down = _sample_down(cols, max_rate_hz) if max_rate_hz is not None else None
     if down is not None:
         cols = {k: np.ascontiguousarray(v[:: down["k"]]) for k, v in cols.items()}
-    t_src = table.columns.get(origin.get("t", ""))
-    t_declared = cmap is not None and any(cm.column == "t" for cm in cmap.values())
-
-    def integral() -> bool:
-        return not t_declared and t_src is not None and bool(np.all(t_src == np.round(t_src)))
-
-    grid = _check_time(cols["t"], spath, origin.get("t", "t"), sampling, warnings, integral)
+    t_unit = next((cm.unit for cm in (cmap or {}).values() if cm.column == "t"), None)
+    grid = _check_time(cols["t"], spath, origin.get("t", "t"), sampling, warnings, t_unit)
     if grid is not None:
         t_old = cols["t"]
         cols = {k: (grid if k == "t" else np.interp(grid, t_old, v)) for k, v in cols.items()}
@@ -828,6 +875,7 @@ def trace_from_table(
         _check_signals(
             {k: v for k, v in cols.items() if not k.startswith("torque")}, origin, spath, signal_names
         )
+    check_position_spans({k: float(np.ptp(v)) for k, v in cols.items()}, kinds, origin, spath)
     _check_units(cols, origin, spath)
 
     prismatic = kinds.get("theta_m") == "length" or kinds.get("omega_m") == "velocity"

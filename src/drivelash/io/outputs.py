@@ -80,6 +80,8 @@ __all__ = [
     "final_suffix",
     "is_own_output",
     "is_staging_path",
+    "output_command",
+    "signature",
     "jsonable",
     "write_json",
 ]
@@ -108,6 +110,34 @@ _STAGE_RE = re.compile(
     r"^\.(?P<name>.+)\.drivelash-(?P<pid>\d+)-(?P<rand>[A-Za-z0-9_]+)\.(?P<kind>part|old)$"
 )
 _HEAD = 8192
+
+#: Staging path → command of the :class:`Outputs` that made it (read by :func:`signature`).
+_STAGED_BY: dict[str, str] = {}
+
+#: Formats whose signature records the command that wrote the file (:func:`signature`);
+#: a file of these kinds that carries only ``drivelash <version>`` was written before the
+#: command was recorded (or by a library call), so a command replaces it only with ``--force``.
+_RECORDS_COMMAND: tuple[str, ...] = (".json", ".html", ".htm", ".png", ".pdf", ".svg")
+
+
+# =========================================================================== signature
+def signature(path: str | Path | None = None) -> str:
+    """The signature to stamp into the output written at ``path``.
+
+    ``drivelash <version> <command>`` for a staging path of an :class:`Outputs` with a
+    command (so a later run knows which command wrote the file), else :data:`GENERATOR`.
+    """
+    if path is not None:
+        cmd = _STAGED_BY.get(os.fspath(path))
+        if cmd:
+            return f"{GENERATOR} {cmd}"
+    return GENERATOR
+
+
+def _command_in(sig: str) -> str:
+    """The command recorded in a signature ``drivelash <version> <command>`` ('' if none)."""
+    parts = sig.strip().split(" ", 2)
+    return parts[2].strip() if len(parts) == 3 and parts[0] == "drivelash" else ""
 
 
 # =========================================================================== JSON
@@ -140,7 +170,7 @@ def jsonable(obj: Any) -> Any:
     raise TypeError(f"not JSON-serialisable: {type(obj).__name__}")
 
 
-def dumps_json(obj: Mapping[str, Any], *, indent: int | None = 2) -> str:
+def dumps_json(obj: Mapping[str, Any], *, indent: int | None = 2, generator: str = GENERATOR) -> str:
     """Strict JSON text of a mapping with ``"generator": "drivelash <version>"`` first.
 
     Non-finite floats become ``null`` (JSON has no NaN/Infinity); numpy types are
@@ -148,7 +178,7 @@ def dumps_json(obj: Mapping[str, Any], *, indent: int | None = 2) -> str:
     """
     if not isinstance(obj, Mapping):
         raise TypeError(f"write_json needs a mapping at the top level, got {type(obj).__name__}")
-    doc = {"generator": GENERATOR, **{k: v for k, v in jsonable(obj).items() if k != "generator"}}
+    doc = {"generator": generator, **{k: v for k, v in jsonable(obj).items() if k != "generator"}}
     return json.dumps(doc, indent=indent, allow_nan=False, ensure_ascii=False) + "\n"
 
 
@@ -165,8 +195,8 @@ def write_json(path: str | Path, obj: Mapping[str, Any], *, indent: int | None =
     indent : int, optional
         Indentation (``None``: one line).
     """
-    text = dumps_json(obj, indent=indent)
     p = Path(path)
+    text = dumps_json(obj, indent=indent, generator=signature(p))
     if is_staging_path(p):
         p.write_text(text, encoding="utf-8")
         return p
@@ -252,34 +282,35 @@ def _head(path: Path, n: int = _HEAD) -> bytes:
         return fh.read(n)
 
 
-def _png_signed(path: Path) -> bool:
+def _png_signature(path: Path) -> str | None:
     with path.open("rb") as fh:
         if fh.read(8) != b"\x89PNG\r\n\x1a\n":
-            return False
+            return None
         while True:
             hdr = fh.read(8)
             if len(hdr) < 8:
-                return False
+                return None
             n, kind = struct.unpack(">I4s", hdr)
             if kind in (b"IDAT", b"IEND"):
-                return False
+                return None
             if kind == b"tEXt" and n < 65536:
                 key, _, value = fh.read(n).partition(b"\x00")
                 if key == b"Software" and value.startswith(b"drivelash"):
-                    return True
+                    return value.decode("latin-1")
                 fh.seek(4, os.SEEK_CUR)
             else:
                 fh.seek(n + 4, os.SEEK_CUR)
 
 
-def _pdf_signed(path: Path) -> bool:
+def _pdf_signature(path: Path) -> str | None:
     size = path.stat().st_size
     with path.open("rb") as fh:
         if fh.read(5) != b"%PDF-":
-            return False
+            return None
         fh.seek(max(0, size - 65536))
         tail = fh.read()
-    return b"/Creator (drivelash" in tail
+    m = re.search(rb"/Creator \((drivelash[^)\\]*)\)", tail)
+    return m[1].decode("latin-1") if m else None
 
 
 def _first_line(path: Path) -> bytes:
@@ -349,40 +380,80 @@ def is_own_output(path: str | Path) -> bool:
 
     Anything else (and anything unreadable) is not ours.
     """
+    return output_command(path) is not None
+
+
+def output_command(path: str | Path) -> str | None:
+    """The command that wrote the drivelash output at ``path``; ``None`` if it is not ours.
+
+    The command is read from the signature ``drivelash <version> <command>`` (JSON
+    ``generator``, HTML meta tag, PNG/PDF/SVG metadata; :func:`signature`) or from the
+    marker file of a directory. ``''``: a drivelash output that does not record its
+    command (an empty directory, a recording, a CNC table, a text table, or a file of the
+    kinds above written before the command was recorded). See :func:`is_own_output`.
+    """
     p = Path(path)
     try:
         if p.is_dir():
-            return (p / DIRECTORY_MARKER).is_file() or not any(p.iterdir())
+            marker = p / DIRECTORY_MARKER
+            if marker.is_file():
+                try:
+                    doc = json.loads(marker.read_text(encoding="utf-8"))
+                except (ValueError, UnicodeDecodeError):
+                    return ""
+                return str(doc.get("command") or "") if isinstance(doc, dict) else ""
+            return "" if not any(p.iterdir()) else None
         if not p.is_file():
-            return False
+            return None
         ext = p.suffix.lower()
+        sig: str | None = None
         if ext == ".json":
-            return re.match(rb'\s*\{\s*"generator"\s*:\s*"drivelash', _head(p, 512)) is not None
-        if ext in (".html", ".htm"):
-            return b'<meta name="generator" content="drivelash' in _head(p)
-        if ext == ".png":
-            return _png_signed(p)
-        if ext == ".pdf":
-            return _pdf_signed(p)
-        if ext == ".svg":
-            return re.search(rb"<dc:creator>\s*<cc:Agent>\s*<dc:title>drivelash", _head(p)) is not None
-        if ext in (".parquet", ".pq"):
-            return _parquet_signed(p)
-        if ext in (".csv", ".txt", ".toml"):
-            return _first_line(p).startswith(b"# drivelash")
-        if ext == ".md":
-            return _first_line(p).startswith(b"<!-- drivelash")
-        if ext in (".h5", ".hdf5", ".hdf"):
-            return _hdf5_signed(p)
-        if ext == ".mat":
-            return _mat_signed(p)
-        if ext == ".ini":
-            return _first_line(p).startswith(b"; drivelash")
-        if ext == ".com":
-            return _com_signed(p)
+            m = re.match(rb'\s*\{\s*"generator"\s*:\s*"(drivelash[^"]*)"', _head(p, 512))
+            sig = m[1].decode("utf-8", "replace") if m else None
+        elif ext in (".html", ".htm"):
+            m = re.search(rb'<meta name="generator" content="(drivelash[^"]*)"', _head(p))
+            sig = m[1].decode("utf-8", "replace") if m else None
+        elif ext == ".png":
+            sig = _png_signature(p)
+        elif ext == ".pdf":
+            sig = _pdf_signature(p)
+        elif ext == ".svg":
+            m = re.search(rb"<dc:creator>\s*<cc:Agent>\s*<dc:title>(drivelash[^<]*)<", _head(p))
+            sig = m[1].decode("utf-8", "replace") if m else None
+        else:
+            return "" if _unrecorded_own(p, ext) else None
+        return None if sig is None else _command_in(sig)
     except OSError:
-        return False
+        return None
+
+
+def _unrecorded_own(p: Path, ext: str) -> bool:
+    """Signature tests of the kinds that do not record the command (see :func:`is_own_output`)."""
+    if ext in (".parquet", ".pq"):
+        return _parquet_signed(p)
+    if ext in (".csv", ".txt", ".toml"):
+        return _first_line(p).startswith(b"# drivelash")
+    if ext == ".md":
+        return _first_line(p).startswith(b"<!-- drivelash")
+    if ext in (".h5", ".hdf5", ".hdf"):
+        return _hdf5_signed(p)
+    if ext == ".mat":
+        return _mat_signed(p)
+    if ext == ".ini":
+        return _first_line(p).startswith(b"; drivelash")
+    if ext == ".com":
+        return _com_signed(p)
     return False
+
+
+def _stamp_html(stage: Path, command: str) -> None:
+    """Record ``command`` in the generator meta tag of a staged HTML report."""
+    text = stage.read_text(encoding="utf-8")
+    old = f'<meta name="generator" content="{GENERATOR}">'
+    head = text[:_HEAD]
+    if old in head:
+        new = f'<meta name="generator" content="{GENERATOR} {command}">'
+        stage.write_text(head.replace(old, new, 1) + text[_HEAD:], encoding="utf-8")
 
 
 # =========================================================================== renames
@@ -584,14 +655,25 @@ class Outputs:
                 raise self._fail(option, raw, f"contains the output of {t.option}")
 
     def _check_existing(self, option: str, raw: Path, target: Path) -> None:
-        if (target.exists() or target.is_symlink()) and not self.force and not is_own_output(target):
-            what = "directory" if target.is_dir() else "file"
-            raise self._fail(
-                option,
-                raw,
-                f"an existing {what} that is not a drivelash output; use --force to replace it"
-                " or choose another path",
+        """An existing target is replaced without ``--force`` only if this command wrote it."""
+        if self.force or not (target.exists() or target.is_symlink()):
+            return
+        what = "directory" if target.is_dir() else "file"
+        owner = output_command(target)
+        if owner is None:
+            problem = f"an existing {what} that is not a drivelash output"
+        elif not self.command or owner == self.command:
+            return
+        elif owner:
+            problem = f"an existing {what} written by 'drivelash {owner}', not by this command"
+        elif target.is_dir() or target.suffix.lower() not in _RECORDS_COMMAND:
+            return  # a kind that never records its command: ours is enough
+        else:
+            problem = (
+                f"an existing drivelash {what} that does not record which command wrote it"
+                " (an older drivelash or a library call)"
             )
+        raise self._fail(option, raw, f"{problem}; use --force to replace it or choose another path")
 
     def file(
         self, path: str | Path | None, *, option: str, kinds: Iterable[str] | None = None
@@ -660,6 +742,8 @@ class Outputs:
         t = self._target(target)
         if t.stage is None:
             t.stage = _new_stage(t.path, t.directory)
+            if self.command and not t.directory:
+                _STAGED_BY[os.fspath(t.stage)] = self.command
         return t.stage
 
     def staged(self, target: str | Path | None) -> bool:
@@ -672,6 +756,7 @@ class Outputs:
         self._done = True
         for t in self._targets:
             if t.stage is not None:
+                _STAGED_BY.pop(os.fspath(t.stage), None)
                 _remove(t.stage)
                 t.stage = None
 
@@ -688,6 +773,9 @@ class Outputs:
                     marker = {"command": self.command or "", "output": t.option}
                     write_json(t.stage / DIRECTORY_MARKER, marker)
                 else:
+                    _STAGED_BY.pop(os.fspath(t.stage), None)
+                    if self.command and final_suffix(t.path) in (".html", ".htm"):
+                        _stamp_html(t.stage, self.command)
                     _fsync_path(t.stage)
             with _locked(t.path.parent for t in staged):
                 for t in staged:  # the target may have changed since validation

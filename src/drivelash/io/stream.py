@@ -207,6 +207,7 @@ class TraceStream:
             sampling = sampling.model_copy(update={"resample": resample})
         self._sampling = sampling
         self._mapping = mapping
+        self._t_unit = next((cm.unit for cm in (cmap or {}).values() if cm.column == "t"), None)
         self._required = list(required)
         self._check_saturation = check_saturation
         self._whole: Trace | None = None
@@ -320,7 +321,6 @@ class TraceStream:
         step_vals: dict[float, int] = {}
         all_steps: list[np.ndarray] | None = None
         t_last: float | None = None
-        t_integral = True
         bad_time: tuple[int, float, float] | None = None
         n = self.n_samples
         if n < 3:
@@ -356,9 +356,6 @@ class TraceStream:
             if any(stats[c.name].first_bad is not None for c in plan if c.name not in self._unread):
                 continue
             t = self._t_chunk(row, m, raw)
-            tc = self._t_col()
-            if tc is not None and t_integral:
-                t_integral = bool(np.all(raw[tc.source] == np.round(raw[tc.source])))
             tt = t if t_last is None else np.concatenate(([t_last], t))
             steps = np.diff(tt)
             if bad_time is None and np.any(steps <= 0):
@@ -407,9 +404,7 @@ class TraceStream:
         else:
             med = _median_of_counts(step_vals)
             dev_max = max(abs(v - med) / med for v in step_vals)
-        tc = self._t_col()
-        integral = t_integral and tc is not None and not tc.affine  # a unit declared in [columns] is trusted
-        _check_plausible_period(med, integral, spath, tcol, self._sampling)
+        _check_plausible_period(med, spath, tcol, self._sampling, self._t_unit)
         tol = self._sampling.tolerance
         if (dev_max is None or dev_max > tol) and self._first_irregular(med, tol) is not None:
             if self._sampling.resample:  # resampling needs the whole recording
@@ -460,6 +455,7 @@ class TraceStream:
             SATURATION_FRACTION,
             SATURATION_MIN_RUN,
             SIGNAL_COLUMNS,
+            check_position_spans,
             check_unit_ratio,
         )
 
@@ -485,7 +481,17 @@ class TraceStream:
             and (self._check_saturation or not n.startswith("torque"))
         ]  # fmt: skip
         pairs = [s for s in ("m", "l") if f"theta_{s}" in plan and f"omega_{s}" in plan]
+
+        def spans() -> None:  # after the saturation checks, before the velocity check (the loader's order)
+            check_position_spans(
+                {n: stats[n].hi - stats[n].lo for n in plan if n != "t" and n in stats},
+                {n: c.kind for n, c in plan.items()},
+                {n: c.source for n, c in plan.items()},
+                spath,
+            )
+
         if not sat and not pairs:
+            spans()
             return
         k = max(1, min(25, self.n_samples // 50))
         sat_state = {
@@ -512,6 +518,7 @@ class TraceStream:
                         column=plan[n].source,
                         row=int(start),
                     )
+        spans()
         for s, acc in units.items():
             acc.finish()
             ratio, row = acc.ratio()

@@ -28,13 +28,12 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from drivelash.errors import ConfigError, ParameterError
-from drivelash.io.config import DriveConfig, parse_config
+from drivelash.io.config import DriveConfig, parse_config, read_toml
 from drivelash.iso230.compare import Transmission
 from drivelash.iso230.dwell import DwellParams
 from drivelash.iso230.inputs import Iso230Params
@@ -109,19 +108,7 @@ def load_iso230_config(path: str | Path | None) -> Iso230Config:
         return Iso230Config(None, Iso230Params(), DwellParams(), None, "<defaults>")
     p = Path(path)
     src = str(p)
-    try:
-        text = p.read_bytes().decode("utf-8")
-    except FileNotFoundError:
-        raise ConfigError(f"{p}: no such configuration file") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{p}: not a UTF-8 text file (is this a TOML configuration?)") from None
-    except OSError as exc:
-        raise ConfigError(f"{p}: cannot read ({exc.strerror or exc})") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        msg = str(exc).splitlines()[0] if str(exc) else "syntax error"
-        raise ConfigError(f"{src}: TOML syntax error: {msg}") from None
+    data = read_toml(p)
     known = [*_DRIVE_TABLES, *_TABLES]
     for key in data:
         if key not in known:

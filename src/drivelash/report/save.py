@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from drivelash.io.outputs import GENERATOR, PLOT_EXTENSIONS, atomic_write, final_suffix, is_staging_path
+from drivelash.io.outputs import PLOT_EXTENSIONS, atomic_write, final_suffix, is_staging_path, signature
 
 #: The metadata key each format carries the signature in (see ``io.outputs.is_own_output``).
 _META_KEY = {".png": "Software", ".pdf": "Creator", ".svg": "Creator"}
@@ -15,7 +15,8 @@ def save_figure(fig: Any, path: str | Path, *, dpi: int = 110, **kwargs: Any) ->
     """Save ``fig`` to ``path`` (a staging path or a plain one) with our signature.
 
     The format comes from the final name (so ``Outputs.staging`` paths work); the
-    signature ``drivelash <version>`` goes into the PNG ``Software`` text chunk, the PDF
+    signature ``drivelash <version> <command>`` (:func:`~drivelash.io.outputs.signature`)
+    goes into the PNG ``Software`` text chunk, the PDF
     ``Creator`` or the SVG ``dc:creator``, which is how a later run recognises the file
     as its own output.
 
@@ -34,7 +35,7 @@ def save_figure(fig: Any, path: str | Path, *, dpi: int = 110, **kwargs: Any) ->
     ext = final_suffix(p)
     if ext not in PLOT_EXTENSIONS:
         raise ValueError(f"{p}: unsupported plot extension {ext!r} (use {', '.join(PLOT_EXTENSIONS)})")
-    meta = {_META_KEY[ext]: GENERATOR}
+    meta = {_META_KEY[ext]: signature(p)}
     if is_staging_path(p):
         fig.savefig(p, format=ext[1:], dpi=dpi, metadata=meta, **kwargs)
         return p

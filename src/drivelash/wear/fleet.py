@@ -41,7 +41,6 @@ import hashlib
 import json
 import math
 import re
-import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
@@ -49,9 +48,36 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from drivelash.errors import ConfigError, DrivelashError
-from drivelash.io.config import DriveConfig, load_config
+from drivelash.io.config import DriveConfig, load_config, read_toml
 
 __all__ = ["AxisSpec", "Fleet", "TimeSpec", "load_fleet", "parse_fleet", "time_spec_hash"]
+
+
+#: Largest maintenance threshold on the backlash δ [rad at the load] taken as meant
+#: (docs/assumptions.md): the project's thresholds are 0.07–0.2 rad (simulated fleets:
+#: δ₀ + growth ≤ 0.2 rad); 0.5 rad (29°) is no backlash of a drive train, while a threshold
+#: written in mrad (86.46 for 0.08646 rad) lands far above it.
+MAX_THRESHOLD_RAD = 0.5
+
+
+def _threshold_slip(a: AxisSection) -> str | None:
+    """Why ``a.threshold`` looks like a unit slip (None: plausible)."""
+    if a.threshold_unit == "rad":
+        if a.threshold < MAX_THRESHOLD_RAD:
+            return None
+        return (
+            f"{a.threshold:g} rad ({math.degrees(a.threshold):.4g}°) at the load is no backlash threshold"
+            f" (limit {MAX_THRESHOLD_RAD:g} rad); the key is in rad — {a.threshold:g} mrad is"
+            f" threshold = {a.threshold * 1e-3:.6g}"
+        )
+    rad = a.threshold / float(a.transmission or 1.0)
+    if rad < MAX_THRESHOLD_RAD:
+        return None
+    return (
+        f"{a.threshold:g} mm is {rad:.4g} rad at the load (transmission {a.transmission:g} mm/rad),"
+        f" no backlash threshold (limit {MAX_THRESHOLD_RAD:g} rad); the key is in mm — {a.threshold:g} µm"
+        f" is threshold = {a.threshold * 1e-3:.6g}"
+    )
 
 
 class _Strict(BaseModel):
@@ -334,6 +360,9 @@ def parse_fleet(data: dict[str, Any], path: Path) -> Fleet:
         if a.id in seen:
             raise ConfigError(f"{src}: table {table}, key 'id': duplicate of [[axis]] #{seen[a.id] + 1}")
         seen[a.id] = k
+        slip = _threshold_slip(a)
+        if slip:
+            raise ConfigError(f"{src}: table {table}, key 'threshold': {slip}")
         spec = a.time or doc.fleet.time
         if spec is None:
             raise ConfigError(f"{src}: table {table}, key 'time': missing (and no [fleet] time default)")
@@ -377,19 +406,5 @@ def load_fleet(path: str | Path) -> Fleet:
         configuration — one line naming file, table and key.
     """
     p = Path(path)
-    try:
-        text = p.read_bytes().decode("utf-8")
-    except FileNotFoundError:
-        raise ConfigError(f"{p}: no such fleet file") from None
-    except IsADirectoryError:
-        raise ConfigError(f"{p}: is a directory, not a fleet TOML file") from None
-    except OSError as exc:
-        raise ConfigError(f"{p}: cannot read ({exc.strerror or exc})") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{p}: not a UTF-8 text file (is this a fleet TOML?)") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        msg = str(exc).splitlines()[0] if str(exc) else "syntax error"
-        raise ConfigError(f"{p}: TOML syntax error: {msg}") from None
+    data = read_toml(p, "fleet")
     return parse_fleet(data, p.resolve())
