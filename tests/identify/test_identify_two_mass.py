@@ -438,3 +438,21 @@ def test_a_gear_ratio_the_positions_contradict_is_named(bench_0c, N):
     from drivelash.estimation.identify_two_mass import check_gear_ratio
 
     check_gear_ratio(bench_0c["theta_m"], bench_0c["theta_l"], 1.0)  # no error with the true N
+
+
+@pytest.mark.parametrize("equations", ["motor", "both"])
+def test_an_empty_load_encoder_channel_is_a_data_error(bench_0c, equations):
+    """θ_l = 0 at every sample next to a moving motor (a controller's row for an axis without a
+    secondary encoder): before, ``equations = "motor"`` raised numpy's LinAlgError from the grid
+    start (the load equation's Gram matrix is all zeros) — now one DataError naming the column.
+    Negative control: a constant *non-zero* θ_l (a still load reading its position) is a verdict,
+    not an error, in both equation sets (before: the same LinAlgError with ``"motor"``)."""
+    from drivelash.errors import DataError
+
+    empty = bench_0c.select([c for c in bench_0c.names if c != "omega_l"])
+    empty = empty.with_columns({"theta_l": np.zeros(len(bench_0c))})
+    with pytest.raises(DataError, match=r"column 'theta_l'.*θ_l is 0 at every sample.*no load encoder"):
+        identify_two_mass(empty, 1.0, equations=equations)
+    still = empty.with_columns({"theta_l": np.full(len(bench_0c), 0.3)})
+    r = identify_two_mass(still, 1.0, equations=equations)
+    assert not r.backlash_visible and not r["delta"].identifiable and r.reason

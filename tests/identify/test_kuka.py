@@ -107,3 +107,23 @@ def test_lost_motion_regression_axis1_bounds_the_backlash():
         assert 2.5e-3 <= r["tau"] <= 3.5e-3 and r["r2_timing"] >= 0.95, (rec, r)
         assert r["delta_lo"] < r["delta"] < r["delta_hi"] < 1e-4, (rec, r)
     assert mod.lost_motion("B", 3)["delta_hi"] < 0.0
+
+
+def test_axis_without_secondary_encoder_is_one_line_data_error(tmp_path, capsys):
+    """Rows 4-6 of the KUKA files have no secondary encoder (θ_l ≡ 0, README there): before,
+    ``identify --model two-mass`` and ``estimate --identify`` ended in numpy's LinAlgError
+    (exit 1, a traceback); now both exit 2 with one line naming the file and the column."""
+    from cli_runner import run_in_process
+
+    mat = shared_data("kuka-kr300", "rec_B.mat")
+    text = (REPO / "examples" / "kuka" / "axis1.toml").read_text(encoding="utf-8").replace("(1,:)", "(4,:)")
+    cfg = tmp_path / "axis4.toml"
+    cfg.write_text(text, encoding="utf-8")
+    for argv in (["identify", str(mat), "-c", str(cfg), "--model", "two-mass"],
+                 ["estimate", str(mat), "-c", str(cfg), "--identify"]):  # fmt: skip
+        code, out, err = run_in_process(argv, capsys)
+        assert code == 2, (argv, err)
+        lines = err.strip().splitlines()
+        assert len(lines) == 1 and "Traceback" not in err, err
+        assert str(mat) in lines[0] and "rec.act_pos_se_deg(4,:) (theta_l)" in lines[0], lines[0]
+        assert "no load encoder" in lines[0]

@@ -320,6 +320,40 @@ def check_gear_ratio(th_m: np.ndarray, th_l: np.ndarray, N: float, src: Any = No
         )
 
 
+def source_column(trace: Trace, name: str) -> str:
+    """The recording's own name of Trace column ``name`` (``[columns]`` mapping), with the Trace
+    name beside it when they differ: ``"rec.act_pos_se_deg(4,:) (theta_l)"``."""
+    for src, cm in (trace.meta.get("mapping") or {}).items():
+        if isinstance(cm, dict) and cm.get("column") == name and src != name:
+            return f"{src} ({name})"
+    return name
+
+
+def check_load_encoder(th_m: np.ndarray, th_l: np.ndarray, N: float, trace: Trace) -> None:
+    """Refuse a load-side position that is 0 at every sample while the motor moves.
+
+    A still load reads its own position — constant, but where the load stands. A column that is
+    exactly 0 at every sample next to a moving motor is an empty channel: a controller records
+    zeros for an axis without a secondary encoder (the KUKA recordings' rows 4–6). Read as a
+    still load it would give "no contact, δ ≥ the motor's whole travel" — a gap the size of the
+    motion, which no gear has. A constant non-zero θ_l stays a verdict (motion inside the gap).
+
+    Raises
+    ------
+    DataError
+        θ_l ≡ 0 and θ_m not constant, naming the file and the column.
+    """
+    if th_l.size == 0 or np.any(th_l != 0.0) or not np.ptp(th_m) > 0.0:
+        return
+    raise DataError(
+        f"θ_l is 0 at every sample while the motor travelled {np.ptp(th_m) / N:.4g} rad (load side): "
+        "no load encoder signal in this column (a still load reads its position, not an empty "
+        "channel) — the two-mass model needs a load-side encoder; map one, or use --model rigid",
+        path=trace.meta.get("source"),
+        column=source_column(trace, "theta_l"),
+    )
+
+
 def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> WindowData:
     """Preprocess a two-mass recording into :class:`WindowData`.
 
@@ -343,6 +377,7 @@ def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> Window
     M = max(2, int(round(window_s / T_s)))
     n = len(trace)
     th_m, th_l, u = trace["theta_m"], trace["theta_l"], trace["torque_m"]
+    check_load_encoder(th_m, th_l, N, trace)
     check_gear_ratio(th_m, th_l, N, src)
     derived = []
     vel = {}
@@ -790,7 +825,10 @@ def grid_start(
         Ah = H[:, cols][:, :, cols]
         bh = H[:, cols, y]
         reg = 1e-12 * np.trace(Ah, axis1=1, axis2=2)[:, None, None] / len(cols) * np.eye(len(cols))
-        beta = np.linalg.solve(Ah + reg, bh[..., None])[..., 0]
+        try:
+            beta = np.linalg.solve(Ah + reg, bh[..., None])[..., 0]
+        except np.linalg.LinAlgError:  # a pair whose columns are all zero: minimum-norm solution
+            beta = np.einsum("pij,pj->pi", np.linalg.pinv(Ah + reg), bh)
         return H[:, y, y] - np.einsum("pi,pi->p", bh, beta), beta
 
     Hm, Hl = batched(Gm), batched(Gl)
@@ -799,8 +837,11 @@ def grid_start(
     else:  # offset given: no constant column (θ4 = 0, u0 put back below)
         sse_m, beta_m = sse(Hm, [0, 1, 2, 8, 9], 6)
         beta_m = np.insert(beta_m, 3, 0.0, axis=1)
-    sse_l, beta_l = sse(Hl, [8, 9, 4, 5], 7)
     use_l = equations == "both"
+    if use_l:
+        sse_l, beta_l = sse(Hl, [8, 9, 4, 5], 7)
+    else:  # the load equation is not fitted: no load windows may be usable at all
+        sse_l, beta_l = np.zeros(A.size), np.zeros((A.size, 4))
     valid = (sse_m > 0) & ((sse_l > 0) | (not use_l))
     obj = np.full(A.size, np.inf)
     obj[valid] = nm * np.log(sse_m[valid]) + (nl * np.log(sse_l[valid]) if use_l else 0.0)
@@ -1275,6 +1316,20 @@ def identify_two_mass(
     """
     if equations not in ("both", "motor"):
         raise ParameterError("identification", "equations", f"must be 'both' or 'motor', got {equations!r}")
+    try:
+        return _identify_two_mass(trace, N, window_s, equations, fit_delay, torque_offset)
+    except np.linalg.LinAlgError as exc:  # a degenerate recording the checks above did not name
+        raise DataError(
+            f"two-mass identification failed: the recording does not determine the model ({exc}: "
+            "its signals are linearly dependent — a constant or empty column, or no motion)",
+            path=trace.meta.get("source"),
+        ) from None
+
+
+def _identify_two_mass(
+    trace: Trace, N: float, window_s: float, equations: str, fit_delay: bool, torque_offset: float | None
+) -> DriveIdentification:
+    """Body of :func:`identify_two_mass` (arguments checked)."""
     data = window_data(trace, N, window_s=window_s)
     kw: dict[str, Any] = {"equations": equations, "fit_delay": fit_delay, "torque_offset": torque_offset}
     start, fit = fit_from_grid(data, **kw)
