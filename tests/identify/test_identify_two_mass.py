@@ -456,3 +456,46 @@ def test_an_empty_load_encoder_channel_is_a_data_error(bench_0c, equations):
     still = empty.with_columns({"theta_l": np.full(len(bench_0c), 0.3)})
     r = identify_two_mass(still, 1.0, equations=equations)
     assert not r.backlash_visible and not r["delta"].identifiable and r.reason
+
+
+def _tight_gear(seed: int):
+    """bench-0C with a 2 µrad gap (8 s, 1 rad position sine at 1 Hz)."""
+    sc = get_scenario("bench-0C")
+    bl = replace(sc.plant_backlash, delta=2e-6, delta1=1e-6)
+    ref = position_sine(8.0, sc.T_s, 1.0, 1.0)
+    return simulate(RIG_DRIVETRAIN, bl, sc.gains, ref, sensors=sc.sensors, seed=seed).to_trace()
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_negative_gap_is_never_a_determined_backlash(seed):
+    """A 2 µrad gap, far below what 11-bit encoders resolve: the fit puts the upper contact below
+    the lower one (δ̂ = −0.072 / −0.084 mrad). Before, that was "both contacts seen", δ and δ1
+    identified and written to [backlash] (which `estimate` then refused). Now δ is not determined
+    with the upper end of its interval as the bound when it is above 0 (seed 0: δ ≤ 7.5 µrad,
+    the truth 2 µrad inside), no bound when the whole interval is below 0 (seed 1), δ1 not
+    determined (the coinciding contacts locate the encoders' zero, not a flank), nothing written
+    to [backlash]. The drive-train values stay. Negative control: the 105 mrad gap of bench-0C is
+    reported (test_bench_short_recording_within_limits)."""
+    r = identify_two_mass(_tight_gear(seed), 1.0)
+    d, d1 = r["delta"], r["delta1"]
+    assert not r.backlash_visible and not d.identifiable and not d1.identifiable
+    assert np.isnan(d.value) and d.low == 0.0 and d.low <= 2e-6 <= d.high
+    assert "δ̂ = -0.0" in r.reason and "mrad" in r.reason
+    if seed == 0:
+        assert r.reason.startswith("backlash below what the recording resolves: δ ≤ 0.00748 mrad")
+    else:
+        assert "entirely below 0" in r.reason and d.high == np.inf
+    assert "backlash" not in r.to_config()
+    assert "[backlash]" not in r.to_toml()
+    assert any(s.startswith("overlapping contacts, not reported: δ = -0.0") for s in r.fit["notes"])
+    assert r["K_S"].identifiable and r["J_m"].identifiable
+
+
+def test_to_config_never_writes_a_negative_gap(ident_0c):
+    """The writer's own guard: a δ < 0 marked identifiable (a result built by hand) is not
+    written, nor its δ1. Negative control: the real bench-0C result writes both."""
+    assert set(ident_0c.to_config()["backlash"]) == {"delta", "delta1"}
+    params = dict(ident_0c.parameters)
+    params["delta"] = dl.ParameterEstimate.normal("delta", -8.4e-5, 8.6e-5)
+    bad = replace(ident_0c, parameters=params)
+    assert "backlash" not in bad.to_config()

@@ -1526,6 +1526,36 @@ def _build_result(
         for n in FEW_TRAVERSALS_WITHHELD:
             if n in params:
                 params[n] = ParameterEstimate.unknown(n, why)
+    elif all(sides) and params["delta"].value < 0.0:
+        # the upper contact below the lower one: a gap is never negative — the contacts coincide
+        # within what the recording resolves, and δ1 (the lower contact) then only locates the
+        # encoders' zero offset, not a contact of a gap
+        dq, d1q = params["delta"], params["delta1"]
+        where = 0.5 * (p[I_CLO] + p[I_CHI])
+        if dq.high > 0.0:
+            reason = (
+                f"backlash below what the recording resolves: δ ≤ {1e3 * dq.high:.3g} mrad (upper end of "
+                f"the 95 % interval; the fitted contacts overlap, δ̂ = {1e3 * dq.value:.3g} mrad < 0) — both "
+                f"contacts seen, {ev['traversals']} traversals of the gap"
+            )
+            params["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0, high=dq.high)
+        else:
+            reason = (
+                f"backlash not determined: the fitted contacts overlap (δ̂ = {1e3 * dq.value:.3g} mrad, "
+                f"95 % interval {dq.interval_text(3)} rad entirely below 0) — a gap is never negative: "
+                "no gap is resolved, and the interval bounds nothing"
+            )
+            params["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0)
+        params["delta1"] = ParameterEstimate.unknown(
+            "delta1",
+            f"not determined: no gap resolved — both contacts lie at Δθ ≈ {1e3 * where:.4g} mrad, "
+            "the encoders' zero offset, not a contact position",
+        )
+        notes.append(
+            f"overlapping contacts, not reported: δ = {1e3 * dq.value:.4g} mrad {dq.interval_text(3)} rad, "
+            f"δ1 = {1e3 * d1q.value:.4g} mrad"
+        )
+        visible = False
     elif all(sides):
         reason = (
             f"both contacts seen: {ev['traversals']} traversals of the gap, {ev['lower']['windows']} / "
