@@ -446,16 +446,22 @@ def test_an_empty_load_encoder_channel_is_a_data_error(bench_0c, equations):
     secondary encoder): before, ``equations = "motor"`` raised numpy's LinAlgError from the grid
     start (the load equation's Gram matrix is all zeros) — now one DataError naming the column.
     Negative control: a constant *non-zero* θ_l (a still load reading its position) is a verdict,
-    not an error, in both equation sets (before: the same LinAlgError with ``"motor"``)."""
+    not an error, in both equation sets (before: the same LinAlgError with ``"motor"``), and so is
+    θ_l ≡ 0 beside a recorded, live ω_l (bench-0A, motion inside the gap)."""
     from drivelash.errors import DataError
 
     empty = bench_0c.select([c for c in bench_0c.names if c != "omega_l"])
     empty = empty.with_columns({"theta_l": np.zeros(len(bench_0c))})
-    with pytest.raises(DataError, match=r"column 'theta_l'.*θ_l is 0 at every sample.*no load encoder"):
+    with pytest.raises(DataError, match=r"column 'theta_l'.*θ_l is 0 at every sample and no load velocity"):
         identify_two_mass(empty, 1.0, equations=equations)
+    dead = empty.with_columns({"omega_l": np.zeros(len(bench_0c))})
+    with pytest.raises(DataError, match=r"θ_l is 0 at every sample and so is the load velocity.*no load enc"):
+        identify_two_mass(dead, 1.0, equations=equations)
     still = empty.with_columns({"theta_l": np.full(len(bench_0c), 0.3)})
     r = identify_two_mass(still, 1.0, equations=equations)
     assert not r.backlash_visible and not r["delta"].identifiable and r.reason
+    # θ_l ≡ 0 beside a live load velocity: a quantised encoder at its zero count, the load inside
+    # the gap — a verdict (test_motion_inside_the_gap_is_a_verdict_not_a_number, bench-0A)
 
 
 def _tight_gear(seed: int):
@@ -499,3 +505,21 @@ def test_to_config_never_writes_a_negative_gap(ident_0c):
     params["delta"] = dl.ParameterEstimate.normal("delta", -8.4e-5, 8.6e-5)
     bad = replace(ident_0c, parameters=params)
     assert "backlash" not in bad.to_config()
+
+
+def test_intervals_the_recording_gives_meaning_to_are_kept(ident_0c):
+    """Negative control of the meaningless-interval rule (KUKA rec_B axis 1, first 3 s, in
+    test_kuka.py): on bench-0C δ, δ1 and K_S are far narrower than the Δθ range / above 0 and stay
+    reported, and every written value equals its comment."""
+    from drivelash.estimation.identify_two_mass import meaningless_intervals, window_data
+
+    params = dict(ident_0c.parameters)
+    data = window_data(get_scenario("bench-0C").simulate(duration=8.0, seed=7), 1.0)
+    assert meaningless_intervals(params, data) == []
+    assert params == ident_0c.parameters
+    assert "written as" not in ident_0c.to_toml()
+    # the same rule on a fabricated δ1 interval wider than the Δθ range
+    span = float(np.ptp(data.dth))
+    params["delta1"] = dl.ParameterEstimate.normal("delta1", 0.05, span / 3.0)
+    assert [n for n, _, _ in meaningless_intervals(params, data)] == ["delta1"]
+    assert not params["delta1"].identifiable

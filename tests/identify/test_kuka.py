@@ -127,3 +127,48 @@ def test_axis_without_secondary_encoder_is_one_line_data_error(tmp_path, capsys)
         assert len(lines) == 1 and "Traceback" not in err, err
         assert str(mat) in lines[0] and "rec.act_pos_se_deg(4,:) (theta_l)" in lines[0], lines[0]
         assert "no load encoder" in lines[0]
+
+
+def _comments_match_written(text: str) -> None:
+    """Every value in the TOML tables equals its ``# name = value`` comment, or the comment says
+    what was written instead."""
+    import tomllib
+
+    tables = tomllib.loads(text)
+    comments = {ln[2:].split(" ")[0]: ln for ln in text.splitlines() if ln.startswith("# ")}
+    for table in tables.values():
+        for k, v in table.items():
+            if k == "N":
+                continue
+            line = comments[k]
+            assert line.startswith(f"# {k} = "), line
+            shown = float(line.split(" = ")[1].split(" ")[0])
+            assert shown == pytest.approx(v, rel=1e-5) or f"written as {v:.6g}" in line, (k, v, line)
+
+
+def test_first_three_seconds_give_no_meaningless_interval():
+    """The first 3 s of rec_B axis 1: before, δ1 = 0.159 rad [−57, 57] was written to [backlash],
+    K_S 7502 [−2.7e6, 2.7e6] N·m/rad and encoder_delay −1.03 s [−369, 367] were reported as
+    numbers, and the TOML wrote D_S = 0 and β_m = 0 under comments saying −6237 and −0.069.
+    Now δ1, K_S and the delay are not determined with the reason (intervals wider than the whole
+    Δθ range / a delay shifting Δθ by more than that range / K_S through 0), the verdict says the
+    backlash is not determined, and a value written as 0 says so in its comment. Negative
+    control: bench-0C keeps δ, δ1, K_S (test_intervals_the_recording_gives_meaning_to_are_kept)."""
+    mat = shared_data("kuka-kr300", "rec_B.mat")
+    cfg = dl.load_config(REPO / "examples" / "kuka" / "axis1.toml")
+    trace = dl.load_trace(mat, cfg, required=["theta_m", "theta_l", "torque_m"]).slice(0, 750)
+    r = dl.identify_drive(trace, cfg)
+    for n in ("delta", "delta1", "K_S", "encoder_delay"):
+        assert not r[n].identifiable and math.isnan(r[n].value) and r[n].reason, n
+    assert "wider than the whole Δθ range" in r["delta1"].reason
+    assert "more than the whole Δθ range" in r["encoder_delay"].reason
+    assert "reaches 0" in r["K_S"].reason and r["K_S"].low == 0.0 and r["K_S"].high > 0
+    assert r.reason.startswith("backlash not determined") and not r.backlash_visible
+    assert "stayed on the" not in r.reason  # no flank verdict from a contact the data do not place
+    cfg_out = r.to_config()
+    assert "backlash" not in cfg_out and "K_S" not in cfg_out["drivetrain"]
+    text = r.to_toml()
+    _comments_match_written(text)
+    assert "written as 0" in text  # D_S and β_m: estimates below 0, written as 0
+    notes = " ".join(r.fit["notes"])
+    assert "delta1 = 0.1593 rad" in notes and "encoder_delay = -1.031 s" in notes

@@ -362,7 +362,12 @@ def estimate_with_identification(
     if not ident.plausible:
         why = f"the identification is implausible ({ident.warnings[0].split(':')[0]})"
     elif missing:
-        why = f"the recording does not determine {', '.join(missing)} ({ident.reason})"
+
+        def because(k: str) -> str:
+            q = ident.parameters.get(k)
+            return q.reason.removeprefix("not determined: ") if q is not None and q.reason else ident.reason
+
+        why = "the recording does not determine " + "; ".join(f"{k} ({because(k)})" for k in missing)
     bl = cfg.backlash
     d1_cfg = bl.delta1 if bl is not None and "delta1" in bl.model_fields_set else None
     d1 = d1_cfg
@@ -398,15 +403,15 @@ def estimate_with_identification(
             )
         else:
             d1 = float(p.value)
-    if why is None:
-        from drivelash.estimation.estimator import INPUT_COLUMNS
+    from drivelash.estimation.estimator import INPUT_COLUMNS
 
-        lacking = [c for c in INPUT_COLUMNS if c not in trace]
-        if lacking:  # the identification differentiated positions; the online law needs recorded velocities
-            why = (
-                f"the recording has no {' and no '.join(repr(c) for c in lacking)}: the online law needs the "
-                "recorded velocities (map them in [columns]); the offline identification did not need them"
-            )
+    lacking = [c for c in INPUT_COLUMNS if c not in trace]
+    if lacking:  # the identification differentiated positions; the online law needs recorded velocities
+        no_vel = (
+            f"the recording has no {' and no '.join(repr(c) for c in lacking)}: the online law needs the "
+            "recorded velocities (map them in [columns]); the offline identification did not need them"
+        )
+        why = no_vel if why is None else f"{why}; and {no_vel}"  # every blocker, not only the first
     if why is not None:
         from drivelash.estimation.pipeline import _estimator_overrides
 

@@ -246,18 +246,26 @@ class DriveIdentification:
         import tomli_w
 
         head = list(comments or [])
+        tables = self.to_config() if tables is None else tables
+        written = {k: v for t in tables.values() for k, v in t.items()}
         for p in self.parameters.values():
             if p.identifiable:
+                w = written.get(p.name)
                 head.append(
                     f"{p.name} = {p.value:.6g} {p.unit}, 95 % CI {p.interval_text(6)}"
                     + (f" — {p.note}" if p.note else "")
+                    + (
+                        f" — written as {w:.6g}: below 0, which the drive-train parameters do not "
+                        "allow, with its 95 % interval reaching 0"
+                        if w is not None and w != p.value
+                        else ""
+                    )
                 )
             else:
                 head.append(f"{p.name}: not identified ({p.reason})")
         head.append(f"backlash: {self.reason}")
         head += [f"warning: {w}" for w in self.warnings]
         text = "".join(f"# {c}\n" for c in head)
-        tables = self.to_config() if tables is None else tables
         return text + tomli_w.dumps({k: {kk: float(vv) for kk, vv in v.items()} for k, v in tables.items()})
 
     def drivetrain_params(self, base: Any = None) -> Any:

@@ -330,24 +330,29 @@ def source_column(trace: Trace, name: str) -> str:
 
 
 def check_load_encoder(th_m: np.ndarray, th_l: np.ndarray, N: float, trace: Trace) -> None:
-    """Refuse a load-side position that is 0 at every sample while the motor moves.
+    """Refuse a load-side channel that is 0 at every sample while the motor moves.
 
-    A still load reads its own position — constant, but where the load stands. A column that is
-    exactly 0 at every sample next to a moving motor is an empty channel: a controller records
-    zeros for an axis without a secondary encoder (the KUKA recordings' rows 4–6). Read as a
-    still load it would give "no contact, δ ≥ the motor's whole travel" — a gap the size of the
-    motion, which no gear has. A constant non-zero θ_l stays a verdict (motion inside the gap).
+    A still load reads its own position — constant, but where the load stands, and a recorded
+    load velocity carries the sensor's noise. A θ_l that is exactly 0 at every sample, with no
+    recorded load velocity or one that is exactly 0 too, next to a moving motor, is an empty
+    channel: a controller records zeros for an axis without a secondary encoder (the KUKA
+    recordings' rows 4–6). Read as a still load it would give "no contact, δ ≥ the motor's whole
+    travel". A constant non-zero θ_l, or θ_l ≡ 0 beside a live ω_l (a quantised encoder at its
+    zero count, the load inside the gap), stays a verdict.
 
     Raises
     ------
     DataError
-        θ_l ≡ 0 and θ_m not constant, naming the file and the column.
+        θ_l ≡ 0 (and ω_l absent or ≡ 0) and θ_m not constant, naming the file and the column.
     """
     if th_l.size == 0 or np.any(th_l != 0.0) or not np.ptp(th_m) > 0.0:
         return
+    if "omega_l" in trace and np.any(trace["omega_l"] != 0.0):
+        return
+    vel = " and so is the load velocity" if "omega_l" in trace else " and no load velocity is recorded"
     raise DataError(
-        f"θ_l is 0 at every sample while the motor travelled {np.ptp(th_m) / N:.4g} rad (load side): "
-        "no load encoder signal in this column (a still load reads its position, not an empty "
+        f"θ_l is 0 at every sample{vel}, while the motor travelled {np.ptp(th_m) / N:.4g} rad (load "
+        "side): no load encoder signal in this column (a still load reads its position, not an empty "
         "channel) — the two-mass model needs a load-side encoder; map one, or use --model rigid",
         path=trace.meta.get("source"),
         column=source_column(trace, "theta_l"),
@@ -1488,6 +1493,63 @@ MODEL_CHOICE_REL = 0.05
 MECHANICAL = ("J_m", "J_l", "K_S", "D_S", "T_Cm", "beta_m", "T_Cl", "beta_l", "torque_offset")
 
 
+def meaningless_intervals(
+    params: dict[str, ParameterEstimate], data: WindowData
+) -> list[tuple[str, float, str]]:
+    """Identified parameters whose 95 % interval is wider than the recording can give meaning to.
+
+    Each is replaced in ``params`` by a "not determined" estimate with the reason (and a bound
+    where one holds); returned as (name, fitted value, interval text) for the notes. No number
+    is chosen — the limits are the recording's own:
+
+    - δ, δ1 (contact positions): an interval wider than the observed Δθ = θ_m/N − θ_l span (or
+      one revolution): a contact the data place lies inside the Δθ range it was reached in.
+    - ``encoder_delay`` τ: an interval whose width, times the largest load speed, shifts Δθ by
+      more than its whole observed span — the data then do not fix the delay.
+    - K_S: an interval reaching 0 — the recording does not show that the shaft transmits torque
+      in proportion to its deflection (bounded above by the interval's upper end).
+    """
+    span = float(np.ptp(data.dth)) if data.dth.size else 0.0
+    wmax = float(np.max(np.abs(data.wl))) if data.wl.size else 0.0
+    out: list[tuple[str, float, str]] = []
+
+    def withhold(name: str, reason: str, low: float = -math.inf, high: float = math.inf) -> None:
+        q = params[name]
+        out.append((name, q.value, q.interval_text(3)))
+        params[name] = ParameterEstimate.unknown(name, reason, low=low, high=high)
+
+    for n in ("delta", "delta1"):
+        q = params.get(n)
+        if q is None or not q.identifiable:
+            continue
+        width = q.high - q.low
+        if not width <= min(span, 2.0 * math.pi):
+            withhold(
+                n,
+                f"not determined: its 95 % interval {q.interval_text(3)} rad is wider than the whole Δθ "
+                f"range of the recording ({1e3 * span:.3g} mrad) — the data do not place the contact",
+                low=0.0 if n == "delta" else -math.inf,
+            )
+    q = params.get("encoder_delay")
+    if q is not None and q.identifiable and not (q.high - q.low) * wmax <= span:
+        withhold(
+            "encoder_delay",
+            f"not determined: its 95 % interval {q.interval_text(3)} s shifts Δθ by up to "
+            f"{1e3 * (q.high - q.low) * wmax:.3g} mrad at the largest load speed, more than the whole Δθ "
+            f"range ({1e3 * span:.3g} mrad)",
+        )
+    q = params.get("K_S")
+    if q is not None and q.identifiable and not q.low > 0.0:
+        withhold(
+            "K_S",
+            f"not determined: its 95 % interval {q.interval_text(3)} reaches 0 — the recording does not "
+            "show the shaft transmitting torque in proportion to its deflection (bounds: [0, upper end])",
+            low=0.0,
+            high=max(q.high, 0.0),
+        )
+    return out
+
+
 def _build_result(
     trace: Trace,
     data: WindowData,
@@ -1631,6 +1693,22 @@ def _build_result(
             params[n] = ParameterEstimate.unknown(n, why)
         params["delta"] = ParameterEstimate.unknown("delta", reason, low=low)
         params["delta1"] = ParameterEstimate.unknown("delta1", why)
+    withheld = meaningless_intervals(params, data)
+    if withheld:
+        notes.append(
+            "intervals wider than the recording can mean, not reported: "
+            + ", ".join(f"{n} = {v:.4g} {params[n].unit} {q}" for n, v, q in withheld)
+        )
+        placed = [n for n, _, _ in withheld if n in ("delta", "delta1", "encoder_delay")]
+        if placed and not reason.startswith("backlash not determined"):
+            # the verdict (a flank, both contacts, a bound from the Δθ span) rests on contact
+            # positions — or on a delay-corrected Δθ — that the recording does not place
+            what = params[placed[0]].reason.removeprefix("not determined: ")
+            reason = f"backlash not determined: {placed[0]} — {what}"
+            visible = False
+            params["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0)
+            if params.get("delta1") is not None and params["delta1"].identifiable:
+                params["delta1"] = ParameterEstimate.unknown("delta1", "not determined: " + what)
     if prob.equations == "motor":
         why = "the load equation was not used (equations = 'motor')"
         for n in ("J_l", "T_Cl", "beta_l"):
