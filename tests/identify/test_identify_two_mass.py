@@ -520,6 +520,17 @@ def test_intervals_the_recording_gives_meaning_to_are_kept(ident_0c):
     assert "written as" not in ident_0c.to_toml()
     # the same rule on a fabricated δ1 interval wider than the Δθ range
     span = float(np.ptp(data.dth))
+    wmax = float(np.max(np.abs(data.wl)))
     params["delta1"] = dl.ParameterEstimate.normal("delta1", 0.05, span / 3.0)
-    assert [n for n, _, _ in meaningless_intervals(params, data)] == ["delta1"]
-    assert not params["delta1"].identifiable
+    params["K_S"] = dl.ParameterEstimate.normal("K_S", 30.0, 16.0)  # interval reaches 0
+    params["encoder_delay"] = dl.ParameterEstimate.normal("encoder_delay", 0.0, span / wmax / 3.0)
+    assert [n for n, _, _ in meaningless_intervals(params, data)] == ["delta1", "encoder_delay", "K_S"]
+    assert not any(params[n].identifiable for n in ("delta1", "encoder_delay", "K_S"))
+    assert params["K_S"].low == 0.0 and params["K_S"].high == pytest.approx(30.0 + 1.959964 * 16.0)
+    # just inside each limit: kept
+    ok = {
+        "delta1": dl.ParameterEstimate.normal("delta1", 0.05, span / 4.0),
+        "K_S": dl.ParameterEstimate.normal("K_S", 30.0, 15.0),
+        "encoder_delay": dl.ParameterEstimate.normal("encoder_delay", 0.0, span / wmax / 4.0),
+    }
+    assert meaningless_intervals(ok, data) == []

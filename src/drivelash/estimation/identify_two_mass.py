@@ -1132,11 +1132,28 @@ def shaft_torque_from_motor(fit: TwoMassFit) -> np.ndarray:
     return d.N * (d.U - p[I_U0] - p[I_BM] * d.WM - p[I_TCM] * d.SM - p[I_JM] * d.a_m)
 
 
+def shaft_torque_evidence(fit: TwoMassFit) -> np.ndarray:
+    """Motor-side shaft torque per window with the fit's viscous motor friction clipped at ≥ 0
+    [N·m]: N (u − u0 − max(β_m, 0) ω_m − T_Cm sgn ω_m − J_m ω̇_m).
+
+    The evidence that a contact carried torque. A negative viscous friction is physically
+    impossible; with it (β_m = −0.14 N·m·s/rad on KUKA A3, at motor speeds of ~100 rad/s) the
+    motor equation turns a motor torque that never leaves −19.5 … −4.0 N·m into a shaft torque
+    of both signs, and a gravity axis resting on one flank would "confirm" the other one. T_Cm
+    is kept as fitted: on a recording moving one way only, sgn ω_m is constant and T_Cm and the
+    torque offset are one term whose split the data do not fix (clipping T_Cm alone would shift
+    the shaft torque by the part the offset took).
+    """
+    d, p = fit.problem.d, fit.p
+    return d.N * (d.U - p[I_U0] - max(p[I_BM], 0.0) * d.WM - p[I_TCM] * d.SM - p[I_JM] * d.a_m)
+
+
 def _contact_evidence(fit: TwoMassFit) -> dict[str, Any]:
-    """Windows, traversals and the motor-side shaft torque on each contact side."""
+    """Windows, traversals and the motor-side shaft torque (:func:`shaft_torque_evidence`) on
+    each contact side."""
     prob, p, d = fit.problem, fit.p, fit.problem.d
     prob.terms(p)
-    Tm = shaft_torque_from_motor(fit)
+    Tm = shaft_torque_evidence(fit)
     ok = d.ok_m
     out: dict[str, Any] = {}
     for side, frac in (("lower", prob._FLO), ("upper", prob._FHI)):
@@ -1572,7 +1589,9 @@ def _build_result(
         n_trav = ev["traversals"]
         reason = (
             f"backlash not determined: the gap was crossed only {n_trav} time{'s' if n_trav != 1 else ''} "
-            f"(at least {MIN_TRAVERSALS} needed) — both contacts were seen, but their positions and the "
+            f"(at least {MIN_TRAVERSALS} needed) — both contacts carried torque (motor-side shaft torque "
+            f"{ev['lower']['shaft_torque_mean']:.3g} / {ev['upper']['shaft_torque_mean']:.3g} N·m in lower / "
+            "upper contact), but their positions and the "
             "stiffness rest on so few contact transients that no honest interval can be given; "
             "record more back-and-forth cycles"
         )
@@ -1627,8 +1646,10 @@ def _build_result(
     elif any(sides):
         seen = "upper" if sides[1] else "lower"
         reason = (
-            f"the load stayed on the {seen} flank: the torque never reversed across the gap, so the "
-            "backlash cannot be seen in this recording (δ is not identifiable)"
+            f"the load stayed on the {seen} flank: the shaft torque did not reverse across the gap (only "
+            f"that contact carried it: {ev[seen]['shaft_torque_mean']:.3g} N·m motor-side over "
+            f"{ev[seen]['windows']} windows), so the backlash cannot be seen in this recording "
+            "(δ is not identifiable)"
         )
         visible = False
         if sides[1]:
@@ -1646,13 +1667,15 @@ def _build_result(
             both = _fit_estimates(unconfirmed[0])
             cand = 1e3 * (unconfirmed[0].p[I_CHI] - unconfirmed[0].p[I_CLO])
             reason += (
-                f"; a second contact (δ ≈ {cand:.3g} mrad) was seen but not confirmed, so δ has no "
-                "lower bound from this recording"
+                f"; a second contact (δ ≈ {cand:.3g} mrad) was fitted but the shaft torque does not "
+                "confirm it, so δ has no lower bound from this recording"
             )
             params["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0)
             if sides[1]:
                 params["delta1"] = ParameterEstimate.unknown(
-                    "delta1", "the lower contact (−δ1) was seen but not confirmed", low=0.0
+                    "delta1",
+                    "the lower contact (−δ1) was fitted but not confirmed by the shaft torque",
+                    low=0.0,
                 )
             for n in ONE_FLANK_CHECKED:
                 q = params.get(n)
