@@ -165,7 +165,11 @@ def test_kuka_estimate_identify_gives_the_stated_outcome_of_summary_py(tmp_path)
     c = dl.load_config(cfg)
     ref = estimate_with_identification(dl.load_trace(mat, c), c).summary  # as examples/kuka/summary.py
     assert cmd["online_run"] is False and cmd["reason"] == ref["reason"]
-    assert cmd["reason"].startswith("online estimate not run: the identification is implausible (beta_m")
+    # A1's delay fit now starts at the encoders' timing offset and is plausible (β_m 0.033; before
+    # −0.70, "implausible"): what blocks the online law is J_l (motor equation only) and the
+    # missing velocities — each named, as summary.py states it
+    assert cmd["reason"].startswith("online estimate not run: the recording does not determine J_l (the load")
+    assert "no 'omega_m' and no 'omega_l'" in cmd["reason"]
     assert dl.estimate_backlash(mat, cfg, identify=True).summary["reason"] == ref["reason"]
     # the result is JSON-clean (the KUKA fit has open intervals)
     ident = dl.identify_drive(mat, cfg)

@@ -438,3 +438,123 @@ def test_a_gear_ratio_the_positions_contradict_is_named(bench_0c, N):
     from drivelash.estimation.identify_two_mass import check_gear_ratio
 
     check_gear_ratio(bench_0c["theta_m"], bench_0c["theta_l"], 1.0)  # no error with the true N
+
+
+@pytest.mark.parametrize("equations", ["motor", "both"])
+def test_an_empty_load_encoder_channel_is_a_data_error(bench_0c, equations):
+    """θ_l = 0 at every sample next to a moving motor (a controller's row for an axis without a
+    secondary encoder): before, ``equations = "motor"`` raised numpy's LinAlgError from the grid
+    start (the load equation's Gram matrix is all zeros) — now one DataError naming the column.
+    Negative control: a constant *non-zero* θ_l (a still load reading its position) is a verdict,
+    not an error, in both equation sets (before: the same LinAlgError with ``"motor"``), and so is
+    θ_l ≡ 0 beside a recorded, live ω_l (bench-0A, motion inside the gap)."""
+    from drivelash.errors import DataError
+
+    empty = bench_0c.select([c for c in bench_0c.names if c != "omega_l"])
+    empty = empty.with_columns({"theta_l": np.zeros(len(bench_0c))})
+    with pytest.raises(DataError, match=r"column 'theta_l'.*θ_l is 0 at every sample and no load velocity"):
+        identify_two_mass(empty, 1.0, equations=equations)
+    dead = empty.with_columns({"omega_l": np.zeros(len(bench_0c))})
+    with pytest.raises(DataError, match=r"θ_l is 0 at every sample and so is the load velocity.*no load enc"):
+        identify_two_mass(dead, 1.0, equations=equations)
+    still = empty.with_columns({"theta_l": np.full(len(bench_0c), 0.3)})
+    r = identify_two_mass(still, 1.0, equations=equations)
+    assert not r.backlash_visible and not r["delta"].identifiable and r.reason
+    # θ_l ≡ 0 beside a live load velocity: a quantised encoder at its zero count, the load inside
+    # the gap — a verdict (test_motion_inside_the_gap_is_a_verdict_not_a_number, bench-0A)
+
+
+def _tight_gear(seed: int):
+    """bench-0C with a 2 µrad gap (8 s, 1 rad position sine at 1 Hz)."""
+    sc = get_scenario("bench-0C")
+    bl = replace(sc.plant_backlash, delta=2e-6, delta1=1e-6)
+    ref = position_sine(8.0, sc.T_s, 1.0, 1.0)
+    return simulate(RIG_DRIVETRAIN, bl, sc.gains, ref, sensors=sc.sensors, seed=seed).to_trace()
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_negative_gap_is_never_a_determined_backlash(seed):
+    """A 2 µrad gap, far below what 11-bit encoders resolve: the fit puts the upper contact below
+    the lower one (δ̂ = −0.072 / −0.084 mrad). Before, that was "both contacts seen", δ and δ1
+    identified and written to [backlash] (which `estimate` then refused). Now δ is not determined
+    with the upper end of its interval as the bound when it is above 0 (seed 0: δ ≤ 7.5 µrad,
+    the truth 2 µrad inside), no bound when the whole interval is below 0 (seed 1), δ1 not
+    determined (the coinciding contacts locate the encoders' zero, not a flank), nothing written
+    to [backlash]. The drive-train values stay. Negative control: the 105 mrad gap of bench-0C is
+    reported (test_bench_short_recording_within_limits)."""
+    r = identify_two_mass(_tight_gear(seed), 1.0)
+    d, d1 = r["delta"], r["delta1"]
+    assert not r.backlash_visible and not d.identifiable and not d1.identifiable
+    assert np.isnan(d.value) and d.low == 0.0 and d.low <= 2e-6 <= d.high
+    assert "δ̂ = -0.0" in r.reason and "mrad" in r.reason
+    if seed == 0:
+        assert r.reason.startswith("backlash below what the recording resolves: δ ≤ 0.00748 mrad")
+    else:
+        assert "entirely below 0" in r.reason and d.high == np.inf
+    assert "backlash" not in r.to_config()
+    assert "[backlash]" not in r.to_toml()
+    assert any(s.startswith("overlapping contacts, not reported: δ = -0.0") for s in r.fit["notes"])
+    assert r["K_S"].identifiable and r["J_m"].identifiable
+
+
+def test_to_config_never_writes_a_negative_gap(ident_0c):
+    """The writer's own guard: a δ < 0 marked identifiable (a result built by hand) is not
+    written, nor its δ1. Negative control: the real bench-0C result writes both."""
+    assert set(ident_0c.to_config()["backlash"]) == {"delta", "delta1"}
+    params = dict(ident_0c.parameters)
+    params["delta"] = dl.ParameterEstimate.normal("delta", -8.4e-5, 8.6e-5)
+    bad = replace(ident_0c, parameters=params)
+    assert "backlash" not in bad.to_config()
+
+
+def test_intervals_the_recording_gives_meaning_to_are_kept(ident_0c):
+    """Negative control of the meaningless-interval rule (KUKA rec_B axis 1, first 3 s, in
+    test_kuka.py): on bench-0C δ, δ1 and K_S are far narrower than the Δθ range / above 0 and stay
+    reported, and every written value equals its comment."""
+    from drivelash.estimation.identify_two_mass import meaningless_intervals, window_data
+
+    params = dict(ident_0c.parameters)
+    data = window_data(get_scenario("bench-0C").simulate(duration=8.0, seed=7), 1.0)
+    assert meaningless_intervals(params, data) == []
+    assert params == ident_0c.parameters
+    assert "written as" not in ident_0c.to_toml()
+    # the same rule on a fabricated δ1 interval wider than the Δθ range
+    span = float(np.ptp(data.dth))
+    wmax = float(np.max(np.abs(data.wl)))
+    params["delta1"] = dl.ParameterEstimate.normal("delta1", 0.05, span / 3.0)
+    params["K_S"] = dl.ParameterEstimate.normal("K_S", 30.0, 16.0)  # interval reaches 0
+    params["encoder_delay"] = dl.ParameterEstimate.normal("encoder_delay", 0.0, span / wmax / 3.0)
+    assert [n for n, _, _ in meaningless_intervals(params, data)] == ["delta1", "encoder_delay", "K_S"]
+    assert not any(params[n].identifiable for n in ("delta1", "encoder_delay", "K_S"))
+    assert params["K_S"].low == 0.0 and params["K_S"].high == pytest.approx(30.0 + 1.959964 * 16.0)
+    # just inside each limit: kept
+    ok = {
+        "delta1": dl.ParameterEstimate.normal("delta1", 0.05, span / 4.0),
+        "K_S": dl.ParameterEstimate.normal("K_S", 30.0, 15.0),
+        "encoder_delay": dl.ParameterEstimate.normal("encoder_delay", 0.0, span / wmax / 4.0),
+    }
+    assert meaningless_intervals(ok, data) == []
+
+
+@pytest.mark.parametrize(("lag", "eq"), [(16, "both"), (-8, "motor")])
+def test_encoder_delay_has_the_sign_of_a_lagging_load_encoder(bench_0c, lag, eq):
+    """The fit corrects Δθ by −τ ω_l, so a load encoder lagging k samples must give τ = +k T_s
+    (a lag adds +k T_s ω_l to Δθ). Measured on bench-0C (T_s = 0.125 ms): θ_l, ω_l lagged 16
+    samples (2 ms) → τ = 2.05 [1.85, 2.25] ms ("both") / 1.99 [1.77, 2.21] ms ("motor"); advanced
+    8 samples → −1.17 / −1.00 ms. The tester's reading that the KUKA fits' negative τ is a sign
+    error is wrong (docs/assumptions.md, "Encoder delay"). The second start at the encoder
+    difference's own timing offset (timing_offset: 15 ms here, the 105 mrad gap follows ω_l's
+    sign) explains the data worse and is not kept."""
+    n = len(bench_0c)
+
+    def shift(x):
+        if lag >= 0:
+            return np.concatenate([np.full(lag, x[0]), x[: n - lag]])
+        return np.concatenate([x[-lag:], np.full(-lag, x[-1])])
+
+    tr = bench_0c.with_columns({"theta_l": shift(bench_0c["theta_l"]), "omega_l": shift(bench_0c["omega_l"])})
+    truth = lag * bench_0c.T_s
+    r = identify_two_mass(tr, 1.0, fit_delay=True, equations=eq)
+    tau = r["encoder_delay"]
+    assert tau.identifiable and tau.covers(truth) and abs(tau.value - truth) < 0.2e-3, tau
+    assert r.backlash_visible and abs(r["delta"].value - 0.105) < 1e-3

@@ -401,15 +401,15 @@ def estimate_with_identification(
             )
         else:
             d1 = float(p.value)
-    if why is None:
-        from drivelash.estimation.estimator import INPUT_COLUMNS
+    from drivelash.estimation.estimator import INPUT_COLUMNS
 
-        lacking = [c for c in INPUT_COLUMNS if c not in trace]
-        if lacking:  # the identification differentiated positions; the online law needs recorded velocities
-            why = (
-                f"the recording has no {' and no '.join(repr(c) for c in lacking)}: the online law needs the "
-                "recorded velocities (map them in [columns]); the offline identification did not need them"
-            )
+    lacking = [c for c in INPUT_COLUMNS if c not in trace]
+    if lacking:  # the identification differentiated positions; the online law needs recorded velocities
+        no_vel = (
+            f"the recording has no {' and no '.join(repr(c) for c in lacking)}: the online law needs the "
+            "recorded velocities (map them in [columns]); the offline identification did not need them"
+        )
+        why = no_vel if why is None else f"{why}; and {no_vel}"  # every blocker, not only the first
     if why is not None:
         from drivelash.estimation.pipeline import _estimator_overrides
 
@@ -480,9 +480,13 @@ def _undetermined(ident: Any, missing: list[str]) -> str:
     groups: dict[str, list[str]] = {}
     for k in missing:
         q = ident.parameters.get(k)
-        groups.setdefault(q.reason if q is not None and q.reason else "not identified", []).append(k)
-    parts = [f"{', '.join(ks)}: {why}" for why, ks in groups.items()]
+        why = q.reason.removeprefix("not determined: ") if q is not None and q.reason else ident.reason
+        groups.setdefault(why, []).append(k)
+    if len(groups) == 1:
+        because = next(iter(groups))
+    else:
+        because = "; ".join(f"{', '.join(ks)}: {why}" for why, ks in groups.items())
     return (
-        f"the recording does not determine {', '.join(missing)} ({'; '.join(parts)}); "
+        f"the recording does not determine {', '.join(missing)} ({because}); "
         "give them in [drivetrain] to run the online law"
     )

@@ -216,7 +216,8 @@ class DriveIdentification:
         Only identifiable values are written. Friction coefficients and D_S whose estimate
         is negative but whose interval reaches 0 are written as 0 (the parameter classes
         require ≥ 0). ``[backlash]`` carries δ1 (and δ for reference) only when the
-        recording determined them.
+        recording determined them — never a negative δ (a gap is never negative; δ1 is then the
+        position of contacts that coincide, not of a gap's flank).
         """
         dt: dict[str, float] = {"N": float(self.N)}
         for k in ("J_m", "J_l", "K_S", "D_S", "T_Cm", "T_Cl", "beta_m", "beta_l"):
@@ -229,9 +230,10 @@ class DriveIdentification:
             dt[k] = float(v)
         out: dict[str, dict[str, float]] = {"drivetrain": dt}
         d1 = self.parameters.get("delta1")
-        if d1 is not None and d1.identifiable and math.isfinite(d1.value):
+        d = self.parameters.get("delta")
+        negative_gap = d is not None and d.identifiable and not d.value >= 0.0
+        if d1 is not None and d1.identifiable and math.isfinite(d1.value) and not negative_gap:
             bl = {"delta1": float(d1.value)}
-            d = self.parameters.get("delta")
             if d is not None and d.identifiable and math.isfinite(d.value):
                 bl["delta"] = float(d.value)
             out["backlash"] = bl
@@ -244,18 +246,26 @@ class DriveIdentification:
         import tomli_w
 
         head = list(comments or [])
+        tables = self.to_config() if tables is None else tables
+        written = {k: v for t in tables.values() for k, v in t.items()}
         for p in self.parameters.values():
             if p.identifiable:
+                w = written.get(p.name)
                 head.append(
                     f"{p.name} = {p.value:.6g} {p.unit}, 95 % CI {p.interval_text(6)}"
                     + (f" — {p.note}" if p.note else "")
+                    + (
+                        f" — written as {w:.6g}: below 0, which the drive-train parameters do not "
+                        "allow, with its 95 % interval reaching 0"
+                        if w is not None and w != p.value
+                        else ""
+                    )
                 )
             else:
                 head.append(f"{p.name}: not identified ({p.reason})")
         head.append(f"backlash: {self.reason}")
         head += [f"warning: {w}" for w in self.warnings]
         text = "".join(f"# {c}\n" for c in head)
-        tables = self.to_config() if tables is None else tables
         return text + tomli_w.dumps({k: {kk: float(vv) for kk, vv in v.items()} for k, v in tables.items()})
 
     def drivetrain_params(self, base: Any = None) -> Any:

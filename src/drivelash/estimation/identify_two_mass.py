@@ -320,6 +320,45 @@ def check_gear_ratio(th_m: np.ndarray, th_l: np.ndarray, N: float, src: Any = No
         )
 
 
+def source_column(trace: Trace, name: str) -> str:
+    """The recording's own name of Trace column ``name`` (``[columns]`` mapping), with the Trace
+    name beside it when they differ: ``"rec.act_pos_se_deg(4,:) (theta_l)"``."""
+    for src, cm in (trace.meta.get("mapping") or {}).items():
+        if isinstance(cm, dict) and cm.get("column") == name and src != name:
+            return f"{src} ({name})"
+    return name
+
+
+def check_load_encoder(th_m: np.ndarray, th_l: np.ndarray, N: float, trace: Trace) -> None:
+    """Refuse a load-side channel that is 0 at every sample while the motor moves.
+
+    A still load reads its own position — constant, but where the load stands, and a recorded
+    load velocity carries the sensor's noise. A θ_l that is exactly 0 at every sample, with no
+    recorded load velocity or one that is exactly 0 too, next to a moving motor, is an empty
+    channel: a controller records zeros for an axis without a secondary encoder (the KUKA
+    recordings' rows 4–6). Read as a still load it would give "no contact, δ ≥ the motor's whole
+    travel". A constant non-zero θ_l, or θ_l ≡ 0 beside a live ω_l (a quantised encoder at its
+    zero count, the load inside the gap), stays a verdict.
+
+    Raises
+    ------
+    DataError
+        θ_l ≡ 0 (and ω_l absent or ≡ 0) and θ_m not constant, naming the file and the column.
+    """
+    if th_l.size == 0 or np.any(th_l != 0.0) or not np.ptp(th_m) > 0.0:
+        return
+    if "omega_l" in trace and np.any(trace["omega_l"] != 0.0):
+        return
+    vel = " and so is the load velocity" if "omega_l" in trace else " and no load velocity is recorded"
+    raise DataError(
+        f"θ_l is 0 at every sample{vel}, while the motor travelled {np.ptp(th_m) / N:.4g} rad (load "
+        "side): no load encoder signal in this column (a still load reads its position, not an empty "
+        "channel) — the two-mass model needs a load-side encoder; map one, or use --model rigid",
+        path=trace.meta.get("source"),
+        column=source_column(trace, "theta_l"),
+    )
+
+
 def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> WindowData:
     """Preprocess a two-mass recording into :class:`WindowData`.
 
@@ -343,6 +382,7 @@ def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> Window
     M = max(2, int(round(window_s / T_s)))
     n = len(trace)
     th_m, th_l, u = trace["theta_m"], trace["theta_l"], trace["torque_m"]
+    check_load_encoder(th_m, th_l, N, trace)
     check_gear_ratio(th_m, th_l, N, src)
     derived = []
     vel = {}
@@ -790,7 +830,10 @@ def grid_start(
         Ah = H[:, cols][:, :, cols]
         bh = H[:, cols, y]
         reg = 1e-12 * np.trace(Ah, axis1=1, axis2=2)[:, None, None] / len(cols) * np.eye(len(cols))
-        beta = np.linalg.solve(Ah + reg, bh[..., None])[..., 0]
+        try:
+            beta = np.linalg.solve(Ah + reg, bh[..., None])[..., 0]
+        except np.linalg.LinAlgError:  # a pair whose columns are all zero: minimum-norm solution
+            beta = np.einsum("pij,pj->pi", np.linalg.pinv(Ah + reg), bh)
         return H[:, y, y] - np.einsum("pi,pi->p", bh, beta), beta
 
     Hm, Hl = batched(Gm), batched(Gl)
@@ -799,8 +842,11 @@ def grid_start(
     else:  # offset given: no constant column (θ4 = 0, u0 put back below)
         sse_m, beta_m = sse(Hm, [0, 1, 2, 8, 9], 6)
         beta_m = np.insert(beta_m, 3, 0.0, axis=1)
-    sse_l, beta_l = sse(Hl, [8, 9, 4, 5], 7)
     use_l = equations == "both"
+    if use_l:
+        sse_l, beta_l = sse(Hl, [8, 9, 4, 5], 7)
+    else:  # the load equation is not fitted: no load windows may be usable at all
+        sse_l, beta_l = np.zeros(A.size), np.zeros((A.size, 4))
     valid = (sse_m > 0) & ((sse_l > 0) | (not use_l))
     obj = np.full(A.size, np.inf)
     obj[valid] = nm * np.log(sse_m[valid]) + (nl * np.log(sse_l[valid]) if use_l else 0.0)
@@ -1086,11 +1132,28 @@ def shaft_torque_from_motor(fit: TwoMassFit) -> np.ndarray:
     return d.N * (d.U - p[I_U0] - p[I_BM] * d.WM - p[I_TCM] * d.SM - p[I_JM] * d.a_m)
 
 
+def shaft_torque_evidence(fit: TwoMassFit) -> np.ndarray:
+    """Motor-side shaft torque per window with the fit's viscous motor friction clipped at ≥ 0
+    [N·m]: N (u − u0 − max(β_m, 0) ω_m − T_Cm sgn ω_m − J_m ω̇_m).
+
+    The evidence that a contact carried torque. A negative viscous friction is physically
+    impossible; with it (β_m = −0.14 N·m·s/rad on KUKA A3, at motor speeds of ~100 rad/s) the
+    motor equation turns a motor torque that never leaves −19.5 … −4.0 N·m into a shaft torque
+    of both signs, and a gravity axis resting on one flank would "confirm" the other one. T_Cm
+    is kept as fitted: on a recording moving one way only, sgn ω_m is constant and T_Cm and the
+    torque offset are one term whose split the data do not fix (clipping T_Cm alone would shift
+    the shaft torque by the part the offset took).
+    """
+    d, p = fit.problem.d, fit.p
+    return d.N * (d.U - p[I_U0] - max(p[I_BM], 0.0) * d.WM - p[I_TCM] * d.SM - p[I_JM] * d.a_m)
+
+
 def _contact_evidence(fit: TwoMassFit) -> dict[str, Any]:
-    """Windows, traversals and the motor-side shaft torque on each contact side."""
+    """Windows, traversals and the motor-side shaft torque (:func:`shaft_torque_evidence`) on
+    each contact side."""
     prob, p, d = fit.problem, fit.p, fit.problem.d
     prob.terms(p)
-    Tm = shaft_torque_from_motor(fit)
+    Tm = shaft_torque_evidence(fit)
     ok = d.ok_m
     out: dict[str, Any] = {}
     for side, frac in (("lower", prob._FLO), ("upper", prob._FHI)):
@@ -1233,6 +1296,28 @@ def fit_from_grid(data: WindowData, *, tau: float = 0.0, **kw: Any) -> tuple[Gri
     return start, fit
 
 
+def timing_offset(data: WindowData) -> float:
+    """Timing offset between the encoders that the encoder difference shows [s] (0 if none).
+
+    Window means of Δθ = θ_m/N − θ_l regressed by least squares on [1, ω_l, u]: a load encoder
+    lagging by d reads θ_l(t − d) ≈ θ_l − d ω_l, so Δθ carries +d ω_l, and the coefficient of ω_l
+    is d (the model's Δθ − τ ω_l is then corrected by τ = d). The torque column takes the
+    shaft's elastic deflection; what the gap adds is left to the residual. The start of the
+    second delay fit of :func:`identify_two_mass` (``examples/kuka/lost_motion.py`` gives the
+    same regression with HAC errors: 2.7–3.2 ms on the KUKA recordings).
+    """
+    dth = data.dth.reshape(data.n_win, data.M).mean(axis=1)
+    wl = data.wl.reshape(data.n_win, data.M).mean(axis=1)
+    X = np.column_stack([np.ones(data.n_win), wl, data.U])
+    if not np.ptp(wl) > 0.0:
+        return 0.0
+    try:
+        b, *_ = np.linalg.lstsq(X, dth, rcond=None)
+    except np.linalg.LinAlgError:
+        return 0.0
+    return float(b[1]) if math.isfinite(b[1]) else 0.0
+
+
 def identify_two_mass(
     trace: Trace,
     N: float,
@@ -1275,9 +1360,33 @@ def identify_two_mass(
     """
     if equations not in ("both", "motor"):
         raise ParameterError("identification", "equations", f"must be 'both' or 'motor', got {equations!r}")
+    try:
+        return _identify_two_mass(trace, N, window_s, equations, fit_delay, torque_offset)
+    except np.linalg.LinAlgError as exc:  # a degenerate recording the checks above did not name
+        raise DataError(
+            f"two-mass identification failed: the recording does not determine the model ({exc}: "
+            "its signals are linearly dependent — a constant or empty column, or no motion)",
+            path=trace.meta.get("source"),
+        ) from None
+
+
+def _identify_two_mass(
+    trace: Trace, N: float, window_s: float, equations: str, fit_delay: bool, torque_offset: float | None
+) -> DriveIdentification:
+    """Body of :func:`identify_two_mass` (arguments checked)."""
     data = window_data(trace, N, window_s=window_s)
     kw: dict[str, Any] = {"equations": equations, "fit_delay": fit_delay, "torque_offset": torque_offset}
     start, fit = fit_from_grid(data, **kw)
+    if fit_delay:
+        # a second start at the timing offset the encoder difference itself shows; the fit that
+        # explains the data better is kept (the grid's criterion, as in fit_from_grid)
+        tau0 = timing_offset(data)
+        if tau0 != 0.0:
+            alt_start, alt = fit_from_grid(data, tau=tau0, **kw)
+            if alt.problem.il.size == fit.problem.il.size and concentrated_objective(
+                alt
+            ) < concentrated_objective(fit):
+                start, fit = alt_start, alt
     if fit_delay and fit.p[I_TAU] != 0.0 and any(fit.problem.sides):
         # contacts again on the delay-corrected Δθ
         start, fit = fit_from_grid(data, tau=float(fit.p[I_TAU]), **kw)
@@ -1433,6 +1542,63 @@ MODEL_CHOICE_REL = 0.05
 MECHANICAL = ("J_m", "J_l", "K_S", "D_S", "T_Cm", "beta_m", "T_Cl", "beta_l", "torque_offset")
 
 
+def meaningless_intervals(
+    params: dict[str, ParameterEstimate], data: WindowData
+) -> list[tuple[str, float, str]]:
+    """Identified parameters whose 95 % interval is wider than the recording can give meaning to.
+
+    Each is replaced in ``params`` by a "not determined" estimate with the reason (and a bound
+    where one holds); returned as (name, fitted value, interval text) for the notes. No number
+    is chosen — the limits are the recording's own:
+
+    - δ, δ1 (contact positions): an interval wider than the observed Δθ = θ_m/N − θ_l span (or
+      one revolution): a contact the data place lies inside the Δθ range it was reached in.
+    - ``encoder_delay`` τ: an interval whose width, times the largest load speed, shifts Δθ by
+      more than its whole observed span — the data then do not fix the delay.
+    - K_S: an interval reaching 0 — the recording does not show that the shaft transmits torque
+      in proportion to its deflection (bounded above by the interval's upper end).
+    """
+    span = float(np.ptp(data.dth)) if data.dth.size else 0.0
+    wmax = float(np.max(np.abs(data.wl))) if data.wl.size else 0.0
+    out: list[tuple[str, float, str]] = []
+
+    def withhold(name: str, reason: str, low: float = -math.inf, high: float = math.inf) -> None:
+        q = params[name]
+        out.append((name, q.value, q.interval_text(3)))
+        params[name] = ParameterEstimate.unknown(name, reason, low=low, high=high)
+
+    for n in ("delta", "delta1"):
+        q = params.get(n)
+        if q is None or not q.identifiable:
+            continue
+        width = q.high - q.low
+        if not width <= min(span, 2.0 * math.pi):
+            withhold(
+                n,
+                f"not determined: its 95 % interval {q.interval_text(3)} rad is wider than the whole Δθ "
+                f"range of the recording ({1e3 * span:.3g} mrad) — the data do not place the contact",
+                low=0.0 if n == "delta" else -math.inf,
+            )
+    q = params.get("encoder_delay")
+    if q is not None and q.identifiable and not (q.high - q.low) * wmax <= span:
+        withhold(
+            "encoder_delay",
+            f"not determined: its 95 % interval {q.interval_text(3)} s shifts Δθ by up to "
+            f"{1e3 * (q.high - q.low) * wmax:.3g} mrad at the largest load speed, more than the whole Δθ "
+            f"range ({1e3 * span:.3g} mrad)",
+        )
+    q = params.get("K_S")
+    if q is not None and q.identifiable and not q.low > 0.0:
+        withhold(
+            "K_S",
+            f"not determined: its 95 % interval {q.interval_text(3)} reaches 0 — the recording does not "
+            "show the shaft transmitting torque in proportion to its deflection (bounds: [0, upper end])",
+            low=0.0,
+            high=max(q.high, 0.0),
+        )
+    return out
+
+
 def _build_result(
     trace: Trace,
     data: WindowData,
@@ -1455,7 +1621,9 @@ def _build_result(
         n_trav = ev["traversals"]
         reason = (
             f"backlash not determined: the gap was crossed only {n_trav} time{'s' if n_trav != 1 else ''} "
-            f"(at least {MIN_TRAVERSALS} needed) — both contacts were seen, but their positions and the "
+            f"(at least {MIN_TRAVERSALS} needed) — both contacts carried torque (motor-side shaft torque "
+            f"{ev['lower']['shaft_torque_mean']:.3g} / {ev['upper']['shaft_torque_mean']:.3g} N·m in lower / "
+            "upper contact), but their positions and the "
             "stiffness rest on so few contact transients that no honest interval can be given; "
             "record more back-and-forth cycles"
         )
@@ -1471,6 +1639,36 @@ def _build_result(
         for n in FEW_TRAVERSALS_WITHHELD:
             if n in params:
                 params[n] = ParameterEstimate.unknown(n, why)
+    elif all(sides) and params["delta"].value < 0.0:
+        # the upper contact below the lower one: a gap is never negative — the contacts coincide
+        # within what the recording resolves, and δ1 (the lower contact) then only locates the
+        # encoders' zero offset, not a contact of a gap
+        dq, d1q = params["delta"], params["delta1"]
+        where = 0.5 * (p[I_CLO] + p[I_CHI])
+        if dq.high > 0.0:
+            reason = (
+                f"backlash below what the recording resolves: δ ≤ {1e3 * dq.high:.3g} mrad (upper end of "
+                f"the 95 % interval; the fitted contacts overlap, δ̂ = {1e3 * dq.value:.3g} mrad < 0) — both "
+                f"contacts seen, {ev['traversals']} traversals of the gap"
+            )
+            params["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0, high=dq.high)
+        else:
+            reason = (
+                f"backlash not determined: the fitted contacts overlap (δ̂ = {1e3 * dq.value:.3g} mrad, "
+                f"95 % interval {dq.interval_text(3)} rad entirely below 0) — a gap is never negative: "
+                "no gap is resolved, and the interval bounds nothing"
+            )
+            params["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0)
+        params["delta1"] = ParameterEstimate.unknown(
+            "delta1",
+            f"not determined: no gap resolved — both contacts lie at Δθ ≈ {1e3 * where:.4g} mrad, "
+            "the encoders' zero offset, not a contact position",
+        )
+        notes.append(
+            f"overlapping contacts, not reported: δ = {1e3 * dq.value:.4g} mrad {dq.interval_text(3)} rad, "
+            f"δ1 = {1e3 * d1q.value:.4g} mrad"
+        )
+        visible = False
     elif all(sides):
         reason = (
             f"both contacts seen: {ev['traversals']} traversals of the gap, {ev['lower']['windows']} / "
@@ -1480,8 +1678,10 @@ def _build_result(
     elif any(sides):
         seen = "upper" if sides[1] else "lower"
         reason = (
-            f"the load stayed on the {seen} flank: the torque never reversed across the gap, so the "
-            "backlash cannot be seen in this recording (δ is not identifiable)"
+            f"the load stayed on the {seen} flank: the shaft torque did not reverse across the gap (only "
+            f"that contact carried it: {ev[seen]['shaft_torque_mean']:.3g} N·m motor-side over "
+            f"{ev[seen]['windows']} windows), so the backlash cannot be seen in this recording "
+            "(δ is not identifiable)"
         )
         visible = False
         if sides[1]:
@@ -1499,13 +1699,15 @@ def _build_result(
             both = _fit_estimates(unconfirmed[0])
             cand = 1e3 * (unconfirmed[0].p[I_CHI] - unconfirmed[0].p[I_CLO])
             reason += (
-                f"; a second contact (δ ≈ {cand:.3g} mrad) was seen but not confirmed, so δ has no "
-                "lower bound from this recording"
+                f"; a second contact (δ ≈ {cand:.3g} mrad) was fitted but the shaft torque does not "
+                "confirm it, so δ has no lower bound from this recording"
             )
             params["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0)
             if sides[1]:
                 params["delta1"] = ParameterEstimate.unknown(
-                    "delta1", "the lower contact (−δ1) was seen but not confirmed", low=0.0
+                    "delta1",
+                    "the lower contact (−δ1) was fitted but not confirmed by the shaft torque",
+                    low=0.0,
                 )
             for n in ONE_FLANK_CHECKED:
                 q = params.get(n)
@@ -1546,6 +1748,22 @@ def _build_result(
             params[n] = ParameterEstimate.unknown(n, why)
         params["delta"] = ParameterEstimate.unknown("delta", reason, low=low)
         params["delta1"] = ParameterEstimate.unknown("delta1", why)
+    withheld = meaningless_intervals(params, data)
+    if withheld:
+        notes.append(
+            "intervals wider than the recording can mean, not reported: "
+            + ", ".join(f"{n} = {v:.4g} {params[n].unit} {q}" for n, v, q in withheld)
+        )
+        placed = [n for n, _, _ in withheld if n in ("delta", "delta1", "encoder_delay")]
+        if placed and not reason.startswith("backlash not determined"):
+            # the verdict (a flank, both contacts, a bound from the Δθ span) rests on contact
+            # positions — or on a delay-corrected Δθ — that the recording does not place
+            what = params[placed[0]].reason.removeprefix("not determined: ")
+            reason = f"backlash not determined: {placed[0]} — {what}"
+            visible = False
+            params["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0)
+            if params.get("delta1") is not None and params["delta1"].identifiable:
+                params["delta1"] = ParameterEstimate.unknown("delta1", "not determined: " + what)
     if prob.equations == "motor":
         why = "the load equation was not used (equations = 'motor')"
         for n in ("J_l", "T_Cl", "beta_l"):
