@@ -70,7 +70,8 @@ class ValidationConfig:
         Torque step of the table [N·m].
     defect_center : float or None
         Centre of the local rack defect of the monitoring demo [m]; None: the centre of
-        the section at 60 % of the pass range (1.30 m on the paper's bench).
+        the section at 60 % of the pass range (1.305 m on the paper's bench: the passes start
+        at its valid range, 55 mm).
     defect_width, defect_amplitude : float
         Gaussian σ [m] and peak [m] of the defect.
     x_range : tuple of float or None

@@ -12,6 +12,12 @@
     defect; with compensation active the flagged sections are compared with the
     defect; after ``update(stage="trees")`` on new passes the improvement returns.
 
+The passes and the compensator's table stay inside the model's valid range (where it was
+measured, :func:`~drivelash.te.runtime.table.measured_range`, the range ``te export``
+writes); ``summary.json`` states it (``valid_range``) with the share of each protocol's
+compensation cycles whose set positions left the table — there the compensator holds the
+table's edge value — which is zero unless a configured ``x_range`` goes beyond it.
+
 One pass with the compensator in the loop: :mod:`drivelash.te.protocol.passes`.
 Figures (paper Figs 8–9, monitoring) are drawn by a ``figures`` object passed in
 (:mod:`drivelash.report.te_figures`); the protocol itself never imports matplotlib.

@@ -2,7 +2,9 @@
 
 The fitted model is sampled once into a :class:`TETable` (bilinear interpolation,
 clamped at the edges), which the ``@njit`` kernel :func:`table_te` evaluates inside
-the compensation cycle (:mod:`drivelash.te.runtime.compensator`).
+the compensation cycle (:mod:`drivelash.te.runtime.compensator`, which counts the cycles
+it spends beyond the grid). The table spans at most :func:`measured_range`, the one
+definition of the positions where a model was measured.
 """
 
 from __future__ import annotations
