@@ -68,7 +68,8 @@ def test_a_stored_range_inside_the_curves_is_kept(small_trained, tmp_path):
 def old_dir(wide_dir, tmp_path_factory) -> Path:
     """The same model as a file written before the fix: model.json holds the runs' span."""
     tmp = tmp_path_factory.mktemp("old")
-    return _copy_edit(wide_dir, tmp, lambda m: m["valid_range"].update(x_min=RUNS_SPAN[0], x_max=RUNS_SPAN[1]))
+    lo, hi = RUNS_SPAN
+    return _copy_edit(wide_dir, tmp, lambda m: m["valid_range"].update(x_min=lo, x_max=hi))
 
 
 def test_an_old_file_loads_and_behaves_as_a_new_one(wide_dir, old_dir):
