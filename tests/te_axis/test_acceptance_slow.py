@@ -51,7 +51,8 @@ def test_quick_path_with_defaults(te_quick):
     assert s["average_improvement"] >= 0.60
     assert min(sections) > 0.0  # no section made worse
     # the command says so, and that the table's limits are the full protocol's (the table shows
-    # "NOT MET" against those: 0.737 < 0.75 average, session 6)
+    # "NOT MET" against those: 0.737 < 0.75 average in session 6; since the valid-range fix the
+    # average is 0.753, and the quick monitoring pass's defect coverage stays "NOT MET")
     assert s["min_section"] == pytest.approx(min(sections), abs=1e-6)
     assert (
         "Its own goal - average >= 60% with no section made worse - is met"
@@ -59,10 +60,29 @@ def test_quick_path_with_defaults(te_quick):
     )
     meta = json.loads((te_quick["M"] / "model.json").read_text())
     assert meta["campaign"]["holdout_loads"] == []  # 0/2500 N both train (2 in-range loads)
-    assert meta["valid_range"]["x_max"] - meta["valid_range"]["x_min"] == pytest.approx(0.4, abs=1e-3)
-    # the passes ran inside the 0.4 m the campaign recorded, not 0.6 m
+    # the stored valid range is where the model was measured: the 0.4 m the quick campaign's
+    # no-load runs covered, less the 5 mm the preprocessing trims off each end of the no-load
+    # curves (geo_trim) — the range te export writes (measured_range), not the runs' span
+    from drivelash.te.protocol.campaign import load_campaign
+    from drivelash.te.protocol.plausibility import geometric_coverage
+    from drivelash.te.runtime.persist import load_model
+    from drivelash.te.runtime.table import measured_range
+
+    vr = meta["valid_range"]
+    model = load_model(te_quick["M"])
+    assert (vr["x_min"], vr["x_max"]) == measured_range(model) == model.geometric_range()
+    runs = geometric_coverage(load_campaign(te_quick["C"]))
+    assert runs[1] - runs[0] == pytest.approx(0.4, abs=1e-3)
+    trim = meta["pipeline"]["geo_trim"]
+    assert (vr["x_min"], vr["x_max"]) == pytest.approx((runs[0] + trim, runs[1] - trim), abs=1e-3)
+    # the passes ran inside it (not over the 0.6 m of --quick's stroke, nor the runs' span), and
+    # the summary says so: nothing beyond the compensator's table
     edges = [r for r in csv.DictReader((te_quick["V"] / "improvement_sections.csv").open())]
-    assert max(float(r["x_end"]) for r in edges) <= meta["valid_range"]["x_max"] + 1e-9
+    assert min(float(r["x_start"]) for r in edges) >= vr["x_min"] - 1e-9
+    assert max(float(r["x_end"]) for r in edges) <= vr["x_max"] + 1e-9
+    rep = _summary(te_quick["V"])["valid_range"]
+    assert (rep["x_min"], rep["x_max"]) == (vr["x_min"], vr["x_max"])
+    assert rep["sections_outside"] == 0 and set(rep["cycles_outside_share"].values()) == {0.0}
 
 
 def test_custom_axis_campaign_fit_validate(te_custom_axis):

@@ -37,6 +37,20 @@ AVX2 branch on every CPU. The learning figures and the loop margins
 its tolerance; two were re-quoted at their measured value: the average 86.98 % (now "87.0 %") and
 the lowest beyond-range pass 44.2 % (quoted "≥ 45 %", now "≥ 44 %": 44.2 was inside the ±1 tolerance
 but "≥ 45" was not true). Tolerances unchanged.
+
+Valid-range fix (branch ``valid-range``): the model now stores, and ``te validate`` uses, the
+positions where it was measured (the no-load runs' span ∩ the span the no-load curves hold
+data: 55 … 2145 mm on the seed-0 campaign instead of the runs' 50.0107 … 2149.9893 mm, where
+the curves were held flat over 5 mm at each end). Measured on one seed-0 model (``te campaign
+-o C --seed 0``, ``te fit C -o M`` at main 23bab9b, then ``te validate M -o V`` with main's code
+and with the branch's): average 86.98 → 87.24 % (quoted "87.0 %" → "87.2 %"), lowest in-range
+pass 88.96 → 89.77 % ("≥ 88 %" → "≥ 89 %"), lowest in-range section 77.72 → 88.66 % ("≥ 77 %" →
+"≥ 88 %": the first and last sections had run over the flat bands), lowest beyond-range pass
+44.20 → 44.19 %, reversal 19.20 → 2.115/2.116 µm, hf ratio 0.1603/0.1603, monitoring defect
+section 77.2 → 77.8 % and 95.2 → 95.4 % (all within their tolerances, quotes unchanged); the
+monitoring defect moved with the sections from 1300.01 to 1305.00 mm (README "at 1.30 m" →
+"at 1.305 m", same 0.1 mm tolerance). The goals (≥ 75 %, ≥ 60 %, ≥ 35 %) are unchanged and met.
+Tolerances unchanged.
 """
 
 from __future__ import annotations
@@ -56,9 +70,9 @@ FIGURES: dict[str, tuple[float, float, str]] = {
     "stage1_share_min_pct": (94.0, 1.0, "the network carries 94–95 % of the output"),
     "stage1_share_max_pct": (95.0, 1.0, "the network carries 94–95 % of the output"),
     # -- compensation (te validate)
-    "average_improvement_pct": (87.0, 0.1, "by 87.0 %\non average"),
-    "min_in_range_pass_pct": (88.0, 1.0, "in the training range ≥ 88 % per pass"),
-    "min_in_range_section_pct": (77.0, 1.0, "≥ 77 % per section"),
+    "average_improvement_pct": (87.2, 0.1, "by 87.2 %\non average"),
+    "min_in_range_pass_pct": (89.0, 1.0, "in the training range ≥ 89 % per pass"),
+    "min_in_range_section_pct": (88.0, 1.0, "≥ 88 % per section"),
     "min_beyond_range_pass_pct": (44.0, 1.0, "beyond it ≥ 44 %"),
     "reversal_uncomp_um": (19.0, 1.0, "the reversal error falls from 19 µm to 2.1 µm (−89 %)"),
     "reversal_comp_um": (2.1, 0.1, "the reversal error falls from 19 µm to 2.1 µm (−89 %)"),

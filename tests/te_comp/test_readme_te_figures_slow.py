@@ -121,11 +121,13 @@ def test_sine_reversal_and_spectrum(summary):
 def test_monitoring_flags_only_the_defect_and_update_restores(summary):
     m = summary["monitoring"]
     assert m["defect_covered"] and m["false_sections_per_m"] == 0.0  # "flagged (only its section)"
-    # "a 15 µm rack defect at 1.30 m is flagged (only its section)": one flagged interval, one
+    # "a 15 µm rack defect at 1.305 m is flagged (only its section)": one flagged interval, one
     # 100 mm section, and it holds the defect (the sections start at the model's valid range,
-    # 0.0500107 m on the seed-0 campaign, so the edges are 1250.0107 / 1350.0107 mm)
+    # 0.055 m on the seed-0 campaign — where its no-load curves hold data — so the edges are
+    # 1255 / 1355 mm; before the valid-range fix they started at the runs' 0.0500107 m and the
+    # defect sat at 1300.01 mm)
     centre_mm = 1e3 * summary["config"]["defect_center"]
-    assert centre_mm == pytest.approx(1300.0, abs=0.1)  # the README's "at 1.30 m"
+    assert centre_mm == pytest.approx(1305.0, abs=0.1)  # the README's "at 1.305 m"
     ((lo, hi),) = m["flagged_intervals_mm"]
     assert hi - lo == pytest.approx(1e3 * summary["config"]["section_length"], abs=1e-6)
     assert lo < centre_mm < hi

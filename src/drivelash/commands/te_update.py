@@ -37,10 +37,15 @@ def _check_geometry(camp: Any, model: Any, path: Path) -> None:
 
 
 def _check_range(runs: dict[str, list[Any]], model: Any, tol: float = 1e-3) -> None:
-    """Passes beyond the model's geometric curve (± ``tol`` [m]) are refused: its wear cannot be learnt."""
-    from drivelash.errors import DataError
+    """Passes beyond the model's valid range (± ``tol`` [m]) are refused: their wear cannot be learnt.
 
-    lo, hi = model.geometric_range()
+    The valid range is :func:`~drivelash.te.runtime.table.measured_range` (where the no-load
+    curves hold data, within the span the no-load runs covered), the range ``te export`` writes.
+    """
+    from drivelash.errors import DataError
+    from drivelash.te.runtime.table import measured_range
+
+    lo, hi = measured_range(model)
     for rs in runs.values():
         for r in rs:
             if r.x[0] < lo - tol or r.x[-1] > hi + tol:

@@ -64,6 +64,16 @@ class TrainedTEModel:
     offset: dict[str, tuple[float, float]] = field(default_factory=dict)
     context: Any = None
 
+    def geometric_range(self) -> tuple[float, float]:
+        """Positions [m] where every direction's no-load curve holds measured data (x_min, x_max).
+
+        The same span as :meth:`drivelash.te.runtime.predictor.TEModel.geometric_range` of the
+        saved model; :func:`drivelash.te.runtime.table.measured_range` intersects it with the
+        stored valid range.
+        """
+        spans = [self.geo[k].span() for k in self.models]
+        return max(s[0] for s in spans), min(s[1] for s in spans)
+
     def predict_def_um(self, x_T: Any, torque: Any, direction: int) -> np.ndarray:
         """Deformation TE_def [µm] (offset-free, the learning target) at ``x_T`` [m], motor torque [N·m]."""
         X = self.pipeline.design_matrix(x_T, torque)

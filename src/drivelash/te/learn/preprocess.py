@@ -201,6 +201,10 @@ class GeometricCurve:
         """Grid positions [m]."""
         return self.x0 + self.step * np.arange(self.te.size)
 
+    def span(self) -> tuple[float, float]:
+        """First and last grid position [m]: where the curve holds measured data (held flat outside)."""
+        return float(self.x0), float(self.x0 + self.step * (self.te.size - 1))
+
 
 def geometric_curve(
     grids: Sequence[np.ndarray], tes: Sequence[np.ndarray], step: float = GRID_STEP

@@ -21,7 +21,7 @@ from drivelash.errors import DataError, ParameterError
 from drivelash.physics.rack_pinion import RackPinionBench
 from drivelash.te.runtime.compensator import CompensatorParams
 from drivelash.te.runtime.persist import CampaignInfo, ModelContext, ValidRange
-from drivelash.te.runtime.table import TEPredictor, TETable, build_table
+from drivelash.te.runtime.table import TEPredictor, TETable, build_table, measured_range
 
 __all__ = [
     "ModelDrive",
@@ -70,12 +70,15 @@ class ValidationConfig:
         Torque step of the table [N·m].
     defect_center : float or None
         Centre of the local rack defect of the monitoring demo [m]; None: the centre of
-        the section at 60 % of the pass range (1.30 m on the paper's bench).
+        the section at 60 % of the pass range (1.305 m on the paper's bench: the passes start
+        at its valid range, 55 mm).
     defect_width, defect_amplitude : float
         Gaussian σ [m] and peak [m] of the defect.
     x_range : tuple of float or None
-        Positions the passes may use [m]; None: the model's valid range (where its
-        campaign recorded), so a validation never runs beyond the training data.
+        Positions the passes may use [m]; None: the model's valid range (where it was
+        measured, :func:`~drivelash.te.runtime.table.measured_range`), so a validation never
+        runs beyond the training data. A range beyond it is run, the compensator holds its
+        table's edge value there, and the summary states the share of cycles outside.
     monitor_velocity, monitor_load : float
         Pass of the monitoring demo [m/s], [N].
     """
@@ -205,6 +208,8 @@ def model_context(
     valid_x : tuple of float, optional
         Valid position range [m]; default the span covered by the geometric runs of
         both directions (:func:`~drivelash.te.protocol.plausibility.geometric_coverage`).
+        :func:`~drivelash.te.runtime.persist.save_model` stores it narrowed to where the
+        fitted no-load curves hold data (:func:`~drivelash.te.runtime.persist.measured_context`).
     base : CompensatorParams, optional
         Compensator settings whose drive-train fields are filled from the axis.
     """
@@ -358,8 +363,9 @@ def table_for(
     """The runtime table of ``model`` (see :func:`build_table`).
 
     ``torque_max`` [N·m] overrides ``cfg.table_torque_max``; one of them must be given.
-    ``x_range`` [m]: the positions of the table; default the model's valid range (a model
-    with a context), else the whole travel.
+    ``x_range`` [m]: the positions of the table; default where the model was measured
+    (:func:`~drivelash.te.runtime.table.measured_range`: its valid range ∩ the span of its
+    no-load curves), else the whole travel.
     """
     tmax = cfg.table_torque_max if cfg.table_torque_max is not None else torque_max
     if tmax is None:
@@ -368,7 +374,6 @@ def table_for(
     m = dict(meta or {})
     m["torque_max_Nm"] = tmax
     if x_range is None:
-        ctx = getattr(model, "context", None)
-        vr = getattr(ctx, "valid_range", None)
-        x_range = (vr.x_min, vr.x_max) if vr is not None else (0.0, float(bench.travel))
+        lo, hi = measured_range(model)
+        x_range = (lo, hi) if math.isfinite(lo) and math.isfinite(hi) else (0.0, float(bench.travel))
     return build_table(model, x_range[0], x_range[1], cfg.table_dx, tmax, n_t, meta=m)

@@ -170,7 +170,7 @@ def import_campaign(
 
 
 def summary_lines(manifest: CampaignManifest, report: PlausibilityReport) -> list[str]:
-    """What ``te import`` prints: runs, loads, velocities, valid range."""
+    """What ``te import`` prints: runs, loads, velocities, the geometric runs' coverage."""
     runs = manifest.runs
     kinds = {k: sum(r.kind == k for r in runs) for k in ("geometric", "load", "sine")}
     lines = [
@@ -180,6 +180,9 @@ def summary_lines(manifest: CampaignManifest, report: PlausibilityReport) -> lis
     ]
     if report.valid_range:
         lo, hi = report.valid_range
-        lines.append(f"valid range (geometric runs, both directions): {lo:.4f} … {hi:.4f} m")
+        lines.append(
+            f"covered by the geometric runs of both directions: {lo:.4f} … {hi:.4f} m (a fitted model's"
+            " valid range is where its no-load curves hold data within it)"
+        )
     lines.append(f"plausibility: {len(report.warnings)} warning(s), no error")
     return lines

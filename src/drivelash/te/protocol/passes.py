@@ -46,7 +46,9 @@ def run_pass(
     -------
     dict of numpy.ndarray
         ``t, x_d, x_T, theta_m, omega_m, torque_m, e`` (= x_d − x_T), ``v_c``, ``v_te``,
-        ``v_bl``, ``flank`` and ``tq_model`` (the compensator's model torque) per sample.
+        ``v_bl``, ``flank``, ``tq_model`` (the compensator's model torque) and ``outside``
+        (1 where the compensator's set positions left its table and it held the edge value,
+        :attr:`~drivelash.te.runtime.compensator.Compensator.cycles_outside`; else 0) per sample.
     """
     T_s = float(sim.T_s)
     t_sc = compensator.params.t_sc if compensator is not None else 5e-3
@@ -65,6 +67,7 @@ def run_pass(
     vbl_c = np.zeros(n // nc)
     fl_c = np.zeros(n // nc)
     tqm_c = np.zeros(n // nc)
+    out_c = np.zeros(n // nc)
     tq = om = al = 0.0
     # at rest on the starting flank before the pass: torque = friction-free holding torque
     for k in range(n // nc):
@@ -74,6 +77,7 @@ def run_pass(
             x_next = x_d[b] if b < x_d.size else x_d[-1]
             vc, vte_c[k], vbl_c[k] = compensator.step(x_d[a], x_next, tq, om, al)
             fl_c[k] = compensator.flank
+            out_c[k] = compensator.cycles_outside
             tqm_c[k] = tq - compensator.params.J_model * al
         vc_c[k] = vc
         state, out = sim.step_chunk(state, x_d[a:b], v_d[a:b], F_load, vc)
@@ -87,7 +91,10 @@ def run_pass(
     res["x_d"] = np.asarray(x_d[:n], dtype=np.float64)
     res["v_d"] = np.asarray(v_d[:n], dtype=np.float64)
     res["e"] = res["x_d"] - res["x_T"]
-    for name, arr in (("v_c", vc_c), ("v_te", vte_c), ("v_bl", vbl_c), ("flank", fl_c), ("tq_model", tqm_c)):
+    out_c = np.diff(out_c, prepend=0.0)  # the running count -> 1 for each cycle outside the table
+    cycles = (("v_c", vc_c), ("v_te", vte_c), ("v_bl", vbl_c), ("flank", fl_c), ("tq_model", tqm_c),
+              ("outside", out_c))  # fmt: skip
+    for name, arr in cycles:
         res[name] = np.repeat(arr, nc)
     sl = slice(None, None, max(1, int(decimate)))
     return {k: v[sl] for k, v in res.items()}

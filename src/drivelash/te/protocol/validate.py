@@ -12,6 +12,12 @@
     defect; with compensation active the flagged sections are compared with the
     defect; after ``update(stage="trees")`` on new passes the improvement returns.
 
+The passes and the compensator's table stay inside the model's valid range (where it was
+measured, :func:`~drivelash.te.runtime.table.measured_range`, the range ``te export``
+writes); ``summary.json`` states it (``valid_range``) with the share of each protocol's
+compensation cycles whose set positions left the table — there the compensator holds the
+table's edge value — which is zero unless a configured ``x_range`` goes beyond it.
+
 One pass with the compensator in the loop: :mod:`drivelash.te.protocol.passes`.
 Figures (paper Figs 8–9, monitoring) are drawn by a ``figures`` object passed in
 (:mod:`drivelash.report.te_figures`); the protocol itself never imports matplotlib.
@@ -32,21 +38,23 @@ import numpy as np
 from drivelash.errors import DataError
 from drivelash.io.outputs import jsonable, write_json
 from drivelash.te.protocol.bench import ModelDrive, ValidationConfig, compensator_for, table_for
-from drivelash.te.protocol.monitoring import section_edges
+from drivelash.te.protocol.monitoring import section_edges, section_mae
 from drivelash.te.protocol.passes import pass_range, pass_trajectory, run_pass, score_pass
 from drivelash.te.protocol.wear_demo import TreesUpdater, monitoring_demo
-from drivelash.te.runtime.compensator import Compensator, CompensatorParams
+from drivelash.te.runtime.compensator import X_SLACK, Compensator, CompensatorParams
 from drivelash.te.runtime.export import export_table
-from drivelash.te.runtime.table import TEPredictor, TETable
+from drivelash.te.runtime.table import TEPredictor, TETable, measured_range
 
 __all__ = [
     "acceptance",
     "band_rms",
     "constant_velocity_validation",
+    "outside_by_section",
     "reversal_errors",
     "reversal_times",
     "sine_validation",
     "summarize_passes",
+    "valid_range_report",
     "validate",
 ]
 
@@ -64,7 +72,9 @@ def constant_velocity_validation(
     Returns
     -------
     list of dict
-        Keys ``direction, velocity, load, x_start, x_end, mae_uncomp_um, mae_comp_um, improvement``.
+        Keys ``direction, velocity, load, x_start, x_end, mae_uncomp_um, mae_comp_um, improvement,
+        outside_share`` (share of the section's scored samples [-] where the compensator's set
+        positions left its table and it held the table's edge value).
     """
     lo, hi = pass_range(sim, cfg)
     edges = section_edges(lo, hi, cfg.section_length)
@@ -76,6 +86,7 @@ def constant_velocity_validation(
                 unc = run_pass(sim, x_d, v_d, F, None)
                 comp = run_pass(sim, x_d, v_d, F, Compensator(table, params, d))
                 mu, mc = score_pass(unc, comp, v, edges)
+                held = outside_by_section(comp, v, edges)
                 for i in range(edges.size - 1):
                     if not (np.isfinite(mu[i]) and np.isfinite(mc[i])):
                         continue
@@ -88,12 +99,63 @@ def constant_velocity_validation(
                         "mae_uncomp_um": float(mu[i] * 1e6),
                         "mae_comp_um": float(mc[i] * 1e6),
                         "improvement": float(1.0 - mc[i] / mu[i]),
+                        "outside_share": float(held[i]),
                     })  # fmt: skip
                 if progress is not None:
                     imp = [r["improvement"] for r in rows[-(edges.size - 1) :] if r["load"] == F]
                     progress(f"pass d={d:+d} v={v * 1e3:g} mm/s F={F:g} N: "
                              f"mean improvement {np.mean(imp):.1%}")  # fmt: skip
     return rows
+
+
+def outside_by_section(comp: dict[str, np.ndarray], v: float, edges: np.ndarray) -> np.ndarray:
+    """Share of the scored samples per section [-] (the constant-velocity part, as :func:`score_pass`)
+    where the compensator held its table's edge value (``comp["outside"]`` of :func:`run_pass`)."""
+    m = np.abs(np.abs(comp["v_d"]) - v) < 1e-9 * max(v, 1.0)
+    return np.nan_to_num(section_mae(comp["x_T"][m], comp["outside"][m], edges, min_count=1))
+
+
+def valid_range_report(
+    valid: tuple[float, float],
+    table: TETable,
+    passes: tuple[float, float],
+    outside: dict[str, float],
+    rows: list[dict[str, Any]],
+) -> dict[str, Any]:
+    """What ``summary.json`` says about the valid range: where the model was measured, the table,
+    the positions the passes used, and how much of each protocol ran outside the table.
+
+    Parameters
+    ----------
+    valid : tuple of float
+        The model's valid range [m] (:func:`~drivelash.te.runtime.table.measured_range`).
+    table : TETable
+        The compensator's table.
+    passes : tuple of float
+        Positions of the passes [m] (:func:`~drivelash.te.protocol.passes.pass_range`).
+    outside : dict
+        Protocol name → share of its compensation cycles [-] whose set positions left the table.
+    rows : list of dict
+        Section rows of protocol (b) (with ``outside_share``).
+    """
+    grid = table.x_grid
+    held = [r for r in rows if r.get("outside_share", 0.0) > 0.0]
+    return {
+        "x_min": float(valid[0]),
+        "x_max": float(valid[1]),
+        "definition": "where the model was measured: the span the no-load runs of both directions"
+        " covered ∩ the span the no-load curves hold data (drivelash.te.runtime.table.measured_range,"
+        " the range te export writes)",
+        "table_x_min": float(grid[0]),
+        "table_x_max": float(grid[-1]),
+        "passes_x_min": float(passes[0]),
+        "passes_x_max": float(passes[1]),
+        "beyond_table": "the compensator holds the table's edge value (no extrapolation; v_c,TE = 0"
+        " there), as a SINUMERIK compensation table holds its first and last value",
+        "cycles_outside_share": {k: float(v) for k, v in outside.items()},
+        "sections_outside": len(held),
+        "sections_scored": len(rows),
+    }
 
 
 def summarize_passes(rows: list[dict[str, Any]], train_max_load: float) -> dict[str, Any]:
@@ -199,6 +261,7 @@ def sine_validation(
         "peak_v_c_torque_Nm": float(np.max(np.abs(dvc)) * J_s / r) if dvc.size else 0.0,
         "torque_limit_Nm": float(sim.gains.torque_limit),
         "reversals": int(ru.size),
+        "cycles_outside_share": float(np.mean(comp["outside"])) if comp["outside"].size else 0.0,
     }
     return figures, unc, comp
 
@@ -243,8 +306,8 @@ def validate(
     """
     if not isinstance(drive, ModelDrive):
         drive = ModelDrive(model, campaign=drive)
-    vr = drive.context.valid_range
-    cfg = (cfg or ValidationConfig()).resolved(float(drive.bench.travel), (vr.x_min, vr.x_max))
+    valid = measured_range(model)
+    cfg = (cfg or ValidationConfig()).resolved(float(drive.bench.travel), valid)
     say = progress or (lambda s: None)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -259,6 +322,12 @@ def validate(
     params = compensator_for(bench, table, cfg.compensator)
     export_table(table, out / "te_table.json", params)
     summary: dict[str, Any] = {"config": jsonable(asdict(cfg)), "compensator": asdict(params)}
+    passes = pass_range(sim, cfg)
+    say(f"valid range {valid[0] * 1e3:.3f} … {valid[1] * 1e3:.3f} mm (where the model was measured);"
+        f" passes over {passes[0] * 1e3:.3f} … {passes[1] * 1e3:.3f} mm")  # fmt: skip
+    if passes[0] < valid[0] - X_SLACK or passes[1] > valid[1] + X_SLACK:
+        say("warning: the passes leave the valid range; there the compensator holds its table's edge"
+            " value (summary.json: valid_range.cycles_outside_share)")  # fmt: skip
 
     say("(a) sinusoidal trajectory")
     sine, unc, comp = sine_validation(sim, table, params, cfg)
@@ -286,6 +355,10 @@ def validate(
 
     say("(c) monitoring with a local rack defect")
     summary["monitoring"] = monitoring_demo(drive, sim, table, params, cfg, out, updater, say, model, figures)
+    outside = {k: summary[k]["cycles_outside_share"] for k in ("sine", "sine_paper_settings", "sine_loaded")}
+    outside["passes"] = _weighted_outside(rows)
+    outside["monitoring"] = summary["monitoring"]["cycles_outside_share"]
+    summary["valid_range"] = valid_range_report(valid, table, passes, outside, rows)
     summary["acceptance"] = acceptance(summary)
     summary["wall_time_s"] = time.perf_counter() - t_start
     write_json(out / "summary.json", summary, indent=1)
@@ -321,6 +394,13 @@ def acceptance(summary: dict[str, Any]) -> dict[str, Any]:
         cleared = not m["defect_flagged_after_update"]
         out["monitor_cleared_after_update"] = {"value": cleared, "passed": cleared}
     return out
+
+
+def _weighted_outside(rows: list[dict[str, Any]]) -> float:
+    """Share of protocol (b)'s scored samples [-] outside the table (sections weighted by length)."""
+    w = np.array([r["x_end"] - r["x_start"] for r in rows])
+    share = np.array([r["outside_share"] for r in rows])
+    return float(np.sum(w * share) / np.sum(w)) if rows else 0.0
 
 
 def _write_csv(rows: list[dict[str, Any]], path: Path) -> None:

@@ -179,9 +179,12 @@ def monitoring_demo(
     _, x_d, v_d = pass_trajectory(sim_w, lo, hi, v, 1)
     defect = (cfg.defect_center - 2 * cfg.defect_width, cfg.defect_center + 2 * cfg.defect_width)
 
+    held: list[float] = []  # share of the compensation cycles outside the table, per judged pass
+
     def judge(tab: TETable) -> tuple[SectionReport, float, np.ndarray]:
         unc = run_pass(sim_w, x_d, v_d, F, None)
         comp = run_pass(sim_w, x_d, v_d, F, Compensator(tab, params, 1))
+        held.append(float(np.mean(comp["outside"])) if comp["outside"].size else 0.0)
         rep = monitor_pass(sim_w, tab, comp, v, edges)
         mu, mc = score_pass(unc, comp, v, edges)
         imp = 1.0 - mc / mu
@@ -228,6 +231,7 @@ def monitoring_demo(
             "improvement_mean_after_update": imp1_mean,
             "improvement_defect_section_after_update": float(imp1[k_def]),
         })  # fmt: skip
+    res["cycles_outside_share"] = max(held)
     if figures is not None:
         figures.fig_monitor(rep0, rep1, defect, out / "monitoring.png")
     return res

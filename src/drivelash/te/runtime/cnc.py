@@ -26,9 +26,11 @@ Layouts
     traverse) and ``BACKLASH`` (value in the negative direction), between ``BEGIN
     <AXIS>.COM MM`` and ``[END]``. Values are TE in mm, the convention of the LEC above.
 
-The **valid range** is where the model's no-load runs recorded both directions; the
-table spans exactly that range (the first and last points are its ends; a CNC holds the
-edge values beyond it), the SINUMERIK header states it in comments, the HEIDENHAIN file
+The **valid range** is where the model was measured (its no-load runs of both directions,
+where its no-load curves hold data: :func:`~drivelash.te.runtime.table.measured_range`); the
+table spans exactly that range (the first and last points are its ends; a SINUMERIK holds the
+edge values beyond it, Function Manual Extended Functions 03/2013, K3 §4.4; for a HEIDENHAIN
+control we found no statement), the SINUMERIK header states it in comments, the HEIDENHAIN file
 after its ``[END]`` marker (a TNC table has no comment syntax). Positions outside it are
 refused. Check the sign once on the machine (one laser or scale pass with the table
 loaded) before production — the two manufacturers' conventions are quoted from their

@@ -23,6 +23,13 @@ v_c integrates exactly to the change of ``TE_hat``: over a flank change
 Σ v_c,BL · t_s,c = b (the discrete form of (7) is the difference of the smooth step
 between cycle boundaries).
 
+Outside the table. The table spans the model's valid range (where it was measured,
+:func:`~drivelash.te.runtime.table.measured_range`). A set position beyond its grid is
+evaluated at the nearest grid edge — the edge value is held, as a SINUMERIK compensation
+table holds its first and last value beyond ``_MIN``/``_MAX`` — so v_c,TE is zero there and
+nothing is extrapolated; every such cycle is counted (:attr:`Compensator.cycles_outside`,
+state ``S_OUTSIDE``) so that a caller can state how much of a motion ran uncompensated.
+
 Feed-forward only: the output depends on the planned trajectory and, through the
 error models, on the torque state; no measured position or velocity error feeds
 through, so the closed-loop poles are those of the uncompensated cascade (tested).
@@ -46,6 +53,7 @@ from drivelash.te.runtime.table import TETable, table_te
 __all__ = [
     "Compensator",
     "CompensatorParams",
+    "X_SLACK",
     "compensate_run",
     "compensation_cycle",
     "init_state",
@@ -64,7 +72,11 @@ S_TE_HAT = 5  # integral of v_c: the compensator's running TE estimate (offset-f
 S_TSS = 6  # duration of the running backlash step [s]
 S_TM1 = 7  # mesh torque of the previous cycle [N·m]
 S_TM2 = 8  # mesh torque two cycles back [N·m]
-STATE_SIZE = 9
+S_OUTSIDE = 9  # cycles whose set positions left the table's grid (its edge value was held) [-]
+STATE_SIZE = 10
+#: Distance [m] beyond the table's first or last grid position at which a set position counts
+#: as outside the table (floating-point slack of the grid's end, far below any encoder step).
+X_SLACK = 1e-9
 
 # Layout of the parameter vector of the kernels.
 P_T_SC = 0
@@ -233,7 +245,8 @@ def compensation_cycle(state, te, x0, dx, torque0, dtorque, p, x_d_n, x_d_next, 
     p : numpy.ndarray
         :meth:`CompensatorParams.as_array`.
     x_d_n, x_d_next : float
-        Current and look-ahead (t + t_s,c) set positions [m].
+        Current and look-ahead (t + t_s,c) set positions [m]; beyond the table's grid the
+        edge value is held and the cycle counted in ``state[S_OUTSIDE]``.
     torque_m : float
         Motor torque, mean over the last cycle [N·m].
     omega_m : float
@@ -242,6 +255,10 @@ def compensation_cycle(state, te, x0, dx, torque0, dtorque, p, x_d_n, x_d_next, 
         Motor acceleration [rad/s²].
     """
     t_sc = p[P_T_SC]
+    # beyond the table's grid its edge value is held (table_te clamps): counted, never extrapolated
+    x_last = x0 + dx * (te.shape[1] - 1)
+    if min(x_d_n, x_d_next) < x0 - X_SLACK or max(x_d_n, x_d_next) > x_last + X_SLACK:
+        state[S_OUTSIDE] += 1.0
     # flank in contact from the mesh torque: (a) its sign, beyond the hysteresis band, or
     # (b) its release (below `release`) while the planned motion reverses
     tm = mesh_torque(torque_m, omega_m, alpha_m, p)
@@ -344,6 +361,15 @@ class Compensator:
     def flank(self) -> int:
         """Flank currently in contact (±1)."""
         return int(self.state[S_FLANK])
+
+    @property
+    def cycles_outside(self) -> int:
+        """Cycles since the last reset whose set positions left the table's grid [-].
+
+        There the table's edge value was held (no extrapolation, v_c,TE = 0): the motion
+        ran uncompensated for the TE's change along the position.
+        """
+        return int(self.state[S_OUTSIDE])
 
     def step(
         self, x_d_n: float, x_d_next: float, torque_m: float, omega_m: float, alpha_m: float

@@ -131,7 +131,10 @@ class ValidRange(Document):
     Attributes
     ----------
     x_min, x_max : float
-        Table positions covered by the geometric runs of both directions [m].
+        Table positions where the model was measured [m]: the span the geometric (no-load)
+        runs of both directions covered ∩ the span the no-load curves hold data
+        (:func:`~drivelash.te.runtime.table.measured_range`; written so by :func:`save_model`,
+        and narrowed so on load for a file written before, whose range was the runs' span).
     torque_max : float
         Largest motor-torque magnitude of the training runs [N·m] (99.9th percentile of
         the constant-velocity parts); the runtime table spans [0, torque_max] per flank
@@ -261,11 +264,56 @@ def flatten_trees(bagging: Any) -> dict[str, np.ndarray]:
 # ---------------------------------------------------------------------------
 # save / load
 # ---------------------------------------------------------------------------
+def measured_context(model: Any, where: str | Path = "model") -> ModelContext:
+    """``model.context`` with its valid position range narrowed to where the model was measured.
+
+    The stored range (the span the no-load runs of both directions covered) ∩ the span the
+    no-load curves hold data, :func:`~drivelash.te.runtime.table.measured_range` — the one
+    definition that ``te export``, ``te validate``, ``te update`` and the compensator's table
+    use. :func:`save_model` stores it; :func:`load_model` applies it to a file written before,
+    whose stored range was the runs' span (e.g. 50–450 mm where the curves hold 55–445 mm).
+
+    Parameters
+    ----------
+    model : TrainedTEModel or TEModel
+        A model with ``context`` (:class:`ModelContext`) and ``geometric_range()`` [m].
+    where : str or Path
+        Named in the error.
+
+    Returns
+    -------
+    ModelContext
+        A copy; the torque range, loads and everything else unchanged.
+
+    Raises
+    ------
+    ModelFileError
+        The stored range and the no-load curves do not overlap.
+    """
+    from drivelash.te.runtime.table import measured_range
+
+    ctx: ModelContext = model.context
+    vr = ctx.valid_range
+    lo, hi = measured_range(model)
+    if (lo, hi) == (vr.x_min, vr.x_max):
+        return ctx
+    if not hi > lo:
+        g_lo, g_hi = model.geometric_range()
+        raise ModelFileError(
+            f"{where}: the valid range [{vr.x_min:.6g}, {vr.x_max:.6g}] m and the span of the no-load"
+            f" curves [{g_lo:.6g}, {g_hi:.6g}] m do not overlap: the model was measured nowhere"
+        )
+    narrowed = vr.model_copy(update={"x_min": lo, "x_max": hi})
+    return ctx.model_copy(update={"valid_range": narrowed})
+
+
 def model_arrays(trained: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Metadata and flat named arrays of a :class:`~drivelash.te.learn.fit.TrainedTEModel`.
 
     ``trained.context`` (a :class:`ModelContext`) is required: a model without its axis,
-    valid range and compensator settings could not be used without its campaign.
+    valid range and compensator settings could not be used without its campaign. The valid
+    position range is stored as :func:`measured_context` gives it (where the no-load curves
+    hold data, never the wider span of the runs).
     """
     ctx = getattr(trained, "context", None)
     if not isinstance(ctx, ModelContext):
@@ -273,6 +321,7 @@ def model_arrays(trained: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
             "a model needs its context (axis, valid range, compensator): set trained.context"
             " (drivelash.te.protocol.bench.model_context)"
         )
+    ctx = measured_context(trained)
     meta: dict[str, Any] = {
         "format": FORMAT_NAME,
         "version": FORMAT_VERSION,
@@ -472,7 +521,9 @@ def load_model(directory: str | Path) -> TEModel:
     Returns
     -------
     TEModel
-        NumPy/numba predictor (no torch import).
+        NumPy/numba predictor (no torch import). Its ``context.valid_range`` is where the
+        model was measured (:func:`measured_context`), also for a file written before the
+        range was stored so.
 
     Raises
     ------
@@ -520,6 +571,9 @@ def load_model(directory: str | Path) -> TEModel:
     arrs = _read_arrays(wpath)
     arrays = {k: _validate_direction(arrs, k, models[k], int(pipe.geometry.n_t)) for k in dirs}
     model = TEModel(meta, arrays, context=doc.context())
+    # a file written before the valid range was stored as measured: the same range as a new one
+    model.context = measured_context(model, mpath)
+    model.meta["valid_range"] = model.context.valid_range.model_dump(mode="json")
     check_outputs(model, wpath)
     return model
 
@@ -560,6 +614,7 @@ __all__ = [
     "CampaignInfo",
     "check_outputs",
     "flatten_trees",
+    "measured_context",
     "load_model",
     "model_arrays",
     "save_model",

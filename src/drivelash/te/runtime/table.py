@@ -2,7 +2,9 @@
 
 The fitted model is sampled once into a :class:`TETable` (bilinear interpolation,
 clamped at the edges), which the ``@njit`` kernel :func:`table_te` evaluates inside
-the compensation cycle (:mod:`drivelash.te.runtime.compensator`).
+the compensation cycle (:mod:`drivelash.te.runtime.compensator`, which counts the cycles
+it spends beyond the grid). The table spans at most :func:`measured_range`, the one
+definition of the positions where a model was measured.
 """
 
 from __future__ import annotations
@@ -145,7 +147,7 @@ def build_table(
     model : TEPredictor
         Fitted model with ``predict(x_T, torque, direction)`` [m].
     x_min, x_max : float
-        Position range [m].
+        Position range [m]; within :func:`measured_range` of ``model`` (refused otherwise).
     dx : float
         Position step [m].
     torque_max : float
@@ -167,13 +169,13 @@ def build_table(
         )
     if n_torque < 1 or not (math.isfinite(torque_max) and torque_max >= torque_min):
         raise ParameterError("build_table", "n_torque", "need n_torque >= 1 and torque_max >= torque_min")
-    vr = getattr(getattr(model, "context", None), "valid_range", None)
-    if vr is not None and not vr.contains(x_min, x_max):
+    lo, hi = measured_range(model)
+    if x_min < lo - 1e-9 or x_max > hi + 1e-9:
         raise ParameterError(
             "build_table",
             "x_min",
             f"positions [{x_min:.6g}, {x_max:.6g}] m leave the model's valid range"
-            f" [{vr.x_min:.6g}, {vr.x_max:.6g}] m (where its campaign recorded)",
+            f" [{lo:.6g}, {hi:.6g}] m (where its no-load runs of both directions were measured)",
         )
     n_x = table_size(x_min, x_max, dx)
     x = x_min + dx * np.arange(n_x)
@@ -193,7 +195,12 @@ def measured_range(model: Any) -> tuple[float, float]:
     the span the no-load runs of both directions covered) ∩ the span its no-load curves hold
     data (``geometric_range()``; outside it they are held flat, i.e. not measured).
 
-    A model without one of them is bounded by the other; with neither, ``(-inf, inf)``.
+    The one definition of the valid position range: ``te export`` (table and CNC layouts),
+    the table ``te validate`` and the compensator read (:func:`build_table`), the passes
+    ``te update`` accepts, and the range :func:`~drivelash.te.runtime.persist.save_model`
+    stores (so a saved model's ``context.valid_range`` is already this range; a file written
+    before is narrowed to it on load). A model without one of them is bounded by the other;
+    with neither, ``(-inf, inf)``.
     """
     lo, hi = -math.inf, math.inf
     vr = getattr(getattr(model, "context", None), "valid_range", None)
