@@ -140,7 +140,3 @@ def identify_checked(data: Any, cfg: Any, *, model: str, N: float | None = None)
             path=trace.meta.get("source", "<DataFrame>"),
             column="omega_m",
         ) from None
-
-
-def _as_path(x: Any) -> Path | None:
-    return Path(x) if isinstance(x, (str, Path)) else None
