@@ -418,3 +418,36 @@ def test_signed_output_without_recorded_command_needs_force(tmp_path):
     write_trace(_trace(), rec)
     with Outputs("simulate") as out:
         assert out.file(rec, option="-o") is not None
+
+
+@pytest.mark.parametrize("name", ["run.parquet", "run.csv", "run.h5", "run.mat"])
+def test_a_recording_records_its_command_and_another_command_needs_force(tmp_path, name):
+    """Session 13's left-alone item: ``simulate -o`` replaced ``observe -o``'s recording silently.
+
+    Both writers (:func:`write_trace` and the chunked :class:`TraceWriter`) record the command
+    in the metadata's ``generator``; a reader does not put it into ``Trace.meta``.
+    """
+    from drivelash.io.formats import TraceWriter
+    from drivelash.io.outputs import output_command
+
+    tr = _trace()
+    target = tmp_path / name
+    with Outputs("observe") as out:
+        t = out.file(target, option="--out")
+        with TraceWriter(out.staging(t), tr.names, len(tr), dict(tr.meta)) as w:
+            w.write(tr.columns)
+    assert output_command(target) == "observe"
+    assert "generator" not in load_trace(target).meta
+    before = target.read_bytes()
+    with pytest.raises(OutputError, match="written by 'drivelash observe'.*--force"):
+        with Outputs("simulate") as out:
+            out.file(target, option="-o")
+    assert target.read_bytes() == before
+    with Outputs("simulate", force=True) as out:
+        write_trace(tr, out.staging(out.file(target, option="-o")))
+    assert output_command(target) == "simulate"
+    with Outputs("simulate") as out:  # negative control: the same command re-runs freely
+        write_trace(tr, out.staging(out.file(target, option="-o")))
+    # a library write records no command: any command may replace it, as before
+    write_trace(tr, target)
+    assert output_command(target) == ""

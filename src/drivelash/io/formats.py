@@ -515,7 +515,8 @@ def _parse_meta(text: Any) -> dict[str, Any]:
     # what a reader found in the file itself (its units row, unit attributes), never what an
     # earlier load of another file wrote into the metadata: a trace written back in SI keeps
     # the source's stated units in its meta, which must not be checked against it again
-    return {k: v for k, v in meta.items() if k not in ("column_units", "column_units_from")}
+    # nor who wrote the file (``generator``, read by drivelash.io.outputs.output_command)
+    return {k: v for k, v in meta.items() if k not in ("column_units", "column_units_from", "generator")}
 
 
 # --------------------------------------------------------------------------- readers
@@ -1398,9 +1399,10 @@ class TraceWriter:
 
     def __init__(self, path: str | Path, names: list[str], n: int, meta: dict[str, Any],
                  fmt: str | None = None) -> None:  # fmt: skip
-        from drivelash.io.outputs import final_suffix
+        from drivelash.io.outputs import final_suffix, signature
 
-        self.path, self.names, self.n, self.meta = Path(path), list(names), int(n), dict(meta)
+        self.path, self.names, self.n = Path(path), list(names), int(n)
+        self.meta = {**meta, "generator": signature(self.path)}  # as write_trace
         fmt = fmt or EXTENSIONS.get(final_suffix(self.path))
         if fmt not in FORMATS:
             raise DataError(
@@ -1508,9 +1510,12 @@ def write_trace(trace: Trace, path: str | Path, fmt: str | None = None) -> Path:
     Path
         The written file.
     """
-    from drivelash.io.outputs import atomic_write, final_suffix, is_staging_path
+    from drivelash.io.outputs import atomic_write, final_suffix, is_staging_path, signature
 
     p = Path(path)
+    # the command that wrote it (for a command's staging path), so that another command
+    # does not replace it without --force (drivelash.io.outputs.output_command)
+    trace = Trace(trace.columns, meta={**trace.meta, "generator": signature(p)})
     if fmt is None:
         fmt = EXTENSIONS.get(final_suffix(p))
         if fmt is None:

@@ -118,6 +118,9 @@ _STAGED_BY: dict[str, str] = {}
 #: a file of these kinds that carries only ``drivelash <version>`` was written before the
 #: command was recorded (or by a library call), so a command replaces it only with ``--force``.
 _RECORDS_COMMAND: tuple[str, ...] = (".json", ".html", ".htm", ".png", ".pdf", ".svg")
+#: Recordings (and CSV text tables): the command is in the metadata's ``generator`` when the
+#: file was written by a command since it was recorded; an older one still counts as ours.
+_RECORDING_KINDS: tuple[str, ...] = (".parquet", ".pq", ".csv", ".h5", ".hdf5", ".hdf", ".mat")
 
 
 # =========================================================================== signature
@@ -326,37 +329,56 @@ def _com_signed(path: Path) -> bool:
     return re.search(rb"\n\[END\]\r?\ndrivelash ", tail) is not None
 
 
-def _hdf5_signed(path: Path) -> bool:
+def _hdf5_meta(path: Path) -> str | None:
     import h5py
 
     try:
         with h5py.File(path, "r") as f:
-            return "drivelash_meta" in f.attrs
+            if "drivelash_meta" not in f.attrs:
+                return None
+            v = f.attrs["drivelash_meta"]
+            return v.decode("utf-8", "replace") if isinstance(v, bytes) else str(v)
     except (OSError, ValueError):
-        return False
+        return None
 
 
-def _mat_signed(path: Path) -> bool:
+def _mat_meta(path: Path) -> str | None:
     head = _head(path, 128)
     if head.startswith(b"MATLAB 7.3"):
-        return _hdf5_signed(path)
+        return _hdf5_meta(path)
     import scipy.io
 
     try:
-        return any(name == "drivelash_meta" for name, _, _ in scipy.io.whosmat(path))
+        if not any(name == "drivelash_meta" for name, _, _ in scipy.io.whosmat(path)):
+            return None
+        v = scipy.io.loadmat(path, variable_names=["drivelash_meta"])["drivelash_meta"]
+        return "".join(str(x) for x in np.asarray(v).reshape(-1))
     except Exception:  # noqa: BLE001 - any unreadable file is simply "not ours"
-        return False
+        return None
 
 
-def _parquet_signed(path: Path) -> bool:
+def _parquet_meta(path: Path) -> str | None:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     try:
         md = pq.read_schema(path).metadata or {}
     except (pa.ArrowException, OSError, ValueError):
-        return False
-    return b"drivelash.meta" in md
+        return None
+    v = md.get(b"drivelash.meta")
+    return None if v is None else v.decode("utf-8", "replace")
+
+
+def _recording_command(meta_text: str | None) -> str | None:
+    """Command recorded in a recording's metadata (``generator``); '' if it records none."""
+    if meta_text is None:
+        return None
+    try:
+        doc = json.loads(meta_text)
+    except ValueError:
+        return ""
+    gen = doc.get("generator") if isinstance(doc, dict) else None
+    return _command_in(gen) if isinstance(gen, str) else ""
 
 
 def is_own_output(path: str | Path) -> bool:
@@ -420,6 +442,8 @@ def output_command(path: str | Path) -> str | None:
         elif ext == ".svg":
             m = re.search(rb"<dc:creator>\s*<cc:Agent>\s*<dc:title>(drivelash[^<]*)<", _head(p))
             sig = m[1].decode("utf-8", "replace") if m else None
+        elif ext in _RECORDING_KINDS:
+            return _recording_owner(p, ext)
         else:
             return "" if _unrecorded_own(p, ext) else None
         return None if sig is None else _command_in(sig)
@@ -429,21 +453,29 @@ def output_command(path: str | Path) -> str | None:
 
 def _unrecorded_own(p: Path, ext: str) -> bool:
     """Signature tests of the kinds that do not record the command (see :func:`is_own_output`)."""
-    if ext in (".parquet", ".pq"):
-        return _parquet_signed(p)
-    if ext in (".csv", ".txt", ".toml"):
+    if ext in (".toml", ".txt"):
         return _first_line(p).startswith(b"# drivelash")
     if ext == ".md":
         return _first_line(p).startswith(b"<!-- drivelash")
-    if ext in (".h5", ".hdf5", ".hdf"):
-        return _hdf5_signed(p)
-    if ext == ".mat":
-        return _mat_signed(p)
     if ext == ".ini":
         return _first_line(p).startswith(b"; drivelash")
     if ext == ".com":
         return _com_signed(p)
     return False
+
+
+def _recording_owner(p: Path, ext: str) -> str | None:
+    """:func:`output_command` of a recording (``write_trace``): its metadata's ``generator``."""
+    if ext in (".parquet", ".pq"):
+        return _recording_command(_parquet_meta(p))
+    if ext in (".h5", ".hdf5", ".hdf"):
+        return _recording_command(_hdf5_meta(p))
+    if ext == ".mat":
+        return _recording_command(_mat_meta(p))
+    first = _first_line(p)  # .csv: a recording's meta line, or a text table's signature
+    if first.startswith(b"# drivelash.meta "):
+        return _recording_command(first[len(b"# drivelash.meta ") :].decode("utf-8", "replace"))
+    return "" if first.startswith(b"# drivelash") else None
 
 
 def _stamp_html(stage: Path, command: str) -> None:
