@@ -245,6 +245,7 @@ class Trace:
         md = table.schema.metadata or {}
         if b"drivelash.meta" in md:
             meta = json.loads(md[b"drivelash.meta"].decode())
+            meta.pop("generator", None)  # who wrote the file, not the recording's provenance
         cols = {name: table.column(name).to_numpy() for name in table.column_names}
         return cls(cols, meta)
 
