@@ -601,6 +601,9 @@ def _read_csv(p: Path, rows: DataRows = NO_LINES) -> RawTable:
                 index_col=False,  # never the first column as an index when rows are wider
             )
     except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError, csv_error()) as exc:
+        # a row wider than the header below the first: named by its line of the file (pandas'
+        # "Expected 4 fields in line 14" counts the lines it was given, from the header)
+        _check_row_widths(body_nonblank, sep, n_fields, p, rows)
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise DataError(f"malformed CSV: {msg}", path=str(p)) from None
     if any(issubclass(w.category, pd.errors.ParserWarning) for w in caught):
