@@ -3,7 +3,8 @@
 Pipeline: :func:`~drivelash.io.formats.read_raw` → column mapping and unit
 conversion (``[columns]`` of the configuration) → encoder wrap-around unwrapping
 → validation. Every problem is a :class:`~drivelash.errors.DataError` whose one
-line names the file, the column and the first bad row. Non-uniform sampling is
+line names the file, the column and the first bad row (its line in a text file, else
+``data row N (1-based)``: the reader's :class:`~drivelash.errors.DataRows`). Non-uniform sampling is
 refused unless resampling is asked for explicitly.
 
 Prismatic axes (a carriage on a ball screw, like EMPS): position columns given
