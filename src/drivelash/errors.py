@@ -32,6 +32,52 @@ class ParameterError(DrivelashError, ValueError):
         super().__init__(f"{owner}.{field}: {problem}")
 
 
+class DataRows:
+    """Where the data rows of a file are, for messages: the one location helper.
+
+    A reader keeps one per file (``RawTable.rows``, ``ColumnSource.rows``); every message that
+    points at a data row names it with :meth:`where`. This base class names a row of a file
+    without lines (Parquet, HDF5, MAT) or of data in memory: ``data row N (1-based)``, N
+    counting the data rows from 1 (the first row below the header is data row 1). A text file's
+    reader keeps :class:`drivelash.io.formats.CsvLines`, which names the line an editor shows.
+    """
+
+    def line(self, row: int) -> int | None:
+        """The 1-based line of the file holding 0-based data row ``row``; None without lines."""
+        return None
+
+    def where(self, row: int) -> str:
+        """0-based data row ``row`` as the user finds it: ``line N`` or ``data row N (1-based)``."""
+        line = self.line(int(row))
+        return f"line {line}" if line is not None else f"data row {int(row) + 1} (1-based)"
+
+    def taken(self, index: object) -> DataRows:
+        """The rows of data that kept the rows ``index`` (0-based, of these rows) of this data:
+        row ``i`` there is row ``index[i]`` here (a recording sampled down or resampled)."""
+        return _TakenRows(self, index)
+
+
+class _TakenRows(DataRows):
+    """:meth:`DataRows.taken`: rows of a subset (or a resampled grid) of another's rows."""
+
+    def __init__(self, base: DataRows, index: object) -> None:
+        self._base, self._index = base, index
+
+    def _row(self, row: int) -> int:
+        index = self._index
+        return int(index[row]) if 0 <= row < len(index) else row  # type: ignore[index,arg-type]
+
+    def line(self, row: int) -> int | None:
+        return self._base.line(self._row(row))
+
+    def where(self, row: int) -> str:
+        return self._base.where(self._row(row))
+
+
+#: rows of a file without lines or of data in memory (``data row N (1-based)``)
+NO_LINES = DataRows()
+
+
 class DataError(DrivelashError, ValueError):
     """A problem with a recording: file, column, row.
 
@@ -44,7 +90,10 @@ class DataError(DrivelashError, ValueError):
     column : str, optional
         Offending column.
     row : int, optional
-        First bad row (0-based data row).
+        First bad row (0-based data row: the first row below the header is row 0).
+    rows : DataRows, optional
+        Where the file's data rows are (the reader's ``rows``): the message names ``row`` as
+        :meth:`DataRows.where` does — ``line N`` of a text file, else ``data row N (1-based)``.
     """
 
     def __init__(
@@ -53,6 +102,7 @@ class DataError(DrivelashError, ValueError):
         path: str | None = None,
         column: str | None = None,
         row: int | None = None,
+        rows: DataRows | None = None,
     ) -> None:
         self.path = path
         self.column = column
@@ -63,7 +113,7 @@ class DataError(DrivelashError, ValueError):
         if column:
             where.append(f"column '{column}'")
         if row is not None:
-            where.append(f"row {row}")
+            where.append((rows or NO_LINES).where(row))
         prefix = ": ".join([", ".join(where)]) + ": " if where else ""
         super().__init__(prefix + message)
 

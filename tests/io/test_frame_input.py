@@ -130,7 +130,8 @@ def test_nan_in_an_unread_column_leaves_it_out_file_stream_and_frame(df, tmp_pat
         assert "flag" not in tr.names and "theta_ref" not in tr.names
         np.testing.assert_array_equal(tr["theta_m"], df["theta_m"].to_numpy())
         notes = [w for w in tr.meta["warnings"] if "does not read" in w]
-        assert len(notes) == 2 and any("column 'theta_ref', row 3: NaN (1 bad sample(s))" in n for n in notes)
+        assert len(notes) == 2
+        assert any("column 'theta_ref', data row 4 (1-based): NaN (1 bad sample(s))" in n for n in notes)
     with TraceStream(pq, None) as st:
         assert "flag" not in st.names and "theta_ref" not in st.names
         assert sum("does not read" in w for w in st.meta["warnings"]) == 2
@@ -138,5 +139,5 @@ def test_nan_in_an_unread_column_leaves_it_out_file_stream_and_frame(df, tmp_pat
     d.loc[5, "omega_l"] = np.nan
     d.to_parquet(pq)
     for load in (lambda: dl.Trace.from_frame(d), lambda: dl.load_trace(pq), lambda: TraceStream(pq, None)):
-        with pytest.raises(dl.DataError, match="column 'omega_l', row 5: NaN"):
+        with pytest.raises(dl.DataError, match=r"column 'omega_l', data row 6 \(1-based\): NaN"):
             load()

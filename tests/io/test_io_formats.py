@@ -188,7 +188,7 @@ def test_decimal_comma_csv_reads_the_same_numbers(tmp_path, first_row_integers):
     # negative control: the same text comma-separated is not numbers (no guessing there)
     q = tmp_path / "comma.csv"
     q.write_text('t,theta_m\n"0,5","1,5"\n"1,5","2,5"\n')
-    with pytest.raises(DataError, match=r"comma.csv, column 't', row 0: not a number: '0,5'"):
+    with pytest.raises(DataError, match=r"comma.csv, column 't', line 2: not a number: '0,5'"):
         load_trace(q)
 
 
@@ -200,7 +200,7 @@ def test_mixed_decimal_marks_are_refused_naming_the_cell(tmp_path):
     p = tmp_path / "mixed.csv"
     p.write_text("t;theta_m\n0,0;0,5\n0,001;1.5\n0,002;2,5\n")
     msg = (
-        r"mixed.csv, column 'theta_m', row 1: decimal point in '1.5' where the file's numbers"
+        r"mixed.csv, column 'theta_m', line 3: decimal point in '1.5' where the file's numbers"
         r" have decimal commas"
     )
     with pytest.raises(DataError, match=msg):
@@ -294,7 +294,7 @@ def test_no_header_search_where_the_first_line_fits(tmp_path):
     without a numeric table below it keeps the first line's error."""
     bad = tmp_path / "bad.csv"
     bad.write_text("t,theta_m\n0,abc\n0.001,0.5\n0.002,0.7\n")
-    with pytest.raises(DataError, match=r"bad.csv, column 'theta_m', row 0: not a number: 'abc'"):
+    with pytest.raises(DataError, match=r"bad.csv, column 'theta_m', line 2: not a number: 'abc'"):
         load_trace(bad)
     junk = tmp_path / "junk.csv"
     junk.write_text(PREAMBLE + "t;theta_m\n0;x\n1;y\n")
@@ -433,7 +433,7 @@ def test_a_data_row_that_names_one_unit_is_still_data(tmp_path):
     a bad one — not a units row, so no row is dropped unseen)."""
     f = tmp_path / "bad.csv"
     f.write_text("t;theta_m;omega_m\n1;m;x\n0.001;0.5;1\n0.002;0.7;1\n")
-    with pytest.raises(DataError, match=r"bad.csv, column 'theta_m', row 0: not a number: 'm'"):
+    with pytest.raises(DataError, match=r"bad.csv, column 'theta_m', line 2: not a number: 'm'"):
         load_trace(f)
 
 
@@ -662,7 +662,7 @@ def test_a_key_value_preamble_is_skipped(tmp_path, units):
     )
     bad = tmp_path / "bad.csv"
     bad.write_text("t;theta_m;omega_m\n0;abc;x\n0.001;0.5;1\n")
-    with pytest.raises(DataError, match=r"bad.csv, column 'theta_m', row 0: not a number: 'abc'"):
+    with pytest.raises(DataError, match=r"bad.csv, column 'theta_m', line 2: not a number: 'abc'"):
         load_trace(bad)
 
 
@@ -672,7 +672,7 @@ def test_a_date_with_slashes_is_named_not_guessed(tmp_path):
     p.write_text("time,theta_m\n11/05/2026 07:03:00.000,0.1\n11/05/2026 07:03:00.001,0.2\n")
     with pytest.raises(
         DataError,
-        match=r"slashed.csv, column 'time', row 0: a date with slashes .* is not read: "
+        match=r"slashed.csv, column 'time', line 2: a date with slashes .* is not read: "
         r"month/day or day/month is not known; write ISO 8601",
     ):
         load_trace(p)
@@ -700,7 +700,7 @@ def test_time_stamps_refuse_a_time_unit_and_name_a_bad_stamp(tmp_path):
     bad = tmp_path / "bad.csv"
     bad.write_text("\n".join(text) + "\n")
     with pytest.raises(
-        DataError, match=r"bad.csv, column 'time', row 3: not an ISO 8601 time: '13:00:00.003'"
+        DataError, match=r"bad.csv, column 'time', line 5: not an ISO 8601 time: '13:00:00.003'"
     ):
         load_trace(bad)
 
@@ -733,7 +733,7 @@ def test_rows_wider_than_the_header_are_refused_not_shifted(tmp_path):
 
     p = tmp_path / "wide.csv"
     p.write_text("t,theta_m\n0,1,2\n0.001,1.1,2.1\n0.002,1.2,2.2\n")
-    msg = r"wide.csv, row 0: 3 fields where the header names 2 columns"
+    msg = r"wide.csv, line 2: 3 fields where the header names 2 columns"
     with pytest.raises(DataError, match=msg):
         load_trace(p)
     with pytest.raises(DataError, match=msg):

@@ -75,7 +75,7 @@ def test_a_nan_in_a_skipped_row_is_still_refused(tmp_path):
     with pytest.raises(DataError) as exc:
         load_trace(path, mapping, max_rate_hz=1000.0)
     msg = str(exc.value)
-    assert "\n" not in msg and "load_vel" in msg and "1001" in msg, msg
+    assert "\n" not in msg and "load_vel" in msg and "data row 1002 (1-based)" in msg, msg
 
 
 def test_encoder_unwrapped_at_the_full_rate(tmp_path):

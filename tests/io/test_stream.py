@@ -231,7 +231,7 @@ def test_trace_from_frame_makes_every_check_the_loader_makes(tmp_path):
     bad = dict(c)
     bad["torque_m"] = c["torque_m"].copy()
     bad["torque_m"][42] = np.nan
-    with pytest.raises(DataError, match=r"<DataFrame>, column 'torque_m', row 42: NaN"):
+    with pytest.raises(DataError, match=r"<DataFrame>, column 'torque_m', data row 43 \(1-based\): NaN"):
         Trace.from_frame(pd.DataFrame(bad))
     ns = dict(c)
     ns["t"] = np.round(c["t"] * 1e9)

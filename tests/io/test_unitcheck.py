@@ -96,7 +96,7 @@ def test_step_scan_and_time_check_rules():
     assert _check_time(t, "f", "t", sampling, []) is None  # within tolerance: the shortcut
     gap = t.copy()
     gap[700:] += 1e-3  # one interval 9× the median
-    with pytest.raises(DataError, match="row 700: non-uniform sampling"):
+    with pytest.raises(DataError, match=r"data row 701 \(1-based\): non-uniform sampling"):
         _check_time(gap, "f", "t", sampling, [])
     with pytest.raises(DataError, match="duplicated time stamp"):
         _check_time(t2, "f", "t", sampling, [])

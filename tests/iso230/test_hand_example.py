@@ -141,7 +141,7 @@ def test_refusals_are_one_line():
     r = _rows()
     bad = r.copy()
     bad[3, 2] = 0
-    with pytest.raises(DataError, match=r"column 'direction', row 3: direction must be \+1"):
+    with pytest.raises(DataError, match=r"column 'direction', data row 4 \(1-based\): direction must be \+1"):
         approaches_from_rows(bad[:, 0], bad[:, 1], bad[:, 2], bad[:, 3])
     bad = r.copy()
     bad[3, 1] = 1  # row 3 (P_1 ↓ run 2) relabelled as run 1: two approaches P_1 ↓ run 1

@@ -47,7 +47,7 @@ def test_missing_column_and_nan_are_one_line(tmp_path):
     with pytest.raises(DataError, match=r"iso\.csv, column 'Error \[um\]': missing required column"):
         load_table(p, MAP)
     p = _write(tmp_path, "Target [mm],Run,Dir,Error [um]\n0,1,1,nan\n")
-    with pytest.raises(DataError, match=r"column 'Error \[um\]', row 0: NaN") as e:
+    with pytest.raises(DataError, match=r"column 'Error \[um\]', line 2: NaN") as e:
         load_table(p, MAP)
     assert "\n" not in str(e.value)
 

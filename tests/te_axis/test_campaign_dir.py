@@ -133,7 +133,7 @@ def test_damaged_run_files_are_one_line_errors(campaign, tmp_path, damage):
     msg = str(exc.value)
     assert run.path.name in msg and "\n" not in msg
     if damage == "nan":
-        assert "column 'x_T', row 1234" in msg and "NaN" in msg
+        assert "column 'x_T', data row 1235 (1-based)" in msg and "NaN" in msg
     if damage == "no-column":
         assert "theta_m" in msg
 

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from drivelash.errors import DataError
+from drivelash.errors import NO_LINES, DataError, DataRows
 from drivelash.io.trace import Trace, meta_json
 
 #: extension → format name
@@ -72,6 +72,8 @@ class RawTable:
         The file.
     fmt : str
         Detected format.
+    rows : DataRows
+        Where the data rows are in the file, for messages (:class:`CsvLines` of a text file).
     """
 
     columns: dict[str, np.ndarray]
@@ -79,6 +81,7 @@ class RawTable:
     meta: dict[str, Any] = field(default_factory=dict)
     path: str = ""
     fmt: str = ""
+    rows: DataRows = field(default=NO_LINES, repr=False, compare=False)
 
 
 # --------------------------------------------------------------------------- sniffing
@@ -413,10 +416,10 @@ def _timestamp_columns(tokens: list[str], first_row: str, sep: str) -> list[str]
     ]
 
 
-def _seconds_from_timestamps(s: Any, p: Path, name: str, meta: dict[str, Any]) -> np.ndarray:
+def _seconds_from_timestamps(s: Any, p: Path, name: str, meta: dict[str, Any], rows: DataRows) -> np.ndarray:
     """ISO 8601 time stamps → seconds from the first (exact to the nanosecond); the first is
     kept in ``meta["time_origin"]``. Dotted day-first stamps (``27.11.2026 13:00:00,125``) are
-    read as the same ISO 8601 time. One line naming the row of a cell that is not one."""
+    read as the same ISO 8601 time. One line naming the line (``rows``) of a cell that is not one."""
     import pandas as pd
 
     cells = s
@@ -435,7 +438,11 @@ def _seconds_from_timestamps(s: Any, p: Path, name: str, meta: dict[str, Any]) -
             if not ok:
                 what = "empty field" if text == "" else f"not an ISO 8601 time: {str(cell)[:40]!r}"
                 raise DataError(
-                    f"{what} (the column's first cell is a time stamp)", path=str(p), column=name, row=row
+                    f"{what} (the column's first cell is a time stamp)",
+                    path=str(p),
+                    column=name,
+                    row=row,
+                    rows=rows,
                 )
     ns = (dt - dt.iloc[0]).to_numpy().astype("timedelta64[ns]").astype(np.int64)
     # the first stamp as the file states it: in UTC where the file gives a zone, else without
@@ -446,10 +453,11 @@ def _seconds_from_timestamps(s: Any, p: Path, name: str, meta: dict[str, Any]) -
     return ns / 1e9
 
 
-def _check_row_widths(rows: list[str], sep: str, n: int, p: Path) -> None:
+def _check_row_widths(body: list[str], sep: str, n: int, p: Path, rows: DataRows) -> None:
     """A data row wider than the header is an error unless the extra fields are empty (a
-    separator at the end of each row); one line naming the first such row."""
-    for row, line in enumerate(rows[1:]):
+    separator at the end of each row); one line naming the first such row (its line: ``rows``).
+    ``body``: the header and the data rows below it."""
+    for row, line in enumerate(body[1:]):
         fields = _fields(line, sep)
         if len(fields) > n and "".join(fields[n:]).strip():
             raise DataError(
@@ -457,6 +465,7 @@ def _check_row_widths(rows: list[str], sep: str, n: int, p: Path) -> None:
                 " name, or a separator inside a value?)",
                 path=str(p),
                 row=row,
+                rows=rows,
             )
 
 
@@ -520,7 +529,9 @@ def _parse_meta(text: Any) -> dict[str, Any]:
 
 
 # --------------------------------------------------------------------------- readers
-def _read_csv(p: Path) -> RawTable:
+def _read_csv(p: Path, rows: DataRows = NO_LINES) -> RawTable:
+    """The strict reader: every cell with Python ``float``; ``rows`` (the :class:`CsvLines` of
+    the file's layout) names the line of a bad cell."""
     import pandas as pd
 
     raw = p.read_bytes()
@@ -575,6 +586,7 @@ def _read_csv(p: Path) -> RawTable:
             " and the file ends mid-line (truncated file?)",
             path=str(p),
             row=len(body_nonblank) - 2,
+            rows=rows,
         )
     try:
         with warnings.catch_warnings(record=True) as caught:
@@ -589,10 +601,13 @@ def _read_csv(p: Path) -> RawTable:
                 index_col=False,  # never the first column as an index when rows are wider
             )
     except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError, csv_error()) as exc:
+        # a row wider than the header below the first: named by its line of the file (pandas'
+        # "Expected 4 fields in line 14" counts the lines it was given, from the header)
+        _check_row_widths(body_nonblank, sep, n_fields, p, rows)
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise DataError(f"malformed CSV: {msg}", path=str(p)) from None
     if any(issubclass(w.category, pd.errors.ParserWarning) for w in caught):
-        _check_row_widths(body_nonblank, sep, n_fields, p)
+        _check_row_widths(body_nonblank, sep, n_fields, p, rows)
     stamps = _timestamp_columns(tokens, body_nonblank[1], sep)
     if stamps:
         meta["timestamp_columns"] = stamps
@@ -616,7 +631,7 @@ def _read_csv(p: Path) -> RawTable:
         seen.add(name)
         s = df[c].fillna("").astype(str).str.strip()
         if name in stamps:
-            cols[name] = _seconds_from_timestamps(s.str.strip('"'), p, name, meta)
+            cols[name] = _seconds_from_timestamps(s.str.strip('"'), p, name, meta, rows)
             continue
         obj = s.to_numpy(dtype=object)
         if comma:
@@ -628,6 +643,7 @@ def _read_csv(p: Path) -> RawTable:
                     path=str(p),
                     column=name,
                     row=int(dotted[0]),
+                    rows=rows,
                 )
         num = s.str.replace(",", ".", regex=False).to_numpy(dtype=object) if comma else obj
         try:
@@ -644,12 +660,12 @@ def _read_csv(p: Path) -> RawTable:
                             " day/month is not known; write ISO 8601 (2026-11-27 13:00:00) or"
                             " DD.MM.YYYY, or a time column in seconds"
                         )
-                    raise DataError(what, path=str(p), column=name, row=row) from None
+                    raise DataError(what, path=str(p), column=name, row=row, rows=rows) from None
             raise DataError("unparseable values", path=str(p), column=name) from None
         cols[name] = vals
     if not cols or len(next(iter(cols.values()))) == 0:
         raise DataError("no data rows below the header", path=str(p))
-    return RawTable(cols, {}, meta, str(p), "csv")
+    return RawTable(cols, {}, meta, str(p), "csv", rows)
 
 
 def csv_error() -> type[Exception]:
@@ -696,7 +712,11 @@ class ColumnSource:
         Scalar values stored in the file (e.g. gains).
     meta : dict
         Provenance read from the file.
+    rows : DataRows
+        Where the data rows are in the file, for messages (:class:`CsvLines` of a text file).
     """
+
+    rows: DataRows = NO_LINES
 
     def __init__(
         self, path: str, fmt: str, names: list[str], n_rows: int, scalars: dict[str, float], meta: dict
@@ -865,12 +885,13 @@ class ParquetSource(ColumnSource):
 class _CsvLayout:
     """Where the data of a CSV file start and how its rows are split."""
 
-    header_end: int  # byte offset just after the header line
+    header_end: int  # byte offset just after the header line (or its units row)
     tokens: list[str]
     sep: str
     meta: dict[str, Any]
     decimal: str = "."  # the first data row's decimal mark (``,`` in ``0,05;1,2``)
     stamps: list[str] = field(default_factory=list)  # columns of ISO 8601 time stamps
+    first_line: int = 2  # 1-based line of the file that starts at ``header_end``
 
 
 def _csv_layout(p: Path) -> _CsvLayout:
@@ -878,13 +899,16 @@ def _csv_layout(p: Path) -> _CsvLayout:
     size = p.stat().st_size
     meta: dict[str, Any] = {}
     offset = 0
-    cands: list[tuple[str, int]] = []  # the first non-blank lines and the offsets after them
+    n_line = 0  # 1-based number of the line just read
+    # the first non-blank lines, the offsets after them and their line numbers
+    cands: list[tuple[str, int, int]] = []
     with p.open("rb") as fh:
         while len(cands) < PREAMBLE_MAX_LINES + 3:
             raw = fh.readline()
             if not raw:
                 break
             offset += len(raw)
+            n_line += 1
             line = raw.decode("utf-8", "replace").rstrip("\r\n")
             if offset == len(raw):  # first line: a byte-order mark (Excel's "CSV UTF-8") is no text
                 line = line.removeprefix("\ufeff")
@@ -893,7 +917,7 @@ def _csv_layout(p: Path) -> _CsvLayout:
                     meta = _parse_meta(line[len("# drivelash.meta ") :])
                 continue
             if line.strip():
-                cands.append((line, offset))
+                cands.append((line, offset, n_line))
                 if len(cands) == 2 and _usual_start(cands[0][0], cands[1][0]):
                     break  # the usual file: header, then a row with as many fields
                 if len(cands) == 3 and _same_width(cands[0][0], cands[1][0]):
@@ -902,16 +926,16 @@ def _csv_layout(p: Path) -> _CsvLayout:
                         break  # header, units row, first data row
         if not cands:
             raise DataError("file is empty (no header and no data rows)", path=str(p))
-        h = _header_index([c for c, _ in cands])
+        h = _header_index([c[0] for c in cands])
         if h:
-            _preamble_warning(meta, [c for c, _ in cands[:h]])
-        header, offset = cands[h]
+            _preamble_warning(meta, [c[0] for c in cands[:h]])
+        header, offset, n_line = cands[h]
         sep = _sniff_sep(header)
         below = cands[h + 1][0] if h + 1 < len(cands) else ""
         units = units_row(_header_tokens(header, sep), below, sep) if below else None
         if units is not None:  # the data start below the units row
             meta["column_units"], meta["column_units_from"] = units, "units row"
-            offset = cands[h + 1][1]
+            _, offset, n_line = cands[h + 1]
             h += 1
         first = cands[h + 1][0] if h + 1 < len(cands) else ""
         fh.seek(max(offset, size - 65536))
@@ -925,25 +949,68 @@ def _csv_layout(p: Path) -> _CsvLayout:
         last = lines[-1]
         n_last = len(last.split(sep)) if sep != r"\s+" else len(last.split())
         if n_last < len(tokens):
+            rows = CsvLines(p, offset, n_line + 1)
             raise DataError(
                 f"last row is incomplete ({n_last} of {len(tokens)} fields, {len(last)} characters)"
                 " and the file ends mid-line (truncated file?)",
                 path=str(p),
-                row=_count_rows(p, offset) - 1,
+                row=rows.count() - 1,
+                rows=rows,
             )
     return _CsvLayout(
-        offset, tokens, sep, meta, _decimal_mark(sep, first), _timestamp_columns(tokens, first, sep)
+        offset,
+        tokens,
+        sep,
+        meta,
+        _decimal_mark(sep, first),
+        _timestamp_columns(tokens, first, sep),
+        n_line + 1,
     )
 
 
-def _count_rows(p: Path, start: int) -> int:
-    """Non-blank lines after byte ``start`` (only used to name the row of an error)."""
-    n = 0
-    with p.open("rb") as fh:
-        fh.seek(start)
-        for line in fh:
-            n += bool(line.strip())
-    return n
+class CsvLines(DataRows):
+    """The lines of a text file's data rows: the one data-row → file-line map of both CSV
+    readers (pyarrow's streaming reader and the strict reader, :func:`_read_csv`).
+
+    Data row ``r`` (0-based) is the ``r + 1``-th non-blank line below the header (or below its
+    units row): the readers skip blank and whitespace-only lines (and a preamble, comment lines
+    and the header above it); any other line below the header is a row (a ``#`` line there is
+    read as one, and its error names its line). Lines are counted as an editor numbers them:
+    1-based, ending at ``\n`` (``\r\n`` included). A message is rare, so nothing is kept
+    while reading: each question reads the file from the header up to the row asked for.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    start : int
+        Byte offset of the first line below the header (or its units row).
+    first_line : int
+        1-based number of that line.
+    """
+
+    def __init__(self, path: Path, start: int, first_line: int) -> None:
+        self._path, self._start, self._first = Path(path), int(start), int(first_line)
+
+    def _rows(self) -> Iterator[int]:
+        """The 1-based line of each data row, in order."""
+        with self._path.open("rb") as fh:
+            fh.seek(self._start)
+            for k, raw in enumerate(fh):
+                if raw.strip():
+                    yield self._first + k
+
+    def line(self, row: int) -> int | None:
+        if row < 0:
+            return None
+        for r, line in enumerate(self._rows()):
+            if r == row:
+                return line
+        return None
+
+    def count(self) -> int:
+        """Number of data rows (non-blank lines below the header)."""
+        return sum(1 for _ in self._rows())
 
 
 class CsvSource(ColumnSource):
@@ -960,6 +1027,7 @@ class CsvSource(ColumnSource):
         self._layout = _csv_layout(p)
         self._strict: RawTable | None = None
         lay = self._layout
+        self.rows = CsvLines(p, lay.header_end, lay.first_line)
         if lay.sep == r"\s+" or lay.stamps:  # pyarrow splits on one character / reads no time
             # stamps as float: the strict reader (whole file, within the memory budget)
             n = len(next(iter(self._strict_table().columns.values())))
@@ -989,7 +1057,7 @@ class CsvSource(ColumnSource):
                 option="convert the file to Parquet, fix it (pyarrow's error names the column)"
                 " or raise the budget",
             )
-            self._strict = _read_csv(self._p)
+            self._strict = _read_csv(self._p, self.rows)
         return self._strict
 
     def _reader(self, names: list[str], block: int) -> Any:
@@ -1347,7 +1415,7 @@ def read_raw(path: str | Path, data: bytes | None = None) -> RawTable:
     """
     with open_source(path, data) as src:
         cols = src.read()
-        return RawTable(cols, dict(src.scalars), dict(src.meta), src.path, src.fmt)
+        return RawTable(cols, dict(src.scalars), dict(src.meta), src.path, src.fmt, src.rows)
 
 
 # --------------------------------------------------------------------------- writers

@@ -3,7 +3,8 @@
 Pipeline: :func:`~drivelash.io.formats.read_raw` → column mapping and unit
 conversion (``[columns]`` of the configuration) → encoder wrap-around unwrapping
 → validation. Every problem is a :class:`~drivelash.errors.DataError` whose one
-line names the file, the column and the first bad row. Non-uniform sampling is
+line names the file, the column and the first bad row (its line in a text file, else
+``data row N (1-based)``: the reader's :class:`~drivelash.errors.DataRows`). Non-uniform sampling is
 refused unless resampling is asked for explicitly.
 
 Prismatic axes (a carriage on a ball screw, like EMPS): position columns given
@@ -19,13 +20,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from drivelash.errors import DataError
+from drivelash.errors import NO_LINES, DataError, DataRows
 from drivelash.io.config import UNIT_KIND, ColumnMap, DriveConfig, SamplingSection
 from drivelash.io.formats import WHOLE_READ_FACTOR, RawTable, read_raw
 from drivelash.io.trace import UNITS as TRACE_UNITS
@@ -241,16 +242,23 @@ def unwrap_encoder(x: np.ndarray, modulus: float) -> tuple[np.ndarray, int, int 
     return np.unwrap(x, period=modulus), int(jumps.sum()), int(np.flatnonzero(jumps)[0] + 1)
 
 
+def wrap_note(path: str, column: str, n_wraps: int, jump: str, row: int, rows: DataRows) -> str:
+    """The warning for an unwrapped encoder column (the first jump lands on data row ``row``,
+    named as ``rows`` does); the file loader's and the stream's text."""
+    return (
+        f"{path}, column '{column}', {rows.where(row)}: encoder wrap-around ({n_wraps} jump(s) of"
+        f" {jump}) unwrapped"
+    )
+
+
 def _unwrapped(
-    raw: np.ndarray, modulus: float, path: str, source: str, jump: str, warnings: list[str]
+    raw: np.ndarray, modulus: float, table: RawTable, source: str, jump: str, warnings: list[str]
 ) -> np.ndarray:
     """``raw`` with encoder wrap-arounds of ``modulus`` removed; each unwrapping is reported."""
     x, n_wraps, row = unwrap_encoder(raw, modulus)
-    if not n_wraps:
+    if not n_wraps or row is None:
         return raw
-    warnings.append(
-        f"{path}, column '{source}', row {row}: encoder wrap-around ({n_wraps} jump(s) of {jump}) unwrapped"
-    )
+    warnings.append(wrap_note(table.path, source, n_wraps, jump, row, table.rows))
     return x
 
 
@@ -350,14 +358,14 @@ def _apply_mapping(
         for k in cols:
             passthrough_unit(table, k)
             if k.startswith("theta"):
-                cols[k] = _unwrapped(cols[k], 2 * math.pi, path, k, "one revolution", warnings)
+                cols[k] = _unwrapped(cols[k], 2 * math.pi, table, k, "one revolution", warnings)
         return cols, kinds, origin
     for source, cm in cmap.items():
         kind = check_mapped_column(source, cm, list(table.columns), cols, path)
         raw = table.columns[source]
         modulus = cm.wrap if cm.wrap is not None else (_one_rev(cm) if kind == "angle" else None)
         if modulus is not None and cm.column.startswith("theta"):
-            raw = _unwrapped(raw, modulus, path, source, f"{modulus:g} {cm.unit}", warnings)
+            raw = _unwrapped(raw, modulus, table, source, f"{modulus:g} {cm.unit}", warnings)
         cols[cm.column] = raw * _factor(cm, table, source, warnings) * cm.scale + cm.offset
         kinds[cm.column] = kind
         origin[cm.column] = source
@@ -367,7 +375,7 @@ def _apply_mapping(
         if name in TRACE_UNITS and name != "t" and name not in cols and name not in cmap:
             passthrough_unit(table, name)
             if name.startswith("theta"):
-                raw = _unwrapped(raw, 2 * math.pi, path, name, "one revolution", warnings)
+                raw = _unwrapped(raw, 2 * math.pi, table, name, "one revolution", warnings)
             cols[name] = raw
             origin[name] = name
     return cols, kinds, origin
@@ -406,24 +414,31 @@ def unread_column(name: str, cmap: Mapping[str, ColumnMap] | None, required: Ite
     return name not in set(required)
 
 
-def unread_note(path: str, column: str, what: str, row: int, bad: int) -> str:
+def unread_note(path: str, column: str, what: str, row: int, bad: int, rows: DataRows) -> str:
     """The warning for an unread column (:func:`unread_column`) with ``bad`` NaN/inf values
-    (``what``: ``"NaN"`` or ``"infinite value"``, the first in ``row``): such a column is left
-    out of the trace instead of refusing the recording (the file loader's and the stream's text)."""
+    (``what``: ``"NaN"`` or ``"infinite value"``, the first in data row ``row``, named as
+    ``rows`` does): such a column is left out of the trace instead of refusing the recording
+    (the file loader's and the stream's text)."""
     return (
-        f"{path}, column '{column}', row {row}: {what} ({bad} bad sample(s)) in a column drivelash"
-        " does not read; left out of the trace"
+        f"{path}, column '{column}', {rows.where(row)}: {what} ({bad} bad sample(s)) in a column"
+        " drivelash does not read; left out of the trace"
     )
 
 
-def _check_finite(cols: Mapping[str, np.ndarray], origin: Mapping[str, str], path: str) -> None:
+def _check_finite(
+    cols: Mapping[str, np.ndarray], origin: Mapping[str, str], path: str, rows: DataRows
+) -> None:
     for name, a in cols.items():
         bad = ~np.isfinite(a)
         if bad.any():
             row = int(np.flatnonzero(bad)[0])
             what = "NaN" if np.isnan(a[row]) else "infinite value"
             raise DataError(
-                f"{what} ({int(bad.sum())} bad sample(s))", path=path, column=origin.get(name, name), row=row
+                f"{what} ({int(bad.sum())} bad sample(s))",
+                path=path,
+                column=origin.get(name, name),
+                row=row,
+                rows=rows,
             )
 
 
@@ -503,12 +518,15 @@ def _check_time(
     sampling: SamplingSection,
     warnings: list[str],
     declared: str | None = None,
+    rows: DataRows | None = None,
 ) -> np.ndarray | None:
     """Validate the time column; return a uniform grid to resample onto, or None.
 
     ``declared``: the time column's unit as declared in ``[columns]`` (for the message of the
-    plausibility rule, :func:`_check_plausible_period`).
+    plausibility rule, :func:`_check_plausible_period`); ``rows``: where the samples' rows are
+    in the file (for the messages; default: ``data row N (1-based)``).
     """
+    rows = rows or NO_LINES
     if t.size < 3:
         raise DataError(f"only {t.size} sample(s); need at least 3", path=path, column=column)
     from drivelash.io._unitcheck import step_scan
@@ -524,7 +542,11 @@ def _check_time(
         i = int(np.flatnonzero(steps <= 0)[0])
         what = "duplicated time stamp" if steps[i] == 0 else "time goes backwards (non-increasing)"
         raise DataError(
-            f"{what}: t={float(t[i + 1])!r} after t={float(t[i])!r}", path=path, column=column, row=i + 1
+            f"{what}: t={float(t[i + 1])!r} after t={float(t[i])!r}",
+            path=path,
+            column=column,
+            row=i + 1,
+            rows=rows,
         )
     med = float(np.median(steps))
     _check_plausible_period(med, path, column, sampling, declared)
@@ -539,6 +561,7 @@ def _check_time(
                 path=path,
                 column=column,
                 row=i + 1,
+                rows=rows,
             )
         n = int(math.floor((t[-1] - t[0]) / med + 1e-9)) + 1
         from drivelash.io.budget import check_budget
@@ -549,7 +572,7 @@ def _check_time(
             option="cut the recording at its gaps",
         )
         warnings.append(
-            f"{path}, column '{column}', row {i + 1}: non-uniform sampling;"
+            f"{path}, column '{column}', {rows.where(i + 1)}: non-uniform sampling;"
             f" resampled linearly onto a {med:.6g} s grid ({n} samples)"
         )
         return t[0] + med * np.arange(n)
@@ -557,7 +580,7 @@ def _check_time(
 
 
 def _check_signals(
-    cols: Mapping[str, np.ndarray], origin: Mapping[str, str], path: str, names: Iterable[str]
+    cols: Mapping[str, np.ndarray], origin: Mapping[str, str], path: str, names: Iterable[str], rows: DataRows
 ) -> None:
     for name in names:
         if name not in cols or name == "t":
@@ -565,7 +588,9 @@ def _check_signals(
         a = cols[name]
         src = origin.get(name, name)
         if np.ptp(a) == 0 and name not in MAY_STAND_STILL:
-            raise DataError(f"constant signal (every sample is {a[0]:.6g})", path=path, column=src, row=0)
+            raise DataError(
+                f"constant signal (every sample is {a[0]:.6g})", path=path, column=src, row=0, rows=rows
+            )
         if name.startswith("torque") or name.startswith("F_"):
             for ext, label in ((a.max(), "maximum"), (a.min(), "minimum")):
                 at = a == ext
@@ -582,10 +607,13 @@ def _check_signals(
                         path=path,
                         column=src,
                         row=int(starts[0]),
+                        rows=rows,
                     )
 
 
-def _check_units(cols: Mapping[str, np.ndarray], origin: Mapping[str, str], path: str) -> None:
+def _check_units(
+    cols: Mapping[str, np.ndarray], origin: Mapping[str, str], path: str, rows: DataRows
+) -> None:
     """Velocity against the derivative of position: factor ≈ 57.3 / 9.55 means deg or rpm.
 
     Robust scale ratio Σ ω̄·d̄ / Σ d̄² on the samples with motion (|d̄| > 0.1 max |d̄|), d = dθ/dt
@@ -606,13 +634,14 @@ def _check_units(cols: Mapping[str, np.ndarray], origin: Mapping[str, str], path
         if count < 10:
             continue
         column = origin.get(f"omega_{side}", f"omega_{side}")
-        check_unit_ratio(float(s_od / s_dd), side, path, column, int(row))
+        check_unit_ratio(float(s_od / s_dd), side, path, column, int(row), rows)
 
 
-def check_unit_ratio(ratio: float, side: str, path: str, column: str, row: int) -> None:
+def check_unit_ratio(ratio: float, side: str, path: str, column: str, row: int, rows: DataRows) -> None:
     """Refuse a velocity/derivative-of-position ratio that is a known unit mix-up factor: an
     angle or speed unit (57.3, 9.55) or a factor 1000 / 10⁶ (time in ms or µs read as s, or
-    mm against m on a linear axis)."""
+    mm against m on a linear axis); the message names data row ``row`` (the first with
+    motion) as ``rows`` does."""
     for factor, hint in (
         (180.0 / math.pi, "velocity looks like deg/s (or position like rad where deg was meant)"),
         (60.0 / (2 * math.pi), "velocity looks like rpm"),
@@ -631,6 +660,7 @@ def check_unit_ratio(ratio: float, side: str, path: str, column: str, row: int) 
                 path=path,
                 column=column,
                 row=row,
+                rows=rows,
             )
 
 
@@ -686,6 +716,8 @@ class MappedTable:
         Mapped column name → source column in the file.
     meta : dict
         ``source``, ``format`` and the file's own metadata.
+    rows : DataRows
+        Where the rows are in the file, for messages (the reader's ``rows``).
     """
 
     columns: dict[str, np.ndarray]
@@ -693,6 +725,7 @@ class MappedTable:
     units: dict[str, str]
     origin: dict[str, str]
     meta: dict[str, Any]
+    rows: DataRows = field(default=NO_LINES, repr=False, compare=False)
 
 
 def load_table(
@@ -733,12 +766,12 @@ def load_table(
             path=str(p),
             column=missing[0],
         )
-    _check_finite(cols, origin, str(p))
+    _check_finite(cols, origin, str(p), table.rows)
     units = {cm.column: cm.unit for cm in (cmap or {}).values()}
     meta: dict[str, Any] = dict(table.meta)
     # the reader's warnings (a skipped preamble, …) first, then the mapping's — as load_trace
     meta.update({"source": str(p), "format": table.fmt, "warnings": [*meta.get("warnings", []), *warnings]})
-    return MappedTable(cols, kinds, units, origin, meta)
+    return MappedTable(cols, kinds, units, origin, meta, table.rows)
 
 
 def load_trace(
@@ -824,6 +857,7 @@ def trace_from_table(
     hold. ``meta["sampled_down"]`` records ``k``, the file's sample period [s] and samples.
     """
     spath = table.path
+    rows = table.rows  # where a row of the columns is in the file (for the messages)
     required = list(required)
     warnings: list[str] = []
     cols, kinds, origin = _apply_mapping(table, cmap, sampling, warnings)
@@ -856,27 +890,32 @@ def trace_from_table(
         if bad.any():  # a column no computation reads does not refuse the recording
             row = int(np.flatnonzero(bad)[0])
             what = "NaN" if np.isnan(cols[name][row]) else "infinite value"
-            warnings.append(unread_note(spath, origin.get(name, name), what, row, int(bad.sum())))
+            warnings.append(unread_note(spath, origin.get(name, name), what, row, int(bad.sum()), rows))
             del cols[name]
             origin.pop(name, None)
-    _check_finite(cols, origin, spath)  # every sample of what is read: a corrupt file is refused either way
+    # every sample of what is read: a corrupt file is refused either way
+    _check_finite(cols, origin, spath, rows)
     down = _sample_down(cols, max_rate_hz) if max_rate_hz is not None else None
     if down is not None:
+        n_file = next(iter(cols.values())).size
         cols = {k: np.ascontiguousarray(v[:: down["k"]]) for k, v in cols.items()}
+        rows = rows.taken(np.arange(0, n_file, down["k"]))  # kept sample i is the file's row i·k
     t_unit = next((cm.unit for cm in (cmap or {}).values() if cm.column == "t"), None)
-    grid = _check_time(cols["t"], spath, origin.get("t", "t"), sampling, warnings, t_unit)
+    grid = _check_time(cols["t"], spath, origin.get("t", "t"), sampling, warnings, t_unit, rows)
     if grid is not None:
         t_old = cols["t"]
         cols = {k: (grid if k == "t" else np.interp(grid, t_old, v)) for k, v in cols.items()}
+        # a sample of the grid is named by the first row of the file at or after its time
+        rows = rows.taken(np.minimum(np.searchsorted(t_old, grid), t_old.size - 1))
     signal_names = list(dict.fromkeys([*SIGNAL_COLUMNS, *required]))
     if check_saturation:
-        _check_signals(cols, origin, spath, signal_names)
+        _check_signals(cols, origin, spath, signal_names, rows)
     else:
         _check_signals(
-            {k: v for k, v in cols.items() if not k.startswith("torque")}, origin, spath, signal_names
+            {k: v for k, v in cols.items() if not k.startswith("torque")}, origin, spath, signal_names, rows
         )
     check_position_spans({k: float(np.ptp(v)) for k, v in cols.items()}, kinds, origin, spath)
-    _check_units(cols, origin, spath)
+    _check_units(cols, origin, spath, rows)
 
     prismatic = kinds.get("theta_m") == "length" or kinds.get("omega_m") == "velocity"
     kinds_m = {kinds.get("theta_m"), kinds.get("omega_m")} - {None, "dimensionless"}
@@ -901,4 +940,4 @@ def trace_from_table(
         meta["scalars"] = {k: float(v) for k, v in table.scalars.items()}
     if cmap is not None:
         meta["mapping"] = {k: v.model_dump(exclude_defaults=True) for k, v in cmap.items()}
-    return Trace(cols, meta)
+    return Trace(cols, meta, rows)

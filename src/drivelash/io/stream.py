@@ -313,7 +313,7 @@ class TraceStream:
 
     # ------------------------------------------------------------------ validation
     def _validate(self) -> None:
-        from drivelash.io.load import RESAMPLE_HINT, _check_plausible_period
+        from drivelash.io.load import RESAMPLE_HINT, _check_plausible_period, wrap_note
 
         spath = str(self.path)
         plan = self._plan
@@ -380,7 +380,7 @@ class TraceStream:
         for c in [c for c in plan if c.name in self._unread and stats[c.name].first_bad is not None]:
             st = stats.pop(c.name)
             what = "NaN" if st.first_bad_nan else "infinite value"
-            self._warnings.append(unread_note(spath, c.source, what, st.first_bad, st.bad))
+            self._warnings.append(unread_note(spath, c.source, what, st.first_bad, st.bad, self._src.rows))
             plan = [p for p in plan if p.name != c.name]
         if len(plan) != len(self._plan):
             self._plan = plan
@@ -391,13 +391,19 @@ class TraceStream:
             if st.first_bad is not None:
                 what = "NaN" if st.first_bad_nan else "infinite value"
                 raise DataError(
-                    f"{what} ({st.bad} bad sample(s))", path=spath, column=c.source, row=st.first_bad
+                    f"{what} ({st.bad} bad sample(s))",
+                    path=spath,
+                    column=c.source,
+                    row=st.first_bad,
+                    rows=self._src.rows,
                 )
         tcol = self._origin("t")
         if bad_time is not None:
             row, a, b = bad_time
             what = "duplicated time stamp" if a == b else "time goes backwards (non-increasing)"
-            raise DataError(f"{what}: t={b!r} after t={a!r}", path=spath, column=tcol, row=row)
+            raise DataError(
+                f"{what}: t={b!r} after t={a!r}", path=spath, column=tcol, row=row, rows=self._src.rows
+            )
         if all_steps is not None:
             med = float(np.median(np.concatenate(all_steps)))
             dev_max = None
@@ -418,6 +424,7 @@ class TraceStream:
                 path=spath,
                 column=tcol,
                 row=row,
+                rows=self._src.rows,
             )
         self.T_s = med
         # encoder wrap-around: unwrap when the signal jumps and stays within one modulus
@@ -429,8 +436,7 @@ class TraceStream:
                 continue
             self._unwrap[c.name] = c.modulus
             self._warnings.append(
-                f"{spath}, column '{c.source}', row {st.first_jump}: encoder wrap-around"
-                f" ({st.jumps} jump(s) of {c.jump}) unwrapped"
+                wrap_note(spath, c.source, st.jumps, c.jump, st.first_jump or 0, self._src.rows)
             )
         self._second_pass(stats)
 
@@ -473,6 +479,7 @@ class TraceStream:
                     path=spath,
                     column=plan[name].source,
                     row=0,
+                    rows=self._src.rows,
                 )
         sat = [
             n
@@ -517,6 +524,7 @@ class TraceStream:
                         path=spath,
                         column=plan[n].source,
                         row=int(start),
+                        rows=self._src.rows,
                     )
         spans()
         for s, acc in units.items():
@@ -524,7 +532,7 @@ class TraceStream:
             ratio, row = acc.ratio()
             if ratio is None:
                 continue
-            check_unit_ratio(ratio, s, spath, plan[f"omega_{s}"].source, row)
+            check_unit_ratio(ratio, s, spath, plan[f"omega_{s}"].source, row, self._src.rows)
 
     def _read_whole(self) -> None:
         """Read the recording whole with :func:`load_trace` (within the memory budget)."""

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from drivelash.errors import DataError
+from drivelash.errors import NO_LINES, DataError, DataRows
 
 TWO_MASS_COLUMNS = ("t", "theta_m", "omega_m", "theta_l", "omega_l", "torque_m")
 
@@ -61,10 +61,14 @@ class Trace:
         Column name → 1-D float64 array; all of equal length; must include ``t``.
     meta : dict
         JSON-serialisable provenance (scenario, seed, parameters, source file).
+    rows : DataRows
+        Where each sample's row is in the source file, for messages (set by
+        :func:`~drivelash.io.load_trace`; a slice or a selection of columns does not keep it).
     """
 
     columns: dict[str, np.ndarray]
     meta: dict[str, Any] = field(default_factory=dict)
+    rows: DataRows = field(default=NO_LINES, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         cols: dict[str, np.ndarray] = {}

@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from drivelash.errors import DataError, ParameterError
+from drivelash.errors import NO_LINES, DataError, DataRows, ParameterError
 from drivelash.iso230.evaluate import DOWN, MAX_ABS, UP, Approaches, _fmt_pos, approaches_from_rows
 
 __all__ = ["Drift", "DwellParams", "Dwells", "detect_dwells", "estimate_drift"]
@@ -200,6 +200,7 @@ def detect_dwells(
     nominal: np.ndarray | None = None,
     unit: str = "m",
     source: str = "",
+    rows: DataRows = NO_LINES,
 ) -> Dwells:
     """Find the dwells of a bidirectional positioning test and arrange its approaches.
 
@@ -222,6 +223,8 @@ def detect_dwells(
         ``"m"`` or ``"rad"`` (messages and the result).
     source : str
         File name for messages.
+    rows : DataRows, optional
+        Where the samples' rows are in ``source`` (``Trace.rows``), for messages.
 
     Returns
     -------
@@ -247,7 +250,7 @@ def detect_dwells(
         if bad.any():
             raise DataError(
                 f"NaN, infinite or implausible value (beyond ±{MAX_ABS:g})", path=source, column=name,
-                row=int(np.argmax(bad)),
+                row=int(np.argmax(bad)), rows=rows,
             )  # fmt: skip
     T_s = float(np.median(np.diff(t)))
     travel = float(np.ptp(P_cmd))

@@ -47,7 +47,7 @@ from typing import Any
 
 import numpy as np
 
-from drivelash.errors import DataError
+from drivelash.errors import NO_LINES, DataError, DataRows
 
 __all__ = ["Approaches", "Iso230Result", "approaches_from_rows", "evaluate"]
 
@@ -161,6 +161,7 @@ def approaches_from_rows(
     source: str = "",
     columns: dict[str, str] | None = None,
     target_tolerance: float = TARGET_TOLERANCE,
+    rows: DataRows = NO_LINES,
 ) -> Approaches:
     """Arrange a table of approaches into :class:`Approaches`, validating it.
 
@@ -183,6 +184,9 @@ def approaches_from_rows(
         for messages.
     target_tolerance : float
         See :func:`cluster_targets`.
+    rows : DataRows, optional
+        Where the rows are in ``source`` (``MappedTable.rows``), for messages: ``line N`` of a
+        text file, else ``data row N (1-based)``.
 
     Raises
     ------
@@ -208,7 +212,9 @@ def approaches_from_rows(
     for key, a in arrays.items():
         bad = ~np.isfinite(a)
         if bad.any():
-            raise DataError("NaN or infinite value", path=source, column=cols[key], row=int(np.argmax(bad)))
+            raise DataError(
+                "NaN or infinite value", path=source, column=cols[key], row=int(np.argmax(bad)), rows=rows
+            )
         big = np.abs(a) > MAX_ABS
         if big.any():
             i = int(np.argmax(big))
@@ -217,6 +223,7 @@ def approaches_from_rows(
                 path=source,
                 column=cols[key],
                 row=i,
+                rows=rows,
             )
     d = arrays["direction"]
     bad = (d != UP) & (d != DOWN)
@@ -227,12 +234,15 @@ def approaches_from_rows(
             path=source,
             column=cols["direction"],
             row=i,
+            rows=rows,
         )
     r = arrays["run"]
     bad = r != np.round(r)
     if bad.any():
         i = int(np.argmax(bad))
-        raise DataError(f"run must be an integer, got {r[i]:g}", path=source, column=cols["run"], row=i)
+        raise DataError(
+            f"run must be an integer, got {r[i]:g}", path=source, column=cols["run"], row=i, rows=rows
+        )
 
     centres, labels = cluster_targets(arrays["target"], target_tolerance)
     m = centres.size
@@ -251,9 +261,11 @@ def approaches_from_rows(
         arrow = "+" if key[first[k], 1] == UP else "-"
         raise DataError(
             f"approach to target {_fmt_pos(float(centres[key[first[k], 0]]), unit)} in direction {arrow},"
-            f" run {key[first[k], 2]}, appears twice (rows {dup_rows[0]} and {dup_rows[1]})",
+            f" run {key[first[k], 2]}, appears twice ({rows.where(int(dup_rows[0]))} and"
+            f" {rows.where(int(dup_rows[1]))})",
             path=source,
             row=int(dup_rows[1]),
+            rows=rows,
         )
     n_up = np.bincount(labels[d == UP], minlength=m)
     n_dn = np.bincount(labels[d == DOWN], minlength=m)

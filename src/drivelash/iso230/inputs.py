@@ -261,7 +261,9 @@ def _read_table(path: Path, mapping: Any, params: Iso230Params, table: Any) -> M
     _check_spread(x, travel, src, dev_col, unit)
     names = {"target": origin.get(tcol, tcol), "run": origin.get("run", "run")}
     names |= {"direction": origin.get("direction", "direction"), "deviation": dev_col}
-    ap = approaches_from_rows(target, cols["run"], cols["direction"], x, unit=unit, source=src, columns=names)
+    ap = approaches_from_rows(
+        target, cols["run"], cols["direction"], x, unit=unit, source=src, columns=names, rows=table.rows
+    )
     if params.targets:
         nominal = np.sort(np.asarray(params.targets, dtype=np.float64))
         if nominal.size != ap.m or np.max(np.abs(nominal - ap.targets)) > 1e-4 * max(travel, 1e-300):
@@ -293,7 +295,9 @@ def _read_series(path: Path, mapping: Any, params: Iso230Params, dwell: DwellPar
     if axis is not None:
         _check_scale(axis, cmd, src, origin.get("P_axis", "P_axis"), origin.get("P_cmd", "P_cmd"))
     nominal = np.asarray(params.targets, dtype=np.float64) if params.targets else None
-    d = detect_dwells(t, cmd, ref, axis, params=dwell, nominal=nominal, unit=unit, source=src)
+    d = detect_dwells(
+        t, cmd, ref, axis, params=dwell, nominal=nominal, unit=unit, source=src, rows=trace.rows
+    )
     travel = float(np.ptp(cmd))
     warnings = list(trace.meta.get("warnings", [])) + list(d.warnings) + list(d.approaches.warnings)
     warnings += _offset_warning(d.deviation, travel, unit)

@@ -102,12 +102,14 @@ def recording_start(path: Path, spec: TimeSpec, meta: dict[str, Any] | None = No
         return utc_naive(datetime.fromisoformat(stamp))  # type: ignore[return-value]
     v = float(col[0]) * {"s": 1.0, "ms": 1e-3, "us": 1e-6}[spec.unit]
     if not math.isfinite(v):
-        raise DataError("start time stamp is not finite", path=str(path), column=spec.column, row=0)
+        raise DataError(
+            "start time stamp is not finite", path=str(path), column=spec.column, row=0, rows=raw.rows
+        )
     try:
         return datetime.fromtimestamp(v, UTC).replace(tzinfo=None)
     except (OverflowError, OSError, ValueError):
         raise DataError(
-            f"{v!r} is not a POSIX time stamp", path=str(path), column=spec.column, row=0
+            f"{v!r} is not a POSIX time stamp", path=str(path), column=spec.column, row=0, rows=raw.rows
         ) from None
 
 
