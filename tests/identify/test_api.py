@@ -94,6 +94,22 @@ def test_drivetrain_params_and_delta1_form(tmp_path):
         dl.estimate_backlash(np.zeros(3), sc.estimator_drivetrain, 0.0)
 
 
+def test_delta1_argument_takes_numpy_scalars(tmp_path):
+    """Tester finding (session 14): ``delta1=np.float32(0.0525)`` was refused as "must be a finite
+    number >= 0, got np.float32(0.0525)"; a numpy scalar is a number. NaN, a negative value and a
+    boolean stay refused (negative controls)."""
+    sc = get_scenario("bench-0C")
+    run = sc.simulate(duration=2.0, seed=1)
+    cfg = _config(tmp_path, "bench-0C")
+    d1 = np.float32(sc.estimator_backlash.delta1)
+    a = dl.estimate_backlash(run, cfg, d1)
+    b = dl.estimate_backlash(run, cfg, float(d1))
+    assert a.delta == b.delta and a.summary["delta1"] == b.summary["delta1"]
+    for bad in (np.float64("nan"), np.float32(-0.01), np.bool_(True), True):
+        with pytest.raises(dl.ParameterError, match="delta1.*finite number >= 0"):
+            dl.estimate_backlash(run, cfg, bad)
+
+
 def test_curated_namespaces():
     """Top level and each subpackage list their public names; every listed name resolves."""
     import importlib
