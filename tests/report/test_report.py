@@ -121,6 +121,33 @@ def test_identify_report_tables(tmp_path):
     assert all(_non_blank(i) > 0.01 for i in _images(html))
 
 
+def test_identify_report_takes_what_identify_drive_returns(tmp_path):
+    """Tester finding (session 14): ``write_identify_report(path, trace, identify_drive(...))``
+    raised ``AttributeError: 'DriveIdentification' object has no attribute 'theta'`` for both
+    models. It now writes the report the command writes: the rigid one from the IDIM-LS result
+    the API's result was built from, the two-mass one through its own renderer."""
+    import drivelash as dl
+    from drivelash.estimation.identify import identify_rigid
+    from drivelash.io import Trace
+    from drivelash.report import write_identify_report
+    from drivelash.report.identify_figures import render_two_mass_report
+    from drivelash.sim import get_scenario
+
+    t = np.arange(6000) * 1e-3
+    q = np.sin(2 * np.pi * 0.5 * t) + 0.2 * np.sin(2 * np.pi * 2.1 * t)
+    dq = np.gradient(q, 1e-3)
+    tau = 3 * np.gradient(dq, 1e-3) + 0.5 * dq + 0.2 * np.sign(dq)
+    tr = Trace({"t": t, "theta_m": q, "torque_m": tau}, {"source": "synthetic.csv"})
+    api = dl.identify_drive(tr, model="rigid")
+    p = write_identify_report(tmp_path / "rigid.html", tr, api)
+    assert p.read_text(encoding="utf-8") == render_identify_report(tr, identify_rigid(tr), None)
+    run = get_scenario("bench-0C").simulate(duration=4.0, seed=1)
+    two = dl.identify_drive(run, model="two-mass", N=1.0)
+    html = write_identify_report(tmp_path / "two.html", run, two).read_text(encoding="utf-8")
+    assert html == render_two_mass_report(run, two, None)
+    _assert_self_contained(html)
+
+
 def _chromium() -> str | None:
     return shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
 

@@ -184,6 +184,8 @@ class DriveIdentification:
     signals : dict of str to numpy.ndarray
         Decimated signals for the report (time, measured and predicted accelerations,
         Δθ, shaft torque).
+    source : object or None
+        Rigid model: the IDIM-LS result it was built from (what the rigid report draws).
     """
 
     model: str
@@ -197,6 +199,7 @@ class DriveIdentification:
     fit: dict[str, Any] = field(default_factory=dict)
     method: str = ""
     signals: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
+    source: Any = field(default=None, repr=False, compare=False)
 
     def __getitem__(self, name: str) -> ParameterEstimate:
         return self.parameters[name]

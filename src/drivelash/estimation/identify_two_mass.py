@@ -1926,6 +1926,7 @@ def rigid_result(result: Any) -> DriveIdentification:
         warnings=warnings,
         fit={"implausible": bool(warnings), **result.as_dict()},
         method="IDIM-LS (zero-phase Butterworth, central differences, parallel decimation)",
+        source=result,
     )
 
 

@@ -323,16 +323,31 @@ def render_identify_report(
     cross_trace: Any = None,
     observer: Any = None,
 ) -> str:
-    """HTML of an IDIM-LS run (``result`` from :mod:`drivelash.estimation.identify`).
+    """HTML of an identification: an IDIM-LS run (``result`` from :mod:`drivelash.estimation.identify`)
+    or what :func:`drivelash.identify_drive` returns (either model), as the command writes it.
 
     Parameters
     ----------
+    trace : Trace
+        The recording identified.
+    result : IdentifyResult or DriveIdentification
+        The identification.
+    config : DriveConfig, optional
+        Its configuration (drawn as tables).
     cross, cross_trace : optional
         Cross-test result and its recording.
     observer : DisturbanceEstimate, optional
         STSMO disturbance on the same recording with the identified M and F_v; drawn
         against the identified F_c sign q̇ + offset.
     """
+    from drivelash.estimation.identify_result import DriveIdentification
+
+    if isinstance(result, DriveIdentification):  # the notebook API's result (identify_drive)
+        if result.model != "rigid":
+            from drivelash.report.identify_figures import render_two_mass_report
+
+            return render_two_mass_report(trace, result, config)
+        result = result.source
     u = _units(trace)
     unit_of = {
         "M": u["mass"],
