@@ -180,3 +180,13 @@ def test_corrupt_metadata_and_trees_are_errors(model_dir, tmp_path):
         load_model(d)
     with pytest.raises(ModelFileError, match="not found"):
         load_model(tmp_path / "nowhere")
+
+
+def test_saving_a_loaded_model_is_a_clear_error(model_dir, tmp_path):
+    """Tester finding (session 14): ``save_model(load_model(M), d)`` raised a raw
+    ``AttributeError: 'TEModel' object has no attribute 'models'``; now one line saying what
+    save_model writes and how to keep a loaded model, and nothing written."""
+    with pytest.raises(ModelFileError) as ei:
+        save_model(load_model(model_dir), tmp_path / "copy")
+    assert "\n" not in str(ei.value) and "copy that directory" in str(ei.value)
+    assert not (tmp_path / "copy").exists()

@@ -396,6 +396,11 @@ def save_model(trained: Any, directory: str | Path, fmt: str = "safetensors") ->
     """
     if fmt not in ("safetensors", "npz"):
         raise ModelFileError(f"unknown weight format {fmt!r} (use 'safetensors' or 'npz')")
+    if isinstance(trained, TEModel):
+        raise ModelFileError(
+            "save_model writes a trained model (te fit's TrainedTEModel); a loaded TEModel is"
+            " already on disk in its directory: copy that directory to keep another version"
+        )
     meta, flat = model_arrays(trained)
     meta["weights"] = WEIGHT_FILES[0] if fmt == "safetensors" else WEIGHT_FILES[1]
     d = Path(directory)
