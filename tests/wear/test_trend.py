@@ -310,3 +310,44 @@ def test_crossing_is_judged_at_the_latest_recording_even_if_it_left_the_fit():
 
     last_in = float(days[tr.inlier][-1])
     assert not _forecast(tr, last_in, last_in, thr).crossed
+
+
+def _accelerating(days, delta0, k, v):
+    days = np.asarray(days, dtype=float)
+    return delta0 + v * np.expm1(k * days) / k
+
+
+@pytest.mark.parametrize(
+    "days, law, t_cross_true",
+    [
+        # M39/X and M20/Y of `simulate fleet --machines 40 --axes 3 --recordings 8 --seed 11`
+        # (true laws and crossing days from its truth.json; M20/Y's 7th recording is corrupt)
+        ([0.0306, 1.0340, 2.0549, 3.0674, 4.0563, 5.0188, 7.025], (0.0839125, 0.305632, 0.00271152), 8.04493),
+        ([0.0646, 1.0243, 2.0771, 3.0000, 4.0264, 5.0681, 7.0688], (0.089608, 0.269256, 0.00212731), 8.72017),
+    ],
+)
+def test_short_history_of_accelerating_wear_keeps_its_latest_estimates(days, law, t_cross_true):
+    """Tester finding (session 14), a missed alarm: with 7–8 recordings of accelerating wear the
+    local outlier test left out the latest 2–3 accurate estimates (beyond the local quadratic):
+    M39/X kept 4 → no model, no forecast, no alarm one day before the crossing; M20/Y kept a linear
+    fit forecasting 11 days late with a 90 % interval 7 days wide. They now rejoin when the growth
+    model fitted with them passes every used estimate within its limit."""
+    days = np.asarray(days)
+    wobble = 0.05e-3 * np.where(np.arange(days.size) % 2 == 0, 1.0, -1.0)  # the store's |error| ≤ 0.05 mrad
+    y = _accelerating(days, *law) + wobble
+    threshold = float(_accelerating(t_cross_true, *law))
+    t = days - days[0]
+    tr = fit_trend(t, y, np.full(days.size, 0.113e-3), threshold=threshold)
+    assert tr.inlier.all() and tr.model == "accelerating"
+    assert tr.forecast is not None and not tr.forecast.crossed
+    # the crossing within a quarter of a day (one recording a day); before: none / +11 days
+    assert abs(tr.forecast.t_cross - (t_cross_true - days[0])) < 0.25
+    # negative controls: the latest estimate 28 mrad below the wear (a bad recording) stays out,
+    # and so do two latest estimates that no growth curve passes (15 mrad above, then below)
+    bad = y.copy()
+    bad[-1] -= 28e-3
+    assert not fit_trend(t, bad, np.full(days.size, 0.113e-3), threshold=threshold).inlier[-1]
+    bad2 = y.copy()
+    bad2[-2:] += np.array([15e-3, -15e-3])
+    tr2 = fit_trend(t, bad2, np.full(days.size, 0.113e-3), threshold=threshold)
+    assert not tr2.inlier[-2:].all()

@@ -21,7 +21,9 @@ docs/assumptions.md, "Wear tracking"):
    recordings left out this way rejoin when the growth model of step 4, fitted without them,
    predicts them within the same limit: a one-sided local quadratic at the end of the series
    lags wear that accelerates, so a correct latest estimate looked like an outlier; a jump or a
-   bad recording stays out.
+   bad recording stays out. When no model can be fitted without them, or at least two latest
+   recordings are out, they rejoin if the model fitted with them passes every used estimate
+   within its limit.
 4. **Growth models** on the inliers, with one level-shift term per change point and weights
    1/σ_i² when the estimator gives uncertainties (else equal; the scale is estimated):
    *linear* δ = a + b t (``statsmodels`` WLS) and *accelerating* δ = a + v (e^{kt} − 1)/k,
@@ -522,6 +524,7 @@ def fit_trend(
     # outliers — they rejoin the fit (a jump or a bad recording stays out)
     last_in = int(np.flatnonzero(inl)[-1]) if inl.any() else n
     trail = np.arange(last_in + 1, n)
+    back = np.zeros(0, dtype=int)
     if trend.model is not None and trail.size:
         dev = np.abs(y[trail] - trend.curve(t[trail])[0])
         back = trail[np.cumprod(dev <= lim[trail]).astype(bool)]
@@ -529,6 +532,17 @@ def fit_trend(
             inl = inl.copy()
             inl[back] = True
             trend = _fit_models(t, y, w_all, s_in, inl, cps, sigma, threshold, t0, iso)
+    if not back.size and (trail.size >= 2 or (trend.model is None and trail.size)):
+        # the growth model fitted without them cannot be fitted (too few left: a short history of
+        # accelerating wear, 7 accurate estimates and the last 3 beyond the local quadratic) or does
+        # not reach them (a linear fit without the last two of an accelerating axis): they rejoin
+        # when the growth model fitted *with* them passes every used estimate within its limit.
+        # A single latest estimate off the trend is not enough (a bad recording stays out).
+        cand = inl.copy()
+        cand[trail] = True
+        with_them = _fit_models(t, y, w_all, s_in, cand, cps, sigma, threshold, t0, iso)
+        if with_them.model is not None and np.all(np.abs(y - with_them.curve(t)[0])[cand] <= lim[cand]):
+            trend = with_them
     return trend
 
 
