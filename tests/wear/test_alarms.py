@@ -121,3 +121,35 @@ def test_correct_latest_estimate_on_accelerating_wear_after_a_gap_stays_in_the_f
     # negative control: 10 mrad above the truth is still an outlier
     rows[-1]["delta"] = 0.14038
     assert _alarms(rows, 0.1131)[0].inlier.tolist() == [True] * 10 + [False]
+
+
+def test_a_forecast_whose_crossing_has_passed_without_data_is_called_stale():
+    """Tester finding (session 14): `track status` on 2026-11-28 showed an axis whose data end
+    2026-01-24 as "crossing 2026-02-03, days left 10.2, may be crossed within 30 days" — a date ten
+    months past, frozen because no recording came since. It is now named as stale (status line,
+    report overview); a crossing still ahead, a crossed axis and an axis without forecast are not."""
+    from drivelash.wear.alarms import stale_notes
+
+    def summ(name, crossing, crossed=False):
+        last = datetime(2026, 1, 24, 6)
+        return {"axis": name, "crossing": crossing, "crossed": crossed, "last_recording": last}
+
+    now = datetime(2026, 11, 28, 3, 0)
+    notes = stale_notes(
+        [
+            summ("M02/Y", datetime(2026, 2, 3)),
+            summ("M01/X", datetime(2026, 12, 3)),  # still ahead: not stale
+            summ("M03/X", datetime(2026, 1, 20), crossed=True),  # crossed: its alarm says so
+            summ("M04/X", None),  # no forecast
+        ],
+        now=now,
+    )
+    assert [n for n, _ in notes] == ["M02/Y"]
+    msg = notes[0][1]
+    assert "2026-02-03 has passed" in msg and "2026-01-24, 308 days ago" in msg and "\n" not in msg
+    # a store with zone-aware times is compared in UTC as well
+    from datetime import UTC
+
+    aware = summ("M02/Y", datetime(2026, 2, 3, tzinfo=UTC))
+    aware["last_recording"] = datetime(2026, 1, 24, 6, tzinfo=UTC)
+    assert stale_notes([aware], now=now.replace(tzinfo=UTC))[0][0] == "M02/Y"

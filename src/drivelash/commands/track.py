@@ -132,6 +132,7 @@ def run_status(
     from rich.table import Table
 
     from drivelash.report.fleet import OVERVIEW_HEADER, overview_rows
+    from drivelash.wear.alarms import stale_notes
 
     store, summ = _summaries(db, fleet)
     store.close()
@@ -147,6 +148,8 @@ def run_status(
         for s in summ:
             for a in s["alarms"]:
                 c.print(f"[red]alarm[/red] {escape(a.kind)}: {escape(a.message)}")
+        for name, msg in stale_notes(summ):
+            c.print(f"[yellow]stale[/yellow] {escape(name)}: {escape(msg)}")
     return summ
 
 

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from drivelash.report.html import Figure, Section, render_html
+from drivelash.wear.alarms import stale_notes
 from drivelash.wear.trend import UNCONVERGED_MAX_U95
 
 __all__ = ["render_fleet_report", "write_fleet_report"]
@@ -319,6 +320,12 @@ def render_fleet_report(
         ],
         tables=[("", OVERVIEW_HEADER, overview_rows(summaries))],
     )
+    stale = stale_notes(summaries)
+    if stale:
+        overview.paragraphs.append(
+            "Stale forecasts (no recording since, checked against the clock when this report was "
+            "written): " + "; ".join(f"{name}: {msg}" for name, msg in stale) + "."
+        )
     chart = _crossing_chart(summaries)
     if chart is not None:
         overview.figures.append(chart)

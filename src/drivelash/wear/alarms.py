@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from datetime import datetime
+from datetime import UTC, datetime
 from typing import Any
 
 import numpy as np
@@ -246,6 +246,30 @@ def fleet_summary(store: Store, fleet: Any | None = None) -> list[dict[str, Any]
         return (1, d, s["axis"]) if d is not None else (2, 0.0, s["axis"])
 
     out.sort(key=key)
+    return out
+
+
+def stale_notes(summaries: list[dict[str, Any]], now: datetime | None = None) -> list[tuple[str, str]]:
+    """Axes whose expected threshold crossing lies in the past with no recording since: the
+    forecast is frozen at the last data, so it says nothing about today (a machine whose
+    recordings stopped arriving). One ``(axis, message)`` per axis; ``now`` defaults to the
+    clock (UTC; the store's zone-less times are UTC)."""
+    now = now or datetime.now(UTC)
+    out: list[tuple[str, str]] = []
+    for s in summaries:
+        tc, last = s["crossing"], s["last_recording"]
+        if s["crossed"] or tc is None or last is None:
+            continue
+        ref = now if tc.tzinfo is not None else now.astimezone(UTC).replace(tzinfo=None)
+        if tc < ref:
+            age = (ref - last).total_seconds() / 86400.0
+            out.append(
+                (
+                    s["axis"],
+                    f"the expected crossing {tc:%Y-%m-%d} has passed with no recording since the last one "
+                    f"({last:%Y-%m-%d}, {age:.0f} days ago): the forecast is stale — record the axis again",
+                )
+            )
     return out
 
 
