@@ -157,8 +157,11 @@ def test_unexcited_never_enter_the_trend(serial_store):
 def test_second_ingest_stores_nothing_new(small_fleet, serial_store):
     st, _ = serial_store
     before = st.counts()
+    failed = sum(r["status"] == "failed" for r in st.estimates())
     rep = ingest(load_fleet(small_fleet / "fleet.toml"), st, workers=1)
-    assert rep.planned == 0 and rep.skipped == before["estimate"] and st.counts() == before
+    # only the failed (corrupt) recordings are read again, and they fail again in place
+    assert failed > 0 and rep.planned == rep.retried == rep.still_failing == failed
+    assert rep.skipped == before["estimate"] - failed and st.counts() == before
 
 
 def test_process_pool_results_identical_to_serial(small_fleet, serial_store, tmp_path):
@@ -278,8 +281,10 @@ def test_sigkill_mid_ingest_then_resume_stores_each_recording_once(small_fleet, 
     st = Store(db)
     partial = st.counts()
     assert 3 <= partial["estimate"] < n_files and partial["estimate"] % 3 == 0  # whole batches only
+    failed = sum(r["status"] == "failed" for r in st.estimates())  # retried by the resume
     rep = ingest(load_fleet(fleet / "fleet.toml"), st, workers=1)
-    assert rep.skipped == partial["estimate"] and rep.planned == n_files - partial["estimate"]
+    assert rep.skipped == partial["estimate"] - failed and rep.planned == n_files - rep.skipped
+    assert rep.retried == failed
     c = st.counts()
     assert c["recording"] == c["estimate"] == n_files
     paths = [r["path"] for r in st.estimates()]
@@ -294,7 +299,9 @@ def test_postgresql_store_ingest_and_forecast(small_fleet, serial_store, pg_url)
     ingest(load_fleet(small_fleet / "fleet.toml"), pg, workers=1)
     assert _values(pg) == _values(st)
     rep = ingest(load_fleet(small_fleet / "fleet.toml"), pg, workers=1)
-    assert rep.planned == 0
+    failed = sum(r["status"] == "failed" for r in pg.estimates())
+    assert failed > 0 and rep.planned == rep.retried == rep.still_failing == failed  # only those, again
+    assert _values(pg) == _values(st)
     a = {s["axis"]: (s["model"], s["crossing"], s["days_to_threshold"]) for s in fleet_summary(pg)}
     b = {s["axis"]: (s["model"], s["crossing"], s["days_to_threshold"]) for s in fleet_summary(st)}
     assert a == b

@@ -59,10 +59,11 @@ def run_ingest(
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
     from drivelash.wear.fleet import load_fleet
-    from drivelash.wear.ingest import DaskRunner, ingest
+    from drivelash.wear.ingest import DaskRunner, check_files, ingest
     from drivelash.wear.store import Store
 
     fleet = load_fleet(fleet_path)  # every config error before anything is opened
+    check_files(fleet)  # and those its files show (a time format that fits none of them)
     n = workers if workers is not None else (os.cpu_count() or 1)
     if n < 1:
         raise DrivelashError(f"--workers: must be >= 1, got {n}")
@@ -101,9 +102,10 @@ def run_ingest(
         hz = fleet.axes[0].estimate_rate_hz  # fleet-wide ([fleet] estimate_rate_hz)
         rate = "every sample" if hz is None else f"at most {hz:g} Hz: every k-th sample of faster recordings"
         c.print(
-            f"[bold]{fleet.name}[/bold]: {rep.planned} new recordings estimated ({rate}; "
+            f"[bold]{fleet.name}[/bold]: {rep.planned - rep.retried} new recordings estimated ({rate}; "
             f"{rep.stored} stored in {rep.batches} transactions, {rep.failed} failed), "
             f"{rep.skipped} already in the store"
+            + (f"; {rep.retried} retried, {rep.still_failing} still failing" if rep.retried else "")
             + (f" ({rep.redated} re-dated: the time specification changed)" if rep.redated else "")
             + f"; {rep.wall_s:.1f} s -> {store.name}"
         )

@@ -30,7 +30,7 @@ from drivelash.wear.estimate import RecordingTask, code_version, content_hash, e
 from drivelash.wear.fleet import Fleet
 from drivelash.wear.store import EstimateRow, Store
 
-__all__ = ["DaskRunner", "IngestReport", "SchedulerError", "ingest", "plan"]
+__all__ = ["DaskRunner", "IngestReport", "SchedulerError", "check_files", "ingest", "plan"]
 
 #: Times a recording is tried when its worker process dies before it is stored as failed.
 MAX_ATTEMPTS = 3
@@ -61,6 +61,10 @@ class IngestReport:
     warnings: list[str] = field(default_factory=list)
     redated: int = 0
     duplicates: list[str] = field(default_factory=list)
+    #: Stored ``failed`` estimates this run computed again (replaced by the new result), and
+    #: how many of those failed again.
+    retried: int = 0
+    still_failing: int = 0
 
 
 def plan(
@@ -156,6 +160,41 @@ def redate(fleet: Fleet, store: Store) -> list[tuple[int, object, str]]:
             done.add(hit[0])
             out.append((hit[0], start, h))
     return out
+
+
+def check_files(fleet: Fleet) -> None:
+    """Refuse what the fleet's files show to be a configuration slip, before anything is written.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the fleet file and the axis: a ``time`` taken from the file name that
+        dates none of the axis's files (a ``format`` or ``pattern`` that does not fit the names:
+        every recording would be stored as failed).
+    """
+    from drivelash.errors import ConfigError
+    from drivelash.wear.estimate import recording_start
+
+    for k, a in enumerate(fleet.axes):
+        files = a.files()
+        if a.time.source != "filename" or not files:
+            continue
+        first = None
+        for p in files:
+            try:
+                recording_start(p, a.time)
+                break
+            except DrivelashError as exc:
+                if first is None:
+                    first = (p, str(exc).splitlines()[0] if str(exc) else type(exc).__name__)
+        else:
+            assert first is not None
+            p, reason = first
+            reason = reason.removeprefix(f"{p}, ").removeprefix(f"{p}: ")
+            raise ConfigError(
+                f"{fleet.path}: table [[axis]] #{k + 1} (id {a.name!r}), key 'time': dates none of the "
+                f"{len(files)} recordings (e.g. {p.name}: {reason}); nothing was written"
+            )
 
 
 # ------------------------------------------------------------------------------------ executors
@@ -357,6 +396,7 @@ def _ingest(
     update_alarms: bool,
     t0: float,
 ) -> IngestReport:
+    check_files(fleet)  # no file datable: error, nothing written
     changes = redate(fleet, store)  # a recording that cannot be re-dated: error, nothing written
     warnings: list[str] = []
     ids, tasks, skipped = plan(fleet, store, warnings)
@@ -377,7 +417,10 @@ def _ingest(
     def flush() -> None:
         nonlocal batch, last
         if batch:
-            rep.stored += store.commit_batch(batch, ids, rep.duplicates)
+            again: list[tuple[str, str]] = []
+            rep.stored += store.commit_batch(batch, ids, rep.duplicates, again)
+            rep.retried += len(again)
+            rep.still_failing += sum(status != "ok" for _, status in again)
             rep.batches += 1
         batch = []
         last = time.monotonic()

@@ -412,10 +412,12 @@ class Store:
 
     # -- recordings and estimates -------------------------------------------------------------
     def known_files(self, axis_id: int, method: str, config_hash: str, code_version: str) -> set[tuple]:
-        """(path, size, mtime_ns) of recordings of the axis that already have this estimate
-        (under any of the paths their content was seen as: ``recording`` and ``recording_path``)."""
+        """(path, size, mtime_ns) of recordings of the axis that already have this estimate and
+        it did not fail (under any of the paths their content was seen as: ``recording`` and
+        ``recording_path``); a ``failed`` estimate is retried by every ingest."""
         same = (
             recording_t.c.axis_id == axis_id,
+            estimate_t.c.status != "failed",
             estimate_t.c.method == method,
             estimate_t.c.config_hash == config_hash,
             estimate_t.c.code_version == code_version,
@@ -477,12 +479,20 @@ class Store:
         return moved
 
     def commit_batch(
-        self, rows: Sequence[EstimateRow], axis_ids: dict[str, int], duplicates: list[str] | None = None
+        self,
+        rows: Sequence[EstimateRow],
+        axis_ids: dict[str, int],
+        duplicates: list[str] | None = None,
+        retried: list[tuple[str, str]] | None = None,
     ) -> int:
-        """Store a batch of results in ONE transaction; returns how many estimates were new.
+        """Store a batch of results in ONE transaction; returns how many estimates were new or
+        replaced a failed one.
 
         Idempotent: a recording (axis, content hash) is stored once; an estimate (recording,
-        method, config hash, code version) is stored once — a repeated row is skipped. Set
+        method, config hash, code version) is stored once — a repeated row is skipped, except
+        that a new result replaces a stored ``failed`` estimate of the same identity (a retry:
+        ``retried`` gets (path, new status); on success the recording's start time, length
+        and rate are the new result's). Set
         based: a handful of statements per batch, not per row (the writer is the one serial
         part of an ingest). Every path a recording's content is seen under is kept
         (``recording_path``); a file with the content of a recording whose stored path still
@@ -579,44 +589,90 @@ class Store:
                     seen,
                 )
             rids = sorted({rec_id[(aid, r.content_hash)] for aid, r in keyed})
-            have: set[tuple[int, str, str, str]] = set()
+            # estimate identity -> (estimate id, status); None: inserted by this batch
+            have: dict[tuple[int, str, str, str], tuple[int | None, str]] = {}
             for k in range(0, len(rids), 500):
                 q = sa.select(
                     estimate_t.c.recording_id,
                     estimate_t.c.method,
                     estimate_t.c.config_hash,
                     estimate_t.c.code_version,
+                    estimate_t.c.id,
+                    estimate_t.c.status,
                 ).where(estimate_t.c.recording_id.in_(rids[k : k + 500]))
-                have.update((int(x[0]), x[1], x[2], x[3]) for x in conn.execute(q))
+                have.update(((int(x[0]), x[1], x[2], x[3]), (int(x[4]), x[5])) for x in conn.execute(q))
             ins = []
+            upd = []
+            redo = []
             for aid, r in keyed:
                 rid = rec_id[(aid, r.content_hash)]
                 ident = (rid, r.method, r.config_hash, r.code_version)
-                if ident in have:
-                    continue
-                have.add(ident)
-                ins.append(
-                    {
-                        "recording_id": rid,
-                        "axis_id": aid,
-                        "method": r.method,
-                        "code_version": r.code_version,
-                        "config_hash": r.config_hash,
-                        "status": r.status,
-                        "reason": r.reason,
-                        "delta": _finite(r.delta),
-                        "delta1_estimate": _finite(r.delta1_estimate),
-                        "delta_std": _finite(r.delta_std),
-                        "excitation_ok": r.excitation_ok,
-                        "converged": r.converged,
-                        "runtime_s": r.runtime_s,
-                        "created_at": now,
-                        "estimate_rate_hz": _finite(r.estimate_rate_hz),
-                    }
-                )
+                vals = {
+                    "recording_id": rid,
+                    "axis_id": aid,
+                    "method": r.method,
+                    "code_version": r.code_version,
+                    "config_hash": r.config_hash,
+                    "status": r.status,
+                    "reason": r.reason,
+                    "delta": _finite(r.delta),
+                    "delta1_estimate": _finite(r.delta1_estimate),
+                    "delta_std": _finite(r.delta_std),
+                    "excitation_ok": r.excitation_ok,
+                    "converged": r.converged,
+                    "runtime_s": r.runtime_s,
+                    "created_at": now,
+                    "estimate_rate_hz": _finite(r.estimate_rate_hz),
+                }
+                prev = have.get(ident)
+                if prev is None:
+                    have[ident] = (None, r.status)
+                    ins.append(vals)
+                elif prev[0] is not None and prev[1] == "failed":
+                    # a failed estimate is retried: the new result replaces it (same row)
+                    have[ident] = (None, r.status)
+                    upd.append(
+                        {**{f"v_{k}": v for k, v in vals.items() if k != "recording_id"}, "eid": prev[0]}
+                    )
+                    if retried is not None:
+                        retried.append((r.path, r.status))
+                    if r.status == "ok":
+                        redo.append(
+                            {
+                                "rid_": rid,
+                                "st": utc_naive(r.start_time),
+                                "d": r.duration_s,
+                                "sr": r.sample_rate_hz,
+                                "n": r.samples,
+                                "th": r.time_spec_hash,
+                            }
+                        )
             if ins:
                 conn.execute(sa.insert(estimate_t), ins)
-        return len(ins)
+            if upd:
+                cols = [k.removeprefix("v_") for k in upd[0] if k != "eid"]
+                conn.execute(
+                    sa.update(estimate_t)
+                    .where(estimate_t.c.id == sa.bindparam("eid"))
+                    .values({c: sa.bindparam(f"v_{c}") for c in cols}),
+                    upd,
+                )
+            if redo:
+                # the recording's facts as the successful estimate found them (a failed one may
+                # have had no start time: e.g. a time format that did not match its name)
+                conn.execute(
+                    sa.update(recording_t)
+                    .where(recording_t.c.id == sa.bindparam("rid_"))
+                    .values(
+                        start_time=sa.bindparam("st"),
+                        duration_s=sa.bindparam("d"),
+                        sample_rate_hz=sa.bindparam("sr"),
+                        samples=sa.bindparam("n"),
+                        time_spec_hash=sa.bindparam("th"),
+                    ),
+                    redo,
+                )
+        return len(ins) + len(upd)
 
     def estimates(self, axis: str | None = None) -> list[dict[str, Any]]:
         """Recording-based estimates joined with their recordings, ordered by axis and time.
