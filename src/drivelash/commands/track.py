@@ -63,7 +63,7 @@ def run_ingest(
     from drivelash.wear.store import Store
 
     fleet = load_fleet(fleet_path)  # every config error before anything is opened
-    check_files(fleet)  # and those its files show (a time format that fits none of them)
+    check_files(fleet)  # and those its files show (a file of two axes, a time format that fits none)
     n = workers if workers is not None else (os.cpu_count() or 1)
     if n < 1:
         raise DrivelashError(f"--workers: must be >= 1, got {n}")

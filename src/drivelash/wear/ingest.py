@@ -168,15 +168,27 @@ def check_files(fleet: Fleet) -> None:
     Raises
     ------
     ConfigError
-        One line naming the fleet file and the axis: a ``time`` taken from the file name that
-        dates none of the axis's files (a ``format`` or ``pattern`` that does not fit the names:
-        every recording would be stored as failed).
+        One line naming the fleet file and the axis: a file (resolved path) matched by the
+        ``recordings`` of two axes (it would be estimated with both axes' drive parameters);
+        a ``time`` taken from the file name that dates none of the axis's files (a ``format``
+        or ``pattern`` that does not fit the names: every recording would be stored as failed).
     """
     from drivelash.errors import ConfigError
     from drivelash.wear.estimate import recording_start
 
+    owner: dict[Path, int] = {}
     for k, a in enumerate(fleet.axes):
         files = a.files()
+        for p in files:
+            rp = p.resolve()
+            j = owner.setdefault(rp, k)
+            if j != k:
+                b = fleet.axes[j]
+                raise ConfigError(
+                    f"{fleet.path}: table [[axis]] #{k + 1} (id {a.name!r}), key 'recordings': {p} is "
+                    f"matched by [[axis]] #{j + 1} (id {b.name!r}) too (a recording belongs to one axis: "
+                    "it would be estimated with both axes' drives); nothing was written"
+                )
         if a.time.source != "filename" or not files:
             continue
         first = None
@@ -396,7 +408,7 @@ def _ingest(
     update_alarms: bool,
     t0: float,
 ) -> IngestReport:
-    check_files(fleet)  # no file datable: error, nothing written
+    check_files(fleet)  # a file of two axes, no file datable: error, nothing written
     changes = redate(fleet, store)  # a recording that cannot be re-dated: error, nothing written
     warnings: list[str] = []
     ids, tasks, skipped = plan(fleet, store, warnings)

@@ -1,0 +1,67 @@
+"""Two axes whose ``recordings`` globs match the same files are refused before anything is
+written (exploration: a copy-pasted glob estimated M02/X from M01/X's files with M02/X's drive
+parameters and raised a false threshold alarm)."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+from drivelash.errors import ConfigError
+from drivelash.wear import Store, ingest, load_fleet
+
+from .test_redate_duplicates import FILENAME_TIME, _tiny
+
+
+def _two_axes(small_fleet, dst, second_glob: str):
+    f = _tiny(small_fleet, dst, FILENAME_TIME)  # M01/X on rec/*.parquet
+    shutil.copy(small_fleet / "drives" / "M02-X.toml", dst / "drives" / "M02-X.toml")
+    (dst / "rec2").mkdir()
+    shutil.copy(next((dst / "rec").iterdir()), dst / "rec2")
+    f.write_text(
+        f.read_text()
+        + '[[axis]]\nid = "M02/X"\ndrive = "drives/M02-X.toml"\n'
+        + f'recordings = "{second_glob}"\nthreshold = 0.2\n'
+    )
+    return f
+
+
+def test_cli_a_file_of_two_axes_is_refused_nothing_written(small_fleet, tmp_path):
+    f = _two_axes(small_fleet, tmp_path / "f", "rec/*.parquet")  # the copy-paste slip
+    db = tmp_path / "w.sqlite"
+    cmd = [
+        sys.executable,
+        "-m",
+        "drivelash.cli",
+        "track",
+        "ingest",
+        str(f),
+        "--db",
+        str(db),
+        "--workers",
+        "1",
+    ]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 2, r.stderr
+    err = r.stderr.strip()
+    assert "\n" not in err and err.startswith(f"drivelash: error: {f}: "), err
+    assert "'M01/X'" in err and "'M02/X'" in err and "key 'recordings'" in err
+    assert str(tmp_path / "f" / "rec") in err and ".parquet is matched by" in err
+    assert "nothing was written" in err and not db.exists()
+    # negative control: M02/X on its own directory (a copy of the same content is another file)
+    f2 = _two_axes(small_fleet, tmp_path / "g", "rec2/*.parquet")
+    r = subprocess.run([*cmd[:5], str(f2), *cmd[6:]], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert {r["axis"] for r in Store(db, create=False).estimates()} == {"M01/X", "M02/X"}
+
+
+def test_api_refuses_a_shared_file_reached_by_another_path(small_fleet, tmp_path):
+    """The same file under another spelling of its path (``rec/../rec``) is still the same file."""
+    f = _two_axes(small_fleet, tmp_path / "f", "rec2/../rec/*.parquet")
+    st = Store(tmp_path / "w.sqlite")
+    with pytest.raises(ConfigError, match=r"\[\[axis\]\] #2 \(id 'M02/X'\).*#1 \(id 'M01/X'\)"):
+        ingest(load_fleet(f), st, workers=1)
+    assert st.counts() == dict.fromkeys(("axis", "recording", "estimate", "measurement", "alarm"), 0)
