@@ -3,7 +3,8 @@
 * ``track ingest FLEET.toml [--db URL] [--workers N] [--dask local|ADDRESS]`` — estimate every
   new recording of the fleet and commit it to the history store (progress bar on stderr);
   recordings that fail are stored as failed with their one-line reason, printed, and make
-  the exit status 2 once the rest is stored;
+  the exit status 2 once the rest is stored; every later ingest retries them (the summary
+  says how many were retried and how many still fail);
 * ``track status [--db URL | --fleet FLEET.toml]`` — table of the axes sorted by forecast time
   to threshold, with the active alarms;
 * ``track forecast AXIS [--json PATH|-]`` — one axis's trend, model and forecast;

@@ -4,7 +4,8 @@ Pipeline of :func:`ingest`:
 
 1. **plan** (writer): register the fleet's axes; list each axis's recordings; skip the files
    whose (path, size, mtime) already carry an estimate with this method, config hash and
-   code version (a shortcut — the identity remains the content hash, checked on commit);
+   code version that did not fail (a shortcut — the identity remains the content hash,
+   checked on commit, where a new result replaces a ``failed`` estimate of that identity);
 2. **compute** (workers): :func:`~drivelash.wear.estimate.estimate_recording` per file —
    serially, in local processes (``workers``) or on a Dask distributed cluster
    (``dask="local"`` starts a ``LocalCluster``; otherwise a scheduler address);
