@@ -125,3 +125,51 @@ def test_valid_input_bit_identical_to_the_kernel(samples):
     assert np.array_equal(_bits(rows), _bits(ref[:200]))
     four = _est().run_samples(samples[:, :4])  # (n, 4) without the torque: accepted
     assert four.shape == (len(samples), dz.N_OUT)
+
+
+@pytest.mark.parametrize(("col", "name"), list(enumerate(["theta_m", "omega_m", "theta_l", "omega_l"])))
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_run_samples_refuses_nonfinite_position_velocity(samples, col, name, bad):
+    e = _est()
+    e.run_samples(samples[:1000])
+    before = e.state.copy()
+    block = samples[1000:].copy()
+    block[700, col] = bad
+    block[900, (col + 1) % 4] = np.nan  # a later one: the first is named
+    with pytest.raises(DataError) as err:
+        e.run_samples(block)
+    msg = _one_line(err)
+    assert msg.startswith(f"column '{name}': sample 700 (0-based in this call) is {bad}: ")
+    assert np.array_equal(_bits(e.state), _bits(before))
+    # the state is usable: the clean block continues exactly as without the refused call
+    clean = _est()
+    clean.run_samples(samples[:1000])
+    assert np.array_equal(_bits(e.run_samples(samples[1000:])), _bits(clean.run_samples(samples[1000:])))
+
+
+@pytest.mark.parametrize(("col", "name"), list(enumerate(["theta_m", "omega_m", "theta_l", "omega_l"])))
+def test_step_refuses_nonfinite_position_velocity(samples, col, name):
+    e = _est()
+    e.run_samples(samples[:100])
+    before = e.state.copy()
+    x = samples[100].copy()
+    x[col] = np.nan
+    with pytest.raises(DataError) as err:
+        e.step(x)
+    assert _one_line(err).startswith(f"column '{name}': sample 0 (0-based in this call) is nan: ")
+    assert np.array_equal(_bits(e.state), _bits(before))
+
+
+def test_nan_torque_still_accepted(samples):
+    """Kept behaviour: a NaN torque means "no torque for this sample" (load observer)."""
+    x = samples[:2000].copy()
+    x[500, 4] = np.nan
+    e = _est()
+    out = e.run_samples(x)
+    assert np.isfinite(out[:, dz.O_DELTA]).all() and np.isfinite(e.state).all()
+    ref = np.empty((len(x), dz.N_OUT))
+    dz.deadzone_run_into(_est().state, x, _est().params, ref)
+    assert np.array_equal(_bits(out), _bits(ref))
+    s = _est()
+    rows = np.array([s.step(x[i]) for i in range(600)])
+    assert np.array_equal(_bits(rows), _bits(ref[:600]))

@@ -644,6 +644,28 @@ def check_samples(samples: object, name: str = "samples") -> np.ndarray:
     return samples
 
 
+def nonfinite_message(value: float, i: int) -> str:
+    """The message of a non-finite position or velocity at 0-based sample ``i`` of a call."""
+    return (
+        f"sample {i} (0-based in this call) is {value}: θ_m, ω_m, θ_l and ω_l must be finite "
+        "(a NaN would stay in the estimator state); nothing was run, the state is unchanged"
+    )
+
+
+def check_finite(samples: np.ndarray) -> np.ndarray:
+    """``samples`` (checked by :func:`check_samples`) if θ_m, ω_m, θ_l and ω_l are finite in
+    every row, else a one-line :class:`~drivelash.errors.DataError` naming the column and the
+    0-based sample (row) of the first non-finite value. One vectorised pass; the torque column
+    may hold NaN (the kernel then takes the shaft torque from the load observer)."""
+    pv = samples[:, :N_IN]
+    finite = np.isfinite(pv)
+    if not finite.all():
+        flat = int(np.argmin(finite))  # row-major: the first bad sample, its first bad column
+        i, c = divmod(flat, N_IN)
+        raise DataError(nonfinite_message(float(pv[i, c]), i), column=INPUT_COLUMNS[c])
+    return samples
+
+
 @njit(cache=True)
 def deadzone_run_kernel(state, samples, params):
     """:func:`deadzone_run` without the argument checks (the caller guarantees the shapes)."""
@@ -669,7 +691,10 @@ def deadzone_run(state: np.ndarray, samples: np.ndarray, params: np.ndarray) -> 
     Raises
     ------
     DataError
-        ``samples`` of another shape, dtype or layout (:func:`check_samples`).
+        ``samples`` of another shape, dtype or layout (:func:`check_samples`), or a non-finite
+        θ_m, ω_m, θ_l or ω_l (:func:`check_finite`: one line naming the column and the 0-based
+        sample; a NaN there would stay in the state and freeze δ̂). A NaN torque is allowed:
+        that sample's shaft torque comes from the load observer.
     ParameterError
         ``state`` or ``params`` of another length, dtype or layout (the njit kernel would read
         and write out of bounds).
@@ -685,6 +710,7 @@ def deadzone_run(state: np.ndarray, samples: np.ndarray, params: np.ndarray) -> 
     check_params(params)
     check_state(state, params)
     check_samples(samples)
+    check_finite(samples)
     return deadzone_run_kernel(state, samples, params)
 
 

@@ -1133,7 +1133,10 @@ class DeadzoneEstimator:
         Raises
         ------
         DataError
-            ``sample`` does not hold 4 or 5 values (one line naming the given shape).
+            ``sample`` does not hold 4 or 5 values (one line naming the given shape), or θ_m,
+            ω_m, θ_l or ω_l is not finite (one line naming the column and sample 0); the state
+            is then unchanged. A NaN torque u is allowed (the shaft torque then comes from the
+            load observer for that sample).
         """
         s = sample
         shape = np.shape(s)
@@ -1142,9 +1145,11 @@ class DeadzoneEstimator:
                 f"sample: expected 4 or 5 values θ_m, ω_m, θ_l, ω_l[, torque_m], got shape {shape}"
             )
         u = float(s[4]) if len(s) > 4 else math.nan
-        dz.deadzone_step(
-            self._state, float(s[0]), float(s[1]), float(s[2]), float(s[3]), u, self.params, self._row, 0
-        )
+        x = (float(s[0]), float(s[1]), float(s[2]), float(s[3]))
+        for c, v in enumerate(x):
+            if not math.isfinite(v):
+                raise DataError(dz.nonfinite_message(v, 0), column=dz.INPUT_COLUMNS[c])
+        dz.deadzone_step(self._state, x[0], x[1], x[2], x[3], u, self.params, self._row, 0)
         return self._row[0].copy()
 
     def run_samples(self, samples: np.ndarray) -> np.ndarray:
@@ -1157,7 +1162,11 @@ class DeadzoneEstimator:
         ------
         DataError
             ``samples`` of another shape, e.g. (n, 3) or a transposed (5, n) block (one line
-            naming the expected and the given shape); the state is not changed.
+            naming the expected and the given shape), or a non-finite θ_m, ω_m, θ_l or ω_l (one
+            line naming the column and the 0-based sample within this call: a NaN there would
+            stay in the state and freeze δ̂ for good). Nothing of the block is run then and the
+            state is unchanged. A NaN torque u is allowed (that sample's shaft torque comes from
+            the load observer).
         """
         samples = np.ascontiguousarray(samples, dtype=np.float64)
         dz.check_samples(samples)
