@@ -231,28 +231,35 @@ def _export_table(
     lo = mlo if x_min is None else x_min
     hi = mhi if x_max is None else x_max
     tmax = vr.torque_max if torque_max is None else torque_max
-    n_torque = _check_grid(lo, hi, dx_mm, tmax, torque_step, vr, (mlo, mhi))
+    n_torque = _check_grid(lo, hi, dx_mm, tmax, torque_step)
+    # build_table refuses positions outside the measured range, torques above the trained range
+    # and oversized grids — the same checks for the API — worded with this command's options
     table = build_table(model, lo, hi, dx_mm * 1e-3, tmax, n_torque,
-                        meta={"model_dir": str(model_dir)})  # fmt: skip
+                        meta={"model_dir": str(model_dir)}, names=_export_names())  # type: ignore[arg-type]  # fmt: skip
     export_table(table, path, ctx.compensator)
     return table
 
 
-#: Largest table `te export` writes [grid points per flank]: 10 M (e.g. 0.1 mm over 10 m × 100
-#: torques); a CNC compensation table holds thousands, the default grid ≈ 0.2 M.
-MAX_TABLE_POINTS = 10_000_000
+def _export_names() -> object:
+    """How :func:`~drivelash.te.runtime.table.build_table` words its refusals for `te export`
+    (imported when run: the command module stays light)."""
+    from drivelash.te.runtime.table import GridNames
+
+    return GridNames(
+        owner="te export",
+        x_min="--x-min",
+        x_max="--x-max",
+        torque_max="--torque-max",
+        torque_hint="leave --torque-max out or lower it",
+        size_hint="raise --dx-mm or --torque-step, or lower --torque-max",
+        extra_bytes_per_value=40.0,  # the CSV text (~40 bytes per row) written from the table
+    )
 
 
-def _check_grid(
-    lo: float, hi: float, dx_mm: float, tmax: float, step: float, vr: object, measured: tuple[float, float]
-) -> int:
-    """Validate the export grid up front; returns the torque count (refuses absurd sizes).
-
-    ``measured``: the positions [m] where the model was measured
-    (:func:`~drivelash.te.runtime.table.measured_range`); ``vr.torque_max`` bounds the torques."""
-    from drivelash.errors import ParameterError, ResourceError
-    from drivelash.io.budget import check_budget
-    from drivelash.te.runtime.table import check_measured, table_bytes
+def _check_grid(lo: float, hi: float, dx_mm: float, tmax: float, step: float) -> int:
+    """Validate the export options up front; returns the torque count. The model-dependent
+    refusals (valid positions and torques, the table's size) are :func:`build_table`'s."""
+    from drivelash.errors import ParameterError
 
     for name, v in (("--dx-mm", dx_mm), ("--torque-step", step), ("--torque-max", tmax)):
         if not (math.isfinite(v) and v > 0):
@@ -260,29 +267,9 @@ def _check_grid(
     for name, v in (("--x-min", lo), ("--x-max", hi)):
         if not math.isfinite(v):
             raise ParameterError("te export", name.lstrip("-"), f"must be finite, got {v!r}")
-    check_measured(lo, hi, measured)
-    t_max = float(vr.torque_max)  # type: ignore[attr-defined]
-    if tmax > t_max * (1 + 1e-9):
-        raise ParameterError(
-            "te export",
-            "--torque-max",
-            f"{tmax:g} N·m is above the model's valid torque range 0 ... {t_max:.4g} N·m (its training"
-            " runs); the model would extrapolate — leave --torque-max out or lower it",
-        )
     if not hi > lo:
         raise ParameterError("te export", "x-max", f"must exceed x-min ({lo:g} m), got {hi:g}")
-    n_x = (hi - lo) / (dx_mm * 1e-3) + 1
-    n_torque = math.ceil(tmax / step - 1e-9) + 1
-    what = f"te export: {n_x:.4g} positions x {n_torque:.4g} torques x 2 flanks"
-    option = "raise --dx-mm or --torque-step, or lower --torque-max"
-    if n_x * n_torque > MAX_TABLE_POINTS:  # no CNC loads more; checked before any size is allocated
-        raise ResourceError(
-            f"{what} = {2 * n_x * n_torque:.4g} values, more than {2 * MAX_TABLE_POINTS:.4g}"
-            f" (≈ {table_bytes(int(n_x), int(n_torque)) / 2**30:.3g} GiB to build); {option}"
-        )
-    # the table in memory, and the CSV text (~40 bytes per row, 2 flanks) written from it
-    check_budget(table_bytes(int(n_x), int(n_torque)) + 40.0 * 2 * n_x * n_torque, what=what, option=option)
-    return int(n_torque)
+    return int(math.ceil(tmax / step - 1e-9) + 1)
 
 
 #: Goal of the reduced protocol (issue 12: quick path with defaults): average improvement.

@@ -78,6 +78,7 @@ import math
 import numpy as np
 from numba import njit
 
+from drivelash.errors import DataError, ParameterError
 from drivelash.physics.backlash import sgn
 
 # -- parameter array layout ---------------------------------------------------------
@@ -568,19 +569,135 @@ def _law(state, obs, omega_l, p, out, i_out):
     out[i_out, O_DELTA1] = delta1
 
 
+def _describe(a: object) -> str:
+    """``float64 array of shape (3,)`` / ``list``: what was given, for a message."""
+    if isinstance(a, np.ndarray):
+        layout = "" if a.flags.c_contiguous else "non-contiguous "
+        return f"{layout}{a.dtype} array of shape {a.shape}"
+    return type(a).__name__
+
+
+def state_length(params: np.ndarray) -> int:
+    """Length of the state of ``params``: :data:`N_STATE` + the σ window (as :func:`initial_state`)."""
+    return N_STATE + int(params[P_WINDOW])
+
+
+def check_params(params: object, owner: str = "deadzone_run") -> np.ndarray:
+    """``params`` if it is a C-contiguous float64 array of shape (:data:`N_PARAMS`,), else a one-line
+    :class:`~drivelash.errors.ParameterError` (O(1))."""
+    if not (
+        isinstance(params, np.ndarray)
+        and params.dtype == np.float64
+        and params.shape == (N_PARAMS,)
+        and params.flags.c_contiguous
+    ):
+        raise ParameterError(
+            owner,
+            "params",
+            f"expected a C-contiguous float64 array of shape ({N_PARAMS},), got {_describe(params)}",
+        )
+    return params
+
+
+def check_state(state: object, params: np.ndarray, owner: str = "deadzone_run") -> np.ndarray:
+    """``state`` if it is a C-contiguous float64 array of the exact length of ``params``' state
+    (:func:`state_length`: the σ window depends on T_s), else a one-line
+    :class:`~drivelash.errors.ParameterError` naming the expected and the given shape (O(1))."""
+    n = state_length(params)
+    if not (
+        isinstance(state, np.ndarray)
+        and state.dtype == np.float64
+        and state.shape == (n,)
+        and state.flags.c_contiguous
+    ):
+        raise ParameterError(
+            owner,
+            "state",
+            f"expected a C-contiguous float64 array of shape ({n},) (initial_state of these parameters: "
+            f"{N_STATE} + σ window {n - N_STATE}), got {_describe(state)}",
+        )
+    return state
+
+
+#: input column names, in the kernel's order (:data:`I_THETA_M` …)
+INPUT_COLUMNS = ("theta_m", "omega_m", "theta_l", "omega_l", "torque_m")
+
+
+def check_samples(samples: object, name: str = "samples") -> np.ndarray:
+    """``samples`` if it is a C-contiguous float64 array of shape (n, 4) or (n, 5) — columns
+    θ_m, ω_m, θ_l, ω_l[, torque_m] — else a one-line :class:`~drivelash.errors.DataError`
+    naming the argument, the expected and the given shape (O(1)).
+
+    A transposed block (4, n) or (5, n) is refused unless n is itself 4 or 5 (indistinguishable).
+    """
+    if not (
+        isinstance(samples, np.ndarray)
+        and samples.dtype == np.float64
+        and samples.ndim == 2
+        and samples.shape[1] in (N_IN, N_IN + 1)
+        and samples.flags.c_contiguous
+    ):
+        raise DataError(
+            f"{name}: expected a C-contiguous float64 array of shape (n, 4) or (n, 5) with columns "
+            f"θ_m, ω_m, θ_l, ω_l[, torque_m], got {_describe(samples)}"
+        )
+    return samples
+
+
+def nonfinite_message(value: float, i: int) -> str:
+    """The message of a non-finite position or velocity at 0-based sample ``i`` of a call."""
+    return (
+        f"sample {i} (0-based in this call) is {value}: θ_m, ω_m, θ_l and ω_l must be finite "
+        "(a NaN would stay in the estimator state); nothing was run, the state is unchanged"
+    )
+
+
+def check_finite(samples: np.ndarray) -> np.ndarray:
+    """``samples`` (checked by :func:`check_samples`) if θ_m, ω_m, θ_l and ω_l are finite in
+    every row, else a one-line :class:`~drivelash.errors.DataError` naming the column and the
+    0-based sample (row) of the first non-finite value. One vectorised pass; the torque column
+    may hold NaN (the kernel then takes the shaft torque from the load observer)."""
+    pv = samples[:, :N_IN]
+    finite = np.isfinite(pv)
+    if not finite.all():
+        flat = int(np.argmin(finite))  # row-major: the first bad sample, its first bad column
+        i, c = divmod(flat, N_IN)
+        raise DataError(nonfinite_message(float(pv[i, c]), i), column=INPUT_COLUMNS[c])
+    return samples
+
+
 @njit(cache=True)
-def deadzone_run(state, samples, params):
+def deadzone_run_kernel(state, samples, params):
+    """:func:`deadzone_run` without the argument checks (the caller guarantees the shapes)."""
+    out = np.empty((samples.shape[0], N_OUT))
+    st = deadzone_run_into(state, samples, params, out)
+    return st, out
+
+
+def deadzone_run(state: np.ndarray, samples: np.ndarray, params: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Run the estimator over a block: ``run(state, samples, params) -> (state, outputs)``.
 
     Parameters
     ----------
     state : numpy.ndarray
-        Estimator state (see :func:`initial_state`); not modified.
+        Estimator state (see :func:`initial_state`): C-contiguous float64 of the exact length
+        :func:`state_length` of ``params``; not modified.
     samples : numpy.ndarray
-        Shape (n, 4) or (n, 5): θ_m [rad], ω_m [rad/s], θ_l [rad], ω_l [rad/s] and, optionally,
-        the recorded motor torque u [N·m], at the sample time T_s.
+        Shape (n, 4) or (n, 5), C-contiguous float64: θ_m [rad], ω_m [rad/s], θ_l [rad],
+        ω_l [rad/s] and, optionally, the recorded motor torque u [N·m], at the sample time T_s.
     params : numpy.ndarray
         Parameter array (see :class:`~drivelash.estimation.estimator.EstimatorConfig`).
+
+    Raises
+    ------
+    DataError
+        ``samples`` of another shape, dtype or layout (:func:`check_samples`), or a non-finite
+        θ_m, ω_m, θ_l or ω_l (:func:`check_finite`: one line naming the column and the 0-based
+        sample; a NaN there would stay in the state and freeze δ̂). A NaN torque is allowed:
+        that sample's shaft torque comes from the load observer.
+    ParameterError
+        ``state`` or ``params`` of another length, dtype or layout (the njit kernel would read
+        and write out of bounds).
 
     Returns
     -------
@@ -590,9 +707,11 @@ def deadzone_run(state, samples, params):
         Shape (n, 9): δ̂ [rad], φ̂ [rad/s²], ω̂_l [rad/s], σ-window integral [s], Δθ used [rad],
         T_l(x, δ̂) [N·m], shaft torque seen by the law [N·m], traversal count [-], δ1 used [rad].
     """
-    out = np.empty((samples.shape[0], N_OUT))
-    st = deadzone_run_into(state, samples, params, out)
-    return st, out
+    check_params(params)
+    check_state(state, params)
+    check_samples(samples)
+    check_finite(samples)
+    return deadzone_run_kernel(state, samples, params)
 
 
 @njit(cache=True, error_model="numpy")

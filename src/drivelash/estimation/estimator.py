@@ -1112,19 +1112,65 @@ class DeadzoneEstimator:
         """Back to δ̂ = δ0 and zero observer state."""
         self.state = dz.initial_state(self.params, self.config.delta0)
 
+    @property
+    def state(self) -> np.ndarray:
+        """The explicit estimator state (see :func:`~drivelash.estimation.deadzone.initial_state`).
+
+        A snapshot (``est.state.copy()``) may be assigned back, to this estimator or to one with
+        the same parameters. Assigning checks the array: C-contiguous float64 of this
+        estimator's exact state length (it depends on T_s through the σ window), else a one-line
+        :class:`~drivelash.errors.ParameterError` naming the expected and the given shape.
+        """
+        return self._state
+
+    @state.setter
+    def state(self, value: np.ndarray) -> None:
+        self._state = dz.check_state(value, self.params, "DeadzoneEstimator")
+
     def step(self, sample: np.ndarray | tuple[float, ...]) -> np.ndarray:
-        """Process one sample (θ_m, ω_m, θ_l, ω_l[, u]); returns the output row (see ``deadzone_run``)."""
+        """Process one sample (θ_m, ω_m, θ_l, ω_l[, u]); returns the output row (see ``deadzone_run``).
+
+        Raises
+        ------
+        DataError
+            ``sample`` does not hold 4 or 5 values (one line naming the given shape), or θ_m,
+            ω_m, θ_l or ω_l is not finite (one line naming the column and sample 0); the state
+            is then unchanged. A NaN torque u is allowed (the shaft torque then comes from the
+            load observer for that sample).
+        """
         s = sample
+        shape = np.shape(s)
+        if shape not in ((dz.N_IN,), (dz.N_IN + 1,)):
+            raise DataError(
+                f"sample: expected 4 or 5 values θ_m, ω_m, θ_l, ω_l[, torque_m], got shape {shape}"
+            )
         u = float(s[4]) if len(s) > 4 else math.nan
-        dz.deadzone_step(
-            self.state, float(s[0]), float(s[1]), float(s[2]), float(s[3]), u, self.params, self._row, 0
-        )
+        x = (float(s[0]), float(s[1]), float(s[2]), float(s[3]))
+        for c, v in enumerate(x):
+            if not math.isfinite(v):
+                raise DataError(dz.nonfinite_message(v, 0), column=dz.INPUT_COLUMNS[c])
+        dz.deadzone_step(self._state, x[0], x[1], x[2], x[3], u, self.params, self._row, 0)
         return self._row[0].copy()
 
     def run_samples(self, samples: np.ndarray) -> np.ndarray:
-        """Process a block of samples, shape (n, 4) or (n, 5); returns outputs (n, 9), keeps the state."""
+        """Process a block of samples, shape (n, 4) or (n, 5); returns outputs (n, 9), keeps the state.
+
+        ``samples`` is converted to a C-contiguous float64 array; columns θ_m, ω_m, θ_l, ω_l[, u]
+        in that order (as :func:`samples_of`).
+
+        Raises
+        ------
+        DataError
+            ``samples`` of another shape, e.g. (n, 3) or a transposed (5, n) block (one line
+            naming the expected and the given shape), or a non-finite θ_m, ω_m, θ_l or ω_l (one
+            line naming the column and the 0-based sample within this call: a NaN there would
+            stay in the state and freeze δ̂ for good). Nothing of the block is run then and the
+            state is unchanged. A NaN torque u is allowed (that sample's shaft torque comes from
+            the load observer).
+        """
         samples = np.ascontiguousarray(samples, dtype=np.float64)
-        self.state, out = dz.deadzone_run(self.state, samples, self.params)
+        dz.check_samples(samples)
+        self._state, out = dz.deadzone_run(self._state, samples, self.params)
         return out
 
     def run(

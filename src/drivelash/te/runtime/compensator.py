@@ -374,32 +374,53 @@ class Compensator:
     def step(
         self, x_d_n: float, x_d_next: float, torque_m: float, omega_m: float, alpha_m: float
     ) -> tuple[float, float, float]:
-        """One cycle; returns (v_c, v_c,TE, v_c,BL) [m/s]. See :func:`compensation_cycle`."""
+        """One cycle; returns (v_c, v_c,TE, v_c,BL) [m/s]. See :func:`compensation_cycle`.
+
+        Raises
+        ------
+        DataError
+            An input is not finite (NaN or ±inf): one line naming it; the state is unchanged
+            (a NaN would be returned as the velocity command and stay in the state).
+        """
         t = self.table
-        return compensation_cycle(
-            self.state,
-            t.te,
-            t.x0,
-            t.dx,
-            t.torque0,
-            t.dtorque,
-            self._p,
-            float(x_d_n),
-            float(x_d_next),
-            float(torque_m),
-            float(omega_m),
-            float(alpha_m),
-        )
+        args = (float(x_d_n), float(x_d_next), float(torque_m), float(omega_m), float(alpha_m))
+        for name, v in zip(_STEP_INPUTS, args, strict=True):
+            if not math.isfinite(v):
+                raise DataError(f"Compensator.step: {name} is {v}; {_FINITE}")
+        return compensation_cycle(self.state, t.te, t.x0, t.dx, t.torque0, t.dtorque, self._p, *args)
 
     def run(
         self, x_d: np.ndarray, torque_m: np.ndarray, omega_m: np.ndarray, alpha_m: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Many cycles at once (``x_d`` one longer: look-ahead); returns (v_c, v_c,TE, v_c,BL)."""
+        """Many cycles at once (``x_d`` one longer: look-ahead); returns (v_c, v_c,TE, v_c,BL).
+
+        Raises
+        ------
+        DataError
+            Arrays that are not 1-D or of mismatched lengths, or a non-finite value (one line
+            naming the array and the 0-based index of the first one); nothing is run then and
+            the state is unchanged.
+        """
         t = self.table
         a = [np.ascontiguousarray(np.asarray(z, dtype=np.float64)) for z in (x_d, torque_m, omega_m, alpha_m)]
+        if any(z.ndim != 1 for z in a):
+            shapes = ", ".join(f"{n} {z.shape}" for n, z in zip(_RUN_INPUTS, a, strict=True))
+            raise DataError(f"Compensator.run: expected 1-D arrays, got {shapes}")
         if a[0].size != a[1].size + 1 or not (a[1].size == a[2].size == a[3].size):
             raise DataError("x_d needs one look-ahead sample more than torque_m/omega_m/alpha_m")
+        for name, z in zip(_RUN_INPUTS, a, strict=True):
+            finite = np.isfinite(z)
+            if not finite.all():
+                i = int(np.argmin(finite))
+                raise DataError(f"Compensator.run: {name}[{i}] (0-based) is {z[i]}; {_FINITE}")
         self.state, v, vte, vbl = compensate_run(
             self.state, t.te, t.x0, t.dx, t.torque0, t.dtorque, self._p, *a
         )
         return v, vte, vbl
+
+
+_STEP_INPUTS = ("x_d_n", "x_d_next", "torque_m", "omega_m", "alpha_m")
+_RUN_INPUTS = ("x_d", "torque_m", "omega_m", "alpha_m")
+_FINITE = (
+    "set positions, torque, speed and acceleration must be finite (nothing was run, the state is unchanged)"
+)

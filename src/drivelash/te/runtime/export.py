@@ -80,7 +80,8 @@ def _grid_doc(table: TETable, params: CompensatorParams | None) -> dict[str, Any
         "theta_M*d_p/(2*i_PG)), per flank in contact; flank +1 = positive direction of travel",
         "units": {"x_T": "mm", "torque": "N*m (motor side)", "TE": "um"},
         "interpolation": "bilinear in (x_T, torque); the grid is the valid range (where the model was"
-        " trained): drivelash refuses positions outside it, a real-time kernel should hold the edge value",
+        " trained): drivelash builds and exports no table beyond it; at run time its compensator holds the"
+        " edge value for positions outside it and counts those cycles, as a real-time kernel should",
         "grid": {
             "x_T": {"start_mm": table.x0 * 1e3, "step_mm": table.dx * 1e3, "count": int(n_x)},
             "torque": {

@@ -19,7 +19,10 @@ from numba import njit
 from drivelash.errors import DataError, ParameterError
 
 __all__ = [
+    "API_NAMES",
     "DIRECTIONS",
+    "GridNames",
+    "MAX_TABLE_POINTS",
     "TEPredictor",
     "TETable",
     "build_table",
@@ -31,6 +34,33 @@ __all__ = [
 
 #: Direction codes: index 0 ⇔ positive flank (+1), index 1 ⇔ negative flank (−1).
 DIRECTIONS = (1, -1)
+
+#: Largest table :func:`build_table` builds (``te export`` writes) [grid points per flank]: 10 M
+#: (e.g. 0.1 mm over 10 m × 100 torques); a CNC compensation table holds thousands, the
+#: default grid ≈ 0.2 M.
+MAX_TABLE_POINTS = 10_000_000
+
+
+@dataclass(frozen=True)
+class GridNames:
+    """How :func:`build_table`'s refusals name the request: the function's arguments (the
+    default, :data:`API_NAMES`) or a command's options (``te export``). The checks are the
+    same for both; only the words differ."""
+
+    #: who refuses (``ParameterError.owner``; ``what`` of the size refusals)
+    owner: str = "build_table"
+    x_min: str = "x_min"
+    x_max: str = "x_max"
+    torque_max: str = "torque_max"
+    #: what to do about a torque above the model's range
+    torque_hint: str = "lower torque_max to at most the model's context.valid_range.torque_max"
+    #: what makes the table smaller
+    size_hint: str = "raise dx or lower n_torque or torque_max"
+    #: memory the caller needs per grid value besides the table [bytes] (``te export``: CSV text)
+    extra_bytes_per_value: float = 0.0
+
+
+API_NAMES = GridNames()
 
 
 class TEPredictor(Protocol):
@@ -135,6 +165,8 @@ def build_table(
     n_torque: int,
     torque_min: float = 0.0,
     meta: dict[str, Any] | None = None,
+    *,
+    names: GridNames = API_NAMES,
 ) -> TETable:
     """Sample a TE model into a :class:`TETable`.
 
@@ -149,19 +181,33 @@ def build_table(
     x_min, x_max : float
         Position range [m]; within :func:`measured_range` of ``model`` (refused otherwise).
     dx : float
-        Position step [m].
+        Position step [m]; a grid of more than :data:`MAX_TABLE_POINTS` points per flank or
+        beyond the memory budget is refused before anything is allocated.
     torque_max : float
-        Largest torque magnitude of the grid [N·m].
+        Largest torque magnitude of the grid [N·m]; at most the model's trained torque range
+        ``context.valid_range.torque_max`` when it has one (refused otherwise: the model would
+        extrapolate).
     n_torque : int
         Number of torque grid points per flank (≥ 1).
     torque_min : float
         Smallest torque magnitude of the grid [N·m].
     meta : dict, optional
         Provenance stored in the table.
+    names : GridNames
+        How the refusals name the request (``te export`` passes its options: the command and
+        the API share these checks, :func:`check_grid`).
 
     Returns
     -------
     TETable
+
+    Raises
+    ------
+    ParameterError
+        An empty or non-finite range, positions outside :func:`measured_range`, torques outside
+        the model's trained range (one line each).
+    ResourceError
+        A grid larger than :data:`MAX_TABLE_POINTS` or the memory budget (one line with the size).
     """
     if not (math.isfinite(x_min) and math.isfinite(x_max) and x_max > x_min and dx > 0):
         raise ParameterError(
@@ -169,14 +215,7 @@ def build_table(
         )
     if n_torque < 1 or not (math.isfinite(torque_max) and torque_max >= torque_min):
         raise ParameterError("build_table", "n_torque", "need n_torque >= 1 and torque_max >= torque_min")
-    lo, hi = measured_range(model)
-    if x_min < lo - 1e-9 or x_max > hi + 1e-9:
-        raise ParameterError(
-            "build_table",
-            "x_min",
-            f"positions [{x_min:.6g}, {x_max:.6g}] m leave the model's valid range"
-            f" [{lo:.6g}, {hi:.6g}] m (where its no-load runs of both directions were measured)",
-        )
+    check_grid(model, x_min, x_max, dx, torque_min, torque_max, n_torque, names)
     n_x = table_size(x_min, x_max, dx)
     x = x_min + dx * np.arange(n_x)
     tq = np.linspace(torque_min, torque_max, n_torque)
@@ -213,20 +252,76 @@ def measured_range(model: Any) -> tuple[float, float]:
     return lo, hi
 
 
-def check_measured(a: float, b: float, measured: tuple[float, float], unit: str = "m") -> None:
-    """Refuse an export range [a, b] [m] that leaves :func:`measured_range`: a ParameterError
-    naming ``--x-min``/``--x-max`` with both ranges in ``unit`` (``"m"`` or ``"mm"``)."""
+def check_grid(
+    model: Any,
+    x_min: float,
+    x_max: float,
+    dx: float,
+    torque_min: float,
+    torque_max: float,
+    n_torque: int,
+    names: GridNames = API_NAMES,
+) -> None:
+    """The refusals of :func:`build_table` (and so of ``te export``), before anything is allocated:
+    positions outside :func:`measured_range`, torques outside the model's trained range
+    (``context.valid_range.torque_max``; the model would extrapolate), a grid of more than
+    :data:`MAX_TABLE_POINTS` points per flank or beyond the memory budget. One line each,
+    worded by ``names``."""
+    from drivelash.errors import ResourceError
+    from drivelash.io.budget import check_budget
+
+    check_measured(x_min, x_max, measured_range(model), names=names)
+    vr = getattr(getattr(model, "context", None), "valid_range", None)
+    t_lim = getattr(vr, "torque_max", None)
+    if t_lim is not None:
+        t_max = float(t_lim)
+        if torque_max > t_max * (1 + 1e-9):
+            raise ParameterError(
+                names.owner,
+                names.torque_max,
+                f"{torque_max:g} N·m is above the model's valid torque range 0 ... {t_max:.4g} N·m (its"
+                f" training runs); the model would extrapolate — {names.torque_hint}",
+            )
+        if torque_min < 0:
+            raise ParameterError(
+                names.owner,
+                "torque_min",
+                f"{torque_min:g} N·m is below the model's valid torque range 0 ... {t_max:.4g} N·m (its"
+                " training runs); the model would extrapolate — torque_min must be >= 0",
+            )
+    n_x = (x_max - x_min) / dx + 1
+    what = f"{names.owner}: {n_x:.4g} positions x {n_torque:.4g} torques x 2 flanks"
+    if n_x * n_torque > MAX_TABLE_POINTS:  # no CNC loads more; checked before any size is allocated
+        raise ResourceError(
+            f"{what} = {2 * n_x * n_torque:.4g} values, more than {2 * MAX_TABLE_POINTS:.4g}"
+            f" (≈ {table_bytes(int(n_x), int(n_torque)) / 2**30:.3g} GiB to build); {names.size_hint}"
+        )
+    extra = names.extra_bytes_per_value * 2 * n_x * n_torque
+    check_budget(table_bytes(int(n_x), int(n_torque)) + extra, what=what, option=names.size_hint)
+
+
+def check_measured(
+    a: float, b: float, measured: tuple[float, float], unit: str = "m", names: GridNames | None = None
+) -> None:
+    """Refuse a range [a, b] [m] that leaves :func:`measured_range`: a ParameterError naming
+    ``--x-min``/``--x-max`` (or the fields of ``names``) with both ranges in ``unit``
+    (``"m"`` or ``"mm"``)."""
+    names = EXPORT_POSITIONS if names is None else names
     lo, hi = measured
     tol = 1e-9
     if a < lo - tol or b > hi + tol:
         f, fmt = (1.0, ".6g") if unit == "m" else (1e3, ".3f")
         raise ParameterError(
-            "te export",
-            "--x-min" if a < lo - tol else "--x-max",
+            names.owner,
+            names.x_min if a < lo - tol else names.x_max,
             f"[{a * f:{fmt}}, {b * f:{fmt}}] {unit} leaves the model's valid range "
             f"[{lo * f:{fmt}}, {hi * f:{fmt}}] {unit} "
             "(where its no-load runs of both directions were measured)",
         )
+
+
+#: the position options of ``te export`` (:func:`check_measured`'s default wording)
+EXPORT_POSITIONS = GridNames(owner="te export", x_min="--x-min", x_max="--x-max")
 
 
 def table_size(x_min: float, x_max: float, dx: float) -> int:

@@ -1,0 +1,175 @@
+"""The online estimator's Python boundary: wrong shapes, wrong states and non-finite samples are
+refused with one line before the njit kernel runs (it would read/write out of bounds or keep NaN
+in its state forever); valid input gives bit-identical results to the unchecked kernel."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from drivelash.control.references import position_sine
+from drivelash.errors import DataError, ParameterError
+from drivelash.estimation import deadzone as dz
+from drivelash.estimation.estimator import DeadzoneEstimator, samples_of
+
+from .conftest import RIG_ESTIMATOR, TS, rig_trace
+
+
+@pytest.fixture(scope="module")
+def samples():
+    trace, _ = rig_trace(position_sine(1.0, TS, 1.0, 0.5))
+    return samples_of(trace)  # (n, 5) with the motor torque
+
+
+def _est(T_s=TS):
+    return DeadzoneEstimator(RIG_ESTIMATOR, 0.093, T_s)
+
+
+def _one_line(err) -> str:
+    msg = str(err.value)
+    assert "\n" not in msg
+    return msg
+
+
+def _bits(a):
+    return np.ascontiguousarray(a).view(np.uint64)
+
+
+@pytest.mark.parametrize("cols", [slice(0, 3), slice(0, 2)])
+def test_run_samples_refuses_too_few_columns(samples, cols):
+    e = _est()
+    before = e.state.copy()
+    bad = np.ascontiguousarray(samples[:, cols])
+    with pytest.raises(DataError) as err:
+        e.run_samples(bad)
+    msg = _one_line(err)
+    assert msg.startswith("samples: expected") and "(n, 4) or (n, 5)" in msg
+    assert f"got float64 array of shape {bad.shape}" in msg
+    assert np.array_equal(_bits(e.state), _bits(before))
+
+
+def test_run_samples_refuses_extra_column_and_transposed(samples):
+    e = _est()
+    before = e.state.copy()
+    wide = np.hstack([samples, np.ones((len(samples), 1))])
+    with pytest.raises(DataError, match=r"got float64 array of shape \(\d+, 6\)$"):
+        e.run_samples(wide)
+    with pytest.raises(DataError, match=rf"got float64 array of shape \(5, {len(samples)}\)$"):
+        e.run_samples(samples.T.copy())
+    with pytest.raises(DataError, match=r"shape \(5,\)$"):
+        e.run_samples(samples[0])
+    assert np.array_equal(_bits(e.state), _bits(before))
+
+
+def test_kernel_wrapper_refuses_wrong_shapes_dtype_layout(samples):
+    e = _est()
+    st, p = e.state, e.params
+    with pytest.raises(DataError, match=r"shape \(\d+, 3\)$"):
+        dz.deadzone_run(st, np.ascontiguousarray(samples[:, :3]), p)
+    with pytest.raises(DataError, match=r"got non-contiguous float64 array"):
+        dz.deadzone_run(st, samples[::2], p)
+    with pytest.raises(DataError, match=r"got float32 array"):
+        dz.deadzone_run(st, samples.astype(np.float32), p)
+    with pytest.raises(ParameterError) as err:
+        dz.deadzone_run(np.zeros(3), samples, p)
+    expected = f"deadzone_run.state: expected a C-contiguous float64 array of shape ({st.size},)"
+    assert _one_line(err).startswith(expected)
+    assert _one_line(err).endswith("got float64 array of shape (3,)")
+    with pytest.raises(ParameterError, match=r"^deadzone_run.params: .*got float64 array of shape \(3,\)$"):
+        dz.deadzone_run(st, samples, np.zeros(3))
+
+
+def test_state_assignment_checks_length_and_dtype(samples):
+    e = _est()
+    before = e.state.copy()
+    with pytest.raises(ParameterError) as err:
+        e.state = np.zeros(3)
+    msg = _one_line(err)
+    expected = f"DeadzoneEstimator.state: expected a C-contiguous float64 array of shape ({before.size},)"
+    assert msg.startswith(expected)
+    assert msg.endswith("got float64 array of shape (3,)")
+    foreign = _est(T_s=1e-3).state  # another T_s: another σ window, another length
+    assert foreign.size != before.size
+    with pytest.raises(ParameterError, match=rf"got float64 array of shape \({foreign.size},\)$"):
+        e.state = foreign.copy()
+    with pytest.raises(ParameterError, match=r"got float32 array"):
+        e.state = before.astype(np.float32)
+    with pytest.raises(ParameterError, match=r"got list$"):
+        e.state = list(before)
+    assert np.array_equal(_bits(e.state), _bits(before))
+    e.state = before.copy()  # a snapshot of the right shape is accepted
+
+
+def test_step_refuses_wrong_length(samples):
+    e = _est()
+    before = e.state.copy()
+    with pytest.raises(DataError, match=r"^sample: expected 4 or 5 values .* got shape \(3,\)$"):
+        e.step(samples[0, :3])
+    with pytest.raises(DataError, match=r"got shape \(1, 5\)$"):
+        e.step(samples[:1])
+    assert np.array_equal(_bits(e.state), _bits(before))
+
+
+def test_valid_input_bit_identical_to_the_kernel(samples):
+    """Negative control: the checks change nothing for valid input (run_samples, chunked, step)."""
+    e = _est()
+    h = len(samples) // 2
+    o1 = e.run_samples(samples[:h])
+    o2 = e.run_samples(samples[h:])
+    ref = np.empty((len(samples), dz.N_OUT))
+    st = dz.deadzone_run_into(_est().state, samples, _est().params, ref)
+    assert np.array_equal(_bits(np.vstack([o1, o2])), _bits(ref))
+    assert np.array_equal(_bits(e.state), _bits(st))
+    s = _est()
+    rows = np.array([s.step(samples[i]) for i in range(200)])
+    assert np.array_equal(_bits(rows), _bits(ref[:200]))
+    four = _est().run_samples(samples[:, :4])  # (n, 4) without the torque: accepted
+    assert four.shape == (len(samples), dz.N_OUT)
+
+
+@pytest.mark.parametrize(("col", "name"), list(enumerate(["theta_m", "omega_m", "theta_l", "omega_l"])))
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_run_samples_refuses_nonfinite_position_velocity(samples, col, name, bad):
+    e = _est()
+    e.run_samples(samples[:1000])
+    before = e.state.copy()
+    block = samples[1000:].copy()
+    block[700, col] = bad
+    block[900, (col + 1) % 4] = np.nan  # a later one: the first is named
+    with pytest.raises(DataError) as err:
+        e.run_samples(block)
+    msg = _one_line(err)
+    assert msg.startswith(f"column '{name}': sample 700 (0-based in this call) is {bad}: ")
+    assert np.array_equal(_bits(e.state), _bits(before))
+    # the state is usable: the clean block continues exactly as without the refused call
+    clean = _est()
+    clean.run_samples(samples[:1000])
+    assert np.array_equal(_bits(e.run_samples(samples[1000:])), _bits(clean.run_samples(samples[1000:])))
+
+
+@pytest.mark.parametrize(("col", "name"), list(enumerate(["theta_m", "omega_m", "theta_l", "omega_l"])))
+def test_step_refuses_nonfinite_position_velocity(samples, col, name):
+    e = _est()
+    e.run_samples(samples[:100])
+    before = e.state.copy()
+    x = samples[100].copy()
+    x[col] = np.nan
+    with pytest.raises(DataError) as err:
+        e.step(x)
+    assert _one_line(err).startswith(f"column '{name}': sample 0 (0-based in this call) is nan: ")
+    assert np.array_equal(_bits(e.state), _bits(before))
+
+
+def test_nan_torque_still_accepted(samples):
+    """Kept behaviour: a NaN torque means "no torque for this sample" (load observer)."""
+    x = samples[:2000].copy()
+    x[500, 4] = np.nan
+    e = _est()
+    out = e.run_samples(x)
+    assert np.isfinite(out[:, dz.O_DELTA]).all() and np.isfinite(e.state).all()
+    ref = np.empty((len(x), dz.N_OUT))
+    dz.deadzone_run_into(_est().state, x, _est().params, ref)
+    assert np.array_equal(_bits(out), _bits(ref))
+    s = _est()
+    rows = np.array([s.step(x[i]) for i in range(600)])
+    assert np.array_equal(_bits(rows), _bits(ref[:600]))
