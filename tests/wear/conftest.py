@@ -181,3 +181,13 @@ def pg_url(pg_server) -> str:
     ) as conn:
         conn.execute(f"CREATE DATABASE {name}")
     return f"postgresql+psycopg://{pg_server['user']}@{pg_server['host']}:{pg_server['port']}/{name}"
+
+
+def ingest_cmd(fleet_toml: Path, db: Path) -> list[str]:
+    """``drivelash track ingest FLEET --db DB --workers 1`` as a subprocess argument list."""
+    import sys
+
+    return [sys.executable, "-m", "drivelash.cli", "track", "ingest", str(fleet_toml), "--db", str(db)] + [
+        "--workers",
+        "1",
+    ]

@@ -9,14 +9,13 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
-import sys
 from dataclasses import replace
 
 from drivelash.wear import Store, ingest, load_fleet
 from drivelash.wear.estimate import estimate_recording
 from drivelash.wear.fleet import TimeSpec
 
-from .conftest import _add_corrupt
+from .conftest import _add_corrupt, ingest_cmd
 from .test_redate_duplicates import FILENAME_TIME, _tiny
 
 BAD_FORMAT = TimeSpec.model_validate(
@@ -80,18 +79,7 @@ def test_cli_time_format_that_dates_no_file_is_a_config_error(small_fleet, tmp_p
     bad = FILENAME_TIME.replace("%Y%m%dT%H%M%S", "%Y-%m-%dT%H%M%S")
     f = _tiny(small_fleet, tmp_path / "f", bad)
     db = tmp_path / "w.sqlite"
-    cmd = [
-        sys.executable,
-        "-m",
-        "drivelash.cli",
-        "track",
-        "ingest",
-        str(f),
-        "--db",
-        str(db),
-        "--workers",
-        "1",
-    ]
+    cmd = ingest_cmd(f, db)
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert r.returncode == 2, r.stderr
     err = r.stderr.strip()
@@ -109,18 +97,7 @@ def test_cli_summary_counts_retried(small_fleet, tmp_path):
     f = _tiny(small_fleet, tmp_path / "f", FILENAME_TIME)
     db = tmp_path / "w.sqlite"
     ingest(load_fleet(f), Store(db), workers=1, compute=_wrong_format)
-    cmd = [
-        sys.executable,
-        "-m",
-        "drivelash.cli",
-        "track",
-        "ingest",
-        str(f),
-        "--db",
-        str(db),
-        "--workers",
-        "1",
-    ]
+    cmd = ingest_cmd(f, db)
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     out = " ".join(r.stdout.split())

@@ -6,13 +6,13 @@ from __future__ import annotations
 
 import shutil
 import subprocess
-import sys
 
 import pytest
 
 from drivelash.errors import ConfigError
 from drivelash.wear import Store, ingest, load_fleet
 
+from .conftest import ingest_cmd
 from .test_redate_duplicates import FILENAME_TIME, _tiny
 
 
@@ -32,18 +32,7 @@ def _two_axes(small_fleet, dst, second_glob: str):
 def test_cli_a_file_of_two_axes_is_refused_nothing_written(small_fleet, tmp_path):
     f = _two_axes(small_fleet, tmp_path / "f", "rec/*.parquet")  # the copy-paste slip
     db = tmp_path / "w.sqlite"
-    cmd = [
-        sys.executable,
-        "-m",
-        "drivelash.cli",
-        "track",
-        "ingest",
-        str(f),
-        "--db",
-        str(db),
-        "--workers",
-        "1",
-    ]
+    cmd = ingest_cmd(f, db)
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert r.returncode == 2, r.stderr
     err = r.stderr.strip()
