@@ -582,21 +582,19 @@ def state_length(params: np.ndarray) -> int:
     return N_STATE + int(params[P_WINDOW])
 
 
+def _float_vector(x: object, n: int, owner: str, name: str, what: str = "") -> np.ndarray:
+    """``x`` if it is a C-contiguous float64 array of shape (n,), else a one-line ParameterError."""
+    if not (isinstance(x, np.ndarray) and x.dtype == np.float64 and x.shape == (n,) and x.flags.c_contiguous):
+        raise ParameterError(
+            owner, name, f"expected a C-contiguous float64 array of shape ({n},){what}, got {_describe(x)}"
+        )
+    return x
+
+
 def check_params(params: object, owner: str = "deadzone_run") -> np.ndarray:
     """``params`` if it is a C-contiguous float64 array of shape (:data:`N_PARAMS`,), else a one-line
     :class:`~drivelash.errors.ParameterError` (O(1))."""
-    if not (
-        isinstance(params, np.ndarray)
-        and params.dtype == np.float64
-        and params.shape == (N_PARAMS,)
-        and params.flags.c_contiguous
-    ):
-        raise ParameterError(
-            owner,
-            "params",
-            f"expected a C-contiguous float64 array of shape ({N_PARAMS},), got {_describe(params)}",
-        )
-    return params
+    return _float_vector(params, N_PARAMS, owner, "params")
 
 
 def check_state(state: object, params: np.ndarray, owner: str = "deadzone_run") -> np.ndarray:
@@ -604,19 +602,8 @@ def check_state(state: object, params: np.ndarray, owner: str = "deadzone_run") 
     (:func:`state_length`: the σ window depends on T_s), else a one-line
     :class:`~drivelash.errors.ParameterError` naming the expected and the given shape (O(1))."""
     n = state_length(params)
-    if not (
-        isinstance(state, np.ndarray)
-        and state.dtype == np.float64
-        and state.shape == (n,)
-        and state.flags.c_contiguous
-    ):
-        raise ParameterError(
-            owner,
-            "state",
-            f"expected a C-contiguous float64 array of shape ({n},) (initial_state of these parameters: "
-            f"{N_STATE} + σ window {n - N_STATE}), got {_describe(state)}",
-        )
-    return state
+    what = f" (initial_state of these parameters: {N_STATE} + σ window {n - N_STATE})"
+    return _float_vector(state, n, owner, "state", what)
 
 
 #: input column names, in the kernel's order (:data:`I_THETA_M` …)
