@@ -54,6 +54,28 @@ def test_heidenhain_golden(tmp_path):
     assert _read(out).replace(b"\r\n", b"\n") == _read(GOLDEN / "X.COM")
 
 
+def test_sinumerik_layout_follows_the_k3_examples(tmp_path):
+    # Function Manual Extended Functions (K3) 03/2013: the init program starts with its header
+    # (§4.4.2.3 example, p. 242), an axis is assigned to $AN_CEC_INPUT_AXIS/_OUTPUT_AXIS in
+    # parentheses (p. 268: "$AN_CEC_INPUT_AXIS[0] = (AX1)"), tables load only while MD32700/MD32710
+    # are 0 (p. 237), a CEC table acts only with SD41300 $SN_CEC_TABLE_ENABLE[t] (p. 245) and
+    # MD18342 is set per table (p. 264: "$MN_MM_CEC_MAX_POINTS[0] = 11").
+    tab = geometric_table(LinearGeoModel(), step=1e-3)
+    lines = write_sinumerik(tab, tmp_path / "a.ini", axis="Y2", cec_tables=(4, 7)).read_text().splitlines()
+    assert lines[0] == "%_N_AX_EEC_INI"
+    code = [ln for ln in lines if not ln.startswith(";")]
+    assert code[:2] == ["%_N_AX_EEC_INI", "CHANDATA(1)"]
+    i = code.index("%_N_NC_CEC_INI")
+    assert code[i - 1] == "M17" and code[i + 1] == "CHANDATA(1)" and code[-1] == "M17"
+    for t in (4, 7):
+        assert f"$AN_CEC_INPUT_AXIS[{t}]=(Y2)" in code and f"$AN_CEC_OUTPUT_AXIS[{t}]=(Y2)" in code
+    assert not any(ln.startswith("$AN_CEC_") and ln.endswith("=Y2") for ln in code)
+    head = " ".join(ln for ln in lines if ln.startswith(";"))
+    assert "$SN_CEC_TABLE_ENABLE[4] = 1" in head and "$SN_CEC_TABLE_ENABLE[7] = 1" in head
+    assert "$MN_MM_CEC_MAX_POINTS[4] and [7] >= 5" in head
+    assert "MD32700 $MA_ENC_COMP_ENABLE[0] = 0 and MD32710 $MA_CEC_ENABLE = 0" in head
+
+
 def test_layouts_hold_the_model_values(tmp_path):
     # read the golden-layout files back and compare with the model at the points
     m = LinearGeoModel()

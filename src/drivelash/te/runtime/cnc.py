@@ -4,8 +4,13 @@ A rack-and-pinion axis whose position loop closes on the motor encoder (no linea
 scale, or the scale used for monitoring only) sees the transmission error TE = x_T − x_M
 as a measuring-system error: the table stands TE ahead of where the motor encoder says.
 The no-load part of it, per direction of travel, is what a CNC's position-dependent
-compensation tables can hold; the load-dependent part needs the 5 ms velocity channel
-of :mod:`drivelash.te.runtime.compensator` (README: integration note).
+compensation tables can hold. The load-dependent part is not in them, and the 5 ms
+velocity channel of :mod:`drivelash.te.runtime.compensator` is the paper's scheme for a loop
+closed on the linear scale: on a loop closed on the motor encoder the position controller takes
+an added velocity back (of a correction TE it leaves TE·s/(s+K_v) in place: nothing in steady
+state, ≈ 20 % of a 7.5 Hz meshing component at K_v = 231 1/s), so there the load part has to
+enter as a position offset, v_c being only its feed-forward. The compensator's table holds the
+whole TE, the no-load part included: used beside these tables it would count that part twice.
 
 Layouts
 -------
@@ -17,14 +22,25 @@ Layouts
     direction index — and ``%_N_NC_CEC_INI`` with two tables ``$AN_CEC`` whose
     ``$AN_CEC_DIRECTION`` is +1 and −1 (input axis = output axis: Siemens' documented way
     to a position-dependent backlash compensation) holding the **direction-dependent
-    rest**. The control adds the LEC value to the actual position (a positive value
-    moves the axis negative), so the LEC value is +TE; the CEC value is added to the set
-    position, so the direction part enters negated. Values in mm.
+    rest**. The control adds the LEC value to the actual position ("A positive
+    compensation value causes the corresponding machine axis to move in the negative
+    direction", K3 03/2013 §4.4.2.1), so the LEC value is +TE. For the CEC output K3 states
+    no sign (it is "applied" to the compensation axis, its input is the base axis' set
+    position); drivelash assumes it is added to the set position and writes the direction
+    part negated — the one sign to check on the machine. Values in mm; the file starts with
+    the program header (K3 example §4.4.2.3), its description is ``;`` comment lines inside
+    the program, axes are assigned in parentheses (``$AN_CEC_INPUT_AXIS[0]=(X1)``, K3 p. 268),
+    and the header names what the control needs: MD38000/MD18342[t] points, loading with
+    MD32700/MD32710 = 0 (p. 237), then those = 1 and SD41300 ``$SN_CEC_TABLE_ENABLE[t]`` = 1
+    (p. 245).
 ``heidenhain``
     HEIDENHAIN nonlinear axis-error compensation table ``<AXIS>.COM``: columns ``NR``,
     ``AXISPOS`` (compensation point, mm), ``<AXIS>`` (value in the positive direction of
     traverse) and ``BACKLASH`` (value in the negative direction), between ``BEGIN
-    <AXIS>.COM MM`` and ``[END]``. Values are TE in mm, the convention of the LEC above.
+    <AXIS>.COM MM`` and ``[END]`` (columns as in the MANUALplus 620 Technical Manual 01/2012
+    p. 716: AXISPOS from the machine datum, BACKLASH "the compensation values measured in the
+    negative direction of traverse"). Values are TE in mm, the convention of the LEC above —
+    an assumption: the HEIDENHAIN pages found state no sign.
 
 The **valid range** is where the model was measured (its no-load runs of both directions,
 where its no-load curves hold data: :func:`~drivelash.te.runtime.table.measured_range`); the
@@ -33,8 +49,11 @@ edge values beyond it, Function Manual Extended Functions 03/2013, K3 §4.4; for
 control we found no statement), the SINUMERIK header states it in comments, the HEIDENHAIN file
 after its ``[END]`` marker (a TNC table has no comment syntax). Positions outside it are
 refused. Check the sign once on the machine (one laser or scale pass with the table
-loaded) before production — the two manufacturers' conventions are quoted from their
-manuals, not tested on a control here.
+loaded) before production — the SINUMERIK LEC sign is quoted from its manual, the CEC and
+HEIDENHAIN signs are assumed, and nothing was tested on a control here. The positions are the
+campaign's x_T; they must be the machine coordinates of the control (its reference point
+setting), and K3 (p. 238) asks for a compensation value of zero at the reference point (the
+value there is a jump when the compensation switches on after referencing).
 """
 
 from __future__ import annotations
@@ -220,7 +239,11 @@ def write_sinumerik(
     _check_cec(cec_tables)
     n = tab.te_pos.size
     mean = 0.5 * (tab.te_pos + tab.te_neg)
+    t_pos, t_neg = cec_tables
+    # The file starts with the program header, as the K3 example does (Function Manual Extended
+    # Functions 03/2013, §4.4.2.3): the description is NC comment lines inside the program.
     lines = [
+        "%_N_AX_EEC_INI",
         f"; drivelash geometric (no-load) transmission error of machine axis {axis}, {n} points",
         f"; valid range {_mm(tab.valid[0], 3)} ... {_mm(tab.valid[1], 3)} mm (the model's no-load runs); "
         f"table {_mm(tab.x0, 3)} ... {_mm(tab.x_max, 3)} mm, step {_mm(tab.step, 3)} mm; "
@@ -228,15 +251,20 @@ def write_sinumerik(
         "; TE = x_T - x_M [mm]: table position minus motor-encoder position, per direction of travel",
         "; $AA_ENC_COMP (measuring system 1, motor encoder): mean of both directions,"
         " added to the actual value",
-        f"; $AN_CEC[{cec_tables[0]}] / [{cec_tables[1]}] ($AN_CEC_DIRECTION +1 / -1):"
-        " direction-dependent rest TE_dir - mean, negated (added to the set position)",
-        f"; needs MD38000 $MA_MM_ENC_COMP_MAX_POINTS[0] >= {n}, MD18342 $MN_MM_CEC_MAX_POINTS >= {n}, "
-        "MD32700 $MA_ENC_COMP_ENABLE[0] = 1, MD32710 $MA_CEC_ENABLE = 1",
+        f"; $AN_CEC[{t_pos}] / [{t_neg}] ($AN_CEC_DIRECTION +1 / -1):"
+        " direction-dependent rest TE_dir - mean, negated (assumed added to the set position:"
+        " check its sign on the machine)",
+        f"; needs MD38000 $MA_MM_ENC_COMP_MAX_POINTS[0] >= {n}, MD18342 $MN_MM_CEC_MAX_POINTS[{t_pos}]"
+        f" and [{t_neg}] >= {n}",
+        "; load with MD32700 $MA_ENC_COMP_ENABLE[0] = 0 and MD32710 $MA_CEC_ENABLE = 0 (tables are only"
+        " loaded while inactive), then set both to 1",
+        f"; and SD41300 $SN_CEC_TABLE_ENABLE[{t_pos}] = 1, SD41300 $SN_CEC_TABLE_ENABLE[{t_neg}] = 1"
+        " (else the CEC tables are not evaluated)",
         f"; interpolation between the points differs from the model by <= {_um(tab)} um",
     ]
     if tab.source:
         lines.append(f"; model: {tab.source}")
-    lines += ["%_N_AX_EEC_INI", "CHANDATA(1)"]
+    lines += ["CHANDATA(1)"]
     lines += [f"$AA_ENC_COMP[0,{i},{axis}]={_mm(v)}" for i, v in enumerate(mean)]
     lines += [
         f"$AA_ENC_COMP_STEP[0,{axis}]={_mm(tab.step)}",
@@ -247,11 +275,13 @@ def write_sinumerik(
         "%_N_NC_CEC_INI",
         "CHANDATA(1)",
     ]
-    for t, direction, te in ((cec_tables[0], 1, tab.te_pos), (cec_tables[1], -1, tab.te_neg)):
+    for t, direction, te in ((t_pos, 1, tab.te_pos), (t_neg, -1, tab.te_neg)):
         lines += [f"$AN_CEC[{t},{i}]={_mm(-v)}" for i, v in enumerate(te - mean)]
         lines += [
-            f"$AN_CEC_INPUT_AXIS[{t}]={axis}",
-            f"$AN_CEC_OUTPUT_AXIS[{t}]={axis}",
+            # an axis is assigned in parentheses, as in every K3 example: "$AN_CEC_INPUT_AXIS[0] = (AX1)"
+            # (Function Manual Extended Functions 03/2013 p. 268; 802D sl K3 11/2012 p. 222)
+            f"$AN_CEC_INPUT_AXIS[{t}]=({axis})",
+            f"$AN_CEC_OUTPUT_AXIS[{t}]=({axis})",
             f"$AN_CEC_STEP[{t}]={_mm(tab.step)}",
             f"$AN_CEC_MIN[{t}]={_mm(tab.x0)}",
             f"$AN_CEC_MAX[{t}]={_mm(tab.x_max)}",
