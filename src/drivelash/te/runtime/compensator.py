@@ -48,7 +48,7 @@ import numpy as np
 from numba import njit
 
 from drivelash.errors import DataError, ParameterError
-from drivelash.te.runtime.table import TETable, table_te
+from drivelash.te.runtime.table import TETable, check_direction, table_te
 
 __all__ = [
     "Compensator",
@@ -344,18 +344,30 @@ class Compensator:
     params : CompensatorParams
         Compensation settings.
     flank : int
-        Flank in contact at start (±1).
+        Flank in contact at start: +1 or −1 (else a one-line
+        :class:`~drivelash.errors.ParameterError`; 0 and NaN started silently on a flank).
     """
 
     def __init__(self, table: TETable, params: CompensatorParams, flank: int = 1) -> None:
         self.table = table
         self.params = params
         self._p = params.as_array()
-        self.state = init_state(float(flank))
+        self.state = init_state(float(check_direction(flank, "Compensator", "flank")))
 
     def reset(self, flank: int = 1) -> None:
-        """Forget the history; start on ``flank``."""
-        self.state = init_state(float(flank))
+        """Forget the history; start on ``flank``.
+
+        Parameters
+        ----------
+        flank : int
+            Flank in contact at start: +1 or −1 [-].
+
+        Raises
+        ------
+        ParameterError
+            ``flank`` is not +1 or −1 (one line); the state is unchanged then.
+        """
+        self.state = init_state(float(check_direction(flank, "Compensator", "flank")))
 
     @property
     def flank(self) -> int:

@@ -28,7 +28,8 @@ import numpy as np
 from numba import njit, prange
 
 from drivelash.errors import ParameterError
-from drivelash.te.learn.preprocess import TEPipeline, direction_key
+from drivelash.te.learn.preprocess import TEPipeline
+from drivelash.te.runtime.table import check_direction
 
 __all__ = ["SORT_MIN", "TEModel", "te_def_point", "te_point"]
 
@@ -317,6 +318,10 @@ def _compact_nodes(arrays: Mapping[str, np.ndarray]) -> np.ndarray:
 # ---------------------------------------------------------------------------
 # the loaded model
 # ---------------------------------------------------------------------------
+#: direction code of each per-direction key of ``model.json``
+_SIGN = {"pos": 1, "neg": -1}
+
+
 class TEModel:
     """A loaded transmission-error model: geometric curves + stacked deformation model per direction.
 
@@ -348,6 +353,8 @@ class TEModel:
             self._buf[key] = _pack(
                 arrays[key], float(dm["geo_x0"]), float(dm["geo_step"]), meta["pipeline"]["geometry"]
             )
+        #: the same buffers by direction code +1/−1 (what the methods are given)
+        self._flank = {_SIGN[key]: buf for key, buf in self._buf.items()}
 
     @property
     def info(self) -> dict[str, Any]:
@@ -356,10 +363,12 @@ class TEModel:
 
     def kernel_arrays(self, direction: int) -> tuple[np.ndarray, np.ndarray]:
         """``(fbuf float64, ibuf int64)`` of one direction for :func:`te_point` in njit code."""
-        key = direction_key(direction)
-        if key not in self._buf:
-            raise ParameterError("TEModel", "direction", f"model has no direction {key!r}")
-        return self._buf[key]
+        d = check_direction(direction, "TEModel")
+        buf = self._flank.get(d)
+        if buf is None:
+            have = " and ".join(f"{_SIGN[k]:+d}" for k in self.directions) or "none"
+            raise ParameterError("TEModel", "direction", f"model has no direction {d:+d} (it has {have})")
+        return buf
 
     def _run(self, x_T: Any, torque: Any, direction: int, with_geo: bool) -> np.ndarray:
         x = np.ascontiguousarray(np.asarray(x_T, dtype=np.float64).reshape(-1))
@@ -397,7 +406,9 @@ class TEModel:
 
     def predict_one(self, x_T: float, torque: float, direction: int) -> float:
         """TE [m] at one operating point."""
-        f, ib = self._buf["pos" if direction > 0 else "neg"]
+        # per-cycle call: a plain int ±1 takes one dict look-up, anything else the full check
+        buf = self._flank.get(direction) if direction.__class__ is int else None
+        f, ib = buf if buf is not None else self.kernel_arrays(direction)
         return te_point(float(x_T), float(torque), f, ib)
 
     def geometric(self, x_T: Any, direction: int) -> np.ndarray:

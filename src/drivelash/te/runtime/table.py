@@ -26,6 +26,7 @@ __all__ = [
     "TEPredictor",
     "TETable",
     "build_table",
+    "check_direction",
     "measured_range",
     "table_bytes",
     "table_size",
@@ -34,6 +35,46 @@ __all__ = [
 
 #: Direction codes: index 0 ⇔ positive flank (+1), index 1 ⇔ negative flank (−1).
 DIRECTIONS = (1, -1)
+#: What a direction may be: an integer (Python or NumPy) or a float equal to +1 or −1 (a
+#: recording's ``direction`` column is float64, ``np.sign`` returns floats); never a bool.
+_DIRECTION_TYPES = (int, float, np.integer, np.floating)
+
+
+def check_direction(direction: object, owner: str, key: str = "direction") -> int:
+    """The flank ``direction`` as the int +1 or −1, or one line naming what is wrong.
+
+    The one check of a direction argument of the runtime (:class:`TETable`,
+    :class:`~drivelash.te.runtime.predictor.TEModel`,
+    :class:`~drivelash.te.runtime.compensator.Compensator`): O(1), no array is built.
+
+    Parameters
+    ----------
+    direction : int
+        Flank in contact [-]: +1 moving in +x (positive torque), −1 in −x. An int or NumPy
+        integer; a float equal to ±1 is taken too.
+    owner : str
+        Name for the message, e.g. ``"TEModel"``.
+    key : str
+        Name of the argument for the message (``"direction"``, ``"flank"``).
+
+    Returns
+    -------
+    int
+        +1 or −1.
+
+    Raises
+    ------
+    ParameterError
+        Anything else (0, 2, 0.5, NaN, ``"pos"``, True, an array): ``owner.key: must be +1 or
+        -1, got …``.
+    """
+    if isinstance(direction, _DIRECTION_TYPES) and not isinstance(direction, bool):
+        if direction == 1:
+            return 1
+        if direction == -1:
+            return -1
+    raise ParameterError(owner, key, f"must be +1 or -1, got {direction!r}")
+
 
 #: Largest table :func:`build_table` builds (``te export`` writes) [grid points per flank]: 10 M
 #: (e.g. 0.1 mm over 10 m × 100 torques); a CNC compensation table holds thousands, the
@@ -149,11 +190,8 @@ class TETable:
 
 
 def _dir_index(direction: int) -> int:
-    if direction == 1:
-        return 0
-    if direction == -1:
-        return 1
-    raise ParameterError("TETable", "direction", f"must be +1 or -1, got {direction!r}")
+    """Index of a flank in the table's arrays: 0 for +1, 1 for −1 (:func:`check_direction`)."""
+    return 0 if check_direction(direction, "TETable") == 1 else 1
 
 
 def build_table(
