@@ -1145,7 +1145,13 @@ class DeadzoneEstimator:
         self._row = np.empty((1, dz.N_OUT))
 
     def reset(self) -> None:
-        """Back to δ̂ = δ0 and zero observer state."""
+        """Back to δ̂ = δ0 [rad] and zero observer state.
+
+        Returns
+        -------
+        None
+            :attr:`state` is replaced by a fresh one (the parameters, and so T_s, are kept).
+        """
         self.state = dz.initial_state(self.params, self.config.delta0)
 
     @property
@@ -1165,6 +1171,17 @@ class DeadzoneEstimator:
 
     def step(self, sample: np.ndarray | tuple[float, ...]) -> np.ndarray:
         """Process one sample (θ_m, ω_m, θ_l, ω_l[, u]); returns the output row (see ``deadzone_run``).
+
+        Parameters
+        ----------
+        sample : array_like
+            4 or 5 values: θ_m [rad], ω_m [rad/s], θ_l [rad], ω_l [rad/s][, motor torque u
+            [N·m]], one sample period T_s [s] after the previous one.
+
+        Returns
+        -------
+        numpy.ndarray
+            The output row, shape (9,) (columns as ``deadzone_run``: δ̂ [rad] first); a copy.
 
         Raises
         ------
@@ -1193,6 +1210,17 @@ class DeadzoneEstimator:
 
         ``samples`` is converted to a C-contiguous float64 array; columns θ_m, ω_m, θ_l, ω_l[, u]
         in that order (as :func:`samples_of`).
+
+        Parameters
+        ----------
+        samples : array_like
+            Shape (n, 4) or (n, 5): θ_m [rad], ω_m [rad/s], θ_l [rad], ω_l [rad/s][, motor
+            torque u [N·m]], sampled at this estimator's T_s [s].
+
+        Returns
+        -------
+        numpy.ndarray
+            Outputs, shape (n, 9) (columns as ``deadzone_run``: δ̂ [rad] first).
 
         Raises
         ------

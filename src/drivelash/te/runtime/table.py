@@ -163,12 +163,50 @@ class TETable:
         return self.x0 + self.dx * np.arange(self.te.shape[1])
 
     def torque_grid(self, direction: int) -> np.ndarray:
-        """Grid torques of a flank [N·m]."""
+        """Grid torques of a flank [N·m].
+
+        Parameters
+        ----------
+        direction : int
+            Flank: +1 or −1 (:func:`check_direction`; anything else is refused).
+
+        Returns
+        -------
+        numpy.ndarray
+            The flank's torque grid [N·m], ascending, ``n_torque`` values.
+
+        Raises
+        ------
+        ParameterError
+            ``direction`` is not +1 or −1 (one line).
+        """
         d = _dir_index(direction)
         return self.torque0[d] + self.dtorque[d] * np.arange(self.te.shape[2])
 
     def predict(self, x_T: np.ndarray, torque: np.ndarray, direction: int) -> np.ndarray:
-        """Bilinear interpolation of the table (same protocol as the models) [m]."""
+        """Bilinear interpolation of the table (same protocol as the models) [m].
+
+        Outside the grid the edge value is held (no extrapolation), in position and torque.
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table positions [m].
+        torque : array_like
+            Motor torque [N·m], broadcast with ``x_T``.
+        direction : int
+            Flank: +1 or −1 (:func:`check_direction`; anything else is refused).
+
+        Returns
+        -------
+        numpy.ndarray
+            Transmission error [m], of the broadcast shape of ``x_T`` and ``torque``.
+
+        Raises
+        ------
+        ParameterError
+            ``direction`` is not +1 or −1 (one line).
+        """
         x, t = np.broadcast_arrays(np.asarray(x_T, dtype=np.float64), np.asarray(torque, dtype=np.float64))
         out = np.empty(x.shape)
         _table_batch(
@@ -185,7 +223,20 @@ class TETable:
         return out
 
     def backlash(self, x_T: np.ndarray, torque: float = 0.0) -> np.ndarray:
-        """Gap between the flank curves TE(−1) − TE(+1) at equal torque [m]."""
+        """Gap between the flank curves TE(−1) − TE(+1) at equal torque [m].
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table positions [m].
+        torque : float
+            Torque magnitude [N·m]: −|torque| on flank −1, +|torque| on flank +1.
+
+        Returns
+        -------
+        numpy.ndarray
+            Backlash [m], of the shape of ``x_T``.
+        """
         return self.predict(x_T, -abs(torque), -1) - self.predict(x_T, abs(torque), 1)
 
 
@@ -363,12 +414,38 @@ EXPORT_POSITIONS = GridNames(owner="te export", x_min="--x-min", x_max="--x-max"
 
 
 def table_size(x_min: float, x_max: float, dx: float) -> int:
-    """Grid positions of a table over [x_min, x_max] [m] with step ``dx`` [m]."""
+    """Grid positions of a table over [x_min, x_max] [m] with step ``dx`` [m].
+
+    Parameters
+    ----------
+    x_min, x_max : float
+        Table span [m].
+    dx : float
+        Position step [m], > 0.
+
+    Returns
+    -------
+    int
+        Number of grid positions [-]: ⌊(x_max − x_min)/dx + 1e-9⌋ + 1.
+    """
     return int(math.floor((x_max - x_min) / dx + 1e-9)) + 1
 
 
 def table_bytes(n_x: int, n_torque: int) -> float:
-    """Peak memory of :func:`build_table` [bytes]: the table plus the per-flank query arrays."""
+    """Peak memory of :func:`build_table` [bytes]: the table plus the per-flank query arrays.
+
+    Parameters
+    ----------
+    n_x : int
+        Grid positions [-].
+    n_torque : int
+        Grid torques per flank [-].
+
+    Returns
+    -------
+    float
+        Bytes: 8 · n_x · n_torque · 6 (two flanks of table, four query arrays).
+    """
     return 8.0 * n_x * n_torque * (2 + 4)
 
 
@@ -385,7 +462,31 @@ def _cell(u, n):
 
 @njit(cache=True, inline="always")
 def table_te(te, x0, dx, torque0, dtorque, d, x, torque):
-    """TE [m] at position ``x`` [m] and ``torque`` [N·m] on flank index ``d`` (bilinear, clamped)."""
+    """TE [m] at position ``x`` [m] and ``torque`` [N·m] on flank index ``d`` (bilinear, clamped).
+
+    njit-callable: the arrays of a :class:`TETable` (``te``, ``x0``, ``dx``, ``torque0``,
+    ``dtorque``) as they are.
+
+    Parameters
+    ----------
+    te : numpy.ndarray
+        TE values, shape (2, n_x, n_torque) [m].
+    x0, dx : float
+        First grid position and position step [m].
+    torque0, dtorque : numpy.ndarray
+        First grid torque and torque step per flank, shape (2,) [N·m].
+    d : int
+        Flank *index*: 0 for flank +1, 1 for flank −1 (not checked: a kernel).
+    x : float
+        Position [m]; held at the grid's edge outside it.
+    torque : float
+        Motor torque [N·m]; held at the grid's edge outside it.
+
+    Returns
+    -------
+    float
+        Transmission error [m].
+    """
     n_t = te.shape[2]
     i, fu = _cell((x - x0) / dx, te.shape[1])
     if n_t == 1:
