@@ -99,6 +99,9 @@ class GridNames:
     size_hint: str = "raise dx or lower n_torque or torque_max"
     #: memory the caller needs per grid value besides the table [bytes] (``te export``: CSV text)
     extra_bytes_per_value: float = 0.0
+    #: the unit of ``x_min``/``x_max`` for a refused position range; when given, the valid range
+    #: is stated in m and in mm (a command whose other lengths are in mm, e.g. ``te export``)
+    x_unit_note: str = ""
 
 
 API_NAMES = GridNames()
@@ -392,25 +395,53 @@ def check_grid(
 def check_measured(
     a: float, b: float, measured: tuple[float, float], unit: str = "m", names: GridNames | None = None
 ) -> None:
-    """Refuse a range [a, b] [m] that leaves :func:`measured_range`: a ParameterError naming
-    ``--x-min``/``--x-max`` (or the fields of ``names``) with both ranges in ``unit``
-    (``"m"`` or ``"mm"``)."""
+    """Refuse a range [a, b] [m] that leaves :func:`measured_range`.
+
+    Parameters
+    ----------
+    a, b : float
+        Requested first and last position [m].
+    measured : tuple of float
+        The model's valid range (x_min, x_max) [m].
+    unit : {"m", "mm"}
+        Unit the message states the ranges in first.
+    names : GridNames, optional
+        Wording (default :data:`EXPORT_POSITIONS`, ``te export``'s options). With a
+        ``x_unit_note`` the valid range is stated in m and in mm, and the note follows: a
+        user who typed mm where m are expected sees both figures.
+
+    Raises
+    ------
+    ParameterError
+        ``[a, b]`` leaves ``measured`` by more than 1 nm: one line naming ``names.x_min`` or
+        ``names.x_max``.
+    """
     names = EXPORT_POSITIONS if names is None else names
     lo, hi = measured
     tol = 1e-9
     if a < lo - tol or b > hi + tol:
-        f, fmt = (1.0, ".6g") if unit == "m" else (1e3, ".3f")
+        fmts = {"m": (1.0, ".6g"), "mm": (1e3, ".3f")}
+        f, fmt = fmts[unit]
+        valid = f"[{lo * f:{fmt}}, {hi * f:{fmt}}] {unit}"
+        note = ""
+        if names.x_unit_note:
+            other = "mm" if unit == "m" else "m"
+            g, gfmt = fmts[other]
+            valid += f" = [{lo * g:{gfmt}}, {hi * g:{gfmt}}] {other}"
+            note = f"; {names.x_unit_note}"
         raise ParameterError(
             names.owner,
             names.x_min if a < lo - tol else names.x_max,
-            f"[{a * f:{fmt}}, {b * f:{fmt}}] {unit} leaves the model's valid range "
-            f"[{lo * f:{fmt}}, {hi * f:{fmt}}] {unit} "
-            "(where its no-load runs of both directions were measured)",
+            f"[{a * f:{fmt}}, {b * f:{fmt}}] {unit} leaves the model's valid range {valid} "
+            f"(where its no-load runs of both directions were measured){note}",
         )
 
 
+#: what ``te export`` adds to a refused position range: its position options are in metres
+#: while its steps (``--dx-mm``, ``--step-mm``) are in millimetres
+X_UNIT_NOTE = "--x-min and --x-max are in m (metres; --dx-mm and --step-mm are in mm)"
 #: the position options of ``te export`` (:func:`check_measured`'s default wording)
-EXPORT_POSITIONS = GridNames(owner="te export", x_min="--x-min", x_max="--x-max")
+EXPORT_POSITIONS = GridNames(owner="te export", x_min="--x-min", x_max="--x-max", x_unit_note=X_UNIT_NOTE)
 
 
 def table_size(x_min: float, x_max: float, dx: float) -> int:
