@@ -200,3 +200,16 @@ def test_run_accepts_the_recordings_rate_within_tolerance(short_trace):
         r = _est(T_s).run(short_trace)
         assert np.array_equal(_bits(r.delta_hat), _bits(ref.delta_hat))
         assert (r.delta, r.delta_std) == (ref.delta, ref.delta_std)
+
+
+@pytest.mark.parametrize("T_s", [0.0, -125e-6, float("nan"), float("inf")])
+@pytest.mark.parametrize("given", [False, True])
+def test_constructor_refuses_a_sample_time_that_is_not_positive(T_s, given):
+    """With a given config the tuning rule's check was skipped: 0 raised ZeroDivisionError, NaN a
+    bare ValueError, and a negative or infinite T_s was taken."""
+    from drivelash.params import EstimatorConfig
+
+    cfg = EstimatorConfig.tuned(RIG_ESTIMATOR, TS, 0.5) if given else None
+    with pytest.raises(ParameterError) as err:
+        DeadzoneEstimator(RIG_ESTIMATOR, 0.093, T_s, cfg)
+    assert _one_line(err) == f"DeadzoneEstimator.T_s: sample time must be finite and > 0 s, got {T_s!r}"

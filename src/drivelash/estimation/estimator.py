@@ -1131,6 +1131,12 @@ class DeadzoneEstimator:
         if not (math.isfinite(self.delta1) and self.delta1 >= 0):
             raise ParameterError("BacklashParams", "delta1", f"must be finite and >= 0, got {self.delta1!r}")
         self.T_s = float(T_s)
+        if not (math.isfinite(self.T_s) and self.T_s > 0):
+            # checked here, not only by the tuning rule: a given config skips it (0 divided by
+            # zero, NaN failed in int(), a negative or infinite T_s was taken)
+            raise ParameterError(
+                "DeadzoneEstimator", "T_s", f"sample time must be finite and > 0 s, got {T_s!r}"
+            )
         self.f_exc = f_exc
         self.method: Method = config.method if config is not None else method
         self.overrides = overrides
