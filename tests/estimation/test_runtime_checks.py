@@ -173,3 +173,43 @@ def test_nan_torque_still_accepted(samples):
     s = _est()
     rows = np.array([s.step(x[i]) for i in range(600)])
     assert np.array_equal(_bits(rows), _bits(ref[:600]))
+
+
+# -- run(): the estimator's T_s against the recording's sample period -------------------------
+@pytest.fixture(scope="module")
+def short_trace():
+    trace, _ = rig_trace(position_sine(1.0, TS, 1.0, 0.5))
+    return trace
+
+
+@pytest.mark.parametrize("T_s", [1e-3, 62.5e-6, TS * (1 + 2e-3)])
+def test_run_refuses_another_sample_time(short_trace, T_s):
+    """run() used the trace's period while step/run_samples use T_s: one object, two estimators."""
+    with pytest.raises(ParameterError, match=r"^DeadzoneEstimator\.T_s: ") as err:
+        _est(T_s).run(short_trace)
+    msg = _one_line(err)
+    assert f"{T_s:.6g} s differs from the trace's sample period 0.000125 s" in msg
+    assert "T_s=trace.T_s" in msg
+
+
+def test_run_accepts_the_recordings_rate_within_tolerance(short_trace):
+    """The nominal rate of a logger whose stamps drift (EMPS: 1.6e-5) is the same rate; the
+    result is the one of an estimator built with the trace's own period, bit for bit."""
+    ref = _est(short_trace.T_s).run(short_trace)
+    for T_s in (TS, TS * (1 + 1.6e-5), TS * (1 - 9e-4)):
+        r = _est(T_s).run(short_trace)
+        assert np.array_equal(_bits(r.delta_hat), _bits(ref.delta_hat))
+        assert (r.delta, r.delta_std) == (ref.delta, ref.delta_std)
+
+
+@pytest.mark.parametrize("T_s", [0.0, -125e-6, float("nan"), float("inf")])
+@pytest.mark.parametrize("given", [False, True])
+def test_constructor_refuses_a_sample_time_that_is_not_positive(T_s, given):
+    """With a given config the tuning rule's check was skipped: 0 raised ZeroDivisionError, NaN a
+    bare ValueError, and a negative or infinite T_s was taken."""
+    from drivelash.params import EstimatorConfig
+
+    cfg = EstimatorConfig.tuned(RIG_ESTIMATOR, TS, 0.5) if given else None
+    with pytest.raises(ParameterError) as err:
+        DeadzoneEstimator(RIG_ESTIMATOR, 0.093, T_s, cfg)
+    assert _one_line(err) == f"DeadzoneEstimator.T_s: sample time must be finite and > 0 s, got {T_s!r}"

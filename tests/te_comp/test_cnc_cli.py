@@ -155,6 +155,18 @@ def test_export_cnc_refusals(tmp_path, geo_model, name, args, needle):
     assert not out.exists()
 
 
+def test_export_cnc_position_typed_in_mm_is_refused_in_mm_and_m(tmp_path, geo_model):
+    """The CNC layouts state ranges in mm first; the note says --x-min/--x-max take m."""
+    out = tmp_path / "a.ini"
+    r = _export(tmp_path, "-o", str(out), "--x-min", "100", "--x-max", "104")
+    assert r.exit_code != 0
+    msg = str(r.exception)
+    assert "\n" not in msg
+    assert "leaves the model's valid range [100.000, 104.000] mm = [0.1, 0.104] m" in msg
+    assert msg.endswith("; --x-min and --x-max are in m (metres; --dx-mm and --step-mm are in mm)")
+    assert not out.exists()
+
+
 def test_export_refuses_torques_above_the_training_range(tmp_path, wide_model):
     out = tmp_path / "t.json"
     r = _export(tmp_path, "-o", str(out), "--torque-max", "9.5", "--dx-mm", "1")

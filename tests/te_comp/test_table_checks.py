@@ -97,7 +97,8 @@ def test_valid_request_builds_the_same_table():
         (
             ["--x-max", "0.7"],
             "te export.--x-max: [0, 0.7] m leaves the model's valid range [0, 0.5] m"
-            " (where its no-load runs of both directions were measured)",
+            " = [0.000, 500.000] mm (where its no-load runs of both directions were measured);"
+            " --x-min and --x-max are in m (metres; --dx-mm and --step-mm are in mm)",
         ),
         (
             ["--dx-mm", "1e-4"],
@@ -124,3 +125,31 @@ def test_exported_header_says_what_the_runtime_does_beyond_the_grid(tmp_path, su
     words = doc["interpolation"]
     assert "refuses positions outside it" not in words
     assert "compensator holds the edge value for positions outside it and counts those cycles" in words
+
+
+def test_export_position_typed_in_mm_is_refused_in_m_and_mm(tmp_path, stub_model):  # noqa: F811
+    """--x-max is in m next to --dx-mm in mm: a user who typed 500 (mm) sees the valid range in
+    both units and which unit the option takes."""
+    out = tmp_path / "t.csv"
+    r = CliRunner().invoke(app, ["te", "export", _mdir(tmp_path), "-o", str(out), "--x-max", "500"])
+    assert r.exit_code != 0
+    msg = str(r.exception)
+    assert "\n" not in msg
+    assert msg.startswith("te export.--x-max: [0, 500] m leaves the model's valid range [0, 0.5] m")
+    assert "= [0.000, 500.000] mm" in msg
+    assert msg.endswith("; --x-min and --x-max are in m (metres; --dx-mm and --step-mm are in mm)")
+    assert not out.exists()
+
+
+def test_export_help_states_each_option_unit():
+    r = CliRunner().invoke(app, ["te", "export", "--help"], terminal_width=400, env={"COLUMNS": "400"})
+    assert r.exit_code == 0
+    text = " ".join(r.output.split())
+    for needle in (
+        "First position in m (metres, not mm",
+        "Last position in m (metres, not mm",
+        "Position step of the table in mm (millimetres",
+        "compensation points in mm (millimetres",
+        "Torque step of the grid in N·m",
+    ):
+        assert needle in text, needle

@@ -77,20 +77,24 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
             " tables) or heidenhain (.com: AXISPOS, axis, BACKLASH); default: from the extension.",
         ),
         dx_mm: float | None = typer.Option(
-            None, "--dx-mm", help="Position step of the table [mm] (table format; default 0.2)."
+            None,
+            "--dx-mm",
+            help="Position step of the table in mm (millimetres; table format; default 0.2 mm).",
         ),
         torque_max: float | None = typer.Option(
             None,
             "--torque-max",
-            help="Largest motor torque of the grid [N·m], at most the training range (the default).",
+            help="Largest motor torque of the grid in N·m, at most the training range (the default).",
         ),
         torque_step: float | None = typer.Option(
-            None, "--torque-step", help="Torque step of the grid [N·m] (table format; default 0.5)."
+            None,
+            "--torque-step",
+            help="Torque step of the grid in N·m (table format; default 0.5 N·m).",
         ),
         step_mm: float | None = typer.Option(
             None,
             "--step-mm",
-            help=f"Distance of the CNC compensation points [mm] (default {CNC_STEP_MM:g}).",
+            help=f"Distance of the CNC compensation points in mm (millimetres; default {CNC_STEP_MM:g} mm).",
         ),
         axis: str | None = typer.Option(
             None, "--axis", help="Machine axis name (sinumerik, default X1) or axis key (heidenhain, X)."
@@ -101,10 +105,14 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
             help="SINUMERIK CEC table indices of the positive and negative direction (default 0,1).",
         ),
         x_min: float | None = typer.Option(
-            None, "--x-min", help="First position [m]; default: the start of the valid range."
+            None,
+            "--x-min",
+            help="First position in m (metres, not mm: 0.1 is 100 mm); default: the valid range's start.",
         ),
         x_max: float | None = typer.Option(
-            None, "--x-max", help="Last position [m]; default: the end of the valid range."
+            None,
+            "--x-max",
+            help="Last position in m (metres, not mm: 2.1 is 2100 mm); default: where the valid range ends.",
         ),
         force: bool = typer.Option(
             False, "--force", help="Replace OUT even if it is not a drivelash output."
@@ -243,12 +251,13 @@ def _export_table(
 def _export_names() -> object:
     """How :func:`~drivelash.te.runtime.table.build_table` words its refusals for `te export`
     (imported when run: the command module stays light)."""
-    from drivelash.te.runtime.table import GridNames
+    from drivelash.te.runtime.table import X_UNIT_NOTE, GridNames
 
     return GridNames(
         owner="te export",
         x_min="--x-min",
         x_max="--x-max",
+        x_unit_note=X_UNIT_NOTE,
         torque_max="--torque-max",
         torque_hint="leave --torque-max out or lower it",
         size_hint="raise --dx-mm or --torque-step, or lower --torque-max",

@@ -76,6 +76,7 @@ __all__ = [
     "EstimatorConfig",
     "MotionSummary",
     "build_params",
+    "check_sample_period",
     "estimate_blocks",
     "excitation_frequency",
     "series_step",
@@ -123,6 +124,38 @@ ENCODER_OFFSET_GAIN_KAPPA = 2.0
 #: A constant load torque on the load is reported when the motor-side and load-side shaft
 #: torques differ on average by more than this fraction of the mean contact torque.
 LOAD_TORQUE_FRACTION = 0.2
+#: Largest relative difference between an estimator's sample time T_s and a recording's sample
+#: period (mean interval, the one :func:`estimate_blocks` tunes and integrates with) that still
+#: counts as the same rate: a logger's nominal rate against its recorded stamps, e.g. the EMPS
+#: logger (1 ms nominal, median interval 1.6e-5 below it); distinct rates (8 vs 10 kHz, 1 vs
+#: 1.024 kHz) lie ≥ 2.4 % apart. docs/assumptions.md, "Estimator T_s against a recording".
+T_S_RTOL = 1e-3
+
+
+def check_sample_period(T_s: float, period: float, owner: str) -> None:
+    """Refuse an estimator's sample time that is not the recording's sample period.
+
+    Parameters
+    ----------
+    T_s : float
+        The estimator's sample time [s] (what it was built for).
+    period : float
+        The recording's sample period [s] (mean interval, as :class:`MotionSummary` has it).
+    owner : str
+        Name for the message, e.g. ``"DeadzoneEstimator"``.
+
+    Raises
+    ------
+    ParameterError
+        ``|T_s − period| > T_S_RTOL · period``: one line naming both periods.
+    """
+    if not abs(T_s - period) <= T_S_RTOL * period:
+        raise ParameterError(
+            owner,
+            "T_s",
+            f"{T_s:.6g} s differs from the trace's sample period {period:.6g} s (by more than"
+            f" {T_S_RTOL:.1%}); build the estimator with T_s=trace.T_s",
+        )
 
 
 def _rms(x: np.ndarray) -> float:
@@ -1062,7 +1095,10 @@ class DeadzoneEstimator:
     backlash : BacklashParams or float
         Known offset δ1 [rad] (``delta`` of a BacklashParams is not used).
     T_s : float
-        Sample time [s].
+        Sample time [s] of the samples given to :meth:`step` and :meth:`run_samples`. :meth:`run`
+        tunes and integrates with the recording's own period and refuses a trace whose period
+        differs from ``T_s`` by more than :data:`T_S_RTOL` (relative): build the estimator with
+        ``T_s=trace.T_s``.
     config : EstimatorConfig, optional
         Gains used as they are. Default: tuned by :meth:`run` from the recording (detected
         reversal frequency and torque), exactly as ``drivelash estimate`` does.
@@ -1095,6 +1131,12 @@ class DeadzoneEstimator:
         if not (math.isfinite(self.delta1) and self.delta1 >= 0):
             raise ParameterError("BacklashParams", "delta1", f"must be finite and >= 0, got {self.delta1!r}")
         self.T_s = float(T_s)
+        if not (math.isfinite(self.T_s) and self.T_s > 0):
+            # checked here, not only by the tuning rule: a given config skips it (0 divided by
+            # zero, NaN failed in int(), a negative or infinite T_s was taken)
+            raise ParameterError(
+                "DeadzoneEstimator", "T_s", f"sample time must be finite and > 0 s, got {T_s!r}"
+            )
         self.f_exc = f_exc
         self.method: Method = config.method if config is not None else method
         self.overrides = overrides
@@ -1109,7 +1151,13 @@ class DeadzoneEstimator:
         self._row = np.empty((1, dz.N_OUT))
 
     def reset(self) -> None:
-        """Back to δ̂ = δ0 and zero observer state."""
+        """Back to δ̂ = δ0 [rad] and zero observer state.
+
+        Returns
+        -------
+        None
+            :attr:`state` is replaced by a fresh one (the parameters, and so T_s, are kept).
+        """
         self.state = dz.initial_state(self.params, self.config.delta0)
 
     @property
@@ -1129,6 +1177,17 @@ class DeadzoneEstimator:
 
     def step(self, sample: np.ndarray | tuple[float, ...]) -> np.ndarray:
         """Process one sample (θ_m, ω_m, θ_l, ω_l[, u]); returns the output row (see ``deadzone_run``).
+
+        Parameters
+        ----------
+        sample : array_like
+            4 or 5 values: θ_m [rad], ω_m [rad/s], θ_l [rad], ω_l [rad/s][, motor torque u
+            [N·m]], one sample period T_s [s] after the previous one.
+
+        Returns
+        -------
+        numpy.ndarray
+            The output row, shape (9,) (columns as ``deadzone_run``: δ̂ [rad] first); a copy.
 
         Raises
         ------
@@ -1158,6 +1217,17 @@ class DeadzoneEstimator:
         ``samples`` is converted to a C-contiguous float64 array; columns θ_m, ω_m, θ_l, ω_l[, u]
         in that order (as :func:`samples_of`).
 
+        Parameters
+        ----------
+        samples : array_like
+            Shape (n, 4) or (n, 5): θ_m [rad], ω_m [rad/s], θ_l [rad], ω_l [rad/s][, motor
+            torque u [N·m]], sampled at this estimator's T_s [s].
+
+        Returns
+        -------
+        numpy.ndarray
+            Outputs, shape (n, 9) (columns as ``deadzone_run``: δ̂ [rad] first).
+
         Raises
         ------
         DataError
@@ -1183,8 +1253,10 @@ class DeadzoneEstimator:
         """Estimate over a whole trace with the verdict, plausibility checks and δ1 check.
 
         The same two-pass procedure as ``drivelash estimate`` (:func:`estimate_blocks`): the
-        gains are tuned from the recording unless a ``config`` was given. Starts from δ̂ = δ0
-        (the state of :meth:`run_samples` is not used).
+        gains are tuned from the recording unless a ``config`` was given, and the kernel
+        integrates with the recording's sample period, which must be this estimator's ``T_s``
+        (within :data:`T_S_RTOL`, relative). Starts from δ̂ = δ0 (the state of
+        :meth:`run_samples` is not used).
 
         Parameters
         ----------
@@ -1197,10 +1269,26 @@ class DeadzoneEstimator:
             True δ(t) [rad]; default the trace's ``delta_true`` column if any.
         keep : {"full", "decimated"}
             Keep every output row or a decimated series.
+
+        Returns
+        -------
+        EstimationResult
+            δ̂(t) [rad], the estimate with its uncertainty [rad] and the verdict.
+
+        Raises
+        ------
+        ParameterError
+            The trace's sample period [s] differs from ``T_s`` by more than :data:`T_S_RTOL`
+            (one line naming both periods): the estimator was built for another rate.
+        DataError
+            A missing or non-finite input column, or time not strictly increasing.
         """
         if delta_true is not None:
             trace = trace.with_columns({"delta_true": np.broadcast_to(delta_true, (len(trace),))})
         blocks = trace_blocks(trace, chunk if chunk and chunk > 0 else BLOCK)
+        motion = scan_blocks(blocks, self.drivetrain.N)  # pass 1, as estimate_blocks would run it
+        if motion.n >= 2:
+            check_sample_period(self.T_s, motion.T_s, "DeadzoneEstimator")
         return estimate_blocks(
             self.drivetrain,
             self.delta1,
@@ -1210,6 +1298,7 @@ class DeadzoneEstimator:
             overrides=self.overrides,
             f_exc=self.f_exc,
             keep=keep,
+            motion=motion,
             encoder_reading=trace.meta.get("encoder_reading"),
         )
 

@@ -48,7 +48,7 @@ import numpy as np
 from numba import njit
 
 from drivelash.errors import DataError, ParameterError
-from drivelash.te.runtime.table import TETable, table_te
+from drivelash.te.runtime.table import TETable, check_direction, table_te
 
 __all__ = [
     "Compensator",
@@ -173,7 +173,13 @@ class CompensatorParams:
                 raise ParameterError(type(self).__name__, n, f"must be >= 0, got {getattr(self, n)!r}")
 
     def as_array(self) -> np.ndarray:
-        """Parameters in kernel order (see ``P_*`` constants; field order = kernel order)."""
+        """Parameters in kernel order (see ``P_*`` constants; field order = kernel order).
+
+        Returns
+        -------
+        numpy.ndarray
+            float64, shape (PARAM_SIZE,): each field in its own unit (s, m/s, N·m, …).
+        """
         a = np.array([getattr(self, f.name) for f in fields(self)], dtype=np.float64)
         assert a.size == PARAM_SIZE
         return a
@@ -185,7 +191,18 @@ class CompensatorParams:
 
 @njit(cache=True)
 def smooth_step(tau: float) -> float:
-    """Smooth step s(τ) of eq (7) [-]: 0 for τ ≤ 0, 3τ² − 2τ³ on [0, 1], 1 for τ ≥ 1."""
+    """Smooth step s(τ) of eq (7) [-]: 0 for τ ≤ 0, 3τ² − 2τ³ on [0, 1], 1 for τ ≥ 1.
+
+    Parameters
+    ----------
+    tau : float
+        Normalised time since the flank change, t/t_ss [-].
+
+    Returns
+    -------
+    float
+        s(τ) [-] in [0, 1].
+    """
     if tau <= 0.0:
         return 0.0
     if tau >= 1.0:
@@ -195,7 +212,18 @@ def smooth_step(tau: float) -> float:
 
 @njit(cache=True)
 def smooth_step_rate(tau: float) -> float:
-    """ds/dτ of the smooth step [-]: 6τ(1 − τ) on [0, 1], else 0."""
+    """ds/dτ of the smooth step [-]: 6τ(1 − τ) on [0, 1], else 0.
+
+    Parameters
+    ----------
+    tau : float
+        Normalised time since the flank change, t/t_ss [-].
+
+    Returns
+    -------
+    float
+        ds/dτ [-] in [0, 1.5].
+    """
     if tau <= 0.0 or tau >= 1.0:
         return 0.0
     return 6.0 * tau * (1.0 - tau)
@@ -222,7 +250,21 @@ def mesh_torque(torque_m, omega_m, alpha_m, p):
 
 @njit(cache=True)
 def init_state(flank):
-    """Fresh compensator state on flank ``flank`` (±1)."""
+    """Fresh compensator state on flank ``flank`` (±1).
+
+    njit kernel: ``flank`` is not checked here (≥ 0 starts on +1); :class:`Compensator`
+    checks it.
+
+    Parameters
+    ----------
+    flank : float
+        Flank in contact at start: +1.0 or −1.0 [-].
+
+    Returns
+    -------
+    numpy.ndarray
+        The state vector, float64, shape (STATE_SIZE,) (see the ``S_*`` constants).
+    """
     s = np.zeros(STATE_SIZE)
     s[S_FLANK] = 1.0 if flank >= 0 else -1.0
     s[S_T_SINCE] = 1e9
@@ -344,18 +386,30 @@ class Compensator:
     params : CompensatorParams
         Compensation settings.
     flank : int
-        Flank in contact at start (±1).
+        Flank in contact at start: +1 or −1 (else a one-line
+        :class:`~drivelash.errors.ParameterError`; 0 and NaN started silently on a flank).
     """
 
     def __init__(self, table: TETable, params: CompensatorParams, flank: int = 1) -> None:
         self.table = table
         self.params = params
         self._p = params.as_array()
-        self.state = init_state(float(flank))
+        self.state = init_state(float(check_direction(flank, "Compensator", "flank")))
 
     def reset(self, flank: int = 1) -> None:
-        """Forget the history; start on ``flank``."""
-        self.state = init_state(float(flank))
+        """Forget the history; start on ``flank``.
+
+        Parameters
+        ----------
+        flank : int
+            Flank in contact at start: +1 or −1 [-].
+
+        Raises
+        ------
+        ParameterError
+            ``flank`` is not +1 or −1 (one line); the state is unchanged then.
+        """
+        self.state = init_state(float(check_direction(flank, "Compensator", "flank")))
 
     @property
     def flank(self) -> int:
@@ -376,6 +430,24 @@ class Compensator:
     ) -> tuple[float, float, float]:
         """One cycle; returns (v_c, v_c,TE, v_c,BL) [m/s]. See :func:`compensation_cycle`.
 
+        Parameters
+        ----------
+        x_d_n : float
+            Set position of this cycle [m].
+        x_d_next : float
+            Set position of the next cycle [m] (look-ahead).
+        torque_m : float
+            Motor torque [N·m].
+        omega_m : float
+            Motor speed [rad/s].
+        alpha_m : float
+            Motor acceleration [rad/s²].
+
+        Returns
+        -------
+        tuple of float
+            (v_c, v_c,TE, v_c,BL) [m/s]: the velocity correction and its TE and backlash parts.
+
         Raises
         ------
         DataError
@@ -393,6 +465,22 @@ class Compensator:
         self, x_d: np.ndarray, torque_m: np.ndarray, omega_m: np.ndarray, alpha_m: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Many cycles at once (``x_d`` one longer: look-ahead); returns (v_c, v_c,TE, v_c,BL).
+
+        Parameters
+        ----------
+        x_d : numpy.ndarray
+            Set positions [m], n + 1 (the last one is the look-ahead of cycle n − 1).
+        torque_m : numpy.ndarray
+            Motor torque [N·m], n.
+        omega_m : numpy.ndarray
+            Motor speed [rad/s], n.
+        alpha_m : numpy.ndarray
+            Motor acceleration [rad/s²], n.
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            (v_c, v_c,TE, v_c,BL) [m/s], n each; the state is kept for the next call.
 
         Raises
         ------

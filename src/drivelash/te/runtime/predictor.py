@@ -28,7 +28,8 @@ import numpy as np
 from numba import njit, prange
 
 from drivelash.errors import ParameterError
-from drivelash.te.learn.preprocess import TEPipeline, direction_key
+from drivelash.te.learn.preprocess import TEPipeline
+from drivelash.te.runtime.table import check_direction
 
 __all__ = ["SORT_MIN", "TEModel", "te_def_point", "te_point"]
 
@@ -195,7 +196,22 @@ def _geo_batch(x: np.ndarray, f: np.ndarray, ib: np.ndarray, out: np.ndarray) ->
 
 @njit(cache=True)
 def te_def_point(x_T: float, torque: float, fbuf: np.ndarray, ibuf: np.ndarray) -> float:  # pragma: no cover
-    """TE_def [µm] at one point: position ``x_T`` [m], motor torque [N·m] (njit-callable)."""
+    """TE_def [µm] at one point (njit-callable; one direction).
+
+    Parameters
+    ----------
+    x_T : float
+        Table position [m].
+    torque : float
+        Motor torque [N·m].
+    fbuf, ibuf : numpy.ndarray
+        One direction's buffers (float64, int64) from :meth:`TEModel.kernel_arrays`.
+
+    Returns
+    -------
+    float
+        Offset-free learned deformation TE_def [µm] (stage 1 + stage 2).
+    """
     n_in = ibuf[1]
     hid = ibuf[2]
     z = np.empty(n_in)
@@ -206,7 +222,22 @@ def te_def_point(x_T: float, torque: float, fbuf: np.ndarray, ibuf: np.ndarray) 
 
 @njit(cache=True)
 def te_point(x_T: float, torque: float, fbuf: np.ndarray, ibuf: np.ndarray) -> float:  # pragma: no cover
-    """Full TE [m] = TE_geo + offset(torque) + TE_def at one point (njit-callable; one direction)."""
+    """Full TE [m] = TE_geo + offset(torque) + TE_def at one point (njit-callable; one direction).
+
+    Parameters
+    ----------
+    x_T : float
+        Table position [m].
+    torque : float
+        Motor torque [N·m].
+    fbuf, ibuf : numpy.ndarray
+        One direction's buffers (float64, int64) from :meth:`TEModel.kernel_arrays`.
+
+    Returns
+    -------
+    float
+        Transmission error [m]: TE_geo(x_T) + [a + b·torque + TE_def(x_T, torque)]·1e-6.
+    """
     off = fbuf[6] + fbuf[7] * torque
     return _geo(x_T, fbuf, ibuf) + (off + te_def_point(x_T, torque, fbuf, ibuf)) / 1e6
 
@@ -317,6 +348,10 @@ def _compact_nodes(arrays: Mapping[str, np.ndarray]) -> np.ndarray:
 # ---------------------------------------------------------------------------
 # the loaded model
 # ---------------------------------------------------------------------------
+#: direction code of each per-direction key of ``model.json``
+_SIGN = {"pos": 1, "neg": -1}
+
+
 class TEModel:
     """A loaded transmission-error model: geometric curves + stacked deformation model per direction.
 
@@ -348,6 +383,8 @@ class TEModel:
             self._buf[key] = _pack(
                 arrays[key], float(dm["geo_x0"]), float(dm["geo_step"]), meta["pipeline"]["geometry"]
             )
+        #: the same buffers by direction code +1/−1 (what the methods are given)
+        self._flank = {_SIGN[key]: buf for key, buf in self._buf.items()}
 
     @property
     def info(self) -> dict[str, Any]:
@@ -355,11 +392,31 @@ class TEModel:
         return dict(self.meta.get("info", {}))
 
     def kernel_arrays(self, direction: int) -> tuple[np.ndarray, np.ndarray]:
-        """``(fbuf float64, ibuf int64)`` of one direction for :func:`te_point` in njit code."""
-        key = direction_key(direction)
-        if key not in self._buf:
-            raise ParameterError("TEModel", "direction", f"model has no direction {key!r}")
-        return self._buf[key]
+        """``(fbuf float64, ibuf int64)`` of one direction for :func:`te_point` in njit code.
+
+        Parameters
+        ----------
+        direction : int
+            Flank in contact: +1 (moving in +x, positive torque) or −1; anything else is
+            refused (:func:`~drivelash.te.runtime.table.check_direction`).
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            ``(fbuf, ibuf)``: the packed direction (positions in m, TE_geo in m, TE_def
+            weights in µm), the model's own arrays — read them, do not write them.
+
+        Raises
+        ------
+        ParameterError
+            ``direction`` is not +1 or −1, or the model has no such direction (one line).
+        """
+        d = check_direction(direction, "TEModel")
+        buf = self._flank.get(d)
+        if buf is None:
+            have = " and ".join(f"{_SIGN[k]:+d}" for k in self.directions) or "none"
+            raise ParameterError("TEModel", "direction", f"model has no direction {d:+d} (it has {have})")
+        return buf
 
     def _run(self, x_T: Any, torque: Any, direction: int, with_geo: bool) -> np.ndarray:
         x = np.ascontiguousarray(np.asarray(x_T, dtype=np.float64).reshape(-1))
@@ -377,15 +434,78 @@ class TEModel:
         return out
 
     def predict(self, x_T: Any, torque: Any, direction: int) -> np.ndarray:
-        """TE [m] = TE_geo(x_T) + TE_def(x_T, torque) for direction +1/−1 (torque broadcast to x_T)."""
+        """TE [m] = TE_geo(x_T) + TE_def(x_T, torque) for direction +1/−1 (torque broadcast to x_T).
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table positions [m] (flattened).
+        torque : array_like
+            Motor torque [N·m], broadcast to ``x_T``.
+        direction : int
+            Flank in contact: +1 (moving in +x, positive torque) or −1; anything else is
+            refused (:func:`~drivelash.te.runtime.table.check_direction`).
+
+        Returns
+        -------
+        numpy.ndarray
+            Transmission error [m], 1-D, one per position: TE_geo + [a + b·torque + TE_def]·1e-6.
+
+        Raises
+        ------
+        ParameterError
+            ``direction`` is not +1 or −1, or the model has no such direction (one line).
+        """
         return self._run(x_T, torque, direction, True)
 
     def predict_def_um(self, x_T: Any, torque: Any, direction: int) -> np.ndarray:
-        """Deformation TE_def [µm] (stage 1 + stage 2)."""
+        """Deformation TE_def [µm] (stage 1 + stage 2), without TE_geo and the offset line.
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table positions [m] (flattened).
+        torque : array_like
+            Motor torque [N·m], broadcast to ``x_T``.
+        direction : int
+            Flank in contact: +1 (moving in +x, positive torque) or −1; anything else is
+            refused (:func:`~drivelash.te.runtime.table.check_direction`).
+
+        Returns
+        -------
+        numpy.ndarray
+            Offset-free learned deformation TE_def [µm], 1-D, one per position.
+
+        Raises
+        ------
+        ParameterError
+            ``direction`` is not +1 or −1, or the model has no such direction (one line).
+        """
         return self._run(x_T, torque, direction, False)
 
     def predict_stage1_um(self, x_T: Any, torque: Any, direction: int) -> np.ndarray:
-        """Stage-1 (network) part of TE_def [µm] alone."""
+        """Stage-1 (network) part of TE_def [µm] alone.
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table positions [m] (flattened).
+        torque : array_like
+            Motor torque [N·m], broadcast to ``x_T``.
+        direction : int
+            Flank in contact: +1 (moving in +x, positive torque) or −1; anything else is
+            refused (:func:`~drivelash.te.runtime.table.check_direction`).
+
+        Returns
+        -------
+        numpy.ndarray
+            The network's TE_def [µm] (no trees), 1-D, one per position.
+
+        Raises
+        ------
+        ParameterError
+            ``direction`` is not +1 or −1, or the model has no such direction (one line).
+        """
         f, ib = self.kernel_arrays(direction)
         ib1 = ib.copy()
         ib1[4] = 0  # no trees
@@ -396,13 +516,55 @@ class TEModel:
         return out
 
     def predict_one(self, x_T: float, torque: float, direction: int) -> float:
-        """TE [m] at one operating point."""
-        f, ib = self._buf["pos" if direction > 0 else "neg"]
+        """TE [m] at one operating point (the per-cycle call: O(1) direction check).
+
+        Parameters
+        ----------
+        x_T : float
+            Table position [m].
+        torque : float
+            Motor torque [N·m].
+        direction : int
+            Flank in contact: +1 (moving in +x, positive torque) or −1; anything else is
+            refused (:func:`~drivelash.te.runtime.table.check_direction`).
+
+        Returns
+        -------
+        float
+            Transmission error [m], as :meth:`predict` at that point.
+
+        Raises
+        ------
+        ParameterError
+            ``direction`` is not +1 or −1, or the model has no such direction (one line).
+        """
+        # per-cycle call: a plain int ±1 takes one dict look-up, anything else the full check
+        buf = self._flank.get(direction) if direction.__class__ is int else None
+        f, ib = buf if buf is not None else self.kernel_arrays(direction)
         return te_point(float(x_T), float(torque), f, ib)
 
     def geometric(self, x_T: Any, direction: int) -> np.ndarray:
         """The geometric (no-load) error TE_geo [m] of a direction at ``x_T`` [m]: the lookup table
-        of the no-load runs (linear interpolation, held at its edges; see :meth:`geometric_range`)."""
+        of the no-load runs (linear interpolation, held at its edges; see :meth:`geometric_range`).
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table positions [m] (flattened).
+        direction : int
+            Flank in contact: +1 (moving in +x, positive torque) or −1; anything else is
+            refused (:func:`~drivelash.te.runtime.table.check_direction`).
+
+        Returns
+        -------
+        numpy.ndarray
+            TE_geo [m], 1-D, one per position.
+
+        Raises
+        ------
+        ParameterError
+            ``direction`` is not +1 or −1, or the model has no such direction (one line).
+        """
         f, ib = self.kernel_arrays(direction)
         x = np.ascontiguousarray(np.asarray(x_T, dtype=np.float64).reshape(-1))
         out = np.empty(x.size)
@@ -410,7 +572,13 @@ class TEModel:
         return out
 
     def geometric_range(self) -> tuple[float, float]:
-        """Positions [m] where every direction's no-load curve holds measured data (x_min, x_max)."""
+        """Positions [m] where every direction's no-load curve holds measured data (x_min, x_max).
+
+        Returns
+        -------
+        tuple of float
+            ``(x_min, x_max)`` [m]: the intersection of the directions' no-load curve spans.
+        """
         lo, hi = -np.inf, np.inf
         for key in self.directions:
             f, ib = self._buf[key]
@@ -419,5 +587,18 @@ class TEModel:
         return lo, hi
 
     def backlash(self, x_T: Any, torque: Any = 0.0) -> np.ndarray:
-        """Gap between the direction curves TE_neg − TE_pos [m] at ``x_T`` (same torque for both)."""
+        """Gap between the direction curves TE_neg − TE_pos [m] at ``x_T`` (same torque for both).
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table positions [m] (flattened).
+        torque : array_like
+            Motor torque [N·m] given to both directions, broadcast to ``x_T``.
+
+        Returns
+        -------
+        numpy.ndarray
+            Backlash TE(−1) − TE(+1) [m], 1-D, one per position.
+        """
         return self.predict(x_T, torque, -1) - self.predict(x_T, torque, +1)

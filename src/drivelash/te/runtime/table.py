@@ -26,6 +26,7 @@ __all__ = [
     "TEPredictor",
     "TETable",
     "build_table",
+    "check_direction",
     "measured_range",
     "table_bytes",
     "table_size",
@@ -34,6 +35,46 @@ __all__ = [
 
 #: Direction codes: index 0 ⇔ positive flank (+1), index 1 ⇔ negative flank (−1).
 DIRECTIONS = (1, -1)
+#: What a direction may be: an integer (Python or NumPy) or a float equal to +1 or −1 (a
+#: recording's ``direction`` column is float64, ``np.sign`` returns floats); never a bool.
+_DIRECTION_TYPES = (int, float, np.integer, np.floating)
+
+
+def check_direction(direction: object, owner: str, key: str = "direction") -> int:
+    """The flank ``direction`` as the int +1 or −1, or one line naming what is wrong.
+
+    The one check of a direction argument of the runtime (:class:`TETable`,
+    :class:`~drivelash.te.runtime.predictor.TEModel`,
+    :class:`~drivelash.te.runtime.compensator.Compensator`): O(1), no array is built.
+
+    Parameters
+    ----------
+    direction : int
+        Flank in contact [-]: +1 moving in +x (positive torque), −1 in −x. An int or NumPy
+        integer; a float equal to ±1 is taken too.
+    owner : str
+        Name for the message, e.g. ``"TEModel"``.
+    key : str
+        Name of the argument for the message (``"direction"``, ``"flank"``).
+
+    Returns
+    -------
+    int
+        +1 or −1.
+
+    Raises
+    ------
+    ParameterError
+        Anything else (0, 2, 0.5, NaN, ``"pos"``, True, an array): ``owner.key: must be +1 or
+        -1, got …``.
+    """
+    if isinstance(direction, _DIRECTION_TYPES) and not isinstance(direction, bool):
+        if direction == 1:
+            return 1
+        if direction == -1:
+            return -1
+    raise ParameterError(owner, key, f"must be +1 or -1, got {direction!r}")
+
 
 #: Largest table :func:`build_table` builds (``te export`` writes) [grid points per flank]: 10 M
 #: (e.g. 0.1 mm over 10 m × 100 torques); a CNC compensation table holds thousands, the
@@ -58,6 +99,9 @@ class GridNames:
     size_hint: str = "raise dx or lower n_torque or torque_max"
     #: memory the caller needs per grid value besides the table [bytes] (``te export``: CSV text)
     extra_bytes_per_value: float = 0.0
+    #: the unit of ``x_min``/``x_max`` for a refused position range; when given, the valid range
+    #: is stated in m and in mm (a command whose other lengths are in mm, e.g. ``te export``)
+    x_unit_note: str = ""
 
 
 API_NAMES = GridNames()
@@ -122,12 +166,50 @@ class TETable:
         return self.x0 + self.dx * np.arange(self.te.shape[1])
 
     def torque_grid(self, direction: int) -> np.ndarray:
-        """Grid torques of a flank [N·m]."""
+        """Grid torques of a flank [N·m].
+
+        Parameters
+        ----------
+        direction : int
+            Flank: +1 or −1 (:func:`check_direction`; anything else is refused).
+
+        Returns
+        -------
+        numpy.ndarray
+            The flank's torque grid [N·m], ascending, ``n_torque`` values.
+
+        Raises
+        ------
+        ParameterError
+            ``direction`` is not +1 or −1 (one line).
+        """
         d = _dir_index(direction)
         return self.torque0[d] + self.dtorque[d] * np.arange(self.te.shape[2])
 
     def predict(self, x_T: np.ndarray, torque: np.ndarray, direction: int) -> np.ndarray:
-        """Bilinear interpolation of the table (same protocol as the models) [m]."""
+        """Bilinear interpolation of the table (same protocol as the models) [m].
+
+        Outside the grid the edge value is held (no extrapolation), in position and torque.
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table positions [m].
+        torque : array_like
+            Motor torque [N·m], broadcast with ``x_T``.
+        direction : int
+            Flank: +1 or −1 (:func:`check_direction`; anything else is refused).
+
+        Returns
+        -------
+        numpy.ndarray
+            Transmission error [m], of the broadcast shape of ``x_T`` and ``torque``.
+
+        Raises
+        ------
+        ParameterError
+            ``direction`` is not +1 or −1 (one line).
+        """
         x, t = np.broadcast_arrays(np.asarray(x_T, dtype=np.float64), np.asarray(torque, dtype=np.float64))
         out = np.empty(x.shape)
         _table_batch(
@@ -144,16 +226,26 @@ class TETable:
         return out
 
     def backlash(self, x_T: np.ndarray, torque: float = 0.0) -> np.ndarray:
-        """Gap between the flank curves TE(−1) − TE(+1) at equal torque [m]."""
+        """Gap between the flank curves TE(−1) − TE(+1) at equal torque [m].
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table positions [m].
+        torque : float
+            Torque magnitude [N·m]: −|torque| on flank −1, +|torque| on flank +1.
+
+        Returns
+        -------
+        numpy.ndarray
+            Backlash [m], of the shape of ``x_T``.
+        """
         return self.predict(x_T, -abs(torque), -1) - self.predict(x_T, abs(torque), 1)
 
 
 def _dir_index(direction: int) -> int:
-    if direction == 1:
-        return 0
-    if direction == -1:
-        return 1
-    raise ParameterError("TETable", "direction", f"must be +1 or -1, got {direction!r}")
+    """Index of a flank in the table's arrays: 0 for +1, 1 for −1 (:func:`check_direction`)."""
+    return 0 if check_direction(direction, "TETable") == 1 else 1
 
 
 def build_table(
@@ -303,34 +395,88 @@ def check_grid(
 def check_measured(
     a: float, b: float, measured: tuple[float, float], unit: str = "m", names: GridNames | None = None
 ) -> None:
-    """Refuse a range [a, b] [m] that leaves :func:`measured_range`: a ParameterError naming
-    ``--x-min``/``--x-max`` (or the fields of ``names``) with both ranges in ``unit``
-    (``"m"`` or ``"mm"``)."""
+    """Refuse a range [a, b] [m] that leaves :func:`measured_range`.
+
+    Parameters
+    ----------
+    a, b : float
+        Requested first and last position [m].
+    measured : tuple of float
+        The model's valid range (x_min, x_max) [m].
+    unit : {"m", "mm"}
+        Unit the message states the ranges in first.
+    names : GridNames, optional
+        Wording (default :data:`EXPORT_POSITIONS`, ``te export``'s options). With a
+        ``x_unit_note`` the valid range is stated in m and in mm, and the note follows: a
+        user who typed mm where m are expected sees both figures.
+
+    Raises
+    ------
+    ParameterError
+        ``[a, b]`` leaves ``measured`` by more than 1 nm: one line naming ``names.x_min`` or
+        ``names.x_max``.
+    """
     names = EXPORT_POSITIONS if names is None else names
     lo, hi = measured
     tol = 1e-9
     if a < lo - tol or b > hi + tol:
-        f, fmt = (1.0, ".6g") if unit == "m" else (1e3, ".3f")
+        fmts = {"m": (1.0, ".6g"), "mm": (1e3, ".3f")}
+        f, fmt = fmts[unit]
+        valid = f"[{lo * f:{fmt}}, {hi * f:{fmt}}] {unit}"
+        note = ""
+        if names.x_unit_note:
+            other = "mm" if unit == "m" else "m"
+            g, gfmt = fmts[other]
+            valid += f" = [{lo * g:{gfmt}}, {hi * g:{gfmt}}] {other}"
+            note = f"; {names.x_unit_note}"
         raise ParameterError(
             names.owner,
             names.x_min if a < lo - tol else names.x_max,
-            f"[{a * f:{fmt}}, {b * f:{fmt}}] {unit} leaves the model's valid range "
-            f"[{lo * f:{fmt}}, {hi * f:{fmt}}] {unit} "
-            "(where its no-load runs of both directions were measured)",
+            f"[{a * f:{fmt}}, {b * f:{fmt}}] {unit} leaves the model's valid range {valid} "
+            f"(where its no-load runs of both directions were measured){note}",
         )
 
 
+#: what ``te export`` adds to a refused position range: its position options are in metres
+#: while its steps (``--dx-mm``, ``--step-mm``) are in millimetres
+X_UNIT_NOTE = "--x-min and --x-max are in m (metres; --dx-mm and --step-mm are in mm)"
 #: the position options of ``te export`` (:func:`check_measured`'s default wording)
-EXPORT_POSITIONS = GridNames(owner="te export", x_min="--x-min", x_max="--x-max")
+EXPORT_POSITIONS = GridNames(owner="te export", x_min="--x-min", x_max="--x-max", x_unit_note=X_UNIT_NOTE)
 
 
 def table_size(x_min: float, x_max: float, dx: float) -> int:
-    """Grid positions of a table over [x_min, x_max] [m] with step ``dx`` [m]."""
+    """Grid positions of a table over [x_min, x_max] [m] with step ``dx`` [m].
+
+    Parameters
+    ----------
+    x_min, x_max : float
+        Table span [m].
+    dx : float
+        Position step [m], > 0.
+
+    Returns
+    -------
+    int
+        Number of grid positions [-]: ⌊(x_max − x_min)/dx + 1e-9⌋ + 1.
+    """
     return int(math.floor((x_max - x_min) / dx + 1e-9)) + 1
 
 
 def table_bytes(n_x: int, n_torque: int) -> float:
-    """Peak memory of :func:`build_table` [bytes]: the table plus the per-flank query arrays."""
+    """Peak memory of :func:`build_table` [bytes]: the table plus the per-flank query arrays.
+
+    Parameters
+    ----------
+    n_x : int
+        Grid positions [-].
+    n_torque : int
+        Grid torques per flank [-].
+
+    Returns
+    -------
+    float
+        Bytes: 8 · n_x · n_torque · 6 (two flanks of table, four query arrays).
+    """
     return 8.0 * n_x * n_torque * (2 + 4)
 
 
@@ -347,7 +493,31 @@ def _cell(u, n):
 
 @njit(cache=True, inline="always")
 def table_te(te, x0, dx, torque0, dtorque, d, x, torque):
-    """TE [m] at position ``x`` [m] and ``torque`` [N·m] on flank index ``d`` (bilinear, clamped)."""
+    """TE [m] at position ``x`` [m] and ``torque`` [N·m] on flank index ``d`` (bilinear, clamped).
+
+    njit-callable: the arrays of a :class:`TETable` (``te``, ``x0``, ``dx``, ``torque0``,
+    ``dtorque``) as they are.
+
+    Parameters
+    ----------
+    te : numpy.ndarray
+        TE values, shape (2, n_x, n_torque) [m].
+    x0, dx : float
+        First grid position and position step [m].
+    torque0, dtorque : numpy.ndarray
+        First grid torque and torque step per flank, shape (2,) [N·m].
+    d : int
+        Flank *index*: 0 for flank +1, 1 for flank −1 (not checked: a kernel).
+    x : float
+        Position [m]; held at the grid's edge outside it.
+    torque : float
+        Motor torque [N·m]; held at the grid's edge outside it.
+
+    Returns
+    -------
+    float
+        Transmission error [m].
+    """
     n_t = te.shape[2]
     i, fu = _cell((x - x0) / dx, te.shape[1])
     if n_t == 1:
