@@ -118,7 +118,16 @@ def _summaries(db: str, fleet: Any = None) -> tuple[Any, list[dict[str, Any]]]:
     from drivelash.wear.store import Store
 
     store = Store(db, create=False)
-    return store, fleet_summary(store, fleet)
+    try:
+        with store.guard(_READ_ONLY):
+            return store, fleet_summary(store, fleet)
+    except BaseException:
+        store.close()
+        raise
+
+
+#: What a reader (status, forecast, report) that hits a store failure leaves behind.
+_READ_ONLY = "nothing was written (a read-only command)"
 
 
 def run_status(
@@ -227,9 +236,10 @@ def run_forecast(
         )
         store = Store(db, create=False)
         try:
-            store.axis_id(axis)
-            a = next(x for x in judged_axes(store, fleet) if x["name"] == axis)
-            s = axis_summary(store, a)
+            with store.guard(_READ_ONLY):
+                store.axis_id(axis)
+                a = next(x for x in judged_axes(store, fleet) if x["name"] == axis)
+                s = axis_summary(store, a)
         finally:
             store.close()
         doc = forecast_json(s)
@@ -297,8 +307,9 @@ def run_report(
         store, summ = _summaries(db, fleet)
         try:
             meas: dict[str, list[dict[str, Any]]] = {}
-            for m in store.measurements():
-                meas.setdefault(m["axis"], []).append(m)
+            with store.guard(_READ_ONLY):
+                for m in store.measurements():
+                    meas.setdefault(m["axis"], []).append(m)
         finally:
             store.close()
         text = render_fleet_report(summ, meas, title="drivelash fleet wear report", store=label or store.name)
