@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 import os
-from datetime import datetime
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -149,7 +149,11 @@ def run_status(
     store, summ = _summaries(db, fleet)
     store.close()
     if not quiet:
-        table = Table(*OVERVIEW_HEADER, box=None, title=f"wear status — {escape(str(label or store.name))}")
+        table = Table(
+            *OVERVIEW_HEADER,
+            box=None,
+            title=f"wear status — {escape(str(label or store.name))} (times UTC)",
+        )
         for row, s in zip(overview_rows(summ), summ, strict=True):
             style = "red" if s["crossed"] or s["alarms"] else None
             table.add_row(*(escape(str(x)) for x in row), style=style)
@@ -169,11 +173,15 @@ def forecast_json(s: dict[str, Any]) -> dict[str, Any]:
     """The JSON document of ``track forecast``."""
 
     def iso(t: datetime | None) -> str | None:
-        return t.isoformat() if t is not None else None
+        # the store keeps naive UTC: say so in the string (ISO 8601 with +00:00)
+        if t is None:
+            return None
+        return (t.astimezone(UTC) if t.tzinfo is not None else t.replace(tzinfo=UTC)).isoformat()
 
     tr = s["trend"]
     return {
         "axis": s["axis"],
+        "time_zone": "UTC",
         "threshold_rad": s["threshold_rad"],
         "recordings": s["recordings"],
         "used": s["used"],
@@ -258,7 +266,7 @@ def _print_forecast(s: dict[str, Any]) -> None:
 
     c = Console()
     mr = lambda x: "–" if x is None or not math.isfinite(x) else f"{1e3 * x:.3f} mrad"  # noqa: E731
-    day = lambda t: t.strftime("%Y-%m-%d %H:%M") if t is not None else "–"  # noqa: E731
+    day = lambda t: t.strftime("%Y-%m-%d %H:%M UTC") if t is not None else "–"  # noqa: E731
     conv = ""
     if s.get("unconverged"):
         conv = (
