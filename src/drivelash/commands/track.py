@@ -107,6 +107,7 @@ def run_ingest(
             f"{rep.stored} stored in {rep.batches} transactions, {rep.failed} failed), "
             f"{rep.skipped} already in the store"
             + (f"; {rep.retried} retried, {rep.still_failing} still failing" if rep.retried else "")
+            + (f"; {rep.replaced} replaced (content changed)" if rep.replaced else "")
             + (f" ({rep.redated} re-dated: the time specification changed)" if rep.redated else "")
             + f"; {rep.wall_s:.1f} s -> {store.name}"
         )

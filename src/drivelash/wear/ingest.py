@@ -66,6 +66,8 @@ class IngestReport:
     #: how many of those failed again.
     retried: int = 0
     still_failing: int = 0
+    #: Stored recordings replaced by a new content of their file (same axis and path).
+    replaced: int = 0
 
 
 def plan(
@@ -442,7 +444,9 @@ def _ingest(
         nonlocal batch, last
         if batch:
             again: list[tuple[str, str]] = []
-            rep.stored += store.commit_batch(batch, ids, rep.duplicates, again)
+            gone: list[str] = []
+            rep.stored += store.commit_batch(batch, ids, rep.duplicates, again, gone)
+            rep.replaced += len(gone)
             rep.retried += len(again)
             rep.still_failing += sum(status != "ok" for _, status in again)
             rep.batches += 1

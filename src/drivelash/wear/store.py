@@ -608,6 +608,7 @@ class Store:
         axis_ids: dict[str, int],
         duplicates: list[str] | None = None,
         retried: list[tuple[str, str]] | None = None,
+        replaced: list[str] | None = None,
     ) -> int:
         """Store a batch of results in ONE transaction; returns how many estimates were new or
         replaced a failed one.
@@ -621,6 +622,12 @@ class Store:
         part of an ingest). Every path a recording's content is seen under is kept
         (``recording_path``); a file with the content of a recording whose stored path still
         exists is a duplicate — the recording keeps its path, ``duplicates`` gets one line.
+
+        A file rewritten in place (a new recording whose axis and path are those of a stored
+        recording of other content) replaces that recording in the same transaction: its
+        estimates and paths are deleted (``replaced`` gets the path), so the trend never counts
+        the old and the new content of one file twice. The old recording stays only while its
+        content is still at another path it was seen under (that path becomes its own).
         """
         if not rows:
             return 0
@@ -674,6 +681,7 @@ class Store:
                         recording_t.c.content_hash.in_(fresh[k : k + 500])
                     )
                     rec_id.update({(int(x.axis_id), x.content_hash): int(x.id) for x in conn.execute(q)})
+                _replace_rewritten(conn, new_recs, rec_id, replaced)
             if moved:
                 # the same content under a new name or time stamp: keep the newest file facts
                 conn.execute(
@@ -988,6 +996,68 @@ class Store:
             q = q.where(alarm_t.c.cleared_at.is_(None))
         q = q.order_by(axis_t.c.name, alarm_t.c.kind, alarm_t.c.key)
         return [dict(r._mapping) for r in self._read(q)]
+
+
+def _replace_rewritten(
+    conn: sa.Connection,
+    new_recs: dict[tuple[int, str], EstimateRow],
+    rec_id: dict[tuple[int, str], int],
+    replaced: list[str] | None,
+) -> None:
+    """Drop the recordings that the just inserted ones replace: same axis and path, another
+    content hash (the file was rewritten, e.g. re-exported). See :meth:`Store.commit_batch`.
+
+    An unreadable file (``unreadable:`` marker, content unknown) replaces nothing.
+    """
+    new_ids = {rec_id[k] for k in new_recs}
+    by_path = {
+        (aid, r.path): rec_id[(aid, h)] for (aid, h), r in new_recs.items() if not h.startswith("unreadable:")
+    }
+    paths = sorted({p for _, p in by_path})
+    gone: list[int] = []
+    for k in range(0, len(paths), 500):
+        chunk = paths[k : k + 500]
+        q = sa.select(recording_t.c.id, recording_t.c.axis_id, recording_t.c.path).where(
+            recording_t.c.path.in_(chunk)
+        )
+        for x in conn.execute(q).all():
+            rid = int(x.id)
+            if rid in new_ids or (int(x.axis_id), x.path) not in by_path:
+                continue
+            others = conn.execute(
+                sa.select(recording_path_t.c.path, recording_path_t.c.size_bytes, recording_path_t.c.mtime_ns)
+                .where(recording_path_t.c.recording_id == rid, recording_path_t.c.path != x.path)
+                .order_by(recording_path_t.c.id.desc())
+            ).all()
+            alive = next((o for o in others if Path(o.path).is_file()), None)
+            if alive is not None:  # its content lives on under another name: keep it there
+                conn.execute(
+                    sa.update(recording_t)
+                    .where(recording_t.c.id == rid)
+                    .values(path=alive.path, size_bytes=alive.size_bytes, mtime_ns=alive.mtime_ns)
+                )
+            else:
+                gone.append(rid)
+                if replaced is not None:
+                    replaced.append(x.path)
+        # the rewritten path no longer shows the content of any other recording of the axis
+        q = (
+            sa.select(recording_path_t.c.id, recording_t.c.axis_id, recording_path_t.c.path,
+                      recording_path_t.c.recording_id)
+            .join(recording_t, recording_t.c.id == recording_path_t.c.recording_id)
+            .where(recording_path_t.c.path.in_(chunk))
+        )  # fmt: skip
+        stale = [
+            int(x.id)
+            for x in conn.execute(q).all()
+            if int(x.recording_id) not in new_ids and (int(x.axis_id), x.path) in by_path
+        ]
+        if stale:
+            conn.execute(sa.delete(recording_path_t).where(recording_path_t.c.id.in_(stale)))
+    if gone:
+        conn.execute(sa.delete(estimate_t).where(estimate_t.c.recording_id.in_(gone)))
+        conn.execute(sa.delete(recording_path_t).where(recording_path_t.c.recording_id.in_(gone)))
+        conn.execute(sa.delete(recording_t).where(recording_t.c.id.in_(gone)))
 
 
 def _finite(x: float | None) -> float | None:
