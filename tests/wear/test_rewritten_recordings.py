@@ -19,8 +19,9 @@ def _other_recording(small_fleet, exclude: set[str]) -> bytes:
     """Bytes of another good, excited recording of M01/X (another δ: a different estimate)."""
     truth = json.loads((small_fleet / "truth.json").read_text())["axes"]["M01/X"]["recordings"]
     rel = next(
-        r["file"] for r in truth[::-1] if r["excited"] and r["corrupt"] is None and r["file"].split("/")[-1]
-        not in exclude
+        r["file"]
+        for r in truth[::-1]
+        if r["excited"] and r["corrupt"] is None and r["file"].split("/")[-1] not in exclude
     )
     return (small_fleet / rel).read_bytes()
 

@@ -71,9 +71,7 @@ def _one_error_line(stderr: str) -> str:
 
 
 def _run(args: list[str], **env: str) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        args, capture_output=True, text=True, timeout=300, env={**os.environ, **env}
-    )
+    return subprocess.run(args, capture_output=True, text=True, timeout=300, env={**os.environ, **env})
 
 
 def test_ingest_while_another_writer_holds_the_lock_is_one_line_and_writes_nothing(tiny_fleet, tmp_path):

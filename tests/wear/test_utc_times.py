@@ -48,7 +48,9 @@ def test_forecast_json_times_are_explicit_utc(serial_store, tmp_path):
     stamps = [doc["last_recording"], doc["t0"], doc["crossing"], *doc["crossing_90"]]
     stamps += [e["time"] for e in doc["estimates"]] + [c["time"] for c in doc["change_points"]]
     stamps = [t for t in stamps if t is not None]
-    assert doc["crossing"] is not None and len(stamps) > 5 and all(t.endswith("+00:00") for t in stamps), stamps
+    assert doc["crossing"] is not None and len(stamps) > 5 and all(t.endswith("+00:00") for t in stamps), (
+        stamps
+    )
     # the same instants the store holds (naive UTC)
     stored = {r["path"]: r["start_time"] for r in st.estimates(axis)}
     for e in doc["estimates"]:

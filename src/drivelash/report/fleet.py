@@ -321,8 +321,7 @@ def render_fleet_report(
             f"unconverged ones whose stated 95 % uncertainty is at most {1e3 * UNCONVERGED_MAX_U95:g} mrad, "
             "weighted by it. "
             "Axes are sorted by the forecast time to their maintenance threshold. "
-            f"{TIMES_UTC} "
-            + rate_sentence(summaries),
+            f"{TIMES_UTC} " + rate_sentence(summaries),
         ],
         tables=[("", OVERVIEW_HEADER, overview_rows(summaries))],
     )
@@ -337,7 +336,9 @@ def render_fleet_report(
         overview.figures.append(chart)
     if alarms:
         alarm_rows = [[ax, a.kind, _day(a.data_time), a.message] for ax, a in alarms]
-        alarm_sec = Section("Alarms", tables=[("", ["axis", "kind", "data time (UTC)", "message"], alarm_rows)])
+        alarm_sec = Section(
+            "Alarms", tables=[("", ["axis", "kind", "data time (UTC)", "message"], alarm_rows)]
+        )
     else:
         alarm_sec = Section("Alarms", raw=['<p class="verdict-ok">No active alarm.</p>'])
     axes = Section(
