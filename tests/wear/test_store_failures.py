@@ -130,7 +130,8 @@ def test_readers_hitting_a_lock_say_so_in_one_line(tiny_fleet, tmp_path):
     for name, r in runs.items():
         assert r.returncode == 2, (name, r.stderr)
         line = _one_error_line(r.stderr)
-        assert str(db) in line and "database is locked" in line, (name, line)
+        assert f"{db}: database is locked by another writer for more than 0.5 s" in line, (name, line)
+        assert "nothing was written" in line and "run it again when the other one has finished" in line
     assert not (tmp_path / "f.json").exists() and not (tmp_path / "r.html").exists()
 
 
@@ -229,3 +230,38 @@ def test_two_first_ingests_at_once_on_a_new_sqlite_file(tiny_fleet, tmp_path):
     with sqlite3.connect(db) as c:
         assert c.execute("SELECT count(*), count(DISTINCT path) FROM recording").fetchone() == (n, n)
         assert c.execute("SELECT count(*) FROM estimate").fetchone() == (n,)
+
+
+def test_readers_meeting_a_lock_after_opening_the_store_say_so_in_one_line(
+    tiny_fleet, tmp_path, monkeypatch, capsys
+):
+    """The lock hits a read after the store was opened (e.g. a writer in exclusive mode that
+    started meanwhile): the same one line, no traceback, no output file."""
+    from drivelash import cli
+    from drivelash.wear import store as store_mod
+
+    fleet, _ = _fleet_copy(tiny_fleet, tmp_path / "f")
+    db = tmp_path / "w.sqlite"
+    assert _main(cli, ["track", "ingest", str(fleet / "fleet.toml"), "--db", str(db), "--workers", "1"]) == 0
+    migrate = store_mod.Store._migrate
+
+    def locked_later(self, create):
+        migrate(self, create)
+
+        def lock(conn, cursor, statement, *a):
+            if "FROM estimate" in statement or "FROM measurement" in statement:
+                raise sqlite3.OperationalError("database is locked")
+
+        sa.event.listen(self.engine, "before_cursor_execute", lock)
+
+    monkeypatch.setattr(store_mod.Store, "_migrate", locked_later)
+    capsys.readouterr()
+    for args in (
+        ["status"],
+        ["forecast", "M01/X", "--json", str(tmp_path / "f.json")],
+        ["report", "-o", str(tmp_path / "r.html")],
+    ):
+        assert _main(cli, ["track", *args, "--db", str(db)]) == 2, args
+        line = _one_error_line(capsys.readouterr().err)
+        assert f"{db}: database is locked by another writer for more than 30 s" in line, line
+    assert not (tmp_path / "f.json").exists() and not (tmp_path / "r.html").exists()
