@@ -164,7 +164,8 @@ def test_full_disk_during_ingest_is_one_line_rolled_back_and_the_store_stays_usa
     monkeypatch.setattr(store_mod.Store, "_migrate", no_room)
     assert _main(cli, args) == 2
     line = _one_error_line(capsys.readouterr().err)
-    assert f"{db}: database or disk is full" in line and "nothing of this ingest was written" in line
+    assert f"{db}: database or disk is full; the transaction was rolled back" in line
+    assert "nothing of this ingest was written" in line and "free space" in line
     assert _state(db) == before  # the transaction was rolled back: same rows
 
     monkeypatch.setattr(store_mod.Store, "_migrate", migrate)

@@ -449,12 +449,16 @@ class Store:
                 f"(another 'track ingest' running?); {consequence} — run it again when the other one "
                 "has finished"
             )
+        brief = _brief(exc)
         if kind == "full":
+            why = "" if brief.lower() == "database or disk is full" else f" ({brief})"
             return StoreError(
-                f"{self.name}: database or disk is full ({_brief(exc)}); {consequence} — free space "
-                "for the store and run it again"
+                f"{self.name}: database or disk is full{why}; the transaction was rolled back and "
+                f"{consequence} — free space for the store and run it again"
             )
-        return StoreError(f"{self.name}: the store failed ({_brief(exc)}); {consequence}")
+        return StoreError(
+            f"{self.name}: the store failed ({brief}); {consequence} — check the database, then run it again"
+        )
 
     @contextmanager
     def guard(self, consequence: str | Callable[[], str]) -> Iterator[None]:
