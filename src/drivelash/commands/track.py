@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 import os
-from datetime import datetime
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -107,6 +107,7 @@ def run_ingest(
             f"{rep.stored} stored in {rep.batches} transactions, {rep.failed} failed), "
             f"{rep.skipped} already in the store"
             + (f"; {rep.retried} retried, {rep.still_failing} still failing" if rep.retried else "")
+            + (f"; {rep.replaced} replaced (content changed)" if rep.replaced else "")
             + (f" ({rep.redated} re-dated: the time specification changed)" if rep.redated else "")
             + f"; {rep.wall_s:.1f} s -> {store.name}"
         )
@@ -118,7 +119,16 @@ def _summaries(db: str, fleet: Any = None) -> tuple[Any, list[dict[str, Any]]]:
     from drivelash.wear.store import Store
 
     store = Store(db, create=False)
-    return store, fleet_summary(store, fleet)
+    try:
+        with store.guard(_READ_ONLY):
+            return store, fleet_summary(store, fleet)
+    except BaseException:
+        store.close()
+        raise
+
+
+#: What a reader (status, forecast, report) that hits a store failure leaves behind.
+_READ_ONLY = "nothing was written (a read-only command)"
 
 
 def run_status(
@@ -140,7 +150,11 @@ def run_status(
     store, summ = _summaries(db, fleet)
     store.close()
     if not quiet:
-        table = Table(*OVERVIEW_HEADER, box=None, title=f"wear status — {escape(str(label or store.name))}")
+        table = Table(
+            *OVERVIEW_HEADER,
+            box=None,
+            title=f"wear status — {escape(str(label or store.name))} (times UTC)",
+        )
         for row, s in zip(overview_rows(summ), summ, strict=True):
             style = "red" if s["crossed"] or s["alarms"] else None
             table.add_row(*(escape(str(x)) for x in row), style=style)
@@ -160,11 +174,15 @@ def forecast_json(s: dict[str, Any]) -> dict[str, Any]:
     """The JSON document of ``track forecast``."""
 
     def iso(t: datetime | None) -> str | None:
-        return t.isoformat() if t is not None else None
+        # the store keeps naive UTC: say so in the string (ISO 8601 with +00:00)
+        if t is None:
+            return None
+        return (t.astimezone(UTC) if t.tzinfo is not None else t.replace(tzinfo=UTC)).isoformat()
 
     tr = s["trend"]
     return {
         "axis": s["axis"],
+        "time_zone": "UTC",
         "threshold_rad": s["threshold_rad"],
         "recordings": s["recordings"],
         "used": s["used"],
@@ -227,9 +245,10 @@ def run_forecast(
         )
         store = Store(db, create=False)
         try:
-            store.axis_id(axis)
-            a = next(x for x in judged_axes(store, fleet) if x["name"] == axis)
-            s = axis_summary(store, a)
+            with store.guard(_READ_ONLY):
+                store.axis_id(axis)
+                a = next(x for x in judged_axes(store, fleet) if x["name"] == axis)
+                s = axis_summary(store, a)
         finally:
             store.close()
         doc = forecast_json(s)
@@ -248,7 +267,7 @@ def _print_forecast(s: dict[str, Any]) -> None:
 
     c = Console()
     mr = lambda x: "–" if x is None or not math.isfinite(x) else f"{1e3 * x:.3f} mrad"  # noqa: E731
-    day = lambda t: t.strftime("%Y-%m-%d %H:%M") if t is not None else "–"  # noqa: E731
+    day = lambda t: t.strftime("%Y-%m-%d %H:%M UTC") if t is not None else "–"  # noqa: E731
     conv = ""
     if s.get("unconverged"):
         conv = (
@@ -297,8 +316,9 @@ def run_report(
         store, summ = _summaries(db, fleet)
         try:
             meas: dict[str, list[dict[str, Any]]] = {}
-            for m in store.measurements():
-                meas.setdefault(m["axis"], []).append(m)
+            with store.guard(_READ_ONLY):
+                for m in store.measurements():
+                    meas.setdefault(m["axis"], []).append(m)
         finally:
             store.close()
         text = render_fleet_report(summ, meas, title="drivelash fleet wear report", store=label or store.name)

@@ -68,8 +68,8 @@ OVERVIEW_HEADER = [
     "δ now [mrad]",
     "threshold [mrad]",
     "model",
-    "crossing (expected)",
-    "90 % interval",
+    "expected crossing (UTC)",
+    "90 % interval (UTC)",
     "days left",
     "used/recordings",
     "unexcited",
@@ -80,6 +80,10 @@ OVERVIEW_HEADER = [
 
 def _dates(t0: datetime, days: np.ndarray) -> list[datetime]:
     return [t0 + timedelta(days=float(d)) for d in days]
+
+
+#: The sentence that says which clock the report's dates are on (stored times are naive UTC).
+TIMES_UTC = "All dates and times are UTC (recording starts, forecast crossings and their intervals)."
 
 
 def _axis_figure(s: dict[str, Any], meas: list[dict[str, Any]]) -> Figure:
@@ -208,6 +212,7 @@ def _axis_figure(s: dict[str, Any], meas: list[dict[str, Any]]) -> Figure:
             ),
             fontsize=10,
         )
+        ax.set_xlabel("recording start (UTC)")
         ax.grid(alpha=0.3)
         ax.xaxis.set_major_formatter(mdates.ConciseDateFormatter(ax.xaxis.get_major_locator()))
         ax.legend(loc="upper left", fontsize=7, ncol=2, framealpha=0.85)
@@ -248,7 +253,7 @@ def _crossing_chart(summaries: list[dict[str, Any]]) -> Figure | None:
                 ax.plot([x], [i], "o", color=color)
         ax.set_yticks(range(len(pts)), [s["axis"] for s in pts], fontsize=7)
         ax.invert_yaxis()
-        ax.set_xlabel("forecast threshold crossing (bar: 90 % interval; red: alarm)")
+        ax.set_xlabel("forecast threshold crossing, UTC (bar: 90 % interval; red: alarm)")
         import matplotlib.dates as mdates
 
         ax.xaxis.set_major_formatter(mdates.ConciseDateFormatter(ax.xaxis.get_major_locator()))
@@ -316,7 +321,7 @@ def render_fleet_report(
             f"unconverged ones whose stated 95 % uncertainty is at most {1e3 * UNCONVERGED_MAX_U95:g} mrad, "
             "weighted by it. "
             "Axes are sorted by the forecast time to their maintenance threshold. "
-            + rate_sentence(summaries),
+            f"{TIMES_UTC} " + rate_sentence(summaries),
         ],
         tables=[("", OVERVIEW_HEADER, overview_rows(summaries))],
     )
@@ -331,7 +336,9 @@ def render_fleet_report(
         overview.figures.append(chart)
     if alarms:
         alarm_rows = [[ax, a.kind, _day(a.data_time), a.message] for ax, a in alarms]
-        alarm_sec = Section("Alarms", tables=[("", ["axis", "kind", "data time", "message"], alarm_rows)])
+        alarm_sec = Section(
+            "Alarms", tables=[("", ["axis", "kind", "data time (UTC)", "message"], alarm_rows)]
+        )
     else:
         alarm_sec = Section("Alarms", raw=['<p class="verdict-ok">No active alarm.</p>'])
     axes = Section(

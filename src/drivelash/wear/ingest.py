@@ -66,6 +66,8 @@ class IngestReport:
     #: how many of those failed again.
     retried: int = 0
     still_failing: int = 0
+    #: Stored recordings replaced by a new content of their file (same axis and path).
+    replaced: int = 0
 
 
 def plan(
@@ -388,10 +390,23 @@ def ingest(
     """
     t0 = time.perf_counter()
     runner = DaskRunner(dask, workers) if isinstance(dask, str) else dask  # connect before writing
+    rep = IngestReport(axes=[a.name for a in fleet.axes])
     try:
-        return _ingest(
-            fleet, store, runner, workers, batch_size, batch_seconds, progress, compute, update_alarms, t0
-        )
+        # a lock held too long by another writer, a full disk: one line saying what is stored
+        with store.guard(lambda: _what_was_written(rep)):
+            return _ingest(
+                fleet,
+                store,
+                runner,
+                workers,
+                batch_size,
+                batch_seconds,
+                progress,
+                compute,
+                update_alarms,
+                t0,
+                rep,
+            )
     finally:
         if isinstance(dask, str) and runner is not None:
             runner.close()
@@ -408,14 +423,12 @@ def _ingest(
     compute: Callable[[RecordingTask], EstimateRow],
     update_alarms: bool,
     t0: float,
+    rep: IngestReport,
 ) -> IngestReport:
     check_files(fleet)  # a file of two axes, no file datable: error, nothing written
     changes = redate(fleet, store)  # a recording that cannot be re-dated: error, nothing written
-    warnings: list[str] = []
-    ids, tasks, skipped = plan(fleet, store, warnings)
-    rep = IngestReport(
-        planned=len(tasks), skipped=skipped, axes=[a.name for a in fleet.axes], warnings=warnings
-    )
+    ids, tasks, skipped = plan(fleet, store, rep.warnings)
+    rep.planned, rep.skipped = len(tasks), skipped
     if runner is not None:
         results = runner.run(tasks, compute)
     elif workers > 1 and len(tasks) > 1:
@@ -431,7 +444,9 @@ def _ingest(
         nonlocal batch, last
         if batch:
             again: list[tuple[str, str]] = []
-            rep.stored += store.commit_batch(batch, ids, rep.duplicates, again)
+            gone: list[str] = []
+            rep.stored += store.commit_batch(batch, ids, rep.duplicates, again, gone)
+            rep.replaced += len(gone)
             rep.retried += len(again)
             rep.still_failing += sum(status != "ok" for _, status in again)
             rep.batches += 1
@@ -456,6 +471,18 @@ def _ingest(
         refresh_alarms(store, [a.name for a in fleet.axes])
     rep.wall_s = time.perf_counter() - t0
     return rep
+
+
+def _what_was_written(rep: IngestReport) -> str:
+    """What an ingest that stopped on a store failure leaves stored (for the one-line error)."""
+    if rep.batches == 0:
+        if rep.redated:
+            return f"no estimate of this ingest was written (its {rep.redated} new recording dates were)"
+        return "nothing of this ingest was written"
+    return (
+        f"the {rep.stored} estimates of its first {rep.batches} transactions stay stored, the rest "
+        "was not written"
+    )
 
 
 def files_of(fleet: Fleet) -> list[Path]:

@@ -21,9 +21,12 @@ load), also in rad, so trend plots show it next to the recording-based estimates
 
 from __future__ import annotations
 
+import errno
 import json
 import math
-from collections.abc import Iterable, Sequence
+import os
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -39,6 +42,13 @@ from drivelash.errors import DrivelashError
 __all__ = ["EstimateRow", "Store", "StoreError", "utc_naive"]
 
 MIGRATIONS = Path(__file__).parent / "migrations"
+#: Seconds an SQLite writer waits for another writer's lock before giving up [s] (the
+#: environment variable :data:`BUSY_TIMEOUT_ENV` overrides it, e.g. for tests).
+BUSY_TIMEOUT_S = 30.0
+BUSY_TIMEOUT_ENV = "DRIVELASH_STORE_BUSY_TIMEOUT"
+#: Key of the PostgreSQL advisory lock every write transaction (migrations included) holds:
+#: writers of one database run one after the other, as on SQLite (``BEGIN IMMEDIATE``).
+PG_WRITE_LOCK = 0x64726C77  # "drlw"
 #: Units a measurement may carry, and their factor to mm (rad needs no transmission).
 LENGTH_UNITS = {"mm": 1.0, "um": 1e-3, "µm": 1e-3, "m": 1e3}
 
@@ -264,6 +274,37 @@ def _show(url: sa.URL) -> str:
     return url.render_as_string(hide_password=True)
 
 
+def _busy_timeout(given: float | None) -> float:
+    """The SQLite busy timeout [s]: ``given``, else ``$DRIVELASH_STORE_BUSY_TIMEOUT``, else 30 s."""
+    if given is None:
+        env = os.environ.get(BUSY_TIMEOUT_ENV)
+        if env is None:
+            return BUSY_TIMEOUT_S
+        try:
+            given = float(env)
+        except ValueError:
+            given = math.nan
+        if not (math.isfinite(given) and given >= 0):
+            raise StoreError(f"{BUSY_TIMEOUT_ENV}={env!r}: must be a number of seconds >= 0")
+    return float(given)
+
+
+def _kind(exc: BaseException) -> str | None:
+    """``"locked"``, ``"full"``, ``"other"`` (another database error) or None (no store failure)."""
+    orig = getattr(exc, "orig", None) or exc
+    if isinstance(orig, OSError) and orig.errno in (errno.ENOSPC, errno.EDQUOT):
+        return "full"
+    if not isinstance(exc, DBAPIError):
+        return None
+    text = str(orig).lower()
+    code = getattr(orig, "sqlstate", None) or getattr(orig, "pgcode", None)
+    if "database is locked" in text or "database table is locked" in text:
+        return "locked"
+    if "database or disk is full" in text or code in ("53100", "53200"):
+        return "full"
+    return "other"
+
+
 def _brief(exc: BaseException) -> str:
     """First line of a driver error, without SQLAlchemy's background links."""
     orig = getattr(exc, "orig", None) or exc
@@ -284,6 +325,9 @@ class Store:
         SQLite file is an error and the schema must already be at ``head``.
     connect_timeout : float
         Seconds to wait for a server [s].
+    busy_timeout : float, optional
+        Seconds an SQLite writer waits for another writer's lock [s] (default
+        :data:`BUSY_TIMEOUT_S`, or the environment variable ``DRIVELASH_STORE_BUSY_TIMEOUT``).
 
     Raises
     ------
@@ -291,10 +335,19 @@ class Store:
         Unreachable server, missing driver, bad URL, unreadable file — one line.
     """
 
-    def __init__(self, db: str | Path, *, create: bool = True, connect_timeout: float = 10.0) -> None:
+    def __init__(
+        self,
+        db: str | Path,
+        *,
+        create: bool = True,
+        connect_timeout: float = 10.0,
+        busy_timeout: float | None = None,
+    ) -> None:
         self.url = _url(db)
         self.name = _show(self.url)
+        self.busy_timeout = _busy_timeout(busy_timeout)
         backend = self.url.get_backend_name()
+        self.backend = backend
         kw: dict[str, Any] = {}
         if backend == "sqlite":
             path = self.url.database
@@ -307,7 +360,7 @@ class Store:
                     )
                 if not p.parent.is_dir():
                     raise StoreError(f"{p}: directory {p.parent} does not exist")
-            kw["connect_args"] = {"timeout": 30.0}
+            kw["connect_args"] = {"timeout": self.busy_timeout}
         elif backend == "postgresql":
             kw["connect_args"] = {"connect_timeout": max(1, int(math.ceil(connect_timeout)))}
         try:
@@ -318,8 +371,12 @@ class Store:
             event.listen(self.engine, "connect", _sqlite_pragmas)
         try:
             self._migrate(create)
-        except (OperationalError, DBAPIError) as exc:
+        except (OperationalError, DBAPIError, OSError) as exc:
             self.engine.dispose()
+            if _kind(exc) in ("locked", "full"):
+                raise self.failure(exc, "nothing was written") from None  # type: ignore[misc]
+            if isinstance(exc, OSError):
+                raise
             raise StoreError(f"--db {self.name}: cannot open the store ({_brief(exc)})") from None
 
     # -- set-up ----------------------------------------------------------------------------
@@ -341,9 +398,80 @@ class Store:
                 f"--db {self.name}: schema revision {current} is not the current {head} "
                 "(run `drivelash track ingest` to migrate)"
             )
-        with self.engine.begin() as conn:
+        with self._write() as conn:
+            # under the write lock: a process that started at the same time on the same empty
+            # database may have created the schema meanwhile (it then is at head already)
+            if MigrationContext.configure(conn).get_current_revision() == head:
+                return
             cfg.attributes["connection"] = conn
             command.upgrade(cfg, "head")
+
+    @contextmanager
+    def _write(self) -> Iterator[sa.Connection]:
+        """One write transaction holding the store's write lock from its first statement.
+
+        SQLite: ``BEGIN IMMEDIATE`` (the file's write lock, waited for up to
+        :attr:`busy_timeout`); PostgreSQL: the transaction-scoped advisory lock
+        :data:`PG_WRITE_LOCK`. Every write (schema migration included) goes through here, so
+        two processes on one store never interleave a read-then-insert (two first ingests
+        on an empty database both creating the schema, or both inserting one recording).
+        """
+        with self.engine.begin() as conn:
+            if self.backend == "sqlite":
+                conn.exec_driver_sql("BEGIN IMMEDIATE")
+            elif self.backend == "postgresql":
+                conn.execute(sa.text("SELECT pg_advisory_xact_lock(:k)"), {"k": PG_WRITE_LOCK})
+            yield conn
+
+    def failure(self, exc: BaseException, consequence: str) -> StoreError | None:
+        """The one-line :class:`StoreError` for an operational failure of the store, else None.
+
+        Parameters
+        ----------
+        exc : BaseException
+            What the driver raised: a lock held by another writer beyond :attr:`busy_timeout`,
+            a full database or disk (SQLite ``SQLITE_FULL``, PostgreSQL ``disk_full``, an
+            ``OSError`` ENOSPC), or another database error.
+        consequence : str
+            What became of the work, e.g. ``"nothing of this ingest was written"``.
+
+        Returns
+        -------
+        StoreError or None
+            None for an exception that is no store failure (a bug: left to propagate).
+        """
+        kind = _kind(exc)
+        if kind is None:
+            return None
+        if kind == "locked":
+            return StoreError(
+                f"{self.name}: database is locked by another writer for more than {self.busy_timeout:g} s "
+                f"(another 'track ingest' running?); {consequence} — run it again when the other one "
+                "has finished"
+            )
+        brief = _brief(exc)
+        if kind == "full":
+            why = "" if brief.lower() == "database or disk is full" else f" ({brief})"
+            return StoreError(
+                f"{self.name}: database or disk is full{why}; the transaction was rolled back and "
+                f"{consequence} — free space for the store and run it again"
+            )
+        return StoreError(
+            f"{self.name}: the store failed ({brief}); {consequence} — check the database, then run it again"
+        )
+
+    @contextmanager
+    def guard(self, consequence: str | Callable[[], str]) -> Iterator[None]:
+        """Turn an operational failure of the store inside the block into a one-line
+        :class:`StoreError` (:meth:`failure`); ``consequence`` (or its value when called at
+        the failure) says what became of the work."""
+        try:
+            yield
+        except (DBAPIError, OSError) as exc:
+            err = self.failure(exc, consequence() if callable(consequence) else consequence)
+            if err is None:
+                raise
+            raise err from None
 
     def close(self) -> None:
         """Release the connection pool."""
@@ -367,7 +495,7 @@ class Store:
         """Insert or update the axes of a fleet (``AxisSpec``-like objects); returns name → id."""
         ids: dict[str, int] = {}
         now = _now()
-        with self.engine.begin() as conn:
+        with self._write() as conn:
             for a in axes:
                 vals = {
                     "name": a.name,
@@ -464,7 +592,7 @@ class Store:
         if not changes:
             return 0
         moved = 0
-        with self.engine.begin() as conn:
+        with self._write() as conn:
             for rid, start, h in changes:
                 old = conn.execute(
                     sa.select(recording_t.c.start_time).where(recording_t.c.id == rid)
@@ -484,6 +612,7 @@ class Store:
         axis_ids: dict[str, int],
         duplicates: list[str] | None = None,
         retried: list[tuple[str, str]] | None = None,
+        replaced: list[str] | None = None,
     ) -> int:
         """Store a batch of results in ONE transaction; returns how many estimates were new or
         replaced a failed one.
@@ -497,12 +626,18 @@ class Store:
         part of an ingest). Every path a recording's content is seen under is kept
         (``recording_path``); a file with the content of a recording whose stored path still
         exists is a duplicate — the recording keeps its path, ``duplicates`` gets one line.
+
+        A file rewritten in place (a new recording whose axis and path are those of a stored
+        recording of other content) replaces that recording in the same transaction: its
+        estimates and paths are deleted (``replaced`` gets the path), so the trend never counts
+        the old and the new content of one file twice. The old recording stays only while its
+        content is still at another path it was seen under (that path becomes its own).
         """
         if not rows:
             return 0
         now = _now()
         keyed = [(axis_ids[r.axis], r) for r in rows]  # an unknown axis fails before any write
-        with self.engine.begin() as conn:
+        with self._write() as conn:
             hashes = sorted({r.content_hash for _, r in keyed})
             rec_id: dict[tuple[int, str], int] = {}
             rec_path: dict[tuple[int, str], str] = {}
@@ -550,6 +685,7 @@ class Store:
                         recording_t.c.content_hash.in_(fresh[k : k + 500])
                     )
                     rec_id.update({(int(x.axis_id), x.content_hash): int(x.id) for x in conn.execute(q)})
+                _replace_rewritten(conn, new_recs, rec_id, replaced)
             if moved:
                 # the same content under a new name or time stamp: keep the newest file facts
                 conn.execute(
@@ -773,7 +909,7 @@ class Store:
             raise StoreError(f"measurement std: must be finite and >= 0, got {std!r}")
         t = utc_naive(time)
         k = key if key is not None else t.isoformat()
-        with self.engine.begin() as conn:
+        with self._write() as conn:
             aid = self.axis_id(axis, conn)
             old = conn.execute(
                 sa.select(measurement_t.c.id).where(
@@ -826,7 +962,7 @@ class Store:
         """Make the axis's active alarms equal ``alarms`` (objects with kind, key, message,
         data_time): new ones are raised, ones no longer present are cleared (kept as history)."""
         now = _now()
-        with self.engine.begin() as conn:
+        with self._write() as conn:
             aid = self.axis_id(axis, conn)
             rows = conn.execute(sa.select(alarm_t).where(alarm_t.c.axis_id == aid)).all()
             have = {(r.kind, r.key): r for r in rows}
@@ -864,6 +1000,68 @@ class Store:
             q = q.where(alarm_t.c.cleared_at.is_(None))
         q = q.order_by(axis_t.c.name, alarm_t.c.kind, alarm_t.c.key)
         return [dict(r._mapping) for r in self._read(q)]
+
+
+def _replace_rewritten(
+    conn: sa.Connection,
+    new_recs: dict[tuple[int, str], EstimateRow],
+    rec_id: dict[tuple[int, str], int],
+    replaced: list[str] | None,
+) -> None:
+    """Drop the recordings that the just inserted ones replace: same axis and path, another
+    content hash (the file was rewritten, e.g. re-exported). See :meth:`Store.commit_batch`.
+
+    An unreadable file (``unreadable:`` marker, content unknown) replaces nothing.
+    """
+    new_ids = {rec_id[k] for k in new_recs}
+    by_path = {
+        (aid, r.path): rec_id[(aid, h)] for (aid, h), r in new_recs.items() if not h.startswith("unreadable:")
+    }
+    paths = sorted({p for _, p in by_path})
+    gone: list[int] = []
+    for k in range(0, len(paths), 500):
+        chunk = paths[k : k + 500]
+        q = sa.select(recording_t.c.id, recording_t.c.axis_id, recording_t.c.path).where(
+            recording_t.c.path.in_(chunk)
+        )
+        for x in conn.execute(q).all():
+            rid = int(x.id)
+            if rid in new_ids or (int(x.axis_id), x.path) not in by_path:
+                continue
+            others = conn.execute(
+                sa.select(recording_path_t.c.path, recording_path_t.c.size_bytes, recording_path_t.c.mtime_ns)
+                .where(recording_path_t.c.recording_id == rid, recording_path_t.c.path != x.path)
+                .order_by(recording_path_t.c.id.desc())
+            ).all()
+            alive = next((o for o in others if Path(o.path).is_file()), None)
+            if alive is not None:  # its content lives on under another name: keep it there
+                conn.execute(
+                    sa.update(recording_t)
+                    .where(recording_t.c.id == rid)
+                    .values(path=alive.path, size_bytes=alive.size_bytes, mtime_ns=alive.mtime_ns)
+                )
+            else:
+                gone.append(rid)
+                if replaced is not None:
+                    replaced.append(x.path)
+        # the rewritten path no longer shows the content of any other recording of the axis
+        q = (
+            sa.select(recording_path_t.c.id, recording_t.c.axis_id, recording_path_t.c.path,
+                      recording_path_t.c.recording_id)
+            .join(recording_t, recording_t.c.id == recording_path_t.c.recording_id)
+            .where(recording_path_t.c.path.in_(chunk))
+        )  # fmt: skip
+        stale = [
+            int(x.id)
+            for x in conn.execute(q).all()
+            if int(x.recording_id) not in new_ids and (int(x.axis_id), x.path) in by_path
+        ]
+        if stale:
+            conn.execute(sa.delete(recording_path_t).where(recording_path_t.c.id.in_(stale)))
+    if gone:
+        conn.execute(sa.delete(estimate_t).where(estimate_t.c.recording_id.in_(gone)))
+        conn.execute(sa.delete(recording_path_t).where(recording_path_t.c.recording_id.in_(gone)))
+        conn.execute(sa.delete(recording_t).where(recording_t.c.id.in_(gone)))
 
 
 def _finite(x: float | None) -> float | None:

@@ -1,0 +1,268 @@
+"""Operational failures of the store: a lock held by another writer, a full disk, two first
+ingests at once. Each is one line naming the store, exit 2, nothing half-written."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import sqlalchemy as sa
+
+from drivelash.wear.store import Store
+
+from .conftest import ingest_cmd
+
+#: One machine, two axes, three short recordings each: enough for two batches and a trend.
+TINY = {"machines": 1, "axes": 2, "recordings": 3, "seed": 7, "duration": 4.0}
+
+
+@pytest.fixture(scope="module")
+def tiny_fleet(tmp_path_factory) -> Path:
+    """A tiny clean simulated fleet (no corrupt recordings: a good ingest exits 0)."""
+    from drivelash.sim.fleet import simulate_fleet
+
+    out = tmp_path_factory.mktemp("tiny") / "fleet"
+    simulate_fleet(out, **{k: v for k, v in TINY.items() if k != "duration"}, duration=TINY["duration"])
+    truth = json.loads((out / "truth.json").read_text())
+    for ax in truth["axes"].values():
+        for rec in ax["recordings"]:
+            if rec["corrupt"]:
+                (out / rec["file"]).unlink()
+    assert len(_files(out)) >= 4
+    return out
+
+
+def _files(fleet: Path) -> list[Path]:
+    return sorted((fleet / "recordings").rglob("*.parquet"))
+
+
+def _fleet_copy(src: Path, dst: Path, hold_back: int = 0) -> tuple[Path, list[tuple[Path, Path]]]:
+    """A private copy of the fleet; ``hold_back`` recordings of M01/X moved aside (to add later)."""
+    shutil.copytree(src, dst)
+    held = []
+    files = sorted((dst / "recordings").rglob("M01-X_*"))
+    for p in files[len(files) - hold_back :] if hold_back else []:
+        aside = dst / (p.name + ".held")
+        p.rename(aside)
+        held.append((aside, p))
+    return dst, held
+
+
+def _state(db: Path) -> tuple[list[tuple], list[tuple]]:
+    """Every row of the recording and estimate tables (what must stay as it was)."""
+    with sqlite3.connect(db) as c:
+        rec = c.execute("SELECT id, axis_id, content_hash, path FROM recording ORDER BY id").fetchall()
+        est = c.execute("SELECT id, recording_id, status, delta FROM estimate ORDER BY id").fetchall()
+    return rec, est
+
+
+def _one_error_line(stderr: str) -> str:
+    lines = [x for x in stderr.strip().splitlines() if x.strip()]
+    assert "Traceback" not in stderr, stderr
+    assert len(lines) == 1 and lines[0].startswith("drivelash: error: "), stderr
+    return lines[0]
+
+
+def _run(args: list[str], **env: str) -> subprocess.CompletedProcess:
+    return subprocess.run(args, capture_output=True, text=True, timeout=300, env={**os.environ, **env})
+
+
+def test_ingest_while_another_writer_holds_the_lock_is_one_line_and_writes_nothing(tiny_fleet, tmp_path):
+    fleet, held = _fleet_copy(tiny_fleet, tmp_path / "f", hold_back=1)
+    db = tmp_path / "w.sqlite"
+    assert _run(ingest_cmd(fleet / "fleet.toml", db)).returncode == 0
+    for aside, p in held:  # a new recording to store
+        aside.rename(p)
+    before = _state(db)
+    other = sqlite3.connect(db, isolation_level=None)  # another writer holding the write lock
+    other.execute("BEGIN IMMEDIATE")
+    try:
+        t0 = time.monotonic()
+        r = _run(ingest_cmd(fleet / "fleet.toml", db), DRIVELASH_STORE_BUSY_TIMEOUT="1")
+        waited = time.monotonic() - t0
+    finally:
+        other.execute("ROLLBACK")
+        other.close()
+    assert r.returncode == 2, r.stderr
+    line = _one_error_line(r.stderr)
+    assert f"{db}: database is locked by another writer for more than 1 s" in line
+    assert "nothing of this ingest was written" in line and "run it again" in line
+    assert waited < 60  # the lowered timeout was used, not 30 s per statement
+    assert _state(db) == before
+    # readers in WAL mode are not blocked by a writer, and once it is gone the ingest resumes
+    assert _run(ingest_cmd(fleet / "fleet.toml", db)).returncode == 0
+    rec, est = _state(db)
+    assert rec[: len(before[0])] == before[0] and len(rec) == len(before[0]) + 1 and len(est) == len(rec)
+
+
+def test_readers_hitting_a_lock_say_so_in_one_line(tiny_fleet, tmp_path):
+    fleet, _ = _fleet_copy(tiny_fleet, tmp_path / "f")
+    db = tmp_path / "w.sqlite"
+    assert _run(ingest_cmd(fleet / "fleet.toml", db)).returncode == 0
+    # a writer in exclusive locking mode keeps even WAL readers out
+    other = sqlite3.connect(db, isolation_level=None)
+    other.execute("PRAGMA locking_mode=EXCLUSIVE")
+    other.execute("BEGIN EXCLUSIVE")
+    other.execute("UPDATE axis SET horizon_days = horizon_days")
+    try:
+        cli = [sys.executable, "-m", "drivelash.cli", "track"]
+        runs = {
+            "status": _run([*cli, "status", "--db", str(db)], DRIVELASH_STORE_BUSY_TIMEOUT="0.5"),
+            "forecast": _run(
+                [*cli, "forecast", "M01/X", "--db", str(db), "--json", str(tmp_path / "f.json")],
+                DRIVELASH_STORE_BUSY_TIMEOUT="0.5",
+            ),
+            "report": _run(
+                [*cli, "report", "--db", str(db), "-o", str(tmp_path / "r.html")],
+                DRIVELASH_STORE_BUSY_TIMEOUT="0.5",
+            ),
+        }
+    finally:
+        other.execute("ROLLBACK")
+        other.close()
+    for name, r in runs.items():
+        assert r.returncode == 2, (name, r.stderr)
+        line = _one_error_line(r.stderr)
+        assert f"{db}: database is locked by another writer for more than 0.5 s" in line, (name, line)
+        assert "nothing was written" in line and "run it again when the other one has finished" in line
+    assert not (tmp_path / "f.json").exists() and not (tmp_path / "r.html").exists()
+
+
+def test_full_disk_during_ingest_is_one_line_rolled_back_and_the_store_stays_usable(
+    tiny_fleet, tmp_path, monkeypatch, capsys
+):
+    from drivelash import cli
+    from drivelash.wear import store as store_mod
+
+    fleet, held = _fleet_copy(tiny_fleet, tmp_path / "f", hold_back=2)
+    db = tmp_path / "w.sqlite"
+    args = ["track", "ingest", str(fleet / "fleet.toml"), "--db", str(db), "--workers", "1"]
+    assert _main(cli, args) == 0
+    for aside, p in held:
+        aside.rename(p)
+    before = _state(db)
+    capsys.readouterr()
+
+    migrate = store_mod.Store._migrate
+
+    def no_room(self, create):  # every INSERT of an estimate meets SQLite's real "disk full" error
+        migrate(self, create)
+
+        def full(conn, cursor, statement, *a):
+            if statement.lstrip().upper().startswith("INSERT INTO ESTIMATE"):
+                raise sqlite3.OperationalError("database or disk is full")
+
+        sa.event.listen(self.engine, "before_cursor_execute", full)
+
+    monkeypatch.setattr(store_mod.Store, "_migrate", no_room)
+    assert _main(cli, args) == 2
+    line = _one_error_line(capsys.readouterr().err)
+    assert f"{db}: database or disk is full; the transaction was rolled back" in line
+    assert "nothing of this ingest was written" in line and "free space" in line
+    assert _state(db) == before  # the transaction was rolled back: same rows
+
+    monkeypatch.setattr(store_mod.Store, "_migrate", migrate)
+    assert _main(cli, args) == 0
+    rec, est = _state(db)
+    assert rec[: len(before[0])] == before[0] and len(rec) == len(before[0]) + 2 and len(est) == len(rec)
+
+
+def _main(cli, args: list[str]) -> int:
+    """Exit code of ``drivelash ARGS`` run in this process."""
+    try:
+        cli.main(args)
+    except SystemExit as ex:
+        return int(ex.code or 0)
+    return 0
+
+
+def test_enospc_while_writing_is_one_line(tmp_path, monkeypatch):
+    """An OSError ENOSPC out of a write (e.g. a journal file) is the same one-line error."""
+    import errno
+
+    from drivelash.errors import DrivelashError
+
+    st = Store(tmp_path / "w.sqlite")
+    with pytest.raises(DrivelashError) as ei, st.guard("nothing was written"):
+        raise OSError(errno.ENOSPC, "No space left on device")
+    assert str(ei.value).startswith(f"{st.name}: database or disk is full (")
+    with pytest.raises(KeyError), st.guard("x"):  # not a store failure: left alone
+        raise KeyError("bug")
+
+
+def test_two_first_ingests_at_once_on_an_empty_postgresql_database(tiny_fleet, pg_url):
+    procs = [
+        subprocess.Popen(ingest_cmd(tiny_fleet / "fleet.toml", pg_url), stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True)
+        for _ in range(2)
+    ]  # fmt: skip
+    outs = [p.communicate(timeout=300) for p in procs]
+    for p, (_, err) in zip(procs, outs, strict=True):
+        assert p.returncode == 0, err
+        assert "Traceback" not in err
+    st = Store(pg_url, create=False)
+    try:
+        rows = st.estimates()
+        n = len(_files(tiny_fleet))
+        assert len(rows) == n and len({r["path"] for r in rows}) == n
+        assert st.counts()["recording"] == n and st.counts()["axis"] == TINY["machines"] * TINY["axes"]
+    finally:
+        st.close()
+
+
+def test_two_first_ingests_at_once_on_a_new_sqlite_file(tiny_fleet, tmp_path):
+    db = tmp_path / "w.sqlite"
+    procs = [
+        subprocess.Popen(ingest_cmd(tiny_fleet / "fleet.toml", db), stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True)
+        for _ in range(2)
+    ]  # fmt: skip
+    outs = [p.communicate(timeout=300) for p in procs]
+    for p, (_, err) in zip(procs, outs, strict=True):
+        assert p.returncode == 0, err
+    n = len(_files(tiny_fleet))
+    with sqlite3.connect(db) as c:
+        assert c.execute("SELECT count(*), count(DISTINCT path) FROM recording").fetchone() == (n, n)
+        assert c.execute("SELECT count(*) FROM estimate").fetchone() == (n,)
+
+
+def test_readers_meeting_a_lock_after_opening_the_store_say_so_in_one_line(
+    tiny_fleet, tmp_path, monkeypatch, capsys
+):
+    """The lock hits a read after the store was opened (e.g. a writer in exclusive mode that
+    started meanwhile): the same one line, no traceback, no output file."""
+    from drivelash import cli
+    from drivelash.wear import store as store_mod
+
+    fleet, _ = _fleet_copy(tiny_fleet, tmp_path / "f")
+    db = tmp_path / "w.sqlite"
+    assert _main(cli, ["track", "ingest", str(fleet / "fleet.toml"), "--db", str(db), "--workers", "1"]) == 0
+    migrate = store_mod.Store._migrate
+
+    def locked_later(self, create):
+        migrate(self, create)
+
+        def lock(conn, cursor, statement, *a):
+            if "FROM estimate" in statement or "FROM measurement" in statement:
+                raise sqlite3.OperationalError("database is locked")
+
+        sa.event.listen(self.engine, "before_cursor_execute", lock)
+
+    monkeypatch.setattr(store_mod.Store, "_migrate", locked_later)
+    capsys.readouterr()
+    for args in (
+        ["status"],
+        ["forecast", "M01/X", "--json", str(tmp_path / "f.json")],
+        ["report", "-o", str(tmp_path / "r.html")],
+    ):
+        assert _main(cli, ["track", *args, "--db", str(db)]) == 2, args
+        line = _one_error_line(capsys.readouterr().err)
+        assert f"{db}: database is locked by another writer for more than 30 s" in line, line
+    assert not (tmp_path / "f.json").exists() and not (tmp_path / "r.html").exists()
