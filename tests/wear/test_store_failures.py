@@ -266,3 +266,60 @@ def test_readers_meeting_a_lock_after_opening_the_store_say_so_in_one_line(
         line = _one_error_line(capsys.readouterr().err)
         assert f"{db}: database is locked by another writer for more than 30 s" in line, line
     assert not (tmp_path / "f.json").exists() and not (tmp_path / "r.html").exists()
+
+
+def _pg_state(url: str) -> tuple[list[tuple], list[tuple]]:
+    """Every row of the recording and estimate tables of a PostgreSQL store."""
+    st = Store(url, create=False)
+    try:
+        with st.engine.connect() as c:
+            rec = c.exec_driver_sql("SELECT id, axis_id, content_hash, path FROM recording ORDER BY id").all()
+            est = c.exec_driver_sql("SELECT id, recording_id, status, delta FROM estimate ORDER BY id").all()
+    finally:
+        st.close()
+    return [tuple(r) for r in rec], [tuple(r) for r in est]
+
+
+def test_postgresql_writer_gives_up_on_a_held_write_lock_after_the_busy_timeout(
+    tiny_fleet, tmp_path, pg_server, pg_url
+):
+    """PostgreSQL waits for the advisory write lock no longer than SQLite for its file lock:
+    ``DRIVELASH_STORE_BUSY_TIMEOUT`` seconds, then the same one line, nothing written."""
+    import psycopg
+
+    from drivelash.wear.store import PG_WRITE_LOCK
+
+    fleet, held = _fleet_copy(tiny_fleet, tmp_path / "f", hold_back=1)
+    assert _run(ingest_cmd(fleet / "fleet.toml", pg_url)).returncode == 0
+    for aside, p in held:  # a new recording to store
+        aside.rename(p)
+    before = _pg_state(pg_url)
+    name = sa.make_url(pg_url).database
+    with psycopg.connect(
+        host=pg_server["host"], port=pg_server["port"], user=pg_server["user"], dbname=name, autocommit=True
+    ) as other:  # another writer holding the write lock (session-level, outside any transaction)
+        other.execute("SELECT pg_advisory_lock(%s)", (PG_WRITE_LOCK,))
+        t0 = time.monotonic()
+        try:
+            r = subprocess.run(
+                ingest_cmd(fleet / "fleet.toml", pg_url),
+                capture_output=True,
+                text=True,
+                timeout=90,
+                env={**os.environ, "DRIVELASH_STORE_BUSY_TIMEOUT": "1"},
+            )
+        except subprocess.TimeoutExpired:
+            pytest.fail("track ingest waited for the PostgreSQL write lock beyond the busy timeout")
+        waited = time.monotonic() - t0
+        assert r.returncode == 2, r.stderr
+        line = _one_error_line(r.stderr)
+        shown = sa.make_url(pg_url).render_as_string(hide_password=True)
+        assert f"{shown}: database is locked by another writer for more than 1 s" in line, line
+        assert "nothing of this ingest was written" in line and "run it again" in line
+        assert waited < 60  # gave up, did not wait for the lock without end
+        assert _pg_state(pg_url) == before
+        other.execute("SELECT pg_advisory_unlock(%s)", (PG_WRITE_LOCK,))
+    # the lock released, the ingest stores the new recording
+    assert _run(ingest_cmd(fleet / "fleet.toml", pg_url)).returncode == 0
+    rec, est = _pg_state(pg_url)
+    assert rec[: len(before[0])] == before[0] and len(rec) == len(before[0]) + 1 and len(est) == len(rec)

@@ -42,13 +42,16 @@ from drivelash.errors import DrivelashError
 __all__ = ["EstimateRow", "Store", "StoreError", "utc_naive"]
 
 MIGRATIONS = Path(__file__).parent / "migrations"
-#: Seconds an SQLite writer waits for another writer's lock before giving up [s] (the
+#: Seconds a writer waits for another writer's lock before giving up [s], SQLite (busy timeout)
+#: and PostgreSQL (``lock_timeout`` on the advisory write lock) alike (the
 #: environment variable :data:`BUSY_TIMEOUT_ENV` overrides it, e.g. for tests).
 BUSY_TIMEOUT_S = 30.0
 BUSY_TIMEOUT_ENV = "DRIVELASH_STORE_BUSY_TIMEOUT"
 #: Key of the PostgreSQL advisory lock every write transaction (migrations included) holds:
 #: writers of one database run one after the other, as on SQLite (``BEGIN IMMEDIATE``).
 PG_WRITE_LOCK = 0x64726C77  # "drlw"
+#: PostgreSQL's SQLSTATE ``lock_not_available``: a lock wait ran past ``lock_timeout``.
+PG_LOCK_NOT_AVAILABLE = "55P03"
 #: Units a measurement may carry, and their factor to mm (rad needs no transmission).
 LENGTH_UNITS = {"mm": 1.0, "um": 1e-3, "µm": 1e-3, "m": 1e3}
 
@@ -275,7 +278,7 @@ def _show(url: sa.URL) -> str:
 
 
 def _busy_timeout(given: float | None) -> float:
-    """The SQLite busy timeout [s]: ``given``, else ``$DRIVELASH_STORE_BUSY_TIMEOUT``, else 30 s."""
+    """The writers' busy timeout [s]: ``given``, else ``$DRIVELASH_STORE_BUSY_TIMEOUT``, else 30 s."""
     if given is None:
         env = os.environ.get(BUSY_TIMEOUT_ENV)
         if env is None:
@@ -298,7 +301,7 @@ def _kind(exc: BaseException) -> str | None:
         return None
     text = str(orig).lower()
     code = getattr(orig, "sqlstate", None) or getattr(orig, "pgcode", None)
-    if "database is locked" in text or "database table is locked" in text:
+    if "database is locked" in text or "database table is locked" in text or code == PG_LOCK_NOT_AVAILABLE:
         return "locked"
     if "database or disk is full" in text or code in ("53100", "53200"):
         return "full"
@@ -326,7 +329,7 @@ class Store:
     connect_timeout : float
         Seconds to wait for a server [s].
     busy_timeout : float, optional
-        Seconds an SQLite writer waits for another writer's lock [s] (default
+        Seconds a writer waits for another writer's lock [s], SQLite and PostgreSQL (default
         :data:`BUSY_TIMEOUT_S`, or the environment variable ``DRIVELASH_STORE_BUSY_TIMEOUT``).
 
     Raises
@@ -412,14 +415,21 @@ class Store:
 
         SQLite: ``BEGIN IMMEDIATE`` (the file's write lock, waited for up to
         :attr:`busy_timeout`); PostgreSQL: the transaction-scoped advisory lock
-        :data:`PG_WRITE_LOCK`. Every write (schema migration included) goes through here, so
-        two processes on one store never interleave a read-then-insert (two first ingests
-        on an empty database both creating the schema, or both inserting one recording).
+        :data:`PG_WRITE_LOCK`, waited for up to :attr:`busy_timeout` as well (``SET LOCAL
+        lock_timeout``, at least 1 ms: PostgreSQL reads 0 as no limit). Every write (schema
+        migration included) goes through here, so two processes on one store never interleave
+        a read-then-insert (two first ingests on an empty database both creating the schema,
+        or both inserting one recording).
         """
         with self.engine.begin() as conn:
             if self.backend == "sqlite":
                 conn.exec_driver_sql("BEGIN IMMEDIATE")
             elif self.backend == "postgresql":
+                # the same time limit as SQLite's busy timeout: lock_timeout bounds every lock
+                # wait of this transaction, the advisory lock's included (SQLSTATE 55P03 on
+                # expiry, see _kind); 0 would mean "no limit" to PostgreSQL, so 1 ms at least
+                ms = max(1, round(1000 * self.busy_timeout))
+                conn.execute(sa.text("SELECT set_config('lock_timeout', :v, true)"), {"v": f"{ms}ms"})
                 conn.execute(sa.text("SELECT pg_advisory_xact_lock(:k)"), {"k": PG_WRITE_LOCK})
             yield conn
 
