@@ -114,14 +114,20 @@ def run_ingest(
     return rep
 
 
-def _summaries(db: str, fleet: Any = None) -> tuple[Any, list[dict[str, Any]]]:
-    from drivelash.wear.alarms import fleet_summary
+def _summaries(db: str, fleet: Any = None) -> tuple[Any, list[dict[str, Any]], str | None]:
+    """(the open store, the summaries of the axes shown, the note naming the store's axes that
+    ``fleet`` leaves out, or None)."""
+    from drivelash.wear.alarms import axes_not_in_fleet, fleet_summary, not_in_fleet_note
     from drivelash.wear.store import Store
 
     store = Store(db, create=False)
     try:
         with store.guard(_READ_ONLY):
-            return store, fleet_summary(store, fleet)
+            summ = fleet_summary(store, fleet)
+            note = (
+                None if fleet is None else not_in_fleet_note(axes_not_in_fleet(store, fleet), fleet.path.name)
+            )
+            return store, summ, note
     except BaseException:
         store.close()
         raise
@@ -138,7 +144,8 @@ def run_status(
 
     ``label`` names the store in the title instead of its URL (the demo builds its store in a
     staging directory that is renamed afterwards, so the URL would name a path that is gone);
-    ``fleet`` (a parsed fleet) supplies the thresholds the axes are judged by.
+    ``fleet`` (a parsed fleet) supplies the thresholds the axes are judged by, and only its
+    axes are shown (one line names the store's axes it leaves out; their history is kept).
     """
     from rich.console import Console
     from rich.markup import escape
@@ -147,7 +154,7 @@ def run_status(
     from drivelash.report.fleet import OVERVIEW_HEADER, overview_rows
     from drivelash.wear.alarms import stale_notes
 
-    store, summ = _summaries(db, fleet)
+    store, summ, note = _summaries(db, fleet)
     store.close()
     if not quiet:
         table = Table(
@@ -162,6 +169,8 @@ def run_status(
         if not c.is_terminal:
             c = Console(width=200)
         c.print(table)
+        if note is not None:
+            c.print(f"[yellow]note[/yellow] {escape(note)}")
         for s in summ:
             for a in s["alarms"]:
                 c.print(f"[red]alarm[/red] {escape(a.kind)}: {escape(a.message)}")
@@ -232,7 +241,8 @@ def forecast_json(s: dict[str, Any]) -> dict[str, Any]:
 def run_forecast(
     axis: str, db: str, json_out: str | None = None, quiet: bool = False, fleet: Any = None
 ) -> dict[str, Any]:
-    """Body of ``track forecast``; returns the JSON document (``fleet``: as in :func:`run_status`)."""
+    """Body of ``track forecast``; returns the JSON document (``fleet``: as in :func:`run_status`;
+    an axis of the store that ``fleet`` does not name is a one-line error)."""
     from drivelash.io.outputs import JSON_EXTENSIONS, Outputs, dumps_json, write_json
     from drivelash.wear.alarms import axis_summary, judged_axes
     from drivelash.wear.store import Store
@@ -247,7 +257,13 @@ def run_forecast(
         try:
             with store.guard(_READ_ONLY):
                 store.axis_id(axis)
-                a = next(x for x in judged_axes(store, fleet) if x["name"] == axis)
+                a = next((x for x in judged_axes(store, fleet) if x["name"] == axis), None)
+                if a is None:
+                    raise DrivelashError(
+                        f"{fleet.path}: axis {axis!r} is in the store but not in this fleet file: its "
+                        f"history is kept, not shown; without --fleet (--db {store.name}) it is forecast "
+                        "with the thresholds stored at its last ingest"
+                    )
                 s = axis_summary(store, a)
         finally:
             store.close()
@@ -313,7 +329,7 @@ def run_report(
 
     with Outputs("track report", force=force) as out:
         target = out.file(out_path, option="-o", kinds=HTML_EXTENSIONS)
-        store, summ = _summaries(db, fleet)
+        store, summ, note = _summaries(db, fleet)
         try:
             meas: dict[str, list[dict[str, Any]]] = {}
             with store.guard(_READ_ONLY):
@@ -321,11 +337,19 @@ def run_report(
                     meas.setdefault(m["axis"], []).append(m)
         finally:
             store.close()
-        text = render_fleet_report(summ, meas, title="drivelash fleet wear report", store=label or store.name)
+        text = render_fleet_report(
+            summ,
+            meas,
+            title="drivelash fleet wear report",
+            store=label or store.name,
+            notes=[note] if note else [],
+        )
         assert target is not None
         write_fleet_report(out.staging(target), text)
     if not quiet:
         typer.echo(f"wrote {out_path} ({len(summ)} axes)")
+        if note is not None:
+            typer.echo(f"note: {note}")
     return out_path
 
 

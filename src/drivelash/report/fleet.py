@@ -12,6 +12,7 @@ uncertainty.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Any
@@ -296,7 +297,12 @@ def rate_sentence(summaries: list[dict[str, Any]]) -> str:
 
 
 def render_fleet_report(
-    summaries: list[dict[str, Any]], measurements: dict[str, list[dict[str, Any]]], *, title: str, store: str
+    summaries: list[dict[str, Any]],
+    measurements: dict[str, list[dict[str, Any]]],
+    *,
+    title: str,
+    store: str,
+    notes: Sequence[str] = (),
 ) -> str:
     """The fleet report's HTML text (see the module docstring).
 
@@ -310,6 +316,8 @@ def render_fleet_report(
         Page title.
     store : str
         The store's URL (shown, password hidden).
+    notes : sequence of str
+        Lines added to the overview (e.g. the store's axes that the fleet file no longer names).
     """
     alarms = [(s["axis"], a) for s in summaries for a in s["alarms"]]
     n_rec = sum(s["recordings"] for s in summaries)
@@ -325,6 +333,7 @@ def render_fleet_report(
         ],
         tables=[("", OVERVIEW_HEADER, overview_rows(summaries))],
     )
+    overview.paragraphs.extend(notes)
     stale = stale_notes(summaries)
     if stale:
         overview.paragraphs.append(

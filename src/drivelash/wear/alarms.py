@@ -27,7 +27,15 @@ import numpy as np
 from drivelash.wear.store import Store
 from drivelash.wear.trend import AxisTrend, analyse, usable
 
-__all__ = ["Alarm", "axis_summary", "fleet_summary", "judged_axes", "refresh_alarms"]
+__all__ = [
+    "Alarm",
+    "axes_not_in_fleet",
+    "axis_summary",
+    "fleet_summary",
+    "judged_axes",
+    "not_in_fleet_note",
+    "refresh_alarms",
+]
 
 #: A single estimate raises the threshold alarm when δ̂ − THRESHOLD_Z·σ ≥ threshold (σ its stated
 #: uncertainty, else the axis's noise scale): one-sided 95 % that the recording's δ is above.
@@ -216,27 +224,53 @@ def axis_summary(store: Store, axis: dict[str, Any]) -> dict[str, Any]:
 def judged_axes(store: Store, fleet: Any | None = None) -> list[dict[str, Any]]:
     """The store's axes, with the judging settings (threshold, horizon, not-excited count,
     transmission) of ``fleet`` (a :class:`~drivelash.wear.fleet.Fleet`) where it names the axis:
-    the store holds the values of the last ingest, the fleet file is what the user means now."""
+    the store holds the values of the last ingest, the fleet file is what the user means now.
+
+    With a ``fleet``, only its axes: an axis removed from the fleet file keeps its history in
+    the store but is not judged (:func:`axes_not_in_fleet` names those)."""
     axes = store.axes()
     if fleet is None:
         return axes
     spec = {a.name: a for a in fleet.axes}
+    out = []
     for a in axes:
         f = spec.get(a["name"])
-        if f is not None:
-            a.update(
-                threshold_rad=f.threshold_rad,
-                horizon_days=f.horizon_days,
-                not_excited_alarm=f.not_excited_alarm,
-                transmission_mm_per_rad=f.transmission,
-            )
-    return axes
+        if f is None:
+            continue
+        a.update(
+            threshold_rad=f.threshold_rad,
+            horizon_days=f.horizon_days,
+            not_excited_alarm=f.not_excited_alarm,
+            transmission_mm_per_rad=f.transmission,
+        )
+        out.append(a)
+    return out
+
+
+def axes_not_in_fleet(store: Store, fleet: Any | None) -> list[str]:
+    """Names of the store's axes that ``fleet`` does not name (sorted; none without a fleet):
+    axes removed from the fleet file, whose history the store keeps."""
+    if fleet is None:
+        return []
+    names = {a.name for a in fleet.axes}
+    return [a["name"] for a in store.axes() if a["name"] not in names]
+
+
+def not_in_fleet_note(names: list[str], fleet_file: str) -> str | None:
+    """The one line that says which axes of the store a fleet-filtered view leaves out (None
+    when none): every name is listed, so nothing is dropped silently."""
+    if not names:
+        return None
+    n = len(names)
+    what = "1 axis in the store is" if n == 1 else f"{n} axes in the store are"
+    its = "its history is kept; it is" if n == 1 else "their history is kept; they are"
+    return f"{what} not in {fleet_file} ({', '.join(names)}): {its} not shown"
 
 
 def fleet_summary(store: Store, fleet: Any | None = None) -> list[dict[str, Any]]:
     """:func:`axis_summary` of every axis, sorted by forecast time to threshold (soonest first;
     crossed axes first, axes without a forecast last); judged with ``fleet``'s current
-    thresholds when given (:func:`judged_axes`)."""
+    thresholds when given, and then only ``fleet``'s axes (:func:`judged_axes`)."""
     out = [axis_summary(store, a) for a in judged_axes(store, fleet)]
 
     def key(s: dict[str, Any]) -> tuple:

@@ -1,0 +1,81 @@
+"""An axis removed from fleet.toml keeps its history in the store; status, report and forecast
+with ``--fleet`` show the fleet's axes only and say, in one line, which stored ones they leave out."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+TRACK = [sys.executable, "-m", "drivelash.cli", "track"]
+
+
+def _run(args: list[str]) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        args, capture_output=True, text=True, timeout=300, env={**os.environ, "COLUMNS": "250"}
+    )
+
+
+def _without(small_fleet: Path, dst: Path, axis: str) -> Path:
+    """A copy of the fleet file (recordings left where they are) without ``axis``'s [[axis]] table."""
+    shutil.copytree(small_fleet, dst, ignore=shutil.ignore_patterns("recordings", "wear.sqlite*"))
+    toml = dst / "fleet.toml"
+    text = toml.read_text()
+    tables = re.split(r"(?m)^(?=\[\[axis\]\])", text)
+    kept = [t for t in tables if f'id = "{axis}"' not in t]
+    assert len(kept) == len(tables) - 1
+    toml.write_text("".join(kept))
+    return toml
+
+
+def _rows(stdout: str) -> dict[str, str]:
+    """Status table rows by axis (the whole line, whitespace normalised)."""
+    out = {}
+    for line in stdout.splitlines():
+        f = line.split()
+        if f and re.fullmatch(r"M\d\d/[A-Z]", f[0]):
+            out[f[0]] = " ".join(f)
+    return out
+
+
+def test_an_axis_removed_from_the_fleet_file_is_kept_but_not_shown(small_fleet, serial_store, tmp_path):
+    st, _ = serial_store
+    db = str(st.url.database)
+    counts = st.counts()
+    gone = "M02/Y"
+    full = _run([*TRACK, "status", "--db", db, "--fleet", str(small_fleet / "fleet.toml")])
+    assert full.returncode == 0, full.stderr
+    before = _rows(full.stdout)
+    assert gone in before and len(before) == 4 and "not in fleet.toml" not in full.stdout
+    toml = _without(small_fleet, tmp_path / "f", gone)
+
+    r = _run([*TRACK, "status", "--db", db, "--fleet", str(toml)])
+    assert r.returncode == 0, r.stderr
+    after = _rows(r.stdout)
+    assert gone not in after
+    note = "1 axis in the store is not in fleet.toml (M02/Y): its history is kept; it is not shown"
+    assert note in " ".join(r.stdout.split())
+    # negative control: the remaining axes' figures are those of the full fleet
+    assert after == {k: v for k, v in before.items() if k != gone}
+
+    r = _run([*TRACK, "forecast", gone, "--db", db, "--fleet", str(toml)])
+    assert r.returncode == 2 and "Traceback" not in r.stderr and not r.stdout
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"drivelash: error: {toml}: axis 'M02/Y' is in the store")
+    assert "not in this fleet file" in lines[0] and "without --fleet" in lines[0]
+    assert _run([*TRACK, "forecast", "M01/X", "--db", db, "--fleet", str(toml)]).returncode == 0
+
+    html = tmp_path / "r.html"
+    r = _run([*TRACK, "report", "--db", db, "--fleet", str(toml), "-o", str(html)])
+    assert r.returncode == 0, r.stderr
+    assert "wrote" in r.stdout and "(3 axes)" in r.stdout and note in r.stdout
+    text = html.read_text()
+    assert note in text and text.count(gone) == 1  # in the note only: no row, no figure
+
+    # the history is kept, and without --fleet every stored axis is shown as before
+    assert st.counts() == counts
+    r = _run([*TRACK, "status", "--db", db])
+    assert r.returncode == 0 and gone in _rows(r.stdout) and "not in fleet" not in r.stdout
