@@ -149,26 +149,19 @@ def run_status(
     """
     from rich.console import Console
     from rich.markup import escape
-    from rich.table import Table
 
-    from drivelash.report.fleet import OVERVIEW_HEADER, overview_rows
     from drivelash.wear.alarms import stale_notes
 
     store, summ, note = _summaries(db, fleet)
     store.close()
     if not quiet:
-        table = Table(
-            *OVERVIEW_HEADER,
-            box=None,
-            title=f"wear status — {escape(str(label or store.name))} (times UTC)",
-        )
-        for row, s in zip(overview_rows(summ), summ, strict=True):
-            style = "red" if s["crossed"] or s["alarms"] else None
-            table.add_row(*(escape(str(x)) for x in row), style=style)
         c = Console()
-        if not c.is_terminal:
-            c = Console(width=200)
+        if not c.is_terminal and not os.environ.get("COLUMNS", "").isdigit():
+            c = Console(width=200)  # a pipe: the full table, unless COLUMNS says how wide
+        table, legend = status_table(summ, f"wear status — {label or store.name} (times UTC)", c.width)
         c.print(table)
+        if legend is not None:
+            c.print(escape(legend), style="dim")
         if note is not None:
             c.print(f"[yellow]note[/yellow] {escape(note)}")
         for s in summ:
@@ -177,6 +170,63 @@ def run_status(
         for name, msg in stale_notes(summ):
             c.print(f"[yellow]stale[/yellow] {escape(name)}: {escape(msg)}")
     return summ
+
+
+def status_table(summ: list[dict[str, Any]], title: str, width: int) -> tuple[Any, str | None]:
+    """The ``track status`` table for a console ``width`` characters wide, and its legend.
+
+    The full table (the report's :data:`~drivelash.report.fleet.OVERVIEW_HEADER` and cells)
+    when it fits; else the narrow one (:func:`~drivelash.report.fleet.compact_rows`: short
+    headers, the 90 % interval in days around the expected crossing, abbreviated model and
+    alarm names; one space between the columns when two do not fit), whose legend (returned,
+    else None) spells the abbreviations out. Every column but the alarms is ``no_wrap``: an
+    axis is one line (only alarm kinds that still do not fit fold onto a second one; each
+    alarm is listed in full below the table anyway).
+
+    Parameters
+    ----------
+    summ : list of dict
+        :func:`drivelash.wear.alarms.fleet_summary`.
+    title : str
+        Table title (plain text).
+    width : int
+        Console width [characters].
+
+    Returns
+    -------
+    (rich.table.Table, str or None)
+    """
+    from rich.cells import cell_len
+    from rich.markup import escape
+    from rich.table import Table
+
+    from drivelash.report.fleet import (
+        COMPACT_HEADER,
+        COMPACT_LEGEND,
+        OVERVIEW_HEADER,
+        compact_rows,
+        overview_rows,
+    )
+
+    rows = [[str(x) for x in r] for r in overview_rows(summ)]
+    header, legend, pad = OVERVIEW_HEADER, None, (0, 1)
+
+    def columns(h: list[str], rs: list[list[str]]) -> int:  # the cells' width [chars]
+        return sum(max(cell_len(x) for x in [hh, *col]) for hh, *col in zip(h, *rs, strict=True))
+
+    if rows and columns(header, rows) + 2 * len(header) > width:  # 2 spaces between and around
+        header, rows, legend = COMPACT_HEADER, compact_rows(summ), COMPACT_LEGEND
+        if columns(header, rows) + 2 * (len(header) - 1) > width:
+            pad = (0, 1, 0, 0)  # still too wide: one space between the columns
+    table = Table(box=None, padding=pad, pad_edge=legend is None, title=escape(title))
+    for i, h in enumerate(header):
+        last = i == len(header) - 1
+        # escaped: "[mrad]" would be read as rich markup and vanish from the header
+        table.add_column(escape(h), no_wrap=not last, overflow="fold" if last else "ellipsis")
+    for row, s in zip(rows, summ, strict=True):
+        style = "red" if s["crossed"] or s["alarms"] else None
+        table.add_row(*(escape(x) for x in row), style=style)
+    return table, legend
 
 
 def forecast_json(s: dict[str, Any]) -> dict[str, Any]:

@@ -79,6 +79,75 @@ OVERVIEW_HEADER = [
 ]
 
 
+#: Headers of the narrow ``track status`` table (a terminal too narrow for
+#: :data:`OVERVIEW_HEADER`); :data:`COMPACT_LEGEND` spells them out under the table.
+COMPACT_HEADER = [
+    "axis",
+    "δ now",
+    "thresh.",
+    "model",
+    "crossing",
+    "90 % int.",
+    "days",
+    "used",
+    "unexc",
+    "fail",
+    "alarms",
+]
+#: Alarm kinds as the narrow table abbreviates them (every alarm is also listed in full below it).
+ALARM_ABBREV = {
+    "threshold": "thr",
+    "forecast": "fc",
+    "jump": "jump",
+    "not_excited": "unexc",
+    "not_converged": "unconv",
+    "no_estimate": "noest",
+}
+#: Model names as the narrow table abbreviates them.
+MODEL_ABBREV = {"accelerating": "accel."}
+COMPACT_LEGEND = (
+    "δ now, thresh.: mrad; crossing: expected threshold crossing (UTC); 90 % int.: its 90 % interval, "
+    "days before … after it; days: days left; used: usable/recordings; unexc: not excited; fail: failed; "
+    "accel.: accelerating; alarms: "
+    + ", ".join(f"{v} {k}" for k, v in ALARM_ABBREV.items() if v != k)
+    + " (listed in full below)"
+)
+
+
+def _rel_days(x: float) -> str:
+    """A day count short but exact enough: one decimal below 10 days, whole days above."""
+    return f"{x:.1f}" if abs(x) < 10 else f"{x:.0f}"
+
+
+def _compact_interval(s: dict[str, Any]) -> str:
+    """The crossing's 90 % interval relative to the expected crossing [days], e.g. ``-2.5…+40``
+    (``never``: the late bound is never reached)."""
+    tc, early = s["crossing"], s["crossing_early"]
+    if early is None or tc is None:
+        return "–"
+    lo = _rel_days((tc - early).total_seconds() / 86400.0)
+    if s["crossing_late_never"]:
+        return f"-{lo}…never"
+    late = s["crossing_late"]
+    if late is None:
+        return f"-{lo}…–"
+    return f"-{lo}…+{_rel_days((late - tc).total_seconds() / 86400.0)}"
+
+
+def compact_rows(summaries: list[dict[str, Any]]) -> list[list[str]]:
+    """Rows of the narrow ``track status`` table (:data:`COMPACT_HEADER`): the cells of
+    :func:`overview_rows`, with the 90 % interval relative to the expected crossing [days] and
+    abbreviated model and alarm names (:data:`COMPACT_LEGEND`)."""
+    out = []
+    for s, row in zip(summaries, overview_rows(summaries), strict=True):
+        row = [str(x) for x in row]
+        row[3] = MODEL_ABBREV.get(row[3], row[3])
+        row[5] = _compact_interval(s)
+        row[10] = ",".join(ALARM_ABBREV.get(k, k) for k in sorted({a.kind for a in s["alarms"]})) or "–"
+        out.append(row)
+    return out
+
+
 def _dates(t0: datetime, days: np.ndarray) -> list[datetime]:
     return [t0 + timedelta(days=float(d)) for d in days]
 
