@@ -4,6 +4,7 @@ ingests at once. Each is one line naming the store, exit 2, nothing half-written
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
 import sqlite3
@@ -323,3 +324,31 @@ def test_postgresql_writer_gives_up_on_a_held_write_lock_after_the_busy_timeout(
     assert _run(ingest_cmd(fleet / "fleet.toml", pg_url)).returncode == 0
     rec, est = _pg_state(pg_url)
     assert rec[: len(before[0])] == before[0] and len(rec) == len(before[0]) + 1 and len(est) == len(rec)
+
+
+@pytest.mark.parametrize("value", ["1e10", "3e6", "abc", "-1", "inf", "nan", ""])
+def test_a_busy_timeout_beyond_what_the_databases_take_is_refused_in_one_line(tmp_path, monkeypatch, value):
+    """SQLite takes the busy timeout in int milliseconds: 1e10 s overflowed to "do not wait"
+    (a held lock failed at once, the message said "locked for more than 1e+10 s")."""
+    from drivelash.wear.store import BUSY_TIMEOUT_ENV, StoreError
+
+    monkeypatch.setenv(BUSY_TIMEOUT_ENV, value)
+    with pytest.raises(StoreError, match=r"^DRIVELASH_STORE_BUSY_TIMEOUT=.*from 0 to 2147483") as e:
+        Store(tmp_path / "w.sqlite")
+    assert "\n" not in str(e.value) and not (tmp_path / "w.sqlite").exists()
+
+
+@pytest.mark.parametrize("value", [-1.0, math.nan, 1e10])
+def test_a_bad_busy_timeout_argument_is_refused(tmp_path, value):
+    from drivelash.wear.store import StoreError
+
+    with pytest.raises(StoreError, match=r"^busy_timeout="):
+        Store(tmp_path / "w.sqlite", busy_timeout=value)  # type: ignore[arg-type]
+
+
+def test_the_largest_busy_timeout_still_waits(tmp_path, monkeypatch):
+    from drivelash.wear.store import BUSY_TIMEOUT_MAX_S
+
+    st = Store(tmp_path / "w.sqlite", busy_timeout=BUSY_TIMEOUT_MAX_S)
+    with st.engine.connect() as conn:
+        assert conn.exec_driver_sql("PRAGMA busy_timeout").scalar_one() == int(BUSY_TIMEOUT_MAX_S * 1000)

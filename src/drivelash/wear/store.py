@@ -47,6 +47,10 @@ MIGRATIONS = Path(__file__).parent / "migrations"
 #: environment variable :data:`BUSY_TIMEOUT_ENV` overrides it, e.g. for tests).
 BUSY_TIMEOUT_S = 30.0
 BUSY_TIMEOUT_ENV = "DRIVELASH_STORE_BUSY_TIMEOUT"
+#: Largest busy timeout [s]: both databases take it in integer milliseconds (SQLite's
+#: ``sqlite3_busy_timeout`` an ``int``, PostgreSQL's ``lock_timeout`` at most 2^31 − 1 ms); a
+#: longer one overflowed to "do not wait" (SQLite) or a database error (PostgreSQL).
+BUSY_TIMEOUT_MAX_S = 2_147_483.0
 #: Key of the PostgreSQL advisory lock every write transaction (migrations included) holds:
 #: writers of one database run one after the other, as on SQLite (``BEGIN IMMEDIATE``).
 PG_WRITE_LOCK = 0x64726C77  # "drlw"
@@ -278,18 +282,32 @@ def _show(url: sa.URL) -> str:
 
 
 def _busy_timeout(given: float | None) -> float:
-    """The writers' busy timeout [s]: ``given``, else ``$DRIVELASH_STORE_BUSY_TIMEOUT``, else 30 s."""
+    """The writers' busy timeout [s]: ``given``, else ``$DRIVELASH_STORE_BUSY_TIMEOUT``, else 30 s.
+
+    Raises
+    ------
+    StoreError
+        Not a number in [0, :data:`BUSY_TIMEOUT_MAX_S`] s (one line naming the variable or
+        ``busy_timeout``).
+    """
     if given is None:
         env = os.environ.get(BUSY_TIMEOUT_ENV)
         if env is None:
             return BUSY_TIMEOUT_S
+        name = f"{BUSY_TIMEOUT_ENV}={env!r}"
         try:
-            given = float(env)
+            value = float(env)
         except ValueError:
-            given = math.nan
-        if not (math.isfinite(given) and given >= 0):
-            raise StoreError(f"{BUSY_TIMEOUT_ENV}={env!r}: must be a number of seconds >= 0")
-    return float(given)
+            value = math.nan
+    else:
+        name = f"busy_timeout={given!r}"
+        try:
+            value = float(given)
+        except (TypeError, ValueError):
+            value = math.nan
+    if not (math.isfinite(value) and 0 <= value <= BUSY_TIMEOUT_MAX_S):
+        raise StoreError(f"{name}: must be a number of seconds from 0 to {BUSY_TIMEOUT_MAX_S:.0f} (24.8 days)")
+    return value
 
 
 def _kind(exc: BaseException) -> str | None:
