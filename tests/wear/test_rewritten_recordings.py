@@ -85,3 +85,42 @@ def test_a_renamed_file_then_a_new_file_under_the_old_name_keeps_both(small_flee
     assert rep.replaced == 0 and rep.planned == 1
     paths = sorted(r["path"] for r in st.estimates("M01/X"))
     assert len(paths) == 4 and str(moved) in paths and str(target) in paths
+
+
+def _one_row_per_file(st: Store) -> list[str]:
+    paths = [r["path"] for r in st.estimates("M01/X")]
+    assert len(paths) == len(set(paths)), paths
+    return paths
+
+
+def test_a_file_overwritten_by_a_copy_of_another_recording_replaces_its_old_content(small_fleet, tmp_path):
+    """``cp b a``: a's old content is gone from disk; it must leave the trend (it stayed, the
+    trend kept an estimate of a file that no longer holds it)."""
+    f = _tiny(small_fleet, tmp_path / "f", FILENAME_TIME)
+    st = Store(tmp_path / "w.sqlite")
+    ingest(load_fleet(f), st, workers=1)
+    a, b, _ = sorted((tmp_path / "f" / "rec").glob("*.parquet"))
+    old_a = hashlib.sha256(a.read_bytes()).hexdigest()
+    shutil.copy(b, a)
+    rep = ingest(load_fleet(f), st, workers=1)
+    assert rep.replaced == 1 and len(rep.duplicates) == 1
+    hashes = {r["content_hash"] for r in st.estimates("M01/X")}
+    assert old_a not in hashes and len(hashes) == 2 and st.counts()["recording"] == 2
+    _one_row_per_file(st)
+    rep = ingest(load_fleet(f), st, workers=1)  # nothing left to do
+    assert rep.planned == 0 and rep.replaced == 0 and st.counts()["recording"] == 2
+
+
+def test_a_recording_moved_onto_another_files_name_replaces_that_files_recording(small_fleet, tmp_path):
+    """``mv b a``: one recording (b's content) at a's path; two rows with path a were stored."""
+    f = _tiny(small_fleet, tmp_path / "f", FILENAME_TIME)
+    st = Store(tmp_path / "w.sqlite")
+    ingest(load_fleet(f), st, workers=1)
+    a, b, _ = sorted((tmp_path / "f" / "rec").glob("*.parquet"))
+    new_a = hashlib.sha256(b.read_bytes()).hexdigest()
+    b.replace(a)
+    rep = ingest(load_fleet(f), st, workers=1)
+    assert rep.replaced == 1
+    paths = _one_row_per_file(st)
+    assert sorted(paths) == sorted(str(p) for p in (tmp_path / "f" / "rec").glob("*.parquet"))
+    assert {r["path"]: r["content_hash"] for r in st.estimates("M01/X")}[str(a)] == new_a

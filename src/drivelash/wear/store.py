@@ -713,7 +713,6 @@ class Store:
                         recording_t.c.content_hash.in_(fresh[k : k + 500])
                     )
                     rec_id.update({(int(x.axis_id), x.content_hash): int(x.id) for x in conn.execute(q)})
-                _replace_rewritten(conn, new_recs, rec_id, replaced)
             if moved:
                 # the same content under a new name or time stamp: keep the newest file facts
                 conn.execute(
@@ -722,6 +721,10 @@ class Store:
                     .values(path=sa.bindparam("p"), size_bytes=sa.bindparam("s"), mtime_ns=sa.bindparam("m")),
                     moved,
                 )
+            # every file of the batch now shows its row's content: a stored recording of other
+            # content at that path was rewritten — by new content, by a copy of another stored
+            # recording (a duplicate) or by a stored recording moved onto its name
+            _replace_rewritten(conn, keyed, rec_id, replaced)
             seen = [
                 {
                     "rid_": rec_id[(aid, r.content_hash)],
@@ -1032,18 +1035,21 @@ class Store:
 
 def _replace_rewritten(
     conn: sa.Connection,
-    new_recs: dict[tuple[int, str], EstimateRow],
+    keyed: Sequence[tuple[int, EstimateRow]],
     rec_id: dict[tuple[int, str], int],
     replaced: list[str] | None,
 ) -> None:
-    """Drop the recordings that the just inserted ones replace: same axis and path, another
-    content hash (the file was rewritten, e.g. re-exported). See :meth:`Store.commit_batch`.
+    """Drop the recordings that the batch's files replace: same axis and path, another content
+    hash (the file was rewritten, e.g. re-exported, or overwritten by a copy of another
+    recording or by another recording moved onto its name). See :meth:`Store.commit_batch`.
 
     An unreadable file (``unreadable:`` marker, content unknown) replaces nothing.
     """
-    new_ids = {rec_id[k] for k in new_recs}
+    # (axis, path) -> the recording whose content the file shows now
     by_path = {
-        (aid, r.path): rec_id[(aid, h)] for (aid, h), r in new_recs.items() if not h.startswith("unreadable:")
+        (aid, r.path): rec_id[(aid, r.content_hash)]
+        for aid, r in keyed
+        if not r.content_hash.startswith("unreadable:")
     }
     paths = sorted({p for _, p in by_path})
     gone: list[int] = []
@@ -1054,7 +1060,8 @@ def _replace_rewritten(
         )
         for x in conn.execute(q).all():
             rid = int(x.id)
-            if rid in new_ids or (int(x.axis_id), x.path) not in by_path:
+            now_there = by_path.get((int(x.axis_id), x.path))
+            if now_there is None or rid == now_there:
                 continue
             others = conn.execute(
                 sa.select(recording_path_t.c.path, recording_path_t.c.size_bytes, recording_path_t.c.mtime_ns)
@@ -1082,7 +1089,7 @@ def _replace_rewritten(
         stale = [
             int(x.id)
             for x in conn.execute(q).all()
-            if int(x.recording_id) not in new_ids and (int(x.axis_id), x.path) in by_path
+            if by_path.get((int(x.axis_id), x.path), int(x.recording_id)) != int(x.recording_id)
         ]
         if stale:
             conn.execute(sa.delete(recording_path_t).where(recording_path_t.c.id.in_(stale)))
