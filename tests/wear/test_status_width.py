@@ -111,3 +111,33 @@ def test_status_at_100_columns_from_the_cli_and_full_headers_when_wide(serial_st
     # units in its headers: "[mrad]" used to be swallowed as rich markup)
     wide = " ".join(status("250").split())
     assert "threshold [mrad]" in wide and "expected crossing (UTC)" in wide and "δ now, thresh.:" not in wide
+
+
+def _status_at(monkeypatch, capsys, cols: str, n: int = 12) -> tuple[str, list[str]]:
+    from drivelash.commands import track
+
+    summ = _summaries(n)
+    monkeypatch.setattr(track, "_summaries", lambda db, fleet=None: (_NoStore(), summ, None))
+    monkeypatch.setenv("COLUMNS", cols)
+    track.run_status("unused")
+    return capsys.readouterr().out, [s["axis"] for s in summ]
+
+
+def test_status_narrower_than_the_narrow_table_keeps_every_axis_name_whole(monkeypatch, capsys):
+    """At 60 and 40 columns every cell was cut to "M0…": the axes could not be told apart.
+    Columns are left out instead (the legend names them); axis and alarms stay."""
+    for cols in (60, 40, 20):
+        out, names = _status_at(monkeypatch, capsys, str(cols))
+        rows = _table_lines(out, names)
+        assert [r.split()[0] for r in rows] == names, out
+        assert "…" not in " ".join(r.split()[0] for r in rows)
+        assert "not shown at this width:" in " ".join(out.split()), out
+        assert rows[2].split()[-1] == "fc,jump,unexc", out  # the alarms column stays
+    out, _ = _status_at(monkeypatch, capsys, "100")  # negative control: nothing left out at 100
+    assert "not shown at this width" not in " ".join(out.split())
+
+
+def test_status_with_columns_zero_prints_the_table(monkeypatch, capsys):
+    """COLUMNS=0 (a serial console reports 0 × 0) printed nothing at all, exit 0."""
+    out, names = _status_at(monkeypatch, capsys, "0")
+    assert [r.split()[0] for r in _table_lines(out, names)] == names, out

@@ -158,6 +158,8 @@ def run_status(
         c = Console()
         if not c.is_terminal and not os.environ.get("COLUMNS", "").isdigit():
             c = Console(width=200)  # a pipe: the full table, unless COLUMNS says how wide
+        if c.width < 1:  # COLUMNS=0 (a serial console's size 0 × 0) printed nothing at all
+            c = Console(width=80 if c.is_terminal else 200)
         table, legend = status_table(summ, f"wear status — {label or store.name} (times UTC)", c.width)
         c.print(table)
         if legend is not None:
@@ -178,8 +180,10 @@ def status_table(summ: list[dict[str, Any]], title: str, width: int) -> tuple[An
     The full table (the report's :data:`~drivelash.report.fleet.OVERVIEW_HEADER` and cells)
     when it fits; else the narrow one (:func:`~drivelash.report.fleet.compact_rows`: short
     headers, the 90 % interval in days around the expected crossing, abbreviated model and
-    alarm names; one space between the columns when two do not fit), whose legend (returned,
-    else None) spells the abbreviations out. Every column but the alarms is ``no_wrap``: an
+    alarm names; one space between the columns when two do not fit; still too wide, the
+    columns of :data:`~drivelash.report.fleet.COMPACT_DROP_ORDER` are left out in turn, never
+    the axis and its alarms), whose legend (returned, else None) spells the abbreviations out
+    and names the columns left out. Every column but the alarms is ``no_wrap``: an
     axis is one line (only alarm kinds that still do not fit fold onto a second one; each
     alarm is listed in full below the table anyway).
 
@@ -201,6 +205,7 @@ def status_table(summ: list[dict[str, Any]], title: str, width: int) -> tuple[An
     from rich.table import Table
 
     from drivelash.report.fleet import (
+        COMPACT_DROP_ORDER,
         COMPACT_HEADER,
         COMPACT_LEGEND,
         OVERVIEW_HEADER,
@@ -218,6 +223,18 @@ def status_table(summ: list[dict[str, Any]], title: str, width: int) -> tuple[An
         header, rows, legend = COMPACT_HEADER, compact_rows(summ), COMPACT_LEGEND
         if columns(header, rows) + 2 * (len(header) - 1) > width:
             pad = (0, 1, 0, 0)  # still too wide: one space between the columns
+        # still too wide: leave out the least needed columns (never the axis and its alarms),
+        # rather than cut every cell to "M0…" (two axes M01/X and M01/Y looked the same)
+        hidden: list[str] = []
+        for name in COMPACT_DROP_ORDER:
+            if columns(header, rows) + len(header) - 1 <= width:
+                break
+            k = header.index(name)
+            header = header[:k] + header[k + 1 :]
+            rows = [r[:k] + r[k + 1 :] for r in rows]
+            hidden.append(name)
+        if hidden:
+            legend += f"; not shown at this width: {', '.join(hidden)} (`track forecast AXIS` has them all)"
     table = Table(box=None, padding=pad, pad_edge=legend is None, title=escape(title))
     for i, h in enumerate(header):
         last = i == len(header) - 1

@@ -94,6 +94,9 @@ COMPACT_HEADER = [
     "fail",
     "alarms",
 ]
+#: Columns of :data:`COMPACT_HEADER` the narrow table leaves out, first to last, while it is
+#: still wider than the terminal (the axis and its alarms always stay).
+COMPACT_DROP_ORDER = ["unexc", "fail", "used", "90 % int.", "model", "thresh.", "crossing", "δ now", "days"]
 #: Alarm kinds as the narrow table abbreviates them (every alarm is also listed in full below it).
 ALARM_ABBREV = {
     "threshold": "thr",
