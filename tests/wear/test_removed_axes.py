@@ -79,3 +79,28 @@ def test_an_axis_removed_from_the_fleet_file_is_kept_but_not_shown(small_fleet, 
     assert st.counts() == counts
     r = _run([*TRACK, "status", "--db", db])
     assert r.returncode == 0 and gone in _rows(r.stdout) and "not in fleet" not in r.stdout
+
+
+def test_an_axis_renamed_in_the_fleet_file_names_both_the_old_and_the_new_name(small_fleet, serial_store, tmp_path):
+    """M02/Y renamed to M02/W: the old history is "not in fleet.toml"; the new name, not in the
+    store yet, was left out of status and report without a word."""
+    st, _ = serial_store
+    db = str(st.url.database)
+    toml = _without(small_fleet, tmp_path / "f", "M02/Y")
+    spec = re.split(r"(?m)^(?=\[\[axis\]\])", (small_fleet / "fleet.toml").read_text())
+    mine = next(t for t in spec if 'id = "M02/Y"' in t).replace('id = "M02/Y"', 'id = "M02/W"')
+    toml.write_text(toml.read_text() + "\n" + mine)
+
+    r = _run([*TRACK, "status", "--db", db, "--fleet", str(toml)])
+    assert r.returncode == 0, r.stderr
+    flat = " ".join(r.stdout.split())
+    assert "1 axis in the store is not in fleet.toml (M02/Y)" in flat
+    assert "1 axis of fleet.toml is not in the store yet (M02/W)" in flat and "track ingest" in flat
+
+    html = tmp_path / "r.html"
+    r = _run([*TRACK, "report", "--db", db, "--fleet", str(toml), "-o", str(html)])
+    assert r.returncode == 0 and "not in the store yet (M02/W)" in r.stdout
+    assert "not in the store yet (M02/W)" in html.read_text()
+    # negative control: the full fleet file names no missing axis
+    r = _run([*TRACK, "status", "--db", db, "--fleet", str(small_fleet / "fleet.toml")])
+    assert "not in the store yet" not in r.stdout

@@ -117,16 +117,28 @@ def run_ingest(
 def _summaries(db: str, fleet: Any = None) -> tuple[Any, list[dict[str, Any]], str | None]:
     """(the open store, the summaries of the axes shown, the note naming the store's axes that
     ``fleet`` leaves out, or None)."""
-    from drivelash.wear.alarms import axes_not_in_fleet, fleet_summary, not_in_fleet_note
+    from drivelash.wear.alarms import (
+        axes_not_in_fleet,
+        fleet_axes_not_stored,
+        fleet_summary,
+        not_in_fleet_note,
+        not_stored_note,
+    )
     from drivelash.wear.store import Store
 
     store = Store(db, create=False)
     try:
         with store.guard(_READ_ONLY):
             summ = fleet_summary(store, fleet)
-            note = (
-                None if fleet is None else not_in_fleet_note(axes_not_in_fleet(store, fleet), fleet.path.name)
-            )
+            note = None
+            if fleet is not None:
+                # both directions: the store's axes the file no longer has, and the file's axes
+                # the store does not have yet (a renamed axis is one of each)
+                notes = [
+                    not_in_fleet_note(axes_not_in_fleet(store, fleet), fleet.path.name),
+                    not_stored_note(fleet_axes_not_stored(store, fleet), fleet.path.name),
+                ]
+                note = ". ".join(n for n in notes if n) or None
             return store, summ, note
     except BaseException:
         store.close()

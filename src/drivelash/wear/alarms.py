@@ -30,10 +30,12 @@ from drivelash.wear.trend import AxisTrend, analyse, usable
 __all__ = [
     "Alarm",
     "axes_not_in_fleet",
+    "fleet_axes_not_stored",
     "axis_summary",
     "fleet_summary",
     "judged_axes",
     "not_in_fleet_note",
+    "not_stored_note",
     "refresh_alarms",
 ]
 
@@ -265,6 +267,29 @@ def not_in_fleet_note(names: list[str], fleet_file: str) -> str | None:
     what = "1 axis in the store is" if n == 1 else f"{n} axes in the store are"
     its = "its history is kept; it is" if n == 1 else "their history is kept; they are"
     return f"{what} not in {fleet_file} ({', '.join(names)}): {its} not shown"
+
+
+def fleet_axes_not_stored(store: Store, fleet: Any | None) -> list[str]:
+    """Names of ``fleet``'s axes the store has no axis of (in the fleet file's order; none
+    without a fleet): axes added or renamed since the last ``track ingest``."""
+    if fleet is None:
+        return []
+    have = {a["name"] for a in store.axes()}
+    return [a.name for a in fleet.axes if a.name not in have]
+
+
+def not_stored_note(names: list[str], fleet_file: str) -> str | None:
+    """The one line that says which axes of the fleet file a fleet-filtered view cannot show
+    (None when none): not ingested yet, e.g. an axis renamed in the fleet file, whose old
+    name's history :func:`not_in_fleet_note` names."""
+    if not names:
+        return None
+    n = len(names)
+    what = f"1 axis of {fleet_file} is" if n == 1 else f"{n} axes of {fleet_file} are"
+    return (
+        f"{what} not in the store yet ({', '.join(names)}): nothing to show before "
+        "the next `drivelash track ingest` (a renamed axis starts a new history)"
+    )
 
 
 def fleet_summary(store: Store, fleet: Any | None = None) -> list[dict[str, Any]]:
