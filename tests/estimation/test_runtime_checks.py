@@ -202,6 +202,31 @@ def test_run_accepts_the_recordings_rate_within_tolerance(short_trace):
         assert (r.delta, r.delta_std) == (ref.delta, ref.delta_std)
 
 
+def _jittered(trace):
+    """Every 4th interval 1 % long (within the loader's default jitter tolerance, 1 %): the
+    mean interval is 0.25 % above the median one (``Trace.T_s``)."""
+    from drivelash.io.trace import Trace
+
+    dt = np.full(len(trace) - 1, TS)
+    dt[::4] *= 1.01
+    cols = {k: np.asarray(trace[k]) for k in trace.names}
+    cols["t"] = np.concatenate([[0.0], np.cumsum(dt)])
+    return Trace(cols, dict(trace.meta))
+
+
+def test_run_accepts_a_jittered_recording_built_with_its_own_T_s(short_trace):
+    """Built with T_s=trace.T_s, as the refusal tells, a jittered recording was refused (its
+    mean interval, which run() compared with, is 0.25 % off the median)."""
+    jt = _jittered(short_trace)
+    mean = float(np.diff(jt["t"]).mean())
+    assert abs(mean / jt.T_s - 1) > 2e-3
+    r = _est(jt.T_s).run(jt)
+    ref = _est(mean).run(jt)  # the same run: run() integrates with the mean period either way
+    assert np.array_equal(_bits(r.delta_hat), _bits(ref.delta_hat))
+    with pytest.raises(ParameterError, match=r"median interval 0\.000125 s"):  # another rate still refused
+        _est(1e-4).run(jt)
+
+
 @pytest.mark.parametrize("T_s", [0.0, -125e-6, float("nan"), float("inf")])
 @pytest.mark.parametrize("given", [False, True])
 def test_constructor_refuses_a_sample_time_that_is_not_positive(T_s, given):
