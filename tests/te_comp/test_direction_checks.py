@@ -14,7 +14,7 @@ from drivelash.te.runtime.table import build_table
 
 from .analytic import BilinearTE
 
-BAD = [0, 2, -2, 0.5, -0.5, float("nan"), "pos", True, np.array([1])]
+BAD = [0, 2, -2, 0.5, -0.5, float("nan"), "pos", True, np.array([1]), np.array(0.5), np.array(True)]
 GOOD = [
     (1, 1),
     (-1, -1),
@@ -23,6 +23,10 @@ GOOD = [
     (np.int8(1), 1),
     (1.0, 1),
     (np.float64(-1.0), -1),
+    # NumPy 0-d arrays are scalars (np.sign(v[-1:]).squeeze()); taken before the exact check,
+    # refused by it ("got array(1.)")
+    (np.array(1.0), 1),
+    (np.sign(np.array([-0.3])).squeeze(), -1),
 ]
 
 

@@ -51,7 +51,7 @@ def check_direction(direction: object, owner: str, key: str = "direction") -> in
     ----------
     direction : int
         Flank in contact [-]: +1 moving in +x (positive torque), −1 in −x. An int or NumPy
-        integer; a float equal to ±1 is taken too.
+        integer; a float equal to ±1 is taken too, and a NumPy 0-d integer or float array.
     owner : str
         Name for the message, e.g. ``"TEModel"``.
     key : str
@@ -65,7 +65,7 @@ def check_direction(direction: object, owner: str, key: str = "direction") -> in
     Raises
     ------
     ParameterError
-        Anything else (0, 2, 0.5, NaN, ``"pos"``, True, an array): ``owner.key: must be +1 or
+        Anything else (0, 2, 0.5, NaN, ``"pos"``, True, an array of ≥ 1 dimension): ``owner.key: must be +1 or
         -1, got …``.
     """
     if isinstance(direction, _DIRECTION_TYPES) and not isinstance(direction, bool):
@@ -73,6 +73,12 @@ def check_direction(direction: object, owner: str, key: str = "direction") -> in
             return 1
         if direction == -1:
             return -1
+    elif isinstance(direction, np.ndarray) and direction.ndim == 0 and direction.dtype.kind in "iuf":
+        # a NumPy 0-d array is a scalar (``np.sign(v[-1:]).squeeze()``, ``np.asarray(d)``); it
+        # was taken before the exact ±1 check, so it is taken when it is ±1
+        value = direction[()]
+        if value == 1 or value == -1:
+            return 1 if value == 1 else -1
     raise ParameterError(owner, key, f"must be +1 or -1, got {direction!r}")
 
 
