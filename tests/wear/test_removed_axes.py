@@ -101,6 +101,10 @@ def test_an_axis_renamed_in_the_fleet_file_names_both_the_old_and_the_new_name(s
     r = _run([*TRACK, "report", "--db", db, "--fleet", str(toml), "-o", str(html)])
     assert r.returncode == 0 and "not in the store yet (M02/W)" in r.stdout
     assert "not in the store yet (M02/W)" in html.read_text()
+    r = _run([*TRACK, "forecast", "M02/W", "--db", db, "--fleet", str(toml)])
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2 and len(lines) == 1 and "did you mean" not in lines[0], r.stderr
+    assert "axis 'M02/W' is in this fleet file but not in the store" in lines[0]
     # negative control: the full fleet file names no missing axis
     r = _run([*TRACK, "status", "--db", db, "--fleet", str(small_fleet / "fleet.toml")])
     assert "not in the store yet" not in r.stdout

@@ -335,6 +335,15 @@ def run_forecast(
         store = Store(db, create=False)
         try:
             with store.guard(_READ_ONLY):
+                if fleet is not None and axis in {x.name for x in fleet.axes}:
+                    if axis not in {x["name"] for x in store.axes()}:
+                        # a new or renamed axis of the fleet file: "no axis …; did you mean
+                        # <its old name>?" read as a typo
+                        raise DrivelashError(
+                            f"{fleet.path}: axis {axis!r} is in this fleet file but not in the store "
+                            f"{store.name} yet: nothing to forecast before the next "
+                            "`drivelash track ingest` (a renamed axis starts a new history)"
+                        )
                 store.axis_id(axis)
                 a = next((x for x in judged_axes(store, fleet) if x["name"] == axis), None)
                 if a is None:
