@@ -81,7 +81,9 @@ def test_an_axis_removed_from_the_fleet_file_is_kept_but_not_shown(small_fleet, 
     assert r.returncode == 0 and gone in _rows(r.stdout) and "not in fleet" not in r.stdout
 
 
-def test_an_axis_renamed_in_the_fleet_file_names_both_the_old_and_the_new_name(small_fleet, serial_store, tmp_path):
+def test_an_axis_renamed_in_the_fleet_file_names_both_the_old_and_the_new_name(
+    small_fleet, serial_store, tmp_path
+):
     """M02/Y renamed to M02/W: the old history is "not in fleet.toml"; the new name, not in the
     store yet, was left out of status and report without a word."""
     st, _ = serial_store

@@ -306,7 +306,9 @@ def _busy_timeout(given: float | None) -> float:
         except (TypeError, ValueError):
             value = math.nan
     if not (math.isfinite(value) and 0 <= value <= BUSY_TIMEOUT_MAX_S):
-        raise StoreError(f"{name}: must be a number of seconds from 0 to {BUSY_TIMEOUT_MAX_S:.0f} (24.8 days)")
+        raise StoreError(
+            f"{name}: must be a number of seconds from 0 to {BUSY_TIMEOUT_MAX_S:.0f} (24.8 days)"
+        )
     return value
 
 
