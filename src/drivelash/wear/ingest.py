@@ -459,7 +459,8 @@ def ingest(
         The history store.
     workers : int
         Local worker processes (1 = in this process); with ``dask="local"`` the
-        ``LocalCluster``'s worker count.
+        ``LocalCluster``'s worker count. Also the threads of :func:`plan` hashing the files
+        whose (path, size, mtime) is unknown (a stored content is not estimated again).
     dask : str or DaskRunner, optional
         ``"local"`` or a scheduler address (``tcp://host:8786``), connected before anything
         is written; or an already connected :class:`DaskRunner` (kept open).
