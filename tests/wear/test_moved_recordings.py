@@ -196,3 +196,17 @@ def test_a_rewritten_file_is_still_estimated_and_replaces_its_recording(small_fl
     rep = ingest(load_fleet(f), st, workers=1, compute=work)
     assert work.paths == [str(a)] and rep.moved == 0 and rep.replaced == 1
     assert len(st.estimates()) == 3
+
+
+def test_plan_hashes_in_threads_the_same_rows(small_fleet, tmp_path):
+    f = _tiny(small_fleet, tmp_path / "f", FILENAME_TIME)
+    st = Store(tmp_path / "w.sqlite")
+    ingest(load_fleet(f), st, workers=1)
+    shutil.move(tmp_path / "f", tmp_path / "g")
+    fleet = load_fleet(tmp_path / "g" / "fleet.toml")
+    plan = importlib.import_module("drivelash.wear.ingest").plan
+    one: list[EstimateRow] = []
+    two: list[EstimateRow] = []
+    assert plan(fleet, st, known=one)[1:] == ([], 0) == plan(fleet, st, known=two, hash_threads=2)[1:]
+    assert one == two and len(one) == 3 and {r.path for r in one} == set(map(str, fleet.axes[0].files()))
+    assert len(plan(fleet, st)[1]) == 3  # without ``known``: tasks, as before
