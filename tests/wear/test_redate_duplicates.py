@@ -78,7 +78,7 @@ def test_a_copy_is_estimated_once_and_reported_once(small_fleet, tmp_path):
     copy = orig.with_name(orig.stem + " - Kopie.parquet")
     shutil.copy(orig, copy)
     rep = ingest(load_fleet(f), st, workers=1)
-    assert rep.planned == 1 and rep.stored == 0
+    assert rep.planned == 0 and rep.stored == 0  # its content is stored: not estimated again
     assert rep.duplicates == [f"{copy}: same content as {orig} (stored once, estimated once)"]
     rep = ingest(load_fleet(f), st, workers=1)  # the run that re-estimated it every time
     assert rep.planned == 0 and rep.skipped == 4 and rep.duplicates == []

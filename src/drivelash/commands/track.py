@@ -106,6 +106,7 @@ def run_ingest(
             f"[bold]{fleet.name}[/bold]: {rep.planned - rep.retried} new recordings estimated ({rate}; "
             f"{rep.stored} stored in {rep.batches} transactions, {rep.failed} failed), "
             f"{rep.skipped} already in the store"
+            + (f"; {rep.moved} moved or renamed (not re-estimated)" if rep.moved else "")
             + (f"; {rep.retried} retried, {rep.still_failing} still failing" if rep.retried else "")
             + (f"; {rep.replaced} replaced (content changed)" if rep.replaced else "")
             + (f" ({rep.redated} re-dated: the time specification changed)" if rep.redated else "")

@@ -5,7 +5,11 @@ Pipeline of :func:`ingest`:
 1. **plan** (writer): register the fleet's axes; list each axis's recordings; skip the files
    whose (path, size, mtime) already carry an estimate with this method, config hash and
    code version that did not fail (a shortcut — the identity remains the content hash,
-   checked on commit, where a new result replaces a ``failed`` estimate of that identity);
+   checked on commit, where a new result replaces a ``failed`` estimate of that identity).
+   A file whose (path, size, mtime) is unknown but whose size is that of such a recording is
+   hashed: when the store holds that content with that estimate, it is not estimated again
+   (moved, renamed, touched or copied) — the stored estimate's row with the file's new facts
+   is committed instead, first, which records the new path (or the duplicate);
 2. **compute** (workers): :func:`~drivelash.wear.estimate.estimate_recording` per file —
    serially, in local processes (``workers``) or on a Dask distributed cluster
    (``dask="local"`` starts a ``LocalCluster``; otherwise a scheduler address);
@@ -25,13 +29,14 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from drivelash.errors import DrivelashError
 from drivelash.wear.estimate import RecordingTask, code_version, content_hash, estimate_recording, file_facts
 from drivelash.wear.fleet import Fleet
 from drivelash.wear.store import EstimateRow, Store
 
-__all__ = ["DaskRunner", "IngestReport", "SchedulerError", "check_files", "ingest", "plan"]
+__all__ = ["DaskRunner", "IngestReport", "SchedulerError", "check_files", "ingest", "plan", "stored_row"]
 
 #: Times a recording is tried when its worker process dies before it is stored as failed.
 MAX_ATTEMPTS = 3
@@ -68,12 +73,38 @@ class IngestReport:
     still_failing: int = 0
     #: Stored recordings replaced by a new content of their file (same axis and path).
     replaced: int = 0
+    #: Stored recordings found under a new path or file time (moved, renamed, touched): their
+    #: new facts recorded, not estimated again (copies of a stored recording are ``duplicates``).
+    moved: int = 0
 
 
 def plan(
-    fleet: Fleet, store: Store, warnings: list[str] | None = None
+    fleet: Fleet,
+    store: Store,
+    warnings: list[str] | None = None,
+    known: list[EstimateRow] | None = None,
+    hash_threads: int = 1,
 ) -> tuple[dict[str, int], list[RecordingTask], int]:
     """Register the axes and list the recordings still to estimate.
+
+    Parameters
+    ----------
+    fleet : Fleet
+        The inventory.
+    store : Store
+        The history store.
+    warnings : list of str, optional
+        Receives one line per axis whose ``recordings`` glob matches no file.
+    known : list of EstimateRow, optional
+        When given, a file whose (path, size, mtime) is unknown but whose content the store
+        already holds with this estimate identity (a file moved, renamed, touched or copied)
+        is no task: it is hashed (only when its size is that of such a recording) and
+        receives here a row built from the stored estimate with the file's new facts
+        (:func:`stored_row`), for :meth:`~drivelash.wear.store.Store.commit_batch` to record
+        the new path (a move) or the copy (a duplicate). Without it such files are tasks.
+    hash_threads : int
+        Threads hashing those files (hashing and reading release the GIL): ``ingest`` gives
+        its worker count, so the check keeps pace with the estimating it replaces.
 
     Returns
     -------
@@ -82,23 +113,38 @@ def plan(
     tasks : list of RecordingTask
         Recordings without an estimate of this method/config/code version, by axis and path.
     skipped : int
-        Recordings already stored.
-
-    ``warnings`` (when given) receives one line per axis whose ``recordings`` glob matches no file.
+        Recordings already stored under their path, size and mtime.
     """
     ids = store.upsert_axes(fleet.axes)
     ver = code_version()
     tasks: list[RecordingTask] = []
     skipped = 0
     for a in fleet.axes:
-        known = store.known_files(ids[a.name], a.method, a.drive_hash, ver)
+        seen = store.known_files(ids[a.name], a.method, a.drive_hash, ver)
+        sizes = {s for _, s, _ in seen}  # equal content has equal size: hash only those files
         files = a.files()
         if not files and warnings is not None:
             warnings.append(f"{fleet.path}: axis {a.name!r}: 'recordings' = {a.recordings!r} matches no file")
+        todo: list[tuple[Path, int, int]] = []
         for p in files:
             size, mtime = file_facts(p)
-            if (str(p), size, mtime) in known:
+            if (str(p), size, mtime) in seen:
                 skipped += 1
+            else:
+                todo.append((p, size, mtime))
+        digests: dict[Path, str] = {}
+        if known is not None:
+            check = [p for p, size, _ in todo if size in sizes]
+            for p, (digest, exc) in zip(check, _hash_all(check, hash_threads), strict=True):
+                if exc is None:  # an unreadable file is a task: the worker stores why
+                    digests[p] = digest
+        stored: dict[str, dict[str, Any]] = {}
+        if digests:
+            stored = store.known_contents(ids[a.name], a.method, a.drive_hash, ver, digests.values())
+        for p, size, mtime in todo:
+            hit = stored.get(digests.get(p, ""))
+            if hit is not None and known is not None:
+                known.append(stored_row(a.name, str(p), size, mtime, digests[p], hit))
                 continue
             tasks.append(
                 RecordingTask(
@@ -115,6 +161,48 @@ def plan(
                 )
             )
     return ids, tasks, skipped
+
+
+def _hash_all(paths: Sequence[Path], threads: int) -> list[tuple[str, OSError | None]]:
+    """:func:`~drivelash.wear.estimate.content_hash` of each path, in ``threads`` threads."""
+    if threads <= 1 or len(paths) <= 1:
+        return [content_hash(p) for p in paths]
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=min(threads, len(paths))) as pool:
+        return list(pool.map(content_hash, paths))
+
+
+def stored_row(axis: str, path: str, size: int, mtime: int, digest: str, rec: dict[str, Any]) -> EstimateRow:
+    """The result row of a stored estimate (a row of
+    :meth:`~drivelash.wear.store.Store.known_contents`) for its content seen at another file
+    (``path``, ``size``, ``mtime``): what the estimator would return for that file, without
+    estimating it again (``runtime_s`` 0).
+    """
+    return EstimateRow(
+        axis=axis,
+        path=path,
+        size_bytes=size,
+        mtime_ns=mtime,
+        content_hash=digest,
+        start_time=rec["start_time"],
+        duration_s=rec["duration_s"],
+        sample_rate_hz=rec["sample_rate_hz"],
+        samples=rec["samples"],
+        method=rec["method"],
+        code_version=rec["code_version"],
+        config_hash=rec["config_hash"],
+        status=rec["status"],
+        reason=rec["reason"] or "",
+        delta=rec["delta"],
+        delta1_estimate=rec["delta1_estimate"],
+        delta_std=rec["delta_std"],
+        excitation_ok=None if rec["excitation_ok"] is None else bool(rec["excitation_ok"]),
+        converged=None if rec["converged"] is None else bool(rec["converged"]),
+        runtime_s=0.0,
+        estimate_rate_hz=rec["estimate_rate_hz"],
+        time_spec_hash=rec["time_spec_hash"],
+    )
 
 
 def redate(fleet: Fleet, store: Store) -> list[tuple[int, object, str]]:
@@ -371,7 +459,8 @@ def ingest(
         The history store.
     workers : int
         Local worker processes (1 = in this process); with ``dask="local"`` the
-        ``LocalCluster``'s worker count.
+        ``LocalCluster``'s worker count. Also the threads of :func:`plan` hashing the files
+        whose (path, size, mtime) is unknown (a stored content is not estimated again).
     dask : str or DaskRunner, optional
         ``"local"`` or a scheduler address (``tcp://host:8786``), connected before anything
         is written; or an already connected :class:`DaskRunner` (kept open).
@@ -427,7 +516,8 @@ def _ingest(
 ) -> IngestReport:
     check_files(fleet)  # a file of two axes, no file datable: error, nothing written
     changes = redate(fleet, store)  # a recording that cannot be re-dated: error, nothing written
-    ids, tasks, skipped = plan(fleet, store, rep.warnings)
+    known: list[EstimateRow] = []  # files with the content of a stored estimate: not estimated
+    ids, tasks, skipped = plan(fleet, store, rep.warnings, known, hash_threads=workers)
     rep.planned, rep.skipped = len(tasks), skipped
     if runner is not None:
         results = runner.run(tasks, compute)
@@ -453,6 +543,12 @@ def _ingest(
         batch = []
         last = time.monotonic()
 
+    # their new paths first, through the same commit as a result (a move or a duplicate)
+    for k in range(0, len(known), batch_size):
+        batch = known[k : k + batch_size]
+        n, dups = len(batch), len(rep.duplicates)
+        flush()
+        rep.moved += n - (len(rep.duplicates) - dups)
     for row in results:
         done += 1
         rep.compute_s += row.runtime_s
@@ -479,8 +575,9 @@ def _what_was_written(rep: IngestReport) -> str:
         if rep.redated:
             return f"no estimate of this ingest was written (its {rep.redated} new recording dates were)"
         return "nothing of this ingest was written"
+    moved = f" (and {rep.moved} new paths of stored recordings)" if rep.moved else ""
     return (
-        f"the {rep.stored} estimates of its first {rep.batches} transactions stay stored, the rest "
+        f"the {rep.stored} estimates{moved} of its first {rep.batches} transactions stay stored, the rest "
         "was not written"
     )
 

@@ -592,6 +592,48 @@ class Store:
             out.update((r.path, int(r.size_bytes), int(r.mtime_ns)) for r in self._read(q))
         return out
 
+    def known_contents(
+        self, axis_id: int, method: str, config_hash: str, code_version: str, hashes: Iterable[str]
+    ) -> dict[str, dict[str, Any]]:
+        """The stored recordings of the axis among ``hashes`` (content hashes) that have this
+        estimate and it did not fail — the identity :meth:`known_files` uses, by content
+        instead of by file facts (a file moved, renamed, touched or copied).
+
+        Returns
+        -------
+        dict
+            content hash → the recording's columns (``path``, ``start_time``, ``duration_s``,
+            ``sample_rate_hz``, ``samples``, ``time_spec_hash``) and the estimate's (``status``,
+            ``reason``, ``delta``, …, ``estimate_rate_hz``).
+        """
+        want = sorted(set(hashes))
+        cols = (
+            recording_t.c.content_hash,
+            recording_t.c.path,
+            recording_t.c.start_time,
+            recording_t.c.duration_s,
+            recording_t.c.sample_rate_hz,
+            recording_t.c.samples,
+            recording_t.c.time_spec_hash,
+            *[c for c in estimate_t.c if c.name not in ("id", "axis_id", "recording_id", "created_at")],
+        )
+        out: dict[str, dict[str, Any]] = {}
+        for k in range(0, len(want), 500):
+            q = (
+                sa.select(*cols)
+                .join(estimate_t, estimate_t.c.recording_id == recording_t.c.id)
+                .where(
+                    recording_t.c.axis_id == axis_id,
+                    recording_t.c.content_hash.in_(want[k : k + 500]),
+                    estimate_t.c.status != "failed",
+                    estimate_t.c.method == method,
+                    estimate_t.c.config_hash == config_hash,
+                    estimate_t.c.code_version == code_version,
+                )
+            )
+            out.update((r.content_hash, dict(r._mapping)) for r in self._read(q))
+        return out
+
     def dated_files(
         self, axis_id: int
     ) -> dict[tuple[str, int, int], tuple[int, str | None, datetime | None]]:
