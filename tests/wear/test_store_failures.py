@@ -175,6 +175,38 @@ def test_full_disk_during_ingest_is_one_line_rolled_back_and_the_store_stays_usa
     assert rec[: len(before[0])] == before[0] and len(rec) == len(before[0]) + 2 and len(est) == len(rec)
 
 
+def test_full_disk_on_a_first_ingest_says_the_axes_were_registered(tiny_fleet, tmp_path, monkeypatch, capsys):
+    """A first ingest that meets a full disk at its first estimate has registered the fleet's
+    axes (plan's own transaction): the line says so instead of "nothing … was written" (status
+    would list those axes with no recording), and no recording or estimate is stored."""
+    from drivelash import cli
+    from drivelash.wear import store as store_mod
+
+    fleet, _ = _fleet_copy(tiny_fleet, tmp_path / "f")
+    db = tmp_path / "w.sqlite"
+    migrate = store_mod.Store._migrate
+
+    def no_room(self, create):
+        migrate(self, create)
+
+        def full(conn, cursor, statement, *a):
+            if statement.lstrip().upper().startswith("INSERT INTO ESTIMATE"):
+                raise sqlite3.OperationalError("database or disk is full")
+
+        sa.event.listen(self.engine, "before_cursor_execute", full)
+
+    monkeypatch.setattr(store_mod.Store, "_migrate", no_room)
+    args = ["track", "ingest", str(fleet / "fleet.toml"), "--db", str(db), "--workers", "1"]
+    assert _main(cli, args) == 2
+    line = _one_error_line(capsys.readouterr().err)
+    with sqlite3.connect(db) as c:
+        n_axes = c.execute("SELECT count(*) FROM axis").fetchone()[0]
+    assert n_axes >= 2
+    assert f"no estimate of this ingest was written (its {n_axes} new axes were registered)" in line, line
+    assert "nothing of this ingest was written" not in line
+    assert _state(db) == ([], [])
+
+
 def _main(cli, args: list[str]) -> int:
     """Exit code of ``drivelash ARGS`` run in this process."""
     try:

@@ -73,6 +73,8 @@ class IngestReport:
     still_failing: int = 0
     #: Stored recordings replaced by a new content of their file (same axis and path).
     replaced: int = 0
+    #: Axes of the fleet that this ingest added to the store (registered before any estimate).
+    new_axes: int = 0
     #: Stored recordings found under a new path or file time (moved, renamed, touched): their
     #: new facts recorded, not estimated again (copies of a stored recording are ``duplicates``).
     moved: int = 0
@@ -517,7 +519,9 @@ def _ingest(
     check_files(fleet)  # a file of two axes, no file datable: error, nothing written
     changes = redate(fleet, store)  # a recording that cannot be re-dated: error, nothing written
     known: list[EstimateRow] = []  # files with the content of a stored estimate: not estimated
+    had = {a["name"] for a in store.axes()}
     ids, tasks, skipped = plan(fleet, store, rep.warnings, known, hash_threads=workers)
+    rep.new_axes = len(set(ids) - had)
     rep.planned, rep.skipped = len(tasks), skipped
     if runner is not None:
         results = runner.run(tasks, compute)
@@ -572,8 +576,13 @@ def _ingest(
 def _what_was_written(rep: IngestReport) -> str:
     """What an ingest that stopped on a store failure leaves stored (for the one-line error)."""
     if rep.batches == 0:
+        done = []
+        if rep.new_axes:  # plan registers the fleet's axes in a transaction of its own
+            done.append(f"its {rep.new_axes} new axes were registered")
         if rep.redated:
-            return f"no estimate of this ingest was written (its {rep.redated} new recording dates were)"
+            done.append(f"its {rep.redated} new recording dates were written")
+        if done:
+            return f"no estimate of this ingest was written ({'; '.join(done)})"
         return "nothing of this ingest was written"
     moved = f" (and {rep.moved} new paths of stored recordings)" if rep.moved else ""
     return (
