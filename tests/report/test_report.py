@@ -121,12 +121,25 @@ def test_identify_report_tables(tmp_path):
     assert all(_non_blank(i) > 0.01 for i in _images(html))
 
 
-def test_identify_report_takes_what_identify_drive_returns(tmp_path):
+def test_identify_report_takes_what_identify_drive_returns(tmp_path, monkeypatch):
     """Tester finding (session 14): ``write_identify_report(path, trace, identify_drive(...))``
     raised ``AttributeError: 'DriveIdentification' object has no attribute 'theta'`` for both
     models. It now writes the report the command writes: the rigid one from the IDIM-LS result
-    the API's result was built from, the two-mass one through its own renderer."""
+    the API's result was built from, the two-mass one through its own renderer.
+
+    The footer's "generated" minute is frozen: the two renders compared here once straddled a
+    minute boundary under load (session 15, 02:00 vs 02:01 UTC)."""
+    from datetime import UTC, datetime
+
     import drivelash as dl
+    from drivelash.report import html as html_mod
+
+    class _Frozen(datetime):
+        @classmethod
+        def now(cls, tz=None):  # noqa: ANN206 - datetime's signature
+            return datetime(2026, 1, 1, 12, 0, tzinfo=tz or UTC)
+
+    monkeypatch.setattr(html_mod, "datetime", _Frozen)
     from drivelash.estimation.identify import identify_rigid
     from drivelash.io import Trace
     from drivelash.report import write_identify_report
@@ -145,6 +158,7 @@ def test_identify_report_takes_what_identify_drive_returns(tmp_path):
     two = dl.identify_drive(run, model="two-mass", N=1.0)
     html = write_identify_report(tmp_path / "two.html", run, two).read_text(encoding="utf-8")
     assert html == render_two_mass_report(run, two, None)
+    assert "generated 2026-01-01 12:00 UTC" in html  # the frozen clock is the one the footer reads
     _assert_self_contained(html)
 
 
