@@ -2,10 +2,17 @@
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 import numpy as np
 import pytest
+
+# Reports state when they were generated; tests that compare two renders byte for byte must not
+# straddle a minute (a flaky failure in session 15): every report of the run, in this process
+# and in the CLI subprocesses it starts, states this fixed time (reproducible-builds.org's
+# SOURCE_DATE_EPOCH, honoured by drivelash.report.html.generated_at). 2026-01-01 12:00 UTC.
+os.environ.setdefault("SOURCE_DATE_EPOCH", "1767268800")
 
 # Real data (../shared/data): one rule, in tests/realdata.py (a module name no conftest shadows)
 from realdata import SHARED_DATA, in_ci, shared_data  # noqa: E402,F401

@@ -121,25 +121,15 @@ def test_identify_report_tables(tmp_path):
     assert all(_non_blank(i) > 0.01 for i in _images(html))
 
 
-def test_identify_report_takes_what_identify_drive_returns(tmp_path, monkeypatch):
+def test_identify_report_takes_what_identify_drive_returns(tmp_path):
     """Tester finding (session 14): ``write_identify_report(path, trace, identify_drive(...))``
     raised ``AttributeError: 'DriveIdentification' object has no attribute 'theta'`` for both
     models. It now writes the report the command writes: the rigid one from the IDIM-LS result
     the API's result was built from, the two-mass one through its own renderer.
 
-    The footer's "generated" minute is frozen: the two renders compared here once straddled a
-    minute boundary under load (session 15, 02:00 vs 02:01 UTC)."""
-    from datetime import UTC, datetime
-
+    The footer's "generated" minute is fixed by tests/conftest.py (``SOURCE_DATE_EPOCH``): the
+    two renders compared here once straddled a minute boundary under load (session 15)."""
     import drivelash as dl
-    from drivelash.report import html as html_mod
-
-    class _Frozen(datetime):
-        @classmethod
-        def now(cls, tz=None):  # noqa: ANN206 - datetime's signature
-            return datetime(2026, 1, 1, 12, 0, tzinfo=tz or UTC)
-
-    monkeypatch.setattr(html_mod, "datetime", _Frozen)
     from drivelash.estimation.identify import identify_rigid
     from drivelash.io import Trace
     from drivelash.report import write_identify_report
@@ -158,7 +148,7 @@ def test_identify_report_takes_what_identify_drive_returns(tmp_path, monkeypatch
     two = dl.identify_drive(run, model="two-mass", N=1.0)
     html = write_identify_report(tmp_path / "two.html", run, two).read_text(encoding="utf-8")
     assert html == render_two_mass_report(run, two, None)
-    assert "generated 2026-01-01 12:00 UTC" in html  # the frozen clock is the one the footer reads
+    assert "generated 2026-01-01 12:00 UTC" in html  # SOURCE_DATE_EPOCH of tests/conftest.py
     _assert_self_contained(html)
 
 
@@ -264,3 +254,20 @@ def test_two_mass_report_of_a_geared_motor_only_fit_says_what_was_fitted():
     rb = dl.identify_drive(bench, model="two-mass", N=1.0)
     hb = render_two_mass_report(bench, rb, None)
     assert "and a torque offset" in hb and "motor equation only" not in hb
+
+
+def test_report_time_is_now_or_source_date_epoch(monkeypatch):
+    """The footer's time: SOURCE_DATE_EPOCH when set (reproducible reports), now otherwise
+    (negative control), and a malformed value is one ParameterError line, not a silent now."""
+    from datetime import UTC, datetime, timedelta
+
+    from drivelash.errors import ParameterError
+    from drivelash.report.html import generated_at
+
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767268800")
+    assert generated_at() == datetime(2026, 1, 1, 12, 0, tzinfo=UTC)
+    monkeypatch.delenv("SOURCE_DATE_EPOCH")
+    assert abs(generated_at() - datetime.now(UTC)) < timedelta(seconds=5)
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "2026-01-01")
+    with pytest.raises(ParameterError, match="SOURCE_DATE_EPOCH: must be whole seconds since 1970"):
+        generated_at()

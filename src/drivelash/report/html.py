@@ -10,6 +10,7 @@ from __future__ import annotations
 import base64
 import html
 import io
+import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -83,6 +84,35 @@ def _table(caption: str, header: Sequence[str], rows: Sequence[Sequence[Any]]) -
     return f"<table>{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
 
 
+def generated_at() -> datetime:
+    """The time a report states it was generated (UTC): now, or ``SOURCE_DATE_EPOCH``.
+
+    ``SOURCE_DATE_EPOCH`` (reproducible-builds.org: whole seconds since 1970-01-01 UTC) makes
+    a report byte-for-byte reproducible — two renders of one result otherwise differ when they
+    straddle a minute.
+
+    Returns
+    -------
+    datetime
+        Time zone aware, UTC.
+
+    Raises
+    ------
+    ParameterError
+        ``SOURCE_DATE_EPOCH`` set but not whole seconds (the specification asks tools to fail).
+    """
+    epoch = os.environ.get("SOURCE_DATE_EPOCH")
+    if epoch is None:
+        return datetime.now(UTC)
+    if not epoch.strip().isdigit():
+        from drivelash.errors import ParameterError
+
+        raise ParameterError(
+            "environment", "SOURCE_DATE_EPOCH", f"must be whole seconds since 1970, got {epoch!r}"
+        )
+    return datetime.fromtimestamp(int(epoch), UTC)
+
+
 def render_html(title: str, sections: Sequence[Section], *, progress: bool | None = None) -> str:
     """Assemble the report; renders every figure (progress bar when there are many).
 
@@ -130,7 +160,7 @@ def render_html(title: str, sections: Sequence[Section], *, progress: bool | Non
                 f"<figcaption>{html.escape(f.caption)}</figcaption></figure>"
             )
         parts.append("</section>")
-    stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
+    stamp = generated_at().strftime("%Y-%m-%d %H:%M UTC")
     parts.append(
         f"<footer>drivelash report, generated {stamp}. Self-contained: no scripts, no network.</footer>"
     )
