@@ -22,7 +22,7 @@ from drivelash.wear.store import EstimateRow
 
 from .conftest import copy_fleet, ingest_cmd
 from .test_ingest_retry import _wrong_format
-from .test_redate_duplicates import FILENAME_TIME, _tiny, _write
+from .test_redate_duplicates import FILENAME_TIME, _tiny, _write, ingested_with_a_copy
 
 #: The file facts of a recording (where it was seen), not its result.
 FACTS = ("path", "size_bytes", "mtime_ns", "id", "created_at", "runtime_s")
@@ -112,12 +112,7 @@ def test_touched_and_renamed_files_are_not_estimated_again(small_fleet, tmp_path
 
 
 def test_a_copy_is_a_duplicate_without_being_estimated(small_fleet, tmp_path):
-    f = _tiny(small_fleet, tmp_path / "f", FILENAME_TIME)
-    st = Store(tmp_path / "w.sqlite")
-    ingest(load_fleet(f), st, workers=1)
-    orig = sorted((tmp_path / "f" / "rec").glob("*.parquet"))[0]
-    copy = orig.with_name(orig.stem + " - Kopie.parquet")
-    shutil.copy(orig, copy)
+    f, st, orig, copy = ingested_with_a_copy(small_fleet, tmp_path)
     work = _Counting()
     rep = ingest(load_fleet(f), st, workers=1, compute=work)
     assert work.paths == [] and rep.planned == 0 and rep.moved == 0 and rep.stored == 0

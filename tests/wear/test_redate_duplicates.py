@@ -34,6 +34,18 @@ def _tiny(small_fleet: Path, dst: Path, time_line: str) -> Path:
     return _write(dst, time_line)
 
 
+def ingested_with_a_copy(small_fleet: Path, tmp_path: Path) -> tuple[Path, Store, Path, Path]:
+    """A tiny fleet ingested once, then one recording copied under a new name (not ingested):
+    (fleet dir, store, original, copy)."""
+    f = _tiny(small_fleet, tmp_path / "f", FILENAME_TIME)
+    st = Store(tmp_path / "w.sqlite")
+    ingest(load_fleet(f), st, workers=1)
+    orig = sorted((tmp_path / "f" / "rec").glob("*.parquet"))[0]
+    copy = orig.with_name(orig.stem + " - Kopie.parquet")
+    shutil.copy(orig, copy)
+    return f, st, orig, copy
+
+
 def _write(dst: Path, time_line: str) -> Path:
     f = dst / "fleet.toml"
     f.write_text(
@@ -71,12 +83,7 @@ def test_changed_time_spec_re_dates_stored_recordings(small_fleet, tmp_path):
 
 
 def test_a_copy_is_estimated_once_and_reported_once(small_fleet, tmp_path):
-    f = _tiny(small_fleet, tmp_path / "f", FILENAME_TIME)
-    st = Store(tmp_path / "w.sqlite")
-    ingest(load_fleet(f), st, workers=1)
-    orig = sorted((tmp_path / "f" / "rec").glob("*.parquet"))[0]
-    copy = orig.with_name(orig.stem + " - Kopie.parquet")
-    shutil.copy(orig, copy)
+    f, st, orig, copy = ingested_with_a_copy(small_fleet, tmp_path)
     rep = ingest(load_fleet(f), st, workers=1)
     assert rep.planned == 0 and rep.stored == 0  # its content is stored: not estimated again
     assert rep.duplicates == [f"{copy}: same content as {orig} (stored once, estimated once)"]

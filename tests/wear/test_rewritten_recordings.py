@@ -12,7 +12,7 @@ import subprocess
 from drivelash.wear import Store, ingest, load_fleet
 
 from .conftest import ingest_cmd
-from .test_redate_duplicates import FILENAME_TIME, _tiny
+from .test_redate_duplicates import FILENAME_TIME, _tiny, ingested_with_a_copy
 
 
 def _other_recording(small_fleet, exclude: set[str]) -> bytes:
@@ -58,12 +58,7 @@ def test_a_file_rewritten_under_its_name_replaces_its_recording(small_fleet, tmp
 
 
 def test_a_copy_under_a_new_name_is_still_a_duplicate_not_a_replacement(small_fleet, tmp_path):
-    f = _tiny(small_fleet, tmp_path / "f", FILENAME_TIME)
-    st = Store(tmp_path / "w.sqlite")
-    ingest(load_fleet(f), st, workers=1)
-    orig = sorted((tmp_path / "f" / "rec").glob("*.parquet"))[0]
-    copy = orig.with_name(orig.stem + " - Kopie.parquet")
-    shutil.copy(orig, copy)
+    f, st, orig, copy = ingested_with_a_copy(small_fleet, tmp_path)
     rep = ingest(load_fleet(f), st, workers=1)
     assert rep.replaced == 0 and len(rep.duplicates) == 1
     assert len(st.estimates("M01/X")) == 3

@@ -140,7 +140,6 @@ def test_full_disk_during_ingest_is_one_line_rolled_back_and_the_store_stays_usa
     tiny_fleet, tmp_path, monkeypatch, capsys
 ):
     from drivelash import cli
-    from drivelash.wear import store as store_mod
 
     fleet, held = _fleet_copy(tiny_fleet, tmp_path / "f", hold_back=2)
     db = tmp_path / "w.sqlite"
@@ -151,25 +150,14 @@ def test_full_disk_during_ingest_is_one_line_rolled_back_and_the_store_stays_usa
     before = _state(db)
     capsys.readouterr()
 
-    migrate = store_mod.Store._migrate
-
-    def no_room(self, create):  # every INSERT of an estimate meets SQLite's real "disk full" error
-        migrate(self, create)
-
-        def full(conn, cursor, statement, *a):
-            if statement.lstrip().upper().startswith("INSERT INTO ESTIMATE"):
-                raise sqlite3.OperationalError("database or disk is full")
-
-        sa.event.listen(self.engine, "before_cursor_execute", full)
-
-    monkeypatch.setattr(store_mod.Store, "_migrate", no_room)
+    migrate = _disk_full_on_estimates(monkeypatch)
     assert _main(cli, args) == 2
     line = _one_error_line(capsys.readouterr().err)
     assert f"{db}: database or disk is full; the transaction was rolled back" in line
     assert "nothing of this ingest was written" in line and "free space" in line
     assert _state(db) == before  # the transaction was rolled back: same rows
 
-    monkeypatch.setattr(store_mod.Store, "_migrate", migrate)
+    monkeypatch.setattr(Store, "_migrate", migrate)
     assert _main(cli, args) == 0
     rec, est = _state(db)
     assert rec[: len(before[0])] == before[0] and len(rec) == len(before[0]) + 2 and len(est) == len(rec)
@@ -180,11 +168,25 @@ def test_full_disk_on_a_first_ingest_says_the_axes_were_registered(tiny_fleet, t
     axes (plan's own transaction): the line says so instead of "nothing … was written" (status
     would list those axes with no recording), and no recording or estimate is stored."""
     from drivelash import cli
-    from drivelash.wear import store as store_mod
 
     fleet, _ = _fleet_copy(tiny_fleet, tmp_path / "f")
     db = tmp_path / "w.sqlite"
-    migrate = store_mod.Store._migrate
+    _disk_full_on_estimates(monkeypatch)
+    args = ["track", "ingest", str(fleet / "fleet.toml"), "--db", str(db), "--workers", "1"]
+    assert _main(cli, args) == 2
+    line = _one_error_line(capsys.readouterr().err)
+    with sqlite3.connect(db) as c:
+        n_axes = c.execute("SELECT count(*) FROM axis").fetchone()[0]
+    assert n_axes >= 2
+    assert f"no estimate of this ingest was written (its {n_axes} new axes were registered)" in line, line
+    assert "nothing of this ingest was written" not in line
+    assert _state(db) == ([], [])
+
+
+def _disk_full_on_estimates(monkeypatch):
+    """Every store opened from now on meets SQLite's real "disk full" error on each INSERT of an
+    estimate; returns the original ``Store._migrate`` (to undo it)."""
+    migrate = Store._migrate
 
     def no_room(self, create):
         migrate(self, create)
@@ -195,16 +197,8 @@ def test_full_disk_on_a_first_ingest_says_the_axes_were_registered(tiny_fleet, t
 
         sa.event.listen(self.engine, "before_cursor_execute", full)
 
-    monkeypatch.setattr(store_mod.Store, "_migrate", no_room)
-    args = ["track", "ingest", str(fleet / "fleet.toml"), "--db", str(db), "--workers", "1"]
-    assert _main(cli, args) == 2
-    line = _one_error_line(capsys.readouterr().err)
-    with sqlite3.connect(db) as c:
-        n_axes = c.execute("SELECT count(*) FROM axis").fetchone()[0]
-    assert n_axes >= 2
-    assert f"no estimate of this ingest was written (its {n_axes} new axes were registered)" in line, line
-    assert "nothing of this ingest was written" not in line
-    assert _state(db) == ([], [])
+    monkeypatch.setattr(Store, "_migrate", no_room)
+    return migrate
 
 
 def _main(cli, args: list[str]) -> int:
@@ -272,12 +266,11 @@ def test_readers_meeting_a_lock_after_opening_the_store_say_so_in_one_line(
     """The lock hits a read after the store was opened (e.g. a writer in exclusive mode that
     started meanwhile): the same one line, no traceback, no output file."""
     from drivelash import cli
-    from drivelash.wear import store as store_mod
 
     fleet, _ = _fleet_copy(tiny_fleet, tmp_path / "f")
     db = tmp_path / "w.sqlite"
     assert _main(cli, ["track", "ingest", str(fleet / "fleet.toml"), "--db", str(db), "--workers", "1"]) == 0
-    migrate = store_mod.Store._migrate
+    migrate = Store._migrate
 
     def locked_later(self, create):
         migrate(self, create)
@@ -288,7 +281,7 @@ def test_readers_meeting_a_lock_after_opening_the_store_say_so_in_one_line(
 
         sa.event.listen(self.engine, "before_cursor_execute", lock)
 
-    monkeypatch.setattr(store_mod.Store, "_migrate", locked_later)
+    monkeypatch.setattr(Store, "_migrate", locked_later)
     capsys.readouterr()
     for args in (
         ["status"],
