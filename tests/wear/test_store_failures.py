@@ -224,9 +224,10 @@ def test_enospc_while_writing_is_one_line(tmp_path, monkeypatch):
         raise KeyError("bug")
 
 
-def test_two_first_ingests_at_once_on_an_empty_postgresql_database(tiny_fleet, pg_url):
+def _two_ingests_at_once(fleet: Path, db) -> None:
+    """Start two ``track ingest`` of ``fleet`` on store ``db`` at the same time; both exit 0."""
     procs = [
-        subprocess.Popen(ingest_cmd(tiny_fleet / "fleet.toml", pg_url), stdout=subprocess.PIPE,
+        subprocess.Popen(ingest_cmd(fleet / "fleet.toml", db), stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, text=True)
         for _ in range(2)
     ]  # fmt: skip
@@ -234,6 +235,10 @@ def test_two_first_ingests_at_once_on_an_empty_postgresql_database(tiny_fleet, p
     for p, (_, err) in zip(procs, outs, strict=True):
         assert p.returncode == 0, err
         assert "Traceback" not in err
+
+
+def test_two_first_ingests_at_once_on_an_empty_postgresql_database(tiny_fleet, pg_url):
+    _two_ingests_at_once(tiny_fleet, pg_url)
     st = Store(pg_url, create=False)
     try:
         rows = st.estimates()
@@ -246,14 +251,7 @@ def test_two_first_ingests_at_once_on_an_empty_postgresql_database(tiny_fleet, p
 
 def test_two_first_ingests_at_once_on_a_new_sqlite_file(tiny_fleet, tmp_path):
     db = tmp_path / "w.sqlite"
-    procs = [
-        subprocess.Popen(ingest_cmd(tiny_fleet / "fleet.toml", db), stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True)
-        for _ in range(2)
-    ]  # fmt: skip
-    outs = [p.communicate(timeout=300) for p in procs]
-    for p, (_, err) in zip(procs, outs, strict=True):
-        assert p.returncode == 0, err
+    _two_ingests_at_once(tiny_fleet, db)
     n = len(_files(tiny_fleet))
     with sqlite3.connect(db) as c:
         assert c.execute("SELECT count(*), count(DISTINCT path) FROM recording").fetchone() == (n, n)
