@@ -7,7 +7,7 @@ The no-load part of it, per direction of travel, is what a CNC's position-depend
 compensation tables can hold. The load-dependent part is not in them, and the 5 ms
 velocity channel of :mod:`drivelash.te.runtime.compensator` is the paper's scheme for a loop
 closed on the linear scale: on a loop closed on the motor encoder the position controller takes
-an added velocity back (of a correction TE it leaves TE·s/(s+K_v) in place: nothing in steady
+an added velocity back (of a correction TE only TE·s/(s+K_v) reaches the load: none in steady
 state, ≈ 20 % of a 7.5 Hz meshing component at K_v = 231 1/s), so there the load part has to
 enter as a position offset, v_c being only its feed-forward. The compensator's table holds the
 whole TE, the no-load part included: used beside these tables it would count that part twice.
