@@ -31,6 +31,14 @@ if TYPE_CHECKING:  # annotation only: params does not import the estimation laye
     from drivelash.estimation.motion import MotionSummary
 
 
+def is_real_number(value: object) -> bool:
+    """True for a real scalar — Python's or numpy's (``np.float32`` from a computed array),
+    0-d arrays excluded — and not a bool."""
+    import numbers
+
+    return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
+
+
 def require_finite(obj: object) -> None:
     """Raise :class:`ParameterError` naming the first non-finite numeric field of ``obj``."""
     for f in fields(obj):  # type: ignore[arg-type]

@@ -238,3 +238,30 @@ def test_constructor_refuses_a_sample_time_that_is_not_positive(T_s, given):
     with pytest.raises(ParameterError) as err:
         DeadzoneEstimator(RIG_ESTIMATOR, 0.093, T_s, cfg)
     assert _one_line(err) == f"DeadzoneEstimator.T_s: sample time must be finite and > 0 s, got {T_s!r}"
+
+
+@pytest.mark.parametrize(
+    ("args", "key", "text"),
+    [
+        ((None, 0.093, TS), "drivetrain", "expected a DrivetrainParams, got NoneType"),
+        (({"J_m": 1.0}, 0.093, TS), "drivetrain", "expected a DrivetrainParams, got dict"),
+        ((RIG_ESTIMATOR, None, TS), "backlash", "got None"),
+        ((RIG_ESTIMATOR, "0.093", TS), "backlash", "got '0.093'"),
+        ((RIG_ESTIMATOR, True, TS), "backlash", "got True"),
+        ((RIG_ESTIMATOR, 0.093, None), "T_s", "sample time must be a number [s], got None"),
+    ],
+)
+def test_constructor_names_the_argument_of_the_wrong_type(args, key, text):
+    """A missing or wrongly typed argument was an AttributeError ("'NoneType' object has no attribute
+    'J_l'") or a bare TypeError from float(); now one line naming the argument."""
+    with pytest.raises(ParameterError) as err:
+        DeadzoneEstimator(*args)
+    msg = _one_line(err)
+    assert msg.startswith(f"DeadzoneEstimator.{key}: ") and msg.endswith(text)
+
+
+def test_constructor_takes_numpy_scalars():
+    """Negative control: numpy scalars (a δ1 or T_s computed from arrays) are numbers."""
+    ref = DeadzoneEstimator(RIG_ESTIMATOR, 0.093, TS)
+    e = DeadzoneEstimator(RIG_ESTIMATOR, np.float32(0.093), np.float64(TS))
+    assert e.T_s == ref.T_s and e.delta1 == float(np.float32(0.093))

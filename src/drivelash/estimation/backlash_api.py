@@ -13,13 +13,10 @@ truth metrics, JSON) is this module's.
 from __future__ import annotations
 
 import math
-import numbers
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from drivelash.estimation.identify_result import IDENTIFY_NEEDS
 from drivelash.io.outputs import jsonable
@@ -117,10 +114,10 @@ def _check_delta1(delta1: Any) -> None:
     """The ``delta1`` argument: a finite number ≥ 0 [rad] (a ParameterError naming the argument,
     not the configuration file it replaces)."""
     from drivelash.errors import ParameterError
+    from drivelash.params import is_real_number
 
     # any real scalar: Python's and numpy's (np.float32 from a computed array was refused)
-    ok = isinstance(delta1, numbers.Real) and not isinstance(delta1, bool | np.bool_)
-    if not (ok and math.isfinite(delta1) and delta1 >= 0):
+    if not (is_real_number(delta1) and math.isfinite(delta1) and delta1 >= 0):
         raise ParameterError(
             "estimate_backlash", "delta1", f"the argument must be a finite number >= 0 [rad], got {delta1!r}"
         )

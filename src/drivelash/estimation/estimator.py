@@ -66,6 +66,7 @@ from drivelash.params import (
     EstimatorConfig,
     Method,
     delta1_tolerance,
+    is_real_number,
 )
 
 __all__ = [
@@ -1137,6 +1138,21 @@ class DeadzoneEstimator:
         method: Method = "default",
         **overrides: Any,
     ) -> None:
+        if not isinstance(drivetrain, DrivetrainParams):
+            # was: AttributeError "'NoneType' object has no attribute 'J_l'" from the tuning rule
+            raise ParameterError(
+                "DeadzoneEstimator",
+                "drivetrain",
+                f"expected a DrivetrainParams, got {type(drivetrain).__name__}",
+            )
+        if not (isinstance(backlash, BacklashParams) or is_real_number(backlash)):
+            raise ParameterError(
+                "DeadzoneEstimator",
+                "backlash",
+                f"expected a BacklashParams or the offset δ1 [rad] as a number, got {backlash!r}",
+            )
+        if not is_real_number(T_s):
+            raise ParameterError("DeadzoneEstimator", "T_s", f"sample time must be a number [s], got {T_s!r}")
         self.drivetrain = drivetrain
         self.delta1 = backlash.delta1 if isinstance(backlash, BacklashParams) else float(backlash)
         if not (math.isfinite(self.delta1) and self.delta1 >= 0):
