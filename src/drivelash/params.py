@@ -39,6 +39,31 @@ def is_real_number(value: object) -> bool:
     return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
 
 
+#: Default projection bound δ_max of the online law [rad] (:meth:`EstimatorConfig.tuned`).
+DELTA_MAX_DEFAULT = 2.0
+
+
+def check_delta1_bound(owner: str, delta1: float, delta_max: float) -> None:
+    """Refuse an offset δ1 [rad] larger than the estimator's bound δ_max [rad].
+
+    δ1 lies inside the gap (0 ≤ δ1 ≤ δ) and the online law keeps δ ≤ δ_max, so δ1 > δ_max is a
+    contradiction — typically δ1 written in mrad (``delta1 = 93`` for 0.093 rad), which the
+    estimator would otherwise run with and report as an unexcited recording.
+
+    Raises
+    ------
+    ParameterError
+        Naming ``owner`` and ``delta1``, with δ1 read as mrad.
+    """
+    if delta1 > delta_max:
+        raise ParameterError(
+            owner,
+            "delta1",
+            f"δ1 = {delta1:g} rad exceeds δ_max = {delta_max:g} rad, the largest gap the estimator "
+            f"allows (0 ≤ δ1 ≤ δ ≤ δ_max); δ1 is in rad — if {delta1:g} is in mrad, write {delta1 / 1e3:g}",
+        )
+
+
 def require_finite(obj: object) -> None:
     """Raise :class:`ParameterError` naming the first non-finite numeric field of ``obj``."""
     for f in fields(obj):  # type: ignore[arg-type]
@@ -500,7 +525,7 @@ class EstimatorConfig:
             k1=k1,
             k2=k2,
             gamma=w_n / 16.0,
-            delta_max=2.0 if delta_max is None else delta_max,
+            delta_max=DELTA_MAX_DEFAULT if delta_max is None else delta_max,
             eps_delta=0.1,
             delta0=0.0,
             alpha=alpha,

@@ -133,6 +133,49 @@ def test_bad_config_one_line(bench_csv, tmp_path, capsys, text, field):
     assert field in lines[0]
 
 
+@pytest.mark.parametrize("estimator", ["", "\n[estimator]\ndelta_max = 1.0\n"])
+def test_delta1_in_mrad_is_refused_before_the_run(bench_csv, tmp_path, capsys, estimator):
+    """``delta1 = 93`` (mrad for 0.093 rad) exceeds δ_max ≥ δ ≥ δ1: refused in one line naming file,
+    table and key. Before, the run went ahead and reported an unexcited recording ("the gap was
+    never crossed ... a constant load torque such as gravity") and δ̂ at its bound."""
+    cfg = _toml(tmp_path, GOOD_TOML.replace("delta1 = 0.093", "delta1 = 93.0") + estimator)
+    code, out, err = _run(["estimate", str(bench_csv), "--config", str(cfg)], capsys)
+    assert code == 2 and out == ""
+    bound = "1" if estimator else "2"
+    assert err.strip() == (
+        f"drivelash: error: {cfg}: table [backlash], key 'delta1': δ1 = 93 rad exceeds δ_max = {bound} rad, "
+        "the largest gap the estimator allows (0 ≤ δ1 ≤ δ ≤ δ_max); δ1 is in rad — if 93 is in mrad, "
+        "write 0.093"
+    )
+
+
+def test_delta1_up_to_delta_max_is_taken(tmp_path):
+    """Negative control: δ1 may legitimately exceed 0.5 rad (bench-0A: 0.5135) and a configured
+    ``[estimator] delta_max`` raises the bound."""
+    from drivelash.io.config import load_config
+
+    for text in (
+        GOOD_TOML.replace("delta1 = 0.093", "delta1 = 0.5135"),
+        GOOD_TOML.replace("delta1 = 0.093", "delta1 = 2.0"),
+        GOOD_TOML.replace("delta1 = 0.093", "delta1 = 3.0") + "\n[estimator]\ndelta_max = 4.0\n",
+    ):
+        cfg = load_config(_toml(tmp_path, text))
+        assert cfg.backlash.delta1 in (0.5135, 2.0, 3.0)
+
+
+def test_api_refuses_delta1_beyond_delta_max():
+    from drivelash.errors import ParameterError
+    from drivelash.estimation.estimator import DeadzoneEstimator
+
+    from .conftest import RIG_ESTIMATOR
+
+    with pytest.raises(
+        ParameterError, match=r"^DeadzoneEstimator\.delta1: δ1 = 93 rad exceeds δ_max = 2 rad"
+    ):
+        DeadzoneEstimator(RIG_ESTIMATOR, 93.0, TS)
+    DeadzoneEstimator(RIG_ESTIMATOR, 2.0, TS)  # at the bound: taken
+
+
 def test_estimate_plot_and_report(bench_csv, tmp_path, capsys):
     cfg = _toml(tmp_path, GOOD_TOML)
     png, html = tmp_path / "e.png", tmp_path / "e.html"

@@ -136,7 +136,8 @@ def test_estimate_bounded_and_finite(x, method, offset, delta_max, eps_delta, ga
         gamma=gamma,
         estimate_offset=offset,
     )
-    est = DeadzoneEstimator(RIG_ESTIMATOR, 0.05, TS, cfg)
+    # δ1 ≤ δ_max: a larger δ1 contradicts the bound and is refused (test_cli_estimate.py)
+    est = DeadzoneEstimator(RIG_ESTIMATOR, min(0.05, delta_max), TS, cfg)
     out = est.run_samples(x)
     d = out[:, dz.O_DELTA]
     assert np.all(np.isfinite(d))

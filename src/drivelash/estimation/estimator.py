@@ -65,6 +65,7 @@ from drivelash.params import (
     DrivetrainParams,
     EstimatorConfig,
     Method,
+    check_delta1_bound,
     delta1_tolerance,
     is_real_number,
 )
@@ -198,6 +199,7 @@ def build_params(
         First sample index of the verdict accumulators (the last third of a run).
     """
     delta1 = backlash.delta1 if isinstance(backlash, BacklashParams) else float(backlash)
+    check_delta1_bound("DeadzoneEstimator", delta1, config.delta_max)
     p = np.zeros(dz.N_PARAMS)
     p[dz.P_J_L] = drivetrain.J_l
     p[dz.P_N] = drivetrain.N

@@ -81,7 +81,13 @@ from pydantic import (
 )
 
 from drivelash.errors import ConfigError, ParameterError
-from drivelash.params import BacklashParams, DrivetrainParams, EstimatorConfig
+from drivelash.params import (
+    DELTA_MAX_DEFAULT,
+    BacklashParams,
+    DrivetrainParams,
+    EstimatorConfig,
+    check_delta1_bound,
+)
 
 #: Units accepted in ``[columns.*] unit`` and the quantity each one measures.
 UNIT_KIND: dict[str, str] = {
@@ -547,6 +553,19 @@ class DriveConfig(ConfigFile):
     columns: dict[str, ColumnMap] | None = None
     sampling: SamplingSection | None = None
     identification: IdentificationSection | None = None
+
+    def check(self) -> None:
+        """Validate each complete table, then ``[backlash] delta1`` against the estimator's δ_max
+        (``[estimator] delta_max`` or its default): δ1 ≤ δ ≤ δ_max."""
+        super().check()
+        delta1 = getattr(self.backlash, "delta1", None)
+        if delta1 is None:
+            return
+        delta_max = getattr(self.estimator, "delta_max", None)
+        try:
+            check_delta1_bound("", delta1, DELTA_MAX_DEFAULT if delta_max is None else delta_max)
+        except ParameterError as exc:
+            raise ConfigError(f"{self.source}: table [backlash], key 'delta1': {exc.problem}") from None
 
     def to_drivetrain_params(self) -> DrivetrainParams:
         """The ``[drivetrain]`` table as :class:`~drivelash.params.DrivetrainParams`."""
