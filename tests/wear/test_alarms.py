@@ -153,3 +153,16 @@ def test_a_forecast_whose_crossing_has_passed_without_data_is_called_stale():
     aware = summ("M02/Y", datetime(2026, 2, 3, tzinfo=UTC))
     aware["last_recording"] = datetime(2026, 1, 24, 6, tzinfo=UTC)
     assert stale_notes([aware], now=now.replace(tzinfo=UTC))[0][0] == "M02/Y"
+
+
+def test_only_excited_estimates_enter_the_trend_unconverged_ones_up_to_5_mrad_at_95_percent():
+    """README: "only excited estimates enter the trend — converged ones, and unconverged ones whose
+    stated 95 % uncertainty is at most 5 mrad". 95 % = 1.96 σ; the boundary from both sides."""
+    sigma_in, sigma_out = 4.95e-3 / 1.96, 5.05e-3 / 1.96
+    n = len(analyse(_rows(M02Y, sigma_in, converged=False), 0.2)[1])
+    assert n == len(M02Y)  # 4.95 mrad at 95 %: every estimate used
+    assert analyse(_rows(M02Y, sigma_out, converged=False), 0.2)[1] == []  # 5.05 mrad: none
+    assert analyse(_rows(M02Y, None, converged=False), 0.2)[1] == []  # no stated uncertainty
+    # converged estimates enter whatever their σ; unexcited ones never, converged or not
+    assert len(analyse(_rows(M02Y, 0.26, converged=True), 0.2)[1]) == len(M02Y)
+    assert analyse(_rows(M02Y, 1e-4, converged=True, excited=False), 0.2)[1] == []
