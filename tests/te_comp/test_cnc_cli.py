@@ -159,6 +159,10 @@ def test_export_cnc_options(tmp_path, geo_model):
         ("a.ini", ["--x-max", "0.105"], "--x-max"),
         ("a.ini", ["--x-min", "0.0996"], "--x-min"),  # inside the stored range, outside the measured one
         ("a.com", ["--format", "sinumerik"], "extension '.com' is the heidenhain format"),
+        # --format does not stand in for the extension (README, docs/te-formats.md §4)
+        ("axis", ["--format", "sinumerik"], "unsupported extension (none) (use .ini)"),
+        ("X", ["--format", "heidenhain"], "unsupported extension (none) (use .com)"),
+        ("t.txt", ["--format", "table"], "unsupported extension '.txt' (use .csv, .json)"),
         ("a.ini", ["--format", "fanuc"], "--format: must be table, sinumerik or heidenhain"),
     ],
 )
