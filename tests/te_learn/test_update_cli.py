@@ -84,6 +84,10 @@ def test_update_writes_a_new_version_and_keeps_the_old_one(setup, capsys):
     meta = json.loads((m2 / "model.json").read_text())
     assert meta["info"]["model_version"] == 2 and meta["info"]["parent"]["model_version"] == 1
     assert meta["info"]["parent"]["path"] == str(m1.resolve())
+    # README: the new model.json records the parent's SHA-256 — of its model.json and weights
+    weights = json.loads((m1 / "model.json").read_text())["weights"]
+    parent_bytes = (m1 / "model.json").read_bytes() + (m1 / weights).read_bytes()
+    assert meta["info"]["parent"]["sha256"] == hashlib.sha256(parent_bytes).hexdigest()
     assert rec["stage"] == "trees" and rec["holdout_loads"] == [1500.0]
     held = rec["mae_te_def_um"]["held_out"]
     for key in ("pos", "neg"):
