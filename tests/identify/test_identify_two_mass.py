@@ -355,6 +355,29 @@ def test_positive_parameter_whose_interval_reaches_zero_is_marked_weakly_determi
     assert lines == ["# J_m = 0.0004 kg·m², 95 % CI [-0.000521183, 0.00132118] — " + weak.note], lines
 
 
+def test_a_friction_below_zero_with_its_interval_reaching_zero_is_written_as_zero_and_says_so():
+    """README: "a value written as 0 (a friction or damping estimate below 0 whose interval
+    reaches 0) says so in its TOML comment". Negative control: a positive friction is written as
+    estimated, with no such comment."""
+    import tomllib
+
+    from drivelash.estimation.identify_result import DriveIdentification, ParameterEstimate
+
+    below = ParameterEstimate.normal("T_Cm", -3.7e-4, 5.9e-3)  # 95 % interval [-0.0119, 0.0112]
+    fine = ParameterEstimate.normal("beta_m", 1.6e-3, 1e-4)
+    assert below.low < 0 < below.high
+    r = DriveIdentification(
+        "two-mass", {"T_Cm": below, "beta_m": fine}, ("T_Cm", "beta_m"), np.eye(2), N=1.0, reason="ok"
+    )
+    text = r.to_toml()
+    assert tomllib.loads(text)["drivetrain"]["T_Cm"] == 0.0
+    assert tomllib.loads(text)["drivetrain"]["beta_m"] == fine.value
+    (c_below,) = [ln for ln in text.splitlines() if ln.startswith("# T_Cm")]
+    (c_fine,) = [ln for ln in text.splitlines() if ln.startswith("# beta_m")]
+    assert "written as 0: below 0" in c_below and "95 % interval reaching 0" in c_below
+    assert "written as" not in c_fine
+
+
 def test_second_physical_start_on_random_drive_1_0():
     """The fast guard of session 9's second start (the slow suite checks 1/0 and 1/9 in full):
     random drive seed 1 / case 0 of the generalisation test (stiff shaft, weakly excited motor

@@ -130,3 +130,17 @@ def test_dwells_at_the_overrun_points_are_skipped_with_a_warning(recording):
         assert any("overrun (reversal) points, skipped" in w for w in d.warnings), d.warnings
     with pytest.raises(DataError, match=r"matches no nominal target"):
         detect_dwells(cols["t"], cols["P_cmd"], cols["P_actual"], nominal=truth1["targets"][:-1])
+
+
+def test_a_stop_of_0_5_s_is_a_dwell_and_its_first_0_25_s_are_skipped():
+    """README: a dwell is a "stop of the command ≥ 0.5 s, 0.25 s settling skipped" (the
+    defaults). 0.6 s stops: every one found, averaged from 0.25 s after the stop; 0.45 s stops
+    (negative control): none is a dwell, and the refusal says the 0.5 s."""
+    cols, _ = synthetic_recording(AXIS, m=5, n=2, seed=1, dwell=0.6)
+    d = detect_dwells(cols["t"], cols["P_cmd"], cols["P_actual"])
+    assert d.t_start.size == 5 * 2 * 2
+    np.testing.assert_allclose(d.t_avg_start - d.t_start, 0.25, atol=1e-3)  # one 1 ms sample
+    assert np.all(d.t_end - d.t_start >= 0.5 - 1e-3)
+    cols, _ = synthetic_recording(AXIS, m=5, n=2, seed=1, dwell=0.45)
+    with pytest.raises(DataError, match=r"no dwell found: no stop of the commanded position lasts 0\.5 s"):
+        detect_dwells(cols["t"], cols["P_cmd"], cols["P_actual"])

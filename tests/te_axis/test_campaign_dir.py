@@ -55,6 +55,12 @@ def test_imported_campaign_follows_the_published_schema(campaign):
     m = json.loads((campaign / "manifest.json").read_text())
     assert m["format"] == "drivelash.te-campaign" and m["version"] == 2 and m["source"] == "imported"
     assert "simulator" not in m and "seed" not in json.dumps(m)  # no seed, no true TE
+    # docs/te-formats.md §2: the keys of the example; gains unknown here, so left out (not null)
+    assert set(m) == {"format", "version", "generator", "source", "axis", "columns", "runs", "import"}
+    assert set(m["axis"]) == {"geometry", "drive"}
+    assert set(m["import"]) >= {"axis_file", "max_load", "plausibility"}
+    run_keys = {"file", "kind", "direction", "velocity", "load", "samples", "duration", "recording"}
+    assert set(m["runs"][0]) == run_keys
     assert m["generator"].startswith("drivelash ")
     doc = CampaignManifest.model_validate(m)
     assert doc.loads == (0.0, 1000.0, 2000.0, 3000.0) and doc.velocities == (0.1,)

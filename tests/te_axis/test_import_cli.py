@@ -73,6 +73,11 @@ def test_flipped_encoder_is_refused_with_one_line_and_nothing_written(tmp_path):
     r = _run("te", "import", str(axis), "-o", str(out))
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
     assert "pass_flipped.csv: implausible campaign" in r.stderr and "encoder sign" in r.stderr
+    # the line the README quotes, word for word after the file name
+    assert r.stderr.rstrip("\n").endswith(
+        "pass_flipped.csv: implausible campaign: TE slope +2.000 m/m: the motor encoder counts against"
+        " the linear scale (encoder sign) — set scale = -1 on the theta_m column in [columns]"
+    )
     assert not out.exists()
 
 

@@ -234,3 +234,22 @@ def test_sign_advice_accounts_for_a_scale_already_set():
     rep = check_runs(*args, column_scales={"theta_m": 1.0})
     assert "set scale = -1 on the theta_m column in [columns]" in _one(rep, "ratio").message
     assert "set scale = -1 on the torque_m column in [columns]" in _one(rep, "torque").message
+
+
+def test_a_run_moving_more_than_10_percent_off_its_listed_velocity_is_a_warning():
+    """docs/te-formats.md §2 lists "the listed velocity" among the checks: a run that moves more
+    than 10 % (docs/assumptions.md, "TE campaign plausibility") off its [[runs]] velocity is a warning naming
+    both speeds; 5 % off is not (negative control)."""
+    runs = _runs()
+    recs = [record(r, f"run{i:02d}.csv") for i, r in enumerate(runs)]
+    v = recs[4].velocity
+    off = list(recs)
+    off[4] = dataclasses.replace(recs[4], velocity=1.25 * v)  # measured / listed = 0.8
+    rep = check_runs(off, BENCH.r_eff, BENCH.tooth_pitch, BENCH.travel, 3000.0, source="axis.toml")
+    f = _one(rep, "velocity")
+    assert f.level == "warning" and f.file == "run04.csv" and rep.errors == []
+    assert f"moves at {v * 1e3:.4g} mm/s, listed as {1.25 * v * 1e3:.4g} mm/s" in f.message
+    near = list(recs)
+    near[4] = dataclasses.replace(recs[4], velocity=1.05 * v)
+    rep = check_runs(near, BENCH.r_eff, BENCH.tooth_pitch, BENCH.travel, 3000.0, source="axis.toml")
+    assert not [x for x in rep.findings if x.check == "velocity"]

@@ -115,6 +115,21 @@ def test_export_writes_the_cnc_layouts_like_the_golden_files(tmp_path, geo_model
     assert "5 points 100.000 ... 104.000 mm" in r.output
 
 
+@pytest.mark.parametrize(("name", "golden"), [("axis.ini", "X1_sinumerik.ini"), ("X.COM", "X.COM")])
+def test_export_cnc_defaults_are_the_documented_ones(tmp_path, geo_model, name, golden):
+    """README / docs/te-formats.md §4: ``--step-mm`` 1, ``--axis`` X1 (SINUMERIK) or X
+    (HEIDENHAIN), ``--cec-tables`` 0,1 when left out — the golden files, written with them."""
+    out = tmp_path / name
+    r = _export(tmp_path, "-o", str(out))
+    assert r.exit_code == 0, r.output
+    assert _without_source(out.read_bytes()) == (GOLDEN / golden).read_bytes()
+    # negative control: another step is another file
+    (tmp_path / "half").mkdir()
+    other = tmp_path / "half" / name
+    assert _export(tmp_path, "-o", str(other), "--step-mm", "0.5").exit_code == 0
+    assert _without_source(other.read_bytes()) != (GOLDEN / golden).read_bytes()
+
+
 def test_export_cnc_options(tmp_path, geo_model):
     out = tmp_path / "s.ini"
     r = _export(tmp_path, "-o", str(out), "--step-mm", "0.5", "--axis", "Y2", "--cec-tables", "4,7")
@@ -144,6 +159,10 @@ def test_export_cnc_options(tmp_path, geo_model):
         ("a.ini", ["--x-max", "0.105"], "--x-max"),
         ("a.ini", ["--x-min", "0.0996"], "--x-min"),  # inside the stored range, outside the measured one
         ("a.com", ["--format", "sinumerik"], "extension '.com' is the heidenhain format"),
+        # --format does not stand in for the extension (README, docs/te-formats.md §4)
+        ("axis", ["--format", "sinumerik"], "unsupported extension (none) (use .ini)"),
+        ("X", ["--format", "heidenhain"], "unsupported extension (none) (use .com)"),
+        ("t.txt", ["--format", "table"], "unsupported extension '.txt' (use .csv, .json)"),
         ("a.ini", ["--format", "fanuc"], "--format: must be table, sinumerik or heidenhain"),
     ],
 )

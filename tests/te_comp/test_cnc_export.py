@@ -138,3 +138,14 @@ def test_bad_axis_and_layout_names(tmp_path):
         write_sinumerik(tab, tmp_path / "a.ini", axis="X1; M30")
     with pytest.raises(ParameterError, match="--format"):
         write_cnc(tab, tmp_path / "a.txt", "fanuc")
+
+
+def test_more_than_100_000_points_are_refused():
+    """docs/te-formats.md §4: "more than 100 000 points" are refused; 100 000 are written."""
+    span = 0.104 - 0.100
+    with pytest.raises(ParameterError, match=r"--step-mm.*gives 100001 points \(limit 100000\)"):
+        geometric_table(LinearGeoModel(), step=span / 100_000)
+    # negative control: one point fewer is the limit itself, accepted and spanning the range
+    tab = geometric_table(LinearGeoModel(), step=span / 99_999)
+    assert tab.te_pos.size == tab.te_neg.size == 100_000
+    assert tab.x0 + tab.step * (tab.te_pos.size - 1) == pytest.approx(0.104, abs=1e-12)

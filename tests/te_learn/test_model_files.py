@@ -98,3 +98,34 @@ def test_export_table_refuses_implausible_values(tmp_path):
     with pytest.raises(DataError, match="refusing to export"):
         export_table(tab, tmp_path / "t.csv")
     assert not (tmp_path / "t.csv").exists()
+
+
+class _FlatModel:
+    """Predicts the same TE everywhere: the load-time output check at its documented limit."""
+
+    directions = ("pos", "neg")
+
+    def __init__(self, te: float, valid_range) -> None:
+        self.te = te
+        self.context = type("Context", (), {"valid_range": valid_range})()
+
+    def predict(self, x, torque, direction):
+        return np.full(np.shape(x), self.te)
+
+
+@pytest.mark.parametrize("te", [9.9e-3, -9.9e-3])
+def test_a_model_predicting_up_to_10_mm_loads(te):
+    """docs/te-formats.md §3: on load "the model must predict finite TE of at most 10 mm over its
+    valid range". 9.9 mm passes (a rack's TE is µm, but the limit is the documented one)."""
+    from drivelash.te.runtime.persist import ValidRange, check_outputs
+
+    check_outputs(_FlatModel(te, ValidRange(x_min=0.0, x_max=0.5, torque_max=9.0)), "w.safetensors")
+
+
+@pytest.mark.parametrize("te", [10.1e-3, -10.1e-3, float("nan"), float("inf")])
+def test_a_model_predicting_more_than_10_mm_or_not_finite_is_refused(te):
+    from drivelash.te.runtime.persist import ValidRange, check_outputs
+
+    with pytest.raises(ModelFileError, match=r"^w\.safetensors: direction 'pos' predicts TE = .* um") as e:
+        check_outputs(_FlatModel(te, ValidRange(x_min=0.0, x_max=0.5, torque_max=9.0)), "w.safetensors")
+    assert "\n" not in str(e.value)

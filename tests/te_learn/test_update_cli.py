@@ -84,6 +84,10 @@ def test_update_writes_a_new_version_and_keeps_the_old_one(setup, capsys):
     meta = json.loads((m2 / "model.json").read_text())
     assert meta["info"]["model_version"] == 2 and meta["info"]["parent"]["model_version"] == 1
     assert meta["info"]["parent"]["path"] == str(m1.resolve())
+    # README: the new model.json records the parent's SHA-256 — of its model.json and weights
+    weights = json.loads((m1 / "model.json").read_text())["weights"]
+    parent_bytes = (m1 / "model.json").read_bytes() + (m1 / weights).read_bytes()
+    assert meta["info"]["parent"]["sha256"] == hashlib.sha256(parent_bytes).hexdigest()
     assert rec["stage"] == "trees" and rec["holdout_loads"] == [1500.0]
     held = rec["mae_te_def_um"]["held_out"]
     for key in ("pos", "neg"):
@@ -172,3 +176,21 @@ def test_update_pins_the_numerics_like_te_fit_and_records_no_worsening(setup, tm
     assert rec["numerics"]["aten_in_use"].lower() in ("avx2", "default")
     assert rec["numerics"]["pinned"] is (rec["numerics"]["aten_in_use"].lower() == "avx2")
     assert rec["worse"] == [] and rec["accepted_worse"] is False
+
+
+def test_worse_means_more_than_5_percent_on_either_split():
+    """README: an update "that raises a direction's MAE on the held-out or update passes by more
+    than 5 % is refused". The rule at its boundary, per split and direction; a lower MAE and a
+    rise of 4 % are not worse (negative controls)."""
+    from drivelash.commands.te_update import worse_splits
+
+    def e(before, after):
+        return {"before_um": before, "after_um": after}
+
+    assert worse_splits({"update": {"pos": e(1.0, 1.04), "neg": e(2.0, 1.0)}}) == []
+    assert worse_splits({"update": {"pos": e(1.0, 1.05)}}) == []  # exactly 5 %: not more than
+    assert worse_splits({"update": {"pos": e(1.0, 1.06), "neg": e(1.0, 1.0)}}) == [
+        "update passes pos: TE_def MAE 1.000 um before, 1.060 um after"
+    ]
+    held = worse_splits({"update": {"pos": e(1.0, 0.5)}, "held_out": {"neg": e(0.1, 0.106)}})
+    assert held == ["held-out passes neg: TE_def MAE 0.100 um before, 0.106 um after"]

@@ -153,3 +153,41 @@ def test_a_forecast_whose_crossing_has_passed_without_data_is_called_stale():
     aware = summ("M02/Y", datetime(2026, 2, 3, tzinfo=UTC))
     aware["last_recording"] = datetime(2026, 1, 24, 6, tzinfo=UTC)
     assert stale_notes([aware], now=now.replace(tzinfo=UTC))[0][0] == "M02/Y"
+
+
+def test_only_excited_estimates_enter_the_trend_unconverged_ones_up_to_5_mrad_at_95_percent():
+    """README: "only excited estimates enter the trend — converged ones, and unconverged ones whose
+    stated 95 % uncertainty is at most 5 mrad". 95 % = 1.96 σ; the boundary from both sides."""
+    sigma_in, sigma_out = 4.95e-3 / 1.96, 5.05e-3 / 1.96
+    n = len(analyse(_rows(M02Y, sigma_in, converged=False), 0.2)[1])
+    assert n == len(M02Y)  # 4.95 mrad at 95 %: every estimate used
+    assert analyse(_rows(M02Y, sigma_out, converged=False), 0.2)[1] == []  # 5.05 mrad: none
+    assert analyse(_rows(M02Y, None, converged=False), 0.2)[1] == []  # no stated uncertainty
+    # converged estimates enter whatever their σ; unexcited ones never, converged or not
+    assert len(analyse(_rows(M02Y, 0.26, converged=True), 0.2)[1]) == len(M02Y)
+    assert analyse(_rows(M02Y, 1e-4, converged=True, excited=False), 0.2)[1] == []
+
+
+def test_status_lists_crossed_axes_first_then_by_time_to_threshold_then_those_without_a_forecast(
+    monkeypatch,
+):
+    """README: `track status` shows the "axes sorted by time to threshold" (fleet_summary, the
+    order status prints). Names are chosen so that their alphabetical order is another one."""
+    import drivelash.wear.alarms as alarms
+
+    axes = {  # name: (crossed, days to threshold)
+        "A01/X": (False, None),
+        "B01/X": (False, 300.0),
+        "C01/X": (False, 12.5),
+        "D01/X": (True, None),
+        "E01/X": (False, 40.0),
+    }
+    monkeypatch.setattr(alarms, "judged_axes", lambda store, fleet: list(axes))
+    monkeypatch.setattr(
+        alarms,
+        "axis_summary",
+        lambda store, a: {"axis": a, "crossed": axes[a][0], "days_to_threshold": axes[a][1]},
+    )
+    order = [s["axis"] for s in alarms.fleet_summary(None)]
+    assert order == ["D01/X", "C01/X", "E01/X", "B01/X", "A01/X"]
+    assert order != sorted(axes)  # negative control: not the store's (alphabetical) order

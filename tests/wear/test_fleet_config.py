@@ -142,6 +142,19 @@ def test_cli_missing_fleet_file(tmp_path):
     assert r.returncode == 2 and "no such fleet file" in r.stderr and r.stderr.count("\n") == 1
 
 
+def test_fleet_defaults_are_the_documented_ones(tmp_path):
+    """docs/assumptions.md ("Wear tracking", alarms): the forecast alarm looks ``horizon_days``
+    (default 30) ahead, the not-excited alarm fires after ``not_excited_alarm`` (default 5)
+    recordings; the store is ``wear.sqlite`` and the law ``default`` unless set."""
+    f = load_fleet(_write(tmp_path, GOOD))
+    ax = f.axes[0]
+    assert (ax.horizon_days, ax.not_excited_alarm, ax.method, f.db) == (30.0, 5, "default", "wear.sqlite")
+    # negative control: set, they are taken
+    text = GOOD.replace("[fleet]", '[fleet]\nhorizon_days = 60\nnot_excited_alarm = 2\nmethod = "paper"', 1)
+    ax = load_fleet(_write(tmp_path, text)).axes[0]
+    assert (ax.horizon_days, ax.not_excited_alarm, ax.method) == (60.0, 2, "paper")
+
+
 def test_estimate_rate_default_full_and_hash(tmp_path):
     """``[fleet] estimate_rate_hz``: 1 kHz unless set; "full" means every sample; the rate is
     part of the estimate's identity (another rate is another estimate), and the full rate keeps

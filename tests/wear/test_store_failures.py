@@ -375,3 +375,17 @@ def test_the_largest_busy_timeout_still_waits(tmp_path, monkeypatch):
     st = Store(tmp_path / "w.sqlite", busy_timeout=BUSY_TIMEOUT_MAX_S)
     with st.engine.connect() as conn:
         assert conn.exec_driver_sql("PRAGMA busy_timeout").scalar_one() == int(BUSY_TIMEOUT_MAX_S * 1000)
+
+
+def test_the_busy_timeout_is_30_s_unless_the_environment_sets_it(tmp_path, monkeypatch):
+    """README: a store locked by another writer "for more than 30 s (DRIVELASH_STORE_BUSY_TIMEOUT
+    seconds, if set)" ends the ingest — 30 s is what SQLite is told when nothing is set."""
+    monkeypatch.delenv("DRIVELASH_STORE_BUSY_TIMEOUT", raising=False)
+    st = Store(tmp_path / "w.sqlite")
+    with st.engine.connect() as conn:
+        assert conn.exec_driver_sql("PRAGMA busy_timeout").scalar_one() == 30_000
+    # negative control: the variable, when set, is what SQLite is told
+    monkeypatch.setenv("DRIVELASH_STORE_BUSY_TIMEOUT", "2.5")
+    st = Store(tmp_path / "v.sqlite")
+    with st.engine.connect() as conn:
+        assert conn.exec_driver_sql("PRAGMA busy_timeout").scalar_one() == 2_500

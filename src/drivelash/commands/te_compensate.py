@@ -74,7 +74,8 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
             None,
             "--format",
             help="table (position x torque, .csv/.json), sinumerik (.ini: $AA_ENC_COMP + direction CEC"
-            " tables) or heidenhain (.com: AXISPOS, axis, BACKLASH); default: from the extension.",
+            " tables) or heidenhain (.com: AXISPOS, axis, BACKLASH); the extension of --out decides, and"
+            " --format, when given, must agree with it.",
         ),
         dx_mm: float | None = typer.Option(
             None,
