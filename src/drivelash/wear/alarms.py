@@ -167,7 +167,9 @@ def _in_fit(trend: AxisTrend, r: dict[str, Any]) -> bool:
 
 
 def _day(t: datetime | None) -> str:
-    return t.strftime("%Y-%m-%d") if t is not None else "–"
+    """A date of an alarm or stale message, with its clock: "2026-01-08 UTC" (the store keeps
+    naive UTC; status and forecast print "UTC" after their times as well)."""
+    return t.strftime("%Y-%m-%d UTC") if t is not None else "–"
 
 
 def axis_summary(store: Store, axis: dict[str, Any]) -> dict[str, Any]:
@@ -325,8 +327,8 @@ def stale_notes(summaries: list[dict[str, Any]], now: datetime | None = None) ->
             out.append(
                 (
                     s["axis"],
-                    f"the expected crossing {tc:%Y-%m-%d} has passed with no recording since the last one "
-                    f"({last:%Y-%m-%d}, {age:.0f} days ago): the forecast is stale — record the axis again",
+                    f"the expected crossing {_day(tc)} has passed with no recording since the last one "
+                    f"({_day(last)}, {age:.0f} days ago): the forecast is stale — record the axis again",
                 )
             )
     return out
