@@ -182,3 +182,18 @@ def test_every_date_in_an_alarm_or_stale_message_says_utc():
     for m in messages:
         dates = re.findall(r"\d{4}-\d{2}-\d{2}[^,;)]*", m)
         assert dates and all(d.startswith(d[:10] + " UTC") for d in dates), m
+
+
+def test_one_recording_and_one_day_are_singular_in_alarm_messages():
+    """``not_excited_alarm = 1`` said "the last 1 recordings did not excite …" and a one-day
+    horizon "within 1 days"."""
+    axis = {**_axis(0.20), "not_excited_alarm": 1, "horizon_days": 1.0}
+    rows = _rows(M02Y, 1.2e-3)
+    rows[-1].update(excitation_ok=False)
+    trend, _ = analyse(rows, 0.20)
+    msgs = [a.message for a in axis_alarms(axis, rows, trend)]
+    assert any("M02/Y: the last recording did not excite the deadzone" in m for m in msgs), msgs
+    assert not any("1 recordings" in m or "1 days" in m for m in msgs), msgs
+    from drivelash.wear.alarms import _days
+
+    assert _days(1.0) == "1 day" and _days(60.0) == "60 days" and _days(0.5) == "0.5 days"

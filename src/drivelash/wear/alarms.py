@@ -26,6 +26,7 @@ import numpy as np
 
 from drivelash.wear.store import Store
 from drivelash.wear.trend import AxisTrend, analyse, usable
+from drivelash.wear.words import count
 
 __all__ = [
     "Alarm",
@@ -110,7 +111,7 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
                     "forecast",
                     "within-horizon",
                     f"{name}: threshold {1e3 * thr:.2f} mrad may be crossed within "
-                    f"{axis['horizon_days']:g} days (90 % interval from "
+                    f"{_days(axis['horizon_days'])} (90 % interval from "
                     f"{_day(trend.to_time(fc.t_early))}; expected {_day(when)})",
                     last_used,
                 )
@@ -152,7 +153,13 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
                 ),
             )
         out.append(
-            Alarm(kind, "latest", f"{name}: the last {run} recordings {text}", ok_rows[-1]["start_time"])
+            Alarm(
+                kind,
+                "latest",
+                f"{name}: "
+                + (f"the last {run} recordings {text}" if run > 1 else f"the last recording {text}"),
+                ok_rows[-1]["start_time"],
+            )
         )
     return out
 
@@ -164,6 +171,11 @@ def _in_fit(trend: AxisTrend, r: dict[str, Any]) -> bool:
     d = (r["start_time"] - trend.t0).total_seconds() / 86400.0
     hit = (abs(trend.t - d) < 1e-9) & (trend.y == r["delta"])
     return bool(np.any(hit & trend.inlier))
+
+
+def _days(d: float) -> str:
+    """A day count as the horizon is given: "1 day", "60 days", "0.5 days"."""
+    return f"{d:g} day" if d == 1 else f"{d:g} days"
 
 
 def _day(t: datetime | None) -> str:
@@ -328,7 +340,8 @@ def stale_notes(summaries: list[dict[str, Any]], now: datetime | None = None) ->
                 (
                     s["axis"],
                     f"the expected crossing {_day(tc)} has passed with no recording since the last one "
-                    f"({_day(last)}, {age:.0f} days ago): the forecast is stale — record the axis again",
+                    f"({_day(last)}, {count(round(age), 'day')} ago): the forecast is stale — "
+                    "record the axis again",
                 )
             )
     return out

@@ -38,6 +38,7 @@ from sqlalchemy.engine import Engine
 from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError, OperationalError
 
 from drivelash.errors import DrivelashError
+from drivelash.wear.words import count
 
 __all__ = ["EstimateRow", "Store", "StoreError", "utc_naive"]
 
@@ -556,7 +557,11 @@ class Store:
             import difflib
 
             close = difflib.get_close_matches(name, known, n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else f" ({len(known)} axes in the store)"
+            hint = (
+                f"; did you mean {close[0]!r}?"
+                if close
+                else f" ({count(len(known), 'axis', 'axes')} in the store)"
+            )
             raise StoreError(f"{self.name}: no axis {name!r}{hint}")
         return int(row.id)
 
