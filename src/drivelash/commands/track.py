@@ -123,6 +123,7 @@ def _summaries(db: str, fleet: Any = None) -> tuple[Any, list[dict[str, Any]], s
         axes_not_in_fleet,
         fleet_axes_not_stored,
         fleet_summary,
+        hidden_alarm_count,
         not_in_fleet_note,
         not_stored_note,
     )
@@ -136,8 +137,9 @@ def _summaries(db: str, fleet: Any = None) -> tuple[Any, list[dict[str, Any]], s
             if fleet is not None:
                 # both directions: the store's axes the file no longer has, and the file's axes
                 # the store does not have yet (a renamed axis is one of each)
+                gone = axes_not_in_fleet(store, fleet)
                 notes = [
-                    not_in_fleet_note(axes_not_in_fleet(store, fleet), fleet.path.name),
+                    not_in_fleet_note(gone, fleet.path.name, hidden_alarm_count(store, gone)),
                     not_stored_note(fleet_axes_not_stored(store, fleet), fleet.path.name),
                 ]
                 note = ". ".join(n for n in notes if n) or None

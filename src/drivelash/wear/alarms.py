@@ -34,6 +34,7 @@ __all__ = [
     "fleet_axes_not_stored",
     "axis_summary",
     "fleet_summary",
+    "hidden_alarm_count",
     "judged_axes",
     "not_in_fleet_note",
     "not_stored_note",
@@ -272,15 +273,31 @@ def axes_not_in_fleet(store: Store, fleet: Any | None) -> list[str]:
     return [a["name"] for a in store.axes() if a["name"] not in names]
 
 
-def not_in_fleet_note(names: list[str], fleet_file: str) -> str | None:
+def hidden_alarm_count(store: Store, names: list[str]) -> int:
+    """How many active alarms the store holds for the axes ``names`` — as of each axis's last
+    ingest (an axis removed from the fleet file is no longer re-judged, so its alarms stay as
+    they were); the count :func:`not_in_fleet_note` states."""
+    hidden = set(names)
+    return sum(1 for a in store.alarms(active_only=True) if a["axis"] in hidden) if hidden else 0
+
+
+def not_in_fleet_note(names: list[str], fleet_file: str, alarms: int | None = None) -> str | None:
     """The one line that says which axes of the store a fleet-filtered view leaves out (None
-    when none): every name is listed, so nothing is dropped silently."""
+    when none): every name is listed, so nothing is dropped silently; with ``alarms`` (their
+    stored active alarms, :func:`hidden_alarm_count`) it says how many alarms are not shown
+    (and not counted in the view's "N active alarms")."""
     if not names:
         return None
     n = len(names)
     what = "1 axis in the store is" if n == 1 else f"{n} axes in the store are"
     its = "its history is kept; it is" if n == 1 else "their history is kept; they are"
-    return f"{what} not in {fleet_file} ({', '.join(names)}): {its} not shown"
+    note = f"{what} not in {fleet_file} ({', '.join(names)}): {its} not shown"
+    if alarms is None:
+        return note
+    last = "its last ingest" if n == 1 else "their last ingests"
+    if alarms == 0:
+        return f"{note} (no active alarm as of {last})"
+    return f"{note}, nor {'its' if n == 1 else 'their'} {count(alarms, 'active alarm')} (as of {last})"
 
 
 def fleet_axes_not_stored(store: Store, fleet: Any | None) -> list[str]:
