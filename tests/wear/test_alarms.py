@@ -146,7 +146,7 @@ def test_a_forecast_whose_crossing_has_passed_without_data_is_called_stale():
     )
     assert [n for n, _ in notes] == ["M02/Y"]
     msg = notes[0][1]
-    assert "2026-02-03 has passed" in msg and "2026-01-24, 308 days ago" in msg and "\n" not in msg
+    assert "2026-02-03 UTC has passed" in msg and "2026-01-24 UTC, 308 days ago" in msg and "\n" not in msg
     # a store with zone-aware times is compared in UTC as well
     from datetime import UTC
 
@@ -191,3 +191,47 @@ def test_status_lists_crossed_axes_first_then_by_time_to_threshold_then_those_wi
     order = [s["axis"] for s in alarms.fleet_summary(None)]
     assert order == ["D01/X", "C01/X", "E01/X", "B01/X", "A01/X"]
     assert order != sorted(axes)  # negative control: not the store's (alphabetical) order
+
+
+def test_every_date_in_an_alarm_or_stale_message_says_utc():
+    """The status table and the report say "(UTC)" around alarm messages that carried bare dates
+    ("… at 2026-01-08"); every date in a message now reads "2026-01-08 UTC". One case per kind
+    of alarm that names a date: threshold (latest estimate), forecast, jump, not excited, and
+    the stale-forecast note printed next to them."""
+    import re
+
+    from drivelash.wear.alarms import stale_notes
+
+    jump = [0.030 + 0.001 * i for i in range(6)] + [0.050 + 0.001 * i for i in range(6)]
+    cases = {
+        "threshold": (_rows(J3, 1.05e-4), 0.050),
+        "forecast": (_rows(M02Y, 1.2e-3), 0.20),
+        "jump": (_rows(jump, 1.0e-4), 0.5),
+        "not_excited": (_rows(M02Y[:4], None, converged=False, excited=False), 0.1753),
+    }
+    messages = []
+    for kind, (rows, thr) in cases.items():
+        al = _alarms(rows, thr)[2]
+        assert kind in al, (kind, sorted(al))
+        messages.append(al[kind].message)
+    last = datetime(2026, 1, 24, 6)
+    summ = {"axis": "M02/Y", "crossing": datetime(2026, 2, 3), "crossed": False, "last_recording": last}
+    messages += [m for _, m in stale_notes([summ], now=datetime(2026, 11, 28, 3))]
+    for m in messages:
+        dates = re.findall(r"\d{4}-\d{2}-\d{2}[^,;)]*", m)
+        assert dates and all(d.startswith(d[:10] + " UTC") for d in dates), m
+
+
+def test_one_recording_and_one_day_are_singular_in_alarm_messages():
+    """``not_excited_alarm = 1`` said "the last 1 recordings did not excite …" and a one-day
+    horizon "within 1 days"."""
+    axis = {**_axis(0.20), "not_excited_alarm": 1, "horizon_days": 1.0}
+    rows = _rows(M02Y, 1.2e-3)
+    rows[-1].update(excitation_ok=False)
+    trend, _ = analyse(rows, 0.20)
+    msgs = [a.message for a in axis_alarms(axis, rows, trend)]
+    assert any("M02/Y: the last recording did not excite the deadzone" in m for m in msgs), msgs
+    assert not any("1 recordings" in m or "1 days" in m for m in msgs), msgs
+    from drivelash.wear.alarms import _days
+
+    assert _days(1.0) == "1 day" and _days(60.0) == "60 days" and _days(0.5) == "0.5 days"

@@ -109,3 +109,44 @@ def test_rate_sentence_full_mixed_and_old_rows():
     assert "every 3rd sample" in rate_sentence(rows((3000.0, 1000.0)))
     assert "every 12th sample" in rate_sentence(rows((12000.0, 1000.0)))
     assert rate_sentence([{"rows": [{"status": "failed"}]}]) == ""
+
+
+def test_one_alarm_is_singular_and_text_columns_are_left_aligned(serial_store):
+    """The overview said "1 active alarms" and the alarm messages (and every other text column:
+    axis names, kinds, models, dates) were right-aligned like the numbers; now "1 active alarm",
+    "1 axis", text cells carry class "t" (left-aligned) and numbers stay right-aligned."""
+    import re
+
+    from drivelash.report.fleet import render_fleet_report
+    from drivelash.wear.alarms import fleet_summary
+
+    st, _ = serial_store
+    s = next(s for s in fleet_summary(st) if s["alarms"])
+    s["alarms"] = s["alarms"][:1]
+    html = render_fleet_report([s], {}, title="t", store="wear.sqlite")
+    assert re.search(r"1 axis, \d+ recordings in wear\.sqlite; 1 active alarm\. ", html), html[:3000]
+    assert "alarms." not in html.split("Only recordings")[0]
+    tables = re.findall(r"<table>.*?</table>", html, re.S)
+    alarm_table = next(t for t in tables if "<th" in t and ">message</th>" in t)
+    cells = re.findall(r"<td( class=\"t\")?>(.*?)</td>", alarm_table)
+    assert cells and all(cls for cls, _ in cells), cells  # axis, kind, date, message: text
+    assert s["alarms"][0].message.split(":")[0] in alarm_table
+    overview = tables[0]
+    head = re.findall(r"<th( class=\"t\")?>(.*?)</th>", overview)
+    row = re.findall(r"<td( class=\"t\")?>(.*?)</td>", overview)
+    aligned = {h: bool(c) for (c, h) in head}
+    assert aligned["alarms"] and aligned["model"] and aligned["axis"]
+    assert not aligned["failed"] and not aligned["used/recordings"] and not aligned["unexcited"]
+    assert bool(row[-1][0]) and not row[-2][0]  # the alarm kinds are text, the failed count a number
+    # CSS: the class is what left-aligns
+    assert "td.t,th.t{text-align:left}" in html
+
+
+def test_counted_nouns_of_the_wear_outputs():
+    """ "1 … s" slips of the wear outputs (report overview, ingest summary, forecast line,
+    alarm messages) go through one helper."""
+    from drivelash.wear.words import count
+
+    assert count(1, "active alarm") == "1 active alarm"
+    assert count(0, "active alarm") == "0 active alarms"
+    assert count(1, "axis", "axes") == "1 axis" and count(2, "axis", "axes") == "2 axes"

@@ -110,3 +110,53 @@ def test_an_axis_renamed_in_the_fleet_file_names_both_the_old_and_the_new_name(
     # negative control: the full fleet file names no missing axis
     r = _run([*TRACK, "status", "--db", db, "--fleet", str(small_fleet / "fleet.toml")])
     assert "not in the store yet" not in r.stdout
+
+
+def test_alarms_of_a_removed_axis_are_not_counted_and_the_note_says_how_many(
+    small_fleet, serial_store, tmp_path
+):
+    """The store keeps a removed axis's active alarms (it is no longer re-judged). With
+    ``--fleet`` neither status nor the report shows them, the report's "N active alarms"
+    counts only the alarms shown, and the one-line note says how many the hidden axis has."""
+    st, _ = serial_store
+    db = str(st.url.database)
+    stored = st.alarms(active_only=True)
+    by_axis: dict[str, int] = {}
+    for a in stored:
+        by_axis[a["axis"]] = by_axis.get(a["axis"], 0) + 1
+    gone = max(by_axis, key=lambda k: (by_axis[k], k))  # an axis with stored active alarms
+    n_gone = by_axis[gone]
+    toml = _without(small_fleet, tmp_path / "f", gone)
+
+    def report(fleet: Path) -> tuple[str, int, int]:
+        html = tmp_path / f"{fleet.parent.name}.html"
+        r = _run([*TRACK, "report", "--db", db, "--fleet", str(fleet), "-o", str(html)])
+        assert r.returncode == 0, r.stderr
+        text = html.read_text()
+        said = int(re.search(r"; (\d+) active alarms?\. ", text).group(1))
+        alarms = text.split("<h2>Alarms</h2>")[1].split("</section>")[0]
+        return " ".join(r.stdout.split()), said, max(alarms.count("<tr>") - 1, 0)  # minus the header
+
+    _, said_full, shown_full = report(small_fleet / "fleet.toml")
+    out, said, shown = report(toml)
+    assert said == shown and said_full == shown_full
+    assert said == shown_full - sum(1 for a in stored if a["axis"] == gone)
+    plural = "" if n_gone == 1 else "s"
+    note = (
+        f"1 axis in the store is not in fleet.toml ({gone}): its history is kept; it is not shown, "
+        f"nor its {n_gone} active alarm{plural} (as of its last ingest)"
+    )
+    assert note in out, out
+    r = _run([*TRACK, "status", "--db", db, "--fleet", str(toml)])
+    flat = " ".join(r.stdout.split())
+    assert r.returncode == 0 and note in flat, flat
+    assert not any(line.startswith("alarm") and gone in line for line in r.stdout.splitlines())
+
+    # negative control: a removed axis without stored alarms says so
+    quiet = next((a["name"] for a in st.axes() if a["name"] not in by_axis), None)
+    if quiet is not None:
+        toml = _without(small_fleet, tmp_path / "g", quiet)
+        r = _run([*TRACK, "status", "--db", db, "--fleet", str(toml)])
+        assert f"({quiet}): its history is kept; it is not shown (no active alarm as of its last ingest)" in (
+            " ".join(r.stdout.split())
+        )

@@ -40,7 +40,7 @@ def test_a_file_rewritten_under_its_name_replaces_its_recording(small_fleet, tmp
     r = subprocess.run(ingest_cmd(f, db), capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     out = " ".join(r.stdout.split())
-    assert "1 new recordings estimated" in out and "1 replaced (content changed)" in out, out
+    assert "1 new recording estimated" in out and "1 replaced (content changed)" in out, out
 
     rows = st.estimates("M01/X")
     assert len(rows) == 3 and st.counts()["recording"] == 3

@@ -26,6 +26,7 @@ from typing import Any
 import typer
 
 from drivelash.errors import DrivelashError
+from drivelash.wear.words import count
 
 track_app = typer.Typer(
     help="Wear tracking of backlash across a fleet: ingest, status, forecast, report.",
@@ -103,8 +104,8 @@ def run_ingest(
         hz = fleet.axes[0].estimate_rate_hz  # fleet-wide ([fleet] estimate_rate_hz)
         rate = "every sample" if hz is None else f"at most {hz:g} Hz: every k-th sample of faster recordings"
         c.print(
-            f"[bold]{fleet.name}[/bold]: {rep.planned - rep.retried} new recordings estimated ({rate}; "
-            f"{rep.stored} stored in {rep.batches} transactions, {rep.failed} failed), "
+            f"[bold]{fleet.name}[/bold]: {count(rep.planned - rep.retried, 'new recording')} estimated "
+            f"({rate}; {rep.stored} stored in {count(rep.batches, 'transaction')}, {rep.failed} failed), "
             f"{rep.skipped} already in the store"
             + (f"; {rep.moved} moved or renamed (not re-estimated)" if rep.moved else "")
             + (f"; {rep.retried} retried, {rep.still_failing} still failing" if rep.retried else "")
@@ -122,6 +123,7 @@ def _summaries(db: str, fleet: Any = None) -> tuple[Any, list[dict[str, Any]], s
         axes_not_in_fleet,
         fleet_axes_not_stored,
         fleet_summary,
+        hidden_alarm_count,
         not_in_fleet_note,
         not_stored_note,
     )
@@ -135,8 +137,9 @@ def _summaries(db: str, fleet: Any = None) -> tuple[Any, list[dict[str, Any]], s
             if fleet is not None:
                 # both directions: the store's axes the file no longer has, and the file's axes
                 # the store does not have yet (a renamed axis is one of each)
+                gone = axes_not_in_fleet(store, fleet)
                 notes = [
-                    not_in_fleet_note(axes_not_in_fleet(store, fleet), fleet.path.name),
+                    not_in_fleet_note(gone, fleet.path.name, hidden_alarm_count(store, gone)),
                     not_stored_note(fleet_axes_not_stored(store, fleet), fleet.path.name),
                 ]
                 note = ". ".join(n for n in notes if n) or None
@@ -380,8 +383,8 @@ def _print_forecast(s: dict[str, Any]) -> None:
             "weighted by their uncertainty)"
         )
     c.print(
-        f"[bold]{s['axis']}[/bold]: {s['used']} of {s['recordings']} recordings usable, "
-        f"{s['used'] - s['outliers']} in the fit ({s['outliers']} outliers left out; "
+        f"[bold]{s['axis']}[/bold]: {s['used']} of {count(s['recordings'], 'recording')} usable, "
+        f"{s['used'] - s['outliers']} in the fit ({count(s['outliers'], 'outlier')} left out; "
         f"{s['unexcited']} not excited{conv}, {s['failed']} failed)"
     )
     c.print(
@@ -436,7 +439,7 @@ def run_report(
         assert target is not None
         write_fleet_report(out.staging(target), text)
     if not quiet:
-        typer.echo(f"wrote {out_path} ({len(summ)} axes)")
+        typer.echo(f"wrote {out_path} ({count(len(summ), 'axis', 'axes')})")
         if note is not None:
             typer.echo(f"note: {note}")
     return out_path
@@ -510,7 +513,8 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         rep = run_ingest(fleet, db, workers, dask)
         if rep.failed:
             raise DrivelashError(
-                f"{rep.failed} of {rep.planned} recordings failed (stored as failed with their reasons above)"
+                f"{rep.failed} of {count(rep.planned, 'recording')} failed "
+                "(stored as failed with their reasons above)"
             )
 
     @track_app.command("status")

@@ -22,6 +22,7 @@ import numpy as np
 from drivelash.report.html import Figure, Section, render_html
 from drivelash.wear.alarms import stale_notes
 from drivelash.wear.trend import UNCONVERGED_MAX_U95
+from drivelash.wear.words import count
 
 __all__ = ["render_fleet_report", "write_fleet_report"]
 
@@ -277,9 +278,9 @@ def _axis_figure(s: dict[str, Any], meas: list[dict[str, Any]]) -> Figure:
             ax.text(0.5, 0.5, "no recordings", transform=ax.transAxes, ha="center", va="center")
         ax.set_ylabel("deadzone δ [mrad]")
         ax.set_title(
-            f"{name}: {s['used']} of {s['recordings']} recordings usable"
+            f"{name}: {s['used']} of {count(s['recordings'], 'recording')} usable"
             + (
-                f", {s['used'] - s['outliers']} in the fit ({s['outliers']} outliers)"
+                f", {s['used'] - s['outliers']} in the fit ({count(s['outliers'], 'outlier')})"
                 if s["outliers"]
                 else ""
             ),
@@ -396,7 +397,8 @@ def render_fleet_report(
     overview = Section(
         "Fleet overview",
         paragraphs=[
-            f"{len(summaries)} axes, {n_rec} recordings in {store}; {len(alarms)} active alarms. "
+            f"{count(len(summaries), 'axis', 'axes')}, {count(n_rec, 'recording')} in {store}; "
+            f"{count(len(alarms), 'active alarm')}. "
             "Only recordings with sufficient excitation enter a trend: converged estimates, and "
             f"unconverged ones whose stated 95 % uncertainty is at most {1e3 * UNCONVERGED_MAX_U95:g} mrad, "
             "weighted by it. "
@@ -404,6 +406,7 @@ def render_fleet_report(
             f"{TIMES_UTC} " + rate_sentence(summaries),
         ],
         tables=[("", OVERVIEW_HEADER, overview_rows(summaries))],
+        text_left=True,
     )
     overview.paragraphs.extend(notes)
     stale = stale_notes(summaries)
@@ -418,7 +421,9 @@ def render_fleet_report(
     if alarms:
         alarm_rows = [[ax, a.kind, _day(a.data_time), a.message] for ax, a in alarms]
         alarm_sec = Section(
-            "Alarms", tables=[("", ["axis", "kind", "data time (UTC)", "message"], alarm_rows)]
+            "Alarms",
+            tables=[("", ["axis", "kind", "data time (UTC)", "message"], alarm_rows)],
+            text_left=True,
         )
     else:
         alarm_sec = Section("Alarms", raw=['<p class="verdict-ok">No active alarm.</p>'])
@@ -446,7 +451,7 @@ def render_fleet_report(
     ]
     if mrows:
         head = ["axis", "source", "time", "value", "std", "unit", "as deadzone δ [mrad]", "reference"]
-        sections.append(Section("Measurements of other sources", tables=[("", head, mrows)]))
+        sections.append(Section("Measurements of other sources", tables=[("", head, mrows)], text_left=True))
     sections.append(axes)
     return render_html(title, sections)
 

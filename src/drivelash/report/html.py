@@ -11,6 +11,7 @@ import base64
 import html
 import io
 import os
+import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -25,7 +26,7 @@ h1{font-size:1.6em;border-bottom:2px solid #2a6fb0;padding-bottom:.2em}
 h2{font-size:1.25em;margin-top:1.8em;color:#2a6fb0}
 table{border-collapse:collapse;margin:.6em 0 1.2em 0;font-size:.92em}
 th,td{border:1px solid #c9d3dd;padding:.25em .7em;text-align:right}
-th{background:#eef3f8}td:first-child,th:first-child{text-align:left}
+th{background:#eef3f8}td:first-child,th:first-child,td.t,th.t{text-align:left}
 figure{margin:1em 0;text-align:center}figure img{max-width:100%;height:auto;border:1px solid #e3e8ee}
 figcaption{font-size:.88em;color:#4b5966;margin-top:.3em}
 .verdict-ok{color:#1f7a35;font-weight:600}.verdict-bad{color:#b03a2a;font-weight:600}
@@ -46,13 +47,19 @@ class Figure:
 
 @dataclass
 class Section:
-    """A report section: heading, paragraphs (already-escaped HTML allowed via ``raw``), tables, figures."""
+    """A report section: heading, paragraphs (already-escaped HTML allowed via ``raw``), tables, figures.
+
+    Table cells are right-aligned (numbers; the first column left); with ``text_left`` the
+    columns that hold text (:func:`_text_columns`: names, kinds, messages, dates) are
+    left-aligned too — for tables whose columns are each text or numbers, not key/value
+    tables that mix both in one column."""
 
     title: str
     paragraphs: list[str] = field(default_factory=list)
     tables: list[tuple[str, Sequence[str], Sequence[Sequence[Any]]]] = field(default_factory=list)
     figures: list[Figure] = field(default_factory=list)
     raw: list[str] = field(default_factory=list)
+    text_left: bool = False
 
 
 def png_bytes(fig_spec: Figure, dpi: int = 90) -> bytes:
@@ -77,9 +84,32 @@ def _fmt(v: Any) -> str:
     return html.escape(str(v))
 
 
-def _table(caption: str, header: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
-    head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
-    body = "".join("<tr>" + "".join(f"<td>{_fmt(c)}</td>" for c in r) + "</tr>" for r in rows)
+#: A cell that reads as a number (right-aligned): 12, -0.5, 1.2e-3, 95 %, 1,024, 6/8; "–" is
+#: no value and does not decide its column.
+_NUMBER = re.compile(r"[-+−]?(\d[\d,]*\.?\d*|\.\d+)([eE][-+]?\d+)?( ?%)?|\d+/\d+|–|")
+
+
+def _text_columns(rows: Sequence[Sequence[Any]]) -> set[int]:
+    """Indices of the columns that read as text (left-aligned): those with a cell that is not a
+    number (:data:`_NUMBER`) — names, kinds, messages, dates."""
+    out: set[int] = set()
+    for r in rows:
+        for i, c in enumerate(r):
+            if not isinstance(c, (int, float)) and not _NUMBER.fullmatch(str(c).strip()):
+                out.add(i)
+    return out
+
+
+def _table(
+    caption: str, header: Sequence[str], rows: Sequence[Sequence[Any]], text_left: bool = False
+) -> str:
+    text = _text_columns(rows) if text_left else set()
+
+    def cell(tag: str, i: int, v: str) -> str:
+        return f'<{tag} class="t">{v}</{tag}>' if i in text else f"<{tag}>{v}</{tag}>"
+
+    head = "".join(cell("th", i, html.escape(str(h))) for i, h in enumerate(header))
+    body = "".join("<tr>" + "".join(cell("td", i, _fmt(c)) for i, c in enumerate(r)) + "</tr>" for r in rows)
     cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
     return f"<table>{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
 
@@ -152,7 +182,7 @@ def render_html(title: str, sections: Sequence[Section], *, progress: bool | Non
         parts.append(f"<section><h2>{html.escape(s.title)}</h2>")
         parts.extend(f"<p>{html.escape(p)}</p>" for p in s.paragraphs)
         parts.extend(s.raw)
-        parts.extend(_table(*t) for t in s.tables)
+        parts.extend(_table(*t, text_left=s.text_left) for t in s.tables)
         for f in s.figures:
             parts.append(
                 f'<figure id="fig-{html.escape(f.key)}"><img class="figure" alt="{html.escape(f.caption)}"'

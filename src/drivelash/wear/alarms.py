@@ -26,6 +26,7 @@ import numpy as np
 
 from drivelash.wear.store import Store
 from drivelash.wear.trend import AxisTrend, analyse, usable
+from drivelash.wear.words import count
 
 __all__ = [
     "Alarm",
@@ -33,6 +34,7 @@ __all__ = [
     "fleet_axes_not_stored",
     "axis_summary",
     "fleet_summary",
+    "hidden_alarm_count",
     "judged_axes",
     "not_in_fleet_note",
     "not_stored_note",
@@ -110,7 +112,7 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
                     "forecast",
                     "within-horizon",
                     f"{name}: threshold {1e3 * thr:.2f} mrad may be crossed within "
-                    f"{axis['horizon_days']:g} days (90 % interval from "
+                    f"{_days(axis['horizon_days'])} (90 % interval from "
                     f"{_day(trend.to_time(fc.t_early))}; expected {_day(when)})",
                     last_used,
                 )
@@ -152,7 +154,13 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
                 ),
             )
         out.append(
-            Alarm(kind, "latest", f"{name}: the last {run} recordings {text}", ok_rows[-1]["start_time"])
+            Alarm(
+                kind,
+                "latest",
+                f"{name}: "
+                + (f"the last {run} recordings {text}" if run > 1 else f"the last recording {text}"),
+                ok_rows[-1]["start_time"],
+            )
         )
     return out
 
@@ -166,8 +174,15 @@ def _in_fit(trend: AxisTrend, r: dict[str, Any]) -> bool:
     return bool(np.any(hit & trend.inlier))
 
 
+def _days(d: float) -> str:
+    """A day count as the horizon is given: "1 day", "60 days", "0.5 days"."""
+    return f"{d:g} day" if d == 1 else f"{d:g} days"
+
+
 def _day(t: datetime | None) -> str:
-    return t.strftime("%Y-%m-%d") if t is not None else "–"
+    """A date of an alarm or stale message, with its clock: "2026-01-08 UTC" (the store keeps
+    naive UTC; status and forecast print "UTC" after their times as well)."""
+    return t.strftime("%Y-%m-%d UTC") if t is not None else "–"
 
 
 def axis_summary(store: Store, axis: dict[str, Any]) -> dict[str, Any]:
@@ -258,15 +273,31 @@ def axes_not_in_fleet(store: Store, fleet: Any | None) -> list[str]:
     return [a["name"] for a in store.axes() if a["name"] not in names]
 
 
-def not_in_fleet_note(names: list[str], fleet_file: str) -> str | None:
+def hidden_alarm_count(store: Store, names: list[str]) -> int:
+    """How many active alarms the store holds for the axes ``names`` — as of each axis's last
+    ingest (an axis removed from the fleet file is no longer re-judged, so its alarms stay as
+    they were); the count :func:`not_in_fleet_note` states."""
+    hidden = set(names)
+    return sum(1 for a in store.alarms(active_only=True) if a["axis"] in hidden) if hidden else 0
+
+
+def not_in_fleet_note(names: list[str], fleet_file: str, alarms: int | None = None) -> str | None:
     """The one line that says which axes of the store a fleet-filtered view leaves out (None
-    when none): every name is listed, so nothing is dropped silently."""
+    when none): every name is listed, so nothing is dropped silently; with ``alarms`` (their
+    stored active alarms, :func:`hidden_alarm_count`) it says how many alarms are not shown
+    (and not counted in the view's "N active alarms")."""
     if not names:
         return None
     n = len(names)
     what = "1 axis in the store is" if n == 1 else f"{n} axes in the store are"
     its = "its history is kept; it is" if n == 1 else "their history is kept; they are"
-    return f"{what} not in {fleet_file} ({', '.join(names)}): {its} not shown"
+    note = f"{what} not in {fleet_file} ({', '.join(names)}): {its} not shown"
+    if alarms is None:
+        return note
+    last = "its last ingest" if n == 1 else "their last ingests"
+    if alarms == 0:
+        return f"{note} (no active alarm as of {last})"
+    return f"{note}, nor {'its' if n == 1 else 'their'} {count(alarms, 'active alarm')} (as of {last})"
 
 
 def fleet_axes_not_stored(store: Store, fleet: Any | None) -> list[str]:
@@ -325,8 +356,9 @@ def stale_notes(summaries: list[dict[str, Any]], now: datetime | None = None) ->
             out.append(
                 (
                     s["axis"],
-                    f"the expected crossing {tc:%Y-%m-%d} has passed with no recording since the last one "
-                    f"({last:%Y-%m-%d}, {age:.0f} days ago): the forecast is stale — record the axis again",
+                    f"the expected crossing {_day(tc)} has passed with no recording since the last one "
+                    f"({_day(last)}, {count(round(age), 'day')} ago): the forecast is stale — "
+                    "record the axis again",
                 )
             )
     return out

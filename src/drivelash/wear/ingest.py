@@ -35,6 +35,7 @@ from drivelash.errors import DrivelashError
 from drivelash.wear.estimate import RecordingTask, code_version, content_hash, estimate_recording, file_facts
 from drivelash.wear.fleet import Fleet
 from drivelash.wear.store import EstimateRow, Store
+from drivelash.wear.words import count
 
 __all__ = ["DaskRunner", "IngestReport", "SchedulerError", "check_files", "ingest", "plan", "stored_row"]
 
@@ -298,7 +299,7 @@ def check_files(fleet: Fleet) -> None:
             reason = reason.removeprefix(f"{p}, ").removeprefix(f"{p}: ")
             raise ConfigError(
                 f"{fleet.path}: table [[axis]] #{k + 1} (id {a.name!r}), key 'time': dates none of the "
-                f"{len(files)} recordings (e.g. {p.name}: {reason}); nothing was written"
+                f"{count(len(files), 'recording')} (e.g. {p.name}: {reason}); nothing was written"
             )
 
 
@@ -578,15 +579,24 @@ def _what_was_written(rep: IngestReport) -> str:
     if rep.batches == 0:
         done = []
         if rep.new_axes:  # plan registers the fleet's axes in a transaction of its own
-            done.append(f"its {rep.new_axes} new axes were registered")
+            done.append(
+                f"its {count(rep.new_axes, 'new axis', 'new axes')} "
+                + ("was" if rep.new_axes == 1 else "were")
+                + " registered"
+            )
         if rep.redated:
-            done.append(f"its {rep.redated} new recording dates were written")
+            done.append(
+                f"its {count(rep.redated, 'new recording date')} "
+                + ("was" if rep.redated == 1 else "were")
+                + " written"
+            )
         if done:
             return f"no estimate of this ingest was written ({'; '.join(done)})"
         return "nothing of this ingest was written"
     moved = f" (and {rep.moved} new paths of stored recordings)" if rep.moved else ""
     return (
-        f"the {rep.stored} estimates{moved} of its first {rep.batches} transactions stay stored, the rest "
+        f"the {count(rep.stored, 'estimate')}{moved} of its first {count(rep.batches, 'transaction')} "
+        f"{'stays' if rep.stored == 1 and not rep.moved else 'stay'} stored, the rest "
         "was not written"
     )
 

@@ -38,6 +38,7 @@ from sqlalchemy.engine import Engine
 from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError, OperationalError
 
 from drivelash.errors import DrivelashError
+from drivelash.wear.words import count
 
 __all__ = ["EstimateRow", "Store", "StoreError", "utc_naive"]
 
@@ -328,6 +329,47 @@ def _kind(exc: BaseException) -> str | None:
     return "other"
 
 
+def sqlite_access_problem(path: str | Path, write: bool) -> str | None:
+    """Why an SQLite store file cannot be opened, from the file system (None when no such
+    reason shows): a directory on a read-only file system or not writable to this user, or a
+    read-only file. Asked after SQLite's own "unable to open database file" / "attempt to write
+    a readonly database", which names no cause.
+
+    A reader needs the directory too: in WAL mode SQLite creates ``NAME-wal`` and ``NAME-shm``
+    next to the file when it opens it (it removes them when the last connection closes).
+
+    Parameters
+    ----------
+    path : str or Path
+        The SQLite file.
+    write : bool
+        Whether the store was opened to write (``track ingest``) or to read.
+
+    Returns
+    -------
+    str or None
+        The cause, e.g. ``"directory /mnt/x is on a read-only file system"``.
+    """
+    p = Path(path)
+    d = p.parent
+    if not d.is_dir():
+        return f"directory {d} does not exist"
+    wal = f"SQLite's WAL mode needs to create {p.name}-wal and {p.name}-shm next to it"
+    try:
+        rofs = bool(os.statvfs(d).f_flag & os.ST_RDONLY)
+    except OSError:
+        rofs = False
+    if rofs:
+        return f"directory {d} is on a read-only file system" + ("" if write else f", and {wal}")
+    if not os.access(d, os.W_OK | os.X_OK):
+        return f"directory {d} is not writable (permission denied)" + ("" if write else f", and {wal}")
+    if p.exists() and not os.access(p, os.R_OK):
+        return "the file is not readable (permission denied)"
+    if write and p.exists() and not os.access(p, os.W_OK):
+        return "the file is read-only (permission denied)"
+    return None
+
+
 def _brief(exc: BaseException) -> str:
     """First line of a driver error, without SQLAlchemy's background links."""
     orig = getattr(exc, "orig", None) or exc
@@ -400,6 +442,9 @@ class Store:
                 raise self.failure(exc, "nothing was written") from None  # type: ignore[misc]
             if isinstance(exc, OSError):
                 raise
+            err = self._access_error(exc, "write" if create else "read", "nothing was written")
+            if err is not None:
+                raise err from None
             raise StoreError(f"--db {self.name}: cannot open the store ({_brief(exc)})") from None
 
     # -- set-up ----------------------------------------------------------------------------
@@ -428,6 +473,26 @@ class Store:
                 return
             cfg.attributes["connection"] = conn
             command.upgrade(cfg, "head")
+
+    def _access_error(self, exc: BaseException, what: str, consequence: str) -> StoreError | None:
+        """The one-line :class:`StoreError` for an SQLite file this process may not open or
+        write (:func:`sqlite_access_problem`: read-only file system or directory, read-only
+        file), else None. ``what``: "read" or "write"."""
+        path = self.url.database
+        if self.backend != "sqlite" or not path or path == ":memory:" or not isinstance(exc, DBAPIError):
+            return None
+        text = str(getattr(exc, "orig", None) or exc).lower()
+        if "unable to open database file" not in text and "readonly database" not in text:
+            return None
+        why = sqlite_access_problem(path, write=what == "write")
+        if why is None:
+            return None
+        fix = (
+            "give --db a writable place"
+            if what == "write"
+            else "copy the store to a writable directory and give --db the copy"
+        )
+        return StoreError(f"{path}: cannot {what} the store: {why}; {consequence} — {fix}")
 
     @contextmanager
     def _write(self) -> Iterator[sa.Connection]:
@@ -473,6 +538,10 @@ class Store:
         kind = _kind(exc)
         if kind is None:
             return None
+        if kind == "other":
+            err = self._access_error(exc, "write", consequence)
+            if err is not None:
+                return err
         if kind == "locked":
             return StoreError(
                 f"{self.name}: database is locked by another writer for more than {self.busy_timeout:g} s "
@@ -556,7 +625,11 @@ class Store:
             import difflib
 
             close = difflib.get_close_matches(name, known, n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else f" ({len(known)} axes in the store)"
+            hint = (
+                f"; did you mean {close[0]!r}?"
+                if close
+                else f" ({count(len(known), 'axis', 'axes')} in the store)"
+            )
             raise StoreError(f"{self.name}: no axis {name!r}{hint}")
         return int(row.id)
 
