@@ -150,3 +150,24 @@ def test_counted_nouns_of_the_wear_outputs():
     assert count(1, "active alarm") == "1 active alarm"
     assert count(0, "active alarm") == "0 active alarms"
     assert count(1, "axis", "axes") == "1 axis" and count(2, "axis", "axes") == "2 axes"
+
+
+def test_a_short_crossing_interval_is_printed_to_the_minute():
+    """A 90 % crossing interval minutes wide read "2026-01-13 … 2026-01-13" in the overview (status
+    and report), which hides its width; under 2 days it is printed to the minute, longer ones as
+    dates (negative control). In HTML a date never breaks at its hyphens (it wrapped as
+    "2026-01-" / "13" in the interval column)."""
+    from drivelash.report.fleet import _interval
+    from drivelash.report.html import _fmt
+
+    def s(early, late, never=False):
+        return {"crossing_early": early, "crossing_late": late, "crossing_late_never": never}
+
+    t = datetime(2026, 1, 13, 9, 19)
+    assert _interval(s(t, datetime(2026, 1, 13, 9, 24))) == "2026-01-13 09:19 … 09:24"
+    assert _interval(s(t, datetime(2026, 1, 14, 20, 5))) == "2026-01-13 09:19 … 2026-01-14 20:05"
+    assert _interval(s(t, datetime(2026, 1, 23, 9, 19))) == "2026-01-13 … 2026-01-23"  # 10 days
+    assert _interval(s(t, None, never=True)) == "2026-01-13 … never"
+    assert _interval(s(None, None)) == "–"
+    cell = _fmt("2026-01-13 09:19 … 2026-01-14 20:05")
+    assert cell == '<span class="nw">2026-01-13 09:19</span> … <span class="nw">2026-01-14 20:05</span>'

@@ -27,6 +27,7 @@ h2{font-size:1.25em;margin-top:1.8em;color:#2a6fb0}
 table{border-collapse:collapse;margin:.6em 0 1.2em 0;font-size:.92em}
 th,td{border:1px solid #c9d3dd;padding:.25em .7em;text-align:right}
 th{background:#eef3f8}td:first-child,th:first-child,td.t,th.t{text-align:left}
+.nw{white-space:nowrap}
 figure{margin:1em 0;text-align:center}figure img{max-width:100%;height:auto;border:1px solid #e3e8ee}
 figcaption{font-size:.88em;color:#4b5966;margin-top:.3em}
 .verdict-ok{color:#1f7a35;font-weight:600}.verdict-bad{color:#b03a2a;font-weight:600}
@@ -76,12 +77,16 @@ def png_bytes(fig_spec: Figure, dpi: int = 90) -> bytes:
     return buf.getvalue()
 
 
+#: A date (and time) in a table cell: kept on one line (browsers break after its hyphens).
+_DATE = re.compile(r"\d{4}-\d{2}-\d{2}(?: \d{2}:\d{2})?")
+
+
 def _fmt(v: Any) -> str:
     if isinstance(v, float):
         if v != v:  # NaN
             return "–"
         return f"{v:.6g}"
-    return html.escape(str(v))
+    return _DATE.sub(lambda m: f'<span class="nw">{m.group(0)}</span>', html.escape(str(v)))
 
 
 #: A cell that reads as a number (right-aligned): 12, -0.5, 1.2e-3, 95 %, 1,024, 6/8; "–" is
