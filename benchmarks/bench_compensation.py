@@ -38,7 +38,7 @@ from drivelash.te.protocol.bench import ValidationConfig, compensator_for, train
 from drivelash.te.runtime.compensator import Compensator, compensate_run, init_state, smooth_step
 from drivelash.te.runtime.persist import load_model
 from drivelash.te.runtime.predictor import te_point
-from drivelash.te.runtime.table import build_table
+from drivelash.te.runtime.table import build_table, measured_range
 
 N_CYCLES = 20_000
 REPEATS = 5
@@ -96,7 +96,9 @@ def main() -> None:
     cfg = ValidationConfig()
     t0 = time.perf_counter()
     tq_max = training_torque_max(camp, 3000.0)
-    table = build_table(model, 0.0, bench.travel, cfg.table_dx, tq_max, int(np.ceil(tq_max / 0.5)) + 1)
+    # the table over the positions where the model was measured (build_table refuses more)
+    x_lo, x_hi = measured_range(model)
+    table = build_table(model, x_lo, x_hi, cfg.table_dx, tq_max, int(np.ceil(tq_max / 0.5)) + 1)
     t_table = time.perf_counter() - t0
     params = compensator_for(bench, table, cfg.compensator)
     # a sinusoidal plan with reversals, torque following the flank (inside the table's range)
