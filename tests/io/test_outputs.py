@@ -451,3 +451,33 @@ def test_a_recording_records_its_command_and_another_command_needs_force(tmp_pat
     # a library write records no command: any command may replace it, as before
     write_trace(tr, target)
     assert output_command(target) == ""
+
+
+def test_an_oserror_while_writing_names_the_output_and_others_pass_through(tmp_path, monkeypatch):
+    """A write failure is one line naming the option and the path as given; the targets stay.
+
+    Matched by the file name (a file inside a staged directory) or, without one, by a
+    write errno (the output staged last); an ``OSError`` of another file is not an output's.
+    """
+    import errno
+
+    keep = tmp_path / "model"
+    with Outputs("te fit") as out:
+        write_json(out.staging(out.directory(keep, option="-o")) / "model.json", {"v": 1})
+    before = _tree(tmp_path)
+    with pytest.raises(OutputError) as ei, Outputs("te fit") as out:
+        d = out.staging(out.directory(keep, option="-o"))
+        raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(d / "weights.bin"))
+    assert str(ei.value) == (
+        f"-o {keep}: cannot write it: Permission denied; the existing files were left as they were"
+    )
+    with pytest.raises(OutputError, match=r"^--json a\.json: cannot write it: Disk quota exceeded;"):
+        with Outputs() as out:
+            monkeypatch.chdir(tmp_path)
+            out.staging(out.file("b.json", option="--plot"))
+            out.staging(out.file("a.json", option="--json"))  # staged last: the one being written
+            raise OSError(errno.EDQUOT, os.strerror(errno.EDQUOT))
+    with pytest.raises(FileNotFoundError), Outputs() as out:  # reading an input: not an output's
+        out.staging(out.file(tmp_path / "c.json", option="--json"))
+        raise FileNotFoundError(errno.ENOENT, os.strerror(errno.ENOENT), str(tmp_path / "in.csv"))
+    assert _tree(tmp_path) == before

@@ -34,6 +34,10 @@ What a user can rely on (each point is tested in ``tests/io/test_outputs.py``):
   the old copy is removed last). A killed process (SIGKILL) can leave only hidden
   ``….part`` names, which no reader accepts as a recording; they are swept by the next
   commit to the same target once their process is gone.
+- **A failed write is one line**: an ``OSError`` while an output is written (a full disk,
+  a quota, a read-only device; :meth:`Outputs.write_error`) leaves the targets as they
+  were and is reported as ``--json out.json: cannot write it: No space left on device; the
+  existing files were left as they were``, exit code 2, not a traceback.
 
 Signatures (how a drivelash output is recognised) are listed in
 ``docs/assumptions.md`` ("Outputs and bad input").
@@ -110,6 +114,10 @@ _STAGE_RE = re.compile(
     r"^\.(?P<name>.+)\.drivelash-(?P<pid>\d+)-(?P<rand>[A-Za-z0-9_]+)\.(?P<kind>part|old)$"
 )
 _HEAD = 8192
+
+#: ``errno`` values that mean "the output cannot be written" whatever file they name:
+#: a full disk, a full quota, a file above the file-size limit, a read-only or failing device.
+WRITE_ERRNOS: frozenset[int] = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS, errno.EIO})
 
 #: Staging path → command of the :class:`Outputs` that made it (read by :func:`signature`).
 _STAGED_BY: dict[str, str] = {}
@@ -576,10 +584,15 @@ class _Target:
     option: str
     directory: bool
     stage: Path | None = None
+    shown: str = ""  # the path as the user gave it (for messages)
 
 
 def _display(path: str | Path) -> str:
     return os.fspath(path)
+
+
+def _one_line(text: str) -> str:
+    return " ".join(text.split())
 
 
 def _resolved(p: Path) -> Path:
@@ -620,6 +633,7 @@ class Outputs:
         self.inputs = [Path(p) for p in inputs if p is not None and os.fspath(p) != ""]
         self.allow_inside = [_resolved(Path(p)) for p in allow_inside]
         self._targets: list[_Target] = []
+        self._staged_order: list[tuple[_Target, Path]] = []  # (target, stage), in staging order
         self._done = False
 
     # ------------------------------------------------------------ context
@@ -628,9 +642,55 @@ class Outputs:
 
     def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
         if exc_type is None:
-            self.commit()
-        else:
-            self.abort()
+            try:
+                self.commit()
+            except OSError as e:
+                err = self.write_error(e)
+                if err is None:
+                    raise
+                raise err from e
+            return
+        self.abort()
+        if isinstance(exc, OSError):
+            err = self.write_error(exc, left_as_they_were=True)
+            if err is not None:
+                raise err from exc
+
+    def write_error(self, exc: OSError, *, left_as_they_were: bool = False) -> OutputError | None:
+        """The one-line error of an ``OSError`` met while writing an output; None if not one.
+
+        The error is an output's when its file name is a staging path of this set (or lies in
+        a staged directory), or, without a file name of another file, when its ``errno`` is
+        one of :data:`WRITE_ERRNOS` (a full disk or quota, a file too large, a read-only or
+        failing device): then it names the output staged last, the one being written.
+
+        Parameters
+        ----------
+        exc : OSError
+            The error.
+        left_as_they_were : bool
+            Add that the existing targets were left as they were (true before the commit).
+
+        Returns
+        -------
+        OutputError or None
+            ``OPTION PATH: cannot write it: REASON``, the path as the user gave it.
+        """
+        target: _Target | None = None
+        names = [f for f in (exc.filename, exc.filename2) if isinstance(f, str | bytes | os.PathLike)]
+        for name in names:
+            path = Path(os.fsdecode(name))
+            for t, stage in self._staged_order:
+                if path == stage or (t.directory and _inside(path, stage)):
+                    target = t
+        if target is None:
+            if names or exc.errno not in WRITE_ERRNOS or not self._staged_order:
+                return None
+            target = self._staged_order[-1][0]
+        # the C library's text of the errno: pyarrow and h5py wrap it in long driver messages
+        reason = os.strerror(exc.errno) if exc.errno else _one_line(str(exc)) or type(exc).__name__
+        tail = "; the existing files were left as they were" if left_as_they_were else ""
+        return self._fail(target.option, target.shown or target.path, f"cannot write it: {reason}{tail}")
 
     # ------------------------------------------------------------ validation
     def _fail(self, option: str, path: str | Path, problem: str) -> OutputError:
@@ -736,7 +796,7 @@ class Outputs:
             raise self._fail(option, raw, "exists and is not a regular file")
         self._check_inputs(option, raw, target, directory=False)
         self._check_existing(option, raw, target)
-        self._targets.append(_Target(target, option, directory=False))
+        self._targets.append(_Target(target, option, directory=False, shown=_display(raw)))
         return target
 
     def directory(self, path: str | Path | None, *, option: str) -> Path | None:
@@ -751,7 +811,7 @@ class Outputs:
             raise self._fail(option, raw, "contains the current directory; choose another path")
         self._check_inputs(option, raw, target, directory=True)
         self._check_existing(option, raw, target)
-        self._targets.append(_Target(target, option, directory=True))
+        self._targets.append(_Target(target, option, directory=True, shown=_display(raw)))
         return target
 
     # ------------------------------------------------------------ staging
@@ -774,6 +834,7 @@ class Outputs:
         t = self._target(target)
         if t.stage is None:
             t.stage = _new_stage(t.path, t.directory)
+            self._staged_order.append((t, t.stage))
             if self.command and not t.directory:
                 _STAGED_BY[os.fspath(t.stage)] = self.command
         return t.stage
