@@ -138,3 +138,27 @@ def test_bad_axis_and_layout_names(tmp_path):
         write_sinumerik(tab, tmp_path / "a.ini", axis="X1; M30")
     with pytest.raises(ParameterError, match="--format"):
         write_cnc(tab, tmp_path / "a.txt", "fanuc")
+
+
+@pytest.mark.parametrize("layout,name", [("sinumerik", "axis.ini"), ("heidenhain", "axis.com")])
+def test_a_rerun_of_te_export_replaces_its_own_cnc_table(tmp_path, layout, name):
+    """``te export --format sinumerik -o x.ini`` twice: the second run said "an existing file
+    that is not a drivelash output" (the signature is on the line after ``%_N_AX_EEC_INI``).
+    A user's init program with the same header stays refused without --force."""
+    from drivelash.errors import OutputError
+    from drivelash.io.outputs import Outputs
+
+    tab = geometric_table(LinearGeoModel(), step=1e-3)
+    target = tmp_path / name
+    for _ in range(2):
+        with Outputs("te export") as out:
+            write_cnc(tab, out.staging(out.file(target, option="-o")), layout)
+    user = tmp_path / "user.ini"
+    user.write_bytes(b"%_N_AX_EEC_INI\r\n; my own compensation\r\nM17\r\n")
+    with pytest.raises(OutputError) as ei, Outputs("te export") as out:
+        out.file(user, option="-o")
+    assert str(ei.value) == (
+        f"-o {user}: an existing file that is not a drivelash output; use --force to replace it"
+        " or choose another path"
+    )
+    assert user.read_bytes() == b"%_N_AX_EEC_INI\r\n; my own compensation\r\nM17\r\n"

@@ -404,9 +404,9 @@ def is_own_output(path: str | Path) -> bool:
       ``<!-- drivelash``;
     - ``.h5``/``.hdf5``/``.hdf``, MAT v7.3: root attribute ``drivelash_meta``; MAT v5: a
       variable ``drivelash_meta``;
-    - CNC tables (``te export``): ``.ini`` (SINUMERIK init program) first line starts with
-      ``; drivelash``; ``.com`` (HEIDENHAIN table) the line after ``[END]`` starts with
-      ``drivelash``.
+    - CNC tables (``te export``): ``.ini`` (SINUMERIK init program) first line, or the line
+      after the program header ``%_N_…``, starts with ``; drivelash``; ``.com`` (HEIDENHAIN
+      table) the line after ``[END]`` starts with ``drivelash``.
 
     Anything else (and anything unreadable) is not ours.
     """
@@ -465,8 +465,12 @@ def _unrecorded_own(p: Path, ext: str) -> bool:
         return _first_line(p).startswith(b"# drivelash")
     if ext == ".md":
         return _first_line(p).startswith(b"<!-- drivelash")
-    if ext == ".ini":
-        return _first_line(p).startswith(b"; drivelash")
+    if ext == ".ini":  # a SINUMERIK init program starts with its header %_N_…_INI
+        lines = _head(p, 512).split(b"\n", 2)
+        first, second = lines[0].strip(), (lines[1].strip() if len(lines) > 1 else b"")
+        return first.startswith(b"; drivelash") or (
+            first.startswith(b"%_N_") and second.startswith(b"; drivelash")
+        )
     if ext == ".com":
         return _com_signed(p)
     return False
