@@ -481,3 +481,48 @@ def test_an_oserror_while_writing_names_the_output_and_others_pass_through(tmp_p
         out.staging(out.file(tmp_path / "c.json", option="--json"))
         raise FileNotFoundError(errno.ENOENT, os.strerror(errno.ENOENT), str(tmp_path / "in.csv"))
     assert _tree(tmp_path) == before
+
+
+@pytest.mark.parametrize("exchange", [True, False], ids=["renameat2", "two-renames"])
+def test_a_rename_failing_half_way_through_the_commit_puts_the_set_back(tmp_path, monkeypatch, exchange):
+    """``estimate --json a.json --plot p.png`` with p.png immutable (``chattr +i``): a.json was
+    already replaced when p.png's rename failed — a mixed set, and a traceback. Now the outputs
+    renamed before the failure are put back (files, a new file, a directory) and no temporary
+    name is left."""
+    import errno
+
+    import drivelash.io.outputs as outputs_mod
+
+    if not exchange:
+        monkeypatch.setattr(outputs_mod, "_exchange", lambda a, b: False)
+    d, a, last = tmp_path / "model", tmp_path / "a.json", tmp_path / "z.json"
+    with Outputs("x") as out:
+        write_json(out.staging(out.directory(d, option="-o")) / "m.json", {"v": "old"})
+        write_json(out.staging(out.file(a, option="--json")), {"v": "old"})
+        write_json(out.staging(out.file(last, option="--last")), {"v": "old"})
+    before = _tree(tmp_path)
+    real_replace = os.replace
+
+    def replace(src, dst):
+        if Path(dst) == last and outputs_mod.is_staging_path(src):
+            raise PermissionError(errno.EPERM, os.strerror(errno.EPERM), os.fspath(dst))
+        real_replace(src, dst)
+
+    monkeypatch.setattr(outputs_mod.os, "replace", replace)
+    real_link = os.link
+
+    def link(src, dst, **k):  # the last target cannot be linked (as an immutable file), the rest can
+        if Path(src) == last:
+            raise PermissionError(errno.EPERM, os.strerror(errno.EPERM), os.fspath(src))
+        real_link(src, dst, **k)
+
+    monkeypatch.setattr(outputs_mod.os, "link", link)
+    with pytest.raises(OutputError) as ei, Outputs("x") as out:
+        write_json(out.staging(out.directory(d, option="-o")) / "m.json", {"v": "new"})
+        write_json(out.staging(out.file(a, option="--json")), {"v": "new"})
+        write_json(out.staging(out.file(tmp_path / "new.json", option="--new")), {"v": "new"})
+        write_json(out.staging(out.file(last, option="--last")), {"v": "new"})
+    assert str(ei.value) == (
+        f"--last {last}: cannot write it: Operation not permitted; the existing files were left as they were"
+    )
+    assert _tree(tmp_path) == before

@@ -31,7 +31,9 @@ What a user can rely on (each point is tested in ``tests/io/test_outputs.py``):
   target's parent directory (taken in sorted order, no lock files) with SIGTERM/SIGINT
   blocked, so two concurrent runs never leave a mixed set. A directory is swapped in
   with ``renameat2(RENAME_EXCHANGE)`` where the kernel offers it (else two renames;
-  the old copy is removed last). A killed process (SIGKILL) can leave only hidden
+  the old copy is removed last). A rename that fails half-way through the set (an
+  immutable target) puts the outputs already renamed back, from hidden ``….old`` hard
+  links of the previous files. A killed process (SIGKILL) can leave only hidden
   ``….part`` names, which no reader accepts as a recording; they are swept by the next
   commit to the same target once their process is gone.
 - **A failed write is one line**: an ``OSError`` while an output is written (a full disk,
@@ -591,6 +593,15 @@ class _Target:
     shown: str = ""  # the path as the user gave it (for messages)
 
 
+def _attempt(fn: Any) -> bool:
+    """Call ``fn()``; whether it ran without an ``OSError`` (an undo step of a failed commit)."""
+    try:
+        fn()
+    except OSError:
+        return False
+    return True
+
+
 def _display(path: str | Path) -> str:
     return os.fspath(path)
 
@@ -639,6 +650,8 @@ class Outputs:
         self._targets: list[_Target] = []
         self._staged_order: list[tuple[_Target, Path]] = []  # (target, stage), in staging order
         self._done = False
+        #: After a failed :meth:`commit`: whether every output already renamed was put back.
+        self.rolled_back = False
 
     # ------------------------------------------------------------ context
     def __enter__(self) -> Outputs:
@@ -649,7 +662,7 @@ class Outputs:
             try:
                 self.commit()
             except OSError as e:
-                err = self.write_error(e)
+                err = self.write_error(e, left_as_they_were=self.rolled_back)
                 if err is None:
                     raise
                 raise err from e
@@ -663,8 +676,8 @@ class Outputs:
     def write_error(self, exc: OSError, *, left_as_they_were: bool = False) -> OutputError | None:
         """The one-line error of an ``OSError`` met while writing an output; None if not one.
 
-        The error is an output's when its file name is a staging path of this set (or lies in
-        a staged directory), or, without a file name of another file, when its ``errno`` is
+        The error is an output's when its file name is a target or a temporary name of this
+        set (or lies in a staged directory), or, without a file name of another file, when its ``errno`` is
         one of :data:`WRITE_ERRNOS` (a full disk or quota, a file too large, a read-only or
         failing device): then it names the output staged last, the one being written.
 
@@ -685,7 +698,12 @@ class Outputs:
         for name in names:
             path = Path(os.fsdecode(name))
             for t, stage in self._staged_order:
-                if path == stage or (t.directory and _inside(path, stage)):
+                m = _STAGE_RE.match(path.name)
+                if (
+                    path in (stage, t.path)
+                    or (m is not None and m["name"] == t.path.name and path.parent == t.path.parent)
+                    or (t.directory and _inside(path, stage))
+                ):
                     target = t
         if target is None:
             if names or exc.errno not in WRITE_ERRNOS or not self._staged_order:
@@ -857,12 +875,71 @@ class Outputs:
                 _remove(t.stage)
                 t.stage = None
 
+    def _put_in_place(self, t: _Target, old: list[Path]) -> Any:
+        """Rename ``t``'s staged output onto its target; returns the callable that undoes it.
+
+        The previous file is kept under a hidden ``….old`` name (a hard link, so the target
+        never disappears; a rename where links are not supported), the previous directory
+        at the stage name or a ``….old`` name; each is appended to ``old`` (removed after the
+        whole set is in place).
+        """
+        assert t.stage is not None
+        stage, path = t.stage, t.path
+        aside = stage.with_name(stage.name[: -len(".part")] + ".old")
+        if not t.directory:
+            if not (path.exists() or path.is_symlink()):
+                os.replace(stage, path)
+                return lambda: path.unlink()
+            try:
+                os.link(path, aside, follow_symlinks=False)
+                moved = False
+            except OSError:
+                os.rename(path, aside)  # raises where the target cannot be replaced at all
+                moved = True
+            try:
+                os.replace(stage, path)
+            except BaseException:
+                if moved:
+                    os.replace(aside, path)
+                else:
+                    _remove(aside)
+                raise
+            old.append(aside)
+            return lambda: os.replace(aside, path)
+        if not path.exists():
+            os.rename(stage, path)
+            return lambda: _remove(path)  # a new directory: nothing was there
+        if _exchange(stage, path):
+            old.append(stage)  # the previous directory now lives at the stage name
+
+            def swap_back() -> None:
+                if not _exchange(stage, path):
+                    raise OSError(errno.EIO, "cannot exchange the directories back", os.fspath(path))
+                _remove(stage)  # now the new directory
+
+            return swap_back
+        os.rename(path, aside)
+        try:
+            os.rename(stage, path)
+        except BaseException:
+            os.rename(aside, path)
+            raise
+        old.append(aside)
+
+        def rename_back() -> None:
+            os.rename(path, stage)
+            os.rename(aside, path)
+            _remove(stage)  # now the new directory
+
+        return rename_back
+
     def commit(self) -> list[Path]:
         """Put every staged output in place, together; returns the written targets."""
         if self._done:
             return []
         staged = [t for t in self._targets if t.stage is not None]
         old: list[Path] = []
+        undo: list[Any] = []  # one callable per output put in place, restoring what was there
         try:
             for t in staged:
                 assert t.stage is not None
@@ -884,21 +961,14 @@ class Outputs:
                 for t in staged:
                     _sweep_stale(t.path)
                     assert t.stage is not None
-                    if not t.directory:
-                        os.replace(t.stage, t.path)
-                    elif not t.path.exists():
-                        os.rename(t.stage, t.path)
-                    elif _exchange(t.stage, t.path):
-                        old.append(t.stage)  # the previous directory now lives at the stage name
-                    else:
-                        aside = t.stage.with_name(t.stage.name[: -len(".part")] + ".old")
-                        os.rename(t.path, aside)
-                        os.rename(t.stage, t.path)
-                        old.append(aside)
+                    undo.append(self._put_in_place(t, old))
                     t.stage = None
                 for d in {t.path.parent for t in staged}:
                     _fsync_path(d)
         except BaseException:
+            # a rename that fails half-way through the set (an immutable or vanished target)
+            # puts the outputs already renamed back: the set is all new or all old
+            self.rolled_back = all(_attempt(u) for u in reversed(undo))
             self.abort()
             raise
         self._done = True
