@@ -318,6 +318,14 @@ def forecast_json(s: dict[str, Any]) -> dict[str, Any]:
     }
 
 
+def _read_inputs(db: str, fleet: Any) -> list[Path | None]:
+    """The files a report of the store reads: the store's SQLite file and the fleet file (no
+    output may be written over them, ``--force`` or not)."""
+    from drivelash.wear.store import store_file
+
+    return [store_file(db), None if fleet is None else fleet.path]
+
+
 def run_forecast(
     axis: str,
     db: str,
@@ -334,7 +342,7 @@ def run_forecast(
     from drivelash.wear.alarms import axis_summary, judged_axes
     from drivelash.wear.store import Store
 
-    with Outputs("track forecast", force=force) as out:
+    with Outputs("track forecast", inputs=_read_inputs(db, fleet), force=force) as out:
         target = (
             out.file(json_out, option="--json", kinds=JSON_EXTENSIONS)
             if json_out not in (None, "-")
@@ -423,7 +431,7 @@ def run_report(
     from drivelash.io.outputs import HTML_EXTENSIONS, Outputs
     from drivelash.report.fleet import render_fleet_report, write_fleet_report
 
-    with Outputs("track report", force=force) as out:
+    with Outputs("track report", inputs=_read_inputs(db, fleet), force=force) as out:
         target = out.file(out_path, option="-o", kinds=HTML_EXTENSIONS)
         store, summ, note = _summaries(db, fleet)
         try:

@@ -39,7 +39,7 @@ from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError, Operati
 
 from drivelash.errors import DrivelashError
 
-__all__ = ["EstimateRow", "Store", "StoreError", "utc_naive"]
+__all__ = ["EstimateRow", "Store", "StoreError", "store_file", "utc_naive"]
 
 MIGRATIONS = Path(__file__).parent / "migrations"
 #: Seconds a writer waits for another writer's lock before giving up [s], SQLite (busy timeout)
@@ -275,6 +275,19 @@ def _url(db: str | Path) -> sa.URL:
         return sa.URL.create("sqlite", database=str(Path(s).expanduser().resolve()))
     except ArgumentError:
         raise StoreError(f"--db {s!r}: not a database URL or file path") from None
+
+
+def store_file(db: str | Path) -> Path | None:
+    """The local file of the store at ``db`` (an SQLite path or ``sqlite:///`` URL); None for a
+    database server or an in-memory SQLite.
+
+    Commands that read the store and write files name it among their inputs, so that no output
+    (``--json``, ``-o``) can be written over it, ``--force`` or not.
+    """
+    url = _url(db)
+    if not url.drivername.startswith("sqlite") or url.database in (None, "", ":memory:"):
+        return None
+    return Path(url.database)
 
 
 def _show(url: sa.URL) -> str:
