@@ -291,6 +291,10 @@ def store_file(db: str | Path) -> Path | None:
 
 
 def _show(url: sa.URL) -> str:
+    """The store as messages name it: the URL without its password; an SQLite file's path as
+    written (SQLAlchemy's rendering percent-encodes it: ``sp ace %C3%BC`` for ``sp ace ü``)."""
+    if url.drivername.startswith("sqlite") and url.database not in (None, "", ":memory:"):
+        return f"{url.drivername}:///{url.database}"
     return url.render_as_string(hide_password=True)
 
 
