@@ -236,3 +236,15 @@ def test_a_store_is_named_by_its_path_as_written(tmp_path):
     shown = f"sqlite:///{d / 'mine ü.json'}"
     assert str(ei.value) == f"--db {shown}: cannot open the store (file is not a database)"
     assert (d / "mine ü.json").read_text() == "{}\n"
+
+
+@pytest.mark.parametrize("create", [True, False], ids=["ingest", "status"])
+def test_a_directory_given_as_the_store_is_named_as_one(tmp_path, create):
+    """``--db DIR``: "cannot open the store (unable to open database file)" (ingest) or "no such
+    store (run track ingest first …)" (status, forecast, report)."""
+    d = tmp_path / "history"
+    d.mkdir()
+    with pytest.raises(StoreError) as ei:
+        Store(d, create=create)
+    assert str(ei.value) == f"{d}: is a directory, not a store file; give a file, e.g. {d / 'wear.sqlite'}"
+    assert list(d.iterdir()) == []

@@ -393,6 +393,10 @@ class Store:
             path = self.url.database
             if path and path != ":memory:":
                 p = Path(path)
+                if p.is_dir():  # was "cannot open the store (unable to open database file)"
+                    raise StoreError(
+                        f"{p}: is a directory, not a store file; give a file, e.g. {p / 'wear.sqlite'}"
+                    )
                 if not create and not p.is_file():
                     raise StoreError(
                         f"{p}: no such store (run `drivelash track ingest` first, or give --fleet FLEET.toml"
