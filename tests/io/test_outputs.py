@@ -526,3 +526,24 @@ def test_a_rename_failing_half_way_through_the_commit_puts_the_set_back(tmp_path
         f"--last {last}: cannot write it: Operation not permitted; the existing files were left as they were"
     )
     assert _tree(tmp_path) == before
+
+
+def test_a_name_too_long_for_its_temporary_name_is_refused_before_any_work(tmp_path):
+    """``simulate -o <240 chars>.csv`` ended, after the whole simulation, in a traceback
+    (ENAMETOOLONG creating ``.NAME.drivelash-PID-RAND.part``); 260 chars the same."""
+    from drivelash.io.outputs import STAGE_NAME_OVERHEAD
+
+    limit = os.pathconf(tmp_path, "PC_NAME_MAX") - STAGE_NAME_OVERHEAD
+    ok = tmp_path / ("a" * (limit - 4) + ".csv")
+    with Outputs("simulate") as out:
+        write_trace(_trace(), out.staging(out.file(ok, option="-o")))
+    assert ok.is_file()
+    for n in (limit + 1, 260):
+        bad = tmp_path / ("b" * (n - 4) + ".csv")
+        with pytest.raises(OutputError) as ei, Outputs("simulate") as out:
+            out.file(bad, option="-o")
+        assert str(ei.value) == (
+            f"-o {bad}: file name too long ({n} bytes; at most {limit} here: it is first written under"
+            f" a temporary name {STAGE_NAME_OVERHEAD} bytes longer, and the file system allows {limit + 33})"
+        )
+    assert sorted(os.listdir(tmp_path)) == [ok.name]

@@ -117,6 +117,12 @@ _STAGE_RE = re.compile(
 )
 _HEAD = 8192
 
+#: Bytes a temporary name ``.NAME.drivelash-PID-RAND.part`` adds to NAME: the dots, the
+#: ``drivelash-`` tag, a PID of up to 7 digits (Linux ``pid_max`` ≤ 4 194 304), the 8 random
+#: characters of :mod:`tempfile` and ``.part``; an output name longer than the file system's
+#: limit less this is refused before any work (its temporary name could not be created).
+STAGE_NAME_OVERHEAD = 33
+
 #: ``errno`` values that mean "the output cannot be written" whatever file they name:
 #: a full disk, a full quota, a file above the file-size limit, a read-only or failing device.
 WRITE_ERRNOS: frozenset[int] = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS, errno.EIO})
@@ -235,6 +241,14 @@ def final_name(path: str | Path) -> str:
 def final_suffix(path: str | Path) -> str:
     """Lower-case extension of the output's final name (works on staging paths)."""
     return Path(final_name(path)).suffix.lower()
+
+
+def _name_max(directory: Path) -> int:
+    """Longest file name [bytes] the file system of ``directory`` allows (255 if it does not say)."""
+    try:
+        return int(os.pathconf(directory, "PC_NAME_MAX"))
+    except (OSError, ValueError):
+        return 255
 
 
 def _umask() -> int:
@@ -733,6 +747,16 @@ class Outputs:
         mode = parent.stat().st_mode
         if not os.access(parent, os.W_OK | os.X_OK) or not (mode & 0o222):
             raise self._fail(option, raw, f"directory {_display(parent)} is not writable")
+        if p.name not in ("", ".", ".."):
+            n, name_max = len(os.fsencode(p.name)), _name_max(parent)
+            if n > name_max - STAGE_NAME_OVERHEAD:
+                raise self._fail(
+                    option,
+                    raw,
+                    f"file name too long ({n} bytes; at most {name_max - STAGE_NAME_OVERHEAD} here: it is"
+                    f" first written under a temporary name {STAGE_NAME_OVERHEAD} bytes longer, and the"
+                    f" file system allows {name_max})",
+                )
         target = _resolved(parent) / p.name
         if p.name in ("", ".", ".."):
             target = _resolved(p)
