@@ -49,3 +49,20 @@ def test_full_disk_while_writing_is_one_line_and_keeps_the_old_file(tmp_path, ca
         "the existing files were left as they were"
     ]
     assert _tree(tmp_path) == before  # the old recording byte for byte, no temporary file left
+
+
+def test_a_path_component_too_long_is_one_line_for_outputs_and_inputs(tmp_path, capsys, monkeypatch):
+    """A directory name of 260 bytes: ``simulate -o LONG/x.csv`` and ``estimate LONG.csv`` ended in
+    a traceback (ENAMETOOLONG out of ``Path.exists``, which only hides ENOENT-like errors)."""
+    config = Path(__file__).resolve().parents[2] / "examples" / "drive_bench.toml"
+    long = "a" * 260
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run_in_process(
+        ["simulate", "bench-0B", "-o", f"{long}/x.csv", "--duration", "0.01"], capsys
+    )
+    assert code == 2 and err.strip().splitlines() == [
+        f"drivelash: error: -o {long}/x.csv: File name too long"
+    ]
+    code, _, err = run_in_process(["estimate", f"{long}.csv", "-c", str(config)], capsys)
+    assert code == 2 and err.strip().splitlines() == [f"drivelash: error: {long}.csv: File name too long"]
+    assert os.listdir(tmp_path) == []

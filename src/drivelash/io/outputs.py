@@ -739,6 +739,13 @@ class Outputs:
         p = Path(raw)
         if _STAGE_RE.match(p.name):
             raise self._fail(option, raw, "name is reserved for drivelash temporary files")
+        try:
+            return self._checked(p, raw, option)
+        except OSError as exc:  # a component too long, a symlink loop, …: os.stat's own error
+            raise self._fail(option, raw, os.strerror(exc.errno) if exc.errno else str(exc)) from None
+
+    def _checked(self, p: Path, raw: str, option: str) -> tuple[Path, Path]:
+        """The checks of :meth:`_common` that touch the file system."""
         parent = p.parent if str(p.parent) else Path(".")
         if not parent.exists():
             raise self._fail(option, raw, f"directory {_display(parent)} does not exist")
