@@ -547,3 +547,20 @@ def test_a_name_too_long_for_its_temporary_name_is_refused_before_any_work(tmp_p
             f" a temporary name {STAGE_NAME_OVERHEAD} bytes longer, and the file system allows {limit + 33})"
         )
     assert sorted(os.listdir(tmp_path)) == [ok.name]
+
+
+def test_a_dangling_symlink_at_an_output_is_named_as_one(tmp_path):
+    """``--json link.json`` with link.json → a missing file: "an existing file that is not a
+    drivelash output" (there is no file); with ``--force`` the link is replaced, nothing else."""
+    link = tmp_path / "link.json"
+    link.symlink_to("gone/x.json")
+    with pytest.raises(OutputError) as ei, Outputs("estimate") as out:
+        out.file(link, option="--json")
+    assert str(ei.value) == (
+        f"--json {link}: a symbolic link to gone/x.json, which does not exist; use --force to replace it"
+        " or choose another path"
+    )
+    assert os.readlink(link) == "gone/x.json"
+    with Outputs("estimate", force=True) as out:
+        write_json(out.staging(out.file(link, option="--json")), {"v": 1})
+    assert not link.is_symlink() and json.loads(link.read_text())["v"] == 1

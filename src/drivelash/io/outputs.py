@@ -805,7 +805,9 @@ class Outputs:
             return
         what = "directory" if target.is_dir() else "file"
         owner = output_command(target)
-        if owner is None:
+        if target.is_symlink() and not target.exists():  # was "an existing file that is not …"
+            problem = f"a symbolic link to {os.readlink(target)}, which does not exist"
+        elif owner is None:
             problem = f"an existing {what} that is not a drivelash output"
         elif not self.command or owner == self.command:
             return
