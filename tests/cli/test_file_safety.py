@@ -12,6 +12,7 @@ import os
 from pathlib import Path
 
 import numpy as np
+import pytest
 from tests.cli_runner import run_in_process
 
 from drivelash.io import Trace, write_trace
@@ -66,3 +67,27 @@ def test_a_path_component_too_long_is_one_line_for_outputs_and_inputs(tmp_path, 
     code, _, err = run_in_process(["estimate", f"{long}.csv", "-c", str(config)], capsys)
     assert code == 2 and err.strip().splitlines() == [f"drivelash: error: {long}.csv: File name too long"]
     assert os.listdir(tmp_path) == []
+
+
+def test_the_fleet_report_writer_called_as_a_library_keeps_an_existing_file(tmp_path, monkeypatch):
+    """``write_fleet_report(path, …)`` outside a command wrote straight into ``path``: a failed
+    write (full disk) left the previous report truncated. Now atomically, as every other
+    report writer (``drivelash.report._write``); ``write_iso230_report`` uses the same."""
+    from drivelash.report.fleet import write_fleet_report
+
+    target = tmp_path / "fleet.html"
+    target.write_text("<html>the report of last week</html>\n", encoding="utf-8")
+    real = Path.write_text
+
+    def half_then_full(self, data, *a, **k):
+        real(self, data[:10], *a, **k)
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(Path, "write_text", half_then_full)
+    with pytest.raises(OSError):
+        write_fleet_report(target, "<html>new</html>\n")
+    monkeypatch.undo()
+    assert target.read_text(encoding="utf-8") == "<html>the report of last week</html>\n"
+    assert os.listdir(tmp_path) == ["fleet.html"]
+    write_fleet_report(target, "<html>new</html>\n")
+    assert target.read_text(encoding="utf-8") == "<html>new</html>\n"
