@@ -162,3 +162,39 @@ def test_a_rerun_of_te_export_replaces_its_own_cnc_table(tmp_path, layout, name)
         " or choose another path"
     )
     assert user.read_bytes() == b"%_N_AX_EEC_INI\r\n; my own compensation\r\nM17\r\n"
+
+
+@pytest.mark.parametrize("layout,name", [("sinumerik", "axis.ini"), ("heidenhain", "axis.com")])
+def test_a_failed_library_write_leaves_the_previous_cnc_table(tmp_path, monkeypatch, layout, name):
+    """``write_cnc(tab, path)`` outside a command opened ``path`` for writing at once: a full disk
+    left the machine's previous table truncated. Now through ``write_target`` (atomic)."""
+    import errno
+    import os
+
+    tab = geometric_table(LinearGeoModel(), step=1e-3)
+    target = tmp_path / name
+    write_cnc(tab, target, layout)
+    before = target.read_bytes()
+    real_open = Path.open
+
+    class HalfThenFull:
+        def __init__(self, fh):
+            self.fh = fh
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.fh.close()
+
+        def write(self, text):
+            self.fh.write(text[:20])
+            self.fh.flush()
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(Path, "open", lambda self, *a, **k: HalfThenFull(real_open(self, *a, **k)))
+    with pytest.raises(OSError):
+        write_cnc(geometric_table(LinearGeoModel(scale=2.0), step=1e-3), target, layout)
+    monkeypatch.undo()
+    assert target.read_bytes() == before
+    assert os.listdir(tmp_path) == [name]

@@ -82,6 +82,7 @@ __all__ = [
     "TRACE_EXTENSIONS",
     "Outputs",
     "atomic_write",
+    "write_target",
     "dumps_json",
     "final_suffix",
     "is_own_output",
@@ -216,11 +217,8 @@ def write_json(path: str | Path, obj: Mapping[str, Any], *, indent: int | None =
     """
     p = Path(path)
     text = dumps_json(obj, indent=indent, generator=signature(p))
-    if is_staging_path(p):
-        p.write_text(text, encoding="utf-8")
-        return p
-    with atomic_write(p) as tmp:
-        tmp.write_text(text, encoding="utf-8")
+    with write_target(p) as w:
+        w.write_text(text, encoding="utf-8")
     return p
 
 
@@ -595,6 +593,23 @@ def atomic_write(path: str | Path) -> Iterator[Path]:
     except BaseException:
         _remove(tmp)
         raise
+
+
+@contextlib.contextmanager
+def write_target(path: str | Path) -> Iterator[Path]:
+    """The path a writer writes ``path``'s content to: the one choice of every file writer.
+
+    A staging path of :class:`Outputs` is written directly (the command's commit puts it in
+    place); any other path (a library call) through :func:`atomic_write`, so that a failed
+    write leaves an existing file as it was. The writer picks the format by
+    :func:`final_suffix` of ``path``, not of the yielded name.
+    """
+    p = Path(path)
+    if is_staging_path(p):
+        yield p
+        return
+    with atomic_write(p) as tmp:
+        yield tmp
 
 
 # =========================================================================== Outputs
