@@ -13,6 +13,8 @@ happen inside the commands, so ``drivelash --help`` stays fast.
   (``try 'drivelash estimate --help'``), exit code 2;
 - ``drivelash`` or ``drivelash te`` without a command → the help (printed by typer's
   formatter) and exit code 2, as click itself does since 8.2 (``NoArgsIsHelpError``);
+- an ``OSError`` naming a file that no check foresaw (a path component too long, a symlink
+  loop) → ``drivelash: error: FILE: <the system's message>``, exit code 2;
 - SIGTERM → an exception like Ctrl-C, so every command's staged outputs are removed
   and its targets stay as they were (:mod:`drivelash.io.outputs`); exit code 143
   (130 for SIGINT).
@@ -158,6 +160,14 @@ def main(argv: list[str] | None = None) -> None:
             sys.exit(rv)  # typer returns the code of an Exit (e.g. 130 after Ctrl-C)
     except DrivelashError as exc:
         typer.echo(f"drivelash: error: {_one_line(str(exc))}", err=True)
+        sys.exit(2)
+    except OSError as exc:
+        # a file the checks did not foresee (a path component too long, a symlink loop, an
+        # unreadable file): the operating system's own words, naming the file; no traceback
+        if not isinstance(exc.filename, str | bytes | os.PathLike):
+            raise
+        reason = os.strerror(exc.errno) if exc.errno else _one_line(str(exc))
+        typer.echo(f"drivelash: error: {os.fsdecode(exc.filename)}: {reason}", err=True)
         sys.exit(2)
     except NoArgsIsHelpError as exc:
         # typer's rich formatter has already printed the help (stdout) while raising this;

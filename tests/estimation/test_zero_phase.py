@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 from scipy import signal
@@ -79,6 +81,42 @@ def test_spill_full_disk_is_one_line_and_leaves_nothing(tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []
     with pytest.raises(ResourceError, match="DRIVELASH_SPILL_DIR"):
         Spill(10, 1, tmp_path / "missing")
+
+
+def test_spill_of_a_killed_process_is_swept_by_the_next_spill(tmp_path):
+    """SIGKILL during ``observe`` left ``.drivelash-spill-RAND.f64`` (40 B per sample) in the
+    output directory for good; now the name has the PID and the next spill removes it.
+    A live process's spill file and a file of the user's stay."""
+    import signal
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, time\n"
+        "from drivelash.io.spill import Spill\n"
+        "sp = Spill(1000, 2, sys.argv[1])\n"
+        "print(sp.path.name, flush=True)\n"
+        "time.sleep(60)\n"
+    )
+    procs = [
+        subprocess.Popen([sys.executable, "-c", code, str(tmp_path)], stdout=subprocess.PIPE, text=True)
+        for _ in range(2)
+    ]
+    try:
+        killed, alive = (p.stdout.readline().strip() for p in procs)
+        procs[0].send_signal(signal.SIGKILL)
+        procs[0].wait(timeout=30)
+        user = tmp_path / ".drivelash-spill-notes.f64"  # not a PID-RAND name: not ours
+        user.write_bytes(b"mine")
+        assert (tmp_path / killed).exists()
+        with Spill(10, 1, tmp_path) as sp:
+            assert sp.path.name.startswith(f".drivelash-spill-{os.getpid()}-")
+            assert sorted(p.name for p in tmp_path.iterdir()) == sorted([alive, user.name, sp.path.name])
+        assert user.read_bytes() == b"mine"
+    finally:
+        for p in procs:
+            p.kill()
+            p.wait(timeout=30)
 
 
 @pytest.mark.parametrize("n", [0, 5, 128, 129, 1000, 65537, 300_001])

@@ -451,3 +451,116 @@ def test_a_recording_records_its_command_and_another_command_needs_force(tmp_pat
     # a library write records no command: any command may replace it, as before
     write_trace(tr, target)
     assert output_command(target) == ""
+
+
+def test_an_oserror_while_writing_names_the_output_and_others_pass_through(tmp_path, monkeypatch):
+    """A write failure is one line naming the option and the path as given; the targets stay.
+
+    Matched by the file name (a file inside a staged directory) or, without one, by a
+    write errno (the output staged last); an ``OSError`` of another file is not an output's.
+    """
+    import errno
+
+    keep = tmp_path / "model"
+    with Outputs("te fit") as out:
+        write_json(out.staging(out.directory(keep, option="-o")) / "model.json", {"v": 1})
+    before = _tree(tmp_path)
+    with pytest.raises(OutputError) as ei, Outputs("te fit") as out:
+        d = out.staging(out.directory(keep, option="-o"))
+        raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(d / "weights.bin"))
+    assert str(ei.value) == (
+        f"-o {keep}: cannot write it: Permission denied; the existing files were left as they were"
+    )
+    with pytest.raises(OutputError, match=r"^--json a\.json: cannot write it: Disk quota exceeded;"):
+        with Outputs() as out:
+            monkeypatch.chdir(tmp_path)
+            out.staging(out.file("b.json", option="--plot"))
+            out.staging(out.file("a.json", option="--json"))  # staged last: the one being written
+            raise OSError(errno.EDQUOT, os.strerror(errno.EDQUOT))
+    with pytest.raises(FileNotFoundError), Outputs() as out:  # reading an input: not an output's
+        out.staging(out.file(tmp_path / "c.json", option="--json"))
+        raise FileNotFoundError(errno.ENOENT, os.strerror(errno.ENOENT), str(tmp_path / "in.csv"))
+    assert _tree(tmp_path) == before
+
+
+@pytest.mark.parametrize("exchange", [True, False], ids=["renameat2", "two-renames"])
+def test_a_rename_failing_half_way_through_the_commit_puts_the_set_back(tmp_path, monkeypatch, exchange):
+    """``estimate --json a.json --plot p.png`` with p.png immutable (``chattr +i``): a.json was
+    already replaced when p.png's rename failed — a mixed set, and a traceback. Now the outputs
+    renamed before the failure are put back (files, a new file, a directory) and no temporary
+    name is left."""
+    import errno
+
+    import drivelash.io.outputs as outputs_mod
+
+    if not exchange:
+        monkeypatch.setattr(outputs_mod, "_exchange", lambda a, b: False)
+    d, a, last = tmp_path / "model", tmp_path / "a.json", tmp_path / "z.json"
+    with Outputs("x") as out:
+        write_json(out.staging(out.directory(d, option="-o")) / "m.json", {"v": "old"})
+        write_json(out.staging(out.file(a, option="--json")), {"v": "old"})
+        write_json(out.staging(out.file(last, option="--last")), {"v": "old"})
+    before = _tree(tmp_path)
+    real_replace = os.replace
+
+    def replace(src, dst):
+        if Path(dst) == last and outputs_mod.is_staging_path(src):
+            raise PermissionError(errno.EPERM, os.strerror(errno.EPERM), os.fspath(dst))
+        real_replace(src, dst)
+
+    monkeypatch.setattr(outputs_mod.os, "replace", replace)
+    real_link = os.link
+
+    def link(src, dst, **k):  # the last target cannot be linked (as an immutable file), the rest can
+        if Path(src) == last:
+            raise PermissionError(errno.EPERM, os.strerror(errno.EPERM), os.fspath(src))
+        real_link(src, dst, **k)
+
+    monkeypatch.setattr(outputs_mod.os, "link", link)
+    with pytest.raises(OutputError) as ei, Outputs("x") as out:
+        write_json(out.staging(out.directory(d, option="-o")) / "m.json", {"v": "new"})
+        write_json(out.staging(out.file(a, option="--json")), {"v": "new"})
+        write_json(out.staging(out.file(tmp_path / "new.json", option="--new")), {"v": "new"})
+        write_json(out.staging(out.file(last, option="--last")), {"v": "new"})
+    assert str(ei.value) == (
+        f"--last {last}: cannot write it: Operation not permitted; the existing files were left as they were"
+    )
+    assert _tree(tmp_path) == before
+
+
+def test_a_name_too_long_for_its_temporary_name_is_refused_before_any_work(tmp_path):
+    """``simulate -o <240 chars>.csv`` ended, after the whole simulation, in a traceback
+    (ENAMETOOLONG creating ``.NAME.drivelash-PID-RAND.part``); 260 chars the same."""
+    from drivelash.io.outputs import STAGE_NAME_OVERHEAD
+
+    limit = os.pathconf(tmp_path, "PC_NAME_MAX") - STAGE_NAME_OVERHEAD
+    ok = tmp_path / ("a" * (limit - 4) + ".csv")
+    with Outputs("simulate") as out:
+        write_trace(_trace(), out.staging(out.file(ok, option="-o")))
+    assert ok.is_file()
+    for n in (limit + 1, 260):
+        bad = tmp_path / ("b" * (n - 4) + ".csv")
+        with pytest.raises(OutputError) as ei, Outputs("simulate") as out:
+            out.file(bad, option="-o")
+        assert str(ei.value) == (
+            f"-o {bad}: file name too long ({n} bytes; at most {limit} here: it is first written under"
+            f" a temporary name {STAGE_NAME_OVERHEAD} bytes longer, and the file system allows {limit + 33})"
+        )
+    assert sorted(os.listdir(tmp_path)) == [ok.name]
+
+
+def test_a_dangling_symlink_at_an_output_is_named_as_one(tmp_path):
+    """``--json link.json`` with link.json → a missing file: "an existing file that is not a
+    drivelash output" (there is no file); with ``--force`` the link is replaced, nothing else."""
+    link = tmp_path / "link.json"
+    link.symlink_to("gone/x.json")
+    with pytest.raises(OutputError) as ei, Outputs("estimate") as out:
+        out.file(link, option="--json")
+    assert str(ei.value) == (
+        f"--json {link}: a symbolic link to gone/x.json, which does not exist; use --force to replace it"
+        " or choose another path"
+    )
+    assert os.readlink(link) == "gone/x.json"
+    with Outputs("estimate", force=True) as out:
+        write_json(out.staging(out.file(link, option="--json")), {"v": 1})
+    assert not link.is_symlink() and json.loads(link.read_text())["v"] == 1

@@ -219,3 +219,31 @@ def test_trend_plot_draws_the_laser_check_beside_the_estimates(setup, run_cli):
     assert "iso230-2 (laser check)" in [t.get_text() for t in ax.get_legend().get_texts()]
     bars_y, _ = containers("M01/Y")
     assert bars_y == []
+
+
+@pytest.mark.parametrize(
+    ("name", "argv"),
+    [
+        (
+            "wear.json",
+            ["iso230", "{csv}", "-c", "{toml}", "--db", "{db}", "--axis", "M01/X"] + ["--json", "{db}"],
+        ),
+        ("wear.html", ["track", "report", "--db", "{db}", "-o", "{db}"]),
+        ("wear.json", ["track", "forecast", "M01/X", "--db", "{db}", "--json", "{db}"]),
+    ],
+    ids=["iso230", "track-report", "track-forecast"],
+)
+def test_an_output_over_the_history_store_is_refused_even_with_force(setup, tmp_path, run_cli, name, argv):
+    """A store whose file name has an output's extension, given as the output too: with
+    ``--force`` the JSON/HTML replaced the whole wear history (the store was no input)."""
+    db0, csv, toml = setup
+    db = tmp_path / name
+    db0.rename(db)
+    before = db.read_bytes()
+    args = [a.format(csv=csv, toml=toml, db=db) for a in argv]
+    opt = args[args.index(str(db), args.index("--db") + 2) - 1]
+    code, _, err = run_cli([*args, "--force"])
+    assert code == 2 and err.strip().splitlines() == [
+        f"drivelash: error: {opt} {db}: is an input of this command; choose another path"
+    ]
+    assert db.read_bytes() == before

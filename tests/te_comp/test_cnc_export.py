@@ -149,3 +149,63 @@ def test_more_than_100_000_points_are_refused():
     tab = geometric_table(LinearGeoModel(), step=span / 99_999)
     assert tab.te_pos.size == tab.te_neg.size == 100_000
     assert tab.x0 + tab.step * (tab.te_pos.size - 1) == pytest.approx(0.104, abs=1e-12)
+
+
+@pytest.mark.parametrize("layout,name", [("sinumerik", "axis.ini"), ("heidenhain", "axis.com")])
+def test_a_rerun_of_te_export_replaces_its_own_cnc_table(tmp_path, layout, name):
+    """``te export --format sinumerik -o x.ini`` twice: the second run said "an existing file
+    that is not a drivelash output" (the signature is on the line after ``%_N_AX_EEC_INI``).
+    A user's init program with the same header stays refused without --force."""
+    from drivelash.errors import OutputError
+    from drivelash.io.outputs import Outputs
+
+    tab = geometric_table(LinearGeoModel(), step=1e-3)
+    target = tmp_path / name
+    for _ in range(2):
+        with Outputs("te export") as out:
+            write_cnc(tab, out.staging(out.file(target, option="-o")), layout)
+    user = tmp_path / "user.ini"
+    user.write_bytes(b"%_N_AX_EEC_INI\r\n; my own compensation\r\nM17\r\n")
+    with pytest.raises(OutputError) as ei, Outputs("te export") as out:
+        out.file(user, option="-o")
+    assert str(ei.value) == (
+        f"-o {user}: an existing file that is not a drivelash output; use --force to replace it"
+        " or choose another path"
+    )
+    assert user.read_bytes() == b"%_N_AX_EEC_INI\r\n; my own compensation\r\nM17\r\n"
+
+
+@pytest.mark.parametrize("layout,name", [("sinumerik", "axis.ini"), ("heidenhain", "axis.com")])
+def test_a_failed_library_write_leaves_the_previous_cnc_table(tmp_path, monkeypatch, layout, name):
+    """``write_cnc(tab, path)`` outside a command opened ``path`` for writing at once: a full disk
+    left the machine's previous table truncated. Now through ``write_target`` (atomic)."""
+    import errno
+    import os
+
+    tab = geometric_table(LinearGeoModel(), step=1e-3)
+    target = tmp_path / name
+    write_cnc(tab, target, layout)
+    before = target.read_bytes()
+    real_open = Path.open
+
+    class HalfThenFull:
+        def __init__(self, fh):
+            self.fh = fh
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.fh.close()
+
+        def write(self, text):
+            self.fh.write(text[:20])
+            self.fh.flush()
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(Path, "open", lambda self, *a, **k: HalfThenFull(real_open(self, *a, **k)))
+    with pytest.raises(OSError):
+        write_cnc(geometric_table(LinearGeoModel(scale=2.0), step=1e-3), target, layout)
+    monkeypatch.undo()
+    assert target.read_bytes() == before
+    assert os.listdir(tmp_path) == [name]

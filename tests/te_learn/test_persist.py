@@ -190,3 +190,28 @@ def test_saving_a_loaded_model_is_a_clear_error(model_dir, tmp_path):
         save_model(load_model(model_dir), tmp_path / "copy")
     assert "\n" not in str(ei.value) and "copy that directory" in str(ei.value)
     assert not (tmp_path / "copy").exists()
+
+
+def test_a_full_disk_while_saving_the_weights_is_one_line(small_trained, model_dir, tmp_path, monkeypatch):
+    """``te fit -o MODEL`` on a full disk: safetensors raises ``SafetensorError`` ("I/O error: No
+    space left on device (os error 28)"), no ``OSError`` — a traceback. Now the one-line error of
+    the outputs; the previous model stays byte for byte."""
+    import safetensors.numpy
+    from safetensors import SafetensorError
+
+    from drivelash.errors import OutputError
+    from drivelash.io.outputs import Outputs
+
+    target = _copy(model_dir, tmp_path / "model")
+    before = {p.name: p.read_bytes() for p in sorted(tmp_path.rglob("*")) if p.is_file()}
+
+    def full(*a, **k):
+        raise SafetensorError("Error while serializing: I/O error: No space left on device (os error 28)")
+
+    monkeypatch.setattr(safetensors.numpy, "save_file", full)
+    with pytest.raises(OutputError) as ei, Outputs("te fit", force=True) as out:
+        save_model(small_trained, out.staging(out.directory(target, option="-o")))
+    assert str(ei.value) == (
+        f"-o {target}: cannot write it: No space left on device; the existing files were left as they were"
+    )
+    assert {p.name: p.read_bytes() for p in sorted(tmp_path.rglob("*")) if p.is_file()} == before

@@ -472,3 +472,25 @@ def test_status_and_forecast_judge_with_the_fleet_current_threshold(small_fleet,
     # negative control: without the fleet file the store's threshold judges, not crossed
     s = next(x for x in run_status(db, quiet=True) if x["axis"] == a.name)
     assert s["threshold_rad"] == stored and not s["crossed"]
+
+
+def test_forecast_json_over_a_users_file_offers_a_force_that_exists(serial_store, tmp_path, capsys):
+    """``track forecast --json mine.json`` said "use --force to replace it" but the command had
+    no ``--force`` ("No such option: --force"); every other command writing files has one."""
+    from tests.cli_runner import run_in_process
+
+    st, _ = serial_store
+    db = str(st.url.database)
+    mine = tmp_path / "mine.json"
+    mine.write_bytes(b'{"mine": 1}\n')
+    code, _, err = run_in_process(["track", "forecast", "M01/X", "--db", db, "--json", str(mine)], capsys)
+    assert code == 2 and err.strip().splitlines() == [
+        f"drivelash: error: --json {mine}: an existing file that is not a drivelash output; "
+        "use --force to replace it or choose another path"
+    ]
+    assert mine.read_bytes() == b'{"mine": 1}\n'
+    code, _, err = run_in_process(
+        ["track", "forecast", "M01/X", "--db", db, "--json", str(mine), "--force"], capsys
+    )
+    assert code == 0, err
+    assert json.loads(mine.read_text())["axis"] == "M01/X"

@@ -221,3 +221,30 @@ def test_non_finite_uncertainty_is_stored_as_null():
     assert _std_or_none(float("nan")) is None and _std_or_none(None) is None
     assert _std_or_none(0.0) is None and _std_or_none(float("inf")) is None
     assert _std_or_none(2.5e-4) == 2.5e-4
+
+
+def test_a_store_is_named_by_its_path_as_written(tmp_path):
+    """``track ingest --db "sp ace ü/w ü.sqlite"`` named the store ``…/sp ace %C3%BC/w
+    %C3%BC.sqlite`` in its summary and messages (SQLAlchemy's URL rendering)."""
+    d = tmp_path / "sp ace ü"
+    d.mkdir()
+    with Store(d / "w ü.sqlite") as st:
+        assert st.name == f"sqlite:///{d / 'w ü.sqlite'}"
+    (d / "mine ü.json").write_text("{}\n")
+    with pytest.raises(StoreError) as ei:
+        Store(d / "mine ü.json")
+    shown = f"sqlite:///{d / 'mine ü.json'}"
+    assert str(ei.value) == f"--db {shown}: cannot open the store (file is not a database)"
+    assert (d / "mine ü.json").read_text() == "{}\n"
+
+
+@pytest.mark.parametrize("create", [True, False], ids=["ingest", "status"])
+def test_a_directory_given_as_the_store_is_named_as_one(tmp_path, create):
+    """``--db DIR``: "cannot open the store (unable to open database file)" (ingest) or "no such
+    store (run track ingest first …)" (status, forecast, report)."""
+    d = tmp_path / "history"
+    d.mkdir()
+    with pytest.raises(StoreError) as ei:
+        Store(d, create=create)
+    assert str(ei.value) == f"{d}: is a directory, not a store file; give a file, e.g. {d / 'wear.sqlite'}"
+    assert list(d.iterdir()) == []

@@ -46,7 +46,12 @@ def run_iso230(
     if (db is None) != (axis is None):
         raise DrivelashError("--db and --axis go together: the history store and the axis (machine/axis)")
     store = None
-    with Outputs("iso230", inputs=[measurement, config, estimate], force=force) as out:
+    store_path = None
+    if db is not None:
+        from drivelash.wear.store import store_file
+
+        store_path = store_file(db)  # the history store: no output may be written over it
+    with Outputs("iso230", inputs=[measurement, config, estimate, store_path], force=force) as out:
         j = out.file(json_out, option="--json", kinds=JSON_EXTENSIONS)
         r = out.file(report, option="--report", kinds=HTML_EXTENSIONS)
         cfg = load_iso230_config(config)

@@ -7,7 +7,7 @@
   says how many were retried and how many still fail);
 * ``track status [--db URL | --fleet FLEET.toml]`` — table of the axes sorted by forecast time
   to threshold, with the active alarms;
-* ``track forecast AXIS [--json PATH|-]`` — one axis's trend, model and forecast;
+* ``track forecast AXIS [--json PATH|-] [--force]`` — one axis's trend, model and forecast;
 * ``track report -o fleet.html`` — the self-contained HTML fleet report.
 
 The store is ``--db`` (an SQLAlchemy URL or an SQLite file path); without it, the fleet
@@ -321,16 +321,31 @@ def forecast_json(s: dict[str, Any]) -> dict[str, Any]:
     }
 
 
+def _read_inputs(db: str, fleet: Any) -> list[Path | None]:
+    """The files a report of the store reads: the store's SQLite file and the fleet file (no
+    output may be written over them, ``--force`` or not)."""
+    from drivelash.wear.store import store_file
+
+    return [store_file(db), None if fleet is None else fleet.path]
+
+
 def run_forecast(
-    axis: str, db: str, json_out: str | None = None, quiet: bool = False, fleet: Any = None
+    axis: str,
+    db: str,
+    json_out: str | None = None,
+    quiet: bool = False,
+    fleet: Any = None,
+    force: bool = False,
 ) -> dict[str, Any]:
     """Body of ``track forecast``; returns the JSON document (``fleet``: as in :func:`run_status`;
-    an axis of the store that ``fleet`` does not name is a one-line error)."""
+    an axis of the store that ``fleet`` does not name is a one-line error; ``force``: replace an
+    existing ``--json`` file that is not this command's output, as every other command's
+    ``--force``)."""
     from drivelash.io.outputs import JSON_EXTENSIONS, Outputs, dumps_json, write_json
     from drivelash.wear.alarms import axis_summary, judged_axes
     from drivelash.wear.store import Store
 
-    with Outputs("track forecast") as out:
+    with Outputs("track forecast", inputs=_read_inputs(db, fleet), force=force) as out:
         target = (
             out.file(json_out, option="--json", kinds=JSON_EXTENSIONS)
             if json_out not in (None, "-")
@@ -419,7 +434,7 @@ def run_report(
     from drivelash.io.outputs import HTML_EXTENSIONS, Outputs
     from drivelash.report.fleet import render_fleet_report, write_fleet_report
 
-    with Outputs("track report", force=force) as out:
+    with Outputs("track report", inputs=_read_inputs(db, fleet), force=force) as out:
         target = out.file(out_path, option="-o", kinds=HTML_EXTENSIONS)
         store, summ, note = _summaries(db, fleet)
         try:
@@ -538,10 +553,13 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         json_out: str | None = typer.Option(
             None, "--json", help="Write the forecast as JSON here ('-': stdout)."
         ),
+        force: bool = typer.Option(
+            False, "--force", help="Replace an existing file that is not a drivelash output."
+        ),
     ) -> None:
         """Trend, growth model and forecast threshold crossing (90 % interval) of one axis."""
         url, f = _store_location(db, fleet)
-        run_forecast(axis, url, json_out, fleet=f)
+        run_forecast(axis, url, json_out, fleet=f, force=force)
 
     @track_app.command("report")
     def report_cmd(

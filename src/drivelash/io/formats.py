@@ -1578,7 +1578,7 @@ def write_trace(trace: Trace, path: str | Path, fmt: str | None = None) -> Path:
     Path
         The written file.
     """
-    from drivelash.io.outputs import atomic_write, final_suffix, is_staging_path, signature
+    from drivelash.io.outputs import final_suffix, signature, write_target
 
     p = Path(path)
     # the command that wrote it (for a command's staging path), so that another command
@@ -1592,11 +1592,8 @@ def write_trace(trace: Trace, path: str | Path, fmt: str | None = None) -> Path:
             )
     if fmt not in FORMATS:
         raise DataError(f"unknown format '{fmt}' (one of {', '.join(FORMATS)})", path=str(p))
-    if is_staging_path(p):
-        _write(trace, p, fmt)
-        return p
-    with atomic_write(p) as tmp:
-        _write(trace, tmp, fmt)
+    with write_target(p) as w:
+        _write(trace, w, fmt)
     return p
 
 

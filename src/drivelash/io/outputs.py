@@ -31,9 +31,15 @@ What a user can rely on (each point is tested in ``tests/io/test_outputs.py``):
   target's parent directory (taken in sorted order, no lock files) with SIGTERM/SIGINT
   blocked, so two concurrent runs never leave a mixed set. A directory is swapped in
   with ``renameat2(RENAME_EXCHANGE)`` where the kernel offers it (else two renames;
-  the old copy is removed last). A killed process (SIGKILL) can leave only hidden
+  the old copy is removed last). A rename that fails half-way through the set (an
+  immutable target) puts the outputs already renamed back, from hidden ``….old`` hard
+  links of the previous files. A killed process (SIGKILL) can leave only hidden
   ``….part`` names, which no reader accepts as a recording; they are swept by the next
   commit to the same target once their process is gone.
+- **A failed write is one line**: an ``OSError`` while an output is written (a full disk,
+  a quota, a read-only device; :meth:`Outputs.write_error`) leaves the targets as they
+  were and is reported as ``--json out.json: cannot write it: No space left on device; the
+  existing files were left as they were``, exit code 2, not a traceback.
 
 Signatures (how a drivelash output is recognised) are listed in
 ``docs/assumptions.md`` ("Outputs and bad input").
@@ -76,6 +82,7 @@ __all__ = [
     "TRACE_EXTENSIONS",
     "Outputs",
     "atomic_write",
+    "write_target",
     "dumps_json",
     "final_suffix",
     "is_own_output",
@@ -110,6 +117,16 @@ _STAGE_RE = re.compile(
     r"^\.(?P<name>.+)\.drivelash-(?P<pid>\d+)-(?P<rand>[A-Za-z0-9_]+)\.(?P<kind>part|old)$"
 )
 _HEAD = 8192
+
+#: Bytes a temporary name ``.NAME.drivelash-PID-RAND.part`` adds to NAME: the dots, the
+#: ``drivelash-`` tag, a PID of up to 7 digits (Linux ``pid_max`` ≤ 4 194 304), the 8 random
+#: characters of :mod:`tempfile` and ``.part``; an output name longer than the file system's
+#: limit less this is refused before any work (its temporary name could not be created).
+STAGE_NAME_OVERHEAD = 33
+
+#: ``errno`` values that mean "the output cannot be written" whatever file they name:
+#: a full disk, a full quota, a file above the file-size limit, a read-only or failing device.
+WRITE_ERRNOS: frozenset[int] = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS, errno.EIO})
 
 #: Staging path → command of the :class:`Outputs` that made it (read by :func:`signature`).
 _STAGED_BY: dict[str, str] = {}
@@ -200,11 +217,8 @@ def write_json(path: str | Path, obj: Mapping[str, Any], *, indent: int | None =
     """
     p = Path(path)
     text = dumps_json(obj, indent=indent, generator=signature(p))
-    if is_staging_path(p):
-        p.write_text(text, encoding="utf-8")
-        return p
-    with atomic_write(p) as tmp:
-        tmp.write_text(text, encoding="utf-8")
+    with write_target(p) as w:
+        w.write_text(text, encoding="utf-8")
     return p
 
 
@@ -225,6 +239,14 @@ def final_name(path: str | Path) -> str:
 def final_suffix(path: str | Path) -> str:
     """Lower-case extension of the output's final name (works on staging paths)."""
     return Path(final_name(path)).suffix.lower()
+
+
+def _name_max(directory: Path) -> int:
+    """Longest file name [bytes] the file system of ``directory`` allows (255 if it does not say)."""
+    try:
+        return int(os.pathconf(directory, "PC_NAME_MAX"))
+    except (OSError, ValueError):
+        return 255
 
 
 def _umask() -> int:
@@ -396,9 +418,9 @@ def is_own_output(path: str | Path) -> bool:
       ``<!-- drivelash``;
     - ``.h5``/``.hdf5``/``.hdf``, MAT v7.3: root attribute ``drivelash_meta``; MAT v5: a
       variable ``drivelash_meta``;
-    - CNC tables (``te export``): ``.ini`` (SINUMERIK init program) first line starts with
-      ``; drivelash``; ``.com`` (HEIDENHAIN table) the line after ``[END]`` starts with
-      ``drivelash``.
+    - CNC tables (``te export``): ``.ini`` (SINUMERIK init program) first line, or the line
+      after the program header ``%_N_…``, starts with ``; drivelash``; ``.com`` (HEIDENHAIN
+      table) the line after ``[END]`` starts with ``drivelash``.
 
     Anything else (and anything unreadable) is not ours.
     """
@@ -457,8 +479,12 @@ def _unrecorded_own(p: Path, ext: str) -> bool:
         return _first_line(p).startswith(b"# drivelash")
     if ext == ".md":
         return _first_line(p).startswith(b"<!-- drivelash")
-    if ext == ".ini":
-        return _first_line(p).startswith(b"; drivelash")
+    if ext == ".ini":  # a SINUMERIK init program starts with its header %_N_…_INI
+        lines = _head(p, 512).split(b"\n", 2)
+        first, second = lines[0].strip(), (lines[1].strip() if len(lines) > 1 else b"")
+        return first.startswith(b"; drivelash") or (
+            first.startswith(b"%_N_") and second.startswith(b"; drivelash")
+        )
     if ext == ".com":
         return _com_signed(p)
     return False
@@ -569,6 +595,23 @@ def atomic_write(path: str | Path) -> Iterator[Path]:
         raise
 
 
+@contextlib.contextmanager
+def write_target(path: str | Path) -> Iterator[Path]:
+    """The path a writer writes ``path``'s content to: the one choice of every file writer.
+
+    A staging path of :class:`Outputs` is written directly (the command's commit puts it in
+    place); any other path (a library call) through :func:`atomic_write`, so that a failed
+    write leaves an existing file as it was. The writer picks the format by
+    :func:`final_suffix` of ``path``, not of the yielded name.
+    """
+    p = Path(path)
+    if is_staging_path(p):
+        yield p
+        return
+    with atomic_write(p) as tmp:
+        yield tmp
+
+
 # =========================================================================== Outputs
 @dataclass
 class _Target:
@@ -576,10 +619,24 @@ class _Target:
     option: str
     directory: bool
     stage: Path | None = None
+    shown: str = ""  # the path as the user gave it (for messages)
+
+
+def _attempt(fn: Any) -> bool:
+    """Call ``fn()``; whether it ran without an ``OSError`` (an undo step of a failed commit)."""
+    try:
+        fn()
+    except OSError:
+        return False
+    return True
 
 
 def _display(path: str | Path) -> str:
     return os.fspath(path)
+
+
+def _one_line(text: str) -> str:
+    return " ".join(text.split())
 
 
 def _resolved(p: Path) -> Path:
@@ -620,7 +677,10 @@ class Outputs:
         self.inputs = [Path(p) for p in inputs if p is not None and os.fspath(p) != ""]
         self.allow_inside = [_resolved(Path(p)) for p in allow_inside]
         self._targets: list[_Target] = []
+        self._staged_order: list[tuple[_Target, Path]] = []  # (target, stage), in staging order
         self._done = False
+        #: After a failed :meth:`commit`: whether every output already renamed was put back.
+        self.rolled_back = False
 
     # ------------------------------------------------------------ context
     def __enter__(self) -> Outputs:
@@ -628,9 +688,60 @@ class Outputs:
 
     def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
         if exc_type is None:
-            self.commit()
-        else:
-            self.abort()
+            try:
+                self.commit()
+            except OSError as e:
+                err = self.write_error(e, left_as_they_were=self.rolled_back)
+                if err is None:
+                    raise
+                raise err from e
+            return
+        self.abort()
+        if isinstance(exc, OSError):
+            err = self.write_error(exc, left_as_they_were=True)
+            if err is not None:
+                raise err from exc
+
+    def write_error(self, exc: OSError, *, left_as_they_were: bool = False) -> OutputError | None:
+        """The one-line error of an ``OSError`` met while writing an output; None if not one.
+
+        The error is an output's when its file name is a target or a temporary name of this
+        set (or lies in a staged directory), or, without a file name of another file, when its ``errno`` is
+        one of :data:`WRITE_ERRNOS` (a full disk or quota, a file too large, a read-only or
+        failing device): then it names the output staged last, the one being written.
+
+        Parameters
+        ----------
+        exc : OSError
+            The error.
+        left_as_they_were : bool
+            Add that the existing targets were left as they were (true before the commit).
+
+        Returns
+        -------
+        OutputError or None
+            ``OPTION PATH: cannot write it: REASON``, the path as the user gave it.
+        """
+        target: _Target | None = None
+        names = [f for f in (exc.filename, exc.filename2) if isinstance(f, str | bytes | os.PathLike)]
+        for name in names:
+            path = Path(os.fsdecode(name))
+            for t, stage in self._staged_order:
+                m = _STAGE_RE.match(path.name)
+                if (
+                    path in (stage, t.path)
+                    or (m is not None and m["name"] == t.path.name and path.parent == t.path.parent)
+                    or (t.directory and _inside(path, stage))
+                ):
+                    target = t
+        if target is None:
+            if names or exc.errno not in WRITE_ERRNOS or not self._staged_order:
+                return None
+            target = self._staged_order[-1][0]
+        # the C library's text of the errno: pyarrow and h5py wrap it in long driver messages
+        reason = os.strerror(exc.errno) if exc.errno else _one_line(str(exc)) or type(exc).__name__
+        tail = "; the existing files were left as they were" if left_as_they_were else ""
+        return self._fail(target.option, target.shown or target.path, f"cannot write it: {reason}{tail}")
 
     # ------------------------------------------------------------ validation
     def _fail(self, option: str, path: str | Path, problem: str) -> OutputError:
@@ -643,6 +754,13 @@ class Outputs:
         p = Path(raw)
         if _STAGE_RE.match(p.name):
             raise self._fail(option, raw, "name is reserved for drivelash temporary files")
+        try:
+            return self._checked(p, raw, option)
+        except OSError as exc:  # a component too long, a symlink loop, …: os.stat's own error
+            raise self._fail(option, raw, os.strerror(exc.errno) if exc.errno else str(exc)) from None
+
+    def _checked(self, p: Path, raw: str, option: str) -> tuple[Path, Path]:
+        """The checks of :meth:`_common` that touch the file system."""
         parent = p.parent if str(p.parent) else Path(".")
         if not parent.exists():
             raise self._fail(option, raw, f"directory {_display(parent)} does not exist")
@@ -651,6 +769,16 @@ class Outputs:
         mode = parent.stat().st_mode
         if not os.access(parent, os.W_OK | os.X_OK) or not (mode & 0o222):
             raise self._fail(option, raw, f"directory {_display(parent)} is not writable")
+        if p.name not in ("", ".", ".."):
+            n, name_max = len(os.fsencode(p.name)), _name_max(parent)
+            if n > name_max - STAGE_NAME_OVERHEAD:
+                raise self._fail(
+                    option,
+                    raw,
+                    f"file name too long ({n} bytes; at most {name_max - STAGE_NAME_OVERHEAD} here: it is"
+                    f" first written under a temporary name {STAGE_NAME_OVERHEAD} bytes longer, and the"
+                    f" file system allows {name_max})",
+                )
         target = _resolved(parent) / p.name
         if p.name in ("", ".", ".."):
             target = _resolved(p)
@@ -692,7 +820,9 @@ class Outputs:
             return
         what = "directory" if target.is_dir() else "file"
         owner = output_command(target)
-        if owner is None:
+        if target.is_symlink() and not target.exists():  # was "an existing file that is not …"
+            problem = f"a symbolic link to {os.readlink(target)}, which does not exist"
+        elif owner is None:
             problem = f"an existing {what} that is not a drivelash output"
         elif not self.command or owner == self.command:
             return
@@ -736,7 +866,7 @@ class Outputs:
             raise self._fail(option, raw, "exists and is not a regular file")
         self._check_inputs(option, raw, target, directory=False)
         self._check_existing(option, raw, target)
-        self._targets.append(_Target(target, option, directory=False))
+        self._targets.append(_Target(target, option, directory=False, shown=_display(raw)))
         return target
 
     def directory(self, path: str | Path | None, *, option: str) -> Path | None:
@@ -751,7 +881,7 @@ class Outputs:
             raise self._fail(option, raw, "contains the current directory; choose another path")
         self._check_inputs(option, raw, target, directory=True)
         self._check_existing(option, raw, target)
-        self._targets.append(_Target(target, option, directory=True))
+        self._targets.append(_Target(target, option, directory=True, shown=_display(raw)))
         return target
 
     # ------------------------------------------------------------ staging
@@ -774,6 +904,7 @@ class Outputs:
         t = self._target(target)
         if t.stage is None:
             t.stage = _new_stage(t.path, t.directory)
+            self._staged_order.append((t, t.stage))
             if self.command and not t.directory:
                 _STAGED_BY[os.fspath(t.stage)] = self.command
         return t.stage
@@ -792,12 +923,71 @@ class Outputs:
                 _remove(t.stage)
                 t.stage = None
 
+    def _put_in_place(self, t: _Target, old: list[Path]) -> Any:
+        """Rename ``t``'s staged output onto its target; returns the callable that undoes it.
+
+        The previous file is kept under a hidden ``….old`` name (a hard link, so the target
+        never disappears; a rename where links are not supported), the previous directory
+        at the stage name or a ``….old`` name; each is appended to ``old`` (removed after the
+        whole set is in place).
+        """
+        assert t.stage is not None
+        stage, path = t.stage, t.path
+        aside = stage.with_name(stage.name[: -len(".part")] + ".old")
+        if not t.directory:
+            if not (path.exists() or path.is_symlink()):
+                os.replace(stage, path)
+                return lambda: path.unlink()
+            try:
+                os.link(path, aside, follow_symlinks=False)
+                moved = False
+            except OSError:
+                os.rename(path, aside)  # raises where the target cannot be replaced at all
+                moved = True
+            try:
+                os.replace(stage, path)
+            except BaseException:
+                if moved:
+                    os.replace(aside, path)
+                else:
+                    _remove(aside)
+                raise
+            old.append(aside)
+            return lambda: os.replace(aside, path)
+        if not path.exists():
+            os.rename(stage, path)
+            return lambda: _remove(path)  # a new directory: nothing was there
+        if _exchange(stage, path):
+            old.append(stage)  # the previous directory now lives at the stage name
+
+            def swap_back() -> None:
+                if not _exchange(stage, path):
+                    raise OSError(errno.EIO, "cannot exchange the directories back", os.fspath(path))
+                _remove(stage)  # now the new directory
+
+            return swap_back
+        os.rename(path, aside)
+        try:
+            os.rename(stage, path)
+        except BaseException:
+            os.rename(aside, path)
+            raise
+        old.append(aside)
+
+        def rename_back() -> None:
+            os.rename(path, stage)
+            os.rename(aside, path)
+            _remove(stage)  # now the new directory
+
+        return rename_back
+
     def commit(self) -> list[Path]:
         """Put every staged output in place, together; returns the written targets."""
         if self._done:
             return []
         staged = [t for t in self._targets if t.stage is not None]
         old: list[Path] = []
+        undo: list[Any] = []  # one callable per output put in place, restoring what was there
         try:
             for t in staged:
                 assert t.stage is not None
@@ -819,21 +1009,14 @@ class Outputs:
                 for t in staged:
                     _sweep_stale(t.path)
                     assert t.stage is not None
-                    if not t.directory:
-                        os.replace(t.stage, t.path)
-                    elif not t.path.exists():
-                        os.rename(t.stage, t.path)
-                    elif _exchange(t.stage, t.path):
-                        old.append(t.stage)  # the previous directory now lives at the stage name
-                    else:
-                        aside = t.stage.with_name(t.stage.name[: -len(".part")] + ".old")
-                        os.rename(t.path, aside)
-                        os.rename(t.stage, t.path)
-                        old.append(aside)
+                    undo.append(self._put_in_place(t, old))
                     t.stage = None
                 for d in {t.path.parent for t in staged}:
                     _fsync_path(d)
         except BaseException:
+            # a rename that fails half-way through the set (an immutable or vanished target)
+            # puts the outputs already renamed back: the set is all new or all old
+            self.rolled_back = all(_attempt(u) for u in reversed(undo))
             self.abort()
             raise
         self._done = True

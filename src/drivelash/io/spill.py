@@ -6,12 +6,15 @@ memory for a multi-hour recording. :class:`Spill` keeps such a matrix in a hidde
 (``.drivelash-spill-PID-RAND.f64``) and moves rows with ``pread``/``pwrite``: unlike a
 ``numpy.memmap``, the pages stay in the page cache and never count in the process's
 resident memory. The file is removed when the block ends — normally, on an exception,
-or on SIGTERM (which :mod:`drivelash.cli` turns into an exception).
+or on SIGTERM (which :mod:`drivelash.cli` turns into an exception). A process killed
+outright (SIGKILL, OOM killer) cannot remove it: the next spill in the same directory
+removes the spill files of processes that no longer exist (the PID in the name).
 """
 
 from __future__ import annotations
 
 import os
+import re
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -23,6 +26,26 @@ __all__ = ["Spill", "spill_directory"]
 #: Environment variable: directory of the spill files (default: the first output's
 #: directory, else the system's temporary directory).
 ENV_SPILL_DIR = "DRIVELASH_SPILL_DIR"
+
+_PREFIX = ".drivelash-spill-"
+_NAME_RE = re.compile(r"^\.drivelash-spill-(?P<pid>\d+)-[A-Za-z0-9_]+\.f64$")
+
+
+def _sweep_stale(directory: Path) -> None:
+    """Remove the spill files in ``directory`` left by processes that no longer exist."""
+    from drivelash.io.outputs import _pid_alive
+
+    try:
+        names = os.listdir(directory)
+    except OSError:
+        return
+    for n in names:
+        m = _NAME_RE.match(n)
+        if m and not _pid_alive(int(m["pid"])):
+            try:
+                (directory / n).unlink()
+            except OSError:
+                pass  # another process swept it first, or it is not ours to remove
 
 
 def spill_directory(*outputs: str | Path | None) -> Path:
@@ -54,8 +77,9 @@ class Spill:
 
         self.n, self.k = int(n), int(k)
         d = Path(directory) if directory is not None else spill_directory()
+        _sweep_stale(d)
         try:
-            fd, name = tempfile.mkstemp(prefix=".drivelash-spill-", suffix=".f64", dir=d)
+            fd, name = tempfile.mkstemp(prefix=f"{_PREFIX}{os.getpid()}-", suffix=".f64", dir=d)
         except OSError as e:
             raise ResourceError(
                 f"{d}: cannot create a spill file ({e.strerror}); set {ENV_SPILL_DIR} to a writable directory"

@@ -550,12 +550,9 @@ def write_observe_report(path: str | Path, trace: Any, est: Any, config: Any = N
 
 
 def _write(path: str | Path, text: str) -> Path:
-    from drivelash.io.outputs import atomic_write, is_staging_path
+    from drivelash.io.outputs import write_target
 
     p = Path(path)
-    if is_staging_path(p):
-        p.write_text(text, encoding="utf-8")
-        return p
-    with atomic_write(p) as tmp:
-        tmp.write_text(text, encoding="utf-8")
+    with write_target(p) as w:
+        w.write_text(text, encoding="utf-8")
     return p

@@ -482,7 +482,8 @@ def _readable(value: float, std: float | None, unit: str) -> tuple[str, str, str
 
 
 def write_fleet_report(path: str | Path, html_text: str) -> Path:
-    """Write the report text to ``path`` (callers stage it through ``Outputs``)."""
-    p = Path(path)
-    p.write_text(html_text, encoding="utf-8")
-    return p
+    """Write the report text to ``path``: a staging path of ``Outputs`` directly, any other
+    path atomically (a failed write leaves an existing file as it was)."""
+    from drivelash.report import _write
+
+    return _write(path, html_text)

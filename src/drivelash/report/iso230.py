@@ -440,7 +440,8 @@ def render_iso230_report(
 def write_iso230_report(
     path: str | Path, result: Any, meas: Any, comparison: Any | None = None, **kw: Any
 ) -> Path:
-    """Write :func:`render_iso230_report` to ``path`` (e.g. a staging path of ``Outputs``)."""
-    p = Path(path)
-    p.write_text(render_iso230_report(result, meas, comparison, **kw), encoding="utf-8")
-    return p
+    """Write :func:`render_iso230_report` to ``path``: a staging path of ``Outputs`` directly,
+    any other path atomically (a failed write leaves an existing file as it was)."""
+    from drivelash.report import _write
+
+    return _write(path, render_iso230_report(result, meas, comparison, **kw))

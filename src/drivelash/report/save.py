@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from drivelash.io.outputs import PLOT_EXTENSIONS, atomic_write, final_suffix, is_staging_path, signature
+from drivelash.io.outputs import PLOT_EXTENSIONS, final_suffix, signature, write_target
 
 #: The metadata key each format carries the signature in (see ``io.outputs.is_own_output``).
 _META_KEY = {".png": "Software", ".pdf": "Creator", ".svg": "Creator"}
@@ -36,9 +36,6 @@ def save_figure(fig: Any, path: str | Path, *, dpi: int = 110, **kwargs: Any) ->
     if ext not in PLOT_EXTENSIONS:
         raise ValueError(f"{p}: unsupported plot extension {ext!r} (use {', '.join(PLOT_EXTENSIONS)})")
     meta = {_META_KEY[ext]: signature(p)}
-    if is_staging_path(p):
-        fig.savefig(p, format=ext[1:], dpi=dpi, metadata=meta, **kwargs)
-        return p
-    with atomic_write(p) as tmp:
-        fig.savefig(tmp, format=ext[1:], dpi=dpi, metadata=meta, **kwargs)
+    with write_target(p) as w:
+        fig.savefig(w, format=ext[1:], dpi=dpi, metadata=meta, **kwargs)
     return p

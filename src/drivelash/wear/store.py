@@ -40,7 +40,7 @@ from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError, Operati
 from drivelash.errors import DrivelashError
 from drivelash.wear.words import count
 
-__all__ = ["EstimateRow", "Store", "StoreError", "utc_naive"]
+__all__ = ["EstimateRow", "Store", "StoreError", "store_file", "utc_naive"]
 
 MIGRATIONS = Path(__file__).parent / "migrations"
 #: Seconds a writer waits for another writer's lock before giving up [s], SQLite (busy timeout)
@@ -278,7 +278,24 @@ def _url(db: str | Path) -> sa.URL:
         raise StoreError(f"--db {s!r}: not a database URL or file path") from None
 
 
+def store_file(db: str | Path) -> Path | None:
+    """The local file of the store at ``db`` (an SQLite path or ``sqlite:///`` URL); None for a
+    database server or an in-memory SQLite.
+
+    Commands that read the store and write files name it among their inputs, so that no output
+    (``--json``, ``-o``) can be written over it, ``--force`` or not.
+    """
+    url = _url(db)
+    if not url.drivername.startswith("sqlite") or url.database in (None, "", ":memory:"):
+        return None
+    return Path(url.database)
+
+
 def _show(url: sa.URL) -> str:
+    """The store as messages name it: the URL without its password; an SQLite file's path as
+    written (SQLAlchemy's rendering percent-encodes it: ``sp ace %C3%BC`` for ``sp ace ü``)."""
+    if url.drivername.startswith("sqlite") and url.database not in (None, "", ":memory:"):
+        return f"{url.drivername}:///{url.database}"
     return url.render_as_string(hide_password=True)
 
 
@@ -418,6 +435,10 @@ class Store:
             path = self.url.database
             if path and path != ":memory:":
                 p = Path(path)
+                if p.is_dir():  # was "cannot open the store (unable to open database file)"
+                    raise StoreError(
+                        f"{p}: is a directory, not a store file; give a file, e.g. {p / 'wear.sqlite'}"
+                    )
                 if not create and not p.is_file():
                     raise StoreError(
                         f"{p}: no such store (run `drivelash track ingest` first, or give --fleet FLEET.toml"

@@ -340,9 +340,11 @@ def _signed(v: float, decimals: int) -> str:
 
 
 def _write(path: Path, lines: list[str]) -> Path:
+    from drivelash.io.outputs import write_target
+
     path = Path(path)
-    with path.open("w", encoding="ascii", newline="\r\n") as fh:  # CNC text files: ASCII, CR LF
-        fh.write("\n".join(lines) + "\n")
+    with write_target(path) as target, target.open("w", encoding="ascii", newline="\r\n") as fh:
+        fh.write("\n".join(lines) + "\n")  # CNC text files: ASCII, CR LF
     return path
 
 

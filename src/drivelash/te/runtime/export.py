@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from drivelash.errors import DataError
-from drivelash.io.outputs import dumps_json, final_suffix, write_json
+from drivelash.io.outputs import dumps_json, final_suffix, write_json, write_target
 from drivelash.te.runtime.compensator import CompensatorParams
 from drivelash.te.runtime.persist import TE_MAX
 from drivelash.te.runtime.table import DIRECTIONS, TETable
@@ -56,7 +56,7 @@ def export_table(table: TETable, path: Path, params: CompensatorParams | None = 
         doc["te_um"] = {str(sgn): np.round(table.te[d] * 1e6, 6).tolist() for d, sgn in enumerate(DIRECTIONS)}
         write_json(path, doc, indent=1)
     elif suffix == ".csv":
-        with path.open("w", newline="") as fh:
+        with write_target(path) as target, target.open("w", newline="") as fh:
             fh.write("# drivelash transmission-error table; " + dumps_json(doc, indent=None).strip() + "\n")
             w = csv.writer(fh)
             w.writerow(_CSV_HEADER)

@@ -373,6 +373,29 @@ def model_arrays(trained: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     return meta, flat
 
 
+def _save_safetensors(arrays: dict[str, np.ndarray], path: Path) -> None:
+    """``safetensors.numpy.save_file``, its I/O failure as the ``OSError`` it wraps.
+
+    safetensors reports a full disk as ``SafetensorError("… I/O error: No space left on device
+    (os error 28)")``, no ``OSError``; as one, the command's :class:`~drivelash.io.outputs.Outputs`
+    turns it into its one-line "cannot write it" error (it was a traceback).
+    """
+    import os
+    import re
+
+    from safetensors import SafetensorError
+    from safetensors.numpy import save_file
+
+    try:
+        save_file(arrays, str(path))
+    except SafetensorError as exc:
+        m = re.search(r"\(os error (\d+)\)", str(exc))
+        if m is None:
+            raise
+        code = int(m[1])
+        raise OSError(code, os.strerror(code), str(path)) from exc
+
+
 def save_model(trained: Any, directory: str | Path, fmt: str = "safetensors") -> Path:
     """Write a trained model as ``model.json`` + weights into ``directory`` (created).
 
@@ -412,9 +435,7 @@ def save_model(trained: Any, directory: str | Path, fmt: str = "safetensors") ->
         ) from None
     d.mkdir(parents=True, exist_ok=True)
     if fmt == "safetensors":
-        from safetensors.numpy import save_file
-
-        save_file(flat, str(d / WEIGHT_FILES[0]))
+        _save_safetensors(flat, d / WEIGHT_FILES[0])
         (d / WEIGHT_FILES[1]).unlink(missing_ok=True)
     else:
         np.savez(d / WEIGHT_FILES[1], **flat)
