@@ -62,6 +62,15 @@ def test_self_contained_with_every_figure(page):
         assert key in page
 
 
+def test_every_column_of_the_axis_values_table_has_a_header(page):
+    """The axis-values table pairs two quantity/value columns; the second "quantity" header was
+    blank (session 16, read in the rendered demo report)."""
+    m = re.search(r"<caption>ISO 230-2:2014 axis values \[µm\]</caption><thead><tr>(.*?)</tr>", page)
+    assert m is not None
+    heads = re.findall(r"<th[^>]*>(.*?)</th>", m.group(1))
+    assert heads == ["quantity", "value", "quantity", "value"]
+
+
 @pytest.mark.browser
 def test_report_in_headless_chromium(page, tmp_path):
     exe = shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")

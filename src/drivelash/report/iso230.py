@@ -272,7 +272,8 @@ def render_iso230_report(
             f"{_f(result.R_up, df)} / {_f(result.R_down, df)}",
         ],
     ]
-    head.tables.append((f"ISO 230-2:2014 axis values [{dl}]", ["quantity", "value", "", "value"], rows))
+    header = ["quantity", "value", "quantity", "value"]
+    head.tables.append((f"ISO 230-2:2014 axis values [{dl}]", header, rows))
     lo, hi = result.B_interval
     mlo, mhi = result.B_mean_interval
     head.tables.append(
