@@ -278,6 +278,13 @@ def _url(db: str | Path) -> sa.URL:
         raise StoreError(f"--db {s!r}: not a database URL or file path") from None
 
 
+def _sqlite_file(url: sa.URL) -> str | None:
+    """The local file of an SQLite URL; None for a database server or an in-memory SQLite."""
+    if url.drivername.startswith("sqlite") and url.database not in (None, "", ":memory:"):
+        return url.database
+    return None
+
+
 def store_file(db: str | Path) -> Path | None:
     """The local file of the store at ``db`` (an SQLite path or ``sqlite:///`` URL); None for a
     database server or an in-memory SQLite.
@@ -285,17 +292,16 @@ def store_file(db: str | Path) -> Path | None:
     Commands that read the store and write files name it among their inputs, so that no output
     (``--json``, ``-o``) can be written over it, ``--force`` or not.
     """
-    url = _url(db)
-    if not url.drivername.startswith("sqlite") or url.database in (None, "", ":memory:"):
-        return None
-    return Path(url.database)
+    path = _sqlite_file(_url(db))
+    return Path(path) if path is not None else None
 
 
 def _show(url: sa.URL) -> str:
     """The store as messages name it: the URL without its password; an SQLite file's path as
     written (SQLAlchemy's rendering percent-encodes it: ``sp ace %C3%BC`` for ``sp ace ü``)."""
-    if url.drivername.startswith("sqlite") and url.database not in (None, "", ":memory:"):
-        return f"{url.drivername}:///{url.database}"
+    path = _sqlite_file(url)
+    if path is not None:
+        return f"{url.drivername}:///{path}"
     return url.render_as_string(hide_password=True)
 
 
@@ -432,8 +438,8 @@ class Store:
         self.backend = backend
         kw: dict[str, Any] = {}
         if backend == "sqlite":
-            path = self.url.database
-            if path and path != ":memory:":
+            path = _sqlite_file(self.url)
+            if path is not None:
                 p = Path(path)
                 if p.is_dir():  # was "cannot open the store (unable to open database file)"
                     raise StoreError(
@@ -499,8 +505,8 @@ class Store:
         """The one-line :class:`StoreError` for an SQLite file this process may not open or
         write (:func:`sqlite_access_problem`: read-only file system or directory, read-only
         file), else None. ``what``: "read" or "write"."""
-        path = self.url.database
-        if self.backend != "sqlite" or not path or path == ":memory:" or not isinstance(exc, DBAPIError):
+        path = _sqlite_file(self.url)
+        if path is None or not isinstance(exc, DBAPIError):
             return None
         text = str(getattr(exc, "orig", None) or exc).lower()
         if "unable to open database file" not in text and "readonly database" not in text:
