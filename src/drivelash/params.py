@@ -12,6 +12,7 @@ naming the class and the field.
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import asdict, dataclass, fields
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -34,8 +35,6 @@ if TYPE_CHECKING:  # annotation only: params does not import the estimation laye
 def is_real_number(value: object) -> bool:
     """True for a real scalar — Python's or numpy's (``np.float32`` from a computed array),
     0-d arrays excluded — and not a bool."""
-    import numbers
-
     return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
 
 
