@@ -145,3 +145,23 @@ def test_the_name_check_sees_a_missing_name():
     with pytest.raises(AttributeError):
         _resolve("drivelash.te.runtime.no_such")
     assert callable(_resolve("drivelash.te.runtime.build_table"))
+
+
+def test_tour_paths_are_relative_to_the_repository_root(tmp_path, monkeypatch, capsys):
+    """README's Tour: its ``examples/…`` paths work from the repository root; from elsewhere the
+    relative path is refused in one line naming the file, the full path works."""
+    from tests.cli_runner import run_in_process
+
+    assert "The commands below run from the repository root" in (ROOT / "README.md").read_text()
+    monkeypatch.chdir(tmp_path)
+    code, _, _ = run_in_process(["simulate", "bench-0A", "-o", "run.parquet", "--duration", "4"], capsys)
+    assert code == 0
+    rel = "examples/drive_bench.toml"
+    code, out, err = run_in_process(["estimate", "run.parquet", "--config", rel], capsys)
+    assert code == 2 and "Traceback" not in err
+    assert "examples/drive_bench.toml: no such configuration file" in err
+    assert len(err.strip().splitlines()) == 1
+    full = str(ROOT / "examples" / "drive_bench.toml")
+    code, out, err = run_in_process(["estimate", "run.parquet", "--config", full], capsys)
+    assert code == 0, err
+    assert "converged" in out
