@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import pickle
 import subprocess
@@ -180,6 +181,42 @@ def test_corrupt_metadata_and_trees_are_errors(model_dir, tmp_path):
         load_model(d)
     with pytest.raises(ModelFileError, match="not found"):
         load_model(tmp_path / "nowhere")
+
+
+@pytest.mark.parametrize("fmt", ["safetensors", "npz"])
+def test_a_plausible_but_changed_weight_file_is_refused(small_trained, tmp_path, fmt):
+    """Left alone until session 17: ``model.json`` held no integrity record, so a weight file
+    that still passes every content check (one stage-1 weight changed by 1 %, or another
+    model's weights swapped in) loaded silently and predicted other numbers. ``model.json``
+    now stores the weight file's SHA-256; a mismatch is one line naming the file and the key.
+    Negative control: the unchanged copy loads and predicts as saved."""
+    from safetensors.numpy import load_file, save_file
+
+    d = save_model(small_trained, tmp_path / "m", fmt=fmt)
+    meta = json.loads((d / "model.json").read_text())
+    w = d / meta["weights"]
+    assert len(meta["weights_sha256"]) == 64
+    assert meta["weights_sha256"] == hashlib.sha256(w.read_bytes()).hexdigest()
+    x, tq = _points(200)
+    ref = load_model(d).predict(x, tq, 1)  # negative control: as saved
+    if fmt == "safetensors":
+        arrs = dict(load_file(str(w)))
+    else:
+        with np.load(w) as z:
+            arrs = {k: z[k] for k in z.files}
+    arrs["pos.W3"] = arrs["pos.W3"] * 1.01
+    if fmt == "safetensors":
+        save_file(arrs, str(w))
+    else:
+        np.savez(w, **arrs)
+    with pytest.raises(ModelFileError) as ei:
+        load_model(d)
+    msg = str(ei.value)
+    assert "\n" not in msg and str(w) in msg and "weights_sha256" in msg
+    # the changed file passes every content check: without the record it loads, with other numbers
+    del meta["weights_sha256"]
+    (d / "model.json").write_text(json.dumps(meta))
+    assert np.max(np.abs(load_model(d).predict(x, tq, 1) - ref)) > 0
 
 
 def test_saving_a_loaded_model_is_a_clear_error(model_dir, tmp_path):

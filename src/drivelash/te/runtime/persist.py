@@ -211,6 +211,8 @@ class ModelMeta(ModelContext):
     models: dict[Literal["pos", "neg"], DirectionDoc]
     info: dict[str, Any] = Field(default_factory=dict)
     weights: Literal["weights.safetensors", "weights.npz"]
+    #: SHA-256 of the weight file as written (absent in files written before it was stored)
+    weights_sha256: str | None = Field(default=None, pattern="^[0-9a-f]{64}$")
 
     @model_validator(mode="after")
     def _dirs(self) -> ModelMeta:
@@ -440,8 +442,19 @@ def save_model(trained: Any, directory: str | Path, fmt: str = "safetensors") ->
     else:
         np.savez(d / WEIGHT_FILES[1], **flat)
         (d / WEIGHT_FILES[0]).unlink(missing_ok=True)
+    meta["weights_sha256"] = _sha256(d / meta["weights"])
     write_json(d / META_FILE, meta, indent=1)
     return d
+
+
+def _sha256(path: Path) -> str:
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
 
 
 def _read_arrays(path: Path) -> dict[str, np.ndarray]:
@@ -601,6 +614,13 @@ def load_model(directory: str | Path) -> TEModel:
     model.context = measured_context(model, mpath)
     model.meta["valid_range"] = model.context.valid_range.model_dump(mode="json")
     check_outputs(model, wpath)
+    # last: the checks above name what is wrong in a broken file; this one sees a plausible one
+    # that is not the file the model was saved with (edited, swapped, or bit-flipped)
+    if doc.weights_sha256 is not None and _sha256(wpath) != doc.weights_sha256:
+        raise ModelFileError(
+            f"{wpath}: does not match {META_FILE} (key 'weights_sha256': the file changed after"
+            " the model was saved — copy the model directory whole, or refit)"
+        )
     return model
 
 
