@@ -22,7 +22,9 @@ Practice of Gautier and Janot for IDIM-LS (and of the EMPS benchmark):
 Load side of a two-mass drive (J_l ω̇_l = T_l − T_F,l(ω_l), spec 01 eq 3): the
 shaft torque is estimated from the motor side with known motor parameters,
 T̂_l = N (u − J_m ω̇_m − β_m ω_m − T_Cm sign ω_m) (eq 1), and
-T̂_l = J_l ω̇_l + β_l ω_l + T_Cl sign ω_l + offset is solved the same way.
+T̂_l = J_l ω̇_l + β_l ω_l + T_Cl sign ω_l + offset is solved the same way, without the rows
+where the load rests: with backlash the load stands still while the motor crosses the gap
+(18 % of bench-0B), the shaft torque is 0 there and so is the friction, not T_Cl sign ω̂_l.
 """
 
 from __future__ import annotations
@@ -38,6 +40,9 @@ from drivelash.errors import DataError, ParameterError
 from drivelash.io.trace import Trace
 
 RIGID_NAMES = ("M", "F_v", "F_c", "offset")
+#: Load side: a row of the decimated system is left out when more than this share of its
+#: anti-alias filter weight falls on samples where the load rests (:func:`identify_load`).
+REST_WEIGHT_MAX = 0.05
 #: Relative torque error above which the rigid model is said not to describe the drive [-]
 #: (EMPS, a rigid axis: 0.040, cross-test 0.060; bench-0A, backlash 1.027 rad: 0.60 with
 #: J_m 6.7× low; docs/assumptions.md).
@@ -528,18 +533,30 @@ def _finish(
     filter_order: int,
     decimate: int,
     n_border: int,
+    rest: np.ndarray | None = None,
 ) -> IdentificationResult:
+    """Decimate W and y, leave out the rows ``rest`` contaminates, solve.
+
+    ``rest`` (boolean, one per row of W): samples whose equation the model does not describe.
+    It is decimated with the same filter as W and y, and a decimated row that takes more than
+    :data:`REST_WEIGHT_MAX` of its weight from such samples is left out (their count is
+    ``options["rows_at_rest"]``).
+    """
     if decimate < 1:
         raise ParameterError("identification", "decimate", "must be >= 1")
     Wd = np.column_stack([_decimate(W[:, j], decimate) for j in range(W.shape[1])])
     yd = _decimate(y, decimate)
     td = t[::decimate][: yd.size]
-    options = {
+    options: dict[str, Any] = {
         "cutoff_hz": cutoff_hz,
         "filter_order": filter_order,
         "decimate": decimate,
         "n_border": n_border,
     }
+    if rest is not None:
+        keep = np.abs(_decimate(rest.astype(np.float64), decimate)) <= REST_WEIGHT_MAX
+        options["rows_at_rest"] = int(keep.size - np.count_nonzero(keep))
+        Wd, yd, td = Wd[keep], yd[keep], td[keep]
     axis = str(trace.meta.get("axis", "rotary"))
     return _result(
         names, _solve(Wd, yd, names), yd.size, {**options, "T_s": trace.T_s}, td, Wd, yd, axis, side
@@ -585,7 +602,10 @@ def identify_load(
     """IDIM-LS of the load side T̂_l = J_l ω̇_l + β_l ω_l + T_Cl sign ω_l + offset.
 
     The shaft torque comes from :func:`shaft_torque_estimate` with the given
-    motor parameters; the load encoder ``theta_l`` gives ω_l and ω̇_l.
+    motor parameters; the load encoder ``theta_l`` gives ω_l and ω̇_l. Samples where the
+    load rests (|ω̂_l| at most ``STANDSTILL_FRACTION`` of its 99th-percentile speed, the rule
+    of the two-mass fit) are not in the model; the decimated rows they contaminate are left out
+    (:func:`_finish`, ``options["rows_at_rest"]``).
 
     Returns
     -------
@@ -598,14 +618,31 @@ def identify_load(
             column="theta_l",
             path=trace.meta.get("source"),
         )
+    from drivelash.estimation.identify_two_mass import STANDSTILL_FRACTION
+
     T_l = shaft_torque_estimate(trace, J_m, beta_m, T_Cm, N, cutoff_hz=cutoff_hz, filter_order=filter_order)
     T_s = trace.T_s
     _, dq, ddq = _prepare(trace["theta_l"], T_s, cutoff_hz, filter_order)
     n = len(trace)
     sl = slice(n_border, n - n_border)
     W = np.column_stack([ddq[sl], dq[sl], np.sign(dq[sl]), np.ones(n)[sl]])
+    # the load at rest (in the gap, or held by static friction): T_l = T_F,l = 0 there, which
+    # the Coulomb term T_Cl sign ω̂_l of a filtered near-zero velocity contradicts — included,
+    # they gave β_l +330 % and T_Cl −60 % on noise-free bench-0B. Same rule as the two-mass fit.
+    speed = np.abs(dq[sl])
+    rest = speed <= STANDSTILL_FRACTION * float(np.percentile(speed, 99))
     return _finish(
-        trace, trace["t"][sl], W, T_l[sl], LOAD_NAMES, "load", cutoff_hz, filter_order, decimate, n_border
+        trace,
+        trace["t"][sl],
+        W,
+        T_l[sl],
+        LOAD_NAMES,
+        "load",
+        cutoff_hz,
+        filter_order,
+        decimate,
+        n_border,
+        rest=rest,
     )
 
 
