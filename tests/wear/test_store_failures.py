@@ -389,3 +389,41 @@ def test_the_busy_timeout_is_30_s_unless_the_environment_sets_it(tmp_path, monke
     st = Store(tmp_path / "v.sqlite")
     with st.engine.connect() as conn:
         assert conn.exec_driver_sql("PRAGMA busy_timeout").scalar_one() == 2_500
+
+
+def test_ctrl_c_during_ingest_says_what_the_store_kept(tiny_fleet, tmp_path, monkeypatch, capsys):
+    """Ctrl-C during ``track ingest``: one line, exit 130. Interrupted before any transaction
+    of this ingest: "no output written" and the rows are as they were; interrupted after a
+    committed transaction: the line names the store instead of claiming nothing was written."""
+    from drivelash import cli
+
+    fleet, held = _fleet_copy(tiny_fleet, tmp_path / "f", hold_back=2)
+    db = tmp_path / "w.sqlite"
+    args = ["track", "ingest", str(fleet / "fleet.toml"), "--db", str(db), "--workers", "1"]
+    assert _main(cli, args) == 0
+    for aside, p in held:
+        aside.rename(p)
+    before = _state(db)
+    capsys.readouterr()
+    commit_batch = Store.commit_batch
+
+    def interrupted_before(self, *a, **k):
+        raise cli.Interrupted()
+
+    monkeypatch.setattr(Store, "commit_batch", interrupted_before)
+    assert _main(cli, args) == 130
+    lines = [x for x in capsys.readouterr().err.splitlines() if x.strip()]  # the progress line ends
+    assert lines == ["drivelash: interrupted; no output written"]
+    assert _state(db) == before
+
+    def interrupted_after(self, *a, **k):
+        commit_batch(self, *a, **k)
+        raise cli.Interrupted()
+
+    monkeypatch.setattr(Store, "commit_batch", interrupted_after)
+    assert _main(cli, args) == 130
+    store = f"sqlite:///{db}"  # the store as every message names it
+    line = f"drivelash: interrupted after writing {store} (the transactions committed so far)"
+    line += "; nothing else written"
+    assert [x for x in capsys.readouterr().err.splitlines() if x.strip()] == [line]
+    assert len(_state(db)[0]) == len(before[0]) + 2

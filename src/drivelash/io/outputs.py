@@ -88,6 +88,9 @@ __all__ = [
     "is_own_output",
     "is_staging_path",
     "output_command",
+    "forget_written",
+    "note_written",
+    "written_outputs",
     "signature",
     "jsonable",
     "write_json",
@@ -131,6 +134,11 @@ WRITE_ERRNOS: frozenset[int] = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBI
 #: Staging path → command of the :class:`Outputs` that made it (read by :func:`signature`).
 _STAGED_BY: dict[str, str] = {}
 
+#: Outputs put in place by :meth:`Outputs.commit` (or noted by :func:`note_written`) in this
+#: process since :func:`forget_written`: key → how the user sees it (the CLI's line after
+#: Ctrl-C or SIGTERM says which were written).
+_WRITTEN: dict[str, str] = {}
+
 #: Formats whose signature records the command that wrote the file (:func:`signature`);
 #: a file of these kinds that carries only ``drivelash <version>`` was written before the
 #: command was recorded (or by a library call), so a command replaces it only with ``--force``.
@@ -138,6 +146,22 @@ _RECORDS_COMMAND: tuple[str, ...] = (".json", ".html", ".htm", ".png", ".pdf", "
 #: Recordings (and CSV text tables): the command is in the metadata's ``generator`` when the
 #: file was written by a command since it was recorded; an older one still counts as ours.
 _RECORDING_KINDS: tuple[str, ...] = (".parquet", ".pq", ".csv", ".h5", ".hdf5", ".hdf", ".mat")
+
+
+# =========================================================================== written
+def written_outputs() -> list[str]:
+    """Outputs committed in this process since :func:`forget_written` (as the user named them)."""
+    return list(_WRITTEN.values())
+
+
+def note_written(key: str, shown: str) -> None:
+    """Record an output written outside :class:`Outputs` (a store's committed transaction)."""
+    _WRITTEN[key] = shown
+
+
+def forget_written() -> None:
+    """Start a new count for :func:`written_outputs` (the CLI calls it when a command starts)."""
+    _WRITTEN.clear()
 
 
 # =========================================================================== signature
@@ -1020,6 +1044,8 @@ class Outputs:
             self.abort()
             raise
         self._done = True
+        for t in staged:
+            _WRITTEN[os.fspath(t.path)] = t.shown or os.fspath(t.path)
         for o in old:  # the old copies go last, after every new output is in place
             _remove(o)
         return [t.path for t in staged]

@@ -278,6 +278,15 @@ def _url(db: str | Path) -> sa.URL:
         raise StoreError(f"--db {s!r}: not a database URL or file path") from None
 
 
+#: Key in a connection's ``info``: the current write transaction changed what the store holds.
+_WROTE = "drivelash_wrote"
+
+
+def _wrote(conn: sa.Connection) -> None:
+    """Mark the write transaction of ``conn`` as one that stores something (see ``Store._write``)."""
+    conn.info[_WROTE] = True
+
+
 def _sqlite_file(url: sa.URL) -> str | None:
     """The local file of an SQLite URL; None for a database server or an in-memory SQLite."""
     if url.drivername.startswith("sqlite") and url.database not in (None, "", ":memory:"):
@@ -500,6 +509,7 @@ class Store:
                 return
             cfg.attributes["connection"] = conn
             command.upgrade(cfg, "head")
+            _wrote(conn)
 
     def _access_error(self, exc: BaseException, what: str, consequence: str) -> StoreError | None:
         """The one-line :class:`StoreError` for an SQLite file this process may not open or
@@ -532,8 +542,14 @@ class Store:
         migration included) goes through here, so two processes on one store never interleave
         a read-then-insert (two first ingests on an empty database both creating the schema,
         or both inserting one recording).
+
+        A committed transaction marked with :func:`_wrote` (a schema created, an axis
+        registered, a recording re-dated, a batch of results: what ``track ingest``'s messages
+        count as written) is noted with :func:`drivelash.io.outputs.note_written`, so the line
+        after Ctrl-C names the store rather than claiming nothing was written.
         """
         with self.engine.begin() as conn:
+            conn.info.pop(_WROTE, None)
             if self.backend == "sqlite":
                 conn.exec_driver_sql("BEGIN IMMEDIATE")
             elif self.backend == "postgresql":
@@ -544,6 +560,11 @@ class Store:
                 conn.execute(sa.text("SELECT set_config('lock_timeout', :v, true)"), {"v": f"{ms}ms"})
                 conn.execute(sa.text("SELECT pg_advisory_xact_lock(:k)"), {"k": PG_WRITE_LOCK})
             yield conn
+            wrote = conn.info.pop(_WROTE, False)
+        if wrote:
+            from drivelash.io.outputs import note_written
+
+            note_written(f"store:{self.name}", f"{self.name} (the transactions committed so far)")
 
     def failure(self, exc: BaseException, consequence: str) -> StoreError | None:
         """The one-line :class:`StoreError` for an operational failure of the store, else None.
@@ -637,6 +658,7 @@ class Store:
                 row = conn.execute(sa.select(axis_t.c.id).where(axis_t.c.name == a.name)).first()
                 if row is None:
                     ids[a.name] = int(conn.execute(sa.insert(axis_t).values(**vals)).inserted_primary_key[0])
+                    _wrote(conn)
                 else:
                     conn.execute(sa.update(axis_t).where(axis_t.c.id == row.id).values(**vals))
                     ids[a.name] = int(row.id)
@@ -771,6 +793,8 @@ class Store:
                 ).scalar()
                 new = utc_naive(start)
                 moved += old != new
+                if old != new:
+                    _wrote(conn)
                 conn.execute(
                     sa.update(recording_t)
                     .where(recording_t.c.id == rid)
@@ -810,6 +834,7 @@ class Store:
         now = _now()
         keyed = [(axis_ids[r.axis], r) for r in rows]  # an unknown axis fails before any write
         with self._write() as conn:
+            _wrote(conn)
             hashes = sorted({r.content_hash for _, r in keyed})
             rec_id: dict[tuple[int, str], int] = {}
             rec_path: dict[tuple[int, str], str] = {}
