@@ -195,6 +195,7 @@ def test_delta1_unit_slip_below_delta_max_is_named_not_called_unexcited(bench_cs
     assert doc["converged"] is False and doc["delta1_outside_range"] is True
     assert "gravity" not in doc["reason"]
     assert " ".join(out.split()).count(" ".join(start.split())) == 1, out  # the summary names it
+    assert "excitation not judged: [backlash] delta1" in out and "INSUFFICIENT" not in out
 
     good = _toml(tmp_path, GOOD_TOML)
     code, out, err = _run(
