@@ -361,6 +361,22 @@ def _kind(exc: BaseException) -> str | None:
     return "other"
 
 
+#: An SQLite "disk I/O error" on a file system with less free space than this [bytes] is taken
+#: for a full disk: SQLite reports a full disk as an I/O error where it maps its ``-shm`` file
+#: or writes its ``-wal`` file (a new store on a disk with 8–32 KiB free: "disk I/O error").
+FULL_DISK_BYTES = 1 << 20
+
+
+def _free_bytes(directory: str | Path) -> int | None:
+    """Free space [bytes] of the file system holding ``directory`` (what this user may use:
+    root writes into the reserved blocks as well); None when it cannot be asked."""
+    try:
+        st = os.statvfs(directory)
+    except OSError:
+        return None
+    return (st.f_bfree if os.geteuid() == 0 else st.f_bavail) * st.f_frsize
+
+
 def sqlite_access_problem(path: str | Path, write: bool) -> str | None:
     """Why an SQLite store file cannot be opened, from the file system (None when no such
     reason shows): a directory on a read-only file system or not writable to this user, or a
@@ -474,7 +490,7 @@ class Store:
             self._migrate(create)
         except (OperationalError, DBAPIError, OSError) as exc:
             self.engine.dispose()
-            if _kind(exc) in ("locked", "full"):
+            if _kind(exc) in ("locked", "full") or self._disk_full_io(exc) is not None:
                 raise self.failure(exc, "nothing was written") from None  # type: ignore[misc]
             if isinstance(exc, OSError):
                 raise
@@ -586,6 +602,13 @@ class Store:
         kind = _kind(exc)
         if kind is None:
             return None
+        free = self._disk_full_io(exc)
+        if free is not None:
+            return StoreError(
+                f"{_sqlite_file(self.url)}: the disk is full ({free} bytes free; SQLite: {_brief(exc)}); "
+                f"the transaction was rolled back and {consequence} — free space for the store and run it "
+                "again"
+            )
         if kind == "other":
             err = self._access_error(exc, "write", consequence)
             if err is not None:
@@ -606,6 +629,17 @@ class Store:
         return StoreError(
             f"{self.name}: the store failed ({brief}); {consequence} — check the database, then run it again"
         )
+
+    def _disk_full_io(self, exc: BaseException) -> int | None:
+        """The free bytes of the store's file system when ``exc`` is SQLite's "disk I/O error"
+        on a full disk (less than :data:`FULL_DISK_BYTES` free); else None."""
+        path = _sqlite_file(self.url)
+        if path is None or not isinstance(exc, DBAPIError):
+            return None
+        if "disk i/o error" not in str(getattr(exc, "orig", None) or exc).lower():
+            return None
+        free = _free_bytes(Path(path).parent)
+        return free if free is not None and free < FULL_DISK_BYTES else None
 
     @contextmanager
     def guard(self, consequence: str | Callable[[], str]) -> Iterator[None]:
