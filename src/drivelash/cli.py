@@ -15,9 +15,12 @@ happen inside the commands, so ``drivelash --help`` stays fast.
   formatter) and exit code 2, as click itself does since 8.2 (``NoArgsIsHelpError``);
 - an ``OSError`` naming a file that no check foresaw (a path component too long, a symlink
   loop) → ``drivelash: error: FILE: <the system's message>``, exit code 2;
-- SIGTERM → an exception like Ctrl-C, so every command's staged outputs are removed
-  and its targets stay as they were (:mod:`drivelash.io.outputs`); exit code 143
-  (130 for SIGINT).
+- Ctrl-C (SIGINT) and SIGTERM → an exception, so every command's staged outputs are removed
+  and its targets stay as they were (:mod:`drivelash.io.outputs`); one line on stderr
+  (``drivelash: interrupted; no output written``, or which outputs had already been put in
+  place), no traceback; exit code 130 for SIGINT, 143 for SIGTERM. SIGINT raises
+  :class:`Interrupted`, not ``KeyboardInterrupt``, which typer turns into a silent exit 130;
+  a SIGINT that the caller set to be ignored (a background job) stays ignored.
 
 Numerical ``RuntimeWarning``\\ s (``invalid value encountered …``) are not actionable for
 a user and are not shown; the sources silence the legitimate ones themselves, and
@@ -106,8 +109,82 @@ class Terminated(BaseException):  # noqa: N818 - mirrors KeyboardInterrupt
     """Raised in the main thread on SIGTERM, so ``with``-blocks clean up (staged outputs)."""
 
 
-def _on_sigterm(signum: int, frame: Any) -> None:
-    raise Terminated()
+class Interrupted(BaseException):  # noqa: N818 - mirrors KeyboardInterrupt
+    """Raised in the main thread on SIGINT (Ctrl-C) in place of ``KeyboardInterrupt``."""
+
+
+class _Stop:
+    """State of the signal handlers while :func:`main` runs a command."""
+
+    active = False  # a command runs: a signal raises Terminated / Interrupted
+    in_hook = False  # inside _redeliver_signal: a signal handled there would be lost again
+    pending: int | None = None  # a signal that could not stop the command where it landed
+    timer: Any = None
+
+
+def _stop_exception(signum: int) -> BaseException:
+    return Terminated() if signum == signal.SIGTERM else Interrupted()
+
+
+def _redeliver_later(signum: int) -> None:
+    """Deliver ``signum`` to the main thread again in 10 ms (once the current hook returned)."""
+    import _thread
+    import threading
+
+    if _Stop.timer is not None:
+        _Stop.timer.cancel()
+    _Stop.timer = threading.Timer(0.01, _thread.interrupt_main, args=(signum,))
+    _Stop.timer.daemon = True
+    _Stop.timer.start()
+
+
+def _on_signal(signum: int, frame: Any) -> None:
+    """SIGINT and SIGTERM: stop the running command (or remember the signal, see :class:`_Stop`)."""
+    if _Stop.active and not _Stop.in_hook:
+        raise _stop_exception(signum)
+    _Stop.pending = signum
+    if _Stop.active:
+        _redeliver_later(signum)
+
+
+def _redeliver_signal(unraisable: Any, previous: Any) -> None:
+    """``sys.unraisablehook`` while a command runs: a Ctrl-C/SIGTERM that landed in a callback
+    from C code is delivered again instead of being lost.
+
+    Numba's JIT calls Python through ctypes (its object-cache notifications); an exception
+    raised there cannot propagate: Python printed "Exception ignored …" with a traceback and
+    the run went on to write its outputs. Delivering the signal again a moment later
+    (:func:`_thread.interrupt_main` from a timer thread, so that it does not land in this
+    hook) makes the handler run at a point of ordinary Python code, where it stops the
+    command as usual; one that lands in a callback again comes back here. Should the command
+    end first, :func:`main` still reports it as interrupted.
+    """
+    exc = unraisable.exc_value
+    if not isinstance(exc, Terminated | Interrupted | KeyboardInterrupt):
+        previous(unraisable)
+        return
+    signum = signal.SIGTERM if isinstance(exc, Terminated) else signal.SIGINT
+    _Stop.in_hook = True
+    try:
+        _Stop.pending = signum
+        _redeliver_later(signum)
+    finally:
+        _Stop.in_hook = False
+
+
+def _stopped_line(what: str) -> str:
+    """The one line after Ctrl-C or SIGTERM: what happened and which outputs were written."""
+    outputs = sys.modules.get("drivelash.io.outputs")  # not imported: nothing was written
+    written = outputs.written_outputs() if outputs is not None else []
+    if not written:
+        return f"drivelash: {what}; no output written"
+    return f"drivelash: {what} after writing {', '.join(written)}; nothing else written"
+
+
+def _forget_written() -> None:
+    outputs = sys.modules.get("drivelash.io.outputs")
+    if outputs is not None:
+        outputs.forget_written()
 
 
 def _one_line(text: str) -> str:
@@ -148,16 +225,38 @@ def main(argv: list[str] | None = None) -> None:
 
     click_errors = _click_exception_types()
     in_main_thread = _is_main_thread()
-    old_handler = signal.signal(signal.SIGTERM, _on_sigterm) if in_main_thread else None
+    old_handler = signal.signal(signal.SIGTERM, _on_signal) if in_main_thread else None
+    # Python's own Ctrl-C handler only: an ignored SIGINT (a background job) stays ignored
+    old_int = None
+    if in_main_thread and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        old_int = signal.signal(signal.SIGINT, _on_signal)
+    old_hook = sys.unraisablehook
+    if in_main_thread:
+        sys.unraisablehook = lambda u: _redeliver_signal(u, old_hook)
+    _forget_written()
     try:
         with warnings.catch_warnings():
             if os.environ.get("DRIVELASH_WARNINGS") == "error":
                 warnings.simplefilter("error", RuntimeWarning)
             else:
                 warnings.simplefilter("ignore", RuntimeWarning)
-            rv = _click_command()(args=argv, prog_name="drivelash", standalone_mode=False)
+            _Stop.pending, _Stop.active = None, True
+            try:
+                rv = _click_command()(args=argv, prog_name="drivelash", standalone_mode=False)
+            finally:  # from here on a signal is only remembered, never raised
+                _Stop.active = False
+                if _Stop.timer is not None:
+                    _Stop.timer.cancel()
+                    _Stop.timer = None
+            if _Stop.pending is not None:  # lost in a callback; the command ended first
+                raise _stop_exception(_Stop.pending)
+        if rv == 130 and not isinstance(rv, bool):
+            # typer turns a KeyboardInterrupt (not raised by our handler: e.g. a handler
+            # installed by a library) into a silent Exit(130); no command exits 130 itself
+            typer.echo(_stopped_line("interrupted"), err=True)
+            sys.exit(130)
         if isinstance(rv, int) and not isinstance(rv, bool) and rv != 0:
-            sys.exit(rv)  # typer returns the code of an Exit (e.g. 130 after Ctrl-C)
+            sys.exit(rv)  # typer returns the code of an Exit
     except DrivelashError as exc:
         typer.echo(f"drivelash: error: {_one_line(str(exc))}", err=True)
         sys.exit(2)
@@ -180,15 +279,18 @@ def main(argv: list[str] | None = None) -> None:
         sys.exit(int(getattr(exc, "exit_code", 2) or 2))
     except typer.Exit as exc:
         sys.exit(exc.exit_code)
-    except (typer.Abort, KeyboardInterrupt):
-        typer.echo("drivelash: aborted", err=True)
+    except (typer.Abort, KeyboardInterrupt, Interrupted):
+        typer.echo(_stopped_line("interrupted"), err=True)
         sys.exit(130)
     except Terminated:
-        typer.echo("drivelash: terminated", err=True)
+        typer.echo(_stopped_line("terminated"), err=True)
         sys.exit(143)
     finally:
         if old_handler is not None:
             signal.signal(signal.SIGTERM, old_handler)
+        if old_int is not None:
+            signal.signal(signal.SIGINT, old_int)
+        sys.unraisablehook = old_hook
 
 
 def _is_main_thread() -> bool:

@@ -42,12 +42,18 @@ def is_real_number(value: object) -> bool:
 DELTA_MAX_DEFAULT = 2.0
 
 
+def _delta1_unit_hint(delta1: float) -> str:
+    return f"δ1 is in rad — if {delta1:g} is in mrad, write {delta1 / 1e3:g}"
+
+
 def check_delta1_bound(owner: str, delta1: float, delta_max: float) -> None:
     """Refuse an offset δ1 [rad] larger than the estimator's bound δ_max [rad].
 
     δ1 lies inside the gap (0 ≤ δ1 ≤ δ) and the online law keeps δ ≤ δ_max, so δ1 > δ_max is a
     contradiction — typically δ1 written in mrad (``delta1 = 93`` for 0.093 rad), which the
-    estimator would otherwise run with and report as an unexcited recording.
+    estimator would otherwise run with and report as an unexcited recording. A δ1 below δ_max
+    but still far off (``1.0`` for 1 mrad) is caught once the recording is seen:
+    :func:`delta1_outside_range`.
 
     Raises
     ------
@@ -59,8 +65,56 @@ def check_delta1_bound(owner: str, delta1: float, delta_max: float) -> None:
             owner,
             "delta1",
             f"δ1 = {delta1:g} rad exceeds δ_max = {delta_max:g} rad, the largest gap the estimator "
-            f"allows (0 ≤ δ1 ≤ δ ≤ δ_max); δ1 is in rad — if {delta1:g} is in mrad, write {delta1 / 1e3:g}",
+            f"allows (0 ≤ δ1 ≤ δ ≤ δ_max); {_delta1_unit_hint(delta1)}",
         )
+
+
+#: :func:`delta1_outside_range`: the Δθ seen must span more than this multiple of the peak contact
+#: deflection (the data crossed free play, not only a flank's elastic deflection) …
+DELTA1_GAP_TRAVEL_FACTOR = 4.0
+#: … and the configured lower contact (Δθ = −δ1) must lie further beyond that range than this
+#: multiple of its width …
+DELTA1_OUTSIDE_RANGE_FACTOR = 1.0
+#: … and than this [rad].
+DELTA1_OUTSIDE_FLOOR = 0.05
+
+
+def delta1_outside_range(
+    delta1: float, dtheta_min: float, dtheta_max: float, deflection: float
+) -> str | None:
+    """The second stage of :func:`check_delta1_bound`, with the recording seen: a δ1 whose lower
+    contact lies far outside the motor–load offsets the recording shows; None when it does not.
+
+    For a recording whose load moved back and forth with the shaft torque reversing, but in
+    which the law saw no crossing of the gap (the caller's condition): if Δθ = θ_m/N − θ_l
+    travelled more than :data:`DELTA1_GAP_TRAVEL_FACTOR` × the peak contact deflection, the
+    drive crossed free play and sat on both contacts — on the lower one Δθ = −δ1 − deflection,
+    so a correct δ1 has −δ1 at the lowest Δθ seen. (A load kept on one flank by gravity moves
+    Δθ only by its deflection and is not judged.) A δ1 that puts −δ1 more than
+    ``max(DELTA1_OUTSIDE_RANGE_FACTOR × (max − min), DELTA1_OUTSIDE_FLOOR)`` beyond the range is
+    a wrong δ1 (a unit slip: ``1.0`` for 1 mrad), not a recording without excitation, which
+    is what the estimator would otherwise report.
+
+    Parameters
+    ----------
+    delta1 : float
+        The configured δ1 [rad] (in the recorded frame).
+    dtheta_min, dtheta_max : float
+        The lowest and highest Δθ of the recording [rad].
+    deflection : float
+        The largest contact deflection [rad] (peak shaft torque / contact stiffness).
+    """
+    width = dtheta_max - dtheta_min
+    if not (math.isfinite(width) and width > DELTA1_GAP_TRAVEL_FACTOR * deflection):
+        return None
+    margin = max(DELTA1_OUTSIDE_RANGE_FACTOR * width, DELTA1_OUTSIDE_FLOOR)
+    if dtheta_min - margin <= -delta1 <= dtheta_max + margin:
+        return None
+    return (
+        f"[backlash] delta1 = {delta1:.4g} rad is outside the observed motor–load offset range "
+        f"[{dtheta_min:.4g}, {dtheta_max:.4g}] rad (Δθ = θ_m/N − θ_l, whose lower contact is at "
+        f"−δ1) — wrong unit? {_delta1_unit_hint(delta1)}"
+    )
 
 
 def require_finite(obj: object) -> None:

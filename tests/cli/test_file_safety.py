@@ -91,3 +91,31 @@ def test_the_fleet_report_writer_called_as_a_library_keeps_an_existing_file(tmp_
     assert os.listdir(tmp_path) == ["fleet.html"]
     write_fleet_report(target, "<html>new</html>\n")
     assert target.read_text(encoding="utf-8") == "<html>new</html>\n"
+
+
+def test_simulate_through_a_symlinked_output_keeps_the_link(tmp_path, capsys):
+    """``simulate -o latest.csv`` where latest.csv → runs/old.csv: runs/old.csv gets the new
+    recording, latest.csv stays the same link (was: replaced by a regular file, the run's file
+    left old). A dangling link is refused in one line (it may point into an unmounted share),
+    nothing is created."""
+    from drivelash.io import load_trace
+
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    _old_recording(runs / "old.csv")
+    link = tmp_path / "latest.csv"
+    link.symlink_to("runs/old.csv")
+    code, _, err = run_in_process(["simulate", "bench-0A", "-o", str(link), "--duration", "0.2"], capsys)
+    assert code == 0, err
+    assert link.is_symlink() and os.readlink(link) == "runs/old.csv"
+    assert load_trace(runs / "old.csv").duration == pytest.approx(0.2, abs=1e-3)
+    assert sorted(os.listdir(tmp_path)) == ["latest.csv", "runs"] and os.listdir(runs) == ["old.csv"]
+
+    dangling = tmp_path / "gone.csv"
+    dangling.symlink_to("elsewhere/x.csv")
+    code, _, err = run_in_process(["simulate", "bench-0A", "-o", str(dangling), "--duration", "0.2"], capsys)
+    assert code == 2 and err.splitlines() == [
+        f"drivelash: error: -o {dangling}: a symbolic link to elsewhere/x.csv, which does not exist;"
+        " use --force to replace it or choose another path"
+    ], err
+    assert dangling.is_symlink() and not (tmp_path / "elsewhere").exists()

@@ -176,6 +176,63 @@ def test_api_refuses_delta1_beyond_delta_max():
     DeadzoneEstimator(RIG_ESTIMATOR, 2.0, TS)  # at the bound: taken
 
 
+def test_delta1_unit_slip_below_delta_max_is_named_not_called_unexcited(bench_csv, tmp_path, capsys):
+    """δ1 = 1 mrad written ``delta1 = 1.0`` (below δ_max = 2 rad, so not refused up front): the
+    shaft torque reverses, so the drive sat on its lower contact at Δθ ≈ −δ1, yet the Δθ seen
+    spans about ±0.1 rad — the verdict names δ1 in the summary and the JSON, not converged.
+    Before: "excitation INSUFFICIENT: the shaft torque reversed 12 times but the gap was never
+    crossed … gravity". Negative control: the right δ1 on the same recording is not flagged."""
+    slip = _toml(tmp_path, GOOD_TOML.replace("delta1 = 0.093", "delta1 = 1.0"))
+    out_json = tmp_path / "e.json"
+    code, out, err = _run(
+        ["estimate", str(bench_csv), "--config", str(slip), "--json", str(out_json)], capsys
+    )
+    assert code == 0, err
+    doc = json.loads(out_json.read_text())
+    start = "[backlash] delta1 = 1 rad is outside the observed motor–load offset range ["
+    assert doc["reason"].startswith(start), doc["reason"]
+    assert doc["reason"].endswith("wrong unit? δ1 is in rad — if 1 is in mrad, write 0.001")
+    assert doc["converged"] is False and doc["delta1_outside_range"] is True
+    assert "gravity" not in doc["reason"]
+    assert " ".join(out.split()).count(" ".join(start.split())) == 1, out  # the summary names it
+    assert "excitation not judged: [backlash] delta1" in out and "INSUFFICIENT" not in out
+
+    good = _toml(tmp_path, GOOD_TOML)
+    code, out, err = _run(
+        ["estimate", str(bench_csv), "--config", str(good), "--json", str(out_json)], capsys
+    )
+    doc = json.loads(out_json.read_text())
+    assert code == 0 and doc["delta1_outside_range"] is False and "delta1 =" not in doc["reason"]
+
+
+def test_delta1_outside_range_never_flags_the_right_delta1_of_the_bench_scenarios(tmp_path, capsys):
+    """``simulate bench-0A/bench-0B`` with ``examples/drive_bench.toml`` (δ1 = 0.093 rad, bench-0B's)
+    and with bench-0A's δ1 = δ/2 = 0.5135 rad: never flagged (the configured lower contact lies
+    within a deflection of the lowest Δθ; the threshold is a whole Δθ range beyond it). bench-0B's
+    δ1 on bench-0A is wrong but inside the range: left to the δ1 check, not flagged here; δ1 =
+    1.0 rad on bench-0B (true 0.093) is."""
+    example = Path(__file__).parents[2] / "examples" / "drive_bench.toml"
+    text = example.read_text()
+    rec = {}
+    for name in ("bench-0A", "bench-0B"):
+        rec[name] = tmp_path / f"{name}.parquet"
+        code, _, err = _run(["simulate", name, "-o", str(rec[name]), "--duration", "12"], capsys)
+        assert code == 0, err
+
+    def flagged(name, delta1):
+        cfg = _toml(tmp_path, text.replace("delta1 = 0.093", f"delta1 = {delta1}"))
+        out_json = tmp_path / "e.json"
+        code, _, err = _run(
+            ["estimate", str(rec[name]), "--config", str(cfg), "--json", str(out_json)], capsys
+        )
+        assert code == 0, err
+        return json.loads(out_json.read_text())["delta1_outside_range"]
+
+    assert not flagged("bench-0B", 0.093) and not flagged("bench-0A", 0.5135)
+    assert not flagged("bench-0A", 0.093)
+    assert flagged("bench-0B", 1.0)
+
+
 def test_estimate_plot_and_report(bench_csv, tmp_path, capsys):
     cfg = _toml(tmp_path, GOOD_TOML)
     png, html = tmp_path / "e.png", tmp_path / "e.html"

@@ -564,3 +564,76 @@ def test_a_dangling_symlink_at_an_output_is_named_as_one(tmp_path):
     with Outputs("estimate", force=True) as out:
         write_json(out.staging(out.file(link, option="--json")), {"v": 1})
     assert not link.is_symlink() and json.loads(link.read_text())["v"] == 1
+
+
+def test_an_output_named_by_a_symlink_is_written_through_it(tmp_path):
+    """``--json link.json`` with link.json → a file in another directory: the file there is
+    replaced (atomically, in its own directory), the link stays a link to it; the same for a
+    chain of links, a library write and a directory output. Before: the link was replaced by a
+    regular file and the file it pointed to was left as it was."""
+    here, there = tmp_path / "here", tmp_path / "there"
+    here.mkdir()
+    there.mkdir()
+    real = there / "real.json"
+    with Outputs("estimate") as out:
+        write_json(out.staging(out.file(real, option="--json")), {"v": 1})
+    link = here / "link.json"
+    link.symlink_to(os.path.relpath(real, here))
+    chain = here / "chain.json"
+    chain.symlink_to("link.json")
+
+    for k, name in enumerate([link, chain], start=2):
+        with Outputs("estimate") as out:
+            target = out.file(name, option="--json")
+            assert target == real
+            write_json(out.staging(target), {"v": k})
+        assert json.loads(real.read_text())["v"] == k
+        assert link.is_symlink() and os.readlink(link) == os.path.relpath(real, here)
+        assert chain.is_symlink() and os.readlink(chain) == "link.json"
+        assert sorted(os.listdir(here)) == ["chain.json", "link.json"]  # no litter next to the link
+        assert sorted(os.listdir(there)) == ["real.json"]  # nor next to the target
+    write_json(link, {"v": 9})  # a library call: the one writer's same rule
+    assert link.is_symlink() and json.loads(real.read_text())["v"] == 9
+
+    # a directory output named by a link
+    camp = there / "camp"
+    with Outputs("c") as out:
+        (out.staging(out.directory(camp, option="-o")) / "a.csv").write_text("old")
+    dlink = here / "camp"
+    dlink.symlink_to(camp)
+    with Outputs("c") as out:
+        assert out.directory(dlink, option="-o") == camp
+        (out.staging(camp) / "a.csv").write_text("new")
+    assert dlink.is_symlink() and (camp / "a.csv").read_text() == "new"
+    assert sorted(os.listdir(there)) == ["camp", "real.json"]
+
+
+def test_a_symlink_output_keeps_the_checks_of_its_target(tmp_path):
+    """Written through, a link's target is what is checked: a user's file there needs --force
+    (then it is replaced, the link kept); a target in a read-only directory is one line naming
+    the link and that directory, before any work; a link to an input is the input."""
+    here, there = tmp_path / "here", tmp_path / "there"
+    here.mkdir()
+    there.mkdir()
+    user = there / "notes.json"
+    user.write_text('{"precious": true}')
+    link = here / "link.json"
+    link.symlink_to(user)
+    with pytest.raises(OutputError, match="not a drivelash output; use --force"), Outputs("e") as out:
+        out.file(link, option="--json")
+    assert user.read_text() == '{"precious": true}'
+    with Outputs("e", force=True) as out:
+        write_json(out.staging(out.file(link, option="--json")), {"v": 1})
+    assert link.is_symlink() and json.loads(user.read_text())["v"] == 1
+
+    os.chmod(there, 0o555)
+    try:
+        with pytest.raises(OutputError) as ei, Outputs("e", force=True) as out:
+            out.file(link, option="--json")
+        assert str(ei.value) == (
+            f"--json {link}: a symbolic link to {user}, whose directory {there} is not writable"
+        )
+    finally:
+        os.chmod(there, 0o755)
+    with pytest.raises(OutputError, match="is an input"), Outputs("e", inputs=[user]) as out:
+        out.file(link, option="--json")

@@ -235,3 +235,40 @@ def test_one_recording_and_one_day_are_singular_in_alarm_messages():
     from drivelash.wear.alarms import _days
 
     assert _days(1.0) == "1 day" and _days(60.0) == "60 days" and _days(0.5) == "0.5 days"
+
+
+def test_the_forecast_alarm_prints_a_short_interval_to_the_minute_as_the_fleet_table_does():
+    """The alarm stored at ingest gave the 90 % interval's start as a date ("from 2026-04-20")
+    while the overview printed the same interval to the minute ("2026-04-20 08:57 … 09:29"),
+    which hid that the crossing is known within minutes. One rule now: under 2 days
+    (``MINUTE_INTERVAL_DAYS``) both print minutes, the alarm's start being the table's start;
+    a wide interval (negative control) is dates in both."""
+    from drivelash.report.fleet import _interval
+    from drivelash.wear.words import MINUTE_INTERVAL_DAYS
+
+    def table_and_alarm(noise, std):
+        rng = np.random.default_rng(1)
+        deltas = [0.100 + 0.001 * i + noise * rng.standard_normal() for i in range(10)]
+        trend, _, al = _alarms(_rows(deltas, std), 0.115)
+        fc = trend.forecast
+        summary = {
+            "crossing_early": trend.to_time(fc.t_early),
+            "crossing_late": trend.to_time(fc.t_late),
+            "crossing_late_never": False,
+        }
+        return fc, _interval(summary), al["forecast"].message
+
+    fc, table, msg = table_and_alarm(1e-6, 1e-5)
+    assert fc.t_late - fc.t_early < MINUTE_INTERVAL_DAYS
+    start = table.split(" … ")[0]
+    assert len(start) == len("2026-04-20 08:57"), table
+    assert f"(90 % interval from {start} UTC; expected " in msg, (table, msg)
+    expected = msg.split("expected ")[1]
+    assert len(expected) == len("2026-04-20 09:13 UTC)"), msg
+
+    fc, table, msg = table_and_alarm(1e-3, 1.2e-3)  # wide: dates
+    assert fc.t_late - fc.t_early > MINUTE_INTERVAL_DAYS
+    start = table.split(" … ")[0]
+    assert len(start) == len("2026-04-02"), table
+    assert f"(90 % interval from {start} UTC; expected " in msg and msg.endswith(" UTC)")
+    assert len(msg.split("expected ")[1]) == len("2026-04-19 UTC)"), msg

@@ -389,3 +389,102 @@ def test_the_busy_timeout_is_30_s_unless_the_environment_sets_it(tmp_path, monke
     st = Store(tmp_path / "v.sqlite")
     with st.engine.connect() as conn:
         assert conn.exec_driver_sql("PRAGMA busy_timeout").scalar_one() == 2_500
+
+
+def test_ctrl_c_during_ingest_says_what_the_store_kept(tiny_fleet, tmp_path, monkeypatch, capsys):
+    """Ctrl-C during ``track ingest``: one line, exit 130. Interrupted before any transaction
+    of this ingest: "no output written" and the rows are as they were; interrupted after a
+    committed transaction: the line names the store instead of claiming nothing was written."""
+    from drivelash import cli
+
+    fleet, held = _fleet_copy(tiny_fleet, tmp_path / "f", hold_back=2)
+    db = tmp_path / "w.sqlite"
+    args = ["track", "ingest", str(fleet / "fleet.toml"), "--db", str(db), "--workers", "1"]
+    assert _main(cli, args) == 0
+    for aside, p in held:
+        aside.rename(p)
+    before = _state(db)
+    capsys.readouterr()
+    commit_batch = Store.commit_batch
+
+    def interrupted_before(self, *a, **k):
+        raise cli.Interrupted()
+
+    monkeypatch.setattr(Store, "commit_batch", interrupted_before)
+    assert _main(cli, args) == 130
+    lines = [x for x in capsys.readouterr().err.splitlines() if x.strip()]  # the progress line ends
+    assert lines == ["drivelash: interrupted; no output written"]
+    assert _state(db) == before
+
+    def interrupted_after(self, *a, **k):
+        commit_batch(self, *a, **k)
+        raise cli.Interrupted()
+
+    monkeypatch.setattr(Store, "commit_batch", interrupted_after)
+    assert _main(cli, args) == 130
+    store = f"sqlite:///{db}"  # the store as every message names it
+    line = f"drivelash: interrupted after writing {store} (the transactions committed so far)"
+    line += "; nothing else written"
+    assert [x for x in capsys.readouterr().err.splitlines() if x.strip()] == [line]
+    assert len(_state(db)[0]) == len(before[0]) + 2
+
+
+@pytest.fixture
+def tiny_tmpfs(tmp_path):
+    """A 16 KiB tmpfs (root only): too small for SQLite's WAL files of a new store."""
+    d = tmp_path / "small"
+    d.mkdir()
+    if os.geteuid() != 0 or shutil.which("mount") is None:
+        pytest.skip("mounting a tmpfs needs root")
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=16k", "tmpfs", str(d)], capture_output=True)
+    if r.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {r.stderr.decode().strip()}")
+    try:
+        yield d
+    finally:
+        subprocess.run(["umount", str(d)], check=False)
+
+
+def test_a_new_store_on_a_full_disk_says_the_disk_is_full(tiny_fleet, tmp_path, tiny_tmpfs, capsys):
+    """A first ingest into a store on a (16 KiB) full disk: SQLite fails to create its WAL files
+    with "disk I/O error", which the line used to repeat ("cannot open the store (disk I/O
+    error)"); it now says the disk is full, naming the store file, exit 2."""
+    from drivelash import cli
+
+    fleet, _ = _fleet_copy(tiny_fleet, tmp_path / "f")
+    db = tiny_tmpfs / "w.sqlite"
+    args = ["track", "ingest", str(fleet / "fleet.toml"), "--db", str(db), "--workers", "1"]
+    assert _main(cli, args) == 2
+    line = _one_error_line(capsys.readouterr().err)
+    assert line.startswith(f"drivelash: error: {db}: the disk is full ("), line
+    assert "nothing was written" in line and "free space" in line and "cannot open the store" not in line
+
+
+@pytest.mark.parametrize("free", [0, 64 << 20], ids=["full", "plenty-free"])
+def test_a_disk_io_error_is_called_a_full_disk_only_when_the_disk_is_full(tmp_path, monkeypatch, free):
+    """The same SQLite "disk I/O error" while creating a store: "the disk is full" when the
+    store's file system has less than FULL_DISK_BYTES free; with 64 MiB free (negative control)
+    SQLite's own words, not a full disk."""
+    import drivelash.wear.store as store_mod
+    from drivelash.errors import DrivelashError
+
+    migrate = Store._migrate
+
+    def io_error(self, create):
+        def fail(conn, cursor, statement, *a):
+            raise sqlite3.OperationalError("disk I/O error")
+
+        sa.event.listen(self.engine, "before_cursor_execute", fail)
+        migrate(self, create)
+
+    monkeypatch.setattr(Store, "_migrate", io_error)
+    monkeypatch.setattr(store_mod, "_free_bytes", lambda d: free)
+    db = tmp_path / "w.sqlite"
+    with pytest.raises(DrivelashError) as ei:
+        Store(db)
+    msg = str(ei.value)
+    assert "\n" not in msg
+    if free < store_mod.FULL_DISK_BYTES:
+        assert msg.startswith(f"{db}: the disk is full (0 bytes free; SQLite: disk I/O error)"), msg
+    else:
+        assert "disk is full" not in msg and "disk I/O error" in msg, msg

@@ -158,6 +158,8 @@ def _print_summary(s: dict[str, Any]) -> None:
 
     c = Console()
     verdict = "[green]sufficient[/green]" if s["excitation_ok"] else "[red]INSUFFICIENT[/red]"
+    if s.get("delta1_outside_range"):  # the reason names a wrong δ1, not the recording
+        verdict = "[red]not judged[/red]"
     c.print(
         f"[bold]deadzone estimate[/bold] ({s['method']} method, {s['samples']} samples at {s['T_s']:.3g} s)"
     )

@@ -66,6 +66,7 @@ from drivelash.params import (
     EstimatorConfig,
     Method,
     check_delta1_bound,
+    delta1_outside_range,
     delta1_tolerance,
     is_real_number,
 )
@@ -713,7 +714,7 @@ def _verdict(
     T_s, n = setup.T_s, mo.n
     st = main.state
     default = cfg.method == "default"
-    extra: dict[str, Any] = {}
+    extra: dict[str, Any] = {"delta1_outside_range": False}
     warnings: list[str] = []
 
     n_trav = int(st[dz.S_TRAV])
@@ -755,7 +756,15 @@ def _verdict(
                 f"({cfg.T_thr:.3g} N·m) — the motion seems to stay inside the deadzone (gap)"
             )
         elif raw_trav >= 2:
-            reason = (
+            # the load moved back and forth with the shaft torque reversing: unless one flank
+            # kept it (gravity), the drive sat on its lower contact, Δθ = −δ1 − deflection; a
+            # configured δ1 far outside the Δθ seen is a wrong δ1 (a unit slip below δ_max)
+            deflection = peak_tq / (min(_kappa(main) if default else 1.0, 1.0) * setup.drivetrain.K_S)
+            d1_outside = delta1_outside_range(
+                setup.delta1, float(st[dz.S_DTH_MIN]), float(st[dz.S_DTH_MAX]), deflection
+            )
+            extra["delta1_outside_range"] = d1_outside is not None
+            reason = d1_outside or (
                 f"the shaft torque reversed {raw_trav} times but the gap was never crossed: one "
                 "flank keeps the load (a constant load torque such as gravity, or a preload), "
                 "so the gap cannot be seen"

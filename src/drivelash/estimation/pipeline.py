@@ -247,6 +247,7 @@ def result_summary(res: Any) -> dict[str, Any]:
     keys = (
         "delta1_check_result",
         "delta1_used",
+        "delta1_outside_range",
         "dtheta_range",
         "traversals",
         "torque_reversals",

@@ -22,6 +22,11 @@ What a user can rely on (each point is tested in ``tests/io/test_outputs.py``):
   (a model or campaign), and not the path of another output of the same command.
   Each problem is one line: ``--json run.parquet: is an input of this command; choose
   another path``.
+- **Symbolic links are written through**: an output path that is a link (or a chain of
+  links) to an existing file or directory names that target: it is checked (ownership,
+  inputs, a writable directory) and replaced atomically in its own directory, and the link
+  stays as it is (:func:`through_link`; library writes too). A dangling link is refused in
+  one line (it may point into an unmounted share); ``--force`` replaces the link itself.
 - **Never lose a user's file**: an existing file or directory at an output path is
   replaced only if it is recognisably a drivelash output (:func:`is_own_output`) or
   with ``force=True`` (``--force``); the check is repeated under the lock at commit.
@@ -88,7 +93,11 @@ __all__ = [
     "is_own_output",
     "is_staging_path",
     "output_command",
+    "forget_written",
+    "note_written",
+    "written_outputs",
     "signature",
+    "through_link",
     "jsonable",
     "write_json",
 ]
@@ -131,6 +140,11 @@ WRITE_ERRNOS: frozenset[int] = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBI
 #: Staging path → command of the :class:`Outputs` that made it (read by :func:`signature`).
 _STAGED_BY: dict[str, str] = {}
 
+#: Outputs put in place by :meth:`Outputs.commit` (or noted by :func:`note_written`) in this
+#: process since :func:`forget_written`: key → how the user sees it (the CLI's line after
+#: Ctrl-C or SIGTERM says which were written).
+_WRITTEN: dict[str, str] = {}
+
 #: Formats whose signature records the command that wrote the file (:func:`signature`);
 #: a file of these kinds that carries only ``drivelash <version>`` was written before the
 #: command was recorded (or by a library call), so a command replaces it only with ``--force``.
@@ -138,6 +152,22 @@ _RECORDS_COMMAND: tuple[str, ...] = (".json", ".html", ".htm", ".png", ".pdf", "
 #: Recordings (and CSV text tables): the command is in the metadata's ``generator`` when the
 #: file was written by a command since it was recorded; an older one still counts as ours.
 _RECORDING_KINDS: tuple[str, ...] = (".parquet", ".pq", ".csv", ".h5", ".hdf5", ".hdf", ".mat")
+
+
+# =========================================================================== written
+def written_outputs() -> list[str]:
+    """Outputs committed in this process since :func:`forget_written` (as the user named them)."""
+    return list(_WRITTEN.values())
+
+
+def note_written(key: str, shown: str) -> None:
+    """Record an output written outside :class:`Outputs` (a store's committed transaction)."""
+    _WRITTEN[key] = shown
+
+
+def forget_written() -> None:
+    """Start a new count for :func:`written_outputs` (the CLI calls it when a command starts)."""
+    _WRITTEN.clear()
 
 
 # =========================================================================== signature
@@ -247,6 +277,17 @@ def _name_max(directory: Path) -> int:
         return int(os.pathconf(directory, "PC_NAME_MAX"))
     except (OSError, ValueError):
         return 255
+
+
+def through_link(path: Path) -> Path:
+    """Where writing ``path`` puts the content: the file a symbolic link at ``path`` points to
+    (resolved through every link), else ``path`` itself.
+
+    The one rule of every writer: an output named by a link is written through it, the target
+    replaced atomically in the target's own directory, the link left as it is (a ``latest.json``
+    link into a run directory stays a link).
+    """
+    return Path(os.path.realpath(path)) if path.is_symlink() else path
 
 
 def _umask() -> int:
@@ -584,7 +625,7 @@ def atomic_write(path: str | Path) -> Iterator[Path]:
     No ownership checks (a library call replaces its target, as ``pandas.to_parquet``
     does); commands use :class:`Outputs`. On an exception the temporary file is removed.
     """
-    dst = Path(os.path.abspath(path))
+    dst = through_link(Path(os.path.abspath(path)))
     tmp = _new_stage(dst, directory=False)
     try:
         yield tmp
@@ -615,7 +656,7 @@ def write_target(path: str | Path) -> Iterator[Path]:
 # =========================================================================== Outputs
 @dataclass
 class _Target:
-    path: Path  # absolute; parent resolved, last component as given
+    path: Path  # absolute; parent resolved, last component as given (a live link: its target)
     option: str
     directory: bool
     stage: Path | None = None
@@ -782,6 +823,23 @@ class Outputs:
         target = _resolved(parent) / p.name
         if p.name in ("", ".", ".."):
             target = _resolved(p)
+        elif target.is_symlink() and target.exists():
+            # written through the link: the checks above again for where it points
+            target = through_link(target)
+            real = target.parent
+            mode = real.stat().st_mode
+            if not os.access(real, os.W_OK | os.X_OK) or not (mode & 0o222):
+                raise self._fail(
+                    option, raw, f"a symbolic link to {target}, whose directory {real} is not writable"
+                )
+            n, name_max = len(os.fsencode(target.name)), _name_max(real)
+            if n > name_max - STAGE_NAME_OVERHEAD:
+                raise self._fail(
+                    option,
+                    raw,
+                    f"a symbolic link to {target}, whose name is too long for its temporary name"
+                    f" ({n} bytes; at most {name_max - STAGE_NAME_OVERHEAD} there)",
+                )
         return p, target
 
     def _check_inputs(self, option: str, raw: Path, target: Path, directory: bool) -> None:
@@ -1020,6 +1078,8 @@ class Outputs:
             self.abort()
             raise
         self._done = True
+        for t in staged:
+            _WRITTEN[os.fspath(t.path)] = t.shown or os.fspath(t.path)
         for o in old:  # the old copies go last, after every new output is in place
             _remove(o)
         return [t.path for t in staged]

@@ -22,7 +22,7 @@ import numpy as np
 from drivelash.report.html import Figure, Section, render_html
 from drivelash.wear.alarms import stale_notes
 from drivelash.wear.trend import UNCONVERGED_MAX_U95
-from drivelash.wear.words import count
+from drivelash.wear.words import count, crossing_interval
 
 __all__ = ["render_fleet_report", "write_fleet_report"]
 
@@ -35,23 +35,10 @@ def _day(t: datetime | None) -> str:
     return t.strftime("%Y-%m-%d") if t is not None else "–"
 
 
-#: A crossing interval shorter than this is printed to the minute [days]: as dates alone its ends
-#: read "2026-01-13 … 2026-01-13", which says nothing about its width.
-MINUTE_INTERVAL_DAYS = 2.0
-
-
 def _interval(s: dict[str, Any]) -> str:
     """The crossing's 90 % interval (UTC): dates, or dates and times when it is shorter than
-    :data:`MINUTE_INTERVAL_DAYS`."""
-    early, late = s["crossing_early"], s["crossing_late"]
-    if early is None:
-        return "–"
-    if s["crossing_late_never"]:
-        return f"{_day(early)} … never"
-    if late is not None and (late - early).total_seconds() < MINUTE_INTERVAL_DAYS * 86400.0:
-        end = late.strftime("%H:%M" if late.date() == early.date() else "%Y-%m-%d %H:%M")
-        return f"{early.strftime('%Y-%m-%d %H:%M')} … {end}"
-    return f"{_day(early)} … {_day(late)}"
+    :data:`~drivelash.wear.words.MINUTE_INTERVAL_DAYS` (the rule of the alarm messages too)."""
+    return crossing_interval(s["crossing_early"], s["crossing_late"], s["crossing_late_never"])
 
 
 def overview_rows(summaries: list[dict[str, Any]]) -> list[list[Any]]:

@@ -26,7 +26,7 @@ import numpy as np
 
 from drivelash.wear.store import Store
 from drivelash.wear.trend import AxisTrend, analyse, usable
-from drivelash.wear.words import count
+from drivelash.wear.words import count, crossing_time, to_the_minute
 
 __all__ = [
     "Alarm",
@@ -106,14 +106,16 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
                 )
             )
         elif fc.t_early is not None and fc.t_early - float(trend.t[-1]) <= axis["horizon_days"]:
-            when = trend.to_time(fc.t_cross)
+            when, early = trend.to_time(fc.t_cross), trend.to_time(fc.t_early)
+            late = trend.to_time(fc.t_late) if fc.t_late is not None and math.isfinite(fc.t_late) else None
+            minute = to_the_minute(early, late)  # the fleet table's rule for the same interval
             out.append(
                 Alarm(
                     "forecast",
                     "within-horizon",
                     f"{name}: threshold {1e3 * thr:.2f} mrad may be crossed within "
                     f"{_days(axis['horizon_days'])} (90 % interval from "
-                    f"{_day(trend.to_time(fc.t_early))}; expected {_day(when)})",
+                    f"{crossing_time(early, minute)} UTC; expected {crossing_time(when, minute)} UTC)",
                     last_used,
                 )
             )

@@ -278,6 +278,15 @@ def _url(db: str | Path) -> sa.URL:
         raise StoreError(f"--db {s!r}: not a database URL or file path") from None
 
 
+#: Key in a connection's ``info``: the current write transaction changed what the store holds.
+_WROTE = "drivelash_wrote"
+
+
+def _wrote(conn: sa.Connection) -> None:
+    """Mark the write transaction of ``conn`` as one that stores something (see ``Store._write``)."""
+    conn.info[_WROTE] = True
+
+
 def _sqlite_file(url: sa.URL) -> str | None:
     """The local file of an SQLite URL; None for a database server or an in-memory SQLite."""
     if url.drivername.startswith("sqlite") and url.database not in (None, "", ":memory:"):
@@ -350,6 +359,22 @@ def _kind(exc: BaseException) -> str | None:
     if "database or disk is full" in text or code in ("53100", "53200"):
         return "full"
     return "other"
+
+
+#: An SQLite "disk I/O error" on a file system with less free space than this [bytes] is taken
+#: for a full disk: SQLite reports a full disk as an I/O error where it maps its ``-shm`` file
+#: or writes its ``-wal`` file (a new store on a disk with 8–32 KiB free: "disk I/O error").
+FULL_DISK_BYTES = 1 << 20
+
+
+def _free_bytes(directory: str | Path) -> int | None:
+    """Free space [bytes] of the file system holding ``directory`` (what this user may use:
+    root writes into the reserved blocks as well); None when it cannot be asked."""
+    try:
+        st = os.statvfs(directory)
+    except OSError:
+        return None
+    return (st.f_bfree if os.geteuid() == 0 else st.f_bavail) * st.f_frsize
 
 
 def sqlite_access_problem(path: str | Path, write: bool) -> str | None:
@@ -465,7 +490,7 @@ class Store:
             self._migrate(create)
         except (OperationalError, DBAPIError, OSError) as exc:
             self.engine.dispose()
-            if _kind(exc) in ("locked", "full"):
+            if _kind(exc) in ("locked", "full") or self._disk_full_io(exc) is not None:
                 raise self.failure(exc, "nothing was written") from None  # type: ignore[misc]
             if isinstance(exc, OSError):
                 raise
@@ -500,6 +525,7 @@ class Store:
                 return
             cfg.attributes["connection"] = conn
             command.upgrade(cfg, "head")
+            _wrote(conn)
 
     def _access_error(self, exc: BaseException, what: str, consequence: str) -> StoreError | None:
         """The one-line :class:`StoreError` for an SQLite file this process may not open or
@@ -532,8 +558,14 @@ class Store:
         migration included) goes through here, so two processes on one store never interleave
         a read-then-insert (two first ingests on an empty database both creating the schema,
         or both inserting one recording).
+
+        A committed transaction marked with :func:`_wrote` (a schema created, an axis
+        registered, a recording re-dated, a batch of results: what ``track ingest``'s messages
+        count as written) is noted with :func:`drivelash.io.outputs.note_written`, so the line
+        after Ctrl-C names the store rather than claiming nothing was written.
         """
         with self.engine.begin() as conn:
+            conn.info.pop(_WROTE, None)
             if self.backend == "sqlite":
                 conn.exec_driver_sql("BEGIN IMMEDIATE")
             elif self.backend == "postgresql":
@@ -544,6 +576,11 @@ class Store:
                 conn.execute(sa.text("SELECT set_config('lock_timeout', :v, true)"), {"v": f"{ms}ms"})
                 conn.execute(sa.text("SELECT pg_advisory_xact_lock(:k)"), {"k": PG_WRITE_LOCK})
             yield conn
+            wrote = conn.info.pop(_WROTE, False)
+        if wrote:
+            from drivelash.io.outputs import note_written
+
+            note_written(f"store:{self.name}", f"{self.name} (the transactions committed so far)")
 
     def failure(self, exc: BaseException, consequence: str) -> StoreError | None:
         """The one-line :class:`StoreError` for an operational failure of the store, else None.
@@ -565,6 +602,13 @@ class Store:
         kind = _kind(exc)
         if kind is None:
             return None
+        free = self._disk_full_io(exc)
+        if free is not None:
+            return StoreError(
+                f"{_sqlite_file(self.url)}: the disk is full ({free} bytes free; SQLite: {_brief(exc)}); "
+                f"the transaction was rolled back and {consequence} — free space for the store and run it "
+                "again"
+            )
         if kind == "other":
             err = self._access_error(exc, "write", consequence)
             if err is not None:
@@ -585,6 +629,17 @@ class Store:
         return StoreError(
             f"{self.name}: the store failed ({brief}); {consequence} — check the database, then run it again"
         )
+
+    def _disk_full_io(self, exc: BaseException) -> int | None:
+        """The free bytes of the store's file system when ``exc`` is SQLite's "disk I/O error"
+        on a full disk (less than :data:`FULL_DISK_BYTES` free); else None."""
+        path = _sqlite_file(self.url)
+        if path is None or not isinstance(exc, DBAPIError):
+            return None
+        if "disk i/o error" not in str(getattr(exc, "orig", None) or exc).lower():
+            return None
+        free = _free_bytes(Path(path).parent)
+        return free if free is not None and free < FULL_DISK_BYTES else None
 
     @contextmanager
     def guard(self, consequence: str | Callable[[], str]) -> Iterator[None]:
@@ -637,6 +692,7 @@ class Store:
                 row = conn.execute(sa.select(axis_t.c.id).where(axis_t.c.name == a.name)).first()
                 if row is None:
                     ids[a.name] = int(conn.execute(sa.insert(axis_t).values(**vals)).inserted_primary_key[0])
+                    _wrote(conn)
                 else:
                     conn.execute(sa.update(axis_t).where(axis_t.c.id == row.id).values(**vals))
                     ids[a.name] = int(row.id)
@@ -771,6 +827,8 @@ class Store:
                 ).scalar()
                 new = utc_naive(start)
                 moved += old != new
+                if old != new:
+                    _wrote(conn)
                 conn.execute(
                     sa.update(recording_t)
                     .where(recording_t.c.id == rid)
@@ -810,6 +868,7 @@ class Store:
         now = _now()
         keyed = [(axis_ids[r.axis], r) for r in rows]  # an unknown axis fails before any write
         with self._write() as conn:
+            _wrote(conn)
             hashes = sorted({r.content_hash for _, r in keyed})
             rec_id: dict[tuple[int, str], int] = {}
             rec_path: dict[tuple[int, str], str] = {}
