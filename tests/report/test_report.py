@@ -271,3 +271,56 @@ def test_report_time_is_now_or_source_date_epoch(monkeypatch):
     monkeypatch.setenv("SOURCE_DATE_EPOCH", "2026-01-01")
     with pytest.raises(ParameterError, match="SOURCE_DATE_EPOCH: must be whole seconds since 1970"):
         generated_at()
+
+
+def _drawn_figures(monkeypatch) -> dict[str, object]:
+    """Capture the matplotlib figures a report draws (key → Figure), instead of only its PNGs."""
+    from matplotlib.figure import Figure as MplFigure
+
+    import drivelash.report.html as rhtml
+
+    drawn: dict[str, object] = {}
+    real = rhtml.png_bytes
+
+    def capture(spec, dpi=90):
+        fig = MplFigure(figsize=spec.size, dpi=dpi, layout="constrained")
+        spec.draw(fig)
+        drawn[spec.key] = fig
+        return real(spec, dpi)
+
+    monkeypatch.setattr(rhtml, "png_bytes", capture)
+    return drawn
+
+
+def test_deadzone_picture_draws_the_gap_the_estimator_ended_with(monkeypatch, estimate_run):
+    """The deadzone picture's model line and shaded gap use the δ1 the estimator used (the data's,
+    when the δ1 check switched) and the reported δ̂ and stiffness scale — not the configured δ1:
+    on bench-0A with δ1 = 93 mrad configured, the data's lower contact at −513.6 mrad had been drawn
+    at −93 mrad, the gap shaded from −93 to +934 mrad where the estimate put it at ±513."""
+    import dataclasses
+
+    from drivelash.report import render_estimate_report
+
+    tr, result, cfg = estimate_run
+    d1_used, kappa = 0.5136, 0.75
+    res = dataclasses.replace(
+        result, extra={**result.extra, "delta1_used": d1_used, "stiffness_scale": kappa}
+    )
+    drawn = _drawn_figures(monkeypatch)
+    render_estimate_report(tr, res, cfg)
+    ax = drawn["deadzone"].axes[0]
+    line = next(ln for ln in ax.get_lines() if ln.get_label().startswith("deadzone with final δ̂"))
+    assert "δ1 = 513.6 mrad" in line.get_label() and "κ = 0.75" in line.get_label()
+    x, y = (np.asarray(v, float) for v in line.get_data())
+    flat = x[np.abs(y) < 1e-12]
+    lo, hi = -1e3 * d1_used, 1e3 * (res.delta - d1_used)
+    grid_step = float(np.diff(x).max())
+    clipped_lo, clipped_hi = max(lo, x.min()), min(hi, x.max())
+    assert abs(flat.min() - clipped_lo) <= grid_step and abs(flat.max() - clipped_hi) <= grid_step
+    outside = x > hi + grid_step
+    if outside.any():
+        slope = np.diff(y[outside]) / np.diff(x[outside] * 1e-3)
+        np.testing.assert_allclose(slope, kappa * cfg.drivetrain.K_S, rtol=1e-6)
+    (span,) = ax.patches  # the shaded gap (an axvspan: a Rectangle in data x)
+    x0 = span.get_x()
+    assert np.isclose(x0, lo) and np.isclose(x0 + span.get_width(), hi)

@@ -159,6 +159,14 @@ def render_estimate_report(trace: Any, result: Any, config: Any = None, *, title
         k_s = config.drivetrain.K_S
     if config is not None and getattr(config, "backlash", None) is not None:
         delta1 = config.backlash.delta1
+    extra_est = getattr(result, "extra", {}) or {}
+    # the lower contact the estimator ended with (the configured δ1, or the one the data gave when
+    # the δ1 check switched), and its learned stiffness scale: the line is the model δ̂ belongs to
+    d1_used = extra_est.get("delta1_used")
+    if isinstance(d1_used, int | float) and np.isfinite(d1_used):
+        delta1 = float(d1_used)
+    kappa = extra_est.get("stiffness_scale")
+    kappa = float(kappa) if isinstance(kappa, int | float) and np.isfinite(kappa) and kappa > 0 else 1.0
 
     def draw_deadzone(fig: Any) -> None:
         ax = fig.subplots()
@@ -168,14 +176,17 @@ def render_estimate_report(trace: Any, result: Any, config: Any = None, *, title
         xh, yh = _thin(dtheta[half] * 1e3, tq_hat[half])
         ax.plot(xh, yh, ".", ms=1.5, alpha=0.5, color="#e67e22", label="T_l(x, δ̂), second half")
         if k_s is not None and delta1 is not None and dh.size:
-            d_fin = float(dh[-1])
+            d_fin = float(getattr(result, "delta", dh[-1]))  # the reported δ̂ (the JSON's)
+            k_eff = kappa * k_s
             grid = np.linspace(float(np.min(dtheta)), float(np.max(dtheta)), 800)
             static = np.where(
                 grid < -delta1,
-                k_s * (grid + delta1),
-                np.where(grid > d_fin - delta1, k_s * (grid + delta1 - d_fin), 0.0),
+                k_eff * (grid + delta1),
+                np.where(grid > d_fin - delta1, k_eff * (grid + delta1 - d_fin), 0.0),
             )
-            ax.plot(grid * 1e3, static, color="#c0392b", lw=1.5, label="deadzone with final δ̂ (K_S, δ1)")
+            k_txt = "K_S" if kappa == 1.0 else f"κ K_S, κ = {kappa:.2f}"
+            label = f"deadzone with final δ̂ ({k_txt}, δ1 = {1e3 * delta1:.1f} mrad)"
+            ax.plot(grid * 1e3, static, color="#c0392b", lw=1.5, label=label)
             ax.axvspan(-delta1 * 1e3, (d_fin - delta1) * 1e3, color="#f3e5c8", alpha=0.4, lw=0)
         lo, hi = np.percentile(np.concatenate([y1, yh]), [0.5, 99.5]) if y1.size else (0.0, 1.0)
         pad = 0.15 * (hi - lo) + 1e-9
