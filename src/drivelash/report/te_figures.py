@@ -152,6 +152,15 @@ def fig_sine(unc: dict, comp: dict, r_eff: float, path: Path) -> None:
     plt.close(fig)
 
 
+def _cell_edges(centers: np.ndarray) -> np.ndarray:
+    """Edges of cells centred on sorted ``centers``: midpoints, half a step beyond the ends."""
+    if centers.size == 1:
+        return np.array([centers[0] - 250.0, centers[0] + 250.0])
+    mid = 0.5 * (centers[1:] + centers[:-1])
+    first, last = centers[0] - (mid[0] - centers[0]), centers[-1] + (centers[-1] - mid[-1])
+    return np.concatenate(([first], mid, [last]))
+
+
 def fig_heatmaps(rows: list[dict[str, Any]], train_max_load: float, path: Path) -> None:
     import matplotlib
 
@@ -162,6 +171,15 @@ def fig_heatmaps(rows: list[dict[str, Any]], train_max_load: float, path: Path) 
     vels = sorted({r["velocity"] for r in rows})
     loads = sorted({r["load"] for r in rows})
     xs = sorted({r["x_start"] for r in rows})
+    x_end = {r["x_start"]: r.get("x_end") for r in rows}
+    last = x_end.get(xs[-1])
+    step = xs[1] - xs[0] if len(xs) > 1 else 0.1
+    x_edges = np.array([*xs, last if last is not None and last > xs[-1] else xs[-1] + step])
+    load_edges = _cell_edges(np.asarray(loads, float))
+    # the training range limit: between the last training load and the first beyond it
+    inside = [f for f in loads if f <= train_max_load]
+    beyond = [f for f in loads if f > train_max_load]
+    limit_y = 0.5 * (inside[-1] + beyond[0]) if inside and beyond else None
     fig, axes = plt.subplots(
         len(dirs), len(vels) + 1, figsize=(4.2 * (len(vels) + 1), 4.2 * len(dirs)), squeeze=False,
         layout="constrained",
@@ -177,12 +195,13 @@ def fig_heatmaps(rows: list[dict[str, Any]], train_max_load: float, path: Path) 
                 warnings.simplefilter("ignore", RuntimeWarning)
                 summary[j] = np.nanmean(grid, axis=1)
             ax = axes[i, j + 1]
-            im = ax.imshow(grid, origin="lower", aspect="auto", cmap="RdYlGn", vmin=0, vmax=100,
-                           extent=(xs[0] * 1e3, (xs[-1] + (xs[1] - xs[0] if len(xs) > 1 else 0.1)) * 1e3,
-                                   loads[0] - 250, loads[-1] + 250))  # fmt: skip
-            ax.axhline(train_max_load + 250, color="k", lw=1, ls="--")
+            # each cell spans its section (x_start … x_end) and its load, whatever the load grid
+            im = ax.pcolormesh(x_edges * 1e3, load_edges, grid, cmap="RdYlGn", vmin=0, vmax=100)
+            if limit_y is not None:
+                ax.axhline(limit_y, color="k", lw=1, ls="--")
+            ax.set_yticks(loads, [f"{f:g}" for f in loads], fontsize=7)
             ax.set_title(f"dir {d:+d}, v = {v * 1e3:g} mm/s", fontsize=9)
-            ax.set_xlabel("section start x_T [mm]")
+            ax.set_xlabel("x_T [mm] (100 mm sections)")
             ax.set_ylabel("load [N]")
         ax = axes[i, 0]
         im = ax.imshow(summary.T, origin="lower", aspect="auto", cmap="RdYlGn", vmin=0, vmax=100)

@@ -1,0 +1,52 @@
+"""The TE validation figures show each number where its axes say it is."""
+
+from __future__ import annotations
+
+import numpy as np
+
+import drivelash.report.te_figures as tf
+
+
+def _rows(loads, xs=(0.055, 0.155, 0.255, 0.355), x_last=0.445):
+    rows = []
+    for f in loads:
+        for k, x0 in enumerate(xs):
+            x1 = xs[k + 1] if k + 1 < len(xs) else x_last
+            rows.append({"direction": 1, "velocity": 0.05, "load": f, "x_start": x0, "x_end": x1,
+                         "improvement": 0.9 - f / 1e4})  # fmt: skip
+    return rows
+
+
+def _drawn(monkeypatch, rows, train_max_load, tmp_path):
+    figs = []
+    monkeypatch.setattr(tf, "save_figure", lambda fig, path, **kw: figs.append(fig))
+    tf.fig_heatmaps(rows, train_max_load, tmp_path / "fig9.png")
+    return figs[0]
+
+
+def test_section_heatmap_puts_each_load_in_its_own_cell_and_the_limit_between_them(monkeypatch, tmp_path):
+    """`te validate --quick` runs loads 0/2000/4000 N: the section panels drew them on a fixed
+    500 N grid (2000 N at 1250–2750, 4000 N at 2750–4250) with the training limit at 3250 N."""
+    fig = _drawn(monkeypatch, _rows([0.0, 2000.0, 4000.0]), 3000.0, tmp_path)
+    ax = fig.axes[1]  # dir +1, v = 50 mm/s
+    (mesh,) = ax.collections
+    xy = mesh.get_coordinates()  # (n_loads + 1, n_sections + 1, 2)
+    y_edges, x_edges = xy[:, 0, 1], xy[0, :, 0]
+    for k, f in enumerate((0.0, 2000.0, 4000.0)):
+        assert y_edges[k] < f < y_edges[k + 1]
+        assert np.isclose(0.5 * (y_edges[k] + y_edges[k + 1]), f)
+    np.testing.assert_allclose(x_edges, [55, 155, 255, 355, 445])  # the last section ends at 445 mm
+    (limit,) = [ln for ln in ax.get_lines() if ln.get_linestyle() == "--"]
+    y = limit.get_ydata()[0]
+    assert 2000.0 < y < 4000.0 and np.isclose(y, y_edges[2])  # the cell border between 2000 and 4000 N
+    np.testing.assert_allclose(mesh.get_array().reshape(3, 4)[:, 0], [90, 70, 50])
+
+
+def test_section_heatmap_full_protocol_grid_is_unchanged(monkeypatch, tmp_path):
+    """On the full protocol's 500 N grid the limit stays at 3250 N, between 3000 and 3500 N."""
+    loads = [500.0 * k for k in range(11)]
+    ax = _drawn(monkeypatch, _rows(loads), 3000.0, tmp_path).axes[1]
+    (limit,) = [ln for ln in ax.get_lines() if ln.get_linestyle() == "--"]
+    assert np.isclose(limit.get_ydata()[0], 3250.0)
+    y_edges = ax.collections[0].get_coordinates()[:, 0, 1]
+    np.testing.assert_allclose(y_edges, np.arange(-250.0, 5500.0, 500.0))
