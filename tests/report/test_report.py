@@ -324,3 +324,29 @@ def test_deadzone_picture_draws_the_gap_the_estimator_ended_with(monkeypatch, es
     (span,) = ax.patches  # the shaded gap (an axvspan: a Rectangle in data x)
     x0 = span.get_x()
     assert np.isclose(x0, lo) and np.isclose(x0 + span.get_width(), hi)
+
+
+def test_identify_reports_residual_axes_state_their_unit(monkeypatch):
+    """The residual panels under the measured-vs-model plots had a bare "residual" y label: the
+    rigid report's is in the force unit (N·m here), the two-mass one's in rad/s² like the
+    acceleration above it."""
+    import drivelash as dl
+    from drivelash.estimation.identify import identify_rigid
+    from drivelash.io import Trace
+    from drivelash.report.identify_figures import render_two_mass_report
+    from drivelash.sim import get_scenario
+
+    t = np.arange(6000) * 1e-3
+    q = np.sin(2 * np.pi * 0.5 * t) + 0.2 * np.sin(2 * np.pi * 2.1 * t)
+    dq = np.gradient(q, 1e-3)
+    tau = 3 * np.gradient(dq, 1e-3) + 0.5 * dq + 0.2 * np.sign(dq)
+    tr = Trace({"t": t, "theta_m": q, "torque_m": tau}, {"source": "synthetic.csv"})
+    drawn = _drawn_figures(monkeypatch)
+    render_identify_report(tr, identify_rigid(tr), None)
+    labels = [ax.get_ylabel() for f in drawn.values() for ax in f.axes]
+    assert "residual [N·m]" in labels and "residual" not in labels
+    run = get_scenario("bench-0C").simulate(duration=4.0, seed=1)
+    drawn.clear()
+    render_two_mass_report(run, dl.identify_drive(run, model="two-mass", N=1.0), None)
+    labels = [ax.get_ylabel() for f in drawn.values() for ax in f.axes]
+    assert labels.count("residual [rad/s²]") == 2 and "residual" not in labels

@@ -395,7 +395,7 @@ def render_identify_report(
         axes[0].set_ylabel(f"force/torque [{u['force']}]")
         axes[0].legend(fontsize=8, loc="upper right")
         axes[1].plot(result.t, result.y - result.y_hat, lw=0.7, color="k")
-        axes[1].set_ylabel("residual")
+        axes[1].set_ylabel(f"residual [{u['force']}]")
         axes[1].set_xlabel("time [s]")
         for ax in axes:
             ax.grid(alpha=0.3)

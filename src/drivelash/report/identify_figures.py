@@ -150,7 +150,7 @@ def render_two_mass_report(trace: Any, result: Any, config: Any = None, *, onlin
             ax.legend(fontsize=8, loc="upper right")
             res = np.where(m_t, a_t - ah_t, np.nan)
             axr.plot(t, res, lw=0.5, color="k")
-            axr.set_ylabel("residual")
+            axr.set_ylabel("residual [rad/s²]")
             for a_ in (ax, axr):
                 a_.grid(alpha=0.3)
         axes[-1].set_xlabel("time [s] (gaps: standstill windows left out)")
