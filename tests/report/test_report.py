@@ -350,3 +350,13 @@ def test_identify_reports_residual_axes_state_their_unit(monkeypatch):
     render_two_mass_report(run, dl.identify_drive(run, model="two-mass", N=1.0), None)
     labels = [ax.get_ylabel() for f in drawn.values() for ax in f.axes]
     assert labels.count("residual [rad/s²]") == 2 and "residual" not in labels
+
+
+def test_interval_text_has_no_bare_trailing_point():
+    """The KUKA two-mass report printed D_S's interval as ``[-19538., 14461.]``: the ``#`` format
+    that keeps trailing zeros also kept a bare decimal point on whole numbers."""
+    from drivelash.estimation.identify_result import ParameterEstimate as P
+
+    assert P.normal("D_S", -2538.55, 8673.34).interval_text() == "[-19538, 14461]"
+    assert P.normal("K_S", 869917.0, 342651.0).interval_text() == "[1.9833e+05, 1.5415e+06]"
+    assert P("delta1", 0.513497, 1.38e-5, 0.51347, 0.513524).interval_text() == "[0.513470, 0.513524]"

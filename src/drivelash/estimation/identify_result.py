@@ -13,6 +13,7 @@ torque offset [N·m], δ and δ1 [rad]; a prismatic rigid axis carries kg, N, N�
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -151,7 +152,11 @@ class ParameterEstimate:
         if math.isfinite(lo) and math.isfinite(hi) and hi > lo:
             digits = max(digits, math.ceil(math.log10(max(abs(lo), abs(hi)) / (hi - lo))) + 2)
         digits = min(digits, 15)
-        return f"[{lo:#.{digits}g}, {hi:#.{digits}g}]"
+
+        def fmt(x: float) -> str:  # trailing zeros kept, a bare trailing point not (-19538, not -19538.)
+            return re.sub(r"\.(?=e|$)", "", f"{x:#.{digits}g}")
+
+        return f"[{fmt(lo)}, {fmt(hi)}]"
 
 
 @dataclass
