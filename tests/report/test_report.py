@@ -360,3 +360,41 @@ def test_interval_text_has_no_bare_trailing_point():
     assert P.normal("D_S", -2538.55, 8673.34).interval_text() == "[-19538, 14461]"
     assert P.normal("K_S", 869917.0, 342651.0).interval_text() == "[1.9833e+05, 1.5415e+06]"
     assert P("delta1", 0.513497, 1.38e-5, 0.51347, 0.513524).interval_text() == "[0.513470, 0.513524]"
+
+
+def test_two_mass_characteristic_does_not_show_an_undetermined_backlash_as_identified(monkeypatch):
+    """KUKA rec_A, axis 1: the table says δ and δ1 are not identifiable (overlapping contacts,
+    encoder delay), yet the characteristic drew "identified K_S·dz(Δθ)" with "contact −δ1 =
+    1.5085 mrad" and a caption "and the identified deadzone". The fit's contacts stay as a
+    diagnostic, named as the fit's and not reported. Negative control: a determined bench fit."""
+    from tests.identify.helpers import REPO
+
+    import drivelash as dl
+    from drivelash.report.identify_figures import render_two_mass_report
+    from drivelash.sim.scenarios import get_scenario
+    from realdata import shared_data
+
+    def labels_and_caption(trace, r, cfg):
+        drawn = _drawn_figures(monkeypatch)
+        html = render_two_mass_report(trace, r, cfg)
+        ax = drawn["characteristic"].axes[0]
+        return [ln.get_label() for ln in ax.get_lines()], html
+
+    mat = shared_data("kuka-kr300", "rec_A.mat")
+    cfg = dl.load_config(REPO / "examples" / "kuka" / "axis1.toml")
+    trace = dl.load_trace(mat, cfg, required=["theta_m", "theta_l", "torque_m"])
+    r = dl.identify_drive(trace, cfg)
+    assert not r.parameters["delta"].identifiable
+    labels, html = labels_and_caption(trace, r, cfg)
+    assert not any(lb.startswith(("identified", "contact")) for lb in labels)
+    assert any(lb.startswith("fit's K_S·dz(Δθ) (δ") and "not determined" in lb for lb in labels)
+    assert any(lb.startswith("fit's contact −δ1") and lb.endswith("(not reported)") for lb in labels)
+    assert "and the identified deadzone" not in html
+    assert "not reported: the backlash was not determined" in html
+
+    run = get_scenario("bench-0C").simulate(duration=4.0, seed=1)
+    rb = dl.identify_drive(run, model="two-mass", N=1.0)
+    assert rb.parameters["delta"].identifiable
+    labels, html = labels_and_caption(run, rb, None)
+    assert "identified K_S·dz(Δθ)" in labels and any(lb.startswith("contact −δ1 = ") for lb in labels)
+    assert "and the identified deadzone." in html

@@ -90,6 +90,13 @@ def render_two_mass_report(trace: Any, result: Any, config: Any = None, *, onlin
 
     K_S = p["K_S"].value if p.get("K_S") is not None and p["K_S"].identifiable else float("nan")
     contacts = [(c, name) for c, name in ((c_lo, "−δ1"), (c_hi, "δ − δ1")) if math.isfinite(c)]
+    # the fit's contacts are drawn as a diagnostic even when δ or δ1 is not determined, but then
+    # they say so: the figure must not show as identified what the table reports as not identifiable
+    undetermined = [n for n in ("delta", "delta1") if p.get(n) is not None and not p[n].identifiable]
+    dz_label = "identified K_S·dz(Δθ)"
+    if undetermined:
+        what = " and ".join({"delta": "δ", "delta1": "δ1"}[n] for n in undetermined)
+        dz_label = f"fit's K_S·dz(Δθ) ({what} not determined)"
 
     def characteristic(ax: Any, xlim: tuple[float, float] | None = None) -> None:
         ok = sig["ok_m"]
@@ -109,12 +116,13 @@ def render_two_mass_report(trace: Any, result: Any, config: Any = None, *, onlin
         if math.isfinite(K_S):
             g = np.linspace(lo, hi, 800)
             dz = np.minimum(g - c_lo, 0) + np.maximum(g - c_hi, 0)
-            ax.plot(1e3 * g, K_S * dz, color="#c0392b", lw=1.6, label="identified K_S·dz(Δθ)")
+            ax.plot(1e3 * g, K_S * dz, color="#c0392b", lw=1.6, label=dz_label)
         for c, name in contacts:
             if lo <= c <= hi:
-                ax.axvline(
-                    1e3 * c, color="#2a6fb0", ls="--", lw=1, label=f"contact {name} = {1e3 * c:.5g} mrad"
-                )
+                label = f"contact {name} = {1e3 * c:.5g} mrad"
+                if undetermined:
+                    label = f"fit's contact {name} = {1e3 * c:.5g} mrad (not reported)"
+                ax.axvline(1e3 * c, color="#2a6fb0", ls="--", lw=1, label=label)
         ax.set_xlabel("Δθ = θ_m/N − θ_l [mrad]")
         ax.grid(alpha=0.3)
 
@@ -196,7 +204,13 @@ def render_two_mass_report(trace: Any, result: Any, config: Any = None, *, onlin
         Figure(
             "characteristic",
             "Shaft torque seen by the motor vs Δθ (window means)"
-            + (", and the identified deadzone." if math.isfinite(K_S) else "; no deadzone identified."),
+            + (
+                "; no deadzone identified."
+                if not math.isfinite(K_S)
+                else ", and the fit's deadzone, not reported: the backlash was not determined (table)."
+                if undetermined
+                else ", and the identified deadzone."
+            ),
             draw_characteristic,
             (12, 4.5),
         ),
