@@ -398,3 +398,36 @@ def test_two_mass_characteristic_does_not_show_an_undetermined_backlash_as_ident
     labels, html = labels_and_caption(run, rb, None)
     assert "identified K_S·dz(Δθ)" in labels and any(lb.startswith("contact −δ1 = ") for lb in labels)
     assert "and the identified deadzone." in html
+
+
+def test_estimate_identify_report_shows_the_offline_delta_and_the_drive_used(monkeypatch, tmp_path):
+    """`estimate --identify` on a config with only N: the report showed the configured
+    [drivetrain] (T_Cm 0, no K_S) as if it were the drive, left out the offline δ and its interval
+    the command prints and the JSON holds, and drew no deadzone line (no K_S in the config)."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from drivelash.cli import app
+    from drivelash.sim.scenarios import get_scenario
+
+    rec = tmp_path / "b0b.parquet"
+    get_scenario("bench-0B").simulate(duration=8.0).to_parquet(rec)
+    cfg = tmp_path / "n.toml"
+    cfg.write_text("[drivetrain]\nN = 1.0\n")
+    drawn = _drawn_figures(monkeypatch)
+    out = CliRunner().invoke(
+        app,
+        ["estimate", str(rec), "--config", str(cfg), "--identify", "--json", str(tmp_path / "e.json"),
+         "--report", str(tmp_path / "e.html")],
+    )  # fmt: skip
+    assert out.exit_code == 0, out.output
+    s = json.loads((tmp_path / "e.json").read_text())
+    html = (tmp_path / "e.html").read_text()
+    off = s["identification"]["delta"]
+    assert f"{1e3 * off['value']:.6g}" in html  # offline δ [mrad], as the table rounds it
+    assert f"[{1e3 * off['ci95'][0]:.3f}, {1e3 * off['ci95'][1]:.3f}]" in html
+    assert "drive the estimator was given (identified from the recording)" in html
+    assert f"{s['drivetrain_used']['K_S']:.6g}" in html
+    labels = [ln.get_label() for ln in drawn["deadzone"].axes[0].get_lines()]
+    assert any(lb.startswith("deadzone with final δ̂") for lb in labels)

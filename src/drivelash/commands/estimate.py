@@ -146,7 +146,7 @@ def run_estimate(
         elif report_t is not None:
             from drivelash.report import write_estimate_report
 
-            write_estimate_report(out.staging(report_t), trace, res, cfg)
+            write_estimate_report(out.staging(report_t), trace, res, cfg, summary=summary)
     if not quiet:
         _print_summary(summary)
     return summary

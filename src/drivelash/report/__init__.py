@@ -114,7 +114,9 @@ def _excited_spans(t: np.ndarray, mask: np.ndarray) -> list[tuple[float, float]]
     return [(float(t[a]), float(t[b])) for a, b in zip(starts, stops, strict=True)]
 
 
-def render_estimate_report(trace: Any, result: Any, config: Any = None, *, title: str | None = None) -> str:
+def render_estimate_report(
+    trace: Any, result: Any, config: Any = None, *, title: str | None = None, summary: dict | None = None
+) -> str:
     """HTML of a deadzone-estimation run.
 
     Parameters
@@ -126,7 +128,12 @@ def render_estimate_report(trace: Any, result: Any, config: Any = None, *, title
         σ-window(t), Δθ, torques, verdict).
     config : DriveConfig, optional
         The configuration used (parameter table).
+    summary : dict, optional
+        The command's JSON (``estimate --identify``): its offline δ with the 95 % interval, the
+        agreement verdict and the drive the estimator was given (``drivetrain_used``,
+        ``delta1_used``) are shown beside the configuration, which then lacks them.
     """
+    summary = summary or {}
     t = np.asarray(result.t)
     dh = np.asarray(result.delta_hat)
     sw = np.asarray(getattr(result, "sigma_window", np.zeros_like(t)))
@@ -157,6 +164,8 @@ def render_estimate_report(trace: Any, result: Any, config: Any = None, *, title
     k_s, delta1 = None, None
     if config is not None and getattr(config, "drivetrain", None) is not None:
         k_s = config.drivetrain.K_S
+    if k_s is None and isinstance(summary.get("drivetrain_used"), dict):
+        k_s = summary["drivetrain_used"].get("K_S")  # identified (estimate --identify)
     if config is not None and getattr(config, "backlash", None) is not None:
         delta1 = config.backlash.delta1
     extra_est = getattr(result, "extra", {}) or {}
@@ -259,6 +268,18 @@ def render_estimate_report(trace: Any, result: Any, config: Any = None, *, title
     if delta_true is not None:
         figs_rows.append(["true δ (final) [mrad]", 1e3 * float(delta_true[-1])])
         figs_rows.append(["error of final δ̂ [%]", 100 * (d_final / float(delta_true[-1]) - 1)])
+    ident = summary.get("identification") or {}
+    off = ident.get("delta") or {}
+    if off.get("identifiable") and off.get("value") is not None:
+        figs_rows.append(["offline δ (identified) [mrad]", 1e3 * float(off["value"])])
+        ci = off.get("ci95")
+        if ci and all(c is not None for c in ci):
+            figs_rows.append(["95 % interval of offline δ [mrad]", f"[{1e3 * ci[0]:.3f}, {1e3 * ci[1]:.3f}]"])
+    agreement = summary.get("agreement")
+    if isinstance(agreement, dict) and agreement.get("disagree") is not None:
+        figs_rows.append(
+            ["online vs offline", "disagree (beyond the intervals)" if agreement["disagree"] else "agree"]
+        )
     # the estimator's own statistics, as in the JSON's "extra" (SI units, not converted)
     extra = getattr(result, "extra", {}) or {}
     diag_rows = [[k, v] for k, v in extra.items() if isinstance(v, int | float | str | bool)]
@@ -285,7 +306,17 @@ def render_estimate_report(trace: Any, result: Any, config: Any = None, *, title
             Figure("observer", "Perturbation estimate and the excitation measure.", draw_observer, (10, 4)),
         ],
     )
-    sec_par = Section("Parameters", tables=_param_tables(config, getattr(result, "config", None)))
+    used_tables: list[tuple[str, list[str], list[list[Any]]]] = []
+    dt_used = summary.get("drivetrain_used")
+    if isinstance(dt_used, dict) and dt_used:
+        src = " (identified from the recording)" if ident else ""
+        rows = [[k, v] for k, v in dt_used.items() if isinstance(v, int | float)]
+        if summary.get("delta1_used") is not None:
+            d1_src = summary.get("delta1_source")
+            rows.append([f"delta1 (used{', from ' + str(d1_src) if d1_src else ''})", summary["delta1_used"]])
+        used_tables.append((f"drive the estimator was given{src}, SI units", ["key", "value"], rows))
+    cfg_tables = _param_tables(config, getattr(result, "config", None))
+    sec_par = Section("Parameters", tables=used_tables + cfg_tables)
     return render_html(
         title or f"drivelash estimate — {trace.meta.get('source', 'trace')}", [sec_over, sec_est, sec_par]
     )
@@ -319,9 +350,11 @@ def _param_tables(config: Any, est_config: Any = None) -> list[tuple[str, list[s
     return tables
 
 
-def write_estimate_report(path: str | Path, trace: Any, result: Any, config: Any = None) -> Path:
+def write_estimate_report(
+    path: str | Path, trace: Any, result: Any, config: Any = None, *, summary: dict | None = None
+) -> Path:
     """Write the estimation report (see :func:`render_estimate_report`) atomically; returns the path."""
-    return _write(path, render_estimate_report(trace, result, config))
+    return _write(path, render_estimate_report(trace, result, config, summary=summary))
 
 
 # --------------------------------------------------------------------------- identify
