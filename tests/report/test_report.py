@@ -431,3 +431,29 @@ def test_estimate_identify_report_shows_the_offline_delta_and_the_drive_used(mon
     assert f"{s['drivetrain_used']['K_S']:.6g}" in html
     labels = [ln.get_label() for ln in drawn["deadzone"].axes[0].get_lines()]
     assert any(lb.startswith("deadzone with final δ̂") for lb in labels)
+
+
+def test_delta_figures_state_a_run_that_did_not_converge(monkeypatch, tmp_path, estimate_run):
+    """bench-0A for 4 s: δ̂ stalls at 607 of 1027 mrad, the JSON says converged = false and the
+    terminal "not converged — do not use this estimate", but the --plot and the report's δ̂(t)
+    titles said only "excitation sufficient". Both now say "NOT converged"; a converged run
+    says "converged", an unexcited one only "excitation INSUFFICIENT"."""
+    import dataclasses
+
+    import drivelash.report.estimation_figures as ef
+    from drivelash.report import render_estimate_report
+
+    tr, result, cfg = estimate_run
+    drawn = _drawn_figures(monkeypatch)
+    plots = []
+    monkeypatch.setattr(ef, "save_figure", lambda fig, path, **kw: plots.append(fig))
+    for conv, exc, want in (
+        (False, True, "excitation sufficient, NOT converged"),
+        (True, True, "excitation sufficient, converged"),
+        (False, False, "excitation INSUFFICIENT"),
+    ):
+        res = dataclasses.replace(result, converged=conv, excitation_ok=exc)
+        render_estimate_report(tr, res, cfg)
+        assert drawn["delta"].axes[0].get_title().endswith(f"— {want}")
+        ef.estimate_figure(tr, res, tmp_path / "p.png")
+        assert plots[-1].axes[0].get_title() == f"deadzone estimate — {want}"

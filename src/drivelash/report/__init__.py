@@ -152,7 +152,9 @@ def render_estimate_report(
             ax.plot(tt, yy, "k--", lw=1, label="δ (true)")
         ax.set_xlabel("time [s]")
         ax.set_ylabel("deadzone [mrad]")
-        verdict = "excitation sufficient" if ok else "excitation INSUFFICIENT"
+        from drivelash.report.estimation_figures import verdict_text
+
+        verdict = verdict_text(result)
         ax.set_title(f"δ̂(t); shaded: informative samples (σ-window > 5 % of max) — {verdict}", fontsize=10)
         ax.grid(alpha=0.3)
         ax.legend(loc="lower right", fontsize=8)

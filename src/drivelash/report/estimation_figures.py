@@ -31,6 +31,16 @@ def _thin(n: int, k: int = 20000) -> slice:
     return slice(None, None, max(1, n // k))
 
 
+def verdict_text(res: Any) -> str:
+    """The run's verdict as a figure title states it: excitation, and convergence when excited
+    (an unexcited run is never "converged"; an excited one that did not converge says so)."""
+    if not bool(getattr(res, "excitation_ok", False)):
+        return "excitation INSUFFICIENT"
+    if bool(getattr(res, "converged", False)):
+        return "excitation sufficient, converged"
+    return "excitation sufficient, NOT converged"
+
+
 def estimate_figure(trace: Any, res: Any, path: str | Path) -> Path:
     """δ̂(t) (with the truth if known) and observed/model shaft torque against Δθ; PNG."""
     plt = _plt()
@@ -41,8 +51,7 @@ def estimate_figure(trace: Any, res: Any, path: str | Path) -> Path:
         a1.plot(trace["t"][sl], 1e3 * trace["delta_true"][sl], "k--", lw=1, label="δ (true)")
     a1.set_xlabel("time [s]")
     a1.set_ylabel("deadzone [mrad]")
-    ok = "excitation sufficient" if res.excitation_ok else "excitation INSUFFICIENT"
-    a1.set_title(f"deadzone estimate — {ok}", fontsize=10)
+    a1.set_title(f"deadzone estimate — {verdict_text(res)}", fontsize=10)
     a1.grid(alpha=0.3)
     a1.legend(fontsize=8)
     _torque_panel(a2, res)
