@@ -171,3 +171,25 @@ def test_a_short_crossing_interval_is_printed_to_the_minute():
     assert _interval(s(None, None)) == "–"
     cell = _fmt("2026-01-13 09:19 … 2026-01-14 20:05")
     assert cell == '<span class="nw">2026-01-13 09:19</span> … <span class="nw">2026-01-14 20:05</span>'
+
+
+def test_crossing_chart_keeps_the_first_and_last_axis_off_the_frame():
+    """The fleet report's crossing chart put the first and last axis's marker on the top and
+    bottom frame (matplotlib's 5 % margin: 0.1 row on three rows, a few pixels): half a row of
+    margin each side now, soonest on top."""
+    from matplotlib.figure import Figure as MplFigure
+
+    from drivelash.report.fleet import _crossing_chart
+
+    def summ(name, day):
+        t = datetime(2026, 1, day, 12)
+        return {"axis": name, "crossing": t, "crossed": False, "alarms": [], "crossing_early": t,
+                "crossing_late": t, "crossing_late_never": False}  # fmt: skip
+
+    spec = _crossing_chart([summ("M01/X", 15), summ("M02/Y", 22), summ("M02/X", 24)])
+    fig = MplFigure()
+    spec.draw(fig)
+    ax = fig.axes[0]
+    bottom, top = ax.get_ylim()
+    assert (bottom, top) == (2.5, -0.5)  # rows 0, 1, 2 with half a row each side; row 0 on top
+    assert [t.get_text() for t in ax.get_yticklabels()] == ["M01/X", "M02/Y", "M02/X"]

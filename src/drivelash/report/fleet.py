@@ -325,7 +325,8 @@ def _crossing_chart(summaries: list[dict[str, Any]]) -> Figure | None:
             if x is not None:
                 ax.plot([x], [i], "o", color=color)
         ax.set_yticks(range(len(pts)), [s["axis"] for s in pts], fontsize=7)
-        ax.invert_yaxis()
+        # half a row beyond the first and last axis, soonest on top: no marker sits on the frame
+        ax.set_ylim(len(pts) - 0.5, -0.5)
         ax.set_xlabel("forecast threshold crossing, UTC (bar: 90 % interval; red: alarm)")
         import matplotlib.dates as mdates
 
