@@ -90,3 +90,17 @@ def test_report_in_headless_chromium(page, tmp_path):
     assert [ln for ln in r.stderr.splitlines() if "CONSOLE" in ln] == []
     img = Image.open(shot)
     assert _colour_pixels(img, UP) > 1000 and _colour_pixels(img, DOWN) > 1000
+
+
+def test_dwell_detail_names_its_y_axis():
+    """The one-dwell figure's y axis read only "[µm]": it is the deviation from the target."""
+    from matplotlib.figure import Figure as MplFigure
+
+    from drivelash.report.iso230 import _dwell_zoom
+
+    cols, _ = synthetic_recording(SyntheticAxis(), m=5, n=2, seed=3, dwell=0.8)
+    d = detect_dwells(cols["t"], cols["P_cmd"], cols["P_actual"], cols["P_axis"])
+    meas = Measurement("timeseries", "m", d.approaches, d.approaches_axis, d, cols, STAGED, d.warnings, None)
+    fig = MplFigure()
+    _dwell_zoom(meas).draw(fig)
+    assert fig.axes[0].get_ylabel() == "deviation from P_i [µm]"

@@ -214,7 +214,7 @@ def _dwell_zoom(meas: Any) -> Figure:
         )
         ax.set_ylim(d.deviation[i] * df - lim, d.deviation[i] * df + lim)
         ax.set_xlabel("time [s]")
-        ax.set_ylabel(f"[{dl}]")
+        ax.set_ylabel(f"deviation from P_i [{dl}]")
         ax.set_title(
             f"One dwell: target {d.target[i] * pf:.6g} {pl}, direction ↑, run {int(d.run[i])}", fontsize=10
         )
