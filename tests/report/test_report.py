@@ -457,3 +457,29 @@ def test_delta_figures_state_a_run_that_did_not_converge(monkeypatch, tmp_path, 
         assert drawn["delta"].axes[0].get_title().endswith(f"— {want}")
         ef.estimate_figure(tr, res, tmp_path / "p.png")
         assert plots[-1].axes[0].get_title() == f"deadzone estimate — {want}"
+
+
+def test_estimate_report_without_an_online_run_says_so_first(tmp_path, capsys):
+    """KUKA rec_A with `estimate --identify --report`: the online law cannot run; the page the
+    user asked for as an estimate report was the identification report alone — nothing on it
+    said that there is no online δ̂ or why (only the JSON's warnings did)."""
+    from tests.identify.helpers import REPO
+
+    from cli_runner import run_in_process
+    from realdata import shared_data
+
+    mat = shared_data("kuka-kr300", "rec_A.mat")
+    cfg = REPO / "examples" / "kuka" / "axis1.toml"
+    rep, js = tmp_path / "r.html", tmp_path / "r.json"
+    argv = ["estimate", str(mat), "-c", str(cfg), "--identify", "--report", str(rep), "--json", str(js)]
+    code, _, err = run_in_process(argv, capsys)
+    assert code == 0, err
+    import html as h
+    import json
+
+    s = json.loads(js.read_text())
+    page = rep.read_text(encoding="utf-8")
+    first = page.index("No online deadzone estimate: ")
+    assert first < page.index("Identified parameters")
+    assert h.escape(s["reason"]) in page[first : first + 2000]
+    assert "This report holds the offline identification only." in page

@@ -126,7 +126,8 @@ def run_estimate(
             if report_t is not None and identify and est.identification is not None:
                 from drivelash.report.identify_figures import render_two_mass_report
 
-                ident_report = render_two_mass_report(trace, est.identification, cfg)
+                why = str(core.get("reason") or "the online estimate was not run")
+                ident_report = render_two_mass_report(trace, est.identification, cfg, online_not_run=why)
                 core.setdefault("warnings", []).append(
                     "note: --report holds the offline identification only: the online estimate was not run"
                 )

@@ -45,7 +45,9 @@ def _acf(x: np.ndarray, lags: int) -> np.ndarray:
     return np.array([1.0] + [float(x[k:] @ x[:-k]) / v for k in range(1, lags + 1)])
 
 
-def render_two_mass_report(trace: Any, result: Any, config: Any = None, *, online: Any = None) -> str:
+def render_two_mass_report(
+    trace: Any, result: Any, config: Any = None, *, online: Any = None, online_not_run: str | None = None
+) -> str:
     """HTML of a two-mass identification.
 
     Parameters
@@ -59,11 +61,21 @@ def render_two_mass_report(trace: Any, result: Any, config: Any = None, *, onlin
     online : EstimationResult, optional
         Online deadzone estimate run with the identified parameters (drawn against the
         offline δ and its interval).
+    online_not_run : str, optional
+        ``estimate --identify --report`` when the online law could not run: why (the JSON's
+        reason). The page then says first that there is no online estimate and why, and that
+        it holds the offline identification only.
     """
     sig = result.signals
     p = result.parameters
     verdict_cls = "verdict-ok" if result.backlash_visible else "verdict-bad"
     raw = _recording_html(trace)
+    if online_not_run:
+        raw.insert(
+            0,
+            '<p class="verdict-bad">No online deadzone estimate: '
+            f"{html.escape(online_not_run)}. This report holds the offline identification only.</p>",
+        )
     raw.append(f'<p class="{verdict_cls}">Backlash: {html.escape(result.reason)}</p>')
     raw += [f'<div class="warn">{html.escape(w)}</div>' for w in result.warnings]
     raw += [f'<div class="warn">{html.escape(n)}</div>' for n in result.fit.get("notes", [])]
