@@ -50,3 +50,30 @@ def test_section_heatmap_full_protocol_grid_is_unchanged(monkeypatch, tmp_path):
     assert np.isclose(limit.get_ydata()[0], 3250.0)
     y_edges = ax.collections[0].get_coordinates()[:, 0, 1]
     np.testing.assert_allclose(y_edges, np.arange(-250.0, 5500.0, 500.0))
+
+
+def test_fig2_says_which_colour_is_which_load_and_the_real_no_load_speed(monkeypatch, tmp_path):
+    """`te campaign`'s fig2_te.png coloured the load runs by load with nothing to read the colours
+    by, and its title said "black: 10 mm/s" whatever the no-load runs' speed (here 50 mm/s)."""
+    from drivelash.sim.rack_campaign import CampaignConfig, run_campaign
+    from drivelash.te.protocol.campaign import load_campaign
+
+    cfg = CampaignConfig(
+        stroke=0.15,
+        velocities=(0.1,),
+        loads=(0.0, 3000.0),
+        sine_amplitude=0.05,
+        sine_frequency=1.0,
+        sine_periods=1.0,
+        sine_loads=(),
+        geometric_velocity=0.05,
+    )
+    run_campaign(tmp_path / "c", seed=5, config=cfg, workers=1)
+    figs = []
+    monkeypatch.setattr(tf, "save_figure", lambda fig, path, **kw: figs.append(fig))
+    tf.plot_te_over_position(load_campaign(tmp_path / "c"), tmp_path / "fig2.png")
+    fig = figs[0]
+    te_ax = fig.axes[0]
+    assert te_ax.get_title().endswith("black: 50 mm/s, no load") and "100 mm/s" in te_ax.get_title()
+    (cbar,) = [a for a in fig.axes if a.get_ylabel().startswith("load [N]")]
+    assert cbar.get_ylim() == (0.0, 3000.0)

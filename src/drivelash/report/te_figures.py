@@ -68,6 +68,7 @@ def plot_te_over_position(
     cmap = plt.get_cmap("viridis")
     F_max = max([r.load for r in loads] + [1.0])
     geo = {}
+    geo_v = sorted({r.velocity for r in campaign.select(kind="geometric")})
     for r in campaign.select(kind="geometric"):
         tr = r.trace()
         x, te = tr["x_T"], measured_te(tr, bench)
@@ -89,13 +90,20 @@ def plot_te_over_position(
         ax[1].plot(g, (hi - lo) * 1e6, color="tab:orange")
     ax[0].set_ylabel("TE = x_T − x_M [µm]")
     v_txt = f"{velocity * 1e3:g} mm/s" if velocity else ""
+    black = "/".join(f"{v * 1e3:g}" for v in geo_v) + " mm/s, no load" if geo_v else "no load"
     ax[0].set_title(
-        f"Transmission error, both directions, loads 0…{F_max:g} N (colour) {v_txt}; black: 10 mm/s, no load"
+        f"Transmission error, both directions, loads 0…{F_max:g} N (colour) {v_txt}; black: {black}"
     )
     ax[0].legend(loc="upper right")
     ax[1].set_ylabel("gap [µm]")
     ax[1].set_xlabel("table position x_T [m]")
     fig.tight_layout()
+    if loads:  # which colour is which load (beside both panels, so their x axes stay aligned)
+        from matplotlib.cm import ScalarMappable
+        from matplotlib.colors import Normalize
+
+        sm = ScalarMappable(norm=Normalize(0.0, F_max), cmap=cmap)
+        fig.colorbar(sm, ax=list(ax), label=f"load [N] ({v_txt} runs)", shrink=0.9, pad=0.02)
     path = Path(path)
     save_figure(fig, path, dpi=110)
     plt.close(fig)
