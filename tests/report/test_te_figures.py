@@ -77,3 +77,33 @@ def test_fig2_says_which_colour_is_which_load_and_the_real_no_load_speed(monkeyp
     assert te_ax.get_title().endswith("black: 50 mm/s, no load") and "100 mm/s" in te_ax.get_title()
     (cbar,) = [a for a in fig.axes if a.get_ylabel().startswith("load [N]")]
     assert cbar.get_ylim() == (0.0, 3000.0)
+
+
+def test_fig6_training_limit_between_the_loads_and_title_inside_the_figure(monkeypatch, tmp_path):
+    """`te evaluate` on the quick campaign (loads 0/2500 N trained, 5000 N beyond max_load
+    3000 N): the limit was drawn at 2750 N (largest training load + 250, a 500 N grid's half
+    step), and the title ran past the figure's right edge ("stage-1 share 94 °")."""
+    from types import SimpleNamespace
+
+    x = np.linspace(0.08, 0.42, 500)
+    run = SimpleNamespace(
+        x=x, te_def_um=np.sin(300 * x), meta={"name": "load_v20mmps_F2500N_pos", "load": 2500.0}
+    )
+    table = [
+        {"direction": "pos", "load": f, "split": sp, "rms": 2.0, "mae": {"stacked": 0.1, "geo-only": 1.0}}
+        for f, sp in ((0.0, "train"), (2500.0, "train"), (5000.0, "extrapolation"))
+    ]
+    figs = []
+    monkeypatch.setattr(tf, "save_figure", lambda fig, path, **kw: figs.append(fig))
+    tf.plot_fig6(tmp_path / "f6.png", run, 0.9 * run.te_def_um, run.te_def_um, 0.94, table)
+    fig = figs[0]
+    ax1, ax2 = fig.axes[:2]
+    (limit,) = [ln for ln in ax2.get_lines() if ln.get_label() == "training load limit"]
+    assert limit.get_xdata()[0] == 3750.0  # midway between 2500 (trained) and 5000 N (beyond)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()  # the constrained layout, as when saved
+    title = ax1.title.get_window_extent(canvas.get_renderer())
+    assert title.x1 <= fig.bbox.x1 and title.x0 >= 0
+    assert "stage-1 share 94 %" in ax1.get_title()

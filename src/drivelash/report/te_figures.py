@@ -169,6 +169,14 @@ def _cell_edges(centers: np.ndarray) -> np.ndarray:
     return np.concatenate(([first], mid, [last]))
 
 
+def _range_limit(inside: Sequence[float], beyond: Sequence[float]) -> float | None:
+    """Where a load axis draws the training-range limit: midway between the largest load inside
+    the range and the smallest beyond it (None when either side has no load)."""
+    if not inside or not beyond:
+        return None
+    return 0.5 * (max(inside) + min(beyond))
+
+
 def fig_heatmaps(rows: list[dict[str, Any]], train_max_load: float, path: Path) -> None:
     import matplotlib
 
@@ -185,9 +193,8 @@ def fig_heatmaps(rows: list[dict[str, Any]], train_max_load: float, path: Path) 
     x_edges = np.array([*xs, last if last is not None and last > xs[-1] else xs[-1] + step])
     load_edges = _cell_edges(np.asarray(loads, float))
     # the training range limit: between the last training load and the first beyond it
-    inside = [f for f in loads if f <= train_max_load]
-    beyond = [f for f in loads if f > train_max_load]
-    limit_y = 0.5 * (inside[-1] + beyond[0]) if inside and beyond else None
+    inside, beyond = [f for f in loads if f <= train_max_load], [f for f in loads if f > train_max_load]
+    limit_y = _range_limit(inside, beyond)
     fig, axes = plt.subplots(
         len(dirs), len(vels) + 1, figsize=(4.2 * (len(vels) + 1), 4.2 * len(dirs)), squeeze=False,
         layout="constrained",
@@ -304,8 +311,9 @@ def plot_fig6(
     mae = float(np.mean(np.abs(p1 + p2 - run.te_def_um)))
     ax1.set_title(
         f"Training run {run.meta.get('name', '')}: load {run.meta.get('load', float('nan')):.0f} N, "
-        f"direction {direction}; MAE {mae:.4f} µm, stage-1 share {100 * stage1_share:.0f} %"
-    )
+        f"direction {direction}\nMAE {mae:.4f} µm, stage-1 share {100 * stage1_share:.0f} %",
+        fontsize=11,
+    )  # two lines: one was wider than the figure and lost its end
     ax1.set_xlabel("table position x_T [mm]")
     ax1.set_ylabel("TE_def [µm]")
     ax1.grid(alpha=0.3)
@@ -319,9 +327,12 @@ def plot_fig6(
     held = [r["load"] for r in rows if r["split"] == "held-out"]
     for h in held:
         ax2.axvline(h, color="0.8", lw=6, zorder=0)
-    tr = [r["load"] for r in rows if r["split"] == "train"]
-    if tr:
-        ax2.axvline(max(tr) + 250, color="r", ls="--", lw=1, label="training load limit")
+    limit = _range_limit(
+        [r["load"] for r in rows if r["split"] != "extrapolation"],
+        [r["load"] for r in rows if r["split"] == "extrapolation"],
+    )
+    if limit is not None:  # between the largest load in range and the first beyond it
+        ax2.axvline(limit, color="r", ls="--", lw=1, label="training load limit")
     ax2.set_xlabel("load F_load [N] (grey: held-out loads)")
     ax2.set_ylabel("MAE of TE_def [µm]")
     ax2.set_title(f"Direction {direction}: MAE per load, stacked vs baselines")
