@@ -193,3 +193,23 @@ def test_crossing_chart_keeps_the_first_and_last_axis_off_the_frame():
     bottom, top = ax.get_ylim()
     assert (bottom, top) == (2.5, -0.5)  # rows 0, 1, 2 with half a row each side; row 0 on top
     assert [t.get_text() for t in ax.get_yticklabels()] == ["M01/X", "M02/Y", "M02/X"]
+
+
+def test_forecast_names_a_stale_forecast_as_status_and_report_do(serial_store, capsys):
+    """`track forecast M02/Y` (data ending 2026-01-16, crossing 2026-01-22, read in November)
+    printed the crossing and "6.5 days after the last recording" with no word that it has passed,
+    while `track status` and the report name the forecast stale. It now prints the same note and
+    the JSON carries it ("stale": the message, null when not stale)."""
+    from drivelash.commands.track import run_forecast
+    from drivelash.wear.alarms import fleet_summary, stale_notes
+
+    st, _ = serial_store
+    stale = dict(stale_notes(fleet_summary(st)))
+    assert stale, "the small fleet's forecasts lie in the past"
+    name = next(iter(stale))
+    doc = run_forecast(name, str(st.url))
+    out = " ".join(capsys.readouterr().out.split())
+    assert doc["stale"] == stale[name]
+    assert f"stale: {' '.join(stale[name].split())}" in out
+    fresh = next(s["axis"] for s in fleet_summary(st) if s["axis"] not in stale)
+    assert run_forecast(fresh, str(st.url), quiet=True)["stale"] is None

@@ -262,6 +262,14 @@ def status_table(summ: list[dict[str, Any]], title: str, width: int) -> tuple[An
     return table, legend
 
 
+def _stale(s: dict[str, Any]) -> str | None:
+    """The stale-forecast note of ``track status``/``report`` for this axis (None when not stale)."""
+    from drivelash.wear.alarms import stale_notes
+
+    notes = stale_notes([s])
+    return notes[0][1] if notes else None
+
+
 def forecast_json(s: dict[str, Any]) -> dict[str, Any]:
     """The JSON document of ``track forecast``."""
 
@@ -299,6 +307,7 @@ def forecast_json(s: dict[str, Any]) -> dict[str, Any]:
         ],
         "crossing_90_late_never": s["crossing_late_never"],
         "days_to_threshold": s["days_to_threshold"],
+        "stale": _stale(s),
         "change_points": [{"time": iso(c["time"]), "size_rad": c["size_rad"]} for c in s["change_points"]],
         "alarms": [
             {"kind": a.kind, "message": a.message, "data_time": iso(a.data_time)} for a in s["alarms"]
@@ -414,6 +423,9 @@ def _print_forecast(s: dict[str, Any]) -> None:
             f"  forecast crossing {day(s['crossing'])} ({s['days_to_threshold']:.1f} days after the "
             f"last recording), 90 % interval {day(s['crossing_early'])} … {late}"
         )
+        stale = _stale(s)
+        if stale:  # as status and report say it: the crossing has passed with no data since
+            c.print(f"  [yellow]stale[/yellow]: {escape(stale)}")
     elif s["model"] is not None:
         c.print("  no crossing forecast: the trend does not reach the threshold within the look-ahead")
     for cp in s["change_points"]:
