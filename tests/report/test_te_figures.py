@@ -107,3 +107,24 @@ def test_fig6_training_limit_between_the_loads_and_title_inside_the_figure(monke
     title = ax1.title.get_window_extent(canvas.get_renderer())
     assert title.x1 <= fig.bbox.x1 and title.x0 >= 0
     assert "stage-1 share 94 %" in ax1.get_title()
+
+
+def test_the_three_sine_figures_of_te_validate_name_their_settings(monkeypatch, tmp_path):
+    """fig8_sine.png, fig8_sine_paper_settings.png and fig8_sine_loaded.png had one and the same
+    title: apart from their file names nothing told the validated compensator, the paper's
+    settings and the loaded run apart. The title now names the variant."""
+    t = np.linspace(0.0, 2.0, 4001)
+    x_d = 0.25 - 0.1 * np.cos(np.pi * t)
+    run = {"t": t, "x_d": x_d, "v_d": np.gradient(x_d, t), "x_T": x_d - 1e-6, "theta_m": x_d / 0.02,
+           "e": np.full_like(t, 1e-6), "v_c": np.zeros_like(t), "v_bl": np.zeros_like(t)}  # fmt: skip
+    figs = []
+    monkeypatch.setattr(tf, "save_figure", lambda fig, path, **kw: figs.append(fig))
+    tf.fig_sine(run, run, 0.02, tmp_path / "s.png", variant="the paper's settings (t_ss = 35 ms)")
+    title = figs[0].get_suptitle()
+    assert title.startswith("Sinusoidal trajectory") and title.endswith(
+        "\nthe paper's settings (t_ss = 35 ms)"
+    )
+    tf.fig_sine(run, run, 0.02, tmp_path / "s.png")  # no variant: the title alone
+    assert (
+        figs[1].get_suptitle() == "Sinusoidal trajectory: compensation of TE and backlash (cf. paper Fig. 8)"
+    )

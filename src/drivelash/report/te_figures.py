@@ -110,7 +110,7 @@ def plot_te_over_position(
     return path
 
 
-def fig_sine(unc: dict, comp: dict, r_eff: float, path: Path) -> None:
+def fig_sine(unc: dict, comp: dict, r_eff: float, path: Path, variant: str = "") -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -155,7 +155,11 @@ def fig_sine(unc: dict, comp: dict, r_eff: float, path: Path) -> None:
     z.set_ylabel("path error [µm]")
     for a in [*ax, z]:
         a.grid(alpha=0.3)
-    fig.suptitle("Sinusoidal trajectory: compensation of TE and backlash (cf. paper Fig. 8)")
+    # the three sine figures of `te validate` differ by their settings: the title names them
+    fig.suptitle(
+        "Sinusoidal trajectory: compensation of TE and backlash (cf. paper Fig. 8)"
+        + (f"\n{variant}" if variant else "")
+    )
     save_figure(fig, path, dpi=100)
     plt.close(fig)
 

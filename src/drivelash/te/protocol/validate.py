@@ -295,7 +295,7 @@ def validate(
     progress : callable, optional
         Receives one-line progress messages.
     figures : object, optional
-        Draws the figures: ``fig_sine(unc, comp, r_eff, path)``,
+        Draws the figures: ``fig_sine(unc, comp, r_eff, path, variant=...)``,
         ``fig_heatmaps(rows, train_max_load, path)`` and ``fig_monitor(before, after,
         defect, path)`` (:mod:`drivelash.report.te_figures`); None writes no figures.
 
@@ -332,18 +332,32 @@ def validate(
     say("(a) sinusoidal trajectory")
     sine, unc, comp = sine_validation(sim, table, params, cfg)
     if figures is not None:
-        figures.fig_sine(unc, comp, float(bench.r_eff), out / "fig8_sine.png")
+        figures.fig_sine(
+            unc, comp, float(bench.r_eff), out / "fig8_sine.png", variant="compensator as validated, no load"
+        )
     summary["sine"] = sine
     # the paper's settings (t_ss = 35 ms, flank change on the torque sign only) for comparison,
     # and a loaded sine (load drive reversing with the motion) as a robustness check
     paper = dataclasses.replace(params, t_ss=35e-3, t_ss_sign=35e-3, release=0.0)
     sine_p, _, comp_p = sine_validation(sim, table, paper, cfg)
     if figures is not None:
-        figures.fig_sine(unc, comp_p, float(bench.r_eff), out / "fig8_sine_paper_settings.png")
+        figures.fig_sine(
+            unc,
+            comp_p,
+            float(bench.r_eff),
+            out / "fig8_sine_paper_settings.png",
+            variant="the paper's settings (t_ss = 35 ms, flank change on the torque sign only)",
+        )
     summary["sine_paper_settings"] = sine_p
     sine_l, unc_l, comp_l = sine_validation(sim, table, params, cfg, load=cfg.sine_load)
     if figures is not None:
-        figures.fig_sine(unc_l, comp_l, float(bench.r_eff), out / "fig8_sine_loaded.png")
+        figures.fig_sine(
+            unc_l,
+            comp_l,
+            float(bench.r_eff),
+            out / "fig8_sine_loaded.png",
+            variant=f"loaded: load drive {cfg.sine_load:g} N reversing with the motion",
+        )
     summary["sine_loaded"] = sine_l
 
     say("(b) constant-velocity passes")
