@@ -483,3 +483,22 @@ def test_estimate_report_without_an_online_run_says_so_first(tmp_path, capsys):
     assert first < page.index("Identified parameters")
     assert h.escape(s["reason"]) in page[first : first + 2000]
     assert "This report holds the offline identification only." in page
+
+
+def test_interval_of_an_unconverged_run_is_not_shown_as_usable(estimate_run):
+    """bench-0A for 4 s: δ̂ = 606.6 mrad of a true 1027, "not converged — do not use this
+    estimate" on the terminal, but the report's figures of merit gave "95 % interval of δ̂
+    [605.582, 607.581]" with no caveat. The row now says it is statistical only and not to be
+    used; a converged run keeps the plain label."""
+    import dataclasses
+
+    from drivelash.report import render_estimate_report
+
+    tr, result, cfg = estimate_run
+    result = dataclasses.replace(result, delta_std=0.00051)  # a stated interval, ±1 mrad
+    lo, hi = result.delta_interval
+    caveat = "95 % interval of δ̂ [mrad] (statistical only; not converged: do not use)"
+    html = render_estimate_report(tr, dataclasses.replace(result, converged=False), cfg)
+    assert caveat in html and f"[{1e3 * lo:.3f}, {1e3 * hi:.3f}]" in html
+    html = render_estimate_report(tr, dataclasses.replace(result, converged=True), cfg)
+    assert "95 % interval of δ̂ [mrad]" in html and "not converged: do not use" not in html

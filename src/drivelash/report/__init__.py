@@ -256,7 +256,10 @@ def render_estimate_report(
     figs_rows: list[list[Any]] = [["final δ̂ [mrad]", 1e3 * d_final]]
     lo, hi = getattr(result, "delta_interval", (float("nan"), float("nan")))
     if np.isfinite(lo) and np.isfinite(hi):
-        figs_rows.append(["95 % interval of δ̂ [mrad]", f"[{1e3 * lo:.3f}, {1e3 * hi:.3f}]"])
+        label = "95 % interval of δ̂ [mrad]"
+        if not bool(getattr(result, "converged", False)):  # as the terminal says: do not use it
+            label += " (statistical only; not converged: do not use)"
+        figs_rows.append([label, f"[{1e3 * lo:.3f}, {1e3 * hi:.3f}]"])
     figs_rows += [
         ["converged", str(bool(getattr(result, "converged", False)))],
         [
