@@ -71,6 +71,7 @@ def render_two_mass_report(
     verdict_cls = "verdict-ok" if result.backlash_visible else "verdict-bad"
     raw = _recording_html(trace)
     if online_not_run:
+        online_not_run = online_not_run.removeprefix("online estimate not run: ")  # said once
         raw.insert(
             0,
             '<p class="verdict-bad">No online deadzone estimate: '
