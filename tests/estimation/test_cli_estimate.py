@@ -316,3 +316,42 @@ def test_estimator_table_sets_any_gain_and_the_command_line_wins(bench_csv, tmp_
     )
     code, _, err = _run(["estimate", str(bench_csv), "--config", str(both)], capsys)
     assert code == 2 and "key 'alpha'" in err and "[backlash]" in err
+
+
+def test_a_wrong_delta1_the_check_cannot_judge_is_not_a_tight_interval(tmp_path, capsys):
+    """Report audit (session 17): bench-0A for 4 s with ``examples/drive_bench.toml`` (bench-0B's
+    δ1 = 93 mrad; bench-0A's is 513.5) settles at δ̂ = 606.6 mrad for a true 1027 — the anchored
+    law moves one-for-one with δ1 — and the δ1 check, with 3 crossings, is "inconclusive". The
+    interval said ±1.00 mrad (95 %): not converged, but a fleet trend takes an unconverged estimate
+    within 5 mrad, so a 420 mrad error would have entered a wear history. Δθ spans at most the gap
+    plus the two contact deflections; it spanned 1048 mrad, 430 mrad beyond δ̂ + 2 D_peak: named,
+    and the interval reaches the truth. Negative control: the same recording with bench-0A's own
+    δ1 is not flagged and keeps its interval (the bench scenarios' excess is at most 12 mrad)."""
+    from drivelash.wear.trend import UNCONVERGED_MAX_U95, usable
+
+    example = Path(__file__).parents[2] / "examples" / "drive_bench.toml"
+    rec = tmp_path / "a.parquet"
+    code, _, err = _run(["simulate", "bench-0A", "-o", str(rec), "--duration", "4"], capsys)
+    assert code == 0, err
+    docs = {}
+    for name, text in (
+        ("wrong", example.read_text()),
+        ("right", example.read_text().replace("delta1 = 0.093", "delta1 = 0.5135")),
+    ):
+        cfg = tmp_path / f"{name}.toml"
+        cfg.write_text(text, encoding="utf-8")
+        out_json = tmp_path / f"{name}.json"
+        code, out, err = _run(["estimate", str(rec), "--config", str(cfg), "--json", str(out_json)], capsys)
+        assert code == 0, err
+        docs[name] = (json.loads(out_json.read_text()), " ".join(out.split()))
+    doc, out = docs["wrong"]
+    u95 = 1.96 * doc["delta_std"]
+    assert abs(doc["delta"] - 0.6066) < 2e-3 and doc["converged"] is False
+    assert doc["delta"] + u95 >= 1.027  # the interval reaches the truth
+    assert "is too small for the data: Δθ spanned" in out and "check [backlash] delta1 = 93.0 mrad" in out
+    row = {"status": "ok", "excitation_ok": True, "delta": doc["delta"], "start_time": 0}
+    assert not usable({**row, "converged": False, "delta_std": doc["delta_std"]})
+    assert u95 > UNCONVERGED_MAX_U95
+    doc, out = docs["right"]
+    assert abs(doc["delta"] - 1.027) < 2e-3
+    assert "too small for the data" not in out and 1.96 * doc["delta_std"] < 2e-3

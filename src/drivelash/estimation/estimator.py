@@ -105,6 +105,13 @@ OFFSET_DEFLECTION_FACTOR = 2.0
 OFFSET_BALANCE = 1.5
 #: δ̂ this close to δ_max (fraction) is at its projection bound.
 BOUND_FRACTION = 0.98
+#: Δθ can span at most the gap plus the two contact deflections: δ̂ is called too small when the
+#: observed Δθ range exceeds δ̂ + 2 D_peak by more than this many peak deflections D_peak …
+RANGE_EXCESS_FACTOR = 20.0
+#: … and by more than this [rad]. On the 8 bench scenarios checked (full length and 4 s, both
+#: laws) the excess was at most 12 mrad and 6.2 D_peak (start transients, noise peaks of the
+#: fused Δθ); a wrong δ1 of bench-0B's 93 mrad on bench-0A gave 439 mrad (docs/assumptions.md).
+RANGE_EXCESS_MIN = 0.05
 #: κ this close to its bounds [¼, 4] is at its bound (the data disagree with the stated K_S).
 KAPPA_LIMITS = (0.26, 3.9)
 #: Resolution floor of the uncertainty, in units of the contact deflection θ_def.
@@ -911,6 +918,24 @@ def _verdict(
             else:
                 offset_state = "inconclusive"
             extra["delta1_check_result"] = offset_state
+    # the other side: Δθ spans at most δ + the two contact deflections, so a Δθ range far beyond
+    # δ̂ + 2 D_peak says δ̂ is too small (a wrong δ1 the check could not judge moves the anchored
+    # δ̂ one-for-one: bench-0A for 4 s with bench-0B's δ1 settled at 606.6 ± 1.0 mrad for 1027)
+    range_gap = 0.0
+    excess = dth_range - final - 2.0 * D_peak
+    if ok and not at_bound and excess > max(RANGE_EXCESS_FACTOR * D_peak, RANGE_EXCESS_MIN):
+        range_gap = excess
+        d1_note = (
+            f" (the data's δ1 check gives {1e3 * float(extra['delta1_check']):.1f} mrad)"
+            if "delta1_check" in extra
+            else ""
+        )
+        warnings.append(
+            f"δ̂ = {1e3 * final:.1f} mrad is too small for the data: Δθ spanned {1e3 * dth_range:.1f} mrad, "
+            f"{1e3 * excess:.1f} mrad more than δ̂ and the two contact deflections — check [backlash] "
+            f"delta1 = {1e3 * setup.delta1:.1f} mrad{d1_note}"
+        )
+    extra["delta_range_gap"] = range_gap
     if default and not (KAPPA_LIMITS[0] < kappa < KAPPA_LIMITS[1]):
         warnings.append(
             f"the data disagree with the stated drive: the contact stiffness is {kappa:.2f}× the "
@@ -986,10 +1011,12 @@ def _verdict(
     if offset_state == "inconsistent":
         d1_gap = abs(final - extra["delta1_check_delta"])
         extra["delta1_check_gap"] = d1_gap
+    # the larger of the two bounded alternatives for δ (both say where the data put it)
+    alt_gap = max(d1_gap, range_gap)
     # at its projection bound δ̂ is the bound, not a measurement: no uncertainty either (a wear
     # history takes an unconverged estimate only with a stated one)
     std = (
-        _uncertainty(a, extra, cfg.theta_def, enc_bound + disagreement + d1_gap)
+        _uncertainty(a, extra, cfg.theta_def, enc_bound + disagreement + alt_gap)
         if ok and not at_bound
         else math.nan
     )
@@ -1003,19 +1030,24 @@ def _verdict(
                 f"with δ1 estimated from the data the joint law puts δ at "
                 f"{1e3 * extra['delta1_check_delta']:.2f} mrad, {1e3 * d1_gap:.2f} mrad from δ̂"
             )
-        if disagreement > 0.0 and 1.96 * std - disagreement - d1_gap <= claim:
+        if range_gap > d1_gap:
+            why_parts.append(
+                f"the observed Δθ range less the two contact deflections lies {1e3 * range_gap:.1f} mrad"
+                " above δ̂"
+            )
+        if disagreement > 0.0 and 1.96 * std - disagreement - alt_gap <= claim:
             why_parts.append(
                 f"the paper law and the default law (which learns the contact stiffness) disagree by "
                 f"{1e3 * disagreement:.2f} mrad: the stated drive parameters do not fit the data "
                 "(use --method default)"
             )
-        if enc_bound > 0.0 and 1.96 * std - enc_bound - d1_gap <= claim:
+        if enc_bound > 0.0 and 1.96 * std - enc_bound - alt_gap <= claim:
             why_parts.append(
                 f"the encoders' counts ({1e3 * c_m:.3g} mrad motor, {1e3 * c_l:.3g} mrad load) leave "
                 f"Δθ offset by up to {1e3 * enc_offset:.2f} mrad depending on how they round "
                 f"(δ̂ by up to {1e3 * enc_bound:.2f} mrad)"
             )
-        if 1.96 * std - d1_gap - disagreement - enc_bound > claim or not why_parts:
+        if 1.96 * std - alt_gap - disagreement - enc_bound > claim or not why_parts:
             why_parts.append(
                 "the data disagree with the stated drive parameters "
                 + (f"(contact stiffness {kappa:.2f}× the stated model's)" if default else "")
