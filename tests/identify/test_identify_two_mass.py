@@ -6,6 +6,7 @@ is in ``test_identify_two_mass_slow.py``.
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -516,7 +517,9 @@ def test_a_negative_gap_is_never_a_determined_backlash(seed):
         assert "entirely below 0" in r.reason and d.high == np.inf
     assert "backlash" not in r.to_config()
     assert "[backlash]" not in r.to_toml()
-    assert any(s.startswith("overlapping contacts, not reported: δ = -0.0") for s in r.fit["notes"])
+    note = next(s for s in r.fit["notes"] if s.startswith("overlapping contacts, not reported: δ = -0.0"))
+    # one unit for the value and its interval (report audit, session 17: "… mrad [-0.000348, 5.21e-05] rad")
+    assert re.search(r"δ = -0\.\d+ mrad \[-?[\d.e-]+, -?[\d.e-]+\] mrad \(95 %\)", note), note
     assert r["K_S"].identifiable and r["J_m"].identifiable
 
 

@@ -1665,7 +1665,8 @@ def _build_result(
             "the encoders' zero offset, not a contact position",
         )
         notes.append(
-            f"overlapping contacts, not reported: δ = {1e3 * dq.value:.4g} mrad {dq.interval_text(3)} rad, "
+            f"overlapping contacts, not reported: δ = {1e3 * dq.value:.4g} mrad "
+            f"[{1e3 * dq.low:.3g}, {1e3 * dq.high:.3g}] mrad (95 %), "
             f"δ1 = {1e3 * d1q.value:.4g} mrad"
         )
         visible = False
