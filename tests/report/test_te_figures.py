@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 import drivelash.report.te_figures as tf
@@ -55,19 +57,12 @@ def test_section_heatmap_full_protocol_grid_is_unchanged(monkeypatch, tmp_path):
 def test_fig2_says_which_colour_is_which_load_and_the_real_no_load_speed(monkeypatch, tmp_path):
     """`te campaign`'s fig2_te.png coloured the load runs by load with nothing to read the colours
     by, and its title said "black: 10 mm/s" whatever the no-load runs' speed (here 50 mm/s)."""
-    from drivelash.sim.rack_campaign import CampaignConfig, run_campaign
+    from tests.te_bench.helpers import TINY
+
+    from drivelash.sim.rack_campaign import run_campaign
     from drivelash.te.protocol.campaign import load_campaign
 
-    cfg = CampaignConfig(
-        stroke=0.15,
-        velocities=(0.1,),
-        loads=(0.0, 3000.0),
-        sine_amplitude=0.05,
-        sine_frequency=1.0,
-        sine_periods=1.0,
-        sine_loads=(),
-        geometric_velocity=0.05,
-    )
+    cfg = replace(TINY, sine_loads=())
     run_campaign(tmp_path / "c", seed=5, config=cfg, workers=1)
     figs = []
     monkeypatch.setattr(tf, "save_figure", lambda fig, path, **kw: figs.append(fig))

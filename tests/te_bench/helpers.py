@@ -1,8 +1,23 @@
-"""Spectral analysis of TE curves over position (independent of the generator code)."""
+"""Helpers of the virtual-bench tests: spectral analysis of TE curves over position (independent of
+the generator code) and a campaign of a few seconds."""
 
 from __future__ import annotations
 
 import numpy as np
+
+from drivelash.sim.rack_campaign import CampaignConfig
+
+#: A campaign of a few seconds: 0.15 m stroke, one velocity, two loads (tests of the bench and its figures).
+TINY = CampaignConfig(
+    stroke=0.15,
+    velocities=(0.1,),
+    loads=(0.0, 3000.0),
+    sine_amplitude=0.05,
+    sine_frequency=1.0,
+    sine_periods=1.0,
+    sine_loads=(0.0,),
+    geometric_velocity=0.05,
+)
 
 
 def spectrum_over_position(x: np.ndarray, y: np.ndarray, x0: float, length: float, dx: float = 50e-6):

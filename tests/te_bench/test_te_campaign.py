@@ -13,18 +13,8 @@ from drivelash.report.te_figures import plot_te_over_position
 from drivelash.sim.rack_campaign import STORED_COLUMNS, CampaignConfig, plan_runs, run_campaign
 from drivelash.te.protocol.campaign import load_campaign, measured_te
 
-from .helpers import spectrum_over_position
+from .helpers import TINY, spectrum_over_position
 
-TINY = CampaignConfig(
-    stroke=0.15,
-    velocities=(0.1,),
-    loads=(0.0, 3000.0),
-    sine_amplitude=0.05,
-    sine_frequency=1.0,
-    sine_periods=1.0,
-    sine_loads=(0.0,),
-    geometric_velocity=0.05,
-)
 # Fig. 2: geometric runs over the whole travel at 10 mm/s + load passes at one speed
 FIG2 = CampaignConfig(velocities=(0.1,), loads=(0.0, 2500.0, 5000.0), sine_loads=())
 

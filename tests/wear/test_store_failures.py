@@ -12,6 +12,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 import sqlalchemy as sa
@@ -54,6 +55,21 @@ def _fleet_copy(src: Path, dst: Path, hold_back: int = 0) -> tuple[Path, list[tu
         p.rename(aside)
         held.append((aside, p))
     return dst, held
+
+
+def _ingested_with_two_new(cli, tiny_fleet: Path, tmp_path: Path, capsys) -> tuple[Path, list[str], Any]:
+    """A store of the fleet ingested without two M01/X recordings, which are then put back: the
+    next ``track ingest`` (the returned arguments) has two new recordings to store. Returns the
+    store, the arguments and its rows before that ingest (:func:`_state`)."""
+    fleet, held = _fleet_copy(tiny_fleet, tmp_path / "f", hold_back=2)
+    db = tmp_path / "w.sqlite"
+    args = ["track", "ingest", str(fleet / "fleet.toml"), "--db", str(db), "--workers", "1"]
+    assert _main(cli, args) == 0
+    for aside, p in held:
+        aside.rename(p)
+    before = _state(db)
+    capsys.readouterr()
+    return db, args, before
 
 
 def _state(db: Path) -> tuple[list[tuple], list[tuple]]:
@@ -141,14 +157,7 @@ def test_full_disk_during_ingest_is_one_line_rolled_back_and_the_store_stays_usa
 ):
     from drivelash import cli
 
-    fleet, held = _fleet_copy(tiny_fleet, tmp_path / "f", hold_back=2)
-    db = tmp_path / "w.sqlite"
-    args = ["track", "ingest", str(fleet / "fleet.toml"), "--db", str(db), "--workers", "1"]
-    assert _main(cli, args) == 0
-    for aside, p in held:
-        aside.rename(p)
-    before = _state(db)
-    capsys.readouterr()
+    db, args, before = _ingested_with_two_new(cli, tiny_fleet, tmp_path, capsys)
 
     migrate = _disk_full_on_estimates(monkeypatch)
     assert _main(cli, args) == 2
@@ -397,14 +406,7 @@ def test_ctrl_c_during_ingest_says_what_the_store_kept(tiny_fleet, tmp_path, mon
     committed transaction: the line names the store instead of claiming nothing was written."""
     from drivelash import cli
 
-    fleet, held = _fleet_copy(tiny_fleet, tmp_path / "f", hold_back=2)
-    db = tmp_path / "w.sqlite"
-    args = ["track", "ingest", str(fleet / "fleet.toml"), "--db", str(db), "--workers", "1"]
-    assert _main(cli, args) == 0
-    for aside, p in held:
-        aside.rename(p)
-    before = _state(db)
-    capsys.readouterr()
+    db, args, before = _ingested_with_two_new(cli, tiny_fleet, tmp_path, capsys)
     commit_batch = Store.commit_batch
 
     def interrupted_before(self, *a, **k):

@@ -271,6 +271,19 @@ def final_suffix(path: str | Path) -> str:
     return Path(final_name(path)).suffix.lower()
 
 
+def _writable_dir(directory: Path) -> bool:
+    """Whether files can be created in ``directory`` (access for this user and a write bit)."""
+    mode = directory.stat().st_mode
+    return os.access(directory, os.W_OK | os.X_OK) and bool(mode & 0o222)
+
+
+def _name_room(directory: Path, name: str) -> tuple[int, int, int]:
+    """``name``'s length [bytes], the longest name that leaves room for the temporary name, and
+    the file system's NAME_MAX in ``directory``."""
+    name_max = _name_max(directory)
+    return len(os.fsencode(name)), name_max - STAGE_NAME_OVERHEAD, name_max
+
+
 def _name_max(directory: Path) -> int:
     """Longest file name [bytes] the file system of ``directory`` allows (255 if it does not say)."""
     try:
@@ -807,16 +820,15 @@ class Outputs:
             raise self._fail(option, raw, f"directory {_display(parent)} does not exist")
         if not parent.is_dir():
             raise self._fail(option, raw, f"{_display(parent)} is not a directory")
-        mode = parent.stat().st_mode
-        if not os.access(parent, os.W_OK | os.X_OK) or not (mode & 0o222):
+        if not _writable_dir(parent):
             raise self._fail(option, raw, f"directory {_display(parent)} is not writable")
         if p.name not in ("", ".", ".."):
-            n, name_max = len(os.fsencode(p.name)), _name_max(parent)
-            if n > name_max - STAGE_NAME_OVERHEAD:
+            n, room, name_max = _name_room(parent, p.name)
+            if n > room:
                 raise self._fail(
                     option,
                     raw,
-                    f"file name too long ({n} bytes; at most {name_max - STAGE_NAME_OVERHEAD} here: it is"
+                    f"file name too long ({n} bytes; at most {room} here: it is"
                     f" first written under a temporary name {STAGE_NAME_OVERHEAD} bytes longer, and the"
                     f" file system allows {name_max})",
                 )
@@ -827,18 +839,17 @@ class Outputs:
             # written through the link: the checks above again for where it points
             target = through_link(target)
             real = target.parent
-            mode = real.stat().st_mode
-            if not os.access(real, os.W_OK | os.X_OK) or not (mode & 0o222):
+            if not _writable_dir(real):
                 raise self._fail(
                     option, raw, f"a symbolic link to {target}, whose directory {real} is not writable"
                 )
-            n, name_max = len(os.fsencode(target.name)), _name_max(real)
-            if n > name_max - STAGE_NAME_OVERHEAD:
+            n, room, _ = _name_room(real, target.name)
+            if n > room:
                 raise self._fail(
                     option,
                     raw,
                     f"a symbolic link to {target}, whose name is too long for its temporary name"
-                    f" ({n} bytes; at most {name_max - STAGE_NAME_OVERHEAD} there)",
+                    f" ({n} bytes; at most {room} there)",
                 )
         return p, target
 
