@@ -179,3 +179,25 @@ def test_pulses_example_config_maps_the_pulse_column():
     assert set(np.unique(tr["pulse_V"])) == {0.0, 5.0}
     first_rise = tr["t"][np.flatnonzero(np.diff(tr["pulse_V"]) > 0)[0] + 1]
     assert first_rise == pytest.approx(0.343, abs=0.002)  # as the data README states
+
+
+def test_observer_figure_title_prints_its_four_forces_alike(emps, result, observed, monkeypatch):
+    """The observer figure's title printed ``.3g``: "17 / −24.2 N … vs 17.2 / −23.6" — one value
+    without its decimal (session 17's report audit, left then as cosmetic). The four forces of one
+    quantity now share one number of decimals (three significant digits of the largest)."""
+    import re
+
+    from matplotlib.axes import Axes
+
+    from drivelash.report import render_identify_report
+
+    titles: list[str] = []
+    real = Axes.set_title
+    monkeypatch.setattr(
+        Axes, "set_title", lambda self, label, *a, **k: (titles.append(label), real(self, label, *a, **k))[1]
+    )
+    render_identify_report(emps, result, observer=observed)
+    (title,) = [t for t in titles if t.startswith("Observer:")]
+    values = re.findall(r"−?-?\d+(?:\.\d+)?", title)
+    assert len(values) == 4, title
+    assert {len(v.split(".")[1]) if "." in v else 0 for v in values} == {1}, title

@@ -104,3 +104,30 @@ def test_dwell_detail_names_its_y_axis():
     fig = MplFigure()
     _dwell_zoom(meas).draw(fig)
     assert fig.axes[0].get_ylabel() == "deviation from P_i [µm]"
+
+
+def test_per_target_positions_share_one_number_of_decimals(page):
+    """The per-target table printed P_i with ``.6g`` — "0", "62.5", "125" in one column (session
+    17's report audit, left then as cosmetic); one column now has one number of decimals, the
+    fewest that show every target to 1 µm (the dwell-detected targets of this recording are
+    irregular: 53.214255 mm is printed 53.214)."""
+    m = re.search(r"<h2>Per target</h2>.*?<tbody>(.*?)</tbody>", page, re.S)
+    assert m is not None
+    first = re.findall(r"<tr><t[dh][^>]*>(.*?)</t[dh]>", m.group(1))
+    assert len(first) == 9
+    decimals = {len(c.split(".")[1]) if "." in c else 0 for c in first}
+    assert len(decimals) == 1, first
+    assert decimals == {3} and first[0] == "0.000" and first[1] == "53.214", first
+
+
+def test_common_and_significant_decimals():
+    from drivelash.report.html import common_decimals, significant_decimals
+
+    assert common_decimals([0.0, 62.5, 125.0]) == 1
+    assert common_decimals([0.0, 100.0, 200.0]) == 0
+    assert common_decimals([0.125, 0.25]) == 3
+    assert common_decimals([1 / 3]) == 6  # never more than max_nd
+    assert significant_decimals([17.04, -24.2]) == 1  # "17.0 / -24.2"
+    assert significant_decimals([0.0512, -0.02]) == 4  # "0.0512 / -0.0200" for a small rotary axis
+    assert significant_decimals([1234.0]) == 0
+    assert significant_decimals([0.0, float("nan")]) == 2

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from drivelash.report.html import Figure, Section, render_html
+from drivelash.report.html import Figure, Section, render_html, significant_decimals
 from drivelash.report.save import save_figure
 
 __all__ = [
@@ -486,9 +486,11 @@ def render_identify_report(
             ax.plot(t[cv], d[cv], ".", ms=1.2, color="#1f7a35", label="constant-velocity samples")
             ax.set_xlabel("time [s]")
             ax.set_ylabel(f"disturbance [{u['force']}]")
+            shown = (observer.mean_positive, observer.mean_negative, f_c + off, -f_c + off)
+            nd = significant_decimals(shown)
             ax.set_title(
-                f"Observer: mean {observer.mean_positive:.3g} / {observer.mean_negative:.3g} {u['force']}"
-                f" at constant velocity vs {f_c + off:.3g} / {-f_c + off:.3g} identified",
+                f"Observer: mean {shown[0]:.{nd}f} / {shown[1]:.{nd}f} {u['force']}"
+                f" at constant velocity vs {shown[2]:.{nd}f} / {shown[3]:.{nd}f} identified",
                 fontsize=10,
             )
             ax.grid(alpha=0.3)

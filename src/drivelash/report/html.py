@@ -10,6 +10,7 @@ from __future__ import annotations
 import base64
 import html
 import io
+import math
 import os
 import re
 from collections.abc import Callable, Sequence
@@ -75,6 +76,24 @@ def png_bytes(fig_spec: Figure, dpi: int = 90) -> bytes:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi, facecolor="white")
     return buf.getvalue()
+
+
+def common_decimals(values: Sequence[float], max_nd: int = 6) -> int:
+    """The fewest decimals (≤ ``max_nd``) that print every value as it rounds to ``max_nd``
+    decimals: one column, one number of decimals ("0.0, 52.5, 100.0", not "0, 52.5, 100")."""
+    for nd in range(max_nd + 1):
+        if all(round(float(v), nd) == round(float(v), max_nd) for v in values):
+            return nd
+    return max_nd
+
+
+def significant_decimals(values: Sequence[float], sig: int = 3) -> int:
+    """Decimals that give the largest of ``values`` ``sig`` significant digits, for printing
+    several values of one quantity alike ("17.0 / −24.2", not "17 / −24.2")."""
+    big = max((abs(float(v)) for v in values if math.isfinite(float(v))), default=0.0)
+    if big == 0.0:
+        return sig - 1
+    return max(0, sig - 1 - math.floor(math.log10(big)))
 
 
 #: A date (and time) in a table cell: kept on one line (browsers break after its hyphens).

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from drivelash.report.html import Figure, Section, render_html
+from drivelash.report.html import Figure, Section, common_decimals, render_html
 
 __all__ = ["draw_iso230_chart", "render_iso230_report", "write_iso230_report"]
 
@@ -368,10 +368,12 @@ def render_iso230_report(
 
     tgt = Section("Per target")
     trows = []
+    # to 1 µm (mm) or 0.0001° (deg): finer than any target a measurement sets
+    p_nd = common_decimals([result.targets[i] * pf for i in range(result.m)], max_nd=3 if pl == "mm" else 4)
     for i in range(result.m):
         trows.append(
             [
-                f"{result.targets[i] * pf:.6g}",
+                f"{result.targets[i] * pf:.{p_nd}f}",
                 _f(result.mean_up[i], df),
                 _f(result.mean_down[i], df),
                 _f(result.s_up[i], df),
