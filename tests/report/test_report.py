@@ -503,3 +503,29 @@ def test_interval_of_an_unconverged_run_is_not_shown_as_usable(estimate_run):
     assert caveat in html and f"[{1e3 * lo:.3f}, {1e3 * hi:.3f}]" in html
     html = render_estimate_report(tr, dataclasses.replace(result, converged=True), cfg)
     assert "95 % interval of δ̂ [mrad]" in html and "not converged: do not use" not in html
+
+
+def test_configuration_table_names_the_defaults_the_file_never_set(tmp_path, estimate_run):
+    """The configuration tables listed every key with a value — 32 [estimator] keys for a file
+    that set two — as if the user had written them (session 17's report audit, left then). Each
+    row now says whether the configuration gave the value or it is the default (the estimator's
+    own defaults are derived and shown in "estimator gains used")."""
+    from drivelash.io import load_config
+
+    tr, result, _ = estimate_run
+    cfg = load_config("examples/drive_bench.toml")  # sets delta_max and delta0 of [estimator]
+    html = write_estimate_report(tmp_path / "est.html", tr, result, cfg).read_text()
+
+    def source(table: str, key: str) -> str:
+        body = html[html.index(f"<caption>[{table}]</caption>") :]
+        m = re.search(rf"<tr><td[^>]*>{key}</td><td[^>]*>[^<]*</td><td[^>]*>(\w+)</td></tr>", body)
+        assert m is not None, (table, key)
+        return m.group(1)
+
+    assert source("drivetrain", "K_S") == "given" and source("backlash", "delta1") == "given"
+    assert source("estimator", "delta_max") == "given" and source("estimator", "delta0") == "given"
+    assert source("backlash", "alpha") == "default"  # not in the file
+    for table in ("drivetrain", "backlash", "estimator"):
+        sec = getattr(cfg, table)
+        unset = {k for k, v in sec.model_dump().items() if v is not None} - sec.model_fields_set
+        assert all(source(table, k) == "default" for k in unset), table

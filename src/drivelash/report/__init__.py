@@ -340,9 +340,14 @@ def _param_tables(config: Any, est_config: Any = None) -> list[tuple[str, list[s
             sec = getattr(config, name, None)
             if sec is None:
                 continue
-            rows = [[k, v] for k, v in sec.model_dump().items() if v is not None]
-            if rows:
-                tables.append((f"[{name}]", ["key", "value"], rows))
+            given = getattr(sec, "model_fields_set", None)
+            rows = [
+                [k, v, "given" if given is None or k in given else "default"]
+                for k, v in sec.model_dump().items()
+                if v is not None
+            ]
+            if rows:  # a default the configuration never set is named as such
+                tables.append((f"[{name}]", ["key", "value", "source"], rows))
         if getattr(config, "columns", None):
             rows = [
                 [src, cm.column, cm.unit, cm.gain if cm.gain is not None else "", cm.counts_per_rev or ""]
