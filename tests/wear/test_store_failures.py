@@ -460,6 +460,9 @@ def test_a_new_store_on_a_full_disk_says_the_disk_is_full(tiny_fleet, tmp_path, 
     line = _one_error_line(capsys.readouterr().err)
     assert line.startswith(f"drivelash: error: {db}: the disk is full ("), line
     assert "nothing was written" in line and "free space" in line and "cannot open the store" not in line
+    # and nothing was: no empty w.sqlite is left behind (sessions 17–18 left one for the next
+    # ingest to migrate)
+    assert sorted(x.name for x in tiny_tmpfs.iterdir()) == []
 
 
 @pytest.mark.parametrize("free", [0, 64 << 20], ids=["full", "plenty-free"])
@@ -490,3 +493,46 @@ def test_a_disk_io_error_is_called_a_full_disk_only_when_the_disk_is_full(tmp_pa
         assert msg.startswith(f"{db}: the disk is full (0 bytes free; SQLite: disk I/O error)"), msg
     else:
         assert "disk is full" not in msg and "disk I/O error" in msg, msg
+
+
+def test_only_a_store_file_without_any_table_is_removed_after_a_full_disk(tmp_path):
+    """What a failed creation on a full disk may remove (`_remove_empty_store`, judged by the
+    file's bytes since SQLite cannot open it there): an empty file, or a header page with an
+    empty schema and an empty WAL. Negative controls, each kept: a store with its schema, a
+    file that is not SQLite, a header page whose WAL holds frames."""
+    from drivelash.wear.store import _remove_empty_store
+
+    def fresh(name: str, tables: bool = False, wal_frames: bool = False) -> Path:
+        p = tmp_path / name
+        con = sqlite3.connect(p)
+        con.execute("PRAGMA journal_mode=WAL")  # writes the header page, as the store does
+        if tables:
+            con.execute("CREATE TABLE t (x)")
+            con.commit()
+            con.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+        if wal_frames:
+            con.execute("PRAGMA wal_autocheckpoint=0")
+            con.execute("CREATE TABLE t (x)")
+            con.commit()
+            shutil.copy(p.with_name(p.name + "-wal"), tmp_path / "frames")
+        con.close()
+        if wal_frames:  # the WAL as a crashed writer leaves it (closing checkpoints it away)
+            shutil.copy(tmp_path / "frames", p.with_name(p.name + "-wal"))
+        return p
+
+    empty = tmp_path / "zero.sqlite"
+    empty.write_bytes(b"")
+    header_only = fresh("header.sqlite")
+    assert header_only.stat().st_size == 4096
+    with_schema = fresh("schema.sqlite", tables=True)
+    in_wal = fresh("wal.sqlite", wal_frames=True)
+    assert in_wal.with_name("wal.sqlite-wal").stat().st_size > 0
+    other = tmp_path / "notes.sqlite"
+    other.write_text("my notes")
+    store = tmp_path / "store.sqlite"
+    Store(store).close()
+    for p in (empty, header_only, with_schema, in_wal, other, store):
+        _remove_empty_store(p)
+    assert not empty.exists() and not header_only.exists()
+    assert not header_only.with_name("header.sqlite-wal").exists()
+    assert with_schema.exists() and in_wal.exists() and other.read_text() == "my notes" and store.exists()

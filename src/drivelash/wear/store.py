@@ -418,6 +418,37 @@ def sqlite_access_problem(path: str | Path, write: bool) -> str | None:
     return None
 
 
+def _remove_empty_store(p: Path) -> None:
+    """Remove the SQLite file ``p`` (with its ``-wal``/``-shm``/``-journal``) that a failed
+    creation of a new store on a full disk left without a single table, so that "nothing was
+    written" holds for the directory too.
+
+    Called only when the disk is full, where SQLite cannot even open the file read-only (its
+    WAL index needs space) and no other process can have committed a schema either. The file
+    is judged by its bytes (sqlite.org/fileformat2.html): at most one page, the 16-byte magic
+    string, an empty write-ahead log, and no cell on page 1 (the schema table's b-tree header
+    at offset 100; cell count at bytes 103–104). Anything else is kept."""
+    try:
+        if not p.is_file():
+            return
+        wal = p.with_name(p.name + "-wal")
+        if wal.is_file() and wal.stat().st_size != 0:
+            return
+        head = p.read_bytes()[: 65536 + 1]
+        if head and (not head.startswith(b"SQLite format 3\x00") or len(head) < 105):
+            return
+        if head:
+            page = int.from_bytes(head[16:18], "big")
+            page = 65536 if page == 1 else page
+            if len(head) > page or int.from_bytes(head[103:105], "big") != 0:
+                return
+        for side in ("-wal", "-shm", "-journal"):
+            p.with_name(p.name + side).unlink(missing_ok=True)
+        p.unlink()
+    except OSError:
+        pass
+
+
 def _brief(exc: BaseException) -> str:
     """First line of a driver error, without SQLAlchemy's background links."""
     orig = getattr(exc, "orig", None) or exc
@@ -462,10 +493,12 @@ class Store:
         backend = self.url.get_backend_name()
         self.backend = backend
         kw: dict[str, Any] = {}
+        new_file: Path | None = None  # the SQLite file this call creates, if any
         if backend == "sqlite":
             path = _sqlite_file(self.url)
             if path is not None:
                 p = Path(path)
+                new_file = None if p.exists() else p
                 if p.is_dir():  # was "cannot open the store (unable to open database file)"
                     raise StoreError(
                         f"{p}: is a directory, not a store file; give a file, e.g. {p / 'wear.sqlite'}"
@@ -490,6 +523,8 @@ class Store:
             self._migrate(create)
         except (OperationalError, DBAPIError, OSError) as exc:
             self.engine.dispose()
+            if new_file is not None and (_kind(exc) == "full" or self._disk_full_io(exc) is not None):
+                _remove_empty_store(new_file)
             if _kind(exc) in ("locked", "full") or self._disk_full_io(exc) is not None:
                 raise self.failure(exc, "nothing was written") from None  # type: ignore[misc]
             if isinstance(exc, OSError):
