@@ -410,6 +410,10 @@ class EstimatorConfig:
         Speed above which the gap offset is learnt, load side [rad/s].
     gap_margin : float
         Margin of the gap region used for it, fraction of the modelled gap [-].
+    contact_bound : bool
+        Data-consistency bounds of the default method: while a contact torque is confirmed,
+        a flank no further out than the extreme Δθ seen, and the flank recovery
+        (:mod:`drivelash.estimation.deadzone`, ``P_BOUND``).
     encoder_reading : {"unknown", "nearest", "truncate"}
         How both encoders turn an angle into a count: the nearest count, or the count below
         (truncation, as a counter reads). With a gear or unequal counts this offsets Δθ by up

@@ -940,6 +940,21 @@ def observe_disturbance(
         Viscous coefficient [N·m·s/rad] ([N·s/m]).
     k1, k2 : float, optional
         STSMO gains; default from ρ = :data:`DEFAULT_RHO` by Levant's rule.
+    cutoff_hz : float
+        Cut-off of the zero-phase Butterworth low-pass applied to ``theta_<side>`` before
+        differentiating it [Hz] (unused when ``omega_<side>`` is recorded).
+    filter_order : int
+        Order of that low-pass [-].
+    side : {"m", "l"}
+        The axis observed: the column suffix, ``"m"`` (motor: ``omega_m``/``theta_m``) or
+        ``"l"`` (load).
+
+    Raises
+    ------
+    ParameterError
+        ``J`` is not > 0.
+    DataError
+        The trace has neither ``omega_<side>`` nor ``theta_<side>``, or no ``torque_m``.
     """
     return observe_stream(
         *_whole(trace),

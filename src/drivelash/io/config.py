@@ -789,7 +789,25 @@ def parse_config(data: dict[str, Any], source: str = "<config>") -> DriveConfig:
 
 
 def load_config(path: str | Path) -> DriveConfig:
-    """Read and validate a drive configuration file (:class:`DriveConfig`, see :func:`load_file`)."""
+    """Read and validate a drive configuration file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The drive's ``.toml`` file (``[drivetrain]``, ``[backlash]``, optional ``[estimator]``,
+        ``[columns]``, ``[sampling]``, ``[identification]``; values in SI units).
+
+    Returns
+    -------
+    DriveConfig
+        The validated configuration.
+
+    Raises
+    ------
+    ConfigError
+        As :func:`load_file`: the file is missing or unreadable, not TOML, or has an unknown
+        or missing key or a value the parameter dataclasses refuse.
+    """
     return load_file(path, DriveConfig)
 
 

@@ -128,6 +128,8 @@ def render_estimate_report(
         σ-window(t), Δθ, torques, verdict).
     config : DriveConfig, optional
         The configuration used (parameter table).
+    title : str, optional
+        Page title; default ``"drivelash estimate — <trace source>"``.
     summary : dict, optional
         The command's JSON (``estimate --identify``): its offline δ with the 95 % interval, the
         agreement verdict and the drive the estimator was given (``drivetrain_used``,
@@ -549,9 +551,17 @@ def render_observe_report(
 
     Parameters
     ----------
+    trace : Trace
+        The recording the observer ran on (its units — rotary or linear axis — label the plots).
+    est : DisturbanceEstimate
+        The observer's output: t [s], velocity, disturbance d̂ [N·m] ([N] on a linear axis).
+    config : DriveConfig, optional
+        The configuration used (parameter table).
     expected : callable, optional
         ``expected(velocity) -> array``: a reference disturbance (e.g. identified
         F_c sign q̇ + offset) drawn for comparison, labelled ``expected_label``.
+    expected_label : str
+        Legend label of ``expected``.
     """
     u = _units(trace)
     ref = None

@@ -228,6 +228,9 @@ class SimResult:
         The reference used.
     state : numpy.ndarray
         Final engine state (to continue a run).
+    meta : dict
+        Metadata passed on to :meth:`to_trace`'s :class:`Trace` (over its
+        ``encoder_reading = "nearest"``).
     """
 
     t: np.ndarray

@@ -81,6 +81,9 @@ class ValidationConfig:
         table's edge value there, and the summary states the share of cycles outside.
     monitor_velocity, monitor_load : float
         Pass of the monitoring demo [m/s], [N].
+    compensator : CompensatorParams
+        Settings of the compensator the validation runs
+        (:class:`~drivelash.te.runtime.compensator.CompensatorParams`).
     """
 
     velocities: tuple[float, ...] | None = None

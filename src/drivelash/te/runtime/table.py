@@ -120,7 +120,24 @@ class TEPredictor(Protocol):
     ``x_T`` and ``torque`` (broadcast).
     """
 
-    def predict(self, x_T: np.ndarray, torque: np.ndarray, direction: int) -> np.ndarray: ...
+    def predict(self, x_T: np.ndarray, torque: np.ndarray, direction: int) -> np.ndarray:
+        """The transmission error of flank ``direction``.
+
+        Parameters
+        ----------
+        x_T : numpy.ndarray
+            Table (rack) positions [m].
+        torque : numpy.ndarray
+            Motor torques [N·m], broadcast against ``x_T``.
+        direction : int
+            Flank: +1 or −1.
+
+        Returns
+        -------
+        numpy.ndarray
+            TE [m].
+        """
+        ...
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,200 @@
+"""Every public callable (a name in ``drivelash.__all__`` or a subpackage's ``__all__``) has a
+docstring, and its numpydoc ``Parameters`` section names exactly the parameters of its signature.
+
+A class's constructor parameters may be documented under ``Parameters`` or ``Attributes`` (a
+result dataclass documents its fields as attributes); public methods defined by the class are
+checked like functions. ``numpydoc`` is not a dependency: the section parser is a small one here.
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+import pkgutil
+import re
+import types
+from collections.abc import Callable, Iterator
+
+import pytest
+
+import drivelash
+
+_SECTION = re.compile(r"^(\s*)([A-Z][A-Za-z ]+)\n\1-{3,}\s*$", re.MULTILINE)
+_ENTRY = re.compile(r"^([*\w][\w, *]*?)\s*(?::.*)?$")
+
+
+def sections(doc: str | None) -> dict[str, list[str]]:
+    """numpydoc section name → the names its entries document (``a, b : float`` gives both)."""
+    text = inspect.cleandoc(doc or "")
+    found = list(_SECTION.finditer(text))
+    out: dict[str, list[str]] = {}
+    for i, m in enumerate(found):
+        body = text[m.end() : found[i + 1].start() if i + 1 < len(found) else len(text)]
+        indent = m.group(1)
+        names: list[str] = []
+        for line in body.splitlines():
+            if not line.strip() or not line.startswith(indent) or line[len(indent) :].startswith((" ", "\t")):
+                continue  # blank, or a description line (indented under its entry)
+            entry = _ENTRY.match(line[len(indent) :].rstrip())
+            if entry:
+                names += [n.strip().lstrip("*") for n in entry.group(1).split(",") if n.strip()]
+        out[m.group(2).strip()] = names
+    return out
+
+
+def signature_names(obj: Callable[..., object]) -> list[str] | None:
+    """The parameters a docstring must document (``self``/``cls`` left out); None when the
+    signature cannot be read."""
+    try:
+        sig = inspect.signature(obj)
+    except (TypeError, ValueError):
+        return None
+    return [p for p in sig.parameters if p not in ("self", "cls")]
+
+
+def parameter_problems(
+    obj: Callable[..., object], *, constructor: bool = False, require_section: bool = False
+) -> list[str]:
+    """What is wrong with ``obj``'s docstring: missing, a ``Parameters`` entry that is not a
+    parameter, a parameter with no entry once the docstring has a ``Parameters`` section (or
+    always, with ``require_section``). For a class (``constructor``) the signature is the
+    constructor's and ``Attributes`` entries count as documented."""
+    doc = obj.__doc__ if constructor else inspect.getdoc(obj)
+    if not (doc and doc.strip()):
+        return ["no docstring"]
+    params = signature_names(obj)
+    if params is None:
+        return []
+    secs = sections(doc)
+    documented = secs.get("Parameters", []) + secs.get("Other Parameters", [])
+    problems = [f"documents {n!r}, not a parameter" for n in documented if n not in params]
+    if constructor:
+        documented = documented + secs.get("Attributes", [])
+    if not documented and not (require_section and params):
+        return problems  # prose documentation (a one-line method, a record described in words)
+    return problems + [f"parameter {p!r} not documented" for p in params if p not in documented]
+
+
+def public_packages() -> Iterator[types.ModuleType]:
+    yield drivelash
+    for info in pkgutil.walk_packages(drivelash.__path__, "drivelash."):
+        if info.ispkg:
+            mod = importlib.import_module(info.name)
+            if hasattr(mod, "__all__"):
+                yield mod
+
+
+def listed(pkg: types.ModuleType, name: str) -> object:
+    """``pkg.name``; a submodule listed in ``__all__`` (``drivelash.te``) is imported."""
+    if not hasattr(pkg, name):
+        return importlib.import_module(f"{pkg.__name__}.{name}")
+    return getattr(pkg, name)
+
+
+def public_callables() -> dict[str, tuple[Callable[..., object], bool]]:
+    """``qualified name → (object, is a class)`` for every callable in an ``__all__`` and
+    every public method a public class defines (its own, not inherited from outside)."""
+    out: dict[str, tuple[Callable[..., object], bool]] = {}
+    for pkg in public_packages():
+        for name in pkg.__all__:
+            obj = listed(pkg, name)
+            if isinstance(obj, types.ModuleType) or not callable(obj):
+                continue
+            key = f"{obj.__module__}.{obj.__qualname__}"
+            if inspect.isclass(obj):
+                out[key] = (obj, True)
+                for attr, member in vars(obj).items():
+                    if attr.startswith("_"):
+                        continue
+                    func = member.__func__ if isinstance(member, (classmethod, staticmethod)) else member
+                    if inspect.isfunction(func):
+                        out[f"{key}.{attr}"] = (getattr(obj, attr), False)
+            else:
+                out[key] = (obj, False)
+    return out
+
+
+PUBLIC = public_callables()
+
+
+@pytest.mark.parametrize("name", sorted(PUBLIC))
+def test_public_docstring_parameters(name: str) -> None:
+    obj, is_class = PUBLIC[name]
+    assert parameter_problems(obj, constructor=is_class) == []
+
+
+TOP_LEVEL = [n for n in drivelash.__all__ if inspect.isfunction(getattr(drivelash, n))]
+
+
+@pytest.mark.parametrize("name", TOP_LEVEL)
+def test_top_level_functions_have_parameters_sections(name: str) -> None:
+    """The functions of the one curated namespace document every parameter in numpydoc form."""
+    assert parameter_problems(getattr(drivelash, name), require_section=True) == []
+
+
+def test_every_all_name_exists() -> None:
+    for pkg in public_packages():
+        for name in pkg.__all__:
+            assert not name.startswith("_") or name == "__version__", (pkg.__name__, name)
+            listed(pkg, name)  # AttributeError / ImportError: listed but not there
+
+
+def test_checker_catches_a_wrong_docstring() -> None:
+    """Negative control: a documented parameter that is not in the signature, one that is
+    missing, and a missing docstring are each reported."""
+
+    def wrong(T_s: float, delta: float) -> float:
+        """Something.
+
+        Parameters
+        ----------
+        dt : float
+            Sample period [s].
+        delta : float
+            Backlash [rad].
+        """
+        return T_s * delta
+
+    def bare(x: float) -> float:
+        return x
+
+    def right(T_s: float, *args: float, delta1: float = 0.0, **kw: float) -> float:
+        """Something.
+
+        Parameters
+        ----------
+        T_s : float
+            Sample period [s].
+        *args : float
+            More.
+        delta1 : float, optional
+            Offset [rad].
+
+            Indented text : not an entry.
+        **kw
+            Rest.
+
+        Returns
+        -------
+        out : float
+            Product [rad·s].
+        """
+        return T_s
+
+    assert parameter_problems(wrong) == ["documents 'dt', not a parameter", "parameter 'T_s' not documented"]
+    assert parameter_problems(bare) == ["no docstring"]
+    assert parameter_problems(right) == []
+    assert parameter_problems(bare.__call__) == []  # no signature to check: not a false alarm
+    undocumented = "One line.\n\nReturns\n-------\nfloat\n    [rad]."
+    wrong.__doc__, bare.__doc__ = undocumented, undocumented
+    assert parameter_problems(bare) == []  # prose-only docstring: allowed below the top level ...
+    assert parameter_problems(bare, require_section=True) == ["parameter 'x' not documented"]  # ... not at it
+
+
+if __name__ == "__main__":  # the list of violations, for fixing them
+    for name, (obj, is_class) in sorted(PUBLIC.items()):
+        for problem in parameter_problems(obj, constructor=is_class):
+            print(f"{name}: {problem}")
+    for name in TOP_LEVEL:
+        for problem in parameter_problems(getattr(drivelash, name), require_section=True):
+            print(f"drivelash.{name}: {problem}")
