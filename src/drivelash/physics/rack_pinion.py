@@ -35,7 +35,7 @@ Structure of the generator (every component of spec §1, each seeded):
    a global slope and a long-wave component (manufacturing and assembly);
 2. ``R_d``: pinion/gearbox runout with the pinion circumference as period,
    amplitude ≈ 25 µm, plus a small second harmonic; slightly different per flank;
-3. ``M_d``: tooth-meshing error with the tooth pitch as period, amplitude 4–8 µm,
+3. ``M_d``: tooth-meshing error with the tooth pitch as period, amplitude 5–7 µm (paper: 4–8 µm),
    three harmonics, tooth-to-tooth variation (a factor per pinion tooth — periodic
    with the circumference — times a factor per rack tooth); A(F) = 1/(1 + F/F_h)
    makes it shrink with load (flank deformation with profile modifications);
@@ -75,7 +75,7 @@ class RackGeometry:
     n_t : int
         Number of pinion teeth [-] (20).
     helix_angle : float
-        Helix angle β [rad]; the default 19.531° gives d_p = 84.882 mm.
+        Helix angle β [rad]; the default acos(80/84.882) = 19.527° gives d_p = 84.882 mm.
     alpha_n : float
         Normal pressure angle [rad] (20°, standard).
     face_width : float
@@ -330,7 +330,8 @@ class TEGeneratorParams:
     runout_h2 : float
         Second runout harmonic relative to the first [-] (gearbox).
     A_mesh_min, A_mesh_max : float
-        No-load tooth-meshing amplitude per flank, uniform in [min, max] [m] (4–8 µm).
+        No-load tooth-meshing amplitude per flank, uniform in [min, max] [m] (5–7 µm, inside
+        the paper's 4–8 µm: the band leaves room for the tooth-to-tooth variation).
     mesh_harmonics : tuple of float
         Amplitudes of mesh harmonics 2, 3, … relative to the fundamental [-].
     mesh_flank_phase : float
