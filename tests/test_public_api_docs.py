@@ -8,12 +8,14 @@ checked like functions. ``numpydoc`` is not a dependency: the section parser is 
 
 from __future__ import annotations
 
+import doctest
 import importlib
 import inspect
 import pkgutil
 import re
 import types
 from collections.abc import Callable, Iterator
+from pathlib import Path
 
 import pytest
 
@@ -76,7 +78,10 @@ def parameter_problems(
 
 
 def public_packages() -> Iterator[types.ModuleType]:
+    """The curated namespaces: the top level, ``drivelash.params`` (the parameter classes) and
+    every subpackage with an ``__all__`` (tests/identify/test_api.py: each has one)."""
     yield drivelash
+    yield importlib.import_module("drivelash.params")
     for info in pkgutil.walk_packages(drivelash.__path__, "drivelash."):
         if info.ispkg:
             mod = importlib.import_module(info.name)
@@ -107,7 +112,7 @@ def public_callables() -> dict[str, tuple[Callable[..., object], bool]]:
                     if attr.startswith("_"):
                         continue
                     func = member.__func__ if isinstance(member, (classmethod, staticmethod)) else member
-                    if inspect.isfunction(func):
+                    if inspect.isfunction(func) and func.__module__.startswith("drivelash"):
                         out[f"{key}.{attr}"] = (getattr(obj, attr), False)
             else:
                 out[key] = (obj, False)
@@ -137,6 +142,38 @@ def test_every_all_name_exists() -> None:
         for name in pkg.__all__:
             assert not name.startswith("_") or name == "__version__", (pkg.__name__, name)
             listed(pkg, name)  # AttributeError / ImportError: listed but not there
+
+
+def _examples() -> dict[str, doctest.DocTest]:
+    """The docstring examples of the public callables (``Examples`` sections), by name."""
+    finder = doctest.DocTestFinder(recurse=False)
+    tests = {}
+    for name, (obj, _) in PUBLIC.items():
+        for test in finder.find(obj, name, globs={}):
+            if test.examples:
+                tests[name] = test
+    return tests
+
+
+EXAMPLES = _examples()
+
+
+@pytest.mark.parametrize("name", sorted(EXAMPLES))
+def test_docstring_examples_run(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A public docstring's example runs and prints what it says (from the repository root:
+    the examples name repository files, ``examples/drive_bench.toml``)."""
+    monkeypatch.chdir(Path(__file__).resolve().parents[1])
+    runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    result = runner.run(EXAMPLES[name])
+    assert result.failed == 0, result
+
+
+def test_examples_were_found() -> None:
+    """Negative control of the example test: the one unskipped example is collected."""
+    assert "drivelash.estimation.backlash_api.estimate_backlash" in EXAMPLES
+    wrong = doctest.DocTestParser().get_doctest(">>> 1 + 1\n3\n", {}, "wrong", None, 0)
+    runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    assert runner.run(wrong, out=lambda _: None).failed == 1  # a wrong printed value fails
 
 
 def test_checker_catches_a_wrong_docstring() -> None:
