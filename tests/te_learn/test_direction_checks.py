@@ -72,3 +72,20 @@ def test_one_direction_model_names_the_missing_direction(model_dir, tmp_path):
         with pytest.raises(ParameterError) as err:
             call()
         assert str(err.value) == "TEModel.direction: model has no direction -1 (it has +1)", name
+
+
+@pytest.mark.parametrize("torque", [2.0, -2.0])
+def test_backlash_takes_each_flank_at_its_own_torque_sign(model, torque):
+    """``TEModel.backlash(x, T)`` is TE(−1, −|T|) − TE(+1, +|T|), the gap ``TETable.backlash``
+    gives: flank −1 carries a negative motor torque (``build_table``'s grid for it is
+    [−torque_max, −torque_min]). It gave both flanks the same signed T, so for T ≠ 0 flank −1
+    was asked at a torque it never carries and the two backlash functions of one model
+    disagreed (here by about 3 µm at |T| = 2 N·m)."""
+    from drivelash.te.runtime.table import build_table
+
+    expected = model.predict(X, -abs(torque), -1) - model.predict(X, abs(torque), 1)
+    assert np.array_equal(model.backlash(X, torque), expected)
+    table = build_table(model, 0.05, 0.25, 0.01, torque_max=4.0, n_torque=3)  # torques 0, 2, 4
+    xg = table.x_grid  # grid nodes: the table holds the model's values there
+    np.testing.assert_allclose(model.backlash(xg, torque), table.backlash(xg, torque), rtol=0, atol=1e-12)
+    assert model.backlash(X, 0.0) == pytest.approx(model.predict(X, 0.0, -1) - model.predict(X, 0.0, 1))

@@ -11,7 +11,8 @@ Interface for the compensation (units!):
 * ``TEModel.predict_def_um(...) -> TE_def [µm]`` — the offset-free learned deformation
   (stage 1 + stage 2), ``predict_stage1_um`` the network part alone;
 * ``TEModel.predict_one(x_T, torque, direction) -> TE [m]`` (one point, float);
-* ``TEModel.backlash(x_T, torque) -> TE_neg − TE_pos [m]``;
+* ``TEModel.backlash(x_T, torque) -> TE_neg − TE_pos [m]`` (flank −1 at −|torque|, +1 at
+  +|torque|, as ``TETable.backlash``);
 * ``TEModel.kernel_arrays(direction) -> (fbuf float64, ibuf int64)`` — two flat arrays
   per direction that :func:`te_point` ``(x_T, torque, fbuf, ibuf) -> TE [m]`` and
   :func:`te_def_point` (µm) accept inside the caller's own ``@njit`` code.
@@ -587,18 +588,23 @@ class TEModel:
         return lo, hi
 
     def backlash(self, x_T: Any, torque: Any = 0.0) -> np.ndarray:
-        """Gap between the direction curves TE_neg − TE_pos [m] at ``x_T`` (same torque for both).
+        """Gap between the direction curves TE_neg − TE_pos [m] at ``x_T``, at equal torque
+        magnitude: each flank at the sign of torque it carries, as
+        :meth:`~drivelash.te.runtime.table.TETable.backlash`.
 
         Parameters
         ----------
         x_T : array_like
             Table positions [m] (flattened).
         torque : array_like
-            Motor torque [N·m] given to both directions, broadcast to ``x_T``.
+            Motor torque magnitude [N·m], broadcast to ``x_T``: −|torque| on flank −1,
+            +|torque| on flank +1 (the load acts against the motion, so the motor torque has
+            the sign of the flank; a signed value is taken by its magnitude).
 
         Returns
         -------
         numpy.ndarray
-            Backlash TE(−1) − TE(+1) [m], 1-D, one per position.
+            Backlash TE(−1, −|torque|) − TE(+1, +|torque|) [m], 1-D, one per position.
         """
-        return self.predict(x_T, torque, -1) - self.predict(x_T, torque, +1)
+        magnitude = np.abs(np.asarray(torque, dtype=np.float64))
+        return self.predict(x_T, -magnitude, -1) - self.predict(x_T, magnitude, +1)
