@@ -796,6 +796,31 @@ def iter_trace_chunks(
 
     Every chunk is a :class:`~drivelash.io.Trace` (``meta`` as ``load_trace`` gives it);
     concatenated, the chunks equal ``load_trace(path, mapping)`` bit for bit.
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV, Parquet, HDF5 or MATLAB file.
+    mapping : DriveConfig or dict, optional
+        Column mapping, as for :func:`drivelash.io.load_trace`.
+    required : iterable of str
+        Trace columns the caller needs.
+    columns : iterable of str, optional
+        Trace columns to yield (``t`` always); default: every mapped column.
+    chunk_rows : int
+        Rows per chunk.
+    check_saturation : bool
+        Refuse clipped torque/force columns.
+
+    Yields
+    ------
+    Trace
+        The next chunk, SI columns.
+
+    Raises
+    ------
+    DataError
+        As :func:`drivelash.io.load_trace`, before the first chunk is yielded.
     """
     with TraceStream(
         path,

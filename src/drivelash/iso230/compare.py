@@ -117,10 +117,22 @@ def read_deadzone(path: str | Path) -> Deadzone:
     Reads ``delta`` [rad] and, when the estimator reports one, its standard uncertainty
     (``delta_std`` [rad]).
 
+    Parameters
+    ----------
+    path : str or Path
+        The JSON file ``drivelash estimate --json`` wrote.
+
+    Returns
+    -------
+    Deadzone
+        δ [rad] and u(δ) [rad] (None when the file has none), ``source`` the file.
+
     Raises
     ------
     DataError
-        Missing or unreadable file, not JSON, no finite ``delta`` — one line.
+        Missing or unreadable file, not JSON, no finite ``delta`` ≥ 0, a ``delta_std`` that is
+        not a finite number ≥ 0, an estimate made without sufficient excitation, or one that
+        did not converge and states no uncertainty — one line.
     """
     p = Path(path)
     try:

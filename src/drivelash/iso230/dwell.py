@@ -430,6 +430,18 @@ def estimate_drift(d: Dwells) -> Drift:
 
     The ISO evaluation does not correct drift (the standard does not); this tells how
     much of B̄ it may carry. Needs at least 2 runs per direction.
+
+    Parameters
+    ----------
+    d : Dwells
+        The dwells of a time series (:func:`detect_dwells`): their averaging windows give
+        the times [s], their deviations the x [m or rad].
+
+    Returns
+    -------
+    Drift
+        The rate [m/s or rad/s] with its standard uncertainty (∞ when the times cannot
+        determine it), its share of B̄ and the drift-corrected approaches.
     """
     t_mid = 0.5 * (d.t_avg_start + d.t_avg_end)
     keys = np.stack([d.target, d.direction], axis=1)

@@ -29,7 +29,28 @@ def sgn(x: float) -> float:
 
 @njit(cache=True)
 def deadzone_torque_scalar(dtheta, domega, K_S, D_S, delta, delta1):
-    """Deadzone shaft torque T_l^DZ, eq (10) [N·m]."""
+    """Deadzone shaft torque T_l^DZ, eq (10) [N·m].
+
+    Parameters
+    ----------
+    dtheta : float
+        Δθ = θ_m/N − θ_l [rad].
+    domega : float
+        Δω = ω_m/N − ω_l [rad/s].
+    K_S : float
+        Shaft stiffness [N·m/rad].
+    D_S : float
+        Shaft damping [N·m·s/rad].
+    delta : float
+        Deadzone (gap) δ [rad].
+    delta1 : float
+        Offset δ1 [rad]: the shafts are disengaged for −δ1 ≤ Δθ ≤ δ − δ1.
+
+    Returns
+    -------
+    float
+        Shaft torque [N·m] (0 inside the gap).
+    """
     if dtheta < -delta1:
         return K_S * (dtheta + delta1) + D_S * domega
     if dtheta > delta - delta1:
@@ -47,7 +68,30 @@ def smooth_stiffness_scalar(dtheta, K_S, delta, delta1, alpha):
 
 @njit(cache=True)
 def smooth_torque_scalar(dtheta, domega, K_S, D_S, delta, delta1, alpha):
-    """Smooth shaft torque T_l(x, δ), eq (12) [N·m]."""
+    """Smooth shaft torque T_l(x, δ), eq (12) [N·m].
+
+    Parameters
+    ----------
+    dtheta : float
+        Δθ = θ_m/N − θ_l [rad].
+    domega : float
+        Δω = ω_m/N − ω_l [rad/s].
+    K_S : float
+        Shaft stiffness [N·m/rad].
+    D_S : float
+        Shaft damping [N·m·s/rad].
+    delta : float
+        Deadzone (gap) δ [rad].
+    delta1 : float
+        Offset δ1 [rad].
+    alpha : float
+        Smoothness α of the varying stiffness (11) [1/rad]; α → ∞ gives eq (10).
+
+    Returns
+    -------
+    float
+        Shaft torque [N·m].
+    """
     arg = dtheta + delta1 - 0.5 * delta * (1.0 + sgn(dtheta)) + (D_S / K_S) * domega
     return arg * smooth_stiffness_scalar(dtheta, K_S, delta, delta1, alpha)
 

@@ -313,7 +313,24 @@ def rk4_event_step_scalar(omega_m, theta_m, omega_l, theta_l, u, delta, delta1, 
 
 @njit(cache=True)
 def rhs(x, u, delta, delta1, p):
-    """Array form of :func:`rhs_scalar`: ``x`` = [ω_m, θ_m, ω_l, θ_l] → ẋ (new array)."""
+    """Array form of :func:`rhs_scalar`: ``x`` = [ω_m, θ_m, ω_l, θ_l] → ẋ (new array).
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        State [ω_m, θ_m, ω_l, θ_l] [rad/s, rad, rad/s, rad].
+    u : float
+        Motor torque [N·m].
+    delta, delta1 : float
+        Deadzone δ and offset δ1 [rad].
+    p : numpy.ndarray
+        Plant parameters, layout :data:`PLANT_FIELDS` (:func:`plant_params_array`).
+
+    Returns
+    -------
+    numpy.ndarray
+        ẋ = [dω_m/dt, dθ_m/dt, dω_l/dt, dθ_l/dt] [rad/s², rad/s, rad/s², rad/s].
+    """
     out = np.empty(4)
     a, b, c, d = rhs_scalar(x[0], x[1], x[2], x[3], u, delta, delta1, p)
     out[0] = a
@@ -325,7 +342,26 @@ def rhs(x, u, delta, delta1, p):
 
 @njit(cache=True)
 def rk4_step(x, u, delta, delta1, p, h):
-    """Array form of :func:`rk4_step_scalar` (returns a new array)."""
+    """Array form of :func:`rk4_step_scalar` (returns a new array).
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        State [ω_m, θ_m, ω_l, θ_l] [rad/s, rad, rad/s, rad].
+    u : float
+        Motor torque, constant over the step [N·m].
+    delta, delta1 : float
+        Deadzone δ and offset δ1 [rad], constant over the step.
+    p : numpy.ndarray
+        Plant parameters, layout :data:`PLANT_FIELDS` (:func:`plant_params_array`).
+    h : float
+        Step length [s] (the simulator uses T_s / ``n_sub``).
+
+    Returns
+    -------
+    numpy.ndarray
+        The state after the step, same layout as ``x``.
+    """
     out = np.empty(4)
     a, b, c, d = rk4_step_scalar(x[0], x[1], x[2], x[3], u, delta, delta1, p, h)
     out[0] = a
@@ -339,6 +375,19 @@ def linear_state_space(drivetrain: DrivetrainParams) -> tuple[np.ndarray, np.nda
     """Continuous (A, B) of (1)–(4) for δ = 0 and no Coulomb/static friction.
 
     State [ω_m, θ_m, ω_l, θ_l], input u [N·m]; used for cross-checks with python-control.
+
+    Parameters
+    ----------
+    drivetrain : DrivetrainParams
+        J_m, J_l [kg·m²], N [-], K_S [N·m/rad], D_S, beta_m, beta_l [N·m·s/rad] (the
+        Coulomb and static friction are left out).
+
+    Returns
+    -------
+    A : numpy.ndarray
+        (4, 4) system matrix of ẋ = A x + B u (SI: ẋ in the state's units per second).
+    B : numpy.ndarray
+        (4, 1) input matrix: 1/J_m [1/(kg·m²)] in the ω_m row, zeros elsewhere.
     """
     d = drivetrain
     N, K, D = d.N, d.K_S, d.D_S

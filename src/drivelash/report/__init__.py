@@ -365,7 +365,15 @@ def _param_tables(config: Any, est_config: Any = None) -> list[tuple[str, list[s
 def write_estimate_report(
     path: str | Path, trace: Any, result: Any, config: Any = None, *, summary: dict | None = None
 ) -> Path:
-    """Write the estimation report (see :func:`render_estimate_report`) atomically; returns the path."""
+    """Write the estimation report (see :func:`render_estimate_report`) atomically; returns the path.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.html`` file.
+    trace, result, config, summary
+        As for :func:`render_estimate_report`.
+    """
     return _write(path, render_estimate_report(trace, result, config, summary=summary))
 
 
@@ -532,7 +540,17 @@ def render_identify_report(
 
 
 def write_identify_report(path: str | Path, trace: Any, result: Any, config: Any = None, **kw: Any) -> Path:
-    """Write the identification report atomically; returns the path."""
+    """Write the identification report atomically; returns the path.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.html`` file.
+    trace, result, config
+        As for :func:`render_identify_report`.
+    **kw
+        ``cross``, ``cross_trace``, ``observer`` of :func:`render_identify_report`.
+    """
     return _write(path, render_identify_report(trace, result, config, **kw))
 
 
@@ -611,7 +629,17 @@ def render_observe_report(
 
 
 def write_observe_report(path: str | Path, trace: Any, est: Any, config: Any = None, **kw: Any) -> Path:
-    """Write the observer report atomically; returns the path."""
+    """Write the observer report atomically; returns the path.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.html`` file.
+    trace, est, config
+        As for :func:`render_observe_report`.
+    **kw
+        ``expected``, ``expected_label`` of :func:`render_observe_report`.
+    """
     return _write(path, render_observe_report(trace, est, config, **kw))
 
 

@@ -186,19 +186,56 @@ def run_closed_loop(
 # time-varying deadzone
 # --------------------------------------------------------------------------------------
 def delta_constant(t: np.ndarray, delta: float) -> np.ndarray:
-    """δ(t) = δ [rad] on the grid ``t``."""
+    """δ(t) = δ [rad] on the grid ``t``.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Sample instants [s].
+    delta : float
+        Deadzone δ [rad].
+    """
     return np.full(np.shape(t), float(delta))
 
 
 def delta_step(t: np.ndarray, delta0: float, t_step: float, delta_after: float) -> np.ndarray:
-    """δ(t) = δ0 for t < t_step, ``delta_after`` from t_step on [rad] (sudden wear / a swap)."""
+    """δ(t) = δ0 for t < t_step, ``delta_after`` from t_step on [rad] (sudden wear / a swap).
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Sample instants [s].
+    delta0 : float
+        δ before the step [rad].
+    t_step : float
+        Time of the step [s] (a sample within 1 ns of it takes the new value).
+    delta_after : float
+        δ from ``t_step`` on [rad].
+    """
     t = np.asarray(t, dtype=np.float64)
     # tolerance of a nanosecond so that t_step on the grid switches exactly there
     return np.where(t >= t_step - 1e-9, float(delta_after), float(delta0))
 
 
 def delta_ramp(t: np.ndarray, delta0: float, t0: float, t1: float, delta_end: float) -> np.ndarray:
-    """δ(t) ramping linearly from δ0 at t0 to ``delta_end`` at t1, constant outside [rad] (wear)."""
+    """δ(t) ramping linearly from δ0 at t0 to ``delta_end`` at t1, constant outside [rad] (wear).
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Sample instants [s].
+    delta0 : float
+        δ up to ``t0`` [rad].
+    t0, t1 : float
+        Start and end of the ramp [s], ``t1 > t0``.
+    delta_end : float
+        δ from ``t1`` on [rad].
+
+    Raises
+    ------
+    ParameterError
+        ``t1`` is not greater than ``t0``.
+    """
     if not t1 > t0:
         raise ParameterError("delta_ramp", "t1", f"must be > t0 = {t0}, got {t1!r}")
     t = np.asarray(t, dtype=np.float64)
@@ -268,7 +305,20 @@ class SimResult:
 
 
 def initial_state(theta_m: float = 0.0, theta_l: float = 0.0, omega_m: float = 0.0, omega_l: float = 0.0):
-    """Engine state at rest with the given positions [rad] and velocities [rad/s]."""
+    """Engine state with the given positions [rad] and velocities [rad/s] (at rest by default).
+
+    Parameters
+    ----------
+    theta_m, theta_l : float
+        Motor and load position [rad].
+    omega_m, omega_l : float
+        Motor and load velocity [rad/s].
+
+    Returns
+    -------
+    numpy.ndarray
+        The engine state, shape (8,) (the controller's states zero), for ``simulate(state0=…)``.
+    """
     s = np.zeros(8)
     s[0], s[1], s[2], s[3] = omega_m, theta_m, omega_l, theta_l
     return s

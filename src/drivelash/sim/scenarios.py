@@ -390,6 +390,11 @@ def list_scenarios() -> list[Scenario]:
 def get_scenario(name: str) -> Scenario:
     """The scenario called ``name``.
 
+    Parameters
+    ----------
+    name : str
+        A registered name (``paper-sim``, ``bench-0A`` … ``bench-5C``; :func:`list_scenarios`).
+
     Raises
     ------
     UnknownScenarioError
@@ -463,6 +468,11 @@ def scenario_from_toml(path: str | Path) -> Scenario:
         t0 = 5.0
         t1 = 15.0
 
+    Parameters
+    ----------
+    path : str or Path
+        The scenario file.
+
     Raises
     ------
     ConfigError
@@ -514,7 +524,14 @@ def scenario_from_toml(path: str | Path) -> Scenario:
 
 
 def load_scenario(name_or_path: str) -> Scenario:
-    """A registered scenario by name, or one from a ``.toml`` file."""
+    """A registered scenario by name, or one from a ``.toml`` file.
+
+    Parameters
+    ----------
+    name_or_path : str
+        A name for :func:`get_scenario`, or a path ending in ``.toml`` for
+        :func:`scenario_from_toml`.
+    """
     if name_or_path.lower().endswith(".toml"):
         return scenario_from_toml(name_or_path)
     return get_scenario(name_or_path)

@@ -399,6 +399,16 @@ def parse_fleet(data: dict[str, Any], path: Path) -> Fleet:
 def load_fleet(path: str | Path) -> Fleet:
     """Read, validate and resolve a ``fleet.toml`` (see the module docstring).
 
+    Parameters
+    ----------
+    path : str or Path
+        The inventory file; relative paths in it are relative to its directory.
+
+    Returns
+    -------
+    Fleet
+        The axes resolved: absolute paths, drive configurations loaded, thresholds in rad.
+
     Raises
     ------
     ConfigError

@@ -105,6 +105,32 @@ def fit_trees_only(
     """Bagged trees on (x_T, torque) fitted to TE_def [µm] directly (stage 2 alone).
 
     Same grid, blocked folds and subsampling as stage 2 of the stacked model.
+
+    Parameters
+    ----------
+    X : numpy.ndarray
+        Design matrix ``[x_T [m], torque [N·m], M_1 … M_nt]`` (only x_T and torque are used).
+    y : numpy.ndarray
+        TE_def [µm].
+    grid : mapping, optional
+        Hyperparameter grid (default :data:`~drivelash.te.learn.stacked.DEFAULT_TREE_GRID`).
+    block_length : float
+        Position block [m] defining the CV groups.
+    folds : int
+        Folds of the blocked cross-validation.
+    search_stride, tree_stride : int
+        Every n-th row enters the grid search / the final fit.
+    n_jobs : int
+        Parallel jobs of the grid search.
+    random_state : int
+        Seed.
+
+    Returns
+    -------
+    model : ColumnModel
+        ``predict(X) -> µm``.
+    info : dict
+        The grid search's result (``best_params`` …).
     """
     X2 = X[:, STAGE2_COLS]
     base = default_trees(random_state)
@@ -122,6 +148,22 @@ def fit_hgb(X: np.ndarray, y: np.ndarray, max_iter: int = 300, random_state: int
     ``max_iter`` boosting rounds (300), ``max_leaf_nodes=63``, learning rate 0.1,
     early stopping on an internal 10 % validation split (scikit-learn default for
     > 10 000 rows); OpenMP limited to 2 threads.
+
+    Parameters
+    ----------
+    X : numpy.ndarray
+        Design matrix ``[x_T [m], torque [N·m], M_1 … M_nt]``.
+    y : numpy.ndarray
+        TE_def [µm].
+    max_iter : int
+        Boosting rounds.
+    random_state : int
+        Seed.
+
+    Returns
+    -------
+    ColumnModel
+        ``predict(X) -> µm``.
     """
     from threadpoolctl import threadpool_limits
 
@@ -182,7 +224,19 @@ def compare(
 
 
 def mae_table(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """Rows grouped by (direction, load): point-weighted MAE and RMS over the velocities."""
+    """Rows grouped by (direction, load): point-weighted MAE and RMS over the velocities.
+
+    Parameters
+    ----------
+    rows : sequence of mapping
+        The rows of :func:`compare` (``direction``, ``load`` [N], ``split``, ``n``, ``rms``
+        [µm], ``mae`` [µm] per predictor).
+
+    Returns
+    -------
+    list of dict
+        One row per (direction, load), the same keys, MAE and RMS [µm] weighted by ``n``.
+    """
     groups: dict[tuple[str, float], list[Mapping[str, Any]]] = {}
     for r in rows:
         groups.setdefault((r["direction"], r["load"]), []).append(r)
@@ -204,7 +258,19 @@ def mae_table(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
 
 
 def split_summary(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
-    """Per split: point-weighted MAE [µm] of every model, target RMS [µm], MAE/RMS ratios."""
+    """Per split: point-weighted MAE [µm] of every model, target RMS [µm], MAE/RMS ratios.
+
+    Parameters
+    ----------
+    rows : sequence of mapping
+        The rows of :func:`compare`.
+
+    Returns
+    -------
+    dict
+        ``{split: {"rms", "mae", "ratio", "n"}}`` for the splits present (``"train"``,
+        ``"held-out"``, ``"extrapolation"``).
+    """
     out: dict[str, dict[str, Any]] = {}
     for split in ("train", "held-out", "extrapolation"):
         rr = [r for r in rows if r["split"] == split]

@@ -169,7 +169,17 @@ def default_holdout(loads: Any, max_load: float) -> tuple[float, ...]:
 
 
 def split_of(load: float, max_load: float, holdout_loads: tuple[float, ...]) -> str:
-    """``"train"``, ``"held-out"`` (in range, left out) or ``"extrapolation"`` (above ``max_load``)."""
+    """``"train"``, ``"held-out"`` (in range, left out) or ``"extrapolation"`` (above ``max_load``).
+
+    Parameters
+    ----------
+    load : float
+        The run's process load [N].
+    max_load : float
+        Largest training load [N] (1e-9 N tolerance).
+    holdout_loads : tuple of float
+        Loads [N] left out of training (1e-6 N tolerance).
+    """
     if load > max_load + 1e-9:
         return "extrapolation"
     if any(abs(load - h) < 1e-6 for h in holdout_loads):
@@ -178,7 +188,25 @@ def split_of(load: float, max_load: float, holdout_loads: tuple[float, ...]) -> 
 
 
 def stack_runs(runs: list[RunData], pipeline: TEPipeline) -> tuple[np.ndarray, np.ndarray]:
-    """Design matrix and TE_def [µm] of several runs, concatenated."""
+    """Design matrix and TE_def [µm] of several runs, concatenated.
+
+    Parameters
+    ----------
+    runs : list of RunData
+        Processed runs (:meth:`TEPipeline.process`).
+    pipeline : TEPipeline
+        Builds the design matrix ``[x_T [m], torque [N·m], M_1 … M_nt]``.
+
+    Returns
+    -------
+    X, y : numpy.ndarray
+        Design matrix and TE_def [µm].
+
+    Raises
+    ------
+    DataError
+        ``runs`` is empty.
+    """
     if not runs:
         raise DataError("no runs to stack")
     X = np.vstack([pipeline.design_matrix(r.x, r.torque) for r in runs])

@@ -65,7 +65,18 @@ UM = 1e6
 
 
 def direction_key(direction: int | float) -> str:
-    """``"pos"`` for direction +1, ``"neg"`` for −1 (the keys of per-direction models)."""
+    """``"pos"`` for direction +1, ``"neg"`` for −1 (the keys of per-direction models).
+
+    Parameters
+    ----------
+    direction : int or float
+        Any positive value is ``"pos"``, any negative one ``"neg"``.
+
+    Raises
+    ------
+    DataError
+        ``direction`` is 0 (or NaN).
+    """
     if direction > 0:
         return "pos"
     if direction < 0:

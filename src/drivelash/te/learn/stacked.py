@@ -64,7 +64,13 @@ def position_blocks(x: np.ndarray, block_length: float) -> np.ndarray:
 
 
 def default_trees(random_state: int = 0) -> BaggingRegressor:
-    """``BaggingRegressor(DecisionTreeRegressor)`` with bootstrap, all features, one job."""
+    """``BaggingRegressor(DecisionTreeRegressor)`` with bootstrap, all features, one job.
+
+    Parameters
+    ----------
+    random_state : int
+        Seed of the trees and of the bagging (16 estimators until the grid search sets them).
+    """
     return BaggingRegressor(
         estimator=DecisionTreeRegressor(random_state=random_state),
         n_estimators=16,

@@ -171,6 +171,17 @@ def compensator_for(
     axis with a larger r_eff sees its unloaded table's mesh torque at a reversal above
     the release threshold, the flank change comes 15 ms late, mid-gap, and the 5 ms
     backlash step makes the reversal error worse instead of better.
+
+    Parameters
+    ----------
+    bench : RackPinionBench
+        The axis (``r_eff`` [m], ``J_M``, ``J_s`` [kg·m²], ``T_Cm`` [N·m], ``beta_m``
+        [N·m·s/rad]).
+    table : TETable or None
+        The runtime table (not used by the settings; kept for the callers' symmetry).
+    base : CompensatorParams, optional
+        Timing, gains and the paper-bench thresholds to start from (default
+        :class:`CompensatorParams`).
     """
     b = base or CompensatorParams()
     k = float(bench.r_eff) / _PAPER_R_EFF
@@ -326,7 +337,15 @@ class ModelDrive:
 
 
 def drive_for_model(model: Any, campaign_dir: Path | None = None) -> ModelDrive:
-    """The virtual drive of ``model`` (its training campaign at ``campaign_dir`` if given)."""
+    """The virtual drive of ``model`` (its training campaign at ``campaign_dir`` if given).
+
+    Parameters
+    ----------
+    model : TEModel
+        A loaded model; its ``context`` names the simulated axis.
+    campaign_dir : Path, optional
+        Its training campaign (:func:`~drivelash.te.protocol.campaign.load_campaign`).
+    """
     camp = None
     if campaign_dir is not None:
         from drivelash.te.protocol.campaign import load_campaign
@@ -340,6 +359,18 @@ def training_torque_max(campaign: Any, max_load: float) -> float:
 
     The 99.9th percentile over the constant-velocity part of each run (robust to the
     start transient).
+
+    Parameters
+    ----------
+    campaign : Campaign
+        The training campaign.
+    max_load : float
+        Largest training load [N].
+
+    Raises
+    ------
+    DataError
+        No load run with load ≤ ``max_load`` (and a constant-velocity part).
     """
     out = 0.0
     for r in campaign.select(kind="load"):
@@ -365,10 +396,30 @@ def table_for(
 ) -> TETable:
     """The runtime table of ``model`` (see :func:`build_table`).
 
-    ``torque_max`` [N·m] overrides ``cfg.table_torque_max``; one of them must be given.
-    ``x_range`` [m]: the positions of the table; default where the model was measured
-    (:func:`~drivelash.te.runtime.table.measured_range`: its valid range ∩ the span of its
-    no-load curves), else the whole travel.
+    Parameters
+    ----------
+    model : TEPredictor
+        The fitted model.
+    bench : RackPinionBench
+        The axis (its ``travel`` [m] when the model has no measured range).
+    cfg : ValidationConfig
+        ``table_dx`` [m], ``table_torque_step`` [N·m] and ``table_torque_max`` [N·m].
+    meta : dict, optional
+        Provenance stored in the table.
+    torque_max : float, optional
+        Largest torque magnitude of the table [N·m] when ``cfg.table_torque_max`` is None
+        (the callers pass the training runs' torque); a set ``cfg.table_torque_max`` wins.
+        One of the two must be given.
+    x_range : tuple of float, optional
+        The positions of the table [m]; default where the model was measured
+        (:func:`~drivelash.te.runtime.table.measured_range`: its valid range ∩ the span of its
+        no-load curves), else the whole travel.
+
+    Raises
+    ------
+    ParameterError
+        Neither ``cfg.table_torque_max`` nor ``torque_max`` is given; or as
+        :func:`build_table`.
     """
     tmax = cfg.table_torque_max if cfg.table_torque_max is not None else torque_max
     if tmax is None:

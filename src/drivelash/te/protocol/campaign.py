@@ -196,6 +196,11 @@ def load_campaign(directory: str | Path) -> Campaign:
 
     Run traces are read (and validated) on demand by :meth:`CampaignRun.trace`.
 
+    Parameters
+    ----------
+    directory : str or Path
+        The campaign directory (``te campaign -o`` or ``te import``).
+
     Raises
     ------
     DataError

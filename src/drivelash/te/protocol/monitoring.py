@@ -288,7 +288,24 @@ def model_te_along(table: TETable, res: dict[str, np.ndarray]) -> np.ndarray:
 
 def monitor_pass(sim: Any, table: TETable, res: dict[str, np.ndarray], v: float, edges: np.ndarray,
                  params: MonitorParams | None = None) -> SectionReport:  # fmt: skip
-    """Run the section monitor on a compensated pass (constant-velocity part)."""
+    """Run the section monitor on a compensated pass (constant-velocity part).
+
+    Parameters
+    ----------
+    sim : RackAxisSimulator
+        The bench the pass ran on (``r_eff`` [m], ``J_s`` [kg·m²], controller gains).
+    table : TETable
+        The compensator's table (the model TE along the pass).
+    res : dict of numpy.ndarray
+        The pass (:func:`~drivelash.te.protocol.passes.run_pass`): ``t`` [s], ``x_T``,
+        ``x_d`` [m], ``v_d`` [m/s], ``theta_m`` [rad], ``e`` [m], ….
+    v : float
+        The pass's constant set speed [m/s]: samples at |v_d| = v are judged.
+    edges : numpy.ndarray
+        Section boundaries [m].
+    params : MonitorParams, optional
+        Threshold rule.
+    """
     from drivelash.control.path_error import predict_path_error
 
     J_s = float(sim.bench.J_s)

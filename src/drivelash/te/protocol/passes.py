@@ -45,7 +45,7 @@ def run_pass(
     Returns
     -------
     dict of numpy.ndarray
-        ``t, x_d, x_T, theta_m, omega_m, torque_m, e`` (= x_d − x_T), ``v_c``, ``v_te``,
+        ``t, x_d, v_d, x_T, theta_m, omega_m, torque_m, e`` (= x_d − x_T), ``v_c``, ``v_te``,
         ``v_bl``, ``flank``, ``tq_model`` (the compensator's model torque) and ``outside``
         (1 where the compensator's set positions left its table and it held the edge value,
         :attr:`~drivelash.te.runtime.compensator.Compensator.cycles_outside`; else 0) per sample.

@@ -364,6 +364,31 @@ def compensate_run(state, te, x0, dx, torque0, dtorque, p, x_d, torque_m, omega_
 
     ``x_d`` holds the set positions at the cycle instants plus one look-ahead value
     (length n + 1); the other inputs have length n. Returns (state, v_c, v_c,TE, v_c,BL).
+
+    Parameters
+    ----------
+    state : numpy.ndarray
+        Compensator state (:func:`init_state`), modified in place.
+    te, x0, dx, torque0, dtorque
+        The arrays of a :class:`~drivelash.te.runtime.table.TETable`: TE [m] (2, n_x,
+        n_torque), first position and step [m], first torque and step per flank [N·m].
+    p : numpy.ndarray
+        :meth:`CompensatorParams.as_array`.
+    x_d : numpy.ndarray
+        Set positions [m], n + 1.
+    torque_m : numpy.ndarray
+        Motor torque [N·m], n.
+    omega_m : numpy.ndarray
+        Motor speed [rad/s], n.
+    alpha_m : numpy.ndarray
+        Motor acceleration [rad/s²], n.
+
+    Returns
+    -------
+    state : numpy.ndarray
+        The same array, after the last cycle.
+    v_c, v_te, v_bl : numpy.ndarray
+        Velocity correction and its TE and backlash parts [m/s], n each.
     """
     n = torque_m.size
     v = np.empty(n)

@@ -107,7 +107,23 @@ def _grid_doc(table: TETable, params: CompensatorParams | None) -> dict[str, Any
 
 
 def load_table(path: Path) -> TETable:
-    """Read a table written by :func:`export_table` (CSV or JSON) back, in SI units."""
+    """Read a table written by :func:`export_table` (CSV or JSON) back, in SI units.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The ``*.csv`` or ``*.json`` file (positions in mm, TE in µm, torque in N·m).
+
+    Returns
+    -------
+    TETable
+        Positions [m], torques [N·m], TE [m].
+
+    Raises
+    ------
+    DataError
+        Missing file, unknown suffix, not a drivelash table, or malformed content.
+    """
     path = Path(path)
     if not path.is_file():
         raise DataError("no such file", path=str(path))
