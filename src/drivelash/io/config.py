@@ -544,7 +544,24 @@ class ConfigFile(Table):
 class DriveConfig(ConfigFile):
     """A drive configuration (``estimate``, ``identify``, ``observe``); every table optional.
 
-    Use :func:`load_config` to read one.
+    Use :func:`load_config` to read one. Values in SI units.
+
+    Parameters
+    ----------
+    drivetrain : DrivetrainSection, optional
+        ``[drivetrain]``: the fields of :class:`~drivelash.params.DrivetrainParams`
+        (J_m, J_l [kg·m²], N [-], K_S [N·m/rad], D_S [N·m·s/rad], friction [N·m], …).
+    backlash : BacklashSection, optional
+        ``[backlash]``: ``delta1`` [rad] (and ``delta`` [rad], ``alpha`` [1/rad]).
+    estimator : EstimatorSection, optional
+        ``[estimator]``: fields of :class:`~drivelash.params.EstimatorConfig` overriding the
+        tuning rule.
+    columns : dict of str to ColumnMap, optional
+        ``[columns]``: source column → Trace column and the source's unit.
+    sampling : SamplingSection, optional
+        ``[sampling]``: time base and resampling of the recordings.
+    identification : IdentificationSection, optional
+        ``[identification]``: options of :func:`drivelash.identify_drive`.
     """
 
     drivetrain: DrivetrainSection | None = None  # type: ignore[valid-type]

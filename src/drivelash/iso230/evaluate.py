@@ -336,18 +336,65 @@ def _t_quantile(p: float, nu: np.ndarray | float) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Iso230Result:
-    """ISO 230-2 quantities of one axis; all deviations in ``unit`` (m or rad).
+    """ISO 230-2 quantities of one axis; all positions and deviations in ``unit`` (m or rad).
 
-    Per target (arrays of shape (m,)): ``targets`` P_i, ``mean_up`` x̄_i↑, ``mean_down``
-    x̄_i↓, ``s_up`` s_i↑, ``s_down`` s_i↓, ``R_i_up`` R_i↑, ``R_i_down`` R_i↓, ``B_i``,
-    ``R_i``, ``mean_bi`` x̄_i, ``u_B_i`` u(B_i) and ``nu_B_i`` its degrees of freedom.
+    The definitions are in the module docstring; [unit] below is m (linear axis) or rad
+    (rotary axis).
 
-    Per axis: ``B`` = max|B_i|, ``B_signed`` (the B_i of largest magnitude, with its
-    sign), ``B_index`` (its target), ``B_mean`` B̄, ``R_up``, ``R_down``, ``R``,
-    ``E_up``, ``E_down``, ``E``, ``M``, ``A_up``, ``A_down``, ``A``; and the
-    uncertainties ``u_B`` = u(B_k) at that target, ``B_interval`` (simultaneous, see
-    the module docstring), ``u_B_mean``, ``nu_B_mean``, ``B_mean_interval``, all at
-    ``coverage``.
+    Attributes
+    ----------
+    unit : {"m", "rad"}
+        SI unit of every position, deviation and uncertainty.
+    n : int
+        Runs per direction.
+    targets : numpy.ndarray
+        Target positions P_i, shape (m,) [unit].
+    mean_up, mean_down : numpy.ndarray
+        Mean unidirectional positional deviations x̄_i↑, x̄_i↓, shape (m,) [unit].
+    s_up, s_down : numpy.ndarray
+        Unidirectional standard uncertainties s_i↑, s_i↓, shape (m,) [unit].
+    R_i_up, R_i_down : numpy.ndarray
+        Unidirectional repeatabilities R_i↑ = 4 s_i↑, R_i↓, shape (m,) [unit].
+    B_i : numpy.ndarray
+        Reversal values x̄_i↑ − x̄_i↓, shape (m,) [unit].
+    R_i : numpy.ndarray
+        Bidirectional repeatabilities, shape (m,) [unit].
+    mean_bi : numpy.ndarray
+        Mean bidirectional positional deviations x̄_i, shape (m,) [unit].
+    u_B_i : numpy.ndarray
+        Standard uncertainties u(B_i), shape (m,) [unit].
+    nu_B_i : numpy.ndarray
+        Their Welch–Satterthwaite degrees of freedom, shape (m,) [-].
+    B : float
+        Reversal value of the axis max_i |B_i| [unit].
+    B_signed : float
+        The B_i of largest magnitude, with its sign [unit].
+    B_index : int
+        Index of its target in ``targets``.
+    B_mean : float
+        Mean reversal value B̄ [unit].
+    R_up, R_down, R : float
+        Unidirectional and bidirectional repeatability of the axis [unit].
+    E_up, E_down, E : float
+        Unidirectional and bidirectional systematic positional deviation [unit].
+    M : float
+        Range of the mean bidirectional positional deviation [unit].
+    A_up, A_down, A : float
+        Unidirectional and bidirectional accuracy [unit].
+    u_B : float
+        u(B_k) at the target of ``B`` [unit].
+    B_interval : tuple of float
+        Simultaneous (Šidák) interval of B at ``coverage`` [unit].
+    u_B_mean, nu_B_mean : float
+        u(B̄) [unit] and its degrees of freedom [-].
+    B_mean_interval : tuple of float
+        Interval B̄ ± t_ν u(B̄) at ``coverage`` [unit].
+    coverage : float
+        Coverage probability of the intervals [-].
+    approaches : Approaches or None
+        The deviations evaluated.
+    warnings : list of str
+        Departures from the standard's test conditions.
     """
 
     unit: str
@@ -450,6 +497,11 @@ def evaluate(ap: Approaches, coverage: float = COVERAGE) -> Iso230Result:
     Returns
     -------
     Iso230Result
+
+    Raises
+    ------
+    DataError
+        Fewer than 2 targets or 2 runs per direction.
     """
     up, dn = ap.up, ap.down
     m, n_up = up.shape

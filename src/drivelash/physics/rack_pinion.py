@@ -248,6 +248,15 @@ class RackPinionBench(RackGeometry, RackDrive):
     The defaults are the test bench of spec 02 §1 (paper §II): m_n = 4 mm, 20 teeth,
     β = 19.53°, i_PG = 16, a 400 kg table on 2.2 m of travel. Build one from its parts
     with :meth:`from_parts`; :attr:`geometry` and :attr:`drive` give them back.
+
+    Parameters
+    ----------
+    m_T, J_motor, J_gearbox, J_pinion, T_Cm, beta_m, F_CT, beta_T, zeta_mesh
+        As :class:`RackDrive`: table mass [kg], inertias [kg·m²], motor-side friction
+        [N·m], [N·m·s/rad], guide friction [N], [N·s/m], damping ratio [-].
+    m_n, n_t, helix_angle, alpha_n, face_width, i_PG, travel, contact_ratio
+        As :class:`RackGeometry`: module [m], teeth [-], angles [rad], face width [m],
+        gearbox ratio [-], travel [m], contact ratio [-] or None.
     """
 
     def __post_init__(self) -> None:
@@ -476,13 +485,50 @@ class TransmissionErrorModel:
     ``x_T`` [m], ``F`` [N] and ``direction`` (±1). Immutable: :meth:`with_local_defect`
     returns a new model.
 
-    Attributes (drawn by the generator; arrays indexed [flank] with 0 ⇔ +1, 1 ⇔ −1)
-    ---------------------------------------------------------------------------------
-    A_r : (2,) runout amplitude [m]; phi_r : (2,) runout phase [rad];
-    A_r2, phi_r2 : second runout harmonic; A_m : (2,) no-load mesh amplitude [m];
-    mesh_amp : (2, H) relative harmonic amplitudes; mesh_phase : (2, H) [rad];
-    tooth_factor : per-rack-tooth amplitude factor (index = floor(x/p_t) − k0);
-    c : (2,) compliance [m/N]; psi_c : (2,) phase of the meshing compliance [rad].
+    The attributes are drawn by the generator; arrays of shape (2, …) are indexed by flank,
+    0 ⇔ direction +1, 1 ⇔ −1.
+
+    Attributes
+    ----------
+    bench : RackPinionBench
+        The axis (tooth pitch, circumference, travel).
+    params : TEGeneratorParams
+        The distribution the model was drawn from.
+    seed : int or None
+        The seed; None for :meth:`ideal`.
+    A_r, phi_r : numpy.ndarray
+        Runout amplitude [m] and phase [rad] per flank, shape (2,).
+    A_r2, phi_r2 : numpy.ndarray
+        Second runout harmonic: amplitude [m] and phase [rad] per flank, shape (2,).
+    A_m : numpy.ndarray
+        No-load mesh amplitude per flank [m], shape (2,).
+    mesh_amp, mesh_phase : numpy.ndarray
+        Relative amplitudes [-] and phases [rad] of the mesh harmonics 1 … H, shape (2, H).
+    tooth_factor : numpy.ndarray
+        Amplitude factor of each rack tooth (pinion-tooth × rack-tooth factor, mean 1 over
+        the travel) [-]; index floor(x/p_t) − k0.
+    k0 : int
+        Rack-tooth index of ``tooth_factor[0]``.
+    c : numpy.ndarray
+        Mean drive-train compliance per flank [m/N], shape (2,).
+    psi_c : numpy.ndarray
+        Phase of the meshing compliance variation per flank [rad], shape (2,).
+    psi_cp : float
+        Phase of the pinion-period compliance variation [rad].
+    slope : float
+        Global drift slope [m/m].
+    joints, joint_dslope : numpy.ndarray
+        Rack-joint positions [m] and the slope change at each [m/m].
+    lw_amp, lw_wavelength, lw_phase : numpy.ndarray
+        Long-wave drift components: amplitude [m], wavelength [m], phase [rad].
+    b_mean, b_var : float
+        Mean of the slow gap b_0 and the amplitude of its variation [m].
+    b_wave_amp, b_wavelength, b_wave_phase : numpy.ndarray
+        Components of that variation: relative weight [-], wavelength [m], phase [rad].
+    b_pin_amp, b_pin_phase : float
+        Centre-distance (pinion-period) part of the gap: amplitude [m], phase [rad].
+    defects : tuple of LocalDefect
+        Local rack deviations added by :meth:`with_local_defect`.
     """
 
     bench: RackPinionBench

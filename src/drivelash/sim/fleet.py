@@ -100,7 +100,22 @@ class _Axis:
 
 @dataclass(frozen=True)
 class FleetPlan:
-    """What :func:`simulate_fleet` wrote (also in ``truth.json``)."""
+    """What :func:`simulate_fleet` wrote (also in ``truth.json``).
+
+    Attributes
+    ----------
+    out : Path
+        The fleet directory.
+    fleet_toml, truth_json : Path
+        The inventory and the true δ of every recording.
+    recordings : int
+        Recordings written.
+    unexcited : int
+        Of those, recordings without sufficient excitation (a single stroke, or out and back
+        once).
+    corrupt : int
+        Of those, recordings made unreadable on purpose (truncated, NaN, garbage).
+    """
 
     out: Path
     fleet_toml: Path

@@ -261,7 +261,20 @@ class AxisSpec:
 
 @dataclass(frozen=True)
 class Fleet:
-    """A parsed inventory: its file, defaults and axes."""
+    """A parsed inventory: its file, defaults and axes.
+
+    Attributes
+    ----------
+    path : Path
+        The ``fleet.toml``.
+    name : str
+        ``[fleet] name``.
+    db : str
+        ``[fleet] db``, the default store as written: a URL, or an SQLite path relative to
+        the file's directory.
+    axes : tuple of AxisSpec
+        The axes, resolved.
+    """
 
     path: Path
     name: str

@@ -54,7 +54,46 @@ class SchedulerError(DrivelashError):
 
 @dataclass
 class IngestReport:
-    """What an ingest run did."""
+    """What an ingest run did.
+
+    Attributes
+    ----------
+    planned : int
+        Recordings to estimate (no estimate of this method, configuration and code version).
+    skipped : int
+        Recordings already stored under their path, size and mtime (not read again).
+    stored : int
+        Estimates committed that were new or replaced a stored ``failed`` one.
+    failed : int
+        Estimates whose recording could not be read or validated (``status = "failed"``).
+    batches : int
+        Commit transactions.
+    axes : list of str
+        The fleet's axes (``machine/axis``).
+    wall_s : float
+        Wall time of the run [s].
+    compute_s : float
+        Sum of the workers' read + validate + estimate times [s].
+    failures : list of str
+        The reason of each failed estimate.
+    warnings : list of str
+        Planning warnings (e.g. an axis whose ``recordings`` glob matches no file).
+    redated : int
+        Stored recordings whose start time changed (a new ``time`` specification).
+    duplicates : list of str
+        One line per file whose content is a stored recording still at its own path.
+    retried : int
+        Stored ``failed`` estimates this run computed again (replaced by the new result) …
+    still_failing : int
+        … and how many of those failed again.
+    replaced : int
+        Stored recordings replaced by a new content of their file (same axis and path).
+    new_axes : int
+        Axes of the fleet that this ingest added to the store (registered before any estimate).
+    moved : int
+        Stored recordings found under a new path or file time (moved, renamed, touched): their
+        new facts recorded, not estimated again (copies of a stored recording are ``duplicates``).
+    """
 
     planned: int = 0
     skipped: int = 0
@@ -68,16 +107,10 @@ class IngestReport:
     warnings: list[str] = field(default_factory=list)
     redated: int = 0
     duplicates: list[str] = field(default_factory=list)
-    #: Stored ``failed`` estimates this run computed again (replaced by the new result), and
-    #: how many of those failed again.
     retried: int = 0
     still_failing: int = 0
-    #: Stored recordings replaced by a new content of their file (same axis and path).
     replaced: int = 0
-    #: Axes of the fleet that this ingest added to the store (registered before any estimate).
     new_axes: int = 0
-    #: Stored recordings found under a new path or file time (moved, renamed, touched): their
-    #: new facts recorded, not estimated again (copies of a stored recording are ``duplicates``).
     moved: int = 0
 
 

@@ -69,7 +69,13 @@ class GeometricOnly(RegressorMixin, BaseEstimator):
 
 
 class StageOne:
-    """The network of a fitted stacked model used alone (predicts TE_def [µm])."""
+    """The network of a fitted stacked model used alone (predicts TE_def [µm]).
+
+    Parameters
+    ----------
+    stacked : StackedTERegressor
+        A fitted stacked model (its ``nn_``).
+    """
 
     def __init__(self, stacked: StackedTERegressor) -> None:
         self.stacked = stacked

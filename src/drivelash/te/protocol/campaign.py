@@ -82,7 +82,17 @@ class CampaignRun:
 
 @dataclass
 class Campaign:
-    """A campaign directory read back by :func:`load_campaign`."""
+    """A campaign directory read back by :func:`load_campaign`.
+
+    Attributes
+    ----------
+    directory : Path
+        The campaign directory.
+    manifest : CampaignManifest
+        ``manifest.json``, validated (axis, simulator, runs).
+    runs : list of CampaignRun
+        Every run of the manifest, its file resolved inside ``directory``.
+    """
 
     directory: Path
     manifest: CampaignManifest
