@@ -84,7 +84,19 @@ class ParameterEstimate:
 
     @classmethod
     def normal(cls, name: str, value: float, std: float, unit: str | None = None) -> ParameterEstimate:
-        """An identified parameter with a symmetric normal 95 % interval value ± 1.96 std."""
+        """An identified parameter with a symmetric normal 95 % interval value ± 1.96 std.
+
+        Parameters
+        ----------
+        name : str
+            Parameter symbol.
+        value : float
+            Estimate (SI).
+        std : float
+            Its standard error (same unit).
+        unit : str, optional
+            Unit of ``value``; default the symbol's SI unit (``UNITS``).
+        """
         return cls(
             name,
             float(value),
@@ -98,7 +110,19 @@ class ParameterEstimate:
     def unknown(
         cls, name: str, reason: str, low: float = -math.inf, high: float = math.inf, unit: str | None = None
     ) -> ParameterEstimate:
-        """A parameter the recording cannot determine (optionally with a bound)."""
+        """A parameter the recording cannot determine (optionally with a bound).
+
+        Parameters
+        ----------
+        name : str
+            Parameter symbol.
+        reason : str
+            Why the recording cannot determine it (one sentence a user can act on).
+        low, high : float
+            A bound the data do give (default unbounded).
+        unit : str, optional
+            Unit of the bounds; default the symbol's SI unit (``UNITS``).
+        """
         return cls(
             name,
             float("nan"),
@@ -137,7 +161,13 @@ class ParameterEstimate:
         return ""
 
     def covers(self, x: float) -> bool:
-        """True if ``x`` lies in the 95 % interval."""
+        """True if ``x`` lies in the 95 % interval.
+
+        Parameters
+        ----------
+        x : float
+            A value in the parameter's unit.
+        """
         return self.low <= x <= self.high
 
     def interval_text(self, digits: int = 5) -> str:
@@ -147,6 +177,11 @@ class ParameterEstimate:
         same resolution), more when the interval is narrow against its position: the width
         shows with two significant digits (δ = 1.02699 rad ± 0.05 mrad prints as
         ``[1.026941, 1.027039]``, not ``[1.0269, 1.027]``). A one-sided bound prints ``inf``.
+
+        Parameters
+        ----------
+        digits : int
+            Least number of significant digits.
         """
         lo, hi = self.low, self.high
         if math.isfinite(lo) and math.isfinite(hi) and hi > lo:
@@ -210,7 +245,13 @@ class DriveIdentification:
         return self.parameters[name]
 
     def value(self, name: str) -> float:
-        """Value of parameter ``name`` (NaN when not identifiable)."""
+        """Value of parameter ``name`` (NaN when not identifiable).
+
+        Parameters
+        ----------
+        name : str
+            Parameter symbol (``"K_S"``, ``"delta"``, …); its unit is ``self[name].unit``.
+        """
         return self.parameters[name].value
 
     @property
@@ -250,7 +291,15 @@ class DriveIdentification:
     def to_toml(
         self, comments: list[str] | None = None, tables: dict[str, dict[str, float]] | None = None
     ) -> str:
-        """``to_config()`` (or ``tables``) as TOML text with ``#`` comment lines (intervals, verdict)."""
+        """``to_config()`` (or ``tables``) as TOML text with ``#`` comment lines (intervals, verdict).
+
+        Parameters
+        ----------
+        comments : list of str, optional
+            Lines written as ``#`` comments above the tables.
+        tables : dict, optional
+            The tables to write instead of :meth:`to_config` (``{table: {key: value}}``, SI).
+        """
         import tomli_w
 
         head = list(comments or [])

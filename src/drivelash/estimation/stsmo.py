@@ -179,13 +179,29 @@ class SuperTwistingObserver:
     def run(
         self, omega_meas: np.ndarray, known_accel: np.ndarray | float = 0.0
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Process a block; returns (ω̂ [rad/s], φ̂ [rad/s²]) and keeps the state."""
+        """Process a block; returns (ω̂ [rad/s], φ̂ [rad/s²]) and keeps the state.
+
+        Parameters
+        ----------
+        omega_meas : numpy.ndarray
+            Measured velocity [rad/s], one value per sample period T_s.
+        known_accel : numpy.ndarray or float
+            Known part of the acceleration [rad/s²] (scalar or per sample).
+        """
         w = np.ascontiguousarray(omega_meas, dtype=np.float64)
         a = np.broadcast_to(np.asarray(known_accel, dtype=np.float64), w.shape)
         self.state, omega_hat, phi_hat = stsmo_run(self.state, w, np.ascontiguousarray(a), self._p)
         return omega_hat, phi_hat
 
     def step(self, omega_meas: float, known_accel: float = 0.0) -> tuple[float, float]:
-        """Process one sample; returns (ω̂_k, φ̂_k)."""
+        """Process one sample; returns (ω̂_k [rad/s], φ̂_k [rad/s²]) and keeps the state.
+
+        Parameters
+        ----------
+        omega_meas : float
+            Measured velocity [rad/s].
+        known_accel : float
+            Known part of the acceleration [rad/s²].
+        """
         p = self._p
         return stsmo_step(self.state, float(omega_meas), float(known_accel), p[0], p[1], p[2])

@@ -555,7 +555,13 @@ class TraceStream:
 
     # ------------------------------------------------------------------ data
     def chunks(self, chunk_rows: int | None = None) -> Iterator[_Chunk]:
-        """The recording in chunks of SI columns (:class:`~drivelash.io.Trace` with ``row0``)."""
+        """The recording in chunks of SI columns (:class:`~drivelash.io.Trace` with ``row0``).
+
+        Parameters
+        ----------
+        chunk_rows : int, optional
+            Rows per chunk (at least 3); default the stream's ``chunk_rows``.
+        """
         if chunk_rows is not None and chunk_rows != self.chunk_rows:
             self.chunk_rows = max(3, int(chunk_rows))
         if self._whole is not None:

@@ -119,16 +119,36 @@ class Trace:
         return float(t[-1] - t[0]) if t.size else 0.0
 
     def select(self, names: Iterable[str]) -> Trace:
-        """A trace with only ``names`` (``t`` always kept)."""
+        """A trace with only ``names`` (``t`` always kept).
+
+        Parameters
+        ----------
+        names : iterable of str
+            Columns to keep.
+        """
         keep = ["t"] + [n for n in names if n != "t"]
         return Trace({n: self[n] for n in keep}, dict(self.meta))
 
     def slice(self, start: int, stop: int | None = None) -> Trace:
-        """Rows ``start:stop`` as a new trace."""
+        """Rows ``start:stop`` as a new trace.
+
+        Parameters
+        ----------
+        start : int
+            First row (0-based).
+        stop : int, optional
+            Row after the last; default the end.
+        """
         return Trace({k: v[start:stop] for k, v in self.columns.items()}, dict(self.meta))
 
     def with_columns(self, extra: Mapping[str, np.ndarray]) -> Trace:
-        """A copy with ``extra`` columns added or replaced."""
+        """A copy with ``extra`` columns added or replaced.
+
+        Parameters
+        ----------
+        extra : mapping of str to numpy.ndarray
+            Columns to add or replace (SI units, the trace's length).
+        """
         cols = dict(self.columns)
         cols.update(extra)
         return Trace(cols, dict(self.meta))
@@ -229,7 +249,13 @@ class Trace:
 
     # -- files --------------------------------------------------------------
     def to_parquet(self, path: str | Path) -> Path:
-        """Write Parquet; ``meta`` goes into the schema metadata as JSON."""
+        """Write Parquet; ``meta`` goes into the schema metadata as JSON.
+
+        Parameters
+        ----------
+        path : str or Path
+            Output file.
+        """
         import pyarrow as pa
         import pyarrow.parquet as pq
 
@@ -241,7 +267,13 @@ class Trace:
 
     @classmethod
     def from_parquet(cls, path: str | Path) -> Trace:
-        """Read a file written by :meth:`to_parquet` (or any numeric Parquet table)."""
+        """Read a file written by :meth:`to_parquet` (or any numeric Parquet table).
+
+        Parameters
+        ----------
+        path : str or Path
+            The Parquet file (columns in SI units; ``meta`` from its schema metadata).
+        """
         import pyarrow.parquet as pq
 
         table = pq.read_table(path)
@@ -254,7 +286,13 @@ class Trace:
         return cls(cols, meta)
 
     def to_csv(self, path: str | Path) -> Path:
-        """Write CSV with a header row; floats with 17 significant digits (lossless)."""
+        """Write CSV with a header row; floats with 17 significant digits (lossless).
+
+        Parameters
+        ----------
+        path : str or Path
+            Output file (``meta`` on a first ``# drivelash.meta`` line).
+        """
         path = Path(path)
         names = self.names
         data = np.column_stack([self.columns[n] for n in names])
@@ -266,7 +304,13 @@ class Trace:
         return path
 
     def save(self, path: str | Path) -> Path:
-        """Write by extension (any format :func:`drivelash.io.formats.write_trace` knows)."""
+        """Write by extension (any format :func:`drivelash.io.formats.write_trace` knows).
+
+        Parameters
+        ----------
+        path : str or Path
+            Output file; the format from its extension.
+        """
         from drivelash.io.formats import write_trace
 
         return write_trace(self, path)

@@ -68,6 +68,11 @@ class Transmission:
     def factor(self, unit: str) -> float:
         """Lost motion at the load per rad of deadzone: [m/rad] (linear) or [rad/rad] (rotary).
 
+        Parameters
+        ----------
+        unit : {"m", "rad"}
+            Unit of the ISO test's positions: a linear or a rotary axis.
+
         Raises
         ------
         ParameterError

@@ -187,11 +187,25 @@ class RackGeometry:
 
     # -- kinematics ----------------------------------------------------------------
     def x_M(self, theta_M: ArrayLike) -> ArrayLike:
-        """Linear motor position x_M = θ_M d_p / (2 i_PG) [m] from the motor angle [rad]."""
+        """Linear motor position x_M = θ_M d_p / (2 i_PG) [m] from the motor angle [rad].
+
+        Parameters
+        ----------
+        theta_M : array_like
+            Motor angle [rad].
+        """
         return np.asarray(theta_M, dtype=np.float64) * self.r_eff
 
     def te_from_measurement(self, x_T: ArrayLike, theta_M: ArrayLike) -> np.ndarray:
-        """Measured transmission error (1): TE = x_T − θ_M d_p / (2 i_PG) [m]."""
+        """Measured transmission error (1): TE = x_T − θ_M d_p / (2 i_PG) [m].
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table position from the linear scale [m].
+        theta_M : array_like
+            Motor angle [rad].
+        """
         return np.asarray(x_T, dtype=np.float64) - self.x_M(theta_M)
 
 
@@ -265,7 +279,15 @@ class RackPinionBench(RackGeometry, RackDrive):
 
     @classmethod
     def from_parts(cls, geometry: RackGeometry, drive: RackDrive) -> RackPinionBench:
-        """The axis of ``geometry`` and ``drive``."""
+        """The axis of ``geometry`` and ``drive``.
+
+        Parameters
+        ----------
+        geometry : RackGeometry
+            Gearing, gearbox and travel.
+        drive : RackDrive
+            Masses, inertias and friction.
+        """
         return cls(**asdict(geometry), **asdict(drive))
 
     @property
@@ -296,7 +318,13 @@ class RackPinionBench(RackGeometry, RackDrive):
 
     def table_friction(self, v_T: ArrayLike) -> np.ndarray:
         """Friction force of the table guides at velocity ``v_T`` [N] (magnitude, ≥ 0):
-        F_CT + β_T |v_T|. At constant velocity the mesh transmits F_load + this."""
+        F_CT + β_T |v_T|. At constant velocity the mesh transmits F_load + this.
+
+        Parameters
+        ----------
+        v_T : array_like
+            Table velocity [m/s].
+        """
         return self.F_CT + self.beta_T * np.abs(np.asarray(v_T, dtype=np.float64))
 
     def d_mesh(self, c_mesh: float) -> float:
@@ -304,6 +332,11 @@ class RackPinionBench(RackGeometry, RackDrive):
 
         Chosen so the two-mass mode (table m_T against J_M / r_eff²) has damping
         ratio :attr:`zeta_mesh`: d = 2 ζ √(k m_eff), m_eff = 1/(1/m_T + r_eff²/J_M).
+
+        Parameters
+        ----------
+        c_mesh : float
+            Drive-train compliance at the table [m/N].
         """
         k = 1.0 / c_mesh
         m_eff = 1.0 / (1.0 / self.m_T + self.r_eff**2 / self.J_M)
@@ -315,7 +348,13 @@ class RackPinionBench(RackGeometry, RackDrive):
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> RackPinionBench:
-        """Inverse of :meth:`to_dict`."""
+        """Inverse of :meth:`to_dict`.
+
+        Parameters
+        ----------
+        d : dict
+            The fields (:meth:`to_dict`), SI units.
+        """
         kw = dict(d)
         if "n_t" in kw:
             kw["n_t"] = int(kw["n_t"])
@@ -434,7 +473,13 @@ class TEGeneratorParams:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> TEGeneratorParams:
-        """Inverse of :meth:`to_dict`."""
+        """Inverse of :meth:`to_dict`.
+
+        Parameters
+        ----------
+        d : dict
+            The fields (:meth:`to_dict`), SI units.
+        """
         kw = dict(d)
         if "mesh_harmonics" in kw:
             kw["mesh_harmonics"] = tuple(float(v) for v in kw["mesh_harmonics"])
@@ -674,7 +719,15 @@ class TransmissionErrorModel:
 
     @classmethod
     def ideal(cls, bench: RackPinionBench, c0: float = 4e-9) -> TransmissionErrorModel:
-        """A drive without geometric errors and backlash: TE = −d F c0 only [m]."""
+        """A drive without geometric errors and backlash: TE = −d F c0 only [m].
+
+        Parameters
+        ----------
+        bench : RackPinionBench
+            The axis.
+        c0 : float
+            Drive-train compliance at the table [m/N], both flanks.
+        """
         p = TEGeneratorParams(c0=c0, kappa_mesh=0.0, kappa_pinion=0.0)
         z2 = np.zeros(2)
         pt = bench.tooth_pitch
@@ -731,7 +784,13 @@ class TransmissionErrorModel:
 
     # -- components ----------------------------------------------------------------
     def drift(self, x_T: ArrayLike) -> np.ndarray:
-        """Rack drift over the travel (common to both flanks) [m]."""
+        """Rack drift over the travel (common to both flanks) [m].
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table position [m].
+        """
         x = np.asarray(x_T, dtype=np.float64)
         L = self.bench.travel
         out = self.slope * (x - 0.5 * L)
@@ -746,7 +805,15 @@ class TransmissionErrorModel:
         return out
 
     def runout(self, x_T: ArrayLike, direction: ArrayLike) -> np.ndarray:
-        """Pinion/gearbox runout R_d(x), pinion-circumference period [m]."""
+        """Pinion/gearbox runout R_d(x), pinion-circumference period [m].
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table position [m].
+        direction : array_like
+            Direction of travel (the flank in contact), +1 or −1.
+        """
         x = np.asarray(x_T, dtype=np.float64)
         i = (1 - _dir_index(direction)) // 2
         ph = 2 * np.pi * x / self.bench.circumference
@@ -755,7 +822,13 @@ class TransmissionErrorModel:
     def tooth_variation(self, x_T: ArrayLike) -> np.ndarray:
         """Tooth-to-tooth amplitude factor g(x) [-]: per-tooth factors, raised-cosine
         interpolated between tooth centres (a partition of unity, so g ≡ 1 if all
-        factors are 1 and g adds no content at the mesh frequency and its harmonics)."""
+        factors are 1 and g adds no content at the mesh frequency and its harmonics).
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table position [m].
+        """
         s = np.asarray(x_T, dtype=np.float64) / self.bench.tooth_pitch
         k = np.floor(s)
         frac = s - k
@@ -764,7 +837,17 @@ class TransmissionErrorModel:
         return (1.0 - w) * self.tooth_factor[idx] + w * self.tooth_factor[idx + 1]
 
     def mesh(self, x_T: ArrayLike, direction: ArrayLike, F: ArrayLike = 0.0) -> np.ndarray:
-        """Tooth-meshing error M_d(x) A(F)/A(0), tooth-pitch period [m]."""
+        """Tooth-meshing error M_d(x) A(F)/A(0), tooth-pitch period [m].
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table position [m].
+        direction : array_like
+            Direction of travel (the flank in contact), +1 or −1.
+        F : array_like
+            Magnitude of the force the mesh transmits [N] (0: the no-load error).
+        """
         x = np.asarray(x_T, dtype=np.float64)
         i = (1 - _dir_index(direction)) // 2
         ph = 2 * np.pi * x / self.bench.tooth_pitch
@@ -774,11 +857,25 @@ class TransmissionErrorModel:
         return self.A_m[i] * self.tooth_variation(x) * out * self.load_factor(F)
 
     def load_factor(self, F: ArrayLike) -> np.ndarray:
-        """Mesh-amplitude factor A(F)/A(0) = 1 / (1 + |F|/F_h) [-]."""
+        """Mesh-amplitude factor A(F)/A(0) = 1 / (1 + |F|/F_h) [-].
+
+        Parameters
+        ----------
+        F : array_like
+            Magnitude of the force the mesh transmits [N].
+        """
         return 1.0 / (1.0 + np.abs(np.asarray(F, dtype=np.float64)) / self.params.F_h)
 
     def compliance(self, x_T: ArrayLike, direction: ArrayLike) -> np.ndarray:
-        """Drive-train compliance c_d(x) at the table [m/N] (mesh-dependent part included)."""
+        """Drive-train compliance c_d(x) at the table [m/N] (mesh-dependent part included).
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table position [m].
+        direction : array_like
+            Direction of travel (the flank in contact), +1 or −1.
+        """
         x = np.asarray(x_T, dtype=np.float64)
         i = (1 - _dir_index(direction)) // 2
         p = self.params
@@ -789,7 +886,13 @@ class TransmissionErrorModel:
         )
 
     def gap(self, x_T: ArrayLike) -> np.ndarray:
-        """Slow part of the backlash b_0(x) (incl. the pinion-period centre-distance term) [m]."""
+        """Slow part of the backlash b_0(x) (incl. the pinion-period centre-distance term) [m].
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table position [m].
+        """
         x = np.asarray(x_T, dtype=np.float64)
         out = np.full(x.shape, self.b_mean)
         if self.b_wave_amp.size:
@@ -801,7 +904,15 @@ class TransmissionErrorModel:
         return out
 
     def defect(self, x_T: ArrayLike, direction: ArrayLike) -> np.ndarray:
-        """Sum of the local defects for the given direction [m]."""
+        """Sum of the local defects for the given direction [m].
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table position [m].
+        direction : array_like
+            Direction of travel (the flank in contact), +1 or −1.
+        """
         x = np.asarray(x_T, dtype=np.float64)
         d = np.asarray(direction)
         out = np.zeros(np.broadcast(x, d).shape)
@@ -815,7 +926,15 @@ class TransmissionErrorModel:
 
     # -- the error -------------------------------------------------------------------
     def geometric(self, x_T: ArrayLike, direction: ArrayLike) -> np.ndarray:
-        """Geometric error TE_geo(x, d) (no load, no friction) [m]."""
+        """Geometric error TE_geo(x, d) (no load, no friction) [m].
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table position [m].
+        direction : array_like
+            Direction of travel (the flank in contact), +1 or −1.
+        """
         x = np.asarray(x_T, dtype=np.float64)
         d = _dir_index(direction)
         return self.drift(x) + self.runout(x, d) + self.mesh(x, d) - 0.5 * d * self.gap(x) + self.defect(x, d)
@@ -825,6 +944,15 @@ class TransmissionErrorModel:
 
         Mesh amplitude reduction (A(F)/A(0) − 1) M_d(x) plus the elastic deflection
         −d |F| c_d(x) (the table lags the motor in the direction of travel).
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table position [m].
+        F : array_like
+            Magnitude of the force the mesh transmits [N].
+        direction : array_like
+            Direction of travel (the flank in contact), +1 or −1.
         """
         x = np.asarray(x_T, dtype=np.float64)
         d = _dir_index(direction)
@@ -846,7 +974,13 @@ class TransmissionErrorModel:
         return self.geometric(x_T, direction) + self.deformation(x_T, F, direction)
 
     def backlash(self, x_T: ArrayLike) -> np.ndarray:
-        """Backlash b(x) = TE_geo(x, −1) − TE_geo(x, +1) [m] (> 0)."""
+        """Backlash b(x) = TE_geo(x, −1) − TE_geo(x, +1) [m] (> 0).
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table position [m].
+        """
         return self.geometric(x_T, -1) - self.geometric(x_T, 1)
 
     def _flank_difference_bound(self) -> float:
@@ -868,6 +1002,13 @@ class TransmissionErrorModel:
         ``mesh``: amplitude at the tooth-pitch period (mesh fundamental × A(F)/A(0)
         combined with the meshing part of the elastic deflection −d F c κ cos(…));
         ``runout2`` and ``mesh2``: second harmonics (no load part).
+
+        Parameters
+        ----------
+        direction : int
+            +1 or −1.
+        F : float
+            Magnitude of the force the mesh transmits [N].
         """
         d = int(direction)
         i = (1 - d) // 2
@@ -888,6 +1029,13 @@ class TransmissionErrorModel:
     # -- for the simulator ------------------------------------------------------------
     def tables(self, dx: float = 10e-6, margin: float = 0.3) -> tuple[float, float, np.ndarray]:
         """Components sampled on a uniform grid for the ``@njit`` engine.
+
+        Parameters
+        ----------
+        dx : float
+            Grid step [m].
+        margin : float
+            Extent of the grid beyond each end of the travel [m].
 
         Returns
         -------
@@ -920,7 +1068,13 @@ class TransmissionErrorModel:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> TransmissionErrorModel:
-        """Regenerate a model written by :meth:`to_dict` (``seed`` None ⇒ :meth:`ideal`)."""
+        """Regenerate a model written by :meth:`to_dict` (``seed`` None ⇒ :meth:`ideal`).
+
+        Parameters
+        ----------
+        d : dict
+            What :meth:`to_dict` wrote (``bench``, ``te_generator``, ``seed``, ``defects``).
+        """
         bench = RackPinionBench.from_dict(d["bench"])
         params = TEGeneratorParams.from_dict(d["te_generator"])
         if d.get("seed") is None:

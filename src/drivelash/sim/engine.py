@@ -279,11 +279,24 @@ class SimResult:
     meta: dict = field(default_factory=dict)
 
     def column(self, name: str) -> np.ndarray:
-        """One output column by name (see :data:`OUT_FIELDS`)."""
+        """One output column by name (see :data:`OUT_FIELDS`).
+
+        Parameters
+        ----------
+        name : str
+            A name of :data:`OUT_FIELDS` (e.g. ``"theta_l"`` [rad], ``"torque_m"`` [N·m]).
+        """
         return self.out[:, OUT_FIELDS.index(name)]
 
     def to_trace(self, return_states: bool = False) -> Trace:
-        """The measured signals as a :class:`Trace` (+ the true plant states if asked)."""
+        """The measured signals as a :class:`Trace` (+ the true plant states if asked).
+
+        Parameters
+        ----------
+        return_states : bool
+            Also the applied torque ``u`` [N·m] and the noiseless plant states
+            ``omega_m_true``, ``theta_m_true``, ``omega_l_true``, ``theta_l_true`` [rad/s, rad].
+        """
         cols = {
             "t": self.t,
             "theta_m": self.column("theta_m"),

@@ -253,7 +253,13 @@ class Scenario:
         return self.gains.T_s
 
     def delta_true(self, t: np.ndarray) -> np.ndarray:
-        """True δ(t) [rad] on ``t``."""
+        """True δ(t) [rad] on ``t``.
+
+        Parameters
+        ----------
+        t : numpy.ndarray
+            Sample instants [s].
+        """
         return self.deadzone_profile.sample(t, self.plant_backlash.delta)
 
     def simulate(

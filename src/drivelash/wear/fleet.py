@@ -242,7 +242,13 @@ class AxisSpec:
 
     def at_rate(self, estimate_rate_hz: float | None) -> AxisSpec:
         """This axis estimated at another rate (None: every sample), with the config hash
-        that rate gives — the two always change together."""
+        that rate gives — the two always change together.
+
+        Parameters
+        ----------
+        estimate_rate_hz : float or None
+            Estimation rate [Hz]; None: every sample.
+        """
         return replace(
             self,
             estimate_rate_hz=estimate_rate_hz,

@@ -680,7 +680,13 @@ class Store:
     def guard(self, consequence: str | Callable[[], str]) -> Iterator[None]:
         """Turn an operational failure of the store inside the block into a one-line
         :class:`StoreError` (:meth:`failure`); ``consequence`` (or its value when called at
-        the failure) says what became of the work."""
+        the failure) says what became of the work.
+
+        Parameters
+        ----------
+        consequence : str or callable
+            What became of the work (or a callable giving it at the failure).
+        """
         try:
             yield
         except (DBAPIError, OSError) as exc:
@@ -708,7 +714,13 @@ class Store:
 
     # -- axes ------------------------------------------------------------------------------
     def upsert_axes(self, axes: Iterable[Any]) -> dict[str, int]:
-        """Insert or update the axes of a fleet (``AxisSpec``-like objects); returns name → id."""
+        """Insert or update the axes of a fleet (``AxisSpec``-like objects); returns name → id.
+
+        Parameters
+        ----------
+        axes : iterable of AxisSpec
+            The fleet's axes.
+        """
         ids: dict[str, int] = {}
         now = _now()
         with self._write() as conn:
@@ -734,7 +746,15 @@ class Store:
         return ids
 
     def axis_id(self, name: str, conn: sa.Connection | None = None) -> int:
-        """Id of axis ``name`` (ensured to exist: an unknown axis is a one-line error)."""
+        """Id of axis ``name`` (ensured to exist: an unknown axis is a one-line error).
+
+        Parameters
+        ----------
+        name : str
+            ``machine/axis``.
+        conn : sqlalchemy.Connection, optional
+            Run the query in this transaction.
+        """
         q = sa.select(axis_t.c.id).where(axis_t.c.name == name)
         rows = conn.execute(q).all() if conn is not None else self._read(q)
         row = rows[0] if rows else None
@@ -763,7 +783,19 @@ class Store:
     def known_files(self, axis_id: int, method: str, config_hash: str, code_version: str) -> set[tuple]:
         """(path, size, mtime_ns) of recordings of the axis that already have this estimate and
         it did not fail (under any of the paths their content was seen as: ``recording`` and
-        ``recording_path``); a ``failed`` estimate is retried by every ingest."""
+        ``recording_path``); a ``failed`` estimate is retried by every ingest.
+
+        Parameters
+        ----------
+        axis_id : int
+            Id of the axis (:meth:`axis_id`).
+        method : str
+            Estimator law.
+        config_hash : str
+            The axis's configuration hash (``AxisSpec.drive_hash``).
+        code_version : str
+            drivelash version of the estimate.
+        """
         same = (
             recording_t.c.axis_id == axis_id,
             estimate_t.c.status != "failed",
@@ -789,6 +821,19 @@ class Store:
         """The stored recordings of the axis among ``hashes`` (content hashes) that have this
         estimate and it did not fail — the identity :meth:`known_files` uses, by content
         instead of by file facts (a file moved, renamed, touched or copied).
+
+        Parameters
+        ----------
+        axis_id : int
+            Id of the axis (:meth:`axis_id`).
+        method : str
+            Estimator law.
+        config_hash : str
+            The axis's configuration hash (``AxisSpec.drive_hash``).
+        code_version : str
+            drivelash version of the estimate.
+        hashes : iterable of str
+            SHA-256 content hashes (hex) of the files.
 
         Returns
         -------
@@ -829,7 +874,13 @@ class Store:
         self, axis_id: int
     ) -> dict[tuple[str, int, int], tuple[int, str | None, datetime | None]]:
         """(path, size, mtime_ns) → (recording id, time_spec_hash, start_time) of the axis's
-        recordings that have an ``ok`` estimate (under any of the paths they were seen as)."""
+        recordings that have an ``ok`` estimate (under any of the paths they were seen as).
+
+        Parameters
+        ----------
+        axis_id : int
+            Id of the axis (:meth:`axis_id`).
+        """
         ok = sa.select(estimate_t.c.recording_id).where(
             estimate_t.c.status == "ok", estimate_t.c.axis_id == axis_id
         )
@@ -851,7 +902,13 @@ class Store:
 
     def redate(self, changes: Sequence[tuple[int, datetime | None, str]]) -> int:
         """Set (recording id, start time, time_spec_hash) in ONE transaction; returns how many
-        start times changed."""
+        start times changed.
+
+        Parameters
+        ----------
+        changes : sequence of (int, datetime or None, str)
+            (recording id, start time — naive = UTC —, time_spec_hash) per recording.
+        """
         if not changes:
             return 0
         moved = 0
@@ -897,6 +954,19 @@ class Store:
         estimates and paths are deleted (``replaced`` gets the path), so the trend never counts
         the old and the new content of one file twice. The old recording stays only while its
         content is still at another path it was seen under (that path becomes its own).
+
+        Parameters
+        ----------
+        rows : sequence of EstimateRow
+            The workers' results.
+        axis_ids : dict
+            ``machine/axis`` → id (:meth:`upsert_axes`).
+        duplicates : list of str, optional
+            Receives one line per duplicate file.
+        retried : list of (str, str), optional
+            Receives (path, new status) per retried ``failed`` estimate.
+        replaced : list of str, optional
+            Receives the path of each recording replaced by new content.
         """
         if not rows:
             return 0
@@ -1084,6 +1154,11 @@ class Store:
 
         Each dict has the estimate's columns plus ``axis``, ``path``, ``content_hash``,
         ``start_time``, ``duration_s``, ``sample_rate_hz``, ``samples``.
+
+        Parameters
+        ----------
+        axis : str, optional
+            Only this axis (``machine/axis``); default all.
         """
         q = (
             sa.select(
@@ -1111,7 +1186,13 @@ class Store:
         current configuration (its ``drive_hash``: drive file, method, estimation rate) from
         the newest drivelash version, else the newest estimate of that recording. What trends,
         alarms and reports use: the store keeps the estimates of every configuration, and a
-        recording estimated under two of them is still one recording."""
+        recording estimated under two of them is still one recording.
+
+        Parameters
+        ----------
+        axis : dict
+            A row of :meth:`axes` (its ``id`` and ``drive_hash``).
+        """
         return one_per_recording(self.estimates(axis["name"]), axis.get("drive_hash"))
 
     def counts(self) -> dict[str, int]:
@@ -1216,7 +1297,13 @@ class Store:
             )
 
     def measurements(self, axis: str | None = None) -> list[dict[str, Any]]:
-        """Measurements of other sources, with ``axis``, ordered by axis and time."""
+        """Measurements of other sources, with ``axis``, ordered by axis and time.
+
+        Parameters
+        ----------
+        axis : str, optional
+            Only this axis (``machine/axis``); default all.
+        """
         q = (
             sa.select(axis_t.c.name.label("axis"), *[c for c in measurement_t.c if c.name != "axis_id"])
             .join(axis_t, axis_t.c.id == measurement_t.c.axis_id)
@@ -1229,7 +1316,15 @@ class Store:
     # -- alarms ------------------------------------------------------------------------------------
     def sync_alarms(self, axis: str, alarms: Sequence[Any]) -> None:
         """Make the axis's active alarms equal ``alarms`` (objects with kind, key, message,
-        data_time): new ones are raised, ones no longer present are cleared (kept as history)."""
+        data_time): new ones are raised, ones no longer present are cleared (kept as history).
+
+        Parameters
+        ----------
+        axis : str
+            ``machine/axis``.
+        alarms : sequence
+            The axis's alarms now (``kind``, ``key``, ``message``, ``data_time``).
+        """
         now = _now()
         with self._write() as conn:
             aid = self.axis_id(axis, conn)
@@ -1261,7 +1356,13 @@ class Store:
                     conn.execute(sa.update(alarm_t).where(alarm_t.c.id == r.id).values(cleared_at=now))
 
     def alarms(self, active_only: bool = True) -> list[dict[str, Any]]:
-        """Alarms with ``axis``, newest data first."""
+        """Alarms with ``axis``, ordered by axis, kind and key.
+
+        Parameters
+        ----------
+        active_only : bool
+            Only the alarms not cleared.
+        """
         q = sa.select(axis_t.c.name.label("axis"), *[c for c in alarm_t.c if c.name != "axis_id"]).join(
             axis_t, axis_t.c.id == alarm_t.c.axis_id
         )

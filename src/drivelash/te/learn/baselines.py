@@ -57,13 +57,27 @@ class GeometricOnly(RegressorMixin, BaseEstimator):
     """Geometric lookup table only: TE_def prediction ≡ 0 µm."""
 
     def fit(self, X: Any, y: Any) -> GeometricOnly:
-        """Nothing to learn; returns ``self``."""
+        """Nothing to learn; returns ``self``.
+
+        Parameters
+        ----------
+        X : array_like
+            Design matrix ``[x_T [m], torque [N·m], M_1 … M_nt]``.
+        y : array_like
+            TE_def [µm] (not used).
+        """
         X, _ = check_xy(X, y)
         self.n_features_in_ = X.shape[1]
         return self
 
     def predict(self, X: Any) -> np.ndarray:
-        """Zeros [µm]."""
+        """Zeros [µm].
+
+        Parameters
+        ----------
+        X : array_like
+            Design matrix ``[x_T [m], torque [N·m], M_1 … M_nt]``.
+        """
         X, _ = check_xy(X)
         return np.zeros(X.shape[0])
 
@@ -81,7 +95,13 @@ class StageOne:
         self.stacked = stacked
 
     def predict(self, X: np.ndarray) -> np.ndarray:
-        """Stage-1 output [µm]."""
+        """Stage-1 output [µm].
+
+        Parameters
+        ----------
+        X : array_like
+            Design matrix ``[x_T [m], torque [N·m], M_1 … M_nt]``.
+        """
         return self.stacked.nn_.predict(np.asarray(X)[:, STAGE1_COLS])
 
 

@@ -75,17 +75,45 @@ class TrainedTEModel:
         return max(s[0] for s in spans), min(s[1] for s in spans)
 
     def predict_def_um(self, x_T: Any, torque: Any, direction: int) -> np.ndarray:
-        """Deformation TE_def [µm] (offset-free, the learning target) at ``x_T`` [m], motor torque [N·m]."""
+        """Deformation TE_def [µm] (offset-free, the learning target) at ``x_T`` [m], motor torque [N·m].
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table positions [m].
+        torque : array_like
+            Motor torque [N·m], broadcast to ``x_T``.
+        direction : int
+            Flank in contact: +1 or −1.
+        """
         X = self.pipeline.design_matrix(x_T, torque)
         return self.models[direction_key(direction)].predict(X)
 
     def offset_um(self, torque: Any, direction: int) -> np.ndarray:
-        """Mean deformation a + b·torque [µm] removed by the offset step (0 if none was fitted)."""
+        """Mean deformation a + b·torque [µm] removed by the offset step (0 if none was fitted).
+
+        Parameters
+        ----------
+        torque : array_like
+            Motor torque [N·m].
+        direction : int
+            Flank in contact: +1 or −1.
+        """
         a, b = self.offset.get(direction_key(direction), (0.0, 0.0))
         return a + b * np.asarray(torque, dtype=np.float64)
 
     def predict(self, x_T: Any, torque: Any, direction: int) -> np.ndarray:
-        """TE [m] = TE_geo(x_T) + (offset(torque) + TE_def(x_T, torque))·1e-6, direction +1/−1."""
+        """TE [m] = TE_geo(x_T) + (offset(torque) + TE_def(x_T, torque))·1e-6, direction +1/−1.
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table positions [m].
+        torque : array_like
+            Motor torque [N·m], broadcast to ``x_T``.
+        direction : int
+            Flank in contact: +1 or −1.
+        """
         key = direction_key(direction)
         x = np.asarray(x_T, dtype=np.float64).reshape(-1)
         tq = np.broadcast_to(np.asarray(torque, dtype=np.float64), x.shape)

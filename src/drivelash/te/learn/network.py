@@ -242,7 +242,13 @@ class MLPRegressor(RegressorMixin, BaseEstimator):
         self.history_ = history
 
     def predict(self, X: Any) -> np.ndarray:
-        """Prediction in target units (float64 forward pass of the trained network)."""
+        """Prediction in target units (float64 forward pass of the trained network).
+
+        Parameters
+        ----------
+        X : array_like, shape (n, p)
+            Inputs, in the units of the training inputs.
+        """
         check_is_fitted(self, "net_")
         X = validate_data(self, X, dtype=np.float64, reset=False)
         import torch

@@ -347,7 +347,14 @@ class GearGeometry:
 
     @classmethod
     def from_bench(cls, bench: Any) -> GearGeometry:
-        """Read ``d_p``, ``n_t``, ``i_PG``/``i_pg`` and ``eps``/``contact_ratio`` from a bench object."""
+        """Read ``d_p``, ``n_t``, ``i_PG``/``i_pg`` and ``eps``/``contact_ratio`` from a bench object.
+
+        Parameters
+        ----------
+        bench : object
+            A :class:`~drivelash.physics.rack_pinion.RackPinionBench` or any object with
+            ``d_p`` [m], ``n_t``, ``i_PG`` (or ``i_pg``) and ``eps`` (or ``contact_ratio``).
+        """
 
         def pick(*names: str) -> Any:
             for n in names:
@@ -472,7 +479,19 @@ class TEPipeline:
         geo: GeometricCurve,
         meta: Mapping[str, Any] | None = None,
     ) -> RunData:
-        """Resample → TE → TE_def → low-pass → trim → offset removal, for one run and direction."""
+        """Resample → TE → TE_def → low-pass → trim → offset removal, for one run and direction.
+
+        Parameters
+        ----------
+        columns : mapping of str to numpy.ndarray
+            One run: ``x_T`` [m], ``theta_m`` [rad], ``torque_m`` [N·m] (and ``direction``).
+        direction : int
+            The direction whose part of the run is processed, +1 or −1.
+        geo : GeometricCurve
+            TE_geo of that direction (subtracted: TE_def = TE − TE_geo).
+        meta : mapping, optional
+            Provenance copied into the result's ``meta``.
+        """
         grid, c = self._grid_run(columns, direction)
         # low-pass the whole pass, then drop the ends (ramps, flank change, filter edges);
         # the offset is removed over the kept part (a constant passes the low-pass unchanged)
@@ -491,7 +510,15 @@ class TEPipeline:
         return RunData(grid, torque, te_def * UM, int(np.sign(direction)), m)
 
     def design_matrix(self, x_T: np.ndarray, torque: np.ndarray) -> np.ndarray:
-        """Model inputs ``[x_T [m], torque [N·m], M_1 … M_nt]``, shape ``(n, 2 + n_t)``."""
+        """Model inputs ``[x_T [m], torque [N·m], M_1 … M_nt]``, shape ``(n, 2 + n_t)``.
+
+        Parameters
+        ----------
+        x_T : numpy.ndarray
+            Table positions [m].
+        torque : numpy.ndarray
+            Motor torque [N·m], one per position.
+        """
         x_T = np.asarray(x_T, dtype=np.float64).reshape(-1)
         torque = np.broadcast_to(np.asarray(torque, dtype=np.float64), x_T.shape)
         g = self.geometry
@@ -511,7 +538,13 @@ class TEPipeline:
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> TEPipeline:
-        """Inverse of :meth:`to_dict`."""
+        """Inverse of :meth:`to_dict`.
+
+        Parameters
+        ----------
+        d : mapping
+            What :meth:`to_dict` wrote.
+        """
         g = d["geometry"]
         return cls(
             GearGeometry(float(g["d_p"]), int(g["n_t"]), float(g["i_pg"]), float(g["eps"])),

@@ -187,7 +187,13 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
 
     def get_params(self, deep: bool = True) -> dict[str, Any]:
         """Parameters; with ``deep`` also ``nn__*`` and ``trees__*`` of the templates — of the
-        defaults when ``nn``/``trees`` are None, so ``GridSearchCV`` reaches them."""
+        defaults when ``nn``/``trees`` are None, so ``GridSearchCV`` reaches them.
+
+        Parameters
+        ----------
+        deep : bool
+            Also the nested ``nn__*`` and ``trees__*`` parameters.
+        """
         params = super().get_params(deep=False)
         if deep:
             for name, est in (("nn", self._nn_template()), ("trees", self._trees_template())):
@@ -198,7 +204,13 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         return params
 
     def set_params(self, **params: Any) -> StackedTERegressor:
-        """Set parameters, including nested ``nn__*``/``trees__*`` (templates are created if None)."""
+        """Set parameters, including nested ``nn__*``/``trees__*`` (templates are created if None).
+
+        Parameters
+        ----------
+        **params
+            Parameters by name, nested ones as ``nn__hidden``, ``trees__n_estimators``.
+        """
         nested: dict[str, dict[str, Any]] = {"nn": {}, "trees": {}}
         own = {}
         for k, v in params.items():
@@ -363,12 +375,24 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
 
     # -- prediction ----------------------------------------------------------
     def predict_stages(self, X: Any) -> tuple[np.ndarray, np.ndarray]:
-        """Stage-1 and stage-2 outputs [µm] separately."""
+        """Stage-1 and stage-2 outputs [µm] separately.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, 2 + n_t)
+            ``[x_T [m], torque [N·m], M_1 … M_nt]``.
+        """
         check_is_fitted(self, ("nn_", "trees_"))
         X = validate_data(self, X, dtype=np.float64, reset=False)
         return self.nn_.predict(X[:, STAGE1_COLS]), self.trees_.predict(X[:, self._stage2_cols()])
 
     def predict(self, X: Any) -> np.ndarray:
-        """TE_def [µm] = stage 1 + stage 2."""
+        """TE_def [µm] = stage 1 + stage 2.
+
+        Parameters
+        ----------
+        X : array_like, shape (n, 2 + n_t)
+            ``[x_T [m], torque [N·m], M_1 … M_nt]``.
+        """
         p1, p2 = self.predict_stages(X)
         return p1 + p2

@@ -180,7 +180,19 @@ class Campaign:
 
     def select(self, kind: str | None = None, direction: int | None = None, velocity: float | None = None,
                load: float | None = None) -> list[CampaignRun]:  # fmt: skip
-        """Runs matching all given fields (velocity and load compared to 1e-9)."""
+        """Runs matching all given fields (velocity and load compared to 1e-9).
+
+        Parameters
+        ----------
+        kind : str, optional
+            ``"geometric"``, ``"load"`` or ``"sine"``.
+        direction : int, optional
+            +1 or −1 (0 for sine runs).
+        velocity : float, optional
+            Travel speed [m/s].
+        load : float, optional
+            Process load [N].
+        """
         out = []
         for r in self.runs:
             if kind is not None and r.kind != kind:

@@ -94,6 +94,15 @@ class TreesUpdater:
         With a ``reference`` (the loaded model being validated) its network and tree
         hyperparameters are reused and no search is run — the same architecture,
         refitted in minutes; otherwise ``n_trials`` Hyperband trials and the grid search.
+
+        Parameters
+        ----------
+        campaign : Campaign
+            The training campaign.
+        max_load : float
+            Largest training load [N].
+        reference : TEModel, optional
+            The loaded model being validated: its hyperparameters are reused.
         """
         import torch
 
@@ -125,7 +134,15 @@ class TreesUpdater:
         return self.trained
 
     def update(self, sim_worn: Any, lo: float, hi: float) -> TEPredictor:
-        """Record passes on ``sim_worn`` over [lo, hi] and refit stage 2 only; returns the model."""
+        """Record passes on ``sim_worn`` over [lo, hi] and refit stage 2 only; returns the model.
+
+        Parameters
+        ----------
+        sim_worn : RackAxisSimulator
+            The bench with the worn rack.
+        lo, hi : float
+            Travel range of the new passes [m].
+        """
         if self.trained is None:
             raise DataError("TreesUpdater.update needs fit() first")
         from drivelash.te.learn.fit import stack_runs
