@@ -10,12 +10,15 @@ section parser is a small one here (``python tests/test_public_api_docs.py`` lis
 
 from __future__ import annotations
 
+import ast
+import builtins
 import dataclasses
 import doctest
 import importlib
 import inspect
 import pkgutil
 import re
+import textwrap
 import types
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -23,6 +26,8 @@ from pathlib import Path
 import pytest
 
 import drivelash
+import drivelash.errors
+from drivelash.errors import ParameterError
 
 _SECTION = re.compile(r"^(\s*)([A-Z][A-Za-z ]+)\n\1-{3,}\s*$", re.MULTILINE)
 _ENTRY = re.compile(r"^([*\w][\w, *]*?)\s*(?::.*)?$")
@@ -139,6 +144,41 @@ def test_public_docstring_parameters(name: str) -> None:
     assert parameter_problems(obj, constructor=is_class, require_section=_required(obj, is_class)) == []
 
 
+def raised_errors(func: Callable[..., object]) -> set[str]:
+    """Exception classes ``func`` raises by name in its own body (``raise ParameterError(...)``;
+    not in nested functions, not re-raised variables)."""
+    func = getattr(func, "py_func", func)  # a numba kernel: its Python source
+    try:
+        tree = ast.parse(textwrap.dedent(inspect.getsource(func)))
+    except (OSError, TypeError, SyntaxError):
+        return set()
+    names: set[str] = set()
+    scopes = [getattr(func, "__globals__", {}), vars(drivelash.errors), vars(builtins)]
+
+    def visit(node: ast.AST) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda | ast.ClassDef):
+                continue
+            if isinstance(child, ast.Raise) and child.exc is not None:
+                exc = child.exc.func if isinstance(child.exc, ast.Call) else child.exc
+                if isinstance(exc, ast.Name):
+                    cls = next((sc[exc.id] for sc in scopes if exc.id in sc), None)
+                    if isinstance(cls, type) and issubclass(cls, BaseException):
+                        names.add(exc.id)
+            visit(child)
+
+    visit(tree.body[0])
+    return names
+
+
+@pytest.mark.parametrize("name", sorted(n for n, (o, c) in PUBLIC.items() if _required(o, c)))
+def test_raised_errors_are_documented(name: str) -> None:
+    """An error a public callable raises itself is named in its Raises section."""
+    obj, is_class = PUBLIC[name]
+    raised = raised_errors(obj.__init__ if is_class else obj)  # type: ignore[misc]
+    assert raised - set(sections(obj.__doc__).get("Raises", [])) == set()
+
+
 def _examples() -> dict[str, doctest.DocTest]:
     """The docstring examples of the public callables (``Examples`` sections), by name."""
     finder = doctest.DocTestFinder(recurse=False)
@@ -242,6 +282,24 @@ def test_checker_catches_a_wrong_docstring() -> None:
         "parameter 'delta' not documented",
         "parameter 'T_s' not documented",
     ]
+
+    def refuses(T_s: float) -> float:
+        """Something.
+
+        Parameters
+        ----------
+        T_s : float
+            Sample period [s].
+        """
+        if not T_s > 0:
+            raise drivelash.errors.ParameterError("x", "T_s", "must be > 0")  # attribute: not seen
+        if T_s > 1:
+            raise ParameterError("x", "T_s", "must be <= 1 s")
+        return T_s
+
+    assert raised_errors(refuses) == {"ParameterError"}
+    refuses.__doc__ += "\n    Raises\n    ------\n    ParameterError\n        Not in (0, 1] s.\n"
+    assert set(sections(refuses.__doc__)["Raises"]) == {"ParameterError"}
 
 
 if __name__ == "__main__":  # the list of violations, for fixing them

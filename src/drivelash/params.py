@@ -533,6 +533,12 @@ class EstimatorConfig:
             carries and chooses the motor-side torque source when it has a motor torque.
         **overrides
             Any field of :class:`EstimatorConfig` to set explicitly (``None`` values ignored).
+
+        Raises
+        ------
+        ParameterError
+            ``T_s`` or ``f_exc`` not a finite number > 0, or a field the tuning or an override gives
+            that :class:`EstimatorConfig` refuses.
         """
         if motion is not None:
             f_exc = motion.f_exc

@@ -114,6 +114,11 @@ def constant_velocity_passes(
         Magnitude of the acceleration [rad/s²], > 0.
     dwell : float
         Standstill at each reversal [s], >= 0.
+
+    Raises
+    ------
+    ParameterError
+        ``velocity``, ``stroke`` or ``acceleration`` not > 0, or ``dwell`` < 0.
     """
     for name, v in (("velocity", velocity), ("stroke", stroke), ("acceleration", acceleration)):
         if not v > 0:
@@ -166,6 +171,12 @@ def sampled(t: np.ndarray, theta_ref: np.ndarray, omega_ref: np.ndarray | None =
         Position reference [rad].
     omega_ref : numpy.ndarray, optional
         Velocity reference [rad/s]; default: central differences of ``theta_ref``.
+
+    Raises
+    ------
+    ParameterError
+        ``t`` and ``theta_ref`` not 1-D of equal length ≥ 2, or a non-finite value in them or
+        in ``omega_ref``.
     """
     t = np.asarray(t, dtype=np.float64)
     th = np.asarray(theta_ref, dtype=np.float64)

@@ -236,6 +236,17 @@ def estimate_backlash(
         command's JSON), ``.result`` (time series; None when ``identify`` could not run the
         online law).
 
+    Raises
+    ------
+    ParameterError
+        A ``method`` other than ``"default"``, ``"paper"`` or None; ``drivetrain`` missing or of
+        another type; DrivetrainParams without ``delta1``, or with ``identify=True``; a
+        ``delta1`` that is not a finite number ≥ 0 [rad].
+    ConfigError
+        The configuration file cannot be read or is invalid.
+    DataError
+        The recording cannot be read, mapped or validated (one line naming file, column, row).
+
     Examples
     --------
     >>> import drivelash as dl

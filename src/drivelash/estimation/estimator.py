@@ -1164,6 +1164,12 @@ class DeadzoneEstimator:
     **overrides
         Fields of :class:`EstimatorConfig` overriding the tuning rule.
 
+    Raises
+    ------
+    ParameterError
+        ``drivetrain`` is not a DrivetrainParams, ``backlash`` neither a BacklashParams nor a
+        number, δ1 not finite ≥ 0 [rad], or ``T_s`` not a finite number > 0 [s].
+
     Examples
     --------
     >>> est = DeadzoneEstimator(drivetrain, bl, T_s=125e-6)   # doctest: +SKIP

@@ -332,6 +332,11 @@ class DriveIdentification:
         ----------
         base : DrivetrainParams or dict, optional
             Values for fields the recording did not determine (e.g. a configuration).
+
+        Raises
+        ------
+        ParameterError
+            A field the recording did not determine and ``base`` does not give (naming it and why).
         """
         from dataclasses import asdict, is_dataclass
 

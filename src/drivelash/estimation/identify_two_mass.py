@@ -1357,6 +1357,13 @@ def identify_two_mass(
     DriveIdentification
         See the module docstring for the method; parameters the recording cannot
         determine carry a reason instead of a number.
+
+    Raises
+    ------
+    ParameterError
+        ``equations`` other than ``"both"`` or ``"motor"``.
+    DataError
+        A missing or unusable column, or a recording that does not determine the model.
     """
     if equations not in ("both", "motor"):
         raise ParameterError("identification", "equations", f"must be 'both' or 'motor', got {equations!r}")

@@ -573,7 +573,13 @@ class DriveConfig(ConfigFile):
 
     def check(self) -> None:
         """Validate each complete table, then ``[backlash] delta1`` against the estimator's δ_max
-        (``[estimator] delta_max`` or its default): δ1 ≤ δ ≤ δ_max."""
+        (``[estimator] delta_max`` or its default): δ1 ≤ δ ≤ δ_max.
+
+        Raises
+        ------
+        ConfigError
+            A table the parameter classes refuse, or δ1 > δ_max (naming the file, table and key).
+        """
         super().check()
         delta1 = getattr(self.backlash, "delta1", None)
         if delta1 is None:

@@ -1577,6 +1577,11 @@ def write_trace(trace: Trace, path: str | Path, fmt: str | None = None) -> Path:
     -------
     Path
         The written file.
+
+    Raises
+    ------
+    DataError
+        An unknown ``fmt`` or extension.
     """
     from drivelash.io.outputs import final_suffix, signature, write_target
 

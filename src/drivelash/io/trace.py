@@ -178,6 +178,13 @@ class Trace:
             refused.
         mapping, required, resample, check_saturation
             As for :func:`~drivelash.io.load_trace` (a dict maps *source column → Trace column*).
+
+        Raises
+        ------
+        DataError
+            Not a DataFrame, MultiIndex or duplicate column names, a read column that is not
+            numeric, an empty time stamp, no numeric column or no rows; then as
+            :func:`~drivelash.io.load_trace` (one line naming ``<DataFrame>``, column and row).
         """
         import pandas as pd
 

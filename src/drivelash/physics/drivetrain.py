@@ -100,6 +100,11 @@ def plant_params_array(
     -------
     numpy.ndarray
         float64 array of length ``len(PLANT_FIELDS)``.
+
+    Raises
+    ------
+    ParameterError
+        ``model`` other than ``"deadzone"``/``"smooth"``, or ``omega_reg`` not finite ≥ 0.
     """
     if model not in ("deadzone", "smooth"):
         raise ParameterError("plant", "model", f"must be 'deadzone' or 'smooth', got {model!r}")

@@ -625,6 +625,11 @@ class TransmissionErrorModel:
         Returns
         -------
         TransmissionErrorModel
+
+        Raises
+        ------
+        ParameterError
+            [b_min, b_max] too narrow for the drawn flank differences.
         """
         p = params if params is not None else TEGeneratorParams()
         rng = np.random.default_rng(seed)

@@ -30,6 +30,11 @@ def save_figure(fig: Any, path: str | Path, *, dpi: int = 110, **kwargs: Any) ->
         Resolution of raster output.
     **kwargs
         Passed to :meth:`matplotlib.figure.Figure.savefig`.
+
+    Raises
+    ------
+    ValueError
+        An extension not in :data:`PLOT_EXTENSIONS`.
     """
     p = Path(path)
     ext = final_suffix(p)

@@ -392,6 +392,12 @@ def simulate(
     Returns
     -------
     SimResult
+
+    Raises
+    ------
+    ParameterError
+        ``n_sub`` not an integer ≥ 1, ``feedback`` unknown, a reference period other than
+        ``gains.T_s``, or 0 ≤ δ1(t) ≤ δ(t) violated at a sample.
     """
     sensors = sensors or SensorParams()
     n = reference.t.size

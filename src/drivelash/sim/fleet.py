@@ -254,6 +254,11 @@ def simulate_fleet(
         Processes simulating recordings.
     progress : callable, optional
         ``progress(done, total)``.
+
+    Raises
+    ------
+    ParameterError
+        A count below its minimum, ``duration`` < 2 s, or ``out`` already holding a fleet.
     """
     for name, v, lo in (("machines", machines, 1), ("axes", axes, 1), ("recordings", recordings, 2)):
         if not (isinstance(v, int) and v >= lo):

@@ -372,6 +372,11 @@ class RackAxisSimulator:
         Seed of the sensor noise (≥ 0; only used when ``config`` sets noise levels).
     config : AxisSimConfig, optional
         Numerical settings.
+
+    Raises
+    ------
+    ParameterError
+        ``seed`` < 0.
     """
 
     def __init__(
@@ -429,6 +434,11 @@ class RackAxisSimulator:
             Flank in contact, +1 or −1.
         F0 : float
             Initial mesh force magnitude [N] (contact pre-deflection).
+
+        Raises
+        ------
+        ParameterError
+            ``direction`` is not +1 or −1.
         """
         if direction not in (1, -1):
             raise ParameterError("RackAxisSimulator", "direction", "must be +1 or -1")
@@ -469,6 +479,11 @@ class RackAxisSimulator:
             ``t`` [s], ``theta_m`` [rad], ``omega_m`` [rad/s], ``x_T`` [m], ``v_T`` [m/s],
             ``torque_m`` [N·m] (measured = commanded), ``omega_cmd`` [rad/s], ``F_mesh`` [N],
             ``direction`` [±1], all at the sample instants t_k (before the update).
+
+        Raises
+        ------
+        ParameterError
+            ``v_d`` not of the shape of ``x_d``.
         """
         x_d = np.ascontiguousarray(x_d, dtype=np.float64)
         n = x_d.size

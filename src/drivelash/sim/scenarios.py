@@ -288,6 +288,11 @@ class Scenario:
         Trace
             Columns t, theta_m, omega_m, theta_l, omega_l, torque_m (measured),
             delta_true, delta1_true, theta_ref, omega_ref; ``meta`` has the scenario.
+
+        Raises
+        ------
+        ParameterError
+            ``duration`` not a finite number > 0 [s].
         """
         duration = self.duration if duration is None else float(duration)
         seed = self.seed if seed is None else int(seed)

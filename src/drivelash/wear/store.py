@@ -754,6 +754,11 @@ class Store:
             ``machine/axis``.
         conn : sqlalchemy.Connection, optional
             Run the query in this transaction.
+
+        Raises
+        ------
+        StoreError
+            No such axis (one line, with the closest name).
         """
         q = sa.select(axis_t.c.id).where(axis_t.c.name == name)
         rows = conn.execute(q).all() if conn is not None else self._read(q)
@@ -1230,7 +1235,7 @@ class Store:
             The value, e.g. B at the load [``unit``].
         std : float or None
             Its standard uncertainty [``unit``] (None when unknown).
-        unit : {"rad", "mm", "um", "m"}
+        unit : {"rad", "mm", "um", "µm", "m"}
             Unit of ``value``/``std``; lengths are converted to rad with the axis's
             transmission when it has one.
         source : str
@@ -1250,6 +1255,12 @@ class Store:
         -------
         int
             The measurement's id.
+
+        Raises
+        ------
+        StoreError
+            An unknown ``unit``, a non-finite ``value``, a ``std`` not finite ≥ 0, or an unknown
+            axis. (A length without a transmission is stored unconverted: no value in rad.)
         """
         if unit != "rad" and unit not in LENGTH_UNITS:
             raise StoreError(f"measurement unit {unit!r}: must be rad, mm, um or m")

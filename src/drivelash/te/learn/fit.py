@@ -142,6 +142,11 @@ def prepare_campaign(
     pipeline, geo, runs
         ``geo[key]`` from the ``geometric`` runs, ``runs[key]`` the ``load`` runs of
         each direction as :class:`RunData` (meta: load [N], velocity [m/s], name).
+
+    Raises
+    ------
+    DataError
+        A direction without a geometric (no-load) run or without a load run.
     """
     if pipeline is None:
         pipeline = TEPipeline(GearGeometry.from_bench(campaign.bench))

@@ -299,6 +299,13 @@ def lowpass(values: np.ndarray, step: float, cutoff: float, order: int = 4) -> n
     -------
     numpy.ndarray
         Filtered signal, no phase shift (``scipy.signal.sosfiltfilt``).
+
+    Raises
+    ------
+    ParameterError
+        ``cutoff`` not in (0, 1/(2 step)) [1/m].
+    DataError
+        Fewer than 8 grid points.
     """
     from scipy.signal import butter, sosfiltfilt
 
@@ -491,6 +498,12 @@ class TEPipeline:
             TE_geo of that direction (subtracted: TE_def = TE − TE_geo).
         meta : mapping, optional
             Provenance copied into the result's ``meta``.
+
+        Raises
+        ------
+        DataError
+            Fewer than 16 samples moving in ``direction``, or a run shorter than twice the trim
+            length.
         """
         grid, c = self._grid_run(columns, direction)
         # low-pass the whole pass, then drop the ends (ramps, flank change, filter edges);

@@ -210,6 +210,11 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         ----------
         **params
             Parameters by name, nested ones as ``nn__hidden``, ``trees__n_estimators``.
+
+        Raises
+        ------
+        ParameterError
+            Nested parameters for a template that is not an estimator.
         """
         nested: dict[str, dict[str, Any]] = {"nn": {}, "trees": {}}
         own = {}
@@ -260,6 +265,11 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         StackedTERegressor
             ``self``; fitted attributes ``nn_``, ``trees_``, ``stage1_share_``,
             ``train_mae_``, ``nn_info_``, ``tree_info_``, ``fit_time_``.
+
+        Raises
+        ------
+        ParameterError
+            A stride that is not a positive integer, or ``nn``/``trees`` that is not an estimator.
         """
         X, y = validate_data(self, X, y, dtype=np.float64, y_numeric=True, ensure_min_features=2)
         for name in ("nn_stride", "search_stride", "tree_stride", "update_stride", "cv_folds"):
@@ -358,6 +368,11 @@ class StackedTERegressor(RegressorMixin, BaseEstimator):
         StackedTERegressor
             ``self``; ``update_time_`` [s]. ``train_mae_`` and ``stage1_share_`` keep the
             values of the last ``fit`` (not re-scored, to keep the update fast).
+
+        Raises
+        ------
+        ParameterError
+            ``stage`` other than ``"trees"`` or ``"both"``.
         """
         if stage not in ("trees", "both"):
             raise ParameterError(

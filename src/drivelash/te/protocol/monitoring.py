@@ -219,6 +219,11 @@ def monitor_sections(
     Returns
     -------
     SectionReport
+
+    Raises
+    ------
+    DataError
+        Arrays that are not 1-D of one length ≥ 4.
     """
     p = params or MonitorParams()
     arrs = [np.asarray(a, dtype=np.float64) for a in (t, x_T, te_measured, te_model, path_error_measured)]

@@ -49,6 +49,11 @@ def run_pass(
         ``v_bl``, ``flank``, ``tq_model`` (the compensator's model torque) and ``outside``
         (1 where the compensator's set positions left its table and it held the edge value,
         :attr:`~drivelash.te.runtime.compensator.Compensator.cycles_outside`; else 0) per sample.
+
+    Raises
+    ------
+    ParameterError
+        The compensator's ``t_sc`` is not a whole number of control periods.
     """
     T_s = float(sim.T_s)
     t_sc = compensator.params.t_sc if compensator is not None else 5e-3

@@ -63,6 +63,11 @@ class TreesUpdater:
         after the update; on the full 50 µm grid (stride 1) the steps are 0.15 µm.
     echo : callable, optional
         Progress messages.
+
+    Raises
+    ------
+    ParameterError
+        ``update_stride`` is not a positive integer.
     """
 
     def __init__(
@@ -142,6 +147,11 @@ class TreesUpdater:
             The bench with the worn rack.
         lo, hi : float
             Travel range of the new passes [m].
+
+        Raises
+        ------
+        DataError
+            :meth:`fit` was not called first.
         """
         if self.trained is None:
             raise DataError("TreesUpdater.update needs fit() first")

@@ -40,6 +40,12 @@ def export_table(table: TETable, path: Path, params: CompensatorParams | None = 
     -------
     pathlib.Path
         The written file.
+
+    Raises
+    ------
+    DataError
+        A table with |TE| beyond ``TE_MAX`` (an implausible model), or a suffix other than
+        ``.csv``/``.json``.
     """
     path = Path(path)
     suffix = final_suffix(path)  # a staging name of drivelash.io.outputs keeps the final suffix

@@ -418,6 +418,12 @@ def save_model(trained: Any, directory: str | Path, fmt: str = "safetensors") ->
     -------
     Path
         The directory.
+
+    Raises
+    ------
+    ModelFileError
+        An unknown ``fmt``, a loaded :class:`TEModel` instead of a trained model, or metadata
+        that do not validate.
     """
     if fmt not in ("safetensors", "npz"):
         raise ModelFileError(f"unknown weight format {fmt!r} (use 'safetensors' or 'npz')")
