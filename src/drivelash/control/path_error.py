@@ -89,6 +89,11 @@ def predict_path_error(
     -------
     numpy.ndarray
         Predicted e_x(t) [m] (Tustin discretisation of (3) at the sample rate of ``t``).
+
+    Raises
+    ------
+    DataError
+        ``te`` and ``t`` not 1-D of one length ≥ 2, or ``t`` not uniformly spaced.
     """
     from scipy import signal
 

@@ -355,6 +355,16 @@ def measured_range(model: Any) -> tuple[float, float]:
     stores (so a saved model's ``context.valid_range`` is already this range; a file written
     before is narrowed to it on load). A model without one of them is bounded by the other;
     with neither, ``(-inf, inf)``.
+
+    Parameters
+    ----------
+    model : TEModel or TrainedTEModel
+        Anything with a ``context.valid_range`` and/or a ``geometric_range()``.
+
+    Returns
+    -------
+    x_min, x_max : float
+        The measured position range [m].
     """
     lo, hi = -math.inf, math.inf
     vr = getattr(getattr(model, "context", None), "valid_range", None)
