@@ -4,7 +4,8 @@ Public names (imported on first use):
 
 - two-mass drive train with backlash (spec 01 §1): :func:`rhs`, :func:`rk4_step`,
   :func:`linear_state_space`, :func:`plant_params_array`;
-- deadzone and smooth backlash torque (spec 01 eqs. (3)-(5)), scalar kernels;
+- deadzone and smooth backlash torque (spec 01 eqs. (10)–(12)), scalar kernels:
+  :func:`deadzone_torque_scalar`, :func:`smooth_torque_scalar`;
 - friction (Coulomb, Stribeck, viscous): :func:`friction_scalar`;
 - rack-and-pinion geometry and transmission error (spec 02 §2):
   :class:`RackGeometry`, :class:`RackDrive`, :class:`RackPinionBench`,
