@@ -173,9 +173,15 @@ def raised_errors(func: Callable[..., object]) -> set[str]:
 
 @pytest.mark.parametrize("name", sorted(n for n, (o, c) in PUBLIC.items() if _required(o, c)))
 def test_raised_errors_are_documented(name: str) -> None:
-    """An error a public callable raises itself is named in its Raises section."""
+    """An error a public callable raises itself is named in its Raises section (a class: its
+    ``__init__`` and a dataclass's ``__post_init__``, the validation of its fields)."""
     obj, is_class = PUBLIC[name]
-    raised = raised_errors(obj.__init__ if is_class else obj)  # type: ignore[misc]
+    if is_class:
+        raised = raised_errors(obj.__init__)  # type: ignore[misc]
+        if "__post_init__" in vars(obj):
+            raised |= raised_errors(vars(obj)["__post_init__"])
+    else:
+        raised = raised_errors(obj)
     assert raised - set(sections(obj.__doc__).get("Raises", [])) == set()
 
 

@@ -168,6 +168,11 @@ class DrivetrainParams:
         When non-zero it must be ≥ the Coulomb torque of that side.
     omega_s : float
         Stribeck velocity of the static-friction decay [rad/s].
+
+    Raises
+    ------
+    ParameterError
+        A field outside its valid range (one line naming the class and the field).
     """
 
     J_m: float
@@ -214,6 +219,11 @@ class BacklashParams:
     alpha : float
         Smoothness of the varying-stiffness model (11) [1/rad]; the smooth model
         tends to the deadzone model as α → ∞.
+
+    Raises
+    ------
+    ParameterError
+        A field outside its valid range (one line naming the class and the field).
     """
 
     delta: float
@@ -250,6 +260,11 @@ class CascadeGains:
         Velocity feed-forward gain [-], 0 (off) … 1 (full).
     T_s : float
         Control period [s] (zero-order hold of the torque command).
+
+    Raises
+    ------
+    ParameterError
+        A field outside its valid range (one line naming the class and the field).
     """
 
     K_v: float
@@ -284,6 +299,11 @@ class SensorParams:
     velocity_source : {"measured", "differentiated"}
         ``"measured"``: velocity = true velocity + noise (as a drive reports it);
         ``"differentiated"``: backward difference of the quantised position.
+
+    Raises
+    ------
+    ParameterError
+        A field outside its valid range (one line naming the class and the field).
     """
 
     counts_m: int = 0
@@ -420,6 +440,11 @@ class EstimatorConfig:
         to half the difference of their load-side counts; "truncate" corrects it, "nearest"
         needs no correction, "unknown" widens the uncertainty by it (and a recording's own
         metadata ``encoder_reading``, e.g. the project's simulator, is used when present).
+
+    Raises
+    ------
+    ParameterError
+        A field outside its valid range (one line naming the class and the field).
     """
 
     k1: float

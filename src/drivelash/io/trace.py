@@ -64,6 +64,11 @@ class Trace:
     rows : DataRows
         Where each sample's row is in the source file, for messages (set by
         :func:`~drivelash.io.load_trace`; a slice or a selection of columns does not keep it).
+
+    Raises
+    ------
+    DataError
+        A column that is not 1-D, columns of unequal length, or no ``t``.
     """
 
     columns: dict[str, np.ndarray]

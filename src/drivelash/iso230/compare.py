@@ -49,6 +49,11 @@ class Transmission:
     i_G : float
         Revolutions of the deadzone's shaft (θ_l of the drive model) per revolution
         of the screw or pinion [-].
+
+    Raises
+    ------
+    ParameterError
+        A field outside its valid range (one line naming the class and the field).
     """
 
     lead: float | None = None

@@ -63,6 +63,11 @@ class DwellParams:
     target_tolerance : float
         Dwell positions closer than this fraction of the travel are one target; also
         the largest distance to a nominal target [-].
+
+    Raises
+    ------
+    ParameterError
+        A field outside its valid range (one line naming the class and the field).
     """
 
     T_dwell_min: float = 0.5

@@ -77,6 +77,11 @@ class Iso230Params:
     compensation : float
         Reversal (backlash) compensation the control applied during the test [m or rad];
         added back to the measured lost motion before it is compared with the deadzone.
+
+    Raises
+    ------
+    ParameterError
+        A field outside its valid range (one line naming the class and the field).
     """
 
     input: Literal["auto", "table", "timeseries"] = "auto"

@@ -87,6 +87,11 @@ class RackGeometry:
     contact_ratio : float or None
         Total contact ratio ε [-] when known (e.g. from the gear data sheet, profile
         shift or tip relief); None derives it from the tooth geometry (:attr:`epsilon`).
+
+    Raises
+    ------
+    ParameterError
+        A field outside its valid range (one line naming the class and the field).
     """
 
     m_n: float = 4e-3
@@ -234,6 +239,11 @@ class RackDrive:
     zeta_mesh : float
         Damping ratio of the drive-train (mesh + gearbox) mode [-]; converted to a
         damping coefficient in :attr:`RackPinionBench.d_mesh`.
+
+    Raises
+    ------
+    ParameterError
+        A field outside its valid range (one line naming the class and the field).
     """
 
     m_T: float = 400.0
@@ -271,6 +281,11 @@ class RackPinionBench(RackGeometry, RackDrive):
     m_n, n_t, helix_angle, alpha_n, face_width, i_PG, travel, contact_ratio
         As :class:`RackGeometry`: module [m], teeth [-], angles [rad], face width [m],
         gearbox ratio [-], travel [m], contact ratio [-] or None.
+
+    Raises
+    ------
+    ParameterError
+        A field outside its valid range (one line naming the class and the field).
     """
 
     def __post_init__(self) -> None:
@@ -410,6 +425,11 @@ class TEGeneratorParams:
         Configured range of the backlash along the travel [m].
     b_pinion : float
         Amplitude of the centre-distance (pinion-period) part of the backlash [m].
+
+    Raises
+    ------
+    ParameterError
+        A field outside its valid range (one line naming the class and the field).
     """
 
     A_runout: float = 25e-6
@@ -500,6 +520,11 @@ class LocalDefect:
         Peak TE change [m] (positive: table ahead of the motor).
     direction : int
         0: both flanks; +1 / −1: only that direction's curve (changes the backlash).
+
+    Raises
+    ------
+    ParameterError
+        A field outside its valid range (one line naming the class and the field).
     """
 
     x_center: float

@@ -332,6 +332,11 @@ class AxisSimConfig:
         Std of white noise of the motor velocity [rad/s] (the velocity loop sees it).
     sigma_torque : float
         Std of white noise of the *recorded* motor torque [N·m] (the control is not affected).
+
+    Raises
+    ------
+    ParameterError
+        A field outside its valid range (one line naming the class and the field).
     """
 
     n_sub: int = 4

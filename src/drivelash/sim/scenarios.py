@@ -205,6 +205,11 @@ class Scenario:
     estimator : tuple of (str, value)
         :class:`~drivelash.params.EstimatorConfig` fields that override the tuning rule
         when this scenario is estimated (``[estimator]`` of a scenario file).
+
+    Raises
+    ------
+    ParameterError
+        A field outside its valid range (one line naming the class and the field).
     """
 
     name: str

@@ -337,6 +337,11 @@ class GearGeometry:
         Gearbox ratio [-].
     eps : float
         Contact ratio ε [-] (used in the bump features).
+
+    Raises
+    ------
+    ParameterError
+        A field outside its valid range (one line naming the class and the field).
     """
 
     d_p: float

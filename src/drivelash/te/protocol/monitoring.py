@@ -61,6 +61,11 @@ class MonitorParams:
         Share of a section that must be covered by samples for it to be judged [-].
     statistic : {"peak", "mae"}
         Per-section statistic of the model path error that is compared with the threshold.
+
+    Raises
+    ------
+    ParameterError
+        A field outside its valid range (one line naming the class and the field).
     """
 
     section_length: float = 0.1

@@ -144,6 +144,11 @@ class CompensatorParams:
     t_lock : float
         Time after a flank change during which no further change is accepted [s]:
         the torque spikes of the impact on the new flank must not toggle the flank.
+
+    Raises
+    ------
+    ParameterError
+        A field outside its valid range (one line naming the class and the field).
     """
 
     t_sc: float = 5e-3

@@ -158,6 +158,12 @@ class TETable:
         TE values, shape (2, n_x, n_torque) [m].
     meta : dict
         Provenance (model directory, units, axis name).
+
+    Raises
+    ------
+    DataError
+        ``te`` not of shape (2, n_x ≥ 2, n_torque ≥ 1) or not finite, ``dx`` ≤ 0, or a torque
+        step ≤ 0 (with more than one torque).
     """
 
     x0: float
