@@ -190,7 +190,8 @@ def _examples() -> dict[str, doctest.DocTest]:
     finder = doctest.DocTestFinder(recurse=False)
     tests = {}
     for name, (obj, _) in PUBLIC.items():
-        for test in finder.find(obj, name, globs={}):
+        module = inspect.getmodule(obj)  # the example sees its module's names, as in the docs
+        for test in finder.find(obj, name, module=module, globs=dict(vars(module))):
             if test.examples:
                 tests[name] = test
     return tests
@@ -210,8 +211,12 @@ def test_docstring_examples_run(name: str, monkeypatch: pytest.MonkeyPatch) -> N
 
 
 def test_examples_were_found() -> None:
-    """Negative control of the example test: the one unskipped example is collected."""
-    assert "drivelash.estimation.backlash_api.estimate_backlash" in EXAMPLES
+    """Negative control of the example test: the examples are collected and none is skipped,
+    and a wrong printed value fails."""
+    run = ("estimation.backlash_api.estimate_backlash", "control.cascade.CascadeController",
+           "estimation.estimator.DeadzoneEstimator")  # fmt: skip
+    for name in (f"drivelash.{n}" for n in run):
+        assert not any(ex.options.get(doctest.SKIP) for ex in EXAMPLES[name].examples), name
     wrong = doctest.DocTestParser().get_doctest(">>> 1 + 1\n3\n", {}, "wrong", None, 0)
     runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
     assert runner.run(wrong, out=lambda _: None).failed == 1  # a wrong printed value fails

@@ -181,9 +181,13 @@ class CascadeController:
 
     Examples
     --------
-    >>> ctrl = CascadeController(gains)                                            # doctest: +SKIP
-    >>> u = ctrl.compute_output(theta_ref, omega_ref, theta_m, omega_m)            # doctest: +SKIP
-    >>> ctrl.update(gains.T_s, u)   # the torque that was actually applied         # doctest: +SKIP
+    >>> from drivelash.sim.scenarios import get_scenario
+    >>> gains = get_scenario("bench-0C").gains
+    >>> ctrl = CascadeController(gains)
+    >>> u = ctrl.compute_output(0.1, 0.0, 0.0, 0.0)   # 0.1 rad behind, at rest: K_p K_v 0.1 [N·m]
+    >>> round(u, 4)
+    0.4155
+    >>> ctrl.update(gains.T_s, u)   # the torque that was actually applied
     """
 
     gains: CascadeGains

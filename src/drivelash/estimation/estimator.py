@@ -1172,9 +1172,13 @@ class DeadzoneEstimator:
 
     Examples
     --------
-    >>> est = DeadzoneEstimator(drivetrain, bl, T_s=125e-6)   # doctest: +SKIP
-    >>> result = est.run(trace)                                # doctest: +SKIP
-    >>> result.delta, result.delta_std, result.converged       # doctest: +SKIP
+    >>> from drivelash.sim.scenarios import get_scenario
+    >>> sc = get_scenario("bench-0C")                          # true δ = 105 mrad
+    >>> trace = sc.simulate(duration=6.0, seed=1)
+    >>> est = DeadzoneEstimator(sc.estimator_drivetrain, sc.estimator_backlash, T_s=trace.T_s)
+    >>> result = est.run(trace)
+    >>> round(1e3 * result.delta), result.converged           # δ̂ [mrad]
+    (105, True)
     """
 
     def __init__(
