@@ -54,9 +54,10 @@ class MonitorParams:
     section_length : float
         Length of a monitored section of travel [m] (paper: 100 mm).
     floor : float
-        Smallest threshold of the model path error, MAE per section [m].
+        Smallest threshold [m] of the per-section ``statistic`` of the model path error (the
+        peak |e| by default, or the MAE).
     factor : float
-        Threshold as a multiple of the median section value [-].
+        Threshold as a multiple of the median of that statistic over the sections [-].
     min_coverage : float
         Share of a section that must be covered by samples for it to be judged [-].
     statistic : {"peak", "mae"}
