@@ -55,7 +55,8 @@ class ValidationConfig:
     section_length : float
         Length of the scored sections [m] (paper: 100 mm).
     sine_amplitude, sine_frequency, sine_periods : float
-        Sinusoidal trajectory x_c − A cos(2π f t) [m], [Hz], [-] (no load, as in the paper).
+        Sinusoidal trajectory x_c − A cos(2π f t) [m], [Hz], [-] (no load, as in the paper),
+        centred in the pass range; A is cut to half that range when larger.
     sine_load : float
         Load [N] of the additional loaded sine (robustness check, not in the acceptance).
     reversal_window : tuple of float
