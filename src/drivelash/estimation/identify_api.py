@@ -59,6 +59,18 @@ def identify_drive(
         Parameters with standard errors and 95 % intervals (or the reason they are not
         identifiable), correlation matrix, backlash verdict, plausibility warnings;
         ``to_config()`` gives the ``[drivetrain]``/``[backlash]`` tables of ``estimate``.
+
+    Raises
+    ------
+    ParameterError
+        An unknown ``model``, ``columns`` with a Trace (or not a dict), or ``config`` of another
+        type.
+    ConfigError
+        The configuration file cannot be read or is invalid, or ``"two-mass"`` without a gear
+        ratio (``N`` or ``[drivetrain] N``).
+    DataError
+        The recording cannot be read, mapped or validated, lacks a column the model needs, or
+        does not determine the model (one line naming the file and the column).
     """
     from drivelash.estimation.backlash_api import with_columns
     from drivelash.estimation.identify_two_mass import as_drive_config
