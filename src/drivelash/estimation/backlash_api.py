@@ -241,7 +241,7 @@ def estimate_backlash(
     ParameterError
         A ``method`` other than ``"default"``, ``"paper"`` or None; ``drivetrain`` missing or of
         another type; DrivetrainParams without ``delta1``, or with ``identify=True``; a
-        ``delta1`` that is not a finite number ≥ 0 [rad].
+        ``delta1`` that is not a finite number ≥ 0 [rad]; ``columns`` with a Trace.
     ConfigError
         The configuration file cannot be read or is invalid.
     DataError
