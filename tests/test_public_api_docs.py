@@ -144,6 +144,14 @@ def test_public_docstring_parameters(name: str) -> None:
     assert parameter_problems(obj, constructor=is_class, require_section=_required(obj, is_class)) == []
 
 
+def test_every_all_name_exists() -> None:
+    """Each ``__all__`` lists only names that exist (a submodule is imported) and are public."""
+    for pkg in public_packages():
+        for name in pkg.__all__:
+            assert not name.startswith("_") or name == "__version__", (pkg.__name__, name)
+            listed(pkg, name)  # AttributeError / ImportError: listed but not there
+
+
 def raised_errors(func: Callable[..., object]) -> set[str]:
     """Exception classes ``func`` raises by name in its own body (``raise ParameterError(...)``;
     not in nested functions, not re-raised variables)."""
@@ -224,7 +232,8 @@ def test_examples_were_found() -> None:
 
 def test_checker_catches_a_wrong_docstring() -> None:
     """Negative control: a documented parameter that is not in the signature, one that is
-    missing, and a missing docstring are each reported."""
+    missing, a missing docstring, a record's undocumented field and an error raised by name
+    are each seen."""
 
     def wrong(T_s: float, delta: float) -> float:
         """Something.
@@ -268,10 +277,9 @@ def test_checker_catches_a_wrong_docstring() -> None:
     assert parameter_problems(bare) == ["no docstring"]
     assert parameter_problems(right) == []
     assert parameter_problems(bare.__call__) == []  # no signature to check: not a false alarm
-    undocumented = "One line.\n\nReturns\n-------\nfloat\n    [rad]."
-    wrong.__doc__, bare.__doc__ = undocumented, undocumented
-    assert parameter_problems(bare) == []  # prose-only docstring: allowed below the top level ...
-    assert parameter_problems(bare, require_section=True) == ["parameter 'x' not documented"]  # ... not at it
+    bare.__doc__ = "One line.\n\nReturns\n-------\nfloat\n    [rad]."
+    assert parameter_problems(bare) == []  # prose only: consistent, but ...
+    assert parameter_problems(bare, require_section=True) == ["parameter 'x' not documented"]  # ... required
 
     @dataclasses.dataclass
     class Record:
