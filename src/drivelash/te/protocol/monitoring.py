@@ -321,7 +321,7 @@ def monitor_pass(sim: Any, table: TETable, res: dict[str, np.ndarray], v: float,
 
     J_s = float(sim.bench.J_s)
     gains = sim.gains
-    te_meas = res["x_T"] - float(sim.bench.r_eff) * res["theta_m"]
+    te_meas = sim.bench.te_from_measurement(res["x_T"], res["theta_m"])  # eq. (1), one implementation
     te_hat = model_te_along(table, res)
     m = np.abs(np.abs(res["v_d"]) - v) < 1e-9 * max(v, 1.0)
     idx = np.flatnonzero(m)
