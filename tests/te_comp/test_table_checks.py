@@ -153,3 +153,20 @@ def test_export_help_states_each_option_unit():
         "Torque step of the grid in N·m",
     ):
         assert needle in text, needle
+
+
+def test_validate_states_the_torque_range_of_the_table_it_built():
+    """`te validate` printed "table torque range 0 … <training torque>" even when
+    ``[validation] table_torque_max`` set another range for the table (found by session 18's
+    API audit). The line now reads the range off the table and names what set it."""
+    from drivelash.te.protocol.bench import ValidationConfig
+    from drivelash.te.protocol.validate import _table_torque_line
+    from drivelash.te.runtime.table import TETable
+
+    table = TETable(0.0, 1e-3, np.array([0.0, -6.0]), np.array([2.0, 2.0]), np.zeros((2, 3, 4)))
+    assert _table_torque_line(table, ValidationConfig(table_torque_max=6.0)) == (
+        "table torque range 0 … 6.00 N·m (set by table_torque_max)"
+    )
+    assert _table_torque_line(table, ValidationConfig()) == (
+        "table torque range 0 … 6.00 N·m (the training runs' torque, loads up to 3000 N)"
+    )

@@ -266,6 +266,31 @@ def sine_validation(
     return figures, unc, comp
 
 
+def _table_torque_line(table: TETable, cfg: ValidationConfig) -> str:
+    """The progress line that states the torque range of the compensation table ``validate``
+    built and what set it: ``cfg.table_torque_max`` when given, else the training runs.
+
+    Parameters
+    ----------
+    table : TETable
+        The table of the validation.
+    cfg : ValidationConfig
+        Its settings (``table_torque_max`` [N·m], ``train_max_load`` [N]).
+
+    Returns
+    -------
+    str
+        E.g. ``"table torque range 0 … 6.79 N·m (the training runs' torque, loads up to 3000 N)"``.
+    """
+    span = max(float(np.max(np.abs(table.torque_grid(d)))) for d in (+1, -1))
+    why = (
+        "set by table_torque_max"
+        if cfg.table_torque_max is not None
+        else f"the training runs' torque, loads up to {cfg.train_max_load:g} N"
+    )
+    return f"table torque range 0 … {span:.2f} N·m ({why})"
+
+
 def validate(
     model: TEPredictor,
     drive: Any,
@@ -316,9 +341,9 @@ def validate(
     bench = sim.bench
     velocities = cfg.velocities or drive.velocities
     tq_max = drive.torque_max
-    say(f"table torque range 0 … {tq_max:.2f} N·m (training runs up to {cfg.train_max_load:g} N)")
     table = table_for(model, bench, cfg, meta={"axis": "rack-and-pinion table", "seed": drive.seed},
                       torque_max=tq_max)  # fmt: skip
+    say(_table_torque_line(table, cfg))
     params = compensator_for(bench, table, cfg.compensator)
     export_table(table, out / "te_table.json", params)
     summary: dict[str, Any] = {"config": jsonable(asdict(cfg)), "compensator": asdict(params)}
