@@ -241,6 +241,7 @@ class WindowData:
     dth: np.ndarray
     dw: np.ndarray
     wl: np.ndarray
+    dth_iv: np.ndarray | None = None
     a_m_back: np.ndarray | None = None
     a_l_back: np.ndarray | None = None
     a_m_start: np.ndarray | None = None
@@ -359,6 +360,21 @@ def check_load_encoder(th_m: np.ndarray, th_l: np.ndarray, N: float, trace: Trac
     )
 
 
+def count_position(theta: np.ndarray) -> np.ndarray:
+    """Position from the encoder counts alone [rad]: linear interpolation between count changes.
+
+    At a change the position is on the boundary between the two counts (the mean of the two
+    readings, half a sample before the change). The result carries the quantisation error but
+    none of the velocity noise that :func:`fuse_position` integrates, which makes it an
+    instrument for the fused position (:func:`iv_refit`). A continuous encoder is returned as is.
+    """
+    q = quantisation_step(theta)
+    ch = np.flatnonzero(np.diff(theta) != 0) + 1
+    if q == 0 or ch.size < 2:
+        return np.asarray(theta, dtype=float).copy()
+    return np.interp(np.arange(theta.size, dtype=float), ch - 0.5, 0.5 * (theta[ch] + theta[ch - 1]))
+
+
 def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> WindowData:
     """Preprocess a two-mass recording into :class:`WindowData`.
 
@@ -432,6 +448,8 @@ def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> Window
     SL = _interior_mean(np.sign(wl), s0, M, nw)
     dth_all = 0.5 * (fm[1:] + fm[:-1]) / N - 0.5 * (fl[1:] + fl[:-1])
     dth = np.ascontiguousarray(dth_all[s0 : s0 + nw * M])
+    pm, pl = count_position(th_m), count_position(th_l)
+    dth_iv = np.ascontiguousarray((0.5 * (pm[1:] + pm[:-1]) / N - 0.5 * (pl[1:] + pl[:-1]))[s0 : s0 + nw * M])
     dw = np.ascontiguousarray((wm / N - wl)[s0 : s0 + nw * M])
     wl_mid = np.ascontiguousarray((0.5 * (wl[1:] + wl[:-1]))[s0 : s0 + nw * M])
     # standstill: any sample of the window (and its look-back) below the threshold
@@ -464,6 +482,7 @@ def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> Window
         dth=dth,
         dw=dw,
         wl=wl_mid,
+        dth_iv=dth_iv,
         a_m_back=a_m,
         a_l_back=a_l,
         a_m_start=a_m_start,
@@ -1027,11 +1046,167 @@ def fit_two_mass(
             prob.residuals, x, jac=prob.jacobian, method="lm", x_scale="jac", xtol=1e-12, ftol=1e-12
         )
         x = res.x
-    J = prob.jacobian(x)
-    g = prob.scores(x)
-    lags = andrews_bandwidth(g)
-    cov = hac_covariance(J, g, lags)
+    iv = iv_refit(prob, x)
+    if iv is not None:
+        x, cov, lags = iv
+    else:
+        J = prob.jacobian(x)
+        g = prob.scores(x)
+        lags = andrews_bandwidth(g)
+        cov = hac_covariance(J, g, lags)
     return TwoMassFit(prob.full(x), cov, prob, lags, prob.nfev, float(res.cost) if res is not None else 0.0)
+
+
+#: Lag [windows] of the torque instrument of the motor equation: U of window i − IV_TORQUE_LAG
+#: stands in for U of window i in the instruments (see :func:`iv_refit`, docs/assumptions.md).
+IV_TORQUE_LAG = 2
+#: The instrumental-variable refit replaces the least-squares fit only where the smallest
+#: canonical correlation between the instruments and the Jacobian reaches this (weak instruments:
+#: in that direction the IV standard error is 1/ρ times the least-squares one, and its bias tends
+#: to the least-squares bias as ρ → 0; see :func:`iv_solve`, docs/assumptions.md).
+IV_MIN_CANONICAL_CORRELATION = 0.1
+
+
+def instruments(prob: TwoMassProblem, x: np.ndarray) -> np.ndarray:
+    """Instruments of the stacked equations: their Jacobian evaluated on instrument data.
+
+    Rows as :meth:`TwoMassProblem.residuals` (usable motor windows, then usable load windows),
+    one column per free parameter. The instrument data replace the two measured quantities
+    whose noise is correlated with the equation errors: Δθ by the count-only Δθ of
+    :func:`count_position` (``WindowData.dth_iv``; the fused Δθ carries the integrated velocity
+    noise, which is also in the window accelerations), and the window torque U by the torque
+    :data:`IV_TORQUE_LAG` windows earlier (a velocity controller answers the velocity noise at a
+    window's start inside the window). Motor rows of the first :data:`IV_TORQUE_LAG` windows,
+    which have no earlier torque, are zero.
+    """
+    d = prob.d
+    lag = IV_TORQUE_LAG
+    U_iv = np.empty_like(d.U)
+    U_iv[lag:] = d.U[:-lag]
+    U_iv[:lag] = d.U[:lag]
+    dth_iv = d.dth if d.dth_iv is None else d.dth_iv
+    prob.d = replace(d, dth=dth_iv, U=U_iv)
+    try:
+        Z = prob.jacobian(x)
+    finally:
+        prob.d = d
+    Z[: np.searchsorted(prob.im, lag)] = 0.0
+    return Z
+
+
+def iv_solve(
+    fun: Any,
+    jac: Any,
+    Z: np.ndarray,
+    x0: np.ndarray,
+    rows: np.ndarray,
+    n_win: int,
+    min_rho: float = IV_MIN_CANONICAL_CORRELATION,
+) -> tuple[np.ndarray, np.ndarray, int] | None:
+    """Just-identified (nonlinear) instrumental-variable estimate with a HAC sandwich covariance.
+
+    Solves the moment conditions Zᵀ r(x) = 0 by Levenberg–Marquardt on (ZᵀZ)^−½ Zᵀ r(x) from
+    ``x0`` (for a linear residual r = y − X x this is the closed form (ZᵀX)⁻¹ Zᵀ y). Covariance:
+    G⁻¹ S G⁻ᵀ with G = Zᵀ ∂r/∂x and S the Newey–West long-run covariance (Bartlett kernel,
+    :func:`andrews_bandwidth`) of the per-window moments g_w = Σ_{rows of w} Z_rowᵀ r_row.
+
+    Parameters
+    ----------
+    fun, jac : callable
+        Residuals r(x), shape (n_rows,), and their Jacobian ∂r/∂x, shape (n_rows, n_par).
+    Z : numpy.ndarray
+        Instruments, shape (n_rows, n_par) (as many as parameters).
+    x0 : numpy.ndarray
+        Start (the least-squares estimate), shape (n_par,).
+    rows : numpy.ndarray
+        Window index of each row, shape (n_rows,) (rows of one window share a moment).
+    n_win : int
+        Number of windows.
+    min_rho : float
+        Smallest canonical correlation [-] between Z and ∂r/∂x at ``x0`` for the instruments to
+        count as strong (:data:`IV_MIN_CANONICAL_CORRELATION`).
+
+    Returns
+    -------
+    tuple or None
+        (estimate, its covariance, HAC lags) in the units of ``x0``; ``None`` where the
+        instruments are degenerate or weak, or the solution is not finite.
+    """
+    from scipy.optimize import least_squares
+    from statsmodels.stats.sandwich_covariance import S_hac_simple
+
+    sz = np.linalg.norm(Z, axis=0)
+    if not (np.all(np.isfinite(Z)) and np.all(sz > 0.0)):
+        return None
+    Z = Z / sz
+    J0 = jac(x0)
+    s0 = np.linalg.norm(J0, axis=0)
+    if not (np.all(np.isfinite(J0)) and np.all(s0 > 0.0)):
+        return None
+    try:
+        rho = np.linalg.svd(np.linalg.qr(Z)[0].T @ np.linalg.qr(J0 / s0)[0], compute_uv=False)
+    except np.linalg.LinAlgError:
+        return None
+    if not float(rho.min()) >= min_rho:
+        return None
+    try:
+        AZt = np.linalg.inv(np.linalg.cholesky(Z.T @ Z)) @ Z.T
+        res = least_squares(
+            lambda x: AZt @ fun(x),
+            x0,
+            jac=lambda x: AZt @ jac(x),
+            method="lm",
+            x_scale="jac",
+            xtol=1e-12,
+            ftol=1e-12,
+        )
+    except (np.linalg.LinAlgError, ValueError):
+        return None
+    x = res.x
+    r = fun(x)
+    J = jac(x)
+    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
+        return None
+    g = np.zeros((n_win, x.size))
+    np.add.at(g, rows, Z * r[:, None])
+    lags = andrews_bandwidth(g)
+    sj = np.linalg.norm(J, axis=0)
+    sj[sj == 0] = 1.0
+    try:
+        Gi = np.linalg.inv(Z.T @ (J / sj))
+    except np.linalg.LinAlgError:
+        return None
+    cov = (Gi @ S_hac_simple(g, nlags=lags) @ Gi.T) / np.outer(sj, sj)
+    if not np.all(np.isfinite(cov)):
+        return None
+    return x, cov, lags
+
+
+def iv_refit(prob: TwoMassProblem, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray, int] | None:
+    """Instrumental-variable refit of the stacked equations (errors in variables).
+
+    The least-squares fit is biased where a regressor carries noise correlated with the
+    equation error: the fused Δθ enters both equations through the deadzone term K_S·dz(Δθ),
+    and its noise comes from the same velocity noise as the window accelerations; the torque
+    of a closed loop answers that noise. :func:`iv_solve` with the instruments of
+    :func:`instruments` at the least-squares estimate ``x0`` (weights of ``prob`` kept).
+
+    Parameters
+    ----------
+    prob : TwoMassProblem
+        The problem with the equation weights of the least-squares fit.
+    x0 : numpy.ndarray
+        Least-squares estimate of the free parameters (SI units, as ``prob.free``).
+
+    Returns
+    -------
+    tuple or None
+        (free parameters, their covariance, HAC lags); ``None`` where :func:`iv_solve` gives
+        none (the least-squares fit then stands).
+    """
+    Z = instruments(prob, x0)
+    rows = np.concatenate([prob.im, prob.il])
+    return iv_solve(prob.residuals, prob.jacobian, Z, x0, rows, prob.d.n_win)
 
 
 def start_weight_for(data: WindowData, J_m: float) -> float:
