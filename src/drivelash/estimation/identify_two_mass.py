@@ -1057,14 +1057,22 @@ def fit_two_mass(
     return TwoMassFit(prob.full(x), cov, prob, lags, prob.nfev, float(res.cost) if res is not None else 0.0)
 
 
-#: Lag [windows] of the torque instrument of the motor equation: U of window i − IV_TORQUE_LAG
-#: stands in for U of window i in the instruments (see :func:`iv_refit`, docs/assumptions.md).
-IV_TORQUE_LAG = 2
 #: The instrumental-variable refit replaces the least-squares fit only where the smallest
 #: canonical correlation between the instruments and the Jacobian reaches this (weak instruments:
 #: in that direction the IV standard error is 1/ρ times the least-squares one, and its bias tends
 #: to the least-squares bias as ρ → 0; see :func:`iv_solve`, docs/assumptions.md).
 IV_MIN_CANONICAL_CORRELATION = 0.1
+
+
+def torque_instrument_lag(M: int) -> int:
+    """Lag [windows] of the torque instrument: the nearest window that ends before the
+    :data:`_LOOKBACK` samples of a window's starting velocity, 1 + ⌈_LOOKBACK / M⌉ (2 for M ≥ 4).
+
+    The window's acceleration carries the velocity noise of those samples and of its end sample;
+    a velocity controller answers it in the window's torque and, through the motor's velocity
+    step, in every later torque. An earlier torque that ends before the look-back holds none of it.
+    """
+    return 1 + -(-_LOOKBACK // M)
 
 
 def instruments(prob: TwoMassProblem, x: np.ndarray) -> np.ndarray:
@@ -1075,12 +1083,12 @@ def instruments(prob: TwoMassProblem, x: np.ndarray) -> np.ndarray:
     whose noise is correlated with the equation errors: Δθ by the count-only Δθ of
     :func:`count_position` (``WindowData.dth_iv``; the fused Δθ carries the integrated velocity
     noise, which is also in the window accelerations), and the window torque U by the torque
-    :data:`IV_TORQUE_LAG` windows earlier (a velocity controller answers the velocity noise at a
-    window's start inside the window). Motor rows of the first :data:`IV_TORQUE_LAG` windows,
-    which have no earlier torque, are zero.
+    :func:`torque_instrument_lag` windows earlier (a velocity controller answers the velocity noise at a
+    window's start inside the window). Motor rows of the first :func:`torque_instrument_lag`
+    windows, which have no earlier torque, are zero.
     """
     d = prob.d
-    lag = IV_TORQUE_LAG
+    lag = torque_instrument_lag(d.M)
     U_iv = np.empty_like(d.U)
     U_iv[lag:] = d.U[:-lag]
     U_iv[:lag] = d.U[:lag]
