@@ -35,9 +35,14 @@ Method: **integral equation error** on short windows (one staged pipeline, all i
    residual standard deviation and fits again. Where the grid's best pair has an
    unphysical linear solution (1/J_m, K_S or K_S/J_l ≤ 0), the best pair with physical
    signs is fitted too and the better-explaining fit kept (:func:`fit_from_grid`).
+   *Errors in variables:* the fused Δθ carries the integrated velocity noise that is also in the
+   window accelerations, and a closed loop puts it into the torque; each fit is therefore
+   finished by a just-identified instrumental-variable step (:func:`iv_refit`: instruments from
+   the count-only Δθ and an earlier window's torque), kept where the instruments are strong.
 6. *Intervals.* Heteroscedasticity- and autocorrelation-consistent sandwich covariance
    (Newey–West, Bartlett kernel, Andrews' AR(1) plug-in bandwidth) of the stacked
-   scores; 95 % intervals ± 1.96 σ. See ``docs/assumptions.md`` for the measured coverage.
+   scores (of the IV moment conditions where the IV step is kept); 95 % intervals ± 1.96 σ.
+   See ``docs/assumptions.md`` for the measured coverage.
    The systematic error of the equation error (it depends on the window length) is added
    where the data show it: the final fit is repeated at 2M and 4M samples and a shift the
    noise of both fits cannot explain enters the covariance (:func:`window_sensitivity`).
