@@ -21,6 +21,7 @@ from drivelash.estimation.identify_two_mass import (
     fuse_position,
     identify_two_mass,
     iv_solve,
+    noise_covariance,
     quantisation_step,
     shift_statistic,
     start_weight_for,
@@ -303,7 +304,8 @@ def test_shift_statistic_is_the_chi2_of_the_difference():
 
 def test_window_sensitivity_is_reported(ident_0c):
     """The two sensitivity fits (2M, 4M) are in the result with their χ² verdict, and the reported
-    standard errors are at least the noise-only ones (equal where no shift was counted)."""
+    standard errors are at least the noise-only ones (equal where no shift was counted and the
+    IV step did not move the estimate; otherwise √(σ0² + Σ shifts² + (θ_IV − θ_LS)²))."""
     sysm = ident_0c.fit["systematic"]
     assert [f["window_samples"] for f in sysm["fits"]] == [16, 32]
     for f in sysm["fits"]:
@@ -311,7 +313,10 @@ def test_window_sensitivity_is_reported(ident_0c):
     counted = any(f["counted"] for f in sysm["fits"])
     for n, s0 in sysm["std_noise"].items():
         s = ident_0c[n].std
-        assert s >= s0 * (1 - 1e-9) and (counted or s == pytest.approx(s0, rel=1e-9)), n
+        h = sysm["iv_minus_ls"][n]
+        assert s >= s0 * (1 - 1e-9) and s >= abs(h) * (1 - 1e-9), n
+        if not counted:
+            assert s == pytest.approx(np.hypot(s0, h), rel=1e-9), n
 
 
 def test_interval_text_shows_the_width_of_a_narrow_interval():
@@ -633,3 +638,37 @@ def test_iv_solve_is_the_linear_2sls_and_undoes_the_attenuation_of_least_squares
     # an instrument unrelated to the regressor is weak: no IV estimate, least squares stands
     Zw = np.column_stack([np.ones(n), rng.standard_normal(n)])
     assert iv_solve(lambda p: y - X @ p, lambda p: -X, Zw, b_ols, np.arange(n), n) is None
+
+
+def test_noise_covariance_max_is_at_least_both_and_least_squares_where_the_iv_is_narrower():
+    """The reported noise covariance of the IV estimate (``"max"``) is no smaller than either
+    sandwich in any direction, on parameters 10 orders of magnitude apart; where the IV sandwich
+    is the narrower one it is the least-squares one. Negative control: the IV sandwich alone
+    is narrower than least squares in some direction."""
+    rng = np.random.default_rng(3)
+    scale = np.array([1e-4, 1e3, 1.0, 1e-6])
+    for _ in range(20):
+        A, B = rng.standard_normal((2, 4, 4))
+        c_iv = (A @ A.T + 0.1 * np.eye(4)) * np.outer(scale, scale)
+        c_ls = (B @ B.T + 0.1 * np.eye(4)) * np.outer(scale, scale)
+        c = noise_covariance(c_iv, c_ls, "max")
+        for other in (c_iv, c_ls):
+            d = (c - other) / np.outer(scale, scale)
+            assert np.linalg.eigvalsh(d).min() > -1e-9
+        assert np.linalg.eigvalsh((c_iv - c_ls) / np.outer(scale, scale)).min() < 0  # negative control
+        assert np.array_equal(noise_covariance(c_iv, c_ls, "iv"), c_iv)
+    c_ls = np.diag(scale**2)
+    assert np.allclose(noise_covariance(0.5 * c_ls, c_ls, "max"), c_ls, rtol=1e-12, atol=0)
+
+
+def test_iv_fit_keeps_the_least_squares_fit_it_replaced(bench_0c):
+    """``fit_two_mass`` keeps the least-squares fit under the IV refit (``p_ls``, ``cov_ls``): the
+    window-length sensitivity and the IV−LS difference of the reported interval are computed on it."""
+    from drivelash.estimation.identify_two_mass import fit_two_mass, window_data
+
+    data = window_data(bench_0c, 1.0)
+    ls = fit_two_mass(data, iv=False)
+    iv = fit_two_mass(data)
+    assert ls.p_ls is None and iv.p_ls is not None
+    assert np.array_equal(iv.p_ls, ls.p) and np.array_equal(iv.cov_ls, ls.cov_free)
+    assert not np.array_equal(iv.p, ls.p)
