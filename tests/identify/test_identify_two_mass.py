@@ -661,14 +661,27 @@ def test_noise_covariance_max_is_at_least_both_and_least_squares_where_the_iv_is
     assert np.allclose(noise_covariance(0.5 * c_ls, c_ls, "max"), c_ls, rtol=1e-12, atol=0)
 
 
-def test_iv_fit_keeps_the_least_squares_fit_it_replaced(bench_0c):
-    """``fit_two_mass`` keeps the least-squares fit under the IV refit (``p_ls``, ``cov_ls``): the
-    window-length sensitivity and the IV−LS difference of the reported interval are computed on it."""
-    from drivelash.estimation.identify_two_mass import fit_two_mass, window_data
+def test_iv_fit_replaces_least_squares_only_where_the_hausman_test_rejects(bench_0c, monkeypatch):
+    """``fit_two_mass`` runs the IV refit and the robust Durbin–Wu–Hausman test on J_m
+    (``hausman``). On bench-0C (short, noisy, closed loop) the IV − LS difference is not significant
+    at 95 %: least squares stands, bit for bit, with the test recorded. Negative control: at a
+    level that rejects any difference (threshold ≈ 0) the IV estimate replaces it and the
+    least-squares fit is kept under it (``p_ls``, ``cov_ls``: the window-length sensitivity and the
+    IV−LS difference of the reported interval are computed on it). Motor-only equations: no IV."""
+    import drivelash.estimation.identify_two_mass as itm
 
-    data = window_data(bench_0c, 1.0)
-    ls = fit_two_mass(data, iv=False)
-    iv = fit_two_mass(data)
-    assert ls.p_ls is None and iv.p_ls is not None
+    data = itm.window_data(bench_0c, 1.0)
+    ls = itm.fit_two_mass(data, iv=False)
+    kept = itm.fit_two_mass(data)
+    assert ls.p_ls is None and not ls.hausman
+    t = kept.hausman
+    assert t["parameter"] == "J_m" and t["threshold"] == pytest.approx(3.841, abs=1e-3)
+    assert 0.0 <= t["statistic"] <= t["threshold"] and not t["rejected"]
+    assert kept.p_ls is None and np.array_equal(kept.p, ls.p) and np.array_equal(kept.cov_free, ls.cov_free)
+    monkeypatch.setattr(itm, "HAUSMAN_LEVEL", 1e-9)
+    iv = itm.fit_two_mass(data)
+    assert iv.hausman["rejected"] and iv.hausman["statistic"] == pytest.approx(t["statistic"])
     assert np.array_equal(iv.p_ls, ls.p) and np.array_equal(iv.cov_ls, ls.cov_free)
     assert not np.array_equal(iv.p, ls.p)
+    motor = itm.fit_two_mass(data, equations="motor")
+    assert motor.p_ls is None and not motor.hausman

@@ -36,10 +36,12 @@ Method: **integral equation error** on short windows (one staged pipeline, all i
    unphysical linear solution (1/J_m, K_S or K_S/J_l ≤ 0), the best pair with physical
    signs is fitted too and the better-explaining fit kept (:func:`fit_from_grid`).
    *Errors in variables:* the fused Δθ carries the integrated velocity noise that is also in the
-   window accelerations, and a closed loop puts it into the torque; each fit is therefore
-   finished by a just-identified instrumental-variable step (:func:`iv_refit`: the instrument
-   of the torque is the torque of an earlier window, :func:`torque_instrument_lag`), kept where
-   the instrument is strong.
+   window accelerations, and a closed loop puts it into the torque; each fit of both equations
+   is therefore followed by a just-identified instrumental-variable step (:func:`iv_refit`: the
+   instrument of the torque is the torque of an earlier window, :func:`torque_instrument_lag`),
+   which replaces the least-squares fit only where the instrument is strong and a robust
+   Durbin–Wu–Hausman test on J_m (:func:`hausman_test`, 5 % level) finds the two significantly
+   different; otherwise least squares stands.
 6. *Intervals.* Heteroscedasticity- and autocorrelation-consistent sandwich covariance
    (Newey–West, Bartlett kernel, Andrews' AR(1) plug-in bandwidth) of the stacked
    scores; where the IV step is kept, the larger of its sandwich and the least-squares one
@@ -1002,6 +1004,9 @@ class TwoMassFit:
     #: of the free ones); ``None`` where the least-squares fit stands (:func:`iv_refit` gave none).
     p_ls: np.ndarray | None = None
     cov_ls: np.ndarray | None = None
+    #: The Durbin–Wu–Hausman test that chose between the two (:func:`hausman_test`); empty
+    #: where no instrumental-variable refit was made.
+    hausman: dict[str, Any] = field(default_factory=dict)
 
     def least_squares_part(self) -> tuple[np.ndarray, np.ndarray]:
         """(parameters, covariance of the free ones) of the least-squares fit under this fit."""
@@ -1074,11 +1079,16 @@ def fit_two_mass(
     lags = andrews_bandwidth(g)
     cov = hac_covariance(J, g, lags)
     cost = float(res.cost) if res is not None else 0.0
-    refit = iv_refit(prob, x) if iv else None
+    refit = iv_refit(prob, x) if iv and equations == "both" else None
     if refit is None:
         return TwoMassFit(prob.full(x), cov, prob, lags, prob.nfev, cost)
     x_iv, cov_iv, lags_iv = refit
-    return TwoMassFit(prob.full(x_iv), cov_iv, prob, lags_iv, prob.nfev, cost, p_ls=prob.full(x), cov_ls=cov)
+    test = hausman_test(prob, x, J, g, lags, x_iv, lags_iv)
+    if not test["rejected"]:  # least squares is not shown biased: it stands (docs/assumptions.md)
+        return TwoMassFit(prob.full(x), cov, prob, lags, prob.nfev, cost, hausman=test)
+    return TwoMassFit(
+        prob.full(x_iv), cov_iv, prob, lags_iv, prob.nfev, cost, p_ls=prob.full(x), cov_ls=cov, hausman=test
+    )
 
 
 #: The instrumental-variable refit replaces the least-squares fit only where the smallest
@@ -1243,6 +1253,86 @@ def iv_refit(prob: TwoMassProblem, x0: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return iv_solve(prob.residuals, prob.jacobian, Z, x0, rows, prob.d.n_win)
 
 
+#: The instrumental-variable estimate replaces the least-squares one only where their difference is
+#: significant at this level (:func:`hausman_test`; docs/assumptions.md).
+HAUSMAN_LEVEL = 0.95
+#: Parameter the Durbin–Wu–Hausman test is made on: the coefficient of the instrumented regressor
+#: (the window torque U enters the equations only through 1/J_m).
+HAUSMAN_PARAMETER = "J_m"
+
+
+def iv_influence(prob: TwoMassProblem, x: np.ndarray) -> np.ndarray:
+    """Per-window influence of the instrumental-variable estimate at ``x``: (Zᵀ∂r/∂x)⁻¹ Zᵀ_w r_w,
+    shape (n_win, n_free), in the units of ``x`` (as :func:`iv_solve`'s covariance: G⁻¹ S G⁻ᵀ
+    with S the long-run covariance of these rows before G⁻¹)."""
+    Z = instruments(prob, x)
+    Z = Z / np.linalg.norm(Z, axis=0)
+    r = prob.residuals(x)
+    J = prob.jacobian(x)
+    rows = np.concatenate([prob.im, prob.il])
+    g = np.zeros((prob.d.n_win, x.size))
+    np.add.at(g, rows, Z * r[:, None])
+    sj = np.linalg.norm(J, axis=0)
+    sj[sj == 0] = 1.0
+    Gi = np.linalg.inv(Z.T @ (J / sj))
+    return (g @ Gi.T) / sj
+
+
+def ls_influence(J: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """Per-window influence (JᵀJ)⁻¹ g_w of the least-squares estimate (as :func:`hac_covariance`)."""
+    scale = np.linalg.norm(J, axis=0)
+    scale[scale == 0] = 1.0
+    Js = J / scale
+    B = np.linalg.pinv(Js.T @ Js)
+    return ((g / scale) @ B) / scale
+
+
+def hausman_test(
+    prob: TwoMassProblem,
+    x_ls: np.ndarray,
+    J: np.ndarray,
+    g: np.ndarray,
+    lags: int,
+    x_iv: np.ndarray,
+    lags_iv: int,
+) -> dict[str, Any]:
+    """Robust Durbin–Wu–Hausman test of the least-squares fit against the instrumental-variable one.
+
+    d = θ_IV − θ_LS. Its variance is the HAC long-run covariance (Bartlett,
+    max of the two fits' lags) of the per-window difference of the two estimators' influences
+    (:func:`iv_influence` − :func:`ls_influence`) — valid when least squares is not efficient
+    (heteroskedastic, autocorrelated window errors), where the classical V_IV − V_LS need not
+    be positive. Only the window torque is instrumented, and it enters only through
+    :data:`HAUSMAN_PARAMETER` (1/J_m), so d has one degree of freedom: every component of d is
+    asymptotically a multiple of the one of that parameter. The test statistic is
+    d_j² / V_d,jj on it, against the :data:`HAUSMAN_LEVEL` quantile of χ²(1).
+
+    Returns
+    -------
+    dict
+        ``statistic``, ``threshold``, ``rejected`` (the IV estimate is used), ``parameter``,
+        and ``z`` the standardized difference of J_m, J_l and K_S (where free).
+    """
+    from scipy.stats import chi2
+    from statsmodels.stats.sandwich_covariance import S_hac_simple
+
+    names = [PARAM_NAMES[i] for i in prob.free]
+    thr = float(chi2.ppf(HAUSMAN_LEVEL, 1))
+    out: dict[str, Any] = {"parameter": HAUSMAN_PARAMETER, "threshold": thr, "level": HAUSMAN_LEVEL}
+    try:
+        psi = iv_influence(prob, x_iv) - ls_influence(J, g)
+    except np.linalg.LinAlgError:
+        return {**out, "statistic": math.inf, "rejected": True, "z": {}}
+    V = S_hac_simple(psi, nlags=max(lags, lags_iv))
+    d = x_iv - x_ls
+    sd = np.sqrt(np.clip(np.diag(V), 1e-300, None))
+    z = {n: float(d[names.index(n)] / sd[names.index(n)]) for n in ("J_m", "J_l", "K_S") if n in names}
+    stat = z.get(HAUSMAN_PARAMETER, math.inf) ** 2
+    if not math.isfinite(stat):
+        stat = math.inf
+    return {**out, "statistic": stat, "rejected": bool(stat > thr), "z": z}
+
+
 def start_weight_for(data: WindowData, J_m: float) -> float:
     """Start-velocity weight α that decorrelates a window's torque from its starting velocity.
 
@@ -1331,6 +1421,7 @@ def fit_bracketed(
         f1.start_weight,
         p_ls=p_ls,
         cov_ls=cov_ls,
+        hausman={"look_back": f0.hausman, "decorrelated": f1.hausman} if f0.hausman or f1.hausman else {},
     )
 
 
@@ -1708,7 +1799,8 @@ def window_sensitivity(trace: Trace, fit: TwoMassFit, start: GridStart, **kw: An
     −3.2 % off, against 889/881/852 by least squares). The IV − LS difference Δ_h enters the
     covariance too, as Δ_h Δ_hᵀ (:data:`IV_DIFFERENCE_IN_COVARIANCE`, a Hausman-type term), and
     the noise covariance is the larger of the IV and least-squares sandwiches
-    (:data:`NOISE_COVARIANCE`, :func:`noise_covariance`).
+    (:data:`NOISE_COVARIANCE`, :func:`noise_covariance`). Where the least-squares fit stands
+    (:func:`hausman_test` did not reject it, or no IV refit) this is the least-squares interval.
 
     Parameters
     ----------
@@ -1729,8 +1821,9 @@ def window_sensitivity(trace: Trace, fit: TwoMassFit, start: GridStart, **kw: An
         threshold, whether the shift was counted and the shifts of the reported parameters;
         ``std_noise`` the noise-only standard errors of the reported parameters (SI units),
         ``std_noise_of`` those of each :func:`noise_covariance` mode, ``iv_minus_ls`` the IV − LS
-        difference of the reported parameters (0 without the IV step) and
-        ``iv_difference_counted`` whether it is in the covariance.
+        difference of the reported parameters (0 without the IV step),
+        ``iv_difference_counted`` whether it is in the covariance and ``hausman`` the test(s) of
+        :func:`hausman_test` (per end of a closed-loop bracket).
     """
     from scipy.stats import chi2
 
@@ -1793,6 +1886,7 @@ def window_sensitivity(trace: Trace, fit: TwoMassFit, start: GridStart, **kw: An
         "std_noise_of": std_of,
         "iv_minus_ls": {n: float(v) for n, v in zip(rep, A @ dh, strict=True)},
         "iv_difference_counted": bool(IV_DIFFERENCE_IN_COVARIANCE),
+        "hausman": fit.hausman,
     }
     return replace(fit, cov_free=fit.cov_free + cov_sys, systematic=systematic)
 
