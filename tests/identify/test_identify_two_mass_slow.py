@@ -66,7 +66,7 @@ KNOWN_MISS = {
     "two-contact fit) is not confirmed by the motor-side shaft torque (0.0054 N·m, soft shaft "
     "K_S = 3.7 N·m/rad), so δ is 'not determined' and the load side of the one-flank fit is withheld "
     "where it disagrees with the two-contact fit; goal: both contacts seen, K_S, J_l within 5 %",
-    (3, 7): "known miss: J_l measured +5.96 % (K_S +4.27 %), goal ±5 %; the truth lies inside the "
+    (3, 7): "known miss: J_l measured +5.95 % (K_S +4.33 %), goal ±5 %; the truth lies inside the "
     "95 % intervals; because only ~3000 windows per flank are in contact on this very soft drive "
     "(K_S = 1.7 N·m/rad, δ = 0.28 rad)",
 }
@@ -140,9 +140,9 @@ def test_interval_coverage_over_100_seeds():
     print(f"coverage of the 95 % intervals over {len(z)} seeds: δ {cover[0]:.2f}, K_S {cover[1]:.2f}")
     assert 0.90 <= cover[0] <= 0.98, cover
     assert 0.90 <= cover[1] <= 0.98, cover
-    # README: "on bench-0B they still cover 94–96 % over 100 noise seeds" (δ 0.94, K_S 0.96 with the
-    # torque-instrument IV step; δ 0.95, K_S 0.96 before it)
-    assert 0.94 <= cover[0] <= 0.96 and 0.94 <= cover[1] <= 0.96, cover
+    # README: "on bench-0B they still cover 94–97 % over 100 noise seeds" (δ 0.94, K_S 0.97 with the
+    # torque-instrument IV step where the Hausman test rejects least squares; δ 0.95, K_S 0.96 before it)
+    assert 0.94 <= cover[0] <= 0.97 and 0.94 <= cover[1] <= 0.97, cover
 
 
 # --------------------------------------------------------------------------------------
@@ -203,11 +203,12 @@ def test_random_drive_intervals_of_K_S_and_J_l_are_honest():
     covered0, count0, zmax0, _ = _honesty(("K_S", "J_l"), 2)
     assert count0 == count and covered0 < 0.6 * count and zmax0 > 50.0, (covered0, zmax0)
     # README figures, each at its value: "43 of the 47 random drives that identify both (23 with
-    # the noise-only intervals, |z| up to 177; now at most 3.1)". Tolerance: one drive either way
+    # the noise-only intervals, |z| up to 177; now at most 3.2)". Tolerance: one drive either way
     # (a drive at |z| ≈ 1.96 may flip with another machine's floating-point order), 177 to 1 %.
-    # (Before the instrumental-variable step: 21 and 221 with the least-squares noise intervals.)
+    # (Measured 43, 23, 176.9 and 3.16 (1/6 K_S); before the instrumental-variable step: 43, 21,
+    # 221 and 3.15 with the least-squares noise intervals.)
     assert count == 47 and abs(covered - 43) <= 1 and abs(covered0 - 23) <= 1, (covered, covered0)
-    assert zmax <= 3.1 and zmax0 == pytest.approx(177, rel=0.01), (zmax, zmax0)
+    assert zmax <= 3.2 and zmax0 == pytest.approx(177, rel=0.01), (zmax, zmax0)
 
 
 @pytest.mark.slow
@@ -344,9 +345,14 @@ def test_unphysical_grid_start_is_not_the_answer(seed, case):
             assert q.identifiable and q.low <= v <= q.high, (n, q, v)
         assert abs(r["delta"].value - bl.delta) <= 1e-3
         assert abs(r["delta1"].value - bl.delta1) <= 1e-3
-        # README: "on two ... K_S, J_l come out 7–9 % low" (measured −7.10 / −8.63 and −7.05 / −7.52 %)
+        # measured K_S / J_l: 1/0 −4.72 / −4.97 %, 1/9 −0.87 / −0.87 % with the instrumental-variable
+        # step (the robust Hausman test rejects least squares on both); least squares alone (before
+        # it) −7.10 / −8.63 and −7.05 / −7.52 %
+        lo, hi = {0: (-0.055, -0.045), 9: (-0.015, -0.005)}[case]
+        h = r.fit["systematic"]["hausman"]
+        assert any(t.get("rejected") for t in (h, *h.values()) if isinstance(t, dict)), h
         for n in ("K_S", "J_l"):
-            assert -0.09 <= r[n].value / truth[n] - 1 <= -0.07, (n, r[n].value / truth[n] - 1)
+            assert lo <= r[n].value / truth[n] - 1 <= hi, (n, r[n].value / truth[n] - 1)
         # J_m's interval reaches 0 on both: the reader is told it is weakly determined
         assert r["J_m"].note.startswith("weakly determined"), r["J_m"]
         break
@@ -390,6 +396,8 @@ def test_closed_loop_bracket_makes_seed0_case11_honest():
             assert abs(r[n].value / v - 1) <= 0.05 and r[n].low <= v <= r[n].high, (n, r[n], v)
         for n, v in (("delta", bl.delta), ("delta1", bl.delta1)):
             assert abs(r[n].value - v) <= 1e-3 and r[n].low <= v <= r[n].high, (n, r[n], v)
-        # the report is the bracket; its α comes from the J_m of its own (IV) fits: 1.01, LS 1.12
-        assert 1.0 < r.fit["start_weight"] < 1.3
+        # the report is the bracket of the default fits (IV where the Hausman test rejects least
+        # squares): its α is that of their decorrelated end
+        default = itm.closed_loop_refit(data, itm.fit_two_mass(data, start=start), start)
+        assert r.fit["start_weight"] == default.start_weight
         break
