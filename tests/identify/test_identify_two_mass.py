@@ -6,6 +6,7 @@ is in ``test_identify_two_mass_slow.py``.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import replace
 
@@ -685,3 +686,30 @@ def test_iv_fit_replaces_least_squares_only_where_the_hausman_test_rejects(bench
     assert not np.array_equal(iv.p, ls.p)
     motor = itm.fit_two_mass(data, equations="motor")
     assert motor.p_ls is None and not motor.hausman
+
+
+def test_a_hausman_test_that_cannot_decide_keeps_least_squares(bench_0c, monkeypatch):
+    """Where the test statistic cannot be computed (a singular influence matrix, a non-finite
+    statistic) the established least-squares fit stands, bit for bit, and the test says why —
+    the IV estimate replaced it in that case before (never met in a measurement; session 18).
+    Negative control: the same fit at a level that rejects any difference takes the IV."""
+    import drivelash.estimation.identify_two_mass as itm
+
+    data = itm.window_data(bench_0c, 1.0)
+    ls = itm.fit_two_mass(data, iv=False)
+    monkeypatch.setattr(itm, "HAUSMAN_LEVEL", 1e-9)  # any difference would be rejected
+
+    def singular(*a, **k):
+        raise np.linalg.LinAlgError("singular")
+
+    def nan(prob, x, *a, **k):
+        return x * np.nan
+
+    for broken, reason in ((singular, "singular influence matrix"), (nan, "non-finite")):
+        with monkeypatch.context() as m:
+            m.setattr(itm, "iv_influence", broken)
+            f = itm.fit_two_mass(data)
+        assert not f.hausman["rejected"] and math.isnan(f.hausman["statistic"]), f.hausman
+        assert f.hausman["reason"].startswith(reason)
+        assert f.p_ls is None and np.array_equal(f.p, ls.p) and np.array_equal(f.cov_free, ls.cov_free)
+    assert itm.fit_two_mass(data).hausman["rejected"]  # negative control: decidable → IV

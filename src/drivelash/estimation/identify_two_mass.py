@@ -1311,7 +1311,9 @@ def hausman_test(
     -------
     dict
         ``statistic``, ``threshold``, ``rejected`` (the IV estimate is used), ``parameter``,
-        and ``z`` the standardized difference of J_m, J_l and K_S (where free).
+        and ``z`` the standardized difference of J_m, J_l and K_S (where free). A test that
+        cannot decide (J_m not fitted, a singular influence matrix, a non-finite statistic)
+        keeps least squares: ``rejected`` False, ``statistic`` NaN and a ``reason``.
     """
     from scipy.stats import chi2
     from statsmodels.stats.sandwich_covariance import S_hac_simple
@@ -1319,17 +1321,20 @@ def hausman_test(
     names = [PARAM_NAMES[i] for i in prob.free]
     thr = float(chi2.ppf(HAUSMAN_LEVEL, 1))
     out: dict[str, Any] = {"parameter": HAUSMAN_PARAMETER, "threshold": thr, "level": HAUSMAN_LEVEL}
+    undecided = {**out, "statistic": math.nan, "rejected": False, "z": {}}
+    if HAUSMAN_PARAMETER not in names:  # J_m held: the instrument has nothing to correct
+        return {**undecided, "reason": f"{HAUSMAN_PARAMETER} is not fitted"}
     try:
         psi = iv_influence(prob, x_iv) - ls_influence(J, g)
     except np.linalg.LinAlgError:
-        return {**out, "statistic": math.inf, "rejected": True, "z": {}}
+        return {**undecided, "reason": "singular influence matrix"}
     V = S_hac_simple(psi, nlags=max(lags, lags_iv))
     d = x_iv - x_ls
     sd = np.sqrt(np.clip(np.diag(V), 1e-300, None))
     z = {n: float(d[names.index(n)] / sd[names.index(n)]) for n in ("J_m", "J_l", "K_S") if n in names}
-    stat = z.get(HAUSMAN_PARAMETER, math.inf) ** 2
-    if not math.isfinite(stat):
-        stat = math.inf
+    stat = z[HAUSMAN_PARAMETER] ** 2
+    if not math.isfinite(stat):  # a test that cannot decide keeps the established estimator
+        return {**undecided, "z": z, "reason": "non-finite statistic"}
     return {**out, "statistic": stat, "rejected": bool(stat > thr), "z": z}
 
 
