@@ -17,7 +17,6 @@ import drivelash as dl
 from drivelash.control.references import Reference, position_sine, time_grid
 from drivelash.errors import ParameterError
 from drivelash.estimation.identify_two_mass import (
-    count_position,
     count_traversals,
     fuse_position,
     identify_two_mass,
@@ -592,18 +591,6 @@ def test_encoder_delay_has_the_sign_of_a_lagging_load_encoder(bench_0c, lag, eq)
     tau = r["encoder_delay"]
     assert tau.identifiable and tau.covers(truth) and abs(tau.value - truth) < 0.2e-3, tau
     assert r.backlash_visible and abs(r["delta"].value - 0.105) < 1e-3
-
-
-def test_count_position_has_no_velocity_noise_and_is_within_a_count():
-    """The instrument position: linear between count changes, within one count of the truth."""
-    t = np.arange(20_000) * 1e-4
-    x = 0.3 * np.sin(2 * np.pi * 0.7 * t) + 0.05 * t
-    q = 2 * np.pi / 4096
-    theta = q * np.round(x / q)
-    p = count_position(theta)
-    assert np.max(np.abs(p - x)) <= q
-    assert np.sqrt(np.mean((p - x) ** 2)) < 0.3 * q  # the count reading itself: q/√12 ≈ 0.29 q
-    assert np.array_equal(count_position(x), x)  # continuous encoder: as is
 
 
 def test_iv_solve_is_the_linear_2sls_and_undoes_the_attenuation_of_least_squares():

@@ -251,7 +251,6 @@ class WindowData:
     dth: np.ndarray
     dw: np.ndarray
     wl: np.ndarray
-    dth_iv: np.ndarray | None = None
     a_m_back: np.ndarray | None = None
     a_l_back: np.ndarray | None = None
     a_m_start: np.ndarray | None = None
@@ -370,21 +369,6 @@ def check_load_encoder(th_m: np.ndarray, th_l: np.ndarray, N: float, trace: Trac
     )
 
 
-def count_position(theta: np.ndarray) -> np.ndarray:
-    """Position from the encoder counts alone [rad]: linear interpolation between count changes.
-
-    At a change the position is on the boundary between the two counts (the mean of the two
-    readings, half a sample before the change). The result carries the quantisation error but
-    none of the velocity noise that :func:`fuse_position` integrates, which makes it an
-    instrument for the fused position (:func:`iv_refit`). A continuous encoder is returned as is.
-    """
-    q = quantisation_step(theta)
-    ch = np.flatnonzero(np.diff(theta) != 0) + 1
-    if q == 0 or ch.size < 2:
-        return np.asarray(theta, dtype=float).copy()
-    return np.interp(np.arange(theta.size, dtype=float), ch - 0.5, 0.5 * (theta[ch] + theta[ch - 1]))
-
-
 def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> WindowData:
     """Preprocess a two-mass recording into :class:`WindowData`.
 
@@ -458,8 +442,6 @@ def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> Window
     SL = _interior_mean(np.sign(wl), s0, M, nw)
     dth_all = 0.5 * (fm[1:] + fm[:-1]) / N - 0.5 * (fl[1:] + fl[:-1])
     dth = np.ascontiguousarray(dth_all[s0 : s0 + nw * M])
-    pm, pl = count_position(th_m), count_position(th_l)
-    dth_iv = np.ascontiguousarray((0.5 * (pm[1:] + pm[:-1]) / N - 0.5 * (pl[1:] + pl[:-1]))[s0 : s0 + nw * M])
     dw = np.ascontiguousarray((wm / N - wl)[s0 : s0 + nw * M])
     wl_mid = np.ascontiguousarray((0.5 * (wl[1:] + wl[:-1]))[s0 : s0 + nw * M])
     # standstill: any sample of the window (and its look-back) below the threshold
@@ -492,7 +474,6 @@ def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> Window
         dth=dth,
         dw=dw,
         wl=wl_mid,
-        dth_iv=dth_iv,
         a_m_back=a_m,
         a_l_back=a_l,
         a_m_start=a_m_start,
@@ -1096,8 +1077,6 @@ def fit_two_mass(
 #: in that direction the IV standard error is 1/ρ times the least-squares one, and its bias tends
 #: to the least-squares bias as ρ → 0; see :func:`iv_solve`, docs/assumptions.md).
 IV_MIN_CANONICAL_CORRELATION = 0.1
-#: Instrument Δθ by the count-only position (False: torque-only instruments).
-INSTRUMENT_COUNT_POSITION = False
 
 
 def torque_instrument_lag(M: int) -> int:
@@ -1115,21 +1094,19 @@ def instruments(prob: TwoMassProblem, x: np.ndarray) -> np.ndarray:
     """Instruments of the stacked equations: their Jacobian evaluated on instrument data.
 
     Rows as :meth:`TwoMassProblem.residuals` (usable motor windows, then usable load windows),
-    one column per free parameter. The instrument data replace the two measured quantities
-    whose noise is correlated with the equation errors: Δθ by the count-only Δθ of
-    :func:`count_position` (``WindowData.dth_iv``; the fused Δθ carries the integrated velocity
-    noise, which is also in the window accelerations), and the window torque U by the torque
-    :func:`torque_instrument_lag` windows earlier (a velocity controller answers the velocity noise at a
-    window's start inside the window). Motor rows of the first :func:`torque_instrument_lag`
-    windows, which have no earlier torque, are zero.
+    one column per free parameter. The instrument data replace the window torque U, whose noise
+    is correlated with the equation errors, by the torque :func:`torque_instrument_lag` windows
+    earlier (a velocity controller answers the velocity noise at a window's start inside the
+    window); Δθ is not instrumented (docs/assumptions.md: a count-only Δθ instrument biased
+    bench-0B). Motor rows of the first :func:`torque_instrument_lag` windows, which have no
+    earlier torque, are zero.
     """
     d = prob.d
     lag = torque_instrument_lag(d.M)
     U_iv = np.empty_like(d.U)
     U_iv[lag:] = d.U[:-lag]
     U_iv[:lag] = d.U[:lag]
-    dth_iv = d.dth if (d.dth_iv is None or not INSTRUMENT_COUNT_POSITION) else d.dth_iv
-    prob.d = replace(d, dth=dth_iv, U=U_iv)
+    prob.d = replace(d, U=U_iv)
     try:
         Z = prob.jacobian(x)
     finally:
@@ -1761,10 +1738,6 @@ SENSITIVITY_WINDOWS = (2, 4)
 #: fits exceeds this quantile of χ²(rank): a 5 % family-wise level over the sensitivity fits
 #: (Bonferroni, 2.5 % each; see docs/assumptions.md).
 SENSITIVITY_LEVEL = 1.0 - 0.05 / len(SENSITIVITY_WINDOWS)
-#: The window-length shifts are those of the least-squares fits under the instrumental-variable ones.
-SENSITIVITY_OF_LEAST_SQUARES = True
-#: The difference of the instrumental-variable and least-squares estimates enters the covariance.
-IV_DIFFERENCE_IN_COVARIANCE = True
 #: Noise covariance of the reported estimate (:func:`noise_covariance`): "iv", "ls" or "max".
 NOISE_COVARIANCE = "max"
 
@@ -1805,11 +1778,11 @@ def window_sensitivity(trace: Trace, fit: TwoMassFit, start: GridStart, **kw: An
     50 windows) is skipped.
 
     Where ``fit`` is an instrumental-variable estimate (``fit.p_ls`` set), the shifts are those of
-    the least-squares fits under it (:data:`SENSITIVITY_OF_LEAST_SQUARES`): the IV removes the part
+    the least-squares fits under it: the IV removes the part
     of the bias that changes with the window, so its own shifts vanish while a part that does not
     change with the window stays (seed 1 / case 2: K_S 896/903/902 N·m/rad by IV at M, 2M, 4M,
     −3.2 % off, against 889/881/852 by least squares). The IV − LS difference Δ_h enters the
-    covariance too, as Δ_h Δ_hᵀ (:data:`IV_DIFFERENCE_IN_COVARIANCE`, a Hausman-type term), and
+    covariance too, as Δ_h Δ_hᵀ (a Hausman-type term), and
     the noise covariance is the larger of the IV and least-squares sandwiches
     (:data:`NOISE_COVARIANCE`, :func:`noise_covariance`). Where the least-squares fit stands
     (:func:`hausman_test` did not reject it, or no IV refit) this is the least-squares interval.
@@ -1832,7 +1805,7 @@ def window_sensitivity(trace: Trace, fit: TwoMassFit, start: GridStart, **kw: An
         sensitivity fit the window length [samples], χ² statistic, degrees of freedom,
         threshold, whether the shift was counted and the shifts of the reported parameters;
         ``std_noise`` the noise-only standard errors of the reported parameters (SI units),
-        ``std_noise_of`` those of each :func:`noise_covariance` mode, ``iv_minus_ls`` the IV − LS
+        ``iv_minus_ls`` the IV − LS
         difference of the reported parameters (0 without the IV step),
         ``iv_difference_counted`` whether it is in the covariance and ``hausman`` the test(s) of
         :func:`hausman_test` (per end of a closed-loop bracket).
@@ -1845,8 +1818,8 @@ def window_sensitivity(trace: Trace, fit: TwoMassFit, start: GridStart, **kw: An
     # the window-length shifts of the least-squares fit (the instrumental-variable refit removes
     # the part of the equation-error bias that changes with M, not the part that does not: its
     # own shifts would understate the error it keeps; docs/assumptions.md)
-    p_ls, cov_ls = fit.least_squares_part() if SENSITIVITY_OF_LEAST_SQUARES else (fit.p, fit.cov_free)
-    skw = {**kw, "iv": False} if SENSITIVITY_OF_LEAST_SQUARES else kw
+    p_ls, cov_ls = fit.least_squares_part()
+    skw = {**kw, "iv": False}
     cov_sys = np.zeros_like(fit.cov_free)
     found: list[dict[str, Any]] = []
     for k in SENSITIVITY_WINDOWS:
@@ -1878,26 +1851,17 @@ def window_sensitivity(trace: Trace, fit: TwoMassFit, start: GridStart, **kw: An
         )
     # the instrumental-variable estimate's difference from the least-squares one (Hausman)
     dh = fit.p[free] - p_ls[free] if fit.p_ls is not None else np.zeros(len(free))
-    if IV_DIFFERENCE_IN_COVARIANCE and np.all(np.isfinite(dh)):
+    dh_counted = bool(np.all(np.isfinite(dh)))
+    if dh_counted:
         cov_sys += np.outer(dh, dh)
     cov_noise = noise_covariance(fit.cov_free, cov_ls, NOISE_COVARIANCE)
-    std_of = {
-        m: {
-            n: s
-            for n, (_, s) in _fit_estimates(
-                replace(fit, cov_free=noise_covariance(fit.cov_free, cov_ls, m))
-            ).items()
-        }
-        for m in ("iv", "ls", "max")
-    }
     fit = replace(fit, cov_free=cov_noise)
     std_noise = {n: s for n, (_, s) in _fit_estimates(fit).items()}  # noise only
     systematic = {
         "fits": found,
         "std_noise": std_noise,
-        "std_noise_of": std_of,
         "iv_minus_ls": {n: float(v) for n, v in zip(rep, A @ dh, strict=True)},
-        "iv_difference_counted": bool(IV_DIFFERENCE_IN_COVARIANCE),
+        "iv_difference_counted": dh_counted,
         "hausman": fit.hausman,
     }
     return replace(fit, cov_free=fit.cov_free + cov_sys, systematic=systematic)
