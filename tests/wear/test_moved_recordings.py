@@ -111,6 +111,46 @@ def test_touched_and_renamed_files_are_not_estimated_again(small_fleet, tmp_path
     assert work.paths == [] and rep.moved == 0 and rep.skipped == 3
 
 
+def test_a_file_renamed_to_correct_its_time_stamp_takes_the_new_time(small_fleet, tmp_path, capsys):
+    """A recording dated by its file name, renamed to another time stamp (the user corrects a
+    wrong date), is not estimated again but takes the new start time — until session 19 it kept
+    the stored one, so the trend and the forecast used a date no file said any more. The summary
+    counts it. Negative control: a rename that keeps the time stamp keeps the time."""
+    from datetime import datetime
+
+    f = _tiny(small_fleet, tmp_path / "f", FILENAME_TIME)
+    st = Store(tmp_path / "w.sqlite")
+    ingest(load_fleet(f), st, workers=1)
+    a, b, c = sorted((tmp_path / "f" / "rec").glob("*.parquet"))
+    before = {r["path"]: r["start_time"] for r in st.estimates()}
+    stamp = b.name.split("_")[-1].split(".")[0]
+    fixed = b.with_name(b.name.replace(stamp, "20991231T235959"))
+    b.rename(fixed)
+    kept = c.with_name("old_" + c.name)  # the time stamp in the name is kept
+    c.rename(kept)
+    work = _Counting()
+    rep = ingest(load_fleet(f), st, workers=1, compute=work)
+    assert work.paths == [] and rep.planned == 0 and rep.moved == 2 and rep.renamed_dated == 1, rep
+    after = {r["path"]: r["start_time"] for r in st.estimates()}
+    assert after[str(fixed)] == datetime(2099, 12, 31, 23, 59, 59) != before[str(b)]
+    assert after[str(kept)] == before[str(c)] and after[str(a)] == before[str(a)]
+    rep = ingest(load_fleet(f), st, workers=1, compute=work)  # nothing left to do
+    assert work.paths == [] and rep.moved == 0 and rep.renamed_dated == 0 and rep.skipped == 3
+    st.close()
+    # the command's summary says so (README: "K re-dated by the time stamp in the new name")
+    from cli_runner import run_in_process
+
+    fixed.rename(fixed.with_name(fixed.name.replace("20991231T235959", "20991230T120000")))
+    code, out, err = run_in_process(
+        ["track", "ingest", str(f), "--db", str(tmp_path / "w.sqlite"), "--workers", "1"], capsys
+    )
+    assert code == 0, err
+    assert "0 new recordings estimated" in " ".join(out.split()), out
+    assert "1 moved or renamed (not re-estimated; 1 re-dated by the time stamp in the new name)" in " ".join(
+        out.split()
+    ), out
+
+
 def test_a_copy_is_a_duplicate_without_being_estimated(small_fleet, tmp_path):
     f, st, orig, copy = ingested_with_a_copy(small_fleet, tmp_path)
     work = _Counting()

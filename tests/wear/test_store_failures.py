@@ -17,7 +17,7 @@ from typing import Any
 import pytest
 import sqlalchemy as sa
 
-from drivelash.wear.store import Store
+from drivelash.wear.store import Store, StoreError
 
 from .conftest import ingest_cmd
 
@@ -233,21 +233,29 @@ def test_enospc_while_writing_is_one_line(tmp_path, monkeypatch):
         raise KeyError("bug")
 
 
-def _two_ingests_at_once(fleet: Path, db) -> None:
-    """Start two ``track ingest`` of ``fleet`` on store ``db`` at the same time; both exit 0."""
+def _two_ingests_at_once(fleet: Path, db) -> list[int]:
+    """Start two ``track ingest`` of ``fleet`` on store ``db`` at the same time; both exit 0.
+    Returns how many recordings each one estimated (from its summary line)."""
+    import re
+
     procs = [
         subprocess.Popen(ingest_cmd(fleet / "fleet.toml", db), stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, text=True)
         for _ in range(2)
     ]  # fmt: skip
     outs = [p.communicate(timeout=300) for p in procs]
-    for p, (_, err) in zip(procs, outs, strict=True):
+    estimated = []
+    for p, (out, err) in zip(procs, outs, strict=True):
         assert p.returncode == 0, err
         assert "Traceback" not in err
+        estimated.append(int(re.search(r"(\d+) new recordings? estimated", " ".join(out.split()))[1]))
+    return estimated
 
 
 def test_two_first_ingests_at_once_on_an_empty_postgresql_database(tiny_fleet, pg_url):
-    _two_ingests_at_once(tiny_fleet, pg_url)
+    estimated = _two_ingests_at_once(tiny_fleet, pg_url)
+    # one ingest at a time (Store.ingest_lock): each recording is estimated once, not by both
+    assert sorted(estimated) == [0, len(_files(tiny_fleet))], estimated
     st = Store(pg_url, create=False)
     try:
         rows = st.estimates()
@@ -260,8 +268,9 @@ def test_two_first_ingests_at_once_on_an_empty_postgresql_database(tiny_fleet, p
 
 def test_two_first_ingests_at_once_on_a_new_sqlite_file(tiny_fleet, tmp_path):
     db = tmp_path / "w.sqlite"
-    _two_ingests_at_once(tiny_fleet, db)
+    estimated = _two_ingests_at_once(tiny_fleet, db)
     n = len(_files(tiny_fleet))
+    assert sorted(estimated) == [0, n], estimated  # each recording estimated once (Store.ingest_lock)
     with sqlite3.connect(db) as c:
         assert c.execute("SELECT count(*), count(DISTINCT path) FROM recording").fetchone() == (n, n)
         assert c.execute("SELECT count(*) FROM estimate").fetchone() == (n,)
@@ -536,3 +545,91 @@ def test_only_a_store_file_without_any_table_is_removed_after_a_full_disk(tmp_pa
     assert not empty.exists() and not header_only.exists()
     assert not header_only.with_name("header.sqlite-wal").exists()
     assert with_schema.exists() and in_wal.exists() and other.read_text() == "my notes" and store.exists()
+
+
+def _store_url(backend: str, tmp_path: Path, request) -> Any:
+    return tmp_path / "w.sqlite" if backend == "sqlite" else request.getfixturevalue("pg_url")
+
+
+@pytest.mark.parametrize("backend", ["sqlite", "postgresql"])
+def test_a_second_ingest_waits_for_the_first_and_says_so(tiny_fleet, tmp_path, request, backend):
+    """While one ingest holds the store (``Store.ingest_lock``), ``track ingest`` says in one line
+    that it waits, writes nothing and does not finish; once the lock is released it runs. Without
+    the lock (measured with ``ingest_lock`` made a no-op) two ingests at once both estimated every
+    recording: [5, 5] instead of [0, 5] in the two tests above."""
+    import threading
+
+    from drivelash.wear import load_fleet
+
+    db = _store_url(backend, tmp_path, request)
+    axes = [a.name for a in load_fleet(tiny_fleet / "fleet.toml").axes]
+    st = Store(db)
+    err: list[str] = []
+    try:
+        # an ingest of other axes (one writer per axis range, docs/scaling.md) does not wait
+        with st.ingest_lock(axes[:1]) as held, st.ingest_lock(axes[1:], timeout=0.0) as other:
+            assert held and other
+        with st.ingest_lock(reversed(axes)) as held:  # the set is the identity, not the order
+            assert held
+            p = subprocess.Popen(ingest_cmd(tiny_fleet / "fleet.toml", db), stdout=subprocess.PIPE,
+                                 stderr=subprocess.PIPE, text=True)  # fmt: skip
+            reader = threading.Thread(target=lambda: err.extend(p.stderr), daemon=True)
+            reader.start()
+            deadline = time.monotonic() + 180
+            while not any("waiting for it to finish" in line for line in err):
+                assert p.poll() is None and time.monotonic() < deadline, err
+                time.sleep(0.1)
+            time.sleep(1.0)
+            assert p.poll() is None, err  # still waiting
+            assert st.counts()["estimate"] == 0  # and nothing written
+        out = p.stdout.read()
+        assert p.wait(timeout=300) == 0, err
+        reader.join(timeout=10)
+    finally:
+        st.close()
+    wait_lines = [line for line in err if "waiting" in line]
+    assert len(wait_lines) == 1, err
+    assert wait_lines[0].startswith(f"drivelash: {st.name}: another 'track ingest' of these axes is running")
+    assert "Traceback" not in "".join(err)
+    assert f"{len(_files(tiny_fleet))} new recordings estimated" in " ".join(out.split())
+
+
+@pytest.mark.parametrize("backend", ["sqlite", "postgresql"])
+def test_an_ingest_killed_while_holding_the_store_does_not_block_the_next(tmp_path, request, backend):
+    """The ingest lock belongs to the process (an OS file lock; a PostgreSQL session lock): after
+    SIGKILL the next ingest gets it at once. Negative control: while the process lives, the
+    lock is held (a 1 s wait ends in one line)."""
+    import signal
+
+    db = _store_url(backend, tmp_path, request)
+    Store(db).close()
+    code = (
+        "import sys; from drivelash.wear.store import Store\n"
+        "st = Store(sys.argv[1])\n"
+        "with st.ingest_lock(['M01/X']) as held:\n"
+        "    print(held, flush=True); sys.stdin.read()\n"
+    )
+    p = subprocess.Popen([sys.executable, "-c", code, str(db)], stdin=subprocess.PIPE,
+                         stdout=subprocess.PIPE, text=True)  # fmt: skip
+    try:
+        assert p.stdout.readline().strip() == "True"
+        st = Store(db)
+        waited: list[str] = []
+        t = time.monotonic()
+        with (
+            pytest.raises(StoreError, match="of these axes has been running for more than 1 s"),
+            st.ingest_lock(["M01/X"], on_wait=waited.append, timeout=1.0),
+        ):
+            pass  # held by the other process: this one waits, then gives up
+        assert len(waited) == 1 and time.monotonic() - t >= 1.0
+        p.send_signal(signal.SIGKILL)
+        p.wait(timeout=30)
+        # at once: an OS file lock goes with the process; PostgreSQL ends the session when it
+        # reads the closed socket, a moment after the kill
+        t = time.monotonic()
+        with st.ingest_lock(["M01/X"], timeout=10.0) as held:
+            assert held and time.monotonic() - t < 5.0
+        st.close()
+    finally:
+        if p.poll() is None:
+            p.kill()

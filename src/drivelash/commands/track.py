@@ -86,8 +86,11 @@ def run_ingest(
             def progress(done: int, total: int) -> None:
                 bar.update(task, completed=done, total=total)
 
+            def waiting(message: str) -> None:  # another ingest holds the store
+                console.print(f"drivelash: {message}", markup=False, highlight=False, soft_wrap=True)
+
             try:
-                rep = ingest(fleet, store, workers=n, dask=runner, progress=progress)
+                rep = ingest(fleet, store, workers=n, dask=runner, progress=progress, on_wait=waiting)
             finally:
                 store.close()
     finally:
@@ -107,7 +110,16 @@ def run_ingest(
             f"[bold]{fleet.name}[/bold]: {count(rep.planned - rep.retried, 'new recording')} estimated "
             f"({rate}; {rep.stored} stored in {count(rep.batches, 'transaction')}, {rep.failed} failed), "
             f"{rep.skipped} already in the store"
-            + (f"; {rep.moved} moved or renamed (not re-estimated)" if rep.moved else "")
+            + (
+                f"; {rep.moved} moved or renamed (not re-estimated"
+                + (
+                    f"; {rep.renamed_dated} re-dated by the time stamp in the new name)"
+                    if rep.renamed_dated
+                    else ")"
+                )
+                if rep.moved
+                else ""
+            )
             + (f"; {rep.retried} retried, {rep.still_failing} still failing" if rep.retried else "")
             + (f"; {rep.replaced} replaced (content changed)" if rep.replaced else "")
             + (f" ({rep.redated} re-dated: the time specification changed)" if rep.redated else "")

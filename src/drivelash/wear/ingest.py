@@ -27,14 +27,15 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from datetime import datetime
 from pathlib import Path
 from typing import Any
 
 from drivelash.errors import DrivelashError
 from drivelash.wear.estimate import RecordingTask, code_version, content_hash, estimate_recording, file_facts
 from drivelash.wear.fleet import Fleet
-from drivelash.wear.store import EstimateRow, Store
+from drivelash.wear.store import EstimateRow, Store, utc_naive
 from drivelash.wear.words import count
 
 __all__ = ["DaskRunner", "IngestReport", "SchedulerError", "check_files", "ingest", "plan", "stored_row"]
@@ -93,6 +94,9 @@ class IngestReport:
     moved : int
         Stored recordings found under a new path or file time (moved, renamed, touched): their
         new facts recorded, not estimated again (copies of a stored recording are ``duplicates``).
+    renamed_dated : int
+        Of ``moved``: recordings dated by their file name (``time = "filename"``) whose new name
+        carries another time stamp — they take the new one (a rename that corrects a date).
     """
 
     planned: int = 0
@@ -112,6 +116,7 @@ class IngestReport:
     replaced: int = 0
     new_axes: int = 0
     moved: int = 0
+    renamed_dated: int = 0
 
 
 def plan(
@@ -120,6 +125,7 @@ def plan(
     warnings: list[str] | None = None,
     known: list[EstimateRow] | None = None,
     hash_threads: int = 1,
+    renamed_dated: list[str] | None = None,
 ) -> tuple[dict[str, int], list[RecordingTask], int]:
     """Register the axes and list the recordings still to estimate.
 
@@ -141,6 +147,11 @@ def plan(
     hash_threads : int
         Threads hashing those files (hashing and reading release the GIL): ``ingest`` gives
         its worker count, so the check keeps pace with the estimating it replaces.
+    renamed_dated : list of str, optional
+        Receives the path of each such known file dated by its name (``time = "filename"``)
+        whose name gives another start time than the stored one: its row in ``known`` carries
+        the new time (the user renamed it to correct the date). A name that no longer parses
+        keeps the stored time.
 
     Returns
     -------
@@ -180,7 +191,13 @@ def plan(
         for p, size, mtime in todo:
             hit = stored.get(digests.get(p, ""))
             if hit is not None and known is not None:
-                known.append(stored_row(a.name, str(p), size, mtime, digests[p], hit))
+                row = stored_row(a.name, str(p), size, mtime, digests[p], hit)
+                start, was = _start_from_name(p, a.time), hit["start_time"]
+                if start is not None and was is not None and start != utc_naive(was):
+                    row = replace(row, start_time=start)
+                    if renamed_dated is not None:
+                        renamed_dated.append(str(p))
+                known.append(row)
                 continue
             tasks.append(
                 RecordingTask(
@@ -197,6 +214,19 @@ def plan(
                 )
             )
     return ids, tasks, skipped
+
+
+def _start_from_name(path: Path, spec: Any) -> datetime | None:
+    """The start time (naive UTC) the file name gives under a ``filename`` time specification;
+    None for other sources or a name that does not parse."""
+    from drivelash.wear.estimate import recording_start
+
+    if getattr(spec, "source", None) != "filename":
+        return None
+    try:
+        return recording_start(path, spec)
+    except DrivelashError:
+        return None
 
 
 def _hash_all(paths: Sequence[Path], threads: int) -> list[tuple[str, OSError | None]]:
@@ -484,8 +514,12 @@ def ingest(
     progress: Callable[[int, int], None] | None = None,
     compute: Callable[[RecordingTask], EstimateRow] = estimate_recording,
     update_alarms: bool = True,
+    on_wait: Callable[[str], None] | None = None,
 ) -> IngestReport:
     """Estimate every new recording of ``fleet`` and commit the results to ``store``.
+
+    One ingest of the same axes runs at a time (:meth:`~drivelash.wear.store.Store.ingest_lock`):
+    a second one waits for the first and then skips what the first stored.
 
     Parameters
     ----------
@@ -508,6 +542,9 @@ def ingest(
         The worker function (default :func:`~drivelash.wear.estimate.estimate_recording`).
     update_alarms : bool
         Re-evaluate trend, forecast and alarms of the axes at the end.
+    on_wait : callable, optional
+        ``on_wait(message)`` once when another ingest of the same axes holds the store and
+        this one waits.
 
     Returns
     -------
@@ -518,7 +555,7 @@ def ingest(
     rep = IngestReport(axes=[a.name for a in fleet.axes])
     try:
         # a lock held too long by another writer, a full disk: one line saying what is stored
-        with store.guard(lambda: _what_was_written(rep)):
+        with store.guard(lambda: _what_was_written(rep)), store.ingest_lock(rep.axes, on_wait):
             return _ingest(
                 fleet,
                 store,
@@ -554,7 +591,8 @@ def _ingest(
     changes = redate(fleet, store)  # a recording that cannot be re-dated: error, nothing written
     known: list[EstimateRow] = []  # files with the content of a stored estimate: not estimated
     had = {a["name"] for a in store.axes()}
-    ids, tasks, skipped = plan(fleet, store, rep.warnings, known, hash_threads=workers)
+    renamed: list[str] = []
+    ids, tasks, skipped = plan(fleet, store, rep.warnings, known, hash_threads=workers, renamed_dated=renamed)
     rep.new_axes = len(set(ids) - had)
     rep.planned, rep.skipped = len(tasks), skipped
     if runner is not None:
@@ -587,6 +625,9 @@ def _ingest(
         n, dups = len(batch), len(rep.duplicates)
         flush()
         rep.moved += n - (len(rep.duplicates) - dups)
+    # a duplicate keeps the stored recording (and its time): count only the moves re-dated
+    copies = {d.split(": same content as ", 1)[0] for d in rep.duplicates}
+    rep.renamed_dated = sum(p not in copies for p in renamed)
     for row in results:
         done += 1
         rep.compute_s += row.runtime_s

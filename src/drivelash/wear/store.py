@@ -25,6 +25,7 @@ import errno
 import json
 import math
 import os
+import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
@@ -55,6 +56,12 @@ BUSY_TIMEOUT_MAX_S = 2_147_483.0
 #: Key of the PostgreSQL advisory lock every write transaction (migrations included) holds:
 #: writers of one database run one after the other, as on SQLite (``BEGIN IMMEDIATE``).
 PG_WRITE_LOCK = 0x64726C77  # "drlw"
+#: First key of the PostgreSQL session-level advisory lock one ingest holds from its plan to its
+#: last commit (:meth:`Store.ingest_lock`; the second key is the ingested axes' checksum), so
+#: that a second ingest of the same axes waits instead of estimating the same recordings again.
+PG_INGEST_LOCK = 0x6472696E  # "drin"
+#: Seconds between two tries of the ingest lock while another ingest holds it [s].
+INGEST_LOCK_POLL_S = 0.2
 #: PostgreSQL's SQLSTATE ``lock_not_available``: a lock wait ran past ``lock_timeout``.
 PG_LOCK_NOT_AVAILABLE = "55P03"
 #: Units a measurement may carry, and their factor to mm (rad needs no transmission).
@@ -456,6 +463,13 @@ def _brief(exc: BaseException) -> str:
     return text[0] if text else type(orig).__name__
 
 
+def _axes_key(axes: Iterable[str]) -> int:
+    """CRC-32 of the sorted, distinct axis names (the identity of an ingest's lock)."""
+    import zlib
+
+    return zlib.crc32("\n".join(sorted(set(axes))).encode())
+
+
 class Store:
     """The history store on one database.
 
@@ -694,6 +708,126 @@ class Store:
             if err is None:
                 raise
             raise err from None
+
+    def ingest_lock_file(self, axes: Iterable[str] = ()) -> Path | None:
+        """The file whose advisory lock :meth:`ingest_lock` takes on an SQLite store: the hidden
+        ``.NAME.ingest-CRC.lock`` beside the store file ``NAME``, CRC the checksum of ``axes``
+        (None for other databases and for an in-memory SQLite store).
+
+        Parameters
+        ----------
+        axes : iterable of str
+            The axes (``machine/axis``) of the ingest.
+        """
+        path = _sqlite_file(self.url)
+        if self.backend != "sqlite" or path is None:
+            return None
+        p = Path(path)
+        return p.with_name(f".{p.name}.ingest-{_axes_key(axes):08x}.lock")
+
+    @contextmanager
+    def ingest_lock(
+        self,
+        axes: Iterable[str] = (),
+        on_wait: Callable[[str], None] | None = None,
+        timeout: float | None = None,
+    ) -> Iterator[bool]:
+        """Hold the store for one ingest of ``axes``: a second ingest of the same axes waits here
+        until the first has finished, then finds the first one's results stored and does not
+        estimate them again. Ingests of other axis sets (one writer per axis range for a bulk
+        re-processing, docs/scaling.md) do not wait for each other.
+
+        Without it two ingests started at once (two cron jobs, a user's second shell) both
+        estimated every new recording and the store's unique keys kept one copy: the result was
+        right, the work doubled. The lock is advisory and held by the process: an SQLite store
+        takes an OS file lock (``filelock``) on :meth:`ingest_lock_file`, PostgreSQL a
+        session-level advisory lock (:data:`PG_INGEST_LOCK` and the axes' checksum) on a
+        connection of its own. Either
+        is released when the process ends, however it ends (Ctrl-C, a crash, SIGKILL), so a
+        dead ingest never blocks the next one. Where the lock file cannot be created (a
+        directory without write access) the ingest goes on without it; the store's unique keys
+        still keep one copy of each estimate.
+
+        Parameters
+        ----------
+        axes : iterable of str
+            The axes (``machine/axis``) of the ingest; the lock is that of their sorted set.
+        on_wait : callable, optional
+            ``on_wait(message)``, called once when another ingest holds the store, before
+            waiting (e.g. to tell the user why nothing happens); Ctrl-C ends the wait.
+        timeout : float, optional
+            Longest wait [s]; None (default) waits as long as the other ingest runs.
+
+        Yields
+        ------
+        bool
+            True when the lock is held, False when the ingest goes on without it.
+
+        Raises
+        ------
+        StoreError
+            Another ingest still held the store after ``timeout`` seconds (nothing was written).
+        """
+        limit = math.inf if timeout is None else time.monotonic() + float(timeout)
+
+        def too_long() -> StoreError:
+            return StoreError(
+                f"{self.name}: another 'track ingest' of these axes has been running for more than "
+                f"{float(timeout):g} s (the wait's limit); nothing was written — run it again when "
+                "the other one has finished"
+            )
+
+        axes = list(axes)
+        key = _axes_key(axes)
+        msg = (
+            f"{self.name}: another 'track ingest' of these axes is running; waiting for it to finish "
+            "(its results are then skipped here; Ctrl-C stops waiting, nothing written)"
+        )
+        if self.backend == "postgresql":
+            with self.engine.connect() as conn:
+                lock = sa.text("SELECT pg_try_advisory_lock(:k, :a)")
+                keys = {"k": PG_INGEST_LOCK, "a": key - (1 << 32) if key >= 1 << 31 else key}  # int4
+                told = False
+                while not conn.execute(lock, keys).scalar():
+                    conn.rollback()  # no transaction left open while waiting
+                    if not told and on_wait is not None:
+                        on_wait(msg)
+                    told = True
+                    if time.monotonic() >= limit:
+                        raise too_long()
+                    time.sleep(INGEST_LOCK_POLL_S)
+                conn.commit()
+                try:
+                    yield True
+                finally:
+                    conn.execute(sa.text("SELECT pg_advisory_unlock(:k, :a)"), keys)
+                    conn.commit()
+            return
+        path = self.ingest_lock_file(axes)
+        if path is None:
+            yield False
+            return
+        from filelock import FileLock, Timeout
+
+        lock = FileLock(str(path))
+        try:
+            try:
+                lock.acquire(timeout=0)
+            except Timeout:
+                if on_wait is not None:
+                    on_wait(msg)
+                try:
+                    wait = -1 if timeout is None else max(0.0, limit - time.monotonic())
+                    lock.acquire(timeout=wait, poll_interval=INGEST_LOCK_POLL_S)
+                except Timeout:
+                    raise too_long() from None
+        except OSError:  # cannot create the lock file: go on without it (see above)
+            yield False
+            return
+        try:
+            yield True
+        finally:
+            lock.release()
 
     def close(self) -> None:
         """Release the connection pool."""
@@ -998,7 +1132,15 @@ class Store:
                     if duplicates is not None:
                         duplicates.append(f"{r.path}: same content as {first} (stored once, estimated once)")
                 elif key in rec_id:
-                    moved.append({"rid": rec_id[key], "p": r.path, "s": r.size_bytes, "m": r.mtime_ns})
+                    moved.append(
+                        {
+                            "rid": rec_id[key],
+                            "p": r.path,
+                            "s": r.size_bytes,
+                            "m": r.mtime_ns,
+                            "t": utc_naive(r.start_time),
+                        }
+                    )
                 else:
                     new_recs.setdefault(key, r)
             if new_recs:
@@ -1027,11 +1169,18 @@ class Store:
                     )
                     rec_id.update({(int(x.axis_id), x.content_hash): int(x.id) for x in conn.execute(q)})
             if moved:
-                # the same content under a new name or time stamp: keep the newest file facts
+                # the same content under a new name or time stamp: keep the newest file facts,
+                # and the start time the row carries (a file renamed to correct the time stamp
+                # its name dates it by: ingest.plan's ``renamed_dated``; otherwise the stored one)
                 conn.execute(
                     sa.update(recording_t)
                     .where(recording_t.c.id == sa.bindparam("rid"))
-                    .values(path=sa.bindparam("p"), size_bytes=sa.bindparam("s"), mtime_ns=sa.bindparam("m")),
+                    .values(
+                        path=sa.bindparam("p"),
+                        size_bytes=sa.bindparam("s"),
+                        mtime_ns=sa.bindparam("m"),
+                        start_time=sa.bindparam("t"),
+                    ),
                     moved,
                 )
             # every file of the batch now shows its row's content: a stored recording of other
