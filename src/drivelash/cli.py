@@ -33,6 +33,7 @@ import importlib
 import os
 import signal
 import sys
+import time
 import warnings
 from typing import Any
 
@@ -120,6 +121,15 @@ class _Stop:
     in_hook = False  # inside _redeliver_signal: a signal handled there would be lost again
     pending: int | None = None  # a signal that could not stop the command where it landed
     timer: Any = None
+    raised_at: float | None = None  # when the handler raised the stop (monotonic clock [s])
+
+
+#: A further Ctrl-C/SIGTERM within this time after the one that stopped the command is not
+#: raised again: the stop is still unwinding (a process pool terminating its workers, staged
+#: outputs removed), and an exception raised into that clean-up is what left a pool worker
+#: behind and hung the interpreter's exit (session 19's tester). Later it is raised again, in
+#: case the first one was lost [s].
+STOP_AGAIN_AFTER_S = 10.0
 
 
 def _stop_exception(signum: int) -> BaseException:
@@ -141,7 +151,11 @@ def _redeliver_later(signum: int) -> None:
 def _on_signal(signum: int, frame: Any) -> None:
     """SIGINT and SIGTERM: stop the running command (or remember the signal, see :class:`_Stop`)."""
     if _Stop.active and not _Stop.in_hook:
-        raise _stop_exception(signum)
+        now = time.monotonic()
+        if _Stop.raised_at is None or now - _Stop.raised_at >= STOP_AGAIN_AFTER_S:
+            _Stop.raised_at = now
+            raise _stop_exception(signum)
+        return  # the stop is under way (see STOP_AGAIN_AFTER_S)
     _Stop.pending = signum
     if _Stop.active:
         _redeliver_later(signum)
@@ -165,6 +179,7 @@ def _redeliver_signal(unraisable: Any, previous: Any) -> None:
         return
     signum = signal.SIGTERM if isinstance(exc, Terminated) else signal.SIGINT
     _Stop.in_hook = True
+    _Stop.raised_at = None  # that stop was lost: the next delivery raises again
     try:
         _Stop.pending = signum
         _redeliver_later(signum)
@@ -240,7 +255,7 @@ def main(argv: list[str] | None = None) -> None:
                 warnings.simplefilter("error", RuntimeWarning)
             else:
                 warnings.simplefilter("ignore", RuntimeWarning)
-            _Stop.pending, _Stop.active = None, True
+            _Stop.pending, _Stop.active, _Stop.raised_at = None, True, None
             try:
                 rv = _click_command()(args=argv, prog_name="drivelash", standalone_mode=False)
             finally:  # from here on a signal is only remembered, never raised

@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from drivelash._pool import process_pool
 from drivelash.estimation.estimator import DeadzoneEstimator, EstimationResult, EstimatorConfig, Method
 from drivelash.io.trace import Trace
 from drivelash.metrics import convergence_time, maee, steady_state_peak
@@ -180,7 +180,7 @@ def reproduce_table(
     ]
     outcomes: list[list[ScenarioOutcome]] = []
     if workers > 1 and len(jobs) > 1:
-        with ProcessPoolExecutor(max_workers=workers) as ex:
+        with process_pool(workers) as ex:  # Ctrl-C: cancelled and terminated at once
             for res in ex.map(_run_one, jobs):
                 outcomes.append(res)
                 if progress:

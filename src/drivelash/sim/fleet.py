@@ -353,9 +353,9 @@ def simulate_fleet(
         ]
     done = 0
     if workers > 1:
-        from concurrent.futures import ProcessPoolExecutor
+        from drivelash._pool import process_pool
 
-        with ProcessPoolExecutor(max_workers=workers) as pool:
+        with process_pool(workers) as pool:  # Ctrl-C: cancelled and terminated at once
             for _ in pool.map(_recording, jobs, chunksize=8):
                 done += 1
                 if progress:

@@ -397,13 +397,15 @@ def _processes(
     tasks: Sequence[RecordingTask], fn: Callable[[RecordingTask], EstimateRow], workers: int
 ) -> Iterator[EstimateRow]:
     """Local process pool; a dead worker breaks the pool: rebuild it and resubmit what is pending."""
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures import FIRST_COMPLETED, wait
     from concurrent.futures.process import BrokenProcessPool
+
+    from drivelash._pool import process_pool
 
     attempts = dict.fromkeys(range(len(tasks)), 0)
     pending_idx = list(range(len(tasks)))
     while pending_idx:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
+        with process_pool(workers) as pool:  # Ctrl-C: cancelled and terminated at once
             futs = {}
             for i in pending_idx:
                 attempts[i] += 1
@@ -628,17 +630,24 @@ def _ingest(
     # a duplicate keeps the stored recording (and its time): count only the moves re-dated
     copies = {d.split(": same content as ", 1)[0] for d in rep.duplicates}
     rep.renamed_dated = sum(p not in copies for p in renamed)
-    for row in results:
-        done += 1
-        rep.compute_s += row.runtime_s
-        if row.status != "ok":
-            rep.failed += 1
-            rep.failures.append(row.reason)
-        batch.append(row)
-        if len(batch) >= batch_size or time.monotonic() - last >= batch_seconds:
-            flush()
-        if progress is not None:
-            progress(done, len(tasks))
+    try:
+        for row in results:
+            done += 1
+            rep.compute_s += row.runtime_s
+            if row.status != "ok":
+                rep.failed += 1
+                rep.failures.append(row.reason)
+            batch.append(row)
+            if len(batch) >= batch_size or time.monotonic() - last >= batch_seconds:
+                flush()
+            if progress is not None:
+                progress(done, len(tasks))
+    finally:
+        # Ctrl-C or a store failure in this loop: the process pool stops now (cancelled,
+        # terminated), not when the garbage collector finds the suspended generator
+        close = getattr(results, "close", None)
+        if close is not None:
+            close()
     flush()
     if update_alarms:
         from drivelash.wear.alarms import refresh_alarms
