@@ -265,3 +265,27 @@ def test_constructor_takes_numpy_scalars():
     ref = DeadzoneEstimator(RIG_ESTIMATOR, 0.093, TS)
     e = DeadzoneEstimator(RIG_ESTIMATOR, np.float32(0.093), np.float64(TS))
     assert e.T_s == ref.T_s and e.delta1 == float(np.float32(0.093))
+
+
+def test_a_configuration_table_is_refused_with_the_conversion_named():
+    """README's low-level path with a loaded configuration's tables (the s19 tester's F20): the
+    message names the conversion; the conversion works (negative control: a plain wrong type
+    gets no such hint, above)."""
+    from pathlib import Path
+
+    from drivelash.io.config import load_config
+
+    cfg = load_config(Path(__file__).resolve().parents[2] / "examples" / "drive_bench.toml")
+    with pytest.raises(ParameterError) as err:
+        DeadzoneEstimator(cfg.drivetrain, 0.0525, TS)
+    assert _one_line(err).endswith(
+        "got DrivetrainParamsSection (a configuration file's [drivetrain] table: pass "
+        "load_config(path).to_drivetrain_params())"
+    )
+    with pytest.raises(ParameterError) as err:
+        DeadzoneEstimator(cfg.to_drivetrain_params(), cfg.backlash, TS)
+    assert _one_line(err).endswith(
+        "(a configuration file's [backlash] table: pass its offset, load_config(path).backlash.delta1)"
+    )
+    est = DeadzoneEstimator(cfg.to_drivetrain_params(), cfg.backlash.delta1, TS)
+    assert est.delta1 == 0.093

@@ -80,7 +80,7 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         machines: int = typer.Option(3, "--machines", min=1, help="'fleet': machines."),
         axes: int = typer.Option(2, "--axes", min=1, help="'fleet': axes per machine."),
         recordings: int = typer.Option(
-            30, "--recordings", min=1, help="'fleet': recordings per axis (one a day)."
+            30, "--recordings", min=2, help="'fleet': recordings per axis (one a day; at least 2)."
         ),
         workers: int = typer.Option(1, "--workers", min=1, help="'fleet': processes simulating recordings."),
         force: bool = typer.Option(False, "--force", help=FORCE_HELP),
@@ -106,8 +106,9 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
             )
             return
         from rich.console import Console
-        from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+        from rich.progress import BarColumn, TextColumn, TimeRemainingColumn
 
+        from drivelash._progress import stderr_progress
         from drivelash.io.formats import write_trace
         from drivelash.io.outputs import TRACE_EXTENSIONS, Outputs
         from drivelash.sim.scenarios import load_scenario
@@ -122,13 +123,12 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
             check_simulation_size(sc.name, T, sc.T_s, sc.n_sub)
             console = Console(stderr=True)
             if T >= 30.0:
-                with Progress(
+                with stderr_progress(
                     TextColumn(f"simulating {sc.name}"),
                     BarColumn(),
                     TextColumn("{task.percentage:>3.0f}%"),
                     TimeRemainingColumn(),
                     console=console,
-                    transient=True,
                 ) as bar:
                     task = bar.add_task("sim", total=1.0)
                     trace = sc.simulate(

@@ -58,8 +58,9 @@ def run_ingest(
 ) -> Any:
     """Body of ``track ingest`` (callable from Python); returns the :class:`IngestReport`."""
     from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+    from rich.progress import BarColumn, MofNCompleteColumn, TextColumn, TimeRemainingColumn
 
+    from drivelash._progress import stderr_progress
     from drivelash.wear.fleet import load_fleet
     from drivelash.wear.ingest import DaskRunner, check_files, ingest
     from drivelash.wear.store import Store
@@ -73,13 +74,12 @@ def run_ingest(
     try:
         store = Store(db or _fleet_db(fleet))
         console = Console(stderr=True, quiet=quiet)
-        with Progress(
+        with stderr_progress(
             TextColumn("ingest"),
             BarColumn(),
             MofNCompleteColumn(),
             TimeRemainingColumn(),
             console=console,
-            transient=True,
         ) as bar:
             task = bar.add_task("ingest", total=None)
 
@@ -495,19 +495,13 @@ def run_simulate_fleet(
     force: bool = False,
 ) -> Any:
     """Body of ``simulate fleet``."""
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+    from rich.progress import BarColumn, MofNCompleteColumn, TextColumn
 
+    from drivelash._progress import stderr_progress
     from drivelash.io.outputs import Outputs
     from drivelash.sim.fleet import simulate_fleet
 
-    bar = Progress(
-        TextColumn("simulating fleet"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        console=Console(stderr=True),
-        transient=True,
-    )
+    bar = stderr_progress(TextColumn("simulating fleet"), BarColumn(), MofNCompleteColumn())
     with Outputs("simulate fleet", force=force) as o, bar:
         task = bar.add_task("sim", total=machines * axes * recordings)
         target = o.directory(out, option="-o")

@@ -1196,13 +1196,25 @@ class DeadzoneEstimator:
             raise ParameterError(
                 "DeadzoneEstimator",
                 "drivetrain",
-                f"expected a DrivetrainParams, got {type(drivetrain).__name__}",
+                f"expected a DrivetrainParams, got {type(drivetrain).__name__}"
+                + (
+                    " (a configuration file's [drivetrain] table: pass "
+                    "load_config(path).to_drivetrain_params())"
+                    if hasattr(type(drivetrain), "__params__")
+                    else ""
+                ),
             )
         if not (isinstance(backlash, BacklashParams) or is_real_number(backlash)):
             raise ParameterError(
                 "DeadzoneEstimator",
                 "backlash",
-                f"expected a BacklashParams or the offset δ1 [rad] as a number, got {backlash!r}",
+                f"expected a BacklashParams or the offset δ1 [rad] as a number, got {backlash!r}"
+                + (
+                    " (a configuration file's [backlash] table: pass its offset, "
+                    "load_config(path).backlash.delta1)"
+                    if hasattr(type(backlash), "__params__")
+                    else ""
+                ),
             )
         if not is_real_number(T_s):
             raise ParameterError("DeadzoneEstimator", "T_s", f"sample time must be a number [s], got {T_s!r}")

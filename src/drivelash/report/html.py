@@ -183,10 +183,9 @@ def render_html(title: str, sections: Sequence[Section], *, progress: bool | Non
     show = progress if progress is not None else len(figs) > 4
     images: dict[int, str] = {}
     if show:
-        from rich.console import Console
-        from rich.progress import Progress
+        from drivelash._progress import stderr_progress
 
-        with Progress(console=Console(stderr=True), transient=True) as bar:
+        with stderr_progress() as bar:
             task = bar.add_task("rendering figures", total=len(figs))
             for f in figs:
                 images[id(f)] = base64.b64encode(png_bytes(f)).decode("ascii")
