@@ -77,6 +77,8 @@ class Iso230Params:
     compensation : float
         Reversal (backlash) compensation the control applied during the test [m or rad];
         added back to the measured lost motion before it is compared with the deadzone.
+        Its plausibility (at most 2 mm or 1°) is checked once the axis's unit is known
+        (:func:`drivelash.iso230.compare.check_compensation`).
 
     Raises
     ------

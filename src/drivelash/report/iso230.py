@@ -320,9 +320,7 @@ def render_iso230_report(
                 ["source", "value", "u", "U (B: 95 % interval)"],
                 [
                     [
-                        "ISO test: −B̄"
-                        + (" + compensation" if c.compensation else "")
-                        + (" (drift removed)" if c.drift_correction else ""),
+                        f"ISO test: {c.iso_label}",
                         _f(c.L_iso, df),
                         _f(c.u_L_iso, df),
                         _f(2 * c.u_L_iso, df),
