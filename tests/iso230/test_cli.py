@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import html
 import json
 import math
 from pathlib import Path
@@ -259,11 +260,18 @@ def test_unconverged_estimate_is_compared_only_with_its_uncertainty_and_said_so(
     est.write_text(
         json.dumps({**data, "converged": False, "warnings": ["note: a note", said]}), encoding="utf-8"
     )
-    j = tmp_path / "iso.json"
-    code, _, err = run_cli(["iso230", str(csv), "-c", str(toml), "--estimate", str(est), "--json", str(j)])
+    j, r = tmp_path / "iso.json", tmp_path / "iso.html"
+    code, _, err = run_cli(
+        ["iso230", str(csv), "-c", str(toml), "--estimate", str(est), "--json", str(j), "--report", str(r)]
+    )
     assert code == 0, err
     w = json.loads(j.read_text())["warnings"]
     assert any("did not converge" in x and said in x for x in w), w
+    # s19 F19: the report said nothing of it — now the warning, and a flag next to the number
+    page = r.read_text(encoding="utf-8")
+    note = next(x for x in w if "did not converge" in x)
+    assert page.count(html.escape(note)) == 2  # in the comparison section and under Warnings
+    assert "(not converged: see above)" in page
     bare = {k: v for k, v in data.items() if k != "delta_std"}
     est.write_text(json.dumps({**bare, "converged": False, "warnings": [said]}), encoding="utf-8")
     code, _, err = run_cli(
@@ -276,6 +284,10 @@ def test_unconverged_estimate_is_compared_only_with_its_uncertainty_and_said_so(
     )
     assert code == 0, err
     assert not any("did not converge" in x for x in json.loads(j.read_text())["warnings"])
+    code, _, err = run_cli(
+        ["iso230", str(csv), "-c", str(toml), "--estimate", str(est), "--report", str(r), "--force"]
+    )
+    assert code == 0 and "not converged" not in r.read_text(encoding="utf-8"), err
 
 
 def test_nominal_targets_written_in_mm_get_a_unit_hint(table, tmp_path, run_cli):

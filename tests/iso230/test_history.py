@@ -285,3 +285,24 @@ def test_a_compensation_or_lead_in_mm_is_refused_before_it_reaches_the_history(
     with Store(db, create=False) as st:
         (m,) = st.measurements("M01/X")
     assert m["value"] == pytest.approx(22e-6, abs=3 * m["std"])  # 12 µm measured + 10 µm compensated
+
+
+def test_the_report_shows_every_warning_the_json_gives(setup, tmp_path, run_cli):
+    """Found by an exploratory tester (s19 F19): the HTML report of `iso230` showed only the
+    reader's warnings; the deadzone's ("did not converge … not a measurement"), the drift's and
+    the history's ("stored in m only …", "no excited estimate …") reached the terminal and the
+    JSON only. Here M01/Y has no transmission and no estimate: two such warnings; on the old
+    code neither is on the page."""
+    import html as h
+
+    db, csv, toml = setup
+    j, r = tmp_path / "o.json", tmp_path / "o.html"
+    argv = ["iso230", str(csv), "-c", str(toml), "--db", str(db), "--axis", "M01/Y"]
+    code, _, err = run_cli([*argv, "--json", str(j), "--report", str(r)])
+    assert code == 0, err
+    warnings = json.loads(j.read_text())["warnings"]
+    assert any("stored in m only" in w for w in warnings), warnings
+    assert any("no excited estimate" in w for w in warnings), warnings
+    page = r.read_text(encoding="utf-8")
+    for w in warnings:
+        assert f'<div class="warn">{h.escape(w)}</div>' in page, w

@@ -170,7 +170,11 @@ def run_iso230(
             if r is not None:
                 from drivelash.report.iso230 import write_iso230_report
 
-                write_iso230_report(out.staging(r), res, meas, comparison, axis_result=axis_res)
+                # every warning the terminal and the JSON give (deadzone, drift, history), not
+                # only the reader's
+                write_iso230_report(
+                    out.staging(r), res, meas, comparison, axis_result=axis_res, warnings=warnings
+                )
         finally:
             if store is not None:
                 store.close()
