@@ -344,3 +344,26 @@ def test_json_of_another_command_is_not_overwritten_without_force(table, tmp_pat
     assert json.loads(own.read_text())["generator"].endswith(" iso230")
     code, _, err = run_cli(["iso230", str(csv), "-c", str(toml), "--json", str(est), "--force"])
     assert code == 0, err
+
+
+def test_jittered_time_stamps_name_the_config_key_not_an_option(tmp_path, run_cli):
+    """Found by an exploratory tester (s19 F21): a laser time series stamped by a PC clock
+    (±2 ms jitter at 100 Hz) was refused with "resample explicitly with --resample or
+    [sampling] resample = true", and `iso230 --resample` is "No such option". The message now
+    names only the configuration key; following it evaluates the file (negative control)."""
+    cols, truth = synthetic_recording(AXIS, m=5, n=3, seed=5, dwell=0.8)
+    k = slice(None, None, 10)  # 100 Hz, as a laser's PC software writes
+    t = cols["t"][k] + np.random.default_rng(1).uniform(-0.002, 0.002, cols["t"][k].size)
+    p = tmp_path / "jit.csv"
+    pd.DataFrame({"t": t, "cmd": cols["P_cmd"][k] * 1e3, "laser": cols["P_actual"][k] * 1e3}).to_csv(
+        p, index=False
+    )
+    toml = tmp_path / "jit.toml"
+    cfg = '[columns.cmd]\ncolumn = "P_cmd"\nunit = "mm"\n[columns.laser]\ncolumn = "P_actual"\nunit = "mm"\n'
+    toml.write_text(cfg, encoding="utf-8")
+    code, out, err = run_cli(["iso230", str(p), "-c", str(toml)])
+    assert code == 2 and "non-uniform sampling" in err, (out, err)
+    assert "--resample" not in err and "[sampling] resample = true" in err, err
+    toml.write_text(cfg + "[sampling]\nresample = true\n", encoding="utf-8")
+    code, _, err = run_cli(["iso230", str(p), "-c", str(toml)])
+    assert code == 0, err

@@ -46,6 +46,10 @@ POSITION_COLUMNS = ("P_target", "P_cmd", "P_actual", "P_axis", "x_dev")
 #: as a unit mix-up (real positioning errors are ~1e-5 of the travel, lead errors ~1e-4).
 MAX_DEVIATION_FRACTION = 0.01
 
+#: What to do about non-uniform sampling of a time series: ``iso230`` (and the Python API)
+#: take it from the configuration only.
+RESAMPLE_HINT_ISO230 = "resample explicitly: [sampling] resample = true in the iso230 configuration"
+
 #: An offset of the reference larger than this fraction of the travel is reported.
 OFFSET_WARNING_FRACTION = 0.01
 
@@ -286,10 +290,16 @@ def _read_table(path: Path, mapping: Any, params: Iso230Params, table: Any) -> M
 
 def _read_series(path: Path, mapping: Any, params: Iso230Params, dwell: DwellParams) -> Measurement:
     from drivelash.io.config import UNIT_KIND
-    from drivelash.io.load import load_trace
+    from drivelash.io.load import RESAMPLE_HINT, load_trace
 
     src = str(path)
-    trace = load_trace(path, mapping, required=("P_cmd", "P_actual"), check_saturation=False)
+    try:
+        trace = load_trace(path, mapping, required=("P_cmd", "P_actual"), check_saturation=False)
+    except DataError as exc:  # iso230 has no --resample option: name only what it takes (s19 F21)
+        text = str(exc)
+        if RESAMPLE_HINT in text:
+            exc.args = (text.replace(RESAMPLE_HINT, RESAMPLE_HINT_ISO230),)
+        raise
     origin: dict[str, str] = {}
     kinds: dict[str, str] = {}
     for source_col, cm in (trace.meta.get("mapping") or {}).items():
