@@ -367,3 +367,24 @@ def test_jittered_time_stamps_name_the_config_key_not_an_option(tmp_path, run_cl
     toml.write_text(cfg + "[sampling]\nresample = true\n", encoding="utf-8")
     code, _, err = run_cli(["iso230", str(p), "-c", str(toml)])
     assert code == 0, err
+
+
+def test_direction_words_are_refused_saying_what_the_column_holds(table, tmp_path, run_cli):
+    """Found by an exploratory tester (s19 F9): a laser export's direction column with words
+    (Up/Down) was refused as "not a number: 'Up'" without saying what the column must hold.
+    Now the same line says it is +1 / -1. Negative control: a bad number in another column
+    gets no direction hint."""
+    csv, toml = table
+    df = pd.read_csv(csv)
+    words = df.assign(Dir=df["Dir"].map({1: "Up", -1: "Down"}))
+    p = tmp_path / "words.csv"
+    words.to_csv(p, index=False)
+    j = tmp_path / "o.json"
+    _bad(run_cli, ["iso230", str(p), "-c", str(toml), "--json", str(j)], "not a number: 'Up'", [j])
+    _, _, err = run_cli(["iso230", str(p), "-c", str(toml)])
+    assert "column 'Dir'" in err and "a direction is +1 (approach in the positive direction) or -1" in err
+    bad = df.astype({"Error [um]": object})
+    bad.loc[3, "Error [um]"] = "n/a"
+    bad.to_csv(p, index=False)
+    code, _, err = run_cli(["iso230", str(p), "-c", str(toml)])
+    assert code == 2 and "not a number" in err and "a direction is" not in err, err

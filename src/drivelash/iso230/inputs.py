@@ -238,6 +238,22 @@ def _offset_warning(x: np.ndarray, travel: float, unit: str) -> list[str]:
     return []
 
 
+#: What a direction column holds (added to a "not a number" in it, s19 F9).
+DIRECTION_HINT = (
+    "a direction is +1 (approach in the positive direction) or -1 (negative):"
+    " write the column as numbers (Up/Down, fwd/bwd, +/- are not read)"
+)
+
+
+def _direction_columns(mapping: Any) -> set[str]:
+    """The file's column names that hold the approach direction (mapped or named so)."""
+    cols = {"direction"}
+    for src, cm in (getattr(mapping, "columns", None) or {}).items():
+        if getattr(cm, "column", None) == "direction":
+            cols.add(src)
+    return cols
+
+
 def _read_table(path: Path, mapping: Any, params: Iso230Params, table: Any) -> Measurement:
     src = str(path)
     cols, origin = table.columns, table.origin
@@ -362,7 +378,12 @@ def read_measurement(
     kind = params.input
     table = None
     if kind in ("auto", "table"):
-        table = load_table(p, mapping)
+        try:
+            table = load_table(p, mapping)
+        except DataError as exc:  # words in the direction column (Up/Down, fwd/bwd): say what it holds
+            if exc.column in _direction_columns(mapping) and "not a number" in str(exc):
+                exc.args = (f"{exc}; {DIRECTION_HINT}",)
+            raise
         if kind == "auto":
             cols = table.columns
             kind = "table" if ("run" in cols and "direction" in cols) else "timeseries"
