@@ -201,6 +201,50 @@ def _check_scale(ref: np.ndarray, cmd: np.ndarray, source: str, ref_col: str, cm
         )
 
 
+def _unwrap_angles(
+    actual: np.ndarray, target: np.ndarray, unit: str, travel: float, col: str
+) -> tuple[np.ndarray, str | None]:
+    """Measured angles of a rotary axis brought to the turn of their targets (s19 F4).
+
+    Rotary tables and their encoder/laser software read 0…360°: the approach to 0° from below
+    reads 359.9998°. Where P_actual − P_target, wrapped into (−180°, 180°], is small for every
+    row (within :data:`MAX_DEVIATION_FRACTION` of the travel, or of a turn) and the raw
+    difference is not, the measured angles are taken modulo a turn.
+
+    Parameters
+    ----------
+    actual, target : numpy.ndarray
+        Measured and target angles [rad] (or positions [m]: returned unchanged).
+    unit : {"m", "rad"}
+    travel : float
+        Range of the targets [rad].
+    col : str
+        The measured column's name in the file (for the warning).
+
+    Returns
+    -------
+    actual : numpy.ndarray
+        The measured angles on the targets' turn [rad].
+    note : str or None
+        The warning when any angle was moved by a turn.
+    """
+    if unit != "rad":
+        return actual, None
+    turn = 2.0 * math.pi
+    d = actual - target
+    wrapped = d - turn * np.round(d / turn)
+    moved = np.abs(wrapped - d) > 0.5 * math.pi
+    if not moved.any():
+        return actual, None
+    small = MAX_DEVIATION_FRACTION * max(travel, turn / 4)
+    if float(np.ptp(wrapped)) > small:
+        return actual, None  # not a wrap: the scale check names the problem
+    return target + wrapped, (
+        f"column {col!r}: {int(moved.sum())} measured angle(s) differ from their target by a whole turn"
+        " (read 0…360°): taken on the target's turn"
+    )
+
+
 def _check_spread(x: np.ndarray, travel: float, source: str, col: str, unit: str) -> None:
     spread = float(np.ptp(x))
     if travel > 0 and spread > MAX_DEVIATION_FRACTION * travel:
@@ -274,10 +318,11 @@ def _read_table(path: Path, mapping: Any, params: Iso230Params, table: Any) -> M
         x = cols["x_dev"]
         dev_col = origin.get("x_dev", "x_dev")
     elif "P_actual" in cols:
-        _check_scale(
-            cols["P_actual"], target, src, origin.get("P_actual", "P_actual"), origin.get(tcol, tcol)
+        actual, wrap_note = _unwrap_angles(
+            cols["P_actual"], target, unit, travel, origin.get("P_actual", "P_actual")
         )
-        x = cols["P_actual"] - target
+        _check_scale(actual, target, src, origin.get("P_actual", "P_actual"), origin.get(tcol, tcol))
+        x = actual - target
         dev_col = origin.get("P_actual", "P_actual")
     else:
         raise DataError(
@@ -301,6 +346,8 @@ def _read_table(path: Path, mapping: Any, params: Iso230Params, table: Any) -> M
                 column=names["target"],
             )
     warnings = list(table.meta.get("warnings", [])) + list(ap.warnings) + _tiny_warning(x, unit, dev_col)
+    if "x_dev" not in cols and wrap_note:
+        warnings.append(wrap_note)
     return Measurement("table", unit, ap, None, None, None, src, warnings)  # type: ignore[arg-type]
 
 
