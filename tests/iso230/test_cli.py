@@ -388,3 +388,34 @@ def test_direction_words_are_refused_saying_what_the_column_holds(table, tmp_pat
     bad.to_csv(p, index=False)
     code, _, err = run_cli(["iso230", str(p), "-c", str(toml)])
     assert code == 2 and "not a number" in err and "a direction is" not in err, err
+
+
+def test_a_target_column_with_micrometre_scatter_is_assigned_to_the_nominal_targets(table, tmp_path, run_cli):
+    """Found by an exploratory tester (s19 F14): a table whose target column holds the control's
+    actual position (±2 µm between runs) was "unequal targets: target -0.0015 mm has no approach
+    …", even with the nominal `[iso230] targets` given — they only verified, never assigned. Now
+    with them each row is taken at its nominal target (warned), and the result equals the file
+    with exact targets; without them the refusal says what is going on and what to give."""
+    csv, toml = table
+    df = pd.read_csv(csv)
+    nominal = sorted({float(v) * 1e-3 for v in df["Target [mm]"]})
+    jit = df.assign(
+        **{"Target [mm]": df["Target [mm]"] + np.random.default_rng(2).uniform(-2e-3, 2e-3, len(df))}
+    )
+    p = tmp_path / "jit.csv"
+    jit.to_csv(p, index=False)
+    code, _, err = run_cli(["iso230", str(p), "-c", str(toml)])
+    assert code == 2 and "unequal targets" in err, err
+    assert "give the nominal targets as [iso230] targets" in err, err
+    cfg = tmp_path / "nominal.toml"
+    cfg.write_text(toml.read_text() + f"\n[iso230]\ntargets = {nominal}\n", encoding="utf-8")
+    j, jr = tmp_path / "jit.json", tmp_path / "ref.json"
+    code, _, err = run_cli(["iso230", str(p), "-c", str(cfg), "--json", str(j)])
+    assert code == 0, err
+    assert "each row taken at its nominal target" in err
+    code, _, err = run_cli(["iso230", str(csv), "-c", str(cfg), "--json", str(jr)])
+    assert code == 0 and "nominal target" not in err, err  # negative control: exact targets, no warning
+    got, ref = json.loads(j.read_text()), json.loads(jr.read_text())
+    for key in ("B", "B_mean", "u_B_mean"):
+        assert got["reversal"][key] == pytest.approx(ref["reversal"][key], rel=1e-12), key
+    assert got["axis"]["A"] == pytest.approx(ref["axis"]["A"], rel=1e-12)

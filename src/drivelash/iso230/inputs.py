@@ -245,6 +245,82 @@ def _unwrap_angles(
     )
 
 
+def _on_nominal_targets(
+    target: np.ndarray,
+    x: np.ndarray,
+    from_actual: bool,
+    nominal: tuple[float, ...],
+    travel: float,
+    unit: str,
+    col: str,
+) -> tuple[np.ndarray, np.ndarray, str | None]:
+    """Rows of a table assigned to the nominal ``[iso230] targets`` (s19 F14).
+
+    A target column that holds the control's actual position scatters by µm between runs;
+    clustered at float round-off, its rows were "unequal targets". When every row lies within
+    1e-4 of the travel of a nominal target (the tolerance the nominal targets are checked
+    with), each row is that target; with ``P_actual`` given, x = P_actual − P_i of the
+    nominal P_i (ISO 230-2's deviation). Otherwise nothing changes (the mismatch is reported
+    as before).
+
+    Parameters
+    ----------
+    target : numpy.ndarray
+        The table's target column [m or rad].
+    x : numpy.ndarray
+        Deviations [m or rad].
+    from_actual : bool
+        ``x`` is P_actual − target (recomputed against the nominal target).
+    nominal : tuple of float
+        ``[iso230] targets`` [m or rad].
+    travel : float
+        Range of ``target`` [m or rad].
+    unit : {"m", "rad"}
+    col : str
+        The target column's name in the file (for the warning).
+
+    Returns
+    -------
+    target, x : numpy.ndarray
+    note : str or None
+        The warning when a row was moved beyond float round-off.
+    """
+    nom = np.sort(np.asarray(nominal, dtype=np.float64))
+    idx = np.argmin(np.abs(target[:, None] - nom[None, :]), axis=1)
+    off = target - nom[idx]
+    tol = 1e-4 * max(travel, 1e-300)
+    if not np.all(np.abs(off) <= tol) or np.unique(idx).size != nom.size:
+        return target, x, None
+    snapped = nom[idx]
+    x_new = x + off if from_actual else x  # P_actual − P_i = (P_actual − target) + (target − P_i)
+    worst = float(np.max(np.abs(off)))
+    note = None
+    if worst > 1e-6 * max(travel, 1e-300):  # beyond the clustering's round-off (TARGET_TOLERANCE)
+        shown = f"{worst * 1e6:.3g} µm" if unit == "m" else f"{math.degrees(worst) * 3600:.3g} arcsec"
+        note = (
+            f"column {col!r}: targets differ from the nominal [iso230] targets by up to {shown}"
+            " (the control's actual position?): each row taken at its nominal target"
+        )
+    return snapped, x_new, note
+
+
+def _scatter_hint(target: np.ndarray, travel: float, unit: str) -> str:
+    """For "unequal targets": when the target column scatters by little around fewer positions
+    (grouped at 1e-4 of the travel), say so and how to give the nominal targets (s19 F14)."""
+    from drivelash.iso230.evaluate import TARGET_TOLERANCE, cluster_targets
+
+    fine, _ = cluster_targets(target, TARGET_TOLERANCE)
+    coarse, labels = cluster_targets(target, 1e-4)
+    if coarse.size < 2 or coarse.size >= fine.size:
+        return ""
+    worst = float(np.max(np.abs(target - coarse[labels])))
+    shown = f"{worst * 1e6:.3g} µm" if unit == "m" else f"{math.degrees(worst) * 3600:.3g} arcsec"
+    return (
+        f"; the column scatters by up to {shown} around {coarse.size} positions (the control's actual"
+        " position?): give the nominal targets as [iso230] targets = [...] (m or rad)"
+    )
+
+
 def _check_spread(x: np.ndarray, travel: float, source: str, col: str, unit: str) -> None:
     spread = float(np.ptp(x))
     if travel > 0 and spread > MAX_DEVIATION_FRACTION * travel:
@@ -331,11 +407,21 @@ def _read_table(path: Path, mapping: Any, params: Iso230Params, table: Any) -> M
             column="x_dev",
         )
     _check_spread(x, travel, src, dev_col, unit)
+    snap_note = None
+    if params.targets:
+        target, x, snap_note = _on_nominal_targets(
+            target, x, "x_dev" not in cols, params.targets, travel, unit, origin.get(tcol, tcol)
+        )
     names = {"target": origin.get(tcol, tcol), "run": origin.get("run", "run")}
     names |= {"direction": origin.get("direction", "direction"), "deviation": dev_col}
-    ap = approaches_from_rows(
-        target, cols["run"], cols["direction"], x, unit=unit, source=src, columns=names, rows=table.rows
-    )
+    try:
+        ap = approaches_from_rows(
+            target, cols["run"], cols["direction"], x, unit=unit, source=src, columns=names, rows=table.rows
+        )
+    except DataError as exc:
+        if not params.targets and "unequal targets" in str(exc):
+            exc.args = (str(exc) + _scatter_hint(target, travel, unit),)
+        raise
     if params.targets:
         nominal = np.sort(np.asarray(params.targets, dtype=np.float64))
         if nominal.size != ap.m or np.max(np.abs(nominal - ap.targets)) > 1e-4 * max(travel, 1e-300):
@@ -348,6 +434,8 @@ def _read_table(path: Path, mapping: Any, params: Iso230Params, table: Any) -> M
     warnings = list(table.meta.get("warnings", [])) + list(ap.warnings) + _tiny_warning(x, unit, dev_col)
     if "x_dev" not in cols and wrap_note:
         warnings.append(wrap_note)
+    if snap_note:
+        warnings.append(snap_note)
     return Measurement("table", unit, ap, None, None, None, src, warnings)  # type: ignore[arg-type]
 
 
