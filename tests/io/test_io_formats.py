@@ -818,3 +818,41 @@ def test_windows_1252_csv_is_named_with_byte_line_and_the_fix(tmp_path):
         read_raw(b)
     p.write_bytes("Target [mm],Run,Dir,Error [µm]\r\n0.0,1,1,-3.699\r\n50.0,1,1,-2.461\r\n".encode())
     assert "Error [µm]" in read_raw(p).columns
+
+
+@pytest.mark.parametrize(
+    "head",
+    [
+        "Renishaw XL-80\nMachine;DMU 65\nDate;27.11.2026 13:00\n",  # title + key;value lines
+        "Date;27.11.2026 13:00\nTemp;20,3\n",  # key;value lines with a number as the value
+        # a title as wide (at its spaces) as the table, key;value lines, a blank line
+        "Renishaw XL-80 linear measurement\nMachine;DMU 65 X axis\nDate;27.11.2026 13:00\n"
+        "Material temperature;20,3 °C\n\n",
+    ],
+)
+def test_a_laser_export_preamble_is_skipped(tmp_path, head):
+    """Found by an exploratory tester (s19 F3): the usual head of a laser/DAQ export — a title
+    line, then ``key;value`` lines (date, temperature) — was not skipped though the README says
+    a preamble is: the title (``Renishaw XL-80`` splits at its space like ``Machine;DMU 65``) or
+    ``Date;…`` over ``Temp;20,3`` looked like a header over a data row, and the error blamed
+    the real header ("line 4: 3 fields where the header names 2 columns") or a preamble line
+    ("column 'Renishaw' … decimal point in 'Date;27.11.2026'"). Now: the same numbers as the
+    file without it, whole and streamed, and the warning. On the old code each case raises."""
+    t = np.arange(600) / 1000.0
+    body = "t;theta_m;omega_m;torque_m\n" + "".join(
+        ";".join(repr(float(v)).replace(".", ",") for v in (a, np.sin(a), np.cos(a), 0.3 * a)) + "\n"
+        for a in t
+    )
+    plain, pre = tmp_path / "plain.csv", tmp_path / "pre.csv"
+    plain.write_text(body, encoding="utf-8")
+    pre.write_text(head + body, encoding="utf-8")
+    ref = load_trace(plain)
+    tr = _both_ways(pre)
+    np.testing.assert_array_equal(tr["theta_m"], ref["theta_m"])
+    np.testing.assert_array_equal(tr["torque_m"], ref["torque_m"])
+    n = len([ln for ln in head.splitlines() if ln.strip()])
+    first = head.splitlines()[0]
+    assert f"skipped {n} line(s) above the column header (a preamble starting {first[:40]!r}" in " ".join(
+        tr.meta["warnings"]
+    )
+    assert not ref.meta["warnings"]  # negative control: no preamble, no warning

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import html
 import json
 import math
 from pathlib import Path
@@ -259,11 +260,18 @@ def test_unconverged_estimate_is_compared_only_with_its_uncertainty_and_said_so(
     est.write_text(
         json.dumps({**data, "converged": False, "warnings": ["note: a note", said]}), encoding="utf-8"
     )
-    j = tmp_path / "iso.json"
-    code, _, err = run_cli(["iso230", str(csv), "-c", str(toml), "--estimate", str(est), "--json", str(j)])
+    j, r = tmp_path / "iso.json", tmp_path / "iso.html"
+    code, _, err = run_cli(
+        ["iso230", str(csv), "-c", str(toml), "--estimate", str(est), "--json", str(j), "--report", str(r)]
+    )
     assert code == 0, err
     w = json.loads(j.read_text())["warnings"]
     assert any("did not converge" in x and said in x for x in w), w
+    # s19 F19: the report said nothing of it — now the warning, and a flag next to the number
+    page = r.read_text(encoding="utf-8")
+    note = next(x for x in w if "did not converge" in x)
+    assert page.count(html.escape(note)) == 2  # in the comparison section and under Warnings
+    assert "(not converged: see above)" in page
     bare = {k: v for k, v in data.items() if k != "delta_std"}
     est.write_text(json.dumps({**bare, "converged": False, "warnings": [said]}), encoding="utf-8")
     code, _, err = run_cli(
@@ -276,6 +284,10 @@ def test_unconverged_estimate_is_compared_only_with_its_uncertainty_and_said_so(
     )
     assert code == 0, err
     assert not any("did not converge" in x for x in json.loads(j.read_text())["warnings"])
+    code, _, err = run_cli(
+        ["iso230", str(csv), "-c", str(toml), "--estimate", str(est), "--report", str(r), "--force"]
+    )
+    assert code == 0 and "not converged" not in r.read_text(encoding="utf-8"), err
 
 
 def test_nominal_targets_written_in_mm_get_a_unit_hint(table, tmp_path, run_cli):
@@ -332,3 +344,78 @@ def test_json_of_another_command_is_not_overwritten_without_force(table, tmp_pat
     assert json.loads(own.read_text())["generator"].endswith(" iso230")
     code, _, err = run_cli(["iso230", str(csv), "-c", str(toml), "--json", str(est), "--force"])
     assert code == 0, err
+
+
+def test_jittered_time_stamps_name_the_config_key_not_an_option(tmp_path, run_cli):
+    """Found by an exploratory tester (s19 F21): a laser time series stamped by a PC clock
+    (±2 ms jitter at 100 Hz) was refused with "resample explicitly with --resample or
+    [sampling] resample = true", and `iso230 --resample` is "No such option". The message now
+    names only the configuration key; following it evaluates the file (negative control)."""
+    cols, truth = synthetic_recording(AXIS, m=5, n=3, seed=5, dwell=0.8)
+    k = slice(None, None, 10)  # 100 Hz, as a laser's PC software writes
+    t = cols["t"][k] + np.random.default_rng(1).uniform(-0.002, 0.002, cols["t"][k].size)
+    p = tmp_path / "jit.csv"
+    pd.DataFrame({"t": t, "cmd": cols["P_cmd"][k] * 1e3, "laser": cols["P_actual"][k] * 1e3}).to_csv(
+        p, index=False
+    )
+    toml = tmp_path / "jit.toml"
+    cfg = '[columns.cmd]\ncolumn = "P_cmd"\nunit = "mm"\n[columns.laser]\ncolumn = "P_actual"\nunit = "mm"\n'
+    toml.write_text(cfg, encoding="utf-8")
+    code, out, err = run_cli(["iso230", str(p), "-c", str(toml)])
+    assert code == 2 and "non-uniform sampling" in err, (out, err)
+    assert "--resample" not in err and "[sampling] resample = true" in err, err
+    toml.write_text(cfg + "[sampling]\nresample = true\n", encoding="utf-8")
+    code, _, err = run_cli(["iso230", str(p), "-c", str(toml)])
+    assert code == 0, err
+
+
+def test_direction_words_are_refused_saying_what_the_column_holds(table, tmp_path, run_cli):
+    """Found by an exploratory tester (s19 F9): a laser export's direction column with words
+    (Up/Down) was refused as "not a number: 'Up'" without saying what the column must hold.
+    Now the same line says it is +1 / -1. Negative control: a bad number in another column
+    gets no direction hint."""
+    csv, toml = table
+    df = pd.read_csv(csv)
+    words = df.assign(Dir=df["Dir"].map({1: "Up", -1: "Down"}))
+    p = tmp_path / "words.csv"
+    words.to_csv(p, index=False)
+    j = tmp_path / "o.json"
+    _bad(run_cli, ["iso230", str(p), "-c", str(toml), "--json", str(j)], "not a number: 'Up'", [j])
+    _, _, err = run_cli(["iso230", str(p), "-c", str(toml)])
+    assert "column 'Dir'" in err and "a direction is +1 (approach in the positive direction) or -1" in err
+    bad = df.astype({"Error [um]": object})
+    bad.loc[3, "Error [um]"] = "n/a"
+    bad.to_csv(p, index=False)
+    code, _, err = run_cli(["iso230", str(p), "-c", str(toml)])
+    assert code == 2 and "not a number" in err and "a direction is" not in err, err
+
+
+def test_a_target_column_with_micrometre_scatter_is_assigned_to_the_nominal_targets(table, tmp_path, run_cli):
+    """Found by an exploratory tester (s19 F14): a table whose target column holds the control's
+    actual position (±2 µm between runs) was "unequal targets: target -0.0015 mm has no approach
+    …", even with the nominal `[iso230] targets` given — they only verified, never assigned. Now
+    with them each row is taken at its nominal target (warned), and the result equals the file
+    with exact targets; without them the refusal says what is going on and what to give."""
+    csv, toml = table
+    df = pd.read_csv(csv)
+    nominal = sorted({float(v) * 1e-3 for v in df["Target [mm]"]})
+    jit = df.assign(
+        **{"Target [mm]": df["Target [mm]"] + np.random.default_rng(2).uniform(-2e-3, 2e-3, len(df))}
+    )
+    p = tmp_path / "jit.csv"
+    jit.to_csv(p, index=False)
+    code, _, err = run_cli(["iso230", str(p), "-c", str(toml)])
+    assert code == 2 and "unequal targets" in err, err
+    assert "give the nominal targets as [iso230] targets" in err, err
+    cfg = tmp_path / "nominal.toml"
+    cfg.write_text(toml.read_text() + f"\n[iso230]\ntargets = {nominal}\n", encoding="utf-8")
+    j, jr = tmp_path / "jit.json", tmp_path / "ref.json"
+    code, _, err = run_cli(["iso230", str(p), "-c", str(cfg), "--json", str(j)])
+    assert code == 0, err
+    assert "each row taken at its nominal target" in err
+    code, _, err = run_cli(["iso230", str(csv), "-c", str(cfg), "--json", str(jr)])
+    assert code == 0 and "nominal target" not in err, err  # negative control: exact targets, no warning
+    got, ref = json.loads(j.read_text()), json.loads(jr.read_text())
+    for key in ("B", "B_mean", "u_B_mean"):
+        assert got["reversal"][key] == pytest.approx(ref["reversal"][key], rel=1e-12), key
+    assert got["axis"]["A"] == pytest.approx(ref["axis"]["A"], rel=1e-12)

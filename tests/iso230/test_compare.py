@@ -10,6 +10,14 @@ import pytest
 
 from drivelash.errors import ConfigError, DataError, ParameterError
 from drivelash.iso230 import Deadzone, Transmission, approaches_from_rows, compare, evaluate, read_deadzone
+from drivelash.iso230.compare import (
+    MAX_COMPENSATION_M,
+    MAX_COMPENSATION_RAD,
+    MAX_LEAD,
+    MAX_PINION_RADIUS,
+    check_compensation,
+    lost_motion,
+)
 
 
 def test_transmission_factors():
@@ -53,6 +61,32 @@ def test_E_n_by_hand():
     # no uncertainty for the deadzone: only the ISO side counts
     c3 = compare(res, Deadzone(11e-6 / k, None, "x"), Transmission(lead=0.01))
     assert c3.E_n == pytest.approx(1e-6 / (2 * u_iso), rel=1e-12) and not c3.agree
+
+
+def test_implausible_lead_pinion_radius_and_compensation_are_refused_with_the_likely_unit():
+    """Found by an exploratory tester (s19 F16): `lead = 10` (mm per revolution as in a data sheet)
+    was taken as 10 m, `pinion_radius = 42.4` (mm) as 42.4 m, `compensation = 10` (µm) as 10 m
+    — without a word. Bounds: docs/assumptions.md ("ISO 230-2", plausibility of the
+    transmission and the compensation). Negative controls: the largest plausible values pass."""
+    with pytest.raises(ParameterError, match=r"10 m is not a plausible ball-screw lead.*write 0\.01"):
+        Transmission(lead=10.0)
+    with pytest.raises(ParameterError, match=r"42\.4 m is not a plausible pinion pitch.*write 0\.0424"):
+        Transmission(pinion_radius=42.4)
+    assert Transmission(lead=MAX_LEAD).lead == MAX_LEAD  # a 100 mm high-helix screw: accepted
+    assert Transmission(pinion_radius=MAX_PINION_RADIUS).pinion_radius == MAX_PINION_RADIUS
+    res = _result(10e-6)
+    dz = Deadzone(1e-3, None, "x")
+    for c, hint in ((10.0, "if 10 is in µm, write 1e-05"), (0.01, "if 0.01 is in mm, write 1e-05")):
+        with pytest.raises(ParameterError, match="not a plausible reversal compensation") as ei:
+            compare(res, dz, Transmission(lead=0.01), compensation=c)
+        assert ei.value.field == "compensation" and hint in ei.value.problem
+        with pytest.raises(ParameterError, match="compensation"):
+            lost_motion(res, c)
+    assert lost_motion(res, -MAX_COMPENSATION_M)[0] == pytest.approx(10e-6 - MAX_COMPENSATION_M)
+    # a rotary axis: at most 1°; arcsec written as rad are named
+    with pytest.raises(ParameterError, match="if 20 is in arcsec, write 9.69627e-05"):
+        check_compensation(20.0, "rad")
+    check_compensation(MAX_COMPENSATION_RAD, "rad")
 
 
 def test_transmission_must_fit_the_axis():

@@ -40,7 +40,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from drivelash.errors import DataError
+from drivelash.errors import DataError, ParameterError
 from drivelash.iso230 import approaches_from_rows, evaluate
 
 UP_1 = [3, 1, 2, 3, 1]
@@ -156,6 +156,34 @@ def test_refusals_are_one_line():
     uneven = r[~((r[:, 0] == 0.1) & (r[:, 2] == -1) & (r[:, 1] == 5))]
     with pytest.raises(DataError, match=r"unequal runs: target 100 mm has 4 run\(s\) in direction -"):
         approaches_from_rows(uneven[:, 0], uneven[:, 1], uneven[:, 2], uneven[:, 3])
+
+
+def test_a_direction_with_a_run_fewer_everywhere_is_named_as_such():
+    """Found by an exploratory tester (s19 F13): run 5 of the negative direction missing at every
+    target was reported as "target 0 mm has 5 run(s) in direction +, the other targets 4" — a
+    target and a direction that are both fine. Now the directions are named; a single target
+    short of a run is still named by its target (negative control, above)."""
+    r = _rows()
+    short = r[~((r[:, 2] == -1) & (r[:, 1] == r[:, 1].max()))]
+    with pytest.raises(DataError) as ei:
+        approaches_from_rows(short[:, 0], short[:, 1], short[:, 2], short[:, 3])
+    n = int(r[:, 1].max())
+    assert f"unequal runs: {n} run(s) in direction + but {n - 1} in direction - at every target" in str(
+        ei.value
+    )
+    assert "target 0 mm" not in str(ei.value)
+
+
+@pytest.mark.parametrize("unit", ["mm", "deg", "um"])
+def test_approaches_from_rows_takes_only_si_units(unit):
+    """Found by an exploratory tester (s19 F10): ``unit="mm"`` was accepted silently (the docstring
+    allows "m" or "rad"), and the checks that branch on ``unit == "m"`` (targets per metre, report
+    scaling) were skipped. Negative control: "m" and "rad" evaluate."""
+    r = _rows()
+    with pytest.raises(ParameterError, match=rf"approaches_from_rows.unit: must be 'm' or 'rad'.*'{unit}'"):
+        approaches_from_rows(r[:, 0], r[:, 1], r[:, 2], r[:, 3], unit=unit)
+    for ok in ("m", "rad"):
+        assert approaches_from_rows(r[:, 0], r[:, 1], r[:, 2], r[:, 3], unit=ok).unit == ok
 
 
 @pytest.mark.parametrize(

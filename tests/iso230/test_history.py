@@ -247,3 +247,62 @@ def test_an_output_over_the_history_store_is_refused_even_with_force(setup, tmp_
         f"drivelash: error: {opt} {db}: is an input of this command; choose another path"
     ]
     assert db.read_bytes() == before
+
+
+@pytest.mark.parametrize(
+    ("extra", "needle"),
+    [
+        ("[iso230]\ncompensation = 0.010\n", "key 'compensation': 0.01 m is not a plausible"),
+        ("[iso230]\ncompensation = 10\n", "if 10 is in µm, write 1e-05"),
+        ("[transmission]\nlead = 10\n", "key 'lead': 10 m is not a plausible"),
+    ],
+)
+def test_a_compensation_or_lead_in_mm_is_refused_before_it_reaches_the_history(
+    setup, tmp_path, run_cli, extra, needle
+):
+    """Found by an exploratory tester (s19 F16): `[iso230] compensation = 0.010` (the control's
+    10 µm written in mm) was taken as 10 mm of lost motion and stored for good with --db
+    (the fleet report's trend then reached 100 000 mrad); `lead = 10` (mm) as 10 m. Now one
+    line naming file, table, key and the likely unit, exit 2, nothing stored. On the old code
+    the command exits 0 and stores the measurement. Negative control: 10 µm written in m is
+    stored, and the printed number is labelled for what it is (−B̄ + compensation, not "−B̄")."""
+    db, csv, _ = setup
+    _, toml = laser_files(tmp_path, extra)
+    j = tmp_path / "o.json"
+    argv = ["iso230", str(csv), "-c", str(toml), "--db", str(db), "--axis", "M01/X", "--json", str(j)]
+    code, out, err = run_cli(argv)
+    assert code == 2, (out, err)
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"drivelash: error: {toml}: table ["), err
+    assert needle in lines[0] and "Traceback" not in err, err
+    assert not j.exists()
+    with Store(db, create=False) as st:
+        assert st.measurements() == []
+    _, toml = laser_files(tmp_path, "[iso230]\ncompensation = 0.000010\n")
+    code, out, err = run_cli(argv)
+    assert code == 0, err
+    assert "lost motion: ISO −B̄ + compensation = " in " ".join(out.split()), out
+    with Store(db, create=False) as st:
+        (m,) = st.measurements("M01/X")
+    assert m["value"] == pytest.approx(22e-6, abs=3 * m["std"])  # 12 µm measured + 10 µm compensated
+
+
+def test_the_report_shows_every_warning_the_json_gives(setup, tmp_path, run_cli):
+    """Found by an exploratory tester (s19 F19): the HTML report of `iso230` showed only the
+    reader's warnings; the deadzone's ("did not converge … not a measurement"), the drift's and
+    the history's ("stored in m only …", "no excited estimate …") reached the terminal and the
+    JSON only. Here M01/Y has no transmission and no estimate: two such warnings; on the old
+    code neither is on the page."""
+    import html as h
+
+    db, csv, toml = setup
+    j, r = tmp_path / "o.json", tmp_path / "o.html"
+    argv = ["iso230", str(csv), "-c", str(toml), "--db", str(db), "--axis", "M01/Y"]
+    code, _, err = run_cli([*argv, "--json", str(j), "--report", str(r)])
+    assert code == 0, err
+    warnings = json.loads(j.read_text())["warnings"]
+    assert any("stored in m only" in w for w in warnings), warnings
+    assert any("no excited estimate" in w for w in warnings), warnings
+    page = r.read_text(encoding="utf-8")
+    for w in warnings:
+        assert f'<div class="warn">{h.escape(w)}</div>' in page, w

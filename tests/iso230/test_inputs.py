@@ -71,6 +71,43 @@ def test_rotary_axis_in_degrees_and_arcsec(tmp_path):
         read_measurement(p, mapping, params=Iso230Params(axis="linear"))
 
 
+def test_rotary_angles_read_modulo_360_are_taken_on_the_targets_turn(tmp_path):
+    """Found by an exploratory tester (s19 F4): a rotary table whose measured angle is exported
+    0…360° (target 0° approached from below reads 359.9998°) was refused as "units mismatch:
+    'actual' moves 0.6667× as far as 'target' … wrong unit?". Now those readings are taken on
+    the target's turn, with a warning, and the result equals the unwrapped file's. Negative
+    control: a measured column in the wrong unit (mdeg declared as deg) is still refused."""
+    rng = np.random.default_rng(3)
+    rows = []
+    for P in np.arange(0.0, 360.0, 45.0):
+        for j in range(1, 6):
+            for d in (1, -1):
+                rows.append((P, j, d, P + (-d * 4.0 + rng.normal(0, 0.5)) / 3600.0))
+    df = pd.DataFrame(rows, columns=["target", "run", "direction", "actual"])
+    mapping = {
+        "target": {"column": "P_target", "unit": "deg"},
+        "run": {"column": "run"},
+        "direction": {"column": "direction"},
+        "actual": {"column": "P_actual", "unit": "deg"},
+    }
+    plain, wrapped = tmp_path / "plain.csv", tmp_path / "mod360.csv"
+    df.to_csv(plain, index=False)
+    df.assign(actual=np.mod(df["actual"], 360.0)).to_csv(wrapped, index=False)
+    n_wrapped = int((df["actual"] < 0).sum())
+    assert n_wrapped > 0  # the approach to 0° from below reads 359.99…°
+    ref, got = read_measurement(plain, mapping), read_measurement(wrapped, mapping)
+    r0, r1 = evaluate(ref.approaches), evaluate(got.approaches)
+    for key in ("A", "B", "B_mean", "E", "M", "R"):
+        assert getattr(r1, key) == pytest.approx(getattr(r0, key), rel=1e-9, abs=1e-15), key
+    assert any(
+        f"{n_wrapped} measured angle(s) differ from their target by a whole turn" in w for w in got.warnings
+    )
+    assert not any("whole turn" in w for w in ref.warnings)
+    df.assign(actual=df["actual"] * 1000.0).to_csv(plain, index=False)
+    with pytest.raises(DataError, match="units mismatch"):
+        read_measurement(plain, mapping)
+
+
 def test_nominal_targets_must_match_the_table(tmp_path):
     tb = synthetic_table(AXIS, m=5, n=3, seed=2)
     p = tmp_path / "t.csv"

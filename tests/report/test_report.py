@@ -529,3 +529,35 @@ def test_configuration_table_names_the_defaults_the_file_never_set(tmp_path, est
         sec = getattr(cfg, table)
         unset = {k for k, v in sec.model_dump().items() if v is not None} - sec.model_fields_set
         assert all(source(table, k) == "default" for k in unset), table
+
+
+def test_estimate_report_shows_every_warning_the_json_gives(tmp_path, capsys):
+    """Found by an exploratory tester (s19 F19): `estimate b0c.parquet --config drive_bench.toml
+    --report` — the terminal and the JSON warn "δ̂ = 145.4 mrad exceeds the whole Δθ range
+    observed … the estimate is not a measurement", the page had no warning at all (the renderer
+    showed only the reader's). Now every JSON warning is on the page, under the verdict. On the
+    old code none of them is."""
+    import html as h
+    import json
+
+    from cli_runner import run_in_process
+    from drivelash.sim.scenarios import get_scenario
+    from identify.helpers import REPO
+
+    rec = tmp_path / "b0c.parquet"
+    get_scenario("bench-0C").simulate(duration=6.0, seed=1).to_parquet(rec)
+    rep, js = tmp_path / "e.html", tmp_path / "e.json"
+    cfg = REPO / "examples" / "drive_bench.toml"
+    code, _, err = run_in_process(
+        ["estimate", str(rec), "-c", str(cfg), "--report", str(rep), "--json", str(js)], capsys
+    )
+    assert code == 0, err
+    warnings = json.loads(js.read_text())["warnings"]
+    assert any("not a measurement" in w for w in warnings), warnings  # the case the tester filed
+    page = rep.read_text(encoding="utf-8")
+    for w in warnings:
+        assert f'<div class="warn">{h.escape(w)}</div>' in page, w
+    # each once: the estimator's under the verdict, the reader's (none here) with the recording
+    from drivelash.io import load_trace
+
+    assert page.count('<div class="warn">') == len(warnings) + len(load_trace(rec).meta.get("warnings", []))

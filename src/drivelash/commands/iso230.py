@@ -35,10 +35,10 @@ def run_iso230(
     quiet: bool = False,
 ) -> dict[str, Any]:
     """Body of ``drivelash iso230`` (callable from Python; returns the JSON summary)."""
-    from drivelash.errors import ConfigError, DrivelashError
+    from drivelash.errors import ConfigError, DrivelashError, ParameterError
     from drivelash.io.outputs import HTML_EXTENSIONS, JSON_EXTENSIONS, Outputs, write_json
     from drivelash.iso230 import evaluate
-    from drivelash.iso230.compare import compare, lost_motion, read_deadzone
+    from drivelash.iso230.compare import check_compensation, compare, lost_motion, read_deadzone
     from drivelash.iso230.config import load_iso230_config
     from drivelash.iso230.history import axis_factor, check_time, deadzone_from_store, store_check
     from drivelash.iso230.inputs import read_measurement
@@ -81,6 +81,12 @@ def run_iso230(
             meas = read_measurement(measurement, cfg.mapping, params=cfg.iso230, dwell=cfg.dwell)
             cov = cfg.iso230.coverage
             res = evaluate(meas.approaches, coverage=cov)
+            try:  # the axis's unit is known only now: a compensation written in µm or mm
+                check_compensation(cfg.iso230.compensation, res.unit)
+            except ParameterError as exc:
+                raise ConfigError(
+                    f"{cfg.source}: table [iso230], key 'compensation': {exc.problem}"
+                ) from None
             axis_res = evaluate(meas.approaches_axis, coverage=cov) if meas.approaches_axis else None
             corrected = evaluate(meas.drift.corrected, coverage=cov) if meas.drift else None
             comparison = None
@@ -164,7 +170,11 @@ def run_iso230(
             if r is not None:
                 from drivelash.report.iso230 import write_iso230_report
 
-                write_iso230_report(out.staging(r), res, meas, comparison, axis_result=axis_res)
+                # every warning the terminal and the JSON give (deadzone, drift, history), not
+                # only the reader's
+                write_iso230_report(
+                    out.staging(r), res, meas, comparison, axis_result=axis_res, warnings=warnings
+                )
         finally:
             if store is not None:
                 store.close()
@@ -237,8 +247,8 @@ def _print_summary(res: Any, comparison: Any | None) -> None:
         u = "–" if cm.u_L_delta is None else f"{cm.u_L_delta * df:.3f}"
         verdict = "[green]agree[/green]" if cm.agree else "[red]disagree[/red]"
         c.print(
-            f"  lost motion: ISO −B̄ = {cm.L_iso * df:.3f} ± {cm.u_L_iso * df:.3f}, deadzone at the load"
-            f" {cm.L_delta * df:.3f} ± {u}  → E_n = {cm.E_n:.2f} {verdict}"
+            f"  lost motion: ISO {cm.iso_label} = {cm.L_iso * df:.3f} ± {cm.u_L_iso * df:.3f},"
+            f" deadzone at the load {cm.L_delta * df:.3f} ± {u}  → E_n = {cm.E_n:.2f} {verdict}"
         )
 
 

@@ -266,23 +266,41 @@ def _header_index(lines: list[str]) -> int:
     """Index of the column header among the first non-blank lines of a CSV file.
 
     The first line, where the line below it starts a table (:func:`_usual_start`) or is its
-    units row (:func:`units_row`). Otherwise a tool wrote a preamble above the table — lines of
-    other widths, or ``key;value`` lines (then the header is sought among lines of another width
-    than the first) — and the header is the first line that has as many fields as the row of
-    numbers and time stamps below it (or below its units row) and is not itself numeric. Where
-    no line fits, the first line (the reader then names the problem as before).
+    units row (:func:`units_row`) and every line below it in ``lines`` is as wide. Otherwise a
+    tool wrote a preamble above the table — lines of other widths, or ``key;value`` lines (then
+    the header is sought among lines of another width or separator than the first; a title
+    line such as ``Renishaw XL-80`` splits like ``Machine;DMU 65`` at its space, and a
+    ``Temp;20,3`` below ``Date;…`` looks like a header over a data row) — and the header is the
+    first line that has as many fields as the row of numbers and time stamps below it (or below
+    its units row) and is not itself numeric. Where no line fits, the first line (the reader
+    then names the problem as before).
+
+    Parameters
+    ----------
+    lines : list of str
+        The first non-blank lines of the file (up to ``PREAMBLE_MAX_LINES + 3``; all of a
+        shorter file).
+
+    Returns
+    -------
+    int
+        Index of the header in ``lines``.
     """
     if len(lines) < 2:
         return 0
-    skip_width = None
+    skip = None
+    sep0 = _sniff_sep(lines[0])
     if _same_width(lines[0], lines[1]):
-        sep0 = _sniff_sep(lines[0])
-        if _usual_start(lines[0], lines[1]) or _unit_cells(_header_tokens(lines[0], sep0), lines[1], sep0):
+        starts = _usual_start(lines[0], lines[1]) or _unit_cells(
+            _header_tokens(lines[0], sep0), lines[1], sep0
+        )
+        # a table keeps its width: a preamble line over a look-alike row does not (s19 F3)
+        if starts and all(_same_width(lines[0], ln) for ln in lines[2:]):
             return 0
-        skip_width = _width(lines[0])  # key;value lines above the table
+        skip = (sep0, _width(lines[0]))  # key;value lines above the table
     for i in range(1, len(lines) - 1):
         sep = _sniff_sep(lines[i])
-        if _width(lines[i]) == skip_width:
+        if (sep, _width(lines[i])) == skip:
             continue
         if not _same_width(lines[i], lines[i + 1]) or _numeric_row(lines[i], sep):
             continue
@@ -916,14 +934,8 @@ def _csv_layout(p: Path) -> _CsvLayout:
                 if line.startswith("# drivelash.meta "):
                     meta = _parse_meta(line[len("# drivelash.meta ") :])
                 continue
-            if line.strip():
+            if line.strip():  # as many lines as the whole-file reader looks at (_header_index)
                 cands.append((line, offset, n_line))
-                if len(cands) == 2 and _usual_start(cands[0][0], cands[1][0]):
-                    break  # the usual file: header, then a row with as many fields
-                if len(cands) == 3 and _same_width(cands[0][0], cands[1][0]):
-                    sep0 = _sniff_sep(cands[0][0])
-                    if _unit_cells(_header_tokens(cands[0][0], sep0), cands[1][0], sep0):
-                        break  # header, units row, first data row
         if not cands:
             raise DataError("file is empty (no header and no data rows)", path=str(p))
         h = _header_index([c[0] for c in cands])

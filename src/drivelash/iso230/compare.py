@@ -30,10 +30,37 @@ from typing import Any
 from drivelash.errors import ConfigError, DataError, ParameterError
 from drivelash.iso230.evaluate import Iso230Result
 
-__all__ = ["Comparison", "Deadzone", "Transmission", "compare", "lost_motion", "read_deadzone"]
+__all__ = [
+    "Comparison",
+    "Deadzone",
+    "Transmission",
+    "check_compensation",
+    "compare",
+    "lost_motion",
+    "read_deadzone",
+]
 
 #: Coverage factor of the expanded uncertainties in E_n.
 K_COVERAGE = 2.0
+
+#: Largest plausible ball-screw lead [m] (docs/assumptions.md, "ISO 230-2"): the high-helix
+#: screws of the catalogues reach leads of 1–2 shaft diameters, at most a few tens of mm;
+#: a lead written in mm (10 for 10 mm per revolution) reads as 10 m.
+MAX_LEAD = 0.1
+
+#: Largest plausible pinion pitch radius [m] (docs/assumptions.md): machine-tool racks are
+#: module 2–10 with 17–40 teeth, pitch radius ≤ 0.2 m; a radius in mm (42.4) reads as 42.4 m.
+MAX_PINION_RADIUS = 1.0
+
+#: Largest plausible reversal compensation of the control (|``[iso230] compensation``|) on a
+#: linear axis [m] (docs/assumptions.md): 2× the largest a Heidenhain TNC 426/430 accepts
+#: (MP710, ±1 mm), where typical values are 0.01–0.05 mm; a value in µm or mm reads 1e3–1e6×
+#: too large.
+MAX_COMPENSATION_M = 2e-3
+
+#: The same on a rotary axis [rad]: 1°, the TNC 426/430's limit for a rotary axis
+#: (typical rotary tables: 5–60″); a value in arcsec reads ≥ 1 rad.
+MAX_COMPENSATION_RAD = math.pi / 180.0
 
 
 @dataclass(frozen=True)
@@ -43,9 +70,10 @@ class Transmission:
     Parameters
     ----------
     lead : float, optional
-        Ball-screw lead, travel per screw revolution [m].
+        Ball-screw lead, travel per screw revolution [m]; at most :data:`MAX_LEAD`.
     pinion_radius : float, optional
-        Pitch radius of the pinion of a rack-and-pinion drive [m].
+        Pitch radius of the pinion of a rack-and-pinion drive [m]; at most
+        :data:`MAX_PINION_RADIUS`.
     i_G : float
         Revolutions of the deadzone's shaft (θ_l of the drive model) per revolution
         of the screw or pinion [-].
@@ -53,7 +81,8 @@ class Transmission:
     Raises
     ------
     ParameterError
-        A field outside its valid range (one line naming the class and the field).
+        A field outside its valid range, or a lead or radius too large for a machine-tool
+        axis (a value in mm taken as m) — one line naming the class and the field.
     """
 
     lead: float | None = None
@@ -65,6 +94,18 @@ class Transmission:
             v = getattr(self, name)
             if v is not None and not (math.isfinite(v) and v > 0):
                 raise ParameterError("Transmission", name, f"must be a finite number > 0, got {v!r}")
+        for name, bound, what in (
+            ("lead", MAX_LEAD, "ball-screw lead"),
+            ("pinion_radius", MAX_PINION_RADIUS, "pinion pitch radius"),
+        ):
+            v = getattr(self, name)
+            if v is not None and v > bound:
+                raise ParameterError(
+                    "Transmission",
+                    name,
+                    f"{v:g} m is not a plausible {what} (at most {bound:g} m); the value is in m —"
+                    f" if {v:g} is in mm, write {v * 1e-3:g}",
+                )
         if self.lead is not None and self.pinion_radius is not None:
             raise ParameterError(
                 "Transmission", "pinion_radius", "give either lead or pinion_radius, not both"
@@ -236,6 +277,15 @@ class Comparison:
     agree: bool
     deadzone: Deadzone
 
+    @property
+    def iso_label(self) -> str:
+        """What ``L_iso`` is: "−B̄", "−B̄ + compensation", "… (drift removed)"."""
+        return (
+            "−B̄"
+            + (" + compensation" if self.compensation else "")
+            + (" (drift removed)" if self.drift_correction else "")
+        )
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready (SI units)."""
         return {
@@ -258,6 +308,47 @@ class Comparison:
         }
 
 
+def check_compensation(compensation: float, unit: str) -> None:
+    """Refuse a reversal compensation no control of a machine-tool axis applies (a unit slip).
+
+    Parameters
+    ----------
+    compensation : float
+        ``[iso230] compensation`` [m or rad].
+    unit : {"m", "rad"}
+        Unit of the ISO test's positions: a linear or a rotary axis.
+
+    Raises
+    ------
+    ParameterError
+        ``|compensation|`` above :data:`MAX_COMPENSATION_M` (linear) or
+        :data:`MAX_COMPENSATION_RAD` (rotary); the message names the unit the number was
+        likely written in and the value in SI units.
+    """
+    c = float(compensation)
+    if unit == "rad":
+        bound, si, bound_txt = MAX_COMPENSATION_RAD, "rad", "1° (0.01745 rad)"
+        units = (("°", math.pi / 180.0), ("arcsec", math.pi / 648000.0))
+        axis = "rotary"
+    else:
+        bound, si, bound_txt = MAX_COMPENSATION_M, "m", f"{MAX_COMPENSATION_M * 1e3:g} mm"
+        units = (("mm", 1e-3), ("µm", 1e-6))
+        axis = "linear"
+    if abs(c) <= bound:
+        return
+    hint = ""
+    for name, f in units:  # the unit that makes it a plausible compensation
+        if abs(c) * f <= bound:
+            hint = f" — if {c:g} is in {name}, write {c * f:.6g}"
+            break
+    raise ParameterError(
+        "Iso230Params",
+        "compensation",
+        f"{c:g} {si} is not a plausible reversal compensation of a {axis} axis (at most {bound_txt});"
+        f" the value is in {si}{hint}",
+    )
+
+
 def lost_motion(
     result: Iso230Result,
     compensation: float = 0.0,
@@ -273,7 +364,13 @@ def lost_motion(
     Returns
     -------
     L, u_L, drift_correction : float
+
+    Raises
+    ------
+    ParameterError
+        An implausible ``compensation`` (:func:`check_compensation`).
     """
+    check_compensation(compensation, result.unit)
     L = -result.B_mean + compensation
     u = result.u_B_mean
     if drift is not None and math.isfinite(drift.u_bias):
@@ -317,6 +414,8 @@ def compare(
     ------
     ConfigError
         The transmission does not fit the axis (missing lead/radius on a linear axis).
+    ParameterError
+        An implausible ``compensation`` (:func:`check_compensation`).
     """
     if transmission is not None:
         try:

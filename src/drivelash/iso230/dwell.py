@@ -303,7 +303,7 @@ def detect_dwells(
             raise DataError(
                 f"ambiguous dwell at t = {t[a]:.6g}…{t[b - 1]:.6g} s: the commanded position moves by"
                 f" {_fmt_pos(float(np.ptp(cmd)), unit)} while nearly still (a slow move?);"
-                " lower [iso230] v_rel or raise target_tolerance",
+                " lower [dwell] v_rel or raise [dwell] target_tolerance",
                 path=source,
             )
         dev = float(np.mean(P_actual[win] - cmd))

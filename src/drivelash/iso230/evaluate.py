@@ -47,7 +47,7 @@ from typing import Any
 
 import numpy as np
 
-from drivelash.errors import NO_LINES, DataError, DataRows
+from drivelash.errors import NO_LINES, DataError, DataRows, ParameterError
 
 __all__ = ["Approaches", "Iso230Result", "approaches_from_rows", "evaluate"]
 
@@ -175,8 +175,9 @@ def approaches_from_rows(
         +1 for an approach in the positive direction (↑), −1 for the negative (↓).
     deviation : numpy.ndarray
         Positional deviation x_ij = P_ij − P_i of each row [m or rad].
-    unit : str
-        ``"m"`` or ``"rad"``.
+    unit : {"m", "rad"}
+        SI unit of ``target`` and ``deviation``: a linear or a rotary axis (convert mm, µm,
+        deg or arcsec before).
     source : str
         File name for messages.
     columns : dict, optional
@@ -190,12 +191,20 @@ def approaches_from_rows(
 
     Raises
     ------
+    ParameterError
+        ``unit`` is not ``"m"`` or ``"rad"``.
     DataError
         One line naming the file, the column or target and the problem: a direction
         that is not ±1, a run that is not an integer, a duplicated approach, a target
         approached from one side only, fewer than 2 runs per direction, unequal
         numbers of runs, fewer than 2 targets.
     """
+    if unit not in ("m", "rad"):  # the checks below (per-metre rule, report scaling) assume SI (s19 F10)
+        raise ParameterError(
+            "approaches_from_rows",
+            "unit",
+            f"must be 'm' or 'rad' (convert the positions to SI first), got {unit!r}",
+        )
     cols = {"target": "target", "run": "run", "direction": "direction", "deviation": "deviation"}
     cols.update(columns or {})
     arrays = {
@@ -290,6 +299,15 @@ def approaches_from_rows(
         )
     counts_all = np.concatenate([n_up, n_dn])
     if counts_all.min() != counts_all.max():
+        if n_up.min() == n_up.max() and n_dn.min() == n_dn.max():
+            # one direction has a run fewer at every target (s19 F13: blamed on one target of the
+            # other direction before)
+            raise DataError(
+                f"unequal runs: {int(n_up[0])} run(s) in direction + but {int(n_dn[0])} in direction -"
+                " at every target (ISO 230-2 needs the same runs in both directions)",
+                path=source,
+                column=cols["run"],
+            )
         n_ref = int(np.bincount(counts_all).argmax())
         i_bad = int(np.flatnonzero((n_up != n_ref) | (n_dn != n_ref))[0])
         arrow, got = ("+", n_up[i_bad]) if n_up[i_bad] != n_ref else ("-", n_dn[i_bad])

@@ -46,6 +46,10 @@ POSITION_COLUMNS = ("P_target", "P_cmd", "P_actual", "P_axis", "x_dev")
 #: as a unit mix-up (real positioning errors are ~1e-5 of the travel, lead errors ~1e-4).
 MAX_DEVIATION_FRACTION = 0.01
 
+#: What to do about non-uniform sampling of a time series: ``iso230`` (and the Python API)
+#: take it from the configuration only.
+RESAMPLE_HINT_ISO230 = "resample explicitly: [sampling] resample = true in the iso230 configuration"
+
 #: An offset of the reference larger than this fraction of the travel is reported.
 OFFSET_WARNING_FRACTION = 0.01
 
@@ -77,6 +81,8 @@ class Iso230Params:
     compensation : float
         Reversal (backlash) compensation the control applied during the test [m or rad];
         added back to the measured lost motion before it is compared with the deadzone.
+        Its plausibility (at most 2 mm or 1°) is checked once the axis's unit is known
+        (:func:`drivelash.iso230.compare.check_compensation`).
 
     Raises
     ------
@@ -195,6 +201,126 @@ def _check_scale(ref: np.ndarray, cmd: np.ndarray, source: str, ref_col: str, cm
         )
 
 
+def _unwrap_angles(
+    actual: np.ndarray, target: np.ndarray, unit: str, travel: float, col: str
+) -> tuple[np.ndarray, str | None]:
+    """Measured angles of a rotary axis brought to the turn of their targets (s19 F4).
+
+    Rotary tables and their encoder/laser software read 0…360°: the approach to 0° from below
+    reads 359.9998°. Where P_actual − P_target, wrapped into (−180°, 180°], is small for every
+    row (within :data:`MAX_DEVIATION_FRACTION` of the travel, or of a turn) and the raw
+    difference is not, the measured angles are taken modulo a turn.
+
+    Parameters
+    ----------
+    actual, target : numpy.ndarray
+        Measured and target angles [rad] (or positions [m]: returned unchanged).
+    unit : {"m", "rad"}
+    travel : float
+        Range of the targets [rad].
+    col : str
+        The measured column's name in the file (for the warning).
+
+    Returns
+    -------
+    actual : numpy.ndarray
+        The measured angles on the targets' turn [rad].
+    note : str or None
+        The warning when any angle was moved by a turn.
+    """
+    if unit != "rad":
+        return actual, None
+    turn = 2.0 * math.pi
+    d = actual - target
+    wrapped = d - turn * np.round(d / turn)
+    moved = np.abs(wrapped - d) > 0.5 * math.pi
+    if not moved.any():
+        return actual, None
+    small = MAX_DEVIATION_FRACTION * max(travel, turn / 4)
+    if float(np.ptp(wrapped)) > small:
+        return actual, None  # not a wrap: the scale check names the problem
+    return target + wrapped, (
+        f"column {col!r}: {int(moved.sum())} measured angle(s) differ from their target by a whole turn"
+        " (read 0…360°): taken on the target's turn"
+    )
+
+
+def _on_nominal_targets(
+    target: np.ndarray,
+    x: np.ndarray,
+    from_actual: bool,
+    nominal: tuple[float, ...],
+    travel: float,
+    unit: str,
+    col: str,
+) -> tuple[np.ndarray, np.ndarray, str | None]:
+    """Rows of a table assigned to the nominal ``[iso230] targets`` (s19 F14).
+
+    A target column that holds the control's actual position scatters by µm between runs;
+    clustered at float round-off, its rows were "unequal targets". When every row lies within
+    1e-4 of the travel of a nominal target (the tolerance the nominal targets are checked
+    with), each row is that target; with ``P_actual`` given, x = P_actual − P_i of the
+    nominal P_i (ISO 230-2's deviation). Otherwise nothing changes (the mismatch is reported
+    as before).
+
+    Parameters
+    ----------
+    target : numpy.ndarray
+        The table's target column [m or rad].
+    x : numpy.ndarray
+        Deviations [m or rad].
+    from_actual : bool
+        ``x`` is P_actual − target (recomputed against the nominal target).
+    nominal : tuple of float
+        ``[iso230] targets`` [m or rad].
+    travel : float
+        Range of ``target`` [m or rad].
+    unit : {"m", "rad"}
+    col : str
+        The target column's name in the file (for the warning).
+
+    Returns
+    -------
+    target, x : numpy.ndarray
+    note : str or None
+        The warning when a row was moved beyond float round-off.
+    """
+    nom = np.sort(np.asarray(nominal, dtype=np.float64))
+    idx = np.argmin(np.abs(target[:, None] - nom[None, :]), axis=1)
+    off = target - nom[idx]
+    tol = 1e-4 * max(travel, 1e-300)
+    if not np.all(np.abs(off) <= tol) or np.unique(idx).size != nom.size:
+        return target, x, None
+    snapped = nom[idx]
+    x_new = x + off if from_actual else x  # P_actual − P_i = (P_actual − target) + (target − P_i)
+    worst = float(np.max(np.abs(off)))
+    note = None
+    if worst > 1e-6 * max(travel, 1e-300):  # beyond the clustering's round-off (TARGET_TOLERANCE)
+        shown = f"{worst * 1e6:.3g} µm" if unit == "m" else f"{math.degrees(worst) * 3600:.3g} arcsec"
+        note = (
+            f"column {col!r}: targets differ from the nominal [iso230] targets by up to {shown}"
+            " (the control's actual position?): each row taken at its nominal target"
+        )
+    return snapped, x_new, note
+
+
+def _scatter_hint(target: np.ndarray, travel: float, unit: str) -> str:
+    """For "unequal targets": when the target column scatters by little around fewer positions
+    (grouped at 1e-4 of the travel), say so and how to give the nominal targets (s19 F14)."""
+    from drivelash.iso230.evaluate import TARGET_TOLERANCE, cluster_targets
+
+    fine, _ = cluster_targets(target, TARGET_TOLERANCE)
+    coarse, labels = cluster_targets(target, 1e-4)
+    if coarse.size < 2 or coarse.size >= fine.size:
+        return ""
+    worst = float(np.max(np.abs(target - coarse[labels])))
+    shown = f"{worst * 1e6:.3g} µm" if unit == "m" else f"{math.degrees(worst) * 3600:.3g} arcsec"
+    return (
+        f"; the column scatters by up to {shown} around {coarse.size} positions (the control's actual"
+        " position?): give the nominal targets as [iso230] targets = [...] (m or rad)"
+    )
+
+
 def _check_spread(x: np.ndarray, travel: float, source: str, col: str, unit: str) -> None:
     spread = float(np.ptp(x))
     if travel > 0 and spread > MAX_DEVIATION_FRACTION * travel:
@@ -232,6 +358,22 @@ def _offset_warning(x: np.ndarray, travel: float, unit: str) -> list[str]:
     return []
 
 
+#: What a direction column holds (added to a "not a number" in it, s19 F9).
+DIRECTION_HINT = (
+    "a direction is +1 (approach in the positive direction) or -1 (negative):"
+    " write the column as numbers (Up/Down, fwd/bwd, +/- are not read)"
+)
+
+
+def _direction_columns(mapping: Any) -> set[str]:
+    """The file's column names that hold the approach direction (mapped or named so)."""
+    cols = {"direction"}
+    for src, cm in (getattr(mapping, "columns", None) or {}).items():
+        if getattr(cm, "column", None) == "direction":
+            cols.add(src)
+    return cols
+
+
 def _read_table(path: Path, mapping: Any, params: Iso230Params, table: Any) -> Measurement:
     src = str(path)
     cols, origin = table.columns, table.origin
@@ -252,10 +394,11 @@ def _read_table(path: Path, mapping: Any, params: Iso230Params, table: Any) -> M
         x = cols["x_dev"]
         dev_col = origin.get("x_dev", "x_dev")
     elif "P_actual" in cols:
-        _check_scale(
-            cols["P_actual"], target, src, origin.get("P_actual", "P_actual"), origin.get(tcol, tcol)
+        actual, wrap_note = _unwrap_angles(
+            cols["P_actual"], target, unit, travel, origin.get("P_actual", "P_actual")
         )
-        x = cols["P_actual"] - target
+        _check_scale(actual, target, src, origin.get("P_actual", "P_actual"), origin.get(tcol, tcol))
+        x = actual - target
         dev_col = origin.get("P_actual", "P_actual")
     else:
         raise DataError(
@@ -264,11 +407,21 @@ def _read_table(path: Path, mapping: Any, params: Iso230Params, table: Any) -> M
             column="x_dev",
         )
     _check_spread(x, travel, src, dev_col, unit)
+    snap_note = None
+    if params.targets:
+        target, x, snap_note = _on_nominal_targets(
+            target, x, "x_dev" not in cols, params.targets, travel, unit, origin.get(tcol, tcol)
+        )
     names = {"target": origin.get(tcol, tcol), "run": origin.get("run", "run")}
     names |= {"direction": origin.get("direction", "direction"), "deviation": dev_col}
-    ap = approaches_from_rows(
-        target, cols["run"], cols["direction"], x, unit=unit, source=src, columns=names, rows=table.rows
-    )
+    try:
+        ap = approaches_from_rows(
+            target, cols["run"], cols["direction"], x, unit=unit, source=src, columns=names, rows=table.rows
+        )
+    except DataError as exc:
+        if not params.targets and "unequal targets" in str(exc):
+            exc.args = (str(exc) + _scatter_hint(target, travel, unit),)
+        raise
     if params.targets:
         nominal = np.sort(np.asarray(params.targets, dtype=np.float64))
         if nominal.size != ap.m or np.max(np.abs(nominal - ap.targets)) > 1e-4 * max(travel, 1e-300):
@@ -279,15 +432,25 @@ def _read_table(path: Path, mapping: Any, params: Iso230Params, table: Any) -> M
                 column=names["target"],
             )
     warnings = list(table.meta.get("warnings", [])) + list(ap.warnings) + _tiny_warning(x, unit, dev_col)
+    if "x_dev" not in cols and wrap_note:
+        warnings.append(wrap_note)
+    if snap_note:
+        warnings.append(snap_note)
     return Measurement("table", unit, ap, None, None, None, src, warnings)  # type: ignore[arg-type]
 
 
 def _read_series(path: Path, mapping: Any, params: Iso230Params, dwell: DwellParams) -> Measurement:
     from drivelash.io.config import UNIT_KIND
-    from drivelash.io.load import load_trace
+    from drivelash.io.load import RESAMPLE_HINT, load_trace
 
     src = str(path)
-    trace = load_trace(path, mapping, required=("P_cmd", "P_actual"), check_saturation=False)
+    try:
+        trace = load_trace(path, mapping, required=("P_cmd", "P_actual"), check_saturation=False)
+    except DataError as exc:  # iso230 has no --resample option: name only what it takes (s19 F21)
+        text = str(exc)
+        if RESAMPLE_HINT in text:
+            exc.args = (text.replace(RESAMPLE_HINT, RESAMPLE_HINT_ISO230),)
+        raise
     origin: dict[str, str] = {}
     kinds: dict[str, str] = {}
     for source_col, cm in (trace.meta.get("mapping") or {}).items():
@@ -350,7 +513,12 @@ def read_measurement(
     kind = params.input
     table = None
     if kind in ("auto", "table"):
-        table = load_table(p, mapping)
+        try:
+            table = load_table(p, mapping)
+        except DataError as exc:  # words in the direction column (Up/Down, fwd/bwd): say what it holds
+            if exc.column in _direction_columns(mapping) and "not a number" in str(exc):
+                exc.args = (f"{exc}; {DIRECTION_HINT}",)
+            raise
         if kind == "auto":
             cols = table.columns
             kind = "table" if ("run" in cols and "direction" in cols) else "timeseries"

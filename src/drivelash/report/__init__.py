@@ -131,9 +131,11 @@ def render_estimate_report(
     title : str, optional
         Page title; default ``"drivelash estimate — <trace source>"``.
     summary : dict, optional
-        The command's JSON (``estimate --identify``): its offline δ with the 95 % interval, the
-        agreement verdict and the drive the estimator was given (``drivetrain_used``,
-        ``delta1_used``) are shown beside the configuration, which then lacks them.
+        The command's JSON: its ``warnings`` (the estimator's, as the terminal prints them;
+        without a summary the result's ``warnings``) are shown under the verdict; with
+        ``estimate --identify`` its offline δ with the 95 % interval, the agreement verdict and
+        the drive the estimator was given (``drivetrain_used``, ``delta1_used``) are shown
+        beside the configuration, which then lacks them.
     """
     summary = summary or {}
     t = np.asarray(result.t)
@@ -290,9 +292,16 @@ def render_estimate_report(
     # the estimator's own statistics, as in the JSON's "extra" (SI units, not converted)
     extra = getattr(result, "extra", {}) or {}
     diag_rows = [[k, v] for k, v in extra.items() if isinstance(v, int | float | str | bool)]
+    # the estimator's warnings, as the terminal and the JSON give them ("… the estimate is not a
+    # measurement"); the reader's are shown with the recording
+    loaded = set(trace.meta.get("warnings", []))
+    said = summary["warnings"] if "warnings" in summary else getattr(result, "warnings", None)
+    est_warn = [
+        f'<div class="warn">{_esc(w)}</div>' for w in said or [] if isinstance(w, str) and w not in loaded
+    ]
     sec_est = Section(
         "Deadzone estimate",
-        raw=[verdict_html],
+        raw=[verdict_html, *est_warn],
         tables=[
             ("Figures of merit", ["quantity", "value"], figs_rows),
             (

@@ -239,8 +239,27 @@ def render_iso230_report(
     *,
     axis_result: Any | None = None,
     title: str | None = None,
+    warnings: list[str] | None = None,
 ) -> str:
-    """The HTML report of an ISO 230-2 evaluation (self-contained, no scripts)."""
+    """The HTML report of an ISO 230-2 evaluation (self-contained, no scripts).
+
+    Parameters
+    ----------
+    result : Iso230Result
+        The evaluation (positions in m or rad).
+    meas : Measurement
+        What was read (source, kind, dwells, drift).
+    comparison : Comparison, optional
+        B beside the deadzone; a deadzone with a ``note`` (an unconverged estimate) is
+        flagged next to its number.
+    axis_result : Iso230Result, optional
+        The reference against the axis's own encoder.
+    title : str, optional
+        Page title.
+    warnings : list of str, optional
+        Every warning of the run, as the terminal and the JSON give them (the reader's, the
+        deadzone's, the drift's, the history's); None: the reader's (``meas.warnings``).
+    """
     pl, pf, dl, df = display_units(result.unit)
     sections: list[Section] = []
     esc = html.escape
@@ -314,15 +333,15 @@ def render_iso230_report(
         )
         cs.raw.append(verdict)
         dz = c.deadzone
+        if dz.note:  # an estimate the estimator did not call converged: said next to its number
+            cs.raw.append(f'<div class="warn">{esc(dz.note)}</div>')
         cs.tables.append(
             (
                 f"Lost motion at the load [{dl}] (expanded uncertainty U = 2u)",
                 ["source", "value", "u", "U (B: 95 % interval)"],
                 [
                     [
-                        "ISO test: −B̄"
-                        + (" + compensation" if c.compensation else "")
-                        + (" (drift removed)" if c.drift_correction else ""),
+                        f"ISO test: {c.iso_label}",
                         _f(c.L_iso, df),
                         _f(c.u_L_iso, df),
                         _f(2 * c.u_L_iso, df),
@@ -334,7 +353,8 @@ def render_iso230_report(
                         f"[{_f(c.B_interval[0], df)}, {_f(c.B_interval[1], df)}]",
                     ],
                     [
-                        f"estimated deadzone δ = {dz.delta * 1e3:.4g} mrad × {c.factor * df:.5g} {dl}/rad",
+                        f"estimated deadzone δ = {dz.delta * 1e3:.4g} mrad × {c.factor * df:.5g} {dl}/rad"
+                        + (" (not converged: see above)" if dz.note else ""),
                         _f(c.L_delta, df),
                         _f(c.u_L_delta, df),
                         _f(None if c.u_L_delta is None else 2 * c.u_L_delta, df),
@@ -417,9 +437,10 @@ def render_iso230_report(
         ds.figures.append(_dwell_zoom(meas))
         sections.append(ds)
 
-    if meas.warnings:
+    shown = list(meas.warnings) if warnings is None else list(warnings)
+    if shown:
         ws = Section("Warnings")
-        ws.raw.extend(f'<div class="warn">{esc(w)}</div>' for w in meas.warnings)
+        ws.raw.extend(f'<div class="warn">{esc(w)}</div>' for w in shown)
         sections.append(ws)
 
     defs = Section("Definitions (ISO 230-2:2014)")
