@@ -28,7 +28,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
-from datetime import datetime
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
@@ -628,7 +628,11 @@ def _ingest(
     # a duplicate keeps the stored recording (and its time): count only the moves re-dated
     copies = {d.split(": same content as ", 1)[0] for d in rep.duplicates}
     rep.renamed_dated = sum(p not in copies for p in renamed)
+    now = datetime.now(UTC).replace(tzinfo=None)
+    future: list[EstimateRow] = [r for r in known if _future(r, now)]
     for row in results:
+        if _future(row, now):
+            future.append(row)
         done += 1
         rep.compute_s += row.runtime_s
         if row.status != "ok":
@@ -640,12 +644,32 @@ def _ingest(
         if progress is not None:
             progress(done, len(tasks))
     flush()
+    from drivelash.wear.alarms import FUTURE_TOLERANCE_DAYS
+
+    for row in future:
+        rep.warnings.append(
+            f"{row.path}: dated {row.start_time:%Y-%m-%d %H:%M} UTC, more than "
+            f"{FUTURE_TOLERANCE_DAYS:g} day after the time of this ingest ({now:%Y-%m-%d %H:%M} UTC): "
+            "left out of the axis's trend, forecast and alarms — a wrong clock or file name?"
+        )
     if update_alarms:
         from drivelash.wear.alarms import refresh_alarms
 
-        refresh_alarms(store, [a.name for a in fleet.axes])
+        refresh_alarms(store, [a.name for a in fleet.axes], fleet)
     rep.wall_s = time.perf_counter() - t0
     return rep
+
+
+def _future(row: EstimateRow, now: datetime) -> bool:
+    """Whether a result is dated more than ``alarms.FUTURE_TOLERANCE_DAYS`` after ``now``
+    (naive UTC)."""
+    from drivelash.wear.alarms import FUTURE_TOLERANCE_DAYS
+
+    t = row.start_time
+    if t is None:
+        return False
+    t = utc_naive(t)
+    return t > now + timedelta(days=FUTURE_TOLERANCE_DAYS)
 
 
 def _what_was_written(rep: IngestReport) -> str:
