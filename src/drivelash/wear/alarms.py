@@ -231,6 +231,37 @@ def _axis_notes(
     return out
 
 
+def twin_groups(rows: list[dict[str, Any]]) -> list[list[dict[str, Any]]]:
+    """Groups of an axis's stored recordings (store rows, status ok) that share the start time,
+    the duration and the sample count but not the content: almost surely one measurement
+    exported twice (CSV and Parquet), which the content hash cannot tell; each would count in
+    the trend (s19 tester, F12). Sorted by start time."""
+    groups: dict[tuple[Any, ...], list[dict[str, Any]]] = {}
+    for r in rows:
+        if r["status"] != "ok" or r["start_time"] is None or not r.get("samples"):
+            continue
+        groups.setdefault((r["start_time"], r["duration_s"], r["samples"]), []).append(r)
+    return [
+        sorted(g, key=lambda r: r["path"])
+        for k, g in sorted(groups.items(), key=lambda kv: kv[0][0])
+        if len({r["content_hash"] for r in g}) > 1
+    ]
+
+
+def twin_note(name: str, groups: list[list[dict[str, Any]]]) -> str | None:
+    """The one line naming :func:`twin_groups` of axis ``name`` (None when none)."""
+    if not groups:
+        return None
+    g = groups[0]
+    more = f" (and {count(len(groups) - 1, 'more start time')})" if len(groups) > 1 else ""
+    return (
+        f"{name}: {len(g)} recordings start at {g[0]['start_time']:%Y-%m-%d %H:%M:%S} UTC with the same "
+        f"duration ({g[0]['duration_s']:g} s) and sample count ({g[0]['samples']}){more} — the same "
+        f"recording exported twice? ({', '.join(r['path'] for r in g)}); each counts in the trend: "
+        "keep one file or narrow the axis's 'recordings'"
+    )
+
+
 def _days(d: float) -> str:
     """A day count as the horizon is given: "1 day", "60 days", "0.5 days"."""
     return f"{d:g} day" if d == 1 else f"{d:g} days"
@@ -251,12 +282,15 @@ def _file_id(path: str | os.PathLike[str]) -> tuple[int, int] | None:
     return st.st_dev, st.st_ino
 
 
-def matched_files(spec: Any) -> frozenset[tuple[int, int]]:
+def matched_files(spec: Any) -> frozenset[tuple[int, int]] | None:
     """The identities (device, inode) of the files an axis's ``recordings`` glob matches now
-    (``spec``: an :class:`~drivelash.wear.fleet.AxisSpec`). By identity, not by path string: a
-    fleet file reached through another path (relative, a symlinked directory) names the same
-    files with other strings."""
-    return frozenset(i for i in (_file_id(p) for p in spec.files()) if i is not None)
+    (``spec``: an :class:`~drivelash.wear.fleet.AxisSpec`); None when it matches no file. By
+    identity, not by path string: a fleet file reached through another path (relative, a
+    symlinked directory) names the same files with other strings. A glob that matches nothing
+    (a copy of the fleet file elsewhere, an unmounted share; ingest warns about it) says nothing
+    about which stored recordings belong to the axis: None, nothing is left out."""
+    ids = frozenset(i for i in (_file_id(p) for p in spec.files()) if i is not None)
+    return ids or None
 
 
 def split_unmatched(
@@ -314,6 +348,9 @@ def axis_summary(store: Store, axis: dict[str, Any], now: datetime | None = None
     if fc is not None and fc.t_cross is not None and t_now is not None:
         remaining = fc.t_cross - t_now
     notes = _axis_notes(axis["name"], trend, used, unmatched, future, axis.get("fleet_file"))
+    twins = twin_note(axis["name"], twin_groups(rows))
+    if twins is not None:
+        notes.append(twins)
     return {
         "axis": axis["name"],
         "threshold_rad": axis["threshold_rad"],

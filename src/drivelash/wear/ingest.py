@@ -328,7 +328,10 @@ def check_files(fleet: Fleet) -> None:
         One line naming the fleet file and the axis: a file (resolved path) matched by the
         ``recordings`` of two axes (it would be estimated with both axes' drive parameters);
         a ``time`` taken from the file name that dates none of the axis's files (a ``format``
-        or ``pattern`` that does not fit the names: every recording would be stored as failed).
+        or ``pattern`` that does not fit the names: every recording would be stored as failed);
+        a ``time`` column whose first file starts before
+        :data:`~drivelash.wear.estimate.EARLIEST_COLUMN_START` (a relative time, not POSIX
+        time stamps: every recording would be dated 1970-01-01).
     """
     from drivelash.errors import ConfigError
     from drivelash.wear.estimate import recording_start
@@ -346,6 +349,19 @@ def check_files(fleet: Fleet) -> None:
                     f"matched by [[axis]] #{j + 1} (id {b.name!r}) too (a recording belongs to one axis: "
                     "it would be estimated with both axes' drives); nothing was written"
                 )
+        if a.time.source == "column" and files:
+            # a relative time column (t from 0 s) dated every recording 1970-01-01 silently:
+            # the first file shows it, before anything is written
+            try:
+                recording_start(files[0], a.time)
+            except DrivelashError as exc:
+                reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+                if "relative time" in reason:
+                    raise ConfigError(
+                        f"{fleet.path}: table [[axis]] #{k + 1} (id {a.name!r}), key 'time.column' = "
+                        f"{a.time.column!r}: {reason} — date the recordings by 'filename', 'mtime' or "
+                        "'metadata', or name a column of POSIX or ISO 8601 time stamps; nothing was written"
+                    ) from None
         if a.time.source != "filename" or not files:
             continue
         first = None
@@ -630,7 +646,9 @@ def _ingest(
     rep.renamed_dated = sum(p not in copies for p in renamed)
     now = datetime.now(UTC).replace(tzinfo=None)
     future: list[EstimateRow] = [r for r in known if _future(r, now)]
+    new_paths: set[str] = set()
     for row in results:
+        new_paths.add(row.path)
         if _future(row, now):
             future.append(row)
         done += 1
@@ -652,12 +670,32 @@ def _ingest(
             f"{FUTURE_TOLERANCE_DAYS:g} day after the time of this ingest ({now:%Y-%m-%d %H:%M} UTC): "
             "left out of the axis's trend, forecast and alarms — a wrong clock or file name?"
         )
+    _warn_twins(fleet, store, new_paths, rep.warnings)
     if update_alarms:
         from drivelash.wear.alarms import refresh_alarms
 
         refresh_alarms(store, [a.name for a in fleet.axes], fleet)
     rep.wall_s = time.perf_counter() - t0
     return rep
+
+
+def _warn_twins(fleet: Fleet, store: Store, new_paths: set[str], warnings: list[str]) -> None:
+    """One warning per axis whose recordings estimated by this ingest share start time,
+    duration and sample count with another stored recording of the axis (the same measurement
+    exported twice: :func:`~drivelash.wear.alarms.twin_groups`)."""
+    if not new_paths:
+        return
+    from drivelash.wear.alarms import twin_groups, twin_note
+
+    for a in store.axes():
+        if a["name"] not in {x.name for x in fleet.axes}:
+            continue
+        groups = [
+            g for g in twin_groups(store.current_estimates(a)) if any(r["path"] in new_paths for r in g)
+        ]
+        note = twin_note(a["name"], groups)
+        if note is not None:
+            warnings.append(note)
 
 
 def _future(row: EstimateRow, now: datetime) -> bool:
