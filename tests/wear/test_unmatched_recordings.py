@@ -44,7 +44,13 @@ def _wrong_then_fixed(small_fleet: Path, tmp_path: Path) -> tuple[Path, Store]:
     d = tmp_path / "f"
     st = Store(tmp_path / "w.sqlite")
     ingest(load_fleet(_fleet(small_fleet, d, "M02/Y")), st, workers=1)
-    ingest(load_fleet(_fleet(small_fleet, d, "M01/X")), st, workers=1)
+    rep = ingest(load_fleet(_fleet(small_fleet, d, "M01/X")), st, workers=1)
+    # the ingest that knows the corrected glob says so in one line
+    assert [w for w in rep.warnings if "no longer matched" in w] == [
+        next(
+            n for n in fleet_summary(st, load_fleet(d / "fleet.toml"))[0]["notes"] if "no longer matched" in n
+        )
+    ]
     return d / "fleet.toml", st
 
 

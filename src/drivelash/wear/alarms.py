@@ -185,6 +185,20 @@ def _in_fit(trend: AxisTrend, r: dict[str, Any]) -> bool:
     return bool(np.any(hit & trend.inlier))
 
 
+def unmatched_note(name: str, unmatched: list[dict[str, Any]], fleet_file: str | None) -> str:
+    """The one line naming the stored recordings of axis ``name`` that :func:`split_unmatched`
+    left out (``fleet_file``: the fleet file's name)."""
+    n = len(unmatched)
+    it, they = ("it", "it counts") if n == 1 else ("them", "they count")
+    return (
+        f"{name}: {count(n, 'stored recording')} left out: "
+        + ("its file still exists but is" if n == 1 else "their files still exist but are")
+        + f" no longer matched by the axis's 'recordings' in {fleet_file or 'the fleet file'} "
+        f"(e.g. {unmatched[0]['path']}); kept in the store, {they} again if the glob matches "
+        f"{it} again"
+    )
+
+
 def _axis_notes(
     name: str,
     trend: AxisTrend,
@@ -198,15 +212,7 @@ def _axis_notes(
     below the trend that the judgement does not extrapolate to (:func:`~drivelash.wear.trend.judged_at`)."""
     out: list[str] = []
     if unmatched:
-        n = len(unmatched)
-        it, they = ("it", "it counts") if n == 1 else ("them", "they count")
-        out.append(
-            f"{name}: {count(n, 'stored recording')} left out: "
-            + ("its file still exists but is" if n == 1 else "their files still exist but are")
-            + f" no longer matched by the axis's 'recordings' in {fleet_file or 'the fleet file'} "
-            f"(e.g. {unmatched[0]['path']}); kept in the store, {they} again if the glob matches "
-            f"{it} again"
-        )
+        out.append(unmatched_note(name, unmatched, fleet_file))
     if future:
         n = len(future)
         first = min(future, key=lambda r: r["start_time"])

@@ -670,7 +670,7 @@ def _ingest(
             f"{FUTURE_TOLERANCE_DAYS:g} day after the time of this ingest ({now:%Y-%m-%d %H:%M} UTC): "
             "left out of the axis's trend, forecast and alarms — a wrong clock or file name?"
         )
-    _warn_twins(fleet, store, new_paths, rep.warnings)
+    _warn_store_notes(fleet, store, new_paths, rep.warnings)
     if update_alarms:
         from drivelash.wear.alarms import refresh_alarms
 
@@ -679,23 +679,27 @@ def _ingest(
     return rep
 
 
-def _warn_twins(fleet: Fleet, store: Store, new_paths: set[str], warnings: list[str]) -> None:
-    """One warning per axis whose recordings estimated by this ingest share start time,
-    duration and sample count with another stored recording of the axis (the same measurement
-    exported twice: :func:`~drivelash.wear.alarms.twin_groups`)."""
-    if not new_paths:
-        return
-    from drivelash.wear.alarms import twin_groups, twin_note
+def _warn_store_notes(fleet: Fleet, store: Store, new_paths: set[str], warnings: list[str]) -> None:
+    """Per axis of ``fleet``, one warning line for its stored recordings that the fleet file no
+    longer matches (their files exist: left out of its trend and alarms,
+    :func:`~drivelash.wear.alarms.split_unmatched`), and one for its recordings estimated by this
+    ingest that share start time, duration and sample count with another stored recording of
+    the axis (the same measurement exported twice: :func:`~drivelash.wear.alarms.twin_groups`)."""
+    from drivelash.wear.alarms import matched_files, split_unmatched, twin_groups, twin_note, unmatched_note
 
+    specs = {x.name: x for x in fleet.axes}
     for a in store.axes():
-        if a["name"] not in {x.name for x in fleet.axes}:
+        spec = specs.get(a["name"])
+        if spec is None:
             continue
-        groups = [
-            g for g in twin_groups(store.current_estimates(a)) if any(r["path"] in new_paths for r in g)
-        ]
-        note = twin_note(a["name"], groups)
-        if note is not None:
-            warnings.append(note)
+        rows, out = split_unmatched(store.current_estimates(a), matched_files(spec))
+        if out:
+            warnings.append(unmatched_note(a["name"], out, fleet.path.name))
+        if new_paths:
+            groups = [g for g in twin_groups(rows) if any(r["path"] in new_paths for r in g)]
+            note = twin_note(a["name"], groups)
+            if note is not None:
+                warnings.append(note)
 
 
 def _future(row: EstimateRow, now: datetime) -> bool:
