@@ -2,7 +2,9 @@
 
 Alarm kinds (each keyed so the same event is raised once and cleared when it no longer holds):
 
-* ``threshold`` — the fitted δ at the latest used recording is at or above the threshold, or
+* ``threshold`` — the fitted δ at the latest used recording (never extrapolated across a gap to
+  a later estimate far below the trend: :func:`~drivelash.wear.trend.judged_at`) is at or above
+  the threshold, or
   the latest excited estimate lies above it by more than :data:`THRESHOLD_Z` of its stated
   uncertainty (also when the trend cannot use it: too few estimates, an outlier or the first
   recording after a jump);
