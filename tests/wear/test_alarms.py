@@ -155,6 +155,33 @@ def test_a_forecast_whose_crossing_has_passed_without_data_is_called_stale():
     assert stale_notes([aware], now=now.replace(tzinfo=UTC))[0][0] == "M02/Y"
 
 
+def test_a_stale_note_does_not_say_no_recording_when_later_unexcited_ones_exist():
+    """s19 tester, F17: "has passed with no recording since the last one (2026-01-13 UTC)" while
+    three later recordings were in the store, unexcited (cut to 2 s) — and "record the axis
+    again", which the user had done. Now it says no *usable estimate* since, counts the later
+    recordings by why, and asks for a motion that crosses the gap. Negative control: without
+    later recordings the old wording stays."""
+    from drivelash.wear.alarms import stale_notes
+
+    last = datetime(2026, 1, 13, 7)
+
+    def row(day, excited=False, status="ok"):
+        return {"start_time": datetime(2026, 1, day, 7), "status": status, "excitation_ok": excited,
+                "delta": 0.1, "converged": True, "delta_std": 1e-4}  # fmt: skip
+
+    base = {"axis": "M01/Y", "crossing": datetime(2026, 1, 15), "crossed": False, "last_recording": last}
+    later = [row(14), row(15), row(16), row(17, status="failed")]
+    ((_, msg),) = stale_notes(
+        [{**base, "rows": [row(12, True), row(13, True), *later]}], now=datetime(2026, 11, 29)
+    )
+    assert "no recording since" not in msg
+    assert "no usable estimate since 2026-01-13 UTC" in msg
+    assert "4 later recordings: 3 not excited, 1 failed" in msg
+    assert "record the axis again with a motion that crosses the gap" in msg
+    ((_, old),) = stale_notes([{**base, "rows": [row(12, True), row(13, True)]}], now=datetime(2026, 11, 29))
+    assert "with no recording since the last one (2026-01-13 UTC" in old
+
+
 def test_only_excited_estimates_enter_the_trend_unconverged_ones_up_to_5_mrad_at_95_percent():
     """README: "only excited estimates enter the trend — converged ones, and unconverged ones whose
     stated 95 % uncertainty is at most 5 mrad". 95 % = 1.96 σ; the boundary from both sides."""

@@ -195,6 +195,9 @@ def run_status(
         if note is not None:
             c.print(f"[yellow]note[/yellow] {escape(note)}")
         for s in summ:
+            for n in s.get("notes", []):
+                c.print(f"[yellow]note[/yellow] {escape(n)}")
+        for s in summ:
             for a in s["alarms"]:
                 c.print(f"[red]alarm[/red] {escape(a.kind)}: {escape(a.message)}")
         for name, msg in stale_notes(summ):
@@ -304,6 +307,7 @@ def forecast_json(s: dict[str, Any]) -> dict[str, Any]:
         "failed": s["failed"],
         "outliers": s["outliers"],
         "last_recording": iso(s["last_recording"]),
+        "judged_at": iso(s.get("judged_at")),
         "current_rad": s["current_rad"],
         "noise_rad": s["noise_rad"],
         "model": s["model"],
@@ -320,6 +324,9 @@ def forecast_json(s: dict[str, Any]) -> dict[str, Any]:
         "crossing_90_late_never": s["crossing_late_never"],
         "days_to_threshold": s["days_to_threshold"],
         "stale": _stale(s),
+        "unmatched": s.get("unmatched", 0),
+        "future": s.get("future", 0),
+        "notes": s.get("notes", []),
         "change_points": [{"time": iso(c["time"]), "size_rad": c["size_rad"]} for c in s["change_points"]],
         "alarms": [
             {"kind": a.kind, "message": a.message, "data_time": iso(a.data_time)} for a in s["alarms"]
@@ -442,6 +449,8 @@ def _print_forecast(s: dict[str, Any]) -> None:
         c.print("  no crossing forecast: the trend does not reach the threshold within the look-ahead")
     for cp in s["change_points"]:
         c.print(f"  jump of {1e3 * cp['size_rad']:+.2f} mrad at {day(cp['time'])}")
+    for n in s.get("notes", []):
+        c.print(f"  [yellow]note[/yellow] {escape(n)}")
     for a in s["alarms"]:
         c.print(f"  [red]alarm[/red] {escape(a.kind)}: {escape(a.message)}")
 
@@ -473,7 +482,7 @@ def run_report(
             meas,
             title="drivelash fleet wear report",
             store=label or store.name,
-            notes=[note] if note else [],
+            notes=([note] if note else []) + [n for s in summ for n in s.get("notes", [])],
         )
         assert target is not None
         write_fleet_report(out.staging(target), text)

@@ -2,7 +2,9 @@
 
 Alarm kinds (each keyed so the same event is raised once and cleared when it no longer holds):
 
-* ``threshold`` — the fitted δ at the latest used recording is at or above the threshold, or
+* ``threshold`` — the fitted δ at the latest used recording (never extrapolated across a gap to
+  a later estimate far below the trend: :func:`~drivelash.wear.trend.judged_at`) is at or above
+  the threshold, or
   the latest excited estimate lies above it by more than :data:`THRESHOLD_Z` of its stated
   uncertainty (also when the trend cannot use it: too few estimates, an outlier or the first
   recording after a jump);
@@ -18,8 +20,9 @@ Alarm kinds (each keyed so the same event is raised once and cleared when it no 
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
-from datetime import UTC, datetime
+from datetime import UTC, datetime, timedelta
 from typing import Any
 
 import numpy as np
@@ -44,6 +47,11 @@ __all__ = [
 #: A single estimate raises the threshold alarm when δ̂ − THRESHOLD_Z·σ ≥ threshold (σ its stated
 #: uncertainty, else the axis's noise scale): one-sided 95 % that the recording's δ is above.
 THRESHOLD_Z = 1.645
+#: A recording dated more than this many days after the time of the judgement (the clock at
+#: ingest/status) is dated in the future and left out of the trend: a controller clock set to
+#: local time and read as UTC is at most 14 h ahead (UTC+14), plus clock drift of minutes; one
+#: day covers both, while a date a month or years ahead (a wrong clock) is caught.
+FUTURE_TOLERANCE_DAYS = 1.0
 
 
 @dataclass(frozen=True)
@@ -61,7 +69,10 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
     out: list[Alarm] = []
     name = axis["name"]
     thr = axis["threshold_rad"]
-    last_used = trend.to_time(float(trend.t[-1])) if trend.t.size else None
+    # the time the trend is judged at (trend.judged_at): never an extrapolation to an estimate
+    # that contradicts it
+    t_now = trend.t_now if trend.t_now is not None else (float(trend.t[-1]) if trend.t.size else None)
+    last_used = trend.to_time(t_now)
     fc = trend.forecast
     ok_rows = sorted(
         (r for r in rows if r["status"] == "ok"), key=lambda r: (r["start_time"] or datetime.min, r["path"])
@@ -101,11 +112,11 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
                     "threshold",
                     "crossed",
                     f"{name}: backlash above the threshold {1e3 * thr:.2f} mrad "
-                    f"(fitted {1e3 * float(trend.curve(trend.t[-1:])[0][0]):.2f} mrad)",
+                    f"(fitted {1e3 * float(trend.curve(np.array([t_now]))[0][0]):.2f} mrad)",
                     last_used,
                 )
             )
-        elif fc.t_early is not None and fc.t_early - float(trend.t[-1]) <= axis["horizon_days"]:
+        elif fc.t_early is not None and t_now is not None and fc.t_early - t_now <= axis["horizon_days"]:
             when, early = trend.to_time(fc.t_cross), trend.to_time(fc.t_early)
             late = trend.to_time(fc.t_late) if fc.t_late is not None and math.isfinite(fc.t_late) else None
             minute = to_the_minute(early, late)  # the fleet table's rule for the same interval
@@ -176,6 +187,89 @@ def _in_fit(trend: AxisTrend, r: dict[str, Any]) -> bool:
     return bool(np.any(hit & trend.inlier))
 
 
+def unmatched_note(name: str, unmatched: list[dict[str, Any]], fleet_file: str | None) -> str:
+    """The one line naming the stored recordings of axis ``name`` that :func:`split_unmatched`
+    left out (``fleet_file``: the fleet file's name)."""
+    n = len(unmatched)
+    it, they = ("it", "it counts") if n == 1 else ("them", "they count")
+    return (
+        f"{name}: {count(n, 'stored recording')} left out: "
+        + ("its file still exists but is" if n == 1 else "their files still exist but are")
+        + f" no longer matched by the axis's 'recordings' in {fleet_file or 'the fleet file'} "
+        f"(e.g. {unmatched[0]['path']}); kept in the store, {they} again if the glob matches "
+        f"{it} again"
+    )
+
+
+def _axis_notes(
+    name: str,
+    trend: AxisTrend,
+    used: list[dict[str, Any]],
+    unmatched: list[dict[str, Any]],
+    future: list[dict[str, Any]],
+    fleet_file: str | None,
+) -> list[str]:
+    """The one-line notes of an axis's summary: stored recordings left out because the fleet
+    file no longer matches them, recordings dated in the future, and latest estimates far
+    below the trend that the judgement does not extrapolate to (:func:`~drivelash.wear.trend.judged_at`)."""
+    out: list[str] = []
+    if unmatched:
+        out.append(unmatched_note(name, unmatched, fleet_file))
+    if future:
+        n = len(future)
+        first = min(future, key=lambda r: r["start_time"])
+        out.append(
+            f"{name}: {count(n, 'recording')} dated more than {_days(FUTURE_TOLERANCE_DAYS)} after now "
+            f"({first['path']}: {first['start_time']:%Y-%m-%d %H:%M} UTC"
+            + (", …" if n > 1 else "")
+            + "): left out of the trend — a wrong clock or file name?"
+        )
+    if trend.model is not None and trend.t_now is not None and trend.t.size:
+        later = np.flatnonzero(trend.t > trend.t_now + 1e-9)
+        if later.size:
+            j = int(later[-1])
+            fit = float(trend.curve(trend.t[j : j + 1])[0][0])
+            if trend.y[j] < fit:
+                out.append(
+                    f"{name}: the latest estimate {1e3 * trend.y[j]:.2f} mrad "
+                    f"({_day(trend.to_time(float(trend.t[j])))}) lies far below the trend "
+                    f"({1e3 * fit:.2f} mrad there) and is left out: the machine stood still, or a wrong "
+                    f"date? The trend is judged at {_day(trend.to_time(trend.t_now))}, not extrapolated to it"
+                )
+    return out
+
+
+def twin_groups(rows: list[dict[str, Any]]) -> list[list[dict[str, Any]]]:
+    """Groups of an axis's stored recordings (store rows, status ok) that share the start time,
+    the duration and the sample count but not the content: almost surely one measurement
+    exported twice (CSV and Parquet), which the content hash cannot tell; each would count in
+    the trend (s19 tester, F12). Sorted by start time."""
+    groups: dict[tuple[Any, ...], list[dict[str, Any]]] = {}
+    for r in rows:
+        if r["status"] != "ok" or r["start_time"] is None or not r.get("samples"):
+            continue
+        groups.setdefault((r["start_time"], r["duration_s"], r["samples"]), []).append(r)
+    return [
+        sorted(g, key=lambda r: r["path"])
+        for k, g in sorted(groups.items(), key=lambda kv: kv[0][0])
+        if len({r["content_hash"] for r in g}) > 1
+    ]
+
+
+def twin_note(name: str, groups: list[list[dict[str, Any]]]) -> str | None:
+    """The one line naming :func:`twin_groups` of axis ``name`` (None when none)."""
+    if not groups:
+        return None
+    g = groups[0]
+    more = f" (and {count(len(groups) - 1, 'more start time')})" if len(groups) > 1 else ""
+    return (
+        f"{name}: {len(g)} recordings start at {g[0]['start_time']:%Y-%m-%d %H:%M:%S} UTC with the same "
+        f"duration ({g[0]['duration_s']:g} s) and sample count ({g[0]['samples']}){more} — the same "
+        f"recording exported twice? ({', '.join(r['path'] for r in g)}); each counts in the trend: "
+        "keep one file or narrow the axis's 'recordings'"
+    )
+
+
 def _days(d: float) -> str:
     """A day count as the horizon is given: "1 day", "60 days", "0.5 days"."""
     return f"{d:g} day" if d == 1 else f"{d:g} days"
@@ -187,21 +281,92 @@ def _day(t: datetime | None) -> str:
     return t.strftime("%Y-%m-%d UTC") if t is not None else "–"
 
 
-def axis_summary(store: Store, axis: dict[str, Any]) -> dict[str, Any]:
-    """Trend, forecast and alarms of one axis (a dict of plain values plus ``trend``)."""
-    rows = store.current_estimates(axis)
+def _file_id(path: str | os.PathLike[str]) -> tuple[int, int] | None:
+    """(device, inode) of an existing file; None when it does not exist (or cannot be read)."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return st.st_dev, st.st_ino
+
+
+def matched_files(spec: Any) -> frozenset[tuple[int, int]] | None:
+    """The identities (device, inode) of the files an axis's ``recordings`` glob matches now
+    (``spec``: an :class:`~drivelash.wear.fleet.AxisSpec`); None when it matches no file. By
+    identity, not by path string: a fleet file reached through another path (relative, a
+    symlinked directory) names the same files with other strings. A glob that matches nothing
+    (a copy of the fleet file elsewhere, an unmounted share; ingest warns about it) says nothing
+    about which stored recordings belong to the axis: None, nothing is left out."""
+    ids = frozenset(i for i in (_file_id(p) for p in spec.files()) if i is not None)
+    return ids or None
+
+
+def split_unmatched(
+    rows: list[dict[str, Any]], files: frozenset[tuple[int, int]] | None
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """(rows judged, rows left out): a stored recording whose file still exists but is no longer
+    matched by the axis's ``recordings`` glob (``files``, :func:`matched_files`; None = the fleet
+    file is not known: nothing left out) is left out — a glob that first pointed at the wrong
+    directory and was corrected. A recording whose file no longer exists (archived, deleted)
+    stays: that is what a history store is for."""
+    if files is None:
+        return rows, []
+    keep: list[dict[str, Any]] = []
+    out: list[dict[str, Any]] = []
+    for r in rows:
+        fid = _file_id(r["path"])
+        (out if fid is not None and fid not in files else keep).append(r)
+    return keep, out
+
+
+def _naive_utc(t: datetime) -> datetime:
+    """A time as the store keeps it: naive UTC."""
+    return t.astimezone(UTC).replace(tzinfo=None) if t.tzinfo is not None else t
+
+
+def axis_summary(store: Store, axis: dict[str, Any], now: datetime | None = None) -> dict[str, Any]:
+    """Trend, forecast and alarms of one axis (a dict of plain values plus ``trend``).
+
+    Parameters
+    ----------
+    store : Store
+        The history store.
+    axis : dict
+        A row of :meth:`~drivelash.wear.store.Store.axes`, with the judging settings of
+        :func:`judged_axes`; with its ``files`` (:func:`matched_files`, set by
+        :func:`judged_axes` when the fleet file is known) the stored recordings whose file
+        exists but is no longer matched are left out (:func:`split_unmatched`).
+    now : datetime, optional
+        The time of the judgement (default: the clock; naive = UTC). A recording dated more than
+        :data:`FUTURE_TOLERANCE_DAYS` after it is left out of the trend and named in
+        ``notes`` (a wrong clock or file name).
+    """
+    rows, unmatched = split_unmatched(store.current_estimates(axis), axis.get("files"))
+    limit = _naive_utc(now or datetime.now(UTC)) + timedelta(days=FUTURE_TOLERANCE_DAYS)
+    future = [r for r in rows if r["start_time"] is not None and _naive_utc(r["start_time"]) > limit]
+    if future:
+        rows = [r for r in rows if not any(r is f for f in future)]
     trend, used = analyse(rows, axis["threshold_rad"])
     alarms = axis_alarms(axis, rows, trend)
     fc = trend.forecast
     last_t = trend.to_time(float(trend.t[-1])) if trend.t.size else None
-    current = float(trend.curve(trend.t[-1:])[0][0]) if trend.model and trend.t.size else None
+    t_now = trend.t_now if trend.model and trend.t_now is not None else None
+    current = float(trend.curve(np.array([t_now]))[0][0]) if t_now is not None else None
     remaining = None
-    if fc is not None and fc.t_cross is not None and trend.t.size:
-        remaining = fc.t_cross - float(trend.t[-1])
+    if fc is not None and fc.t_cross is not None and t_now is not None:
+        remaining = fc.t_cross - t_now
+    notes = _axis_notes(axis["name"], trend, used, unmatched, future, axis.get("fleet_file"))
+    twins = twin_note(axis["name"], twin_groups(rows))
+    if twins is not None:
+        notes.append(twins)
     return {
         "axis": axis["name"],
         "threshold_rad": axis["threshold_rad"],
-        "recordings": len(rows),
+        "recordings": len(rows) + len(future),
+        "unmatched": len(unmatched),
+        "future": len(future),
+        "judged_at": trend.to_time(t_now),
+        "notes": notes,
         "used": len(used),
         "unexcited": sum(1 for r in rows if r["status"] == "ok" and not r["excitation_ok"]),
         # excited, but the estimator did not converge (its 95 % uncertainty above its claim);
@@ -244,6 +409,9 @@ def judged_axes(store: Store, fleet: Any | None = None) -> list[dict[str, Any]]:
     """The store's axes, with the judging settings (threshold, horizon, not-excited count,
     transmission) of ``fleet`` (a :class:`~drivelash.wear.fleet.Fleet`) where it names the axis:
     the store holds the values of the last ingest, the fleet file is what the user means now.
+    Each such axis also gets the files its ``recordings`` glob matches now (``files``,
+    :func:`matched_files`): a stored recording whose file exists but is no longer matched is
+    left out of its summary (:func:`split_unmatched`).
 
     With a ``fleet``, only its axes: an axis removed from the fleet file keeps its history in
     the store but is not judged (:func:`axes_not_in_fleet` names those)."""
@@ -261,6 +429,8 @@ def judged_axes(store: Store, fleet: Any | None = None) -> list[dict[str, Any]]:
             horizon_days=f.horizon_days,
             not_excited_alarm=f.not_excited_alarm,
             transmission_mm_per_rad=f.transmission,
+            files=matched_files(f),
+            fleet_file=fleet.path.name,
         )
         out.append(a)
     return out
@@ -325,11 +495,17 @@ def not_stored_note(names: list[str], fleet_file: str) -> str | None:
     )
 
 
-def fleet_summary(store: Store, fleet: Any | None = None) -> list[dict[str, Any]]:
+def fleet_summary(
+    store: Store, fleet: Any | None = None, now: datetime | None = None
+) -> list[dict[str, Any]]:
     """:func:`axis_summary` of every axis, sorted by forecast time to threshold (soonest first;
     crossed axes first, axes without a forecast last); judged with ``fleet``'s current
-    thresholds when given, and then only ``fleet``'s axes (:func:`judged_axes`)."""
-    out = [axis_summary(store, a) for a in judged_axes(store, fleet)]
+    thresholds when given, and then only ``fleet``'s axes (:func:`judged_axes`); ``now`` as in
+    :func:`axis_summary`."""
+    out = [
+        axis_summary(store, a) if now is None else axis_summary(store, a, now)
+        for a in judged_axes(store, fleet)
+    ]
 
     def key(s: dict[str, Any]) -> tuple:
         if s["crossed"]:
@@ -354,22 +530,51 @@ def stale_notes(summaries: list[dict[str, Any]], now: datetime | None = None) ->
             continue
         ref = now if tc.tzinfo is not None else now.astimezone(UTC).replace(tzinfo=None)
         if tc < ref:
+            last = s.get("judged_at") or last
             age = (ref - last).total_seconds() / 86400.0
+            later = [r for r in s.get("rows", []) if r["start_time"] is not None and r["start_time"] > last]
+            if not later:
+                since = f"with no recording since the last one ({_day(last)}, {count(round(age), 'day')} ago)"
+                advice = "record the axis again"
+            else:
+                failed = sum(1 for r in later if r["status"] != "ok")
+                unexc = sum(1 for r in later if r["status"] == "ok" and not r["excitation_ok"])
+                out_of = sum(1 for r in later if usable(r))
+                other = len(later) - failed - unexc - out_of
+                parts = [
+                    f"{unexc} not excited" if unexc else "",
+                    f"{out_of} left out of the trend" if out_of else "",
+                    f"{other} not usable" if other else "",
+                    f"{failed} failed" if failed else "",
+                ]
+                since = (
+                    f"with no usable estimate since {_day(last)} ({count(round(age), 'day')} ago; "
+                    f"{count(len(later), 'later recording')}: {', '.join(p for p in parts if p)})"
+                )
+                advice = (
+                    "record the axis again with a motion that crosses the gap"
+                    if unexc
+                    else ("check the later recordings")
+                )
             out.append(
                 (
                     s["axis"],
-                    f"the expected crossing {_day(tc)} has passed with no recording since the last one "
-                    f"({_day(last)}, {count(round(age), 'day')} ago): the forecast is stale — "
-                    "record the axis again",
+                    f"the expected crossing {_day(tc)} has passed {since}: the forecast is stale — {advice}",
                 )
             )
     return out
 
 
-def refresh_alarms(store: Store, names: list[str] | None = None) -> list[Alarm]:
-    """Re-evaluate and store the alarms of the named axes (all when None); returns the active ones."""
+def refresh_alarms(store: Store, names: list[str] | None = None, fleet: Any | None = None) -> list[Alarm]:
+    """Re-evaluate and store the alarms of the named axes (all when None); returns the active ones.
+    With ``fleet`` (the ingest's), its axes are judged as :func:`judged_axes` does: a stored
+    recording no longer matched by its axis's glob raises no alarm."""
     active: list[Alarm] = []
-    for a in store.axes():
+    axes = store.axes()
+    if fleet is not None:
+        judged = {a["name"]: a for a in judged_axes(store, fleet)}
+        axes = [judged.get(a["name"], a) for a in axes]
+    for a in axes:
         if names is not None and a["name"] not in names:
             continue
         s = axis_summary(store, a)

@@ -54,13 +54,22 @@ class RecordingTask:
     estimate_rate_hz: float | None = None
 
 
+#: Earliest start time a ``time = {from = "column"}`` stamp may give (naive UTC): an earlier
+#: value is a relative time (seconds since the recording started, as every drive trace's ``t``
+#: column), not a POSIX time stamp. 2000-01-01 is 946 684 800 s: a relative time reaches it only
+#: after 30 years of recording, and no drive recording tracked here predates 2000
+#: (docs/assumptions.md, "Wear tracking").
+EARLIEST_COLUMN_START = datetime(2000, 1, 1)
+
+
 def recording_start(path: Path, spec: TimeSpec, meta: dict[str, Any] | None = None) -> datetime:
     """Start time of a recording (naive UTC) as the fleet's ``time`` table says.
 
     Raises
     ------
     DataError
-        The file name does not match, the column or metadata key is missing or unparsable.
+        The file name does not match, the column or metadata key is missing or unparsable, or
+        the column's first value lies before :data:`EARLIEST_COLUMN_START` (a relative time).
     """
     if spec.source == "filename":
         assert spec.pattern is not None and spec.format is not None
@@ -106,11 +115,21 @@ def recording_start(path: Path, spec: TimeSpec, meta: dict[str, Any] | None = No
             "start time stamp is not finite", path=str(path), column=spec.column, row=0, rows=raw.rows
         )
     try:
-        return datetime.fromtimestamp(v, UTC).replace(tzinfo=None)
+        t = datetime.fromtimestamp(v, UTC).replace(tzinfo=None)
     except (OverflowError, OSError, ValueError):
         raise DataError(
             f"{v!r} is not a POSIX time stamp", path=str(path), column=spec.column, row=0, rows=raw.rows
         ) from None
+    if t < EARLIEST_COLUMN_START:
+        raise DataError(
+            f"starts at {v:g} s, before {EARLIEST_COLUMN_START:%Y-%m-%d}: a relative time (seconds since "
+            "the recording started), not a POSIX time stamp",
+            path=str(path),
+            column=spec.column,
+            row=0,
+            rows=raw.rows,
+        )
+    return t
 
 
 #: Largest recording [bytes] read into memory once, hashed and decoded from the same bytes

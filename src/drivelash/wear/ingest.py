@@ -28,7 +28,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
-from datetime import datetime
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
@@ -328,7 +328,10 @@ def check_files(fleet: Fleet) -> None:
         One line naming the fleet file and the axis: a file (resolved path) matched by the
         ``recordings`` of two axes (it would be estimated with both axes' drive parameters);
         a ``time`` taken from the file name that dates none of the axis's files (a ``format``
-        or ``pattern`` that does not fit the names: every recording would be stored as failed).
+        or ``pattern`` that does not fit the names: every recording would be stored as failed);
+        a ``time`` column whose first file starts before
+        :data:`~drivelash.wear.estimate.EARLIEST_COLUMN_START` (a relative time, not POSIX
+        time stamps: every recording would be dated 1970-01-01).
     """
     from drivelash.errors import ConfigError
     from drivelash.wear.estimate import recording_start
@@ -346,6 +349,19 @@ def check_files(fleet: Fleet) -> None:
                     f"matched by [[axis]] #{j + 1} (id {b.name!r}) too (a recording belongs to one axis: "
                     "it would be estimated with both axes' drives); nothing was written"
                 )
+        if a.time.source == "column" and files:
+            # a relative time column (t from 0 s) dated every recording 1970-01-01 silently:
+            # the first file shows it, before anything is written
+            try:
+                recording_start(files[0], a.time)
+            except DrivelashError as exc:
+                reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+                if "relative time" in reason:
+                    raise ConfigError(
+                        f"{fleet.path}: table [[axis]] #{k + 1} (id {a.name!r}), key 'time.column' = "
+                        f"{a.time.column!r}: {reason} — date the recordings by 'filename', 'mtime' or "
+                        "'metadata', or name a column of POSIX or ISO 8601 time stamps; nothing was written"
+                    ) from None
         if a.time.source != "filename" or not files:
             continue
         first = None
@@ -630,8 +646,14 @@ def _ingest(
     # a duplicate keeps the stored recording (and its time): count only the moves re-dated
     copies = {d.split(": same content as ", 1)[0] for d in rep.duplicates}
     rep.renamed_dated = sum(p not in copies for p in renamed)
+    now = datetime.now(UTC).replace(tzinfo=None)
+    future: list[EstimateRow] = [r for r in known if _future(r, now)]
+    new_paths: set[str] = set()
     try:
         for row in results:
+            new_paths.add(row.path)
+            if _future(row, now):
+                future.append(row)
             done += 1
             rep.compute_s += row.runtime_s
             if row.status != "ok":
@@ -649,12 +671,56 @@ def _ingest(
         if close is not None:
             close()
     flush()
+    from drivelash.wear.alarms import FUTURE_TOLERANCE_DAYS
+
+    for row in future:
+        rep.warnings.append(
+            f"{row.path}: dated {row.start_time:%Y-%m-%d %H:%M} UTC, more than "
+            f"{FUTURE_TOLERANCE_DAYS:g} day after the time of this ingest ({now:%Y-%m-%d %H:%M} UTC): "
+            "left out of the axis's trend, forecast and alarms — a wrong clock or file name?"
+        )
+    _warn_store_notes(fleet, store, new_paths, rep.warnings)
     if update_alarms:
         from drivelash.wear.alarms import refresh_alarms
 
-        refresh_alarms(store, [a.name for a in fleet.axes])
+        refresh_alarms(store, [a.name for a in fleet.axes], fleet)
     rep.wall_s = time.perf_counter() - t0
     return rep
+
+
+def _warn_store_notes(fleet: Fleet, store: Store, new_paths: set[str], warnings: list[str]) -> None:
+    """Per axis of ``fleet``, one warning line for its stored recordings that the fleet file no
+    longer matches (their files exist: left out of its trend and alarms,
+    :func:`~drivelash.wear.alarms.split_unmatched`), and one for its recordings estimated by this
+    ingest that share start time, duration and sample count with another stored recording of
+    the axis (the same measurement exported twice: :func:`~drivelash.wear.alarms.twin_groups`)."""
+    from drivelash.wear.alarms import matched_files, split_unmatched, twin_groups, twin_note, unmatched_note
+
+    specs = {x.name: x for x in fleet.axes}
+    for a in store.axes():
+        spec = specs.get(a["name"])
+        if spec is None:
+            continue
+        rows, out = split_unmatched(store.current_estimates(a), matched_files(spec))
+        if out:
+            warnings.append(unmatched_note(a["name"], out, fleet.path.name))
+        if new_paths:
+            groups = [g for g in twin_groups(rows) if any(r["path"] in new_paths for r in g)]
+            note = twin_note(a["name"], groups)
+            if note is not None:
+                warnings.append(note)
+
+
+def _future(row: EstimateRow, now: datetime) -> bool:
+    """Whether a result is dated more than ``alarms.FUTURE_TOLERANCE_DAYS`` after ``now``
+    (naive UTC)."""
+    from drivelash.wear.alarms import FUTURE_TOLERANCE_DAYS
+
+    t = row.start_time
+    if t is None:
+        return False
+    t = utc_naive(t)
+    return t > now + timedelta(days=FUTURE_TOLERANCE_DAYS)
 
 
 def _what_was_written(rep: IngestReport) -> str:

@@ -743,9 +743,9 @@ class Store:
         takes an OS file lock (``filelock``) on :meth:`ingest_lock_file`, PostgreSQL a
         session-level advisory lock (:data:`PG_INGEST_LOCK` and the axes' checksum) on a
         connection of its own. Either is released when the process ends, however it ends
-        (Ctrl-C, a crash, SIGKILL), so a dead ingest never blocks the next one. Where the lock file cannot be created (a
-        directory without write access) the ingest goes on without it; the store's unique keys
-        still keep one copy of each estimate.
+        (Ctrl-C, a crash, SIGKILL), so a dead ingest never blocks the next one. Where the lock
+        file cannot be created (a directory without write access) the ingest goes on without
+        it; the store's unique keys still keep one copy of each estimate.
 
         Parameters
         ----------

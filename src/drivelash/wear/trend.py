@@ -84,6 +84,11 @@ MIN_POINTS = 5
 #: noise scale, change-point search and outlier test are unweighted, so a far less certain
 #: estimate (one of 260 mrad was seen) must stay out.
 UNCONVERGED_MAX_U95 = 5e-3
+#: How far after the latest inlier the trend may be judged "now" at a later estimate the fit
+#: left out although that estimate lies below the fitted mean by more than its outlier limit:
+#: this many median intervals between the inliers (:func:`judged_at`). 2: one skipped
+#: recording still counts as the usual spacing; a month after daily recordings does not.
+JUDGE_REACH_STEPS = 2.0
 #: Longest forecast look-ahead, in multiples of the data span (and at least 365 days).
 LOOKAHEAD_SPANS = 20.0
 
@@ -133,6 +138,10 @@ class AxisTrend:
     threshold: float | None
     isotonic: np.ndarray
     sigma_sys: float = 0.0
+    #: Days at which the trend is judged "now" (the fitted δ now, the crossed verdict, the days
+    #: left): the latest inlier, or a later estimate the fit left out when that estimate lies at
+    #: or above the fitted mean at its time (:func:`judged_at`); None without a fit.
+    t_now: float | None = None
     _curve: Any = field(default=None, repr=False)
 
     def curve(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -518,7 +527,7 @@ def fit_trend(
     if n >= 5:
         inl, lim = _outliers(t, y, cps, sigma)
     iso = _isotonic(t, y, w_all, cps) if n else y.copy()
-    trend = _fit_models(t, y, w_all, s_in, inl, cps, sigma, threshold, t0, iso)
+    trend = _fit_models(t, y, w_all, s_in, inl, cps, sigma, threshold, t0, iso, lim)
     # latest estimates the local test left out but the axis's own growth model (fitted without
     # them) predicts within the same limit: wear that accelerated past the local quadratic, not
     # outliers — they rejoin the fit (a jump or a bad recording stays out)
@@ -531,7 +540,7 @@ def fit_trend(
         if back.size:
             inl = inl.copy()
             inl[back] = True
-            trend = _fit_models(t, y, w_all, s_in, inl, cps, sigma, threshold, t0, iso)
+            trend = _fit_models(t, y, w_all, s_in, inl, cps, sigma, threshold, t0, iso, lim)
     if not back.size and (trail.size >= 2 or (trend.model is None and trail.size)):
         # the growth model fitted without them cannot be fitted (too few left: a short history of
         # accelerating wear, 7 accurate estimates and the last 3 beyond the local quadratic) or does
@@ -540,7 +549,7 @@ def fit_trend(
         # A single latest estimate off the trend is not enough (a bad recording stays out).
         cand = inl.copy()
         cand[trail] = True
-        with_them = _fit_models(t, y, w_all, s_in, cand, cps, sigma, threshold, t0, iso)
+        with_them = _fit_models(t, y, w_all, s_in, cand, cps, sigma, threshold, t0, iso, lim)
         if with_them.model is not None and np.all(np.abs(y - with_them.curve(t)[0])[cand] <= lim[cand]):
             trend = with_them
     return trend
@@ -557,8 +566,10 @@ def _fit_models(
     threshold: float | None,
     t0: datetime | None,
     iso: np.ndarray,
+    lim: np.ndarray,
 ) -> AxisTrend:
-    """Growth models on the inliers, model choice and forecast (module docstring, steps 4–5)."""
+    """Growth models on the inliers, model choice and forecast (module docstring, steps 4–5);
+    ``lim`` [rad]: each estimate's outlier limit (:func:`judged_at`)."""
     s_sys = systematic_std(s_in[inl], sigma)
     trend = AxisTrend(t0, t, y, inl, cps, sigma, None, {}, {}, None, threshold, iso, s_sys)
     ti, yi, wi = t[inl], y[inl], w_all[inl]
@@ -577,10 +588,53 @@ def _fit_models(
     trend.model = chosen.name
     trend.params = chosen.params
     trend._curve = chosen.curve
+    trend.t_now = judged_at(trend, lim)
     if threshold is not None:
-        # "now" is the latest recording, also when the outlier test left it out of the fit
-        trend.forecast = _forecast(trend, float(t[-1]), float(ti[-1] - ti[0]), threshold)
+        trend.forecast = _forecast(trend, trend.t_now, float(ti[-1] - ti[0]), threshold)
     return trend
+
+
+def judged_at(trend: AxisTrend, lim: np.ndarray) -> float:
+    """The time "now" of a fitted trend [days since ``t0``]: where the fitted δ now, the
+    crossed verdict and the days left are evaluated.
+
+    The latest inlier, or the latest of the later estimates the outlier test left out that
+    either lies within :data:`JUDGE_REACH_STEPS` median recording intervals (of the inliers)
+    of the latest inlier, or whose δ̂ is not below the fitted mean at its time by more than its
+    outlier limit (the limit the outlier test judged it by). Within the usual spacing of the
+    recordings the fitted curve is as good as at a recording, and one bad latest estimate does
+    not move it (``test_crossing_is_judged_at_the_latest_recording_even_if_it_left_the_fit``);
+    wear that ran ahead of the fit confirms the extrapolated level. An estimate far below the
+    fitted mean after a gap contradicts the extrapolation (a machine that stood still for a
+    month, a recording dated a month or years late): judging "now" at its date reported the
+    straight line's value there — 429.9 mrad where the estimate said 131.9 — and a threshold
+    crossing no estimate showed (s19 tester, F5).
+
+    Parameters
+    ----------
+    trend : AxisTrend
+        A trend with a fitted model and at least one inlier.
+    lim : numpy.ndarray
+        The outlier limit of each estimate [rad] (infinite where none was judged).
+
+    Returns
+    -------
+    float
+        Days since ``trend.t0``.
+    """
+    inl = np.flatnonzero(trend.inlier)
+    last_in = int(inl[-1])
+    t_now = float(trend.t[last_in])
+    after = np.arange(last_in + 1, trend.t.size)
+    if after.size:
+        mean = trend.curve(trend.t[after])[0]
+        ti = trend.t[trend.inlier]
+        step = float(np.median(np.diff(ti))) if ti.size > 1 else 0.0
+        near = trend.t[after] - t_now <= JUDGE_REACH_STEPS * step
+        up = after[(trend.y[after] >= mean - lim[after]) | near]
+        if up.size:
+            t_now = float(trend.t[up[-1]])
+    return t_now
 
 
 def _forecast(trend: AxisTrend, t_last: float, span: float, thr: float) -> Forecast:
