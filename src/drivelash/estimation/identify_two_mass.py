@@ -50,7 +50,10 @@ Method: **integral equation error** on short windows (one staged pipeline, all i
    The systematic error of the equation error (it depends on the window length) is added
    where the data show it: the least-squares fit is repeated at 2M and 4M samples and a shift
    the noise of both fits cannot explain enters the covariance (:func:`window_sensitivity`);
-   so does the difference between the IV and least-squares estimates.
+   so does the difference between the IV and least-squares estimates, the fused positions'
+   own error propagated through the fit (:func:`fusion_covariance`) and, on open-loop
+   recordings with measured velocities, the shift when each window starts at its first
+   velocity sample instead of the look-back extrapolation (:func:`start_sensitivity`).
 7. *Closed-loop bracket.* Where the recorded torque answers the noise of the recorded motor
    velocity (a velocity controller on that signal, :func:`velocity_feedback`), the look-back
    of step 3 still leaves the controller's one-sample-delayed answer to the noise before a
@@ -1964,6 +1967,11 @@ def window_sensitivity(trace: Trace, fit: TwoMassFit, start: GridStart, **kw: An
     (:data:`NOISE_COVARIANCE`, :func:`noise_covariance`). Where the least-squares fit stands
     (:func:`hausman_test` did not reject it, or no IV refit) this is the least-squares interval.
 
+    Two terms that no window length changes are added too: the error of the fused positions
+    (:func:`fusion_covariance`; the same Δθ enters every window length, so the shifts cannot
+    show it) and, where it applies, the look-back starting velocity's extrapolation error
+    (:func:`start_sensitivity`, counted like a window shift when its χ² test rejects).
+
     Parameters
     ----------
     trace : Trace
@@ -1984,8 +1992,12 @@ def window_sensitivity(trace: Trace, fit: TwoMassFit, start: GridStart, **kw: An
         ``std_noise`` the noise-only standard errors of the reported parameters (SI units),
         ``iv_minus_ls`` the IV − LS
         difference of the reported parameters (0 without the IV step),
-        ``iv_difference_counted`` whether it is in the covariance and ``hausman`` the test(s) of
-        :func:`hausman_test` (per end of a closed-loop bracket).
+        ``iv_difference_counted`` whether it is in the covariance, ``hausman`` the test(s) of
+        :func:`hausman_test` (per end of a closed-loop bracket), ``std_fusion`` the standard errors
+        from the fused positions' error (:func:`fusion_covariance`, always in the covariance) and
+        ``start_velocity`` the test of :func:`start_sensitivity` (``chi2``, ``dof``,
+        ``threshold``, ``counted``, ``shift`` of the reported parameters; ``None`` where it does
+        not apply).
     """
     from scipy.stats import chi2
 
