@@ -311,12 +311,65 @@ def test_window_sensitivity_is_reported(ident_0c):
     for f in sysm["fits"]:
         assert f["dof"] >= 1 and f["threshold"] > 0 and f["counted"] == (f["chi2"] > f["threshold"])
     counted = any(f["counted"] for f in sysm["fits"])
+    start = sysm["start_velocity"]
+    if start is not None and start["counted"]:
+        counted = True
     for n, s0 in sysm["std_noise"].items():
         s = ident_0c[n].std
         h = sysm["iv_minus_ls"][n]
-        assert s >= s0 * (1 - 1e-9) and s >= abs(h) * (1 - 1e-9), n
+        f = sysm["std_fusion"][n]
+        assert s >= s0 * (1 - 1e-9) and s >= abs(h) * (1 - 1e-9) and s >= f * (1 - 1e-9), n
         if not counted:
-            assert s == pytest.approx(np.hypot(s0, h), rel=1e-9), n
+            assert s == pytest.approx(math.sqrt(s0**2 + h**2 + f**2), rel=1e-9), n
+
+
+def test_fusion_model_is_the_position_smoothers_error():
+    """The posterior precision A of :func:`fusion_model` is the one of the smoother
+    :func:`fuse_position` runs: A⁻¹ matches the variance of the smoother's error on draws of its
+    own model (sparse observations, as a quantised encoder's count changes). And the drift of the
+    trapezoid-integrated white velocity noise grows by FUSION_DRIFT_FACTOR times the smoother's
+    Q = 0.5 σ²T_s² per sample."""
+    from drivelash.estimation.identify_two_mass import FUSION_DRIFT_FACTOR, _rts_random_walk
+
+    rng = np.random.default_rng(3)
+    n, Q = 1500, 1e-12
+    R = np.full(n, 1e301)
+    R[rng.choice(np.arange(1, n), 20, replace=False)] = 4e-11
+    R[0] = 4e-11
+    info = np.where(R < 1e300, 1.0 / np.where(R < 1e300, R, 1.0), 0.0)
+    dL = np.full(n, 2.0 / Q)
+    dL[0] = dL[-1] = 1.0 / Q
+    A = np.diag(dL + info) - np.diag(np.full(n - 1, 1.0 / Q), 1) - np.diag(np.full(n - 1, 1.0 / Q), -1)
+    err = []
+    for _ in range(300):
+        d = np.concatenate([[0.0], np.cumsum(rng.normal(0.0, math.sqrt(Q), n - 1))])
+        y = d + rng.standard_normal(n) * np.sqrt(np.where(R < 1e300, R, 0.0))
+        err.append(_rts_random_walk(y, R, Q) - d)
+    ratio = np.var(err, axis=0)[100:] / np.diag(np.linalg.inv(A))[100:]
+    assert np.mean(ratio) == pytest.approx(1.0, abs=0.1)
+    # the drift of the integrated noise over 1000 samples: σ²T_s² per sample
+    e = rng.standard_normal((400, 1001))
+    drift = np.sum(0.5 * (e[:, 1:] + e[:, :-1]), axis=1)  # T_s = σ = 1
+    assert np.var(drift) / 1000 == pytest.approx(FUSION_DRIFT_FACTOR * 0.5, rel=0.15)
+
+
+def test_start_velocity_term_only_where_the_velocity_noise_is_not_fed_back(ident_0c):
+    """The look-back starting velocity's extrapolation error is estimated (refit with the window's
+    first sample) only on open-loop recordings with measured velocities: bench-0C's recorded
+    velocity is fed back (negative control: no term), the same drive with ideal sensors is not —
+    there the shift is far beyond its noise and counted in the intervals."""
+    from drivelash.params import SensorParams
+
+    assert ident_0c.fit["velocity_feedback_gain"] is not None
+    assert ident_0c.fit["systematic"]["start_velocity"] is None
+    sc = replace(get_scenario("bench-0C"), sensors=SensorParams())
+    r = identify_two_mass(sc.simulate(duration=8.0, seed=7), 1.0)
+    sysm = r.fit["systematic"]
+    st = sysm["start_velocity"]
+    assert r.fit["velocity_feedback_gain"] is None and st is not None
+    assert st["counted"] and st["chi2"] > st["threshold"]
+    for n in ("delta", "delta1", "K_S"):
+        assert r[n].std >= math.hypot(sysm["std_noise"][n], st["shift"][n]) * (1 - 1e-9), n
 
 
 def test_interval_text_shows_the_width_of_a_narrow_interval():
@@ -508,18 +561,18 @@ def test_a_negative_gap_is_never_a_determined_backlash(seed):
     """A 2 µrad gap, far below what 11-bit encoders resolve: the fit puts the upper contact below
     the lower one (δ̂ = −0.072 / −0.084 mrad). Before, that was "both contacts seen", δ and δ1
     identified and written to [backlash] (which `estimate` then refused). Now δ is not determined
-    with the upper end of its interval as the bound when it is above 0 (seed 0: δ ≤ 7.5 µrad,
-    the truth 2 µrad inside), no bound when the whole interval is below 0 (seed 1), δ1 not
-    determined (the coinciding contacts locate the encoders' zero, not a flank), nothing written
-    to [backlash]. The drive-train values stay. Negative control: the 105 mrad gap of bench-0C is
-    reported (test_bench_short_recording_within_limits)."""
+    with the upper end of its interval as the bound when it is above 0 (seed 0: δ ≤ 8.7 µrad, 7.5
+    before the fused-position term, the truth 2 µrad inside), no bound when the whole interval is
+    below 0 (seed 1), δ1 not determined (the coinciding contacts locate the encoders' zero, not a
+    flank), nothing written to [backlash]. The drive-train values stay. Negative control: the
+    105 mrad gap of bench-0C is reported (test_bench_short_recording_within_limits)."""
     r = identify_two_mass(_tight_gear(seed), 1.0)
     d, d1 = r["delta"], r["delta1"]
     assert not r.backlash_visible and not d.identifiable and not d1.identifiable
     assert np.isnan(d.value) and d.low == 0.0 and d.low <= 2e-6 <= d.high
     assert "δ̂ = -0.0" in r.reason and "mrad" in r.reason
     if seed == 0:
-        assert r.reason.startswith("backlash below what the recording resolves: δ ≤ 0.00748 mrad")
+        assert r.reason.startswith("backlash below what the recording resolves: δ ≤ 0.00873 mrad")
     else:
         assert "entirely below 0" in r.reason and d.high == np.inf
     assert "backlash" not in r.to_config()

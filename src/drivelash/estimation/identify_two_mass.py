@@ -50,7 +50,10 @@ Method: **integral equation error** on short windows (one staged pipeline, all i
    The systematic error of the equation error (it depends on the window length) is added
    where the data show it: the least-squares fit is repeated at 2M and 4M samples and a shift
    the noise of both fits cannot explain enters the covariance (:func:`window_sensitivity`);
-   so does the difference between the IV and least-squares estimates.
+   so does the difference between the IV and least-squares estimates, the fused positions'
+   own error propagated through the fit (:func:`fusion_covariance`) and, on open-loop
+   recordings with measured velocities, the shift when each window starts at its first
+   velocity sample instead of the look-back extrapolation (:func:`start_sensitivity`).
 7. *Closed-loop bracket.* Where the recorded torque answers the noise of the recorded motor
    velocity (a velocity controller on that signal, :func:`velocity_feedback`), the look-back
    of step 3 still leaves the controller's one-sample-delayed answer to the noise before a
@@ -1742,6 +1745,183 @@ SENSITIVITY_LEVEL = 1.0 - 0.05 / len(SENSITIVITY_WINDOWS)
 NOISE_COVARIANCE = "max"
 
 
+#: Drift of the integrated velocity per sample, in units of the random-walk variance the position
+#: smoother assumes (0.5 σ_ω² T_s², :func:`fuse_position`): the trapezoid sum of white velocity
+#: noise, ½(e_k + e_k−1) T_s per sample, drifts by σ_ω² T_s² per sample over more than a few
+#: samples (its increments are positively correlated), twice the smoother's figure. Used by
+#: :func:`fusion_covariance`; a property of the integrator, not a tuned number.
+FUSION_DRIFT_FACTOR = 2.0
+#: A shift of the least-squares fit when the window's starting velocity is its first sample
+#: instead of the look-back extrapolation counts as systematic when its χ² statistic exceeds
+#: this quantile (:func:`start_sensitivity`; one test, 5 % level).
+START_SENSITIVITY_LEVEL = 0.95
+
+
+def fusion_model(theta: np.ndarray, omega: np.ndarray, T_s: float) -> tuple[np.ndarray, ...]:
+    """The random-walk model of the position smoother of :func:`fuse_position`, as band matrices.
+
+    The smoother estimates the drift d_k = θ_k − Θ_k of the integrated velocity Θ (a random walk
+    with variance Q = 0.5 σ_ω² T_s² per sample) from observations with variance R_k (count
+    changes of a quantised encoder, every sample of a continuous one). Its posterior precision
+    is A = Λ + diag(1/R) with Λ the random walk's precision (tridiagonal, (1/Q)·DᵀD, D the
+    first difference; no prior on d_0).
+
+    Parameters
+    ----------
+    theta : numpy.ndarray
+        Measured position [rad].
+    omega : numpy.ndarray
+        Measured velocity [rad/s].
+    T_s : float
+        Sample period [s].
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        Diagonal and off-diagonal of A, diagonal and off-diagonal of Λ [1/rad²].
+    """
+    n = theta.size
+    sw = noise_sigma(omega)
+    scale = float(np.percentile(np.abs(omega), 99)) if n else 0.0
+    sw = max(sw, 1e-6 * scale, 1e-12)
+    Th = np.empty(n)
+    Th[0] = 0.0
+    np.cumsum(0.5 * (omega[1:] + omega[:-1]) * T_s, out=Th[1:])
+    q = quantisation_step(theta)
+    info = np.zeros(n)
+    if q > 0:
+        ch = np.flatnonzero(np.diff(theta) != 0) + 1
+        info[ch] = 1.0 / ((Th[ch] - Th[ch - 1]) ** 2 / 12.0 + (1e-3 * q) ** 2)
+        info[0] = 12.0 / (q * q)
+    else:
+        st = max(noise_sigma(theta), 1e-12 * max(1.0, float(np.max(np.abs(theta)))))
+        info[:] = 1.0 / (st * st)
+    Q = 0.5 * sw * sw * T_s * T_s
+    dL = np.full(n, 2.0 / Q)
+    dL[0] = dL[-1] = 1.0 / Q
+    oL = np.full(n - 1, -1.0 / Q)
+    return dL + info, oL, dL, oL
+
+
+def _tridiagonal_times(diag: np.ndarray, off: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """Symmetric tridiagonal matrix (``diag``, ``off``) times the columns of ``X``."""
+    Y = diag[:, None] * X
+    Y[:-1] += off[:, None] * X[1:]
+    Y[1:] += off[:, None] * X[:-1]
+    return Y
+
+
+def fusion_covariance(trace: Trace, fit: TwoMassFit) -> np.ndarray:
+    """Covariance of the free parameters caused by the error of the fused positions.
+
+    The fit takes Δθ = θ̂_m/N − θ̂_l from :func:`fuse_position` as exact, but each fused position
+    carries the smoother's error ε (the integrated velocity noise between the observations,
+    largest where a quantised encoder's counts are far apart). The deadzone term of a window
+    moves by the mean of ε over its samples in contact, so to first order the estimate moves
+    by G ε with G = −(JᵀJ)⁻¹Jᵀ ∂r/∂Δθ (least-squares influence of the final fit, weighted as
+    fitted). The error of a linear smoother with posterior precision A (:func:`fusion_model`)
+    whose drift actually grows c = :data:`FUSION_DRIFT_FACTOR` times faster than it assumes has
+    covariance A⁻¹(A + (c − 1)Λ)A⁻¹, so the term is G A⁻¹(A + (c − 1)Λ)A⁻¹ Gᵀ, summed over the
+    two encoders (independent noises; banded solves, O(samples)). A side whose velocity was
+    differentiated from its positions contributes nothing: its "velocity noise" is the position's
+    own quantisation, whose integral does not drift.
+
+    Parameters
+    ----------
+    trace : Trace
+        The recording of ``fit``.
+    fit : TwoMassFit
+        The final fit (before the systematic terms).
+
+    Returns
+    -------
+    numpy.ndarray
+        Covariance of the free parameters (units of the parameter vector), zero without contacts.
+    """
+    from scipy.linalg import solveh_banded
+
+    prob, p, d = fit.problem, fit.p, fit.problem.d
+    nf = len(prob.free)
+    cov = np.zeros((nf, nf))
+    if not any(prob.sides) or not (p[I_JM] != 0.0 and p[I_JL] != 0.0):
+        return cov
+    J = prob.jacobian(p[prob.free])
+    scale = np.linalg.norm(J, axis=0)
+    scale[scale == 0] = 1.0
+    Js = J / scale
+    B = (np.linalg.pinv(Js.T @ Js) @ Js.T) / scale[:, None]
+    nm = prob.im.size
+    h = np.zeros((d.n_win, nf))  # −∂x/∂ZK per window
+    np.add.at(h, prob.im, -(B[:, :nm] * (prob.w[0] * p[I_KS] / (d.N * p[I_JM]))).T)
+    if prob.il.size:
+        np.add.at(h, prob.il, -(B[:, nm:] * (-prob.w[1] * p[I_KS] / p[I_JL])).T)
+    dth = prob.dtheta(p)
+    contact = ((dth < p[I_CLO]) | (dth > p[I_CHI])).reshape(d.n_win, d.M)
+    c = (h.T[:, :, None] * contact[None, :, :] / d.M).reshape(nf, -1)  # per half sample
+    n, k, s0 = len(trace), c.shape[1], _LOOKBACK
+    derived = d.info.get("derived_velocity", [])
+    for side, gain in (("m", 1.0 / d.N), ("l", -1.0)):
+        if f"omega_{side}" in derived:
+            continue
+        G = np.zeros((nf, n))  # half sample j is the mean of samples s0 + j and s0 + j + 1
+        G[:, s0 : s0 + k] += 0.5 * gain * c
+        G[:, s0 + 1 : s0 + 1 + k] += 0.5 * gain * c
+        dA, oA, dL, oL = fusion_model(trace[f"theta_{side}"], trace[f"omega_{side}"], d.T_s)
+        ab = np.zeros((2, n))
+        ab[0, 1:] = oA
+        ab[1] = dA
+        X = solveh_banded(ab, G.T, check_finite=False)
+        cov += G @ X + (FUSION_DRIFT_FACTOR - 1.0) * (X.T @ _tridiagonal_times(dL, oL, X))
+    return 0.5 * (cov + cov.T)
+
+
+def start_sensitivity(fit: TwoMassFit, start: GridStart, **kw: Any) -> dict[str, Any] | None:
+    """Shift of the least-squares fit when each window starts at its first velocity sample.
+
+    The look-back starting velocity ω_{k−1} + (ω_{k−1} − ω_{k−4})/3 (step 3 of the module
+    docstring) is an extrapolation: where the velocity bends inside the look-back (every contact
+    transient) it is off by a part of the bend, a systematic error of the window acceleration that
+    does not change with the window length (so :func:`window_sensitivity`'s refits at 2M and 4M do
+    not see it). On a recording whose torque does not answer the velocity noise (no feedback
+    detected by :func:`velocity_feedback`) and whose velocities are measured (not differentiated
+    from the positions), the window's first sample ω_k is an equally valid start: its noise is not
+    in the window's torque nor in its interior regressors. The least-squares fit is repeated with
+    it (α = 1 of :meth:`WindowData.with_start_weight`, same contacts, from the fit's parameters);
+    a shift Δ the noise of both fits cannot explain (:func:`shift_statistic` above the
+    :data:`START_SENSITIVITY_LEVEL` quantile of χ²) is an estimate of the extrapolation's error and
+    enters the covariance as ΔΔᵀ. Where feedback is detected the closed-loop bracket
+    (:func:`fit_bracketed`) already spans the starting-velocity weight, and α = 1 carries the
+    controller's answer to the noise.
+
+    Returns
+    -------
+    dict or None
+        ``chi2``, ``dof``, ``threshold``, ``counted`` and ``dx`` (shift of the free parameters);
+        ``None`` where the test does not apply (feedback detected, velocities differentiated, no
+        variant, a non-finite refit).
+    """
+    from scipy.stats import chi2
+
+    d = fit.problem.d
+    closed_loop = d.info.get("velocity_feedback_gain") is not None
+    if closed_loop or d.info.get("derived_velocity") or d.a_m_start is None:
+        return None
+    p_ls, cov_ls = fit.least_squares_part()
+    f1 = fit_two_mass(
+        d.with_start_weight(1.0),
+        sides=fit.problem.sides,
+        start=replace(start, x0=p_ls.copy()),
+        **{**kw, "iv": False},
+    )
+    free = fit.problem.free
+    dx = f1.p[free] - p_ls[free]
+    if not (np.all(np.isfinite(dx)) and np.all(np.isfinite(f1.cov_free))):
+        return None
+    H, dof = shift_statistic(dx, cov_ls, f1.cov_free)
+    thr = float(chi2.ppf(START_SENSITIVITY_LEVEL, max(dof, 1)))
+    return {"chi2": H, "dof": dof, "threshold": thr, "counted": bool(H > thr), "dx": dx}
+
+
 def shift_statistic(dx: np.ndarray, cov_a: np.ndarray, cov_b: np.ndarray) -> tuple[float, int]:
     """χ² statistic Δᵀ(C_a + C_b)⁺Δ of a parameter shift and the rank of C_a + C_b.
 
@@ -1787,6 +1967,11 @@ def window_sensitivity(trace: Trace, fit: TwoMassFit, start: GridStart, **kw: An
     (:data:`NOISE_COVARIANCE`, :func:`noise_covariance`). Where the least-squares fit stands
     (:func:`hausman_test` did not reject it, or no IV refit) this is the least-squares interval.
 
+    Two terms that no window length changes are added too: the error of the fused positions
+    (:func:`fusion_covariance`; the same Δθ enters every window length, so the shifts cannot
+    show it) and, where it applies, the look-back starting velocity's extrapolation error
+    (:func:`start_sensitivity`, counted like a window shift when its χ² test rejects).
+
     Parameters
     ----------
     trace : Trace
@@ -1807,8 +1992,12 @@ def window_sensitivity(trace: Trace, fit: TwoMassFit, start: GridStart, **kw: An
         ``std_noise`` the noise-only standard errors of the reported parameters (SI units),
         ``iv_minus_ls`` the IV − LS
         difference of the reported parameters (0 without the IV step),
-        ``iv_difference_counted`` whether it is in the covariance and ``hausman`` the test(s) of
-        :func:`hausman_test` (per end of a closed-loop bracket).
+        ``iv_difference_counted`` whether it is in the covariance, ``hausman`` the test(s) of
+        :func:`hausman_test` (per end of a closed-loop bracket), ``std_fusion`` the standard errors
+        from the fused positions' error (:func:`fusion_covariance`, always in the covariance) and
+        ``start_velocity`` the test of :func:`start_sensitivity` (``chi2``, ``dof``,
+        ``threshold``, ``counted``, ``shift`` of the reported parameters; ``None`` where it does
+        not apply).
     """
     from scipy.stats import chi2
 
@@ -1849,6 +2038,13 @@ def window_sensitivity(trace: Trace, fit: TwoMassFit, start: GridStart, **kw: An
                 "shift": {n: float(v) for n, v in zip(rep, A @ dx, strict=True)},
             }
         )
+    # the look-back starting velocity's extrapolation error (open loop, measured velocities)
+    st = start_sensitivity(fit, start, **kw)
+    if st is not None and st["counted"]:
+        cov_sys += np.outer(st["dx"], st["dx"])
+    # the fused positions' error (same at every window length and start weight)
+    cov_fusion = fusion_covariance(trace, fit)
+    cov_sys += cov_fusion
     # the instrumental-variable estimate's difference from the least-squares one (Hausman)
     dh = fit.p[free] - p_ls[free] if fit.p_ls is not None else np.zeros(len(free))
     dh_counted = bool(np.all(np.isfinite(dh)))
@@ -1863,6 +2059,15 @@ def window_sensitivity(trace: Trace, fit: TwoMassFit, start: GridStart, **kw: An
         "iv_minus_ls": {n: float(v) for n, v in zip(rep, A @ dh, strict=True)},
         "iv_difference_counted": dh_counted,
         "hausman": fit.hausman,
+        "std_fusion": {
+            n: float(math.sqrt(max(v, 0.0))) for n, v in zip(rep, np.diag(A @ cov_fusion @ A.T), strict=True)
+        },
+        "start_velocity": None
+        if st is None
+        else {
+            **{k: v for k, v in st.items() if k != "dx"},
+            "shift": {n: float(v) for n, v in zip(rep, A @ st["dx"], strict=True)},
+        },
     }
     return replace(fit, cov_free=fit.cov_free + cov_sys, systematic=systematic)
 
