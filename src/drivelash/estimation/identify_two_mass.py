@@ -180,6 +180,20 @@ def quantisation_step(theta: np.ndarray) -> float:
     return q
 
 
+def _fusion_inputs(theta: np.ndarray, omega: np.ndarray, T_s: float) -> tuple[float, np.ndarray, float]:
+    """What the position smoother and its model start from: the velocity noise σ_ω [rad/s]
+    (at least 1e-6 of the 99th percentile of |ω|), the trapezoid integral Θ of ω [rad] (from 0)
+    and the encoder count q [rad] (0 when continuous)."""
+    n = theta.size
+    sw = noise_sigma(omega)
+    scale = float(np.percentile(np.abs(omega), 99)) if n else 0.0
+    sw = max(sw, 1e-6 * scale, 1e-12)
+    Th = np.empty(n)
+    Th[0] = 0.0
+    np.cumsum(0.5 * (omega[1:] + omega[:-1]) * T_s, out=Th[1:])
+    return sw, Th, quantisation_step(theta)
+
+
 def fuse_position(theta: np.ndarray, omega: np.ndarray, T_s: float) -> tuple[np.ndarray, dict[str, float]]:
     """Encoder position fused with the integral of the velocity (RTS smoother of the drift).
 
@@ -200,13 +214,7 @@ def fuse_position(theta: np.ndarray, omega: np.ndarray, T_s: float) -> tuple[np.
         ``sigma_omega`` [rad/s], ``count`` [rad] (0 if continuous), ``sigma_theta`` [rad].
     """
     n = theta.size
-    sw = noise_sigma(omega)
-    scale = float(np.percentile(np.abs(omega), 99)) if n else 0.0
-    sw = max(sw, 1e-6 * scale, 1e-12)
-    Th = np.empty(n)
-    Th[0] = 0.0
-    np.cumsum(0.5 * (omega[1:] + omega[:-1]) * T_s, out=Th[1:])
-    q = quantisation_step(theta)
+    sw, Th, q = _fusion_inputs(theta, omega, T_s)
     y = np.zeros(n)
     R = np.full(n, 1e301)
     st = 0.0
@@ -1781,13 +1789,7 @@ def fusion_model(theta: np.ndarray, omega: np.ndarray, T_s: float) -> tuple[np.n
         Diagonal and off-diagonal of A, diagonal and off-diagonal of Λ [1/rad²].
     """
     n = theta.size
-    sw = noise_sigma(omega)
-    scale = float(np.percentile(np.abs(omega), 99)) if n else 0.0
-    sw = max(sw, 1e-6 * scale, 1e-12)
-    Th = np.empty(n)
-    Th[0] = 0.0
-    np.cumsum(0.5 * (omega[1:] + omega[:-1]) * T_s, out=Th[1:])
-    q = quantisation_step(theta)
+    sw, Th, q = _fusion_inputs(theta, omega, T_s)
     info = np.zeros(n)
     if q > 0:
         ch = np.flatnonzero(np.diff(theta) != 0) + 1
