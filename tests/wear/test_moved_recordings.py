@@ -151,6 +151,25 @@ def test_a_file_renamed_to_correct_its_time_stamp_takes_the_new_time(small_fleet
     ), out
 
 
+def test_a_copy_under_another_time_stamp_keeps_the_stored_time(small_fleet, tmp_path):
+    """A copy (the stored file still exists) named with another time stamp is a duplicate: the
+    recording keeps its path and its time, and nothing counts as re-dated (the rename case
+    above is the positive control)."""
+    f = _tiny(small_fleet, tmp_path / "f", FILENAME_TIME)
+    st = Store(tmp_path / "w.sqlite")
+    ingest(load_fleet(f), st, workers=1)
+    a = sorted((tmp_path / "f" / "rec").glob("*.parquet"))[0]
+    before = {r["path"]: r["start_time"] for r in st.estimates()}
+    stamp = a.name.split("_")[-1].split(".")[0]
+    copy = a.with_name(a.name.replace(stamp, "20991231T235959"))
+    shutil.copy2(a, copy)
+    work = _Counting()
+    rep = ingest(load_fleet(f), st, workers=1, compute=work)
+    assert work.paths == [] and rep.renamed_dated == 0 and rep.moved == 0, rep
+    assert rep.duplicates == [f"{copy}: same content as {a} (stored once, estimated once)"]
+    assert {r["path"]: r["start_time"] for r in st.estimates()} == before
+
+
 def test_a_copy_is_a_duplicate_without_being_estimated(small_fleet, tmp_path):
     f, st, orig, copy = ingested_with_a_copy(small_fleet, tmp_path)
     work = _Counting()

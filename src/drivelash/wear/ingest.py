@@ -149,9 +149,9 @@ def plan(
         its worker count, so the check keeps pace with the estimating it replaces.
     renamed_dated : list of str, optional
         Receives the path of each such known file dated by its name (``time = "filename"``)
-        whose name gives another start time than the stored one: its row in ``known`` carries
-        the new time (the user renamed it to correct the date). A name that no longer parses
-        keeps the stored time.
+        whose name gives another start time than the stored one and that is a move (the stored
+        path is gone), not a copy: its row in ``known`` carries the new time (the user renamed
+        it to correct the date). A name that no longer parses keeps the stored time.
 
     Returns
     -------
@@ -193,7 +193,10 @@ def plan(
             if hit is not None and known is not None:
                 row = stored_row(a.name, str(p), size, mtime, digests[p], hit)
                 start, was = _start_from_name(p, a.time), hit["start_time"]
-                if start is not None and was is not None and start != utc_naive(was):
+                # a copy (the stored file still exists elsewhere) is a duplicate: the recording
+                # keeps its path and time (Store.commit_batch); only a move takes the new name's
+                moved = hit["path"] == str(p) or not Path(hit["path"]).is_file()
+                if moved and start is not None and was is not None and start != utc_naive(was):
                     row = replace(row, start_time=start)
                     if renamed_dated is not None:
                         renamed_dated.append(str(p))
@@ -643,9 +646,7 @@ def _ingest(
         n, dups = len(batch), len(rep.duplicates)
         flush()
         rep.moved += n - (len(rep.duplicates) - dups)
-    # a duplicate keeps the stored recording (and its time): count only the moves re-dated
-    copies = {d.split(": same content as ", 1)[0] for d in rep.duplicates}
-    rep.renamed_dated = sum(p not in copies for p in renamed)
+    rep.renamed_dated = len(renamed)
     now = datetime.now(UTC).replace(tzinfo=None)
     future: list[EstimateRow] = [r for r in known if _future(r, now)]
     new_paths: set[str] = set()
