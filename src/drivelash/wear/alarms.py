@@ -290,32 +290,55 @@ def _file_id(path: str | os.PathLike[str]) -> tuple[int, int] | None:
     return st.st_dev, st.st_ino
 
 
-def matched_files(spec: Any) -> frozenset[tuple[int, int]] | None:
-    """The identities (device, inode) of the files an axis's ``recordings`` glob matches now
-    (``spec``: an :class:`~drivelash.wear.fleet.AxisSpec`); None when it matches no file. By
-    identity, not by path string: a fleet file reached through another path (relative, a
-    symlinked directory) names the same files with other strings. A glob that matches nothing
-    (a copy of the fleet file elsewhere, an unmounted share; ingest warns about it) says nothing
-    about which stored recordings belong to the axis: None, nothing is left out."""
-    ids = frozenset(i for i in (_file_id(p) for p in spec.files()) if i is not None)
-    return ids or None
+@dataclass(frozen=True)
+class MatchedFiles:
+    """The files an axis's ``recordings`` glob matches (:func:`matched_files`): their paths as the
+    glob gave them and their identities (device, inode).
+
+    Attributes
+    ----------
+    paths : frozenset of str
+        The matched paths.
+    ids : frozenset of tuple
+        Their (device, inode) identities.
+    """
+
+    paths: frozenset[str]
+    ids: frozenset[tuple[int, int]]
+
+
+def matched_files(spec: Any) -> MatchedFiles | None:
+    """The files an axis's ``recordings`` glob matches now (``spec``: an
+    :class:`~drivelash.wear.fleet.AxisSpec`; its listing when it holds one), with their identities
+    (device, inode): a fleet file reached through another path (relative, a symlinked directory)
+    names the same files with other strings. None when it matches no file: a glob that matches
+    nothing (a copy of the fleet file elsewhere, an unmounted share; ingest warns about it) says
+    nothing about which stored recordings belong to the axis, so nothing is left out."""
+    entries = spec.entries()
+    if not entries:
+        return None
+    return MatchedFiles(frozenset(str(f.path) for f in entries), frozenset(f.ident for f in entries))
 
 
 def split_unmatched(
-    rows: list[dict[str, Any]], files: frozenset[tuple[int, int]] | None
+    rows: list[dict[str, Any]], files: MatchedFiles | None
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """(rows judged, rows left out): a stored recording whose file still exists but is no longer
     matched by the axis's ``recordings`` glob (``files``, :func:`matched_files`; None = the fleet
     file is not known: nothing left out) is left out — a glob that first pointed at the wrong
     directory and was corrected. A recording whose file no longer exists (archived, deleted)
-    stays: that is what a history store is for."""
+    stays: that is what a history store is for. A stored path the glob names is kept without
+    looking at the file again; only the others are looked up by identity."""
     if files is None:
         return rows, []
     keep: list[dict[str, Any]] = []
     out: list[dict[str, Any]] = []
     for r in rows:
+        if r["path"] in files.paths:
+            keep.append(r)
+            continue
         fid = _file_id(r["path"])
-        (out if fid is not None and fid not in files else keep).append(r)
+        (out if fid is not None and fid not in files.ids else keep).append(r)
     return keep, out
 
 

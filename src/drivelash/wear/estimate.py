@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import hashlib
 import math
-import os
 import re
 import time
 from dataclasses import dataclass
@@ -264,9 +263,3 @@ def _std_or_none(std: Any) -> float | None:
         return None
     v = float(std)
     return v if math.isfinite(v) and v > 0 else None
-
-
-def file_facts(path: Path) -> tuple[int, int]:
-    """(size in bytes, modification time in ns) of a file."""
-    st = os.stat(path)
-    return int(st.st_size), int(st.st_mtime_ns)

@@ -40,8 +40,10 @@ import glob
 import hashlib
 import json
 import math
+import os
 import re
-from dataclasses import dataclass, replace
+import stat
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -50,7 +52,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from drivelash.errors import ConfigError, DrivelashError
 from drivelash.io.config import DriveConfig, load_config, read_toml
 
-__all__ = ["AxisSpec", "Fleet", "TimeSpec", "load_fleet", "parse_fleet", "time_spec_hash"]
+__all__ = ["AxisSpec", "Fleet", "ListedFile", "TimeSpec", "load_fleet", "parse_fleet", "time_spec_hash"]
 
 
 #: Largest maintenance threshold on the backlash δ [rad at the load] taken as meant
@@ -194,6 +196,28 @@ class FleetFile(_Strict):
 
 
 @dataclass(frozen=True)
+class ListedFile:
+    """One recording as the listing of an axis saw it (:meth:`AxisSpec.scan`).
+
+    Attributes
+    ----------
+    path : Path
+        The path as the glob gave it.
+    size : int
+        Size [bytes].
+    mtime_ns : int
+        Modification time [ns since the epoch].
+    ident : tuple of int
+        (device, inode): the file's identity whichever path reaches it.
+    """
+
+    path: Path
+    size: int
+    mtime_ns: int
+    ident: tuple[int, int]
+
+
+@dataclass(frozen=True)
 class AxisSpec:
     """One axis, resolved: paths absolute, drive config loaded, threshold in rad.
 
@@ -225,6 +249,8 @@ class AxisSpec:
         Forecast-alarm horizon [days].
     not_excited_alarm : int
         Consecutive unexcited recordings that raise an alarm.
+    listing : tuple of ListedFile or None
+        The files as listed once by :meth:`listed` (None: :meth:`files` globs each time).
     """
 
     name: str
@@ -239,6 +265,7 @@ class AxisSpec:
     horizon_days: float
     not_excited_alarm: int
     estimate_rate_hz: float | None = None
+    listing: tuple[ListedFile, ...] | None = field(default=None, compare=False, repr=False)
 
     def at_rate(self, estimate_rate_hz: float | None) -> AxisSpec:
         """This axis estimated at another rate (None: every sample), with the config hash
@@ -260,9 +287,35 @@ class AxisSpec:
         """The machine part of the id."""
         return self.name.split("/", 1)[0]
 
+    def scan(self) -> tuple[ListedFile, ...]:
+        """The regular files the ``recordings`` glob matches now, sorted by path, each seen by one
+        ``stat`` (a file gone between the glob and its stat is not listed)."""
+        out: list[ListedFile] = []
+        for p in glob.glob(self.recordings, recursive=True):
+            try:
+                st = os.stat(p)
+            except OSError:
+                continue
+            if stat.S_ISREG(st.st_mode):
+                out.append(ListedFile(Path(p), int(st.st_size), int(st.st_mtime_ns), (st.st_dev, st.st_ino)))
+        return tuple(sorted(out, key=lambda f: f.path))
+
+    def listed(self) -> AxisSpec:
+        """This axis with its files listed once (:meth:`scan`): :meth:`entries` and :meth:`files`
+        then give that listing instead of globbing again, so every step of one ingest sees the
+        same files (a recording written meanwhile waits for the next ingest) and a network share
+        is listed once."""
+        return replace(self, listing=self.scan())
+
+    def entries(self) -> tuple[ListedFile, ...]:
+        """The matched files with their size, modification time and identity: the listing of
+        :meth:`listed`, else a fresh :meth:`scan`."""
+        return self.listing if self.listing is not None else self.scan()
+
     def files(self) -> list[Path]:
-        """The recordings matched by the glob, sorted by path."""
-        return sorted(Path(p) for p in glob.glob(self.recordings, recursive=True) if Path(p).is_file())
+        """The recordings matched by the glob, sorted by path (the listing of :meth:`listed` if
+        taken)."""
+        return [f.path for f in self.entries()]
 
 
 @dataclass(frozen=True)
@@ -286,6 +339,10 @@ class Fleet:
     name: str
     db: str
     axes: tuple[AxisSpec, ...]
+
+    def listed(self) -> Fleet:
+        """The fleet with every axis's files listed once (:meth:`AxisSpec.listed`)."""
+        return replace(self, axes=tuple(a.listed() for a in self.axes))
 
 
 def _where(loc: tuple[Any, ...], data: dict[str, Any]) -> tuple[str, str]:

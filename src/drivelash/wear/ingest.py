@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from drivelash.errors import DrivelashError
-from drivelash.wear.estimate import RecordingTask, code_version, content_hash, estimate_recording, file_facts
+from drivelash.wear.estimate import RecordingTask, code_version, content_hash, estimate_recording
 from drivelash.wear.fleet import Fleet
 from drivelash.wear.store import EstimateRow, Store, utc_naive
 from drivelash.wear.words import count
@@ -169,16 +169,15 @@ def plan(
     for a in fleet.axes:
         seen = store.known_files(ids[a.name], a.method, a.drive_hash, ver)
         sizes = {s for _, s, _ in seen}  # equal content has equal size: hash only those files
-        files = a.files()
-        if not files and warnings is not None:
+        entries = a.entries()
+        if not entries and warnings is not None:
             warnings.append(f"{fleet.path}: axis {a.name!r}: 'recordings' = {a.recordings!r} matches no file")
         todo: list[tuple[Path, int, int]] = []
-        for p in files:
-            size, mtime = file_facts(p)
-            if (str(p), size, mtime) in seen:
+        for f in entries:
+            if (str(f.path), f.size, f.mtime_ns) in seen:
                 skipped += 1
             else:
-                todo.append((p, size, mtime))
+                todo.append((f.path, f.size, f.mtime_ns))
         digests: dict[Path, str] = {}
         if known is not None:
             check = [p for p, size, _ in todo if size in sizes]
@@ -300,8 +299,9 @@ def redate(fleet: Fleet, store: Store) -> list[tuple[int, object, str]]:
         h = time_spec_hash(a.time)
         dated = store.dated_files(names[a.name])
         done: set[int] = set()
-        for p in a.files():
-            hit = dated.get((str(p), *file_facts(p)))
+        for f in a.entries():
+            p = f.path
+            hit = dated.get((str(p), f.size, f.mtime_ns))
             if hit is None or hit[1] == h or hit[0] in done:
                 continue
             try:
@@ -339,12 +339,13 @@ def check_files(fleet: Fleet) -> None:
     from drivelash.errors import ConfigError
     from drivelash.wear.estimate import recording_start
 
-    owner: dict[Path, int] = {}
+    owner: dict[tuple[int, int], int] = {}  # by identity: a symlink or hard link is the same file
     for k, a in enumerate(fleet.axes):
-        files = a.files()
-        for p in files:
-            rp = p.resolve()
-            j = owner.setdefault(rp, k)
+        entries = a.entries()
+        files = [f.path for f in entries]
+        for f in entries:
+            p = f.path
+            j = owner.setdefault(f.ident, k)
             if j != k:
                 b = fleet.axes[j]
                 raise ConfigError(
@@ -608,6 +609,8 @@ def _ingest(
     t0: float,
     rep: IngestReport,
 ) -> IngestReport:
+    # every step below sees one listing of each axis's files: one glob and one stat per file
+    fleet = fleet.listed()
     check_files(fleet)  # a file of two axes, no file datable: error, nothing written
     changes = redate(fleet, store)  # a recording that cannot be re-dated: error, nothing written
     known: list[EstimateRow] = []  # files with the content of a stored estimate: not estimated
