@@ -91,6 +91,7 @@ def run_update(
     from drivelash.io.outputs import Outputs, write_json
     from drivelash.te.learn.update import (
         UPDATE_STAGES,
+        align_to_parent,
         parent_record,
         restore_trained,
         runs_for_update,
@@ -120,6 +121,9 @@ def run_update(
                     (held if is_held else train)[key].append(r)
         _check_range(train, model)
         _check_range(held, model)
+        # the per-pass constant against the parent's prediction (finding A7), for the scores too
+        align_to_parent(train, model)
+        align_to_parent(held, model)
         if holdout_loads and not any(held.values()):
             raise DataError(
                 f"no pass at the held-out loads {', '.join(f'{v:g}' for v in holdout_loads)} N",
@@ -128,7 +132,7 @@ def run_update(
         n_train = sum(len(v) for v in train.values())
         echo(f"{n_train} update passes, {sum(len(v) for v in held.values())} held out; "
              f"model version {parent_record(model_dir, model.meta)['model_version']}")  # fmt: skip
-        rec = update_trained(trained, train, stage=stage, update_stride=stride, log=echo)
+        rec = update_trained(trained, train, stage=stage, update_stride=stride, log=echo, parent=model)
         errors = {"update": update_errors(model, trained, train)}
         if any(held.values()):
             errors["held_out"] = update_errors(model, trained, {k: v for k, v in held.items() if v})

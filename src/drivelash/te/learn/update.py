@@ -35,7 +35,15 @@ from drivelash.errors import DataError, ParameterError
 from drivelash.te.learn.fit import TrainedTEModel, stack_runs
 from drivelash.te.learn.preprocess import GeometricCurve, RunData, direction_key
 
-__all__ = ["UPDATE_STAGES", "restore_trained", "runs_for_update", "update_errors", "update_trained"]
+__all__ = [
+    "UPDATE_STAGES",
+    "align_to_parent",
+    "half_sample_mode",
+    "restore_trained",
+    "runs_for_update",
+    "update_errors",
+    "update_trained",
+]
 
 #: Stages :func:`update_trained` accepts (those of ``StackedTERegressor.update``).
 UPDATE_STAGES = ("trees", "both")
@@ -175,6 +183,93 @@ def runs_for_update(campaign: Any, trained: TrainedTEModel) -> dict[str, list[Ru
     return out
 
 
+def half_sample_mode(values: np.ndarray) -> float:
+    """Half-sample mode of ``values`` (Bickel & Frühwirth 2006): repeatedly keep the half of the
+    sorted values with the smallest range; robust to up to half of them lying anywhere else.
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        Finite samples (any unit; the result has it).
+
+    Returns
+    -------
+    float
+        The mode estimate.
+    """
+    y = np.sort(np.asarray(values, dtype=np.float64).reshape(-1))
+    if y.size == 0:
+        raise DataError("no values for the mode")
+    while y.size > 3:
+        h = (y.size + 1) // 2
+        j = int(np.argmin(y[h - 1 :] - y[: y.size - h + 1]))
+        y = y[j : j + h]
+    if y.size == 3:
+        y = y[:2] if y[1] - y[0] <= y[2] - y[1] else y[1:]
+    return float(np.mean(y))
+
+
+def align_to_parent(runs: Mapping[str, list[RunData]], parent: Any) -> None:
+    """Give each pass the parent's absolute level where the axis did not change (in place).
+
+    The offset step removes each pass's mean TE_def (its constant is arbitrary: the zero of
+    x_T against θ_M). For a local defect that mean is the defect's mean over the pass, and an
+    update learning ``defect − mean`` shifts the absolute TE everywhere (finding A7). Here the
+    constant is the **mode** of (pass − parent's prediction) (:func:`half_sample_mode`): the
+    densest level, which is the unchanged part of the pass wherever the axis did not change
+    — also when a local defect covers half of a short pass, where a median would be pulled
+    by it — so the unchanged part keeps the parent's level and the change is learnt in full.
+
+    Parameters
+    ----------
+    runs : dict
+        Processed passes per direction (:func:`runs_for_update`); ``te_def_um`` is shifted by
+        the constant, ``meta["parent_level_um"]`` records it [µm].
+    parent : TEModel or TrainedTEModel
+        The model being updated (``predict_def_um``).
+    """
+    for rs in runs.values():
+        for r in rs:
+            k = half_sample_mode(r.te_def_um - parent.predict_def_um(r.x, r.torque, r.direction))
+            r.te_def_um = r.te_def_um - k
+            r.meta["parent_level_um"] = k
+
+
+def _covered(rs: list[RunData]) -> tuple[float, float]:
+    """Positions [m] the passes span (their hull)."""
+    return float(min(np.min(r.x) for r in rs)), float(max(np.max(r.x) for r in rs))
+
+
+def _parent_rows(
+    parent: Any, geo: GeometricCurve, rs: list[RunData], pipeline: Any
+) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of the parent's own prediction over the travel the passes do not cover.
+
+    At every pass's median torque, on the grid of the no-load curve outside the passes' hull:
+    the refit then reproduces the parent there instead of extrapolating the edge of the passes
+    (the update does not change the model where it has no data).
+    """
+    lo, hi = _covered(rs)
+    x = geo.x
+    x = x[(x < lo - 0.5 * geo.step) | (x > hi + 0.5 * geo.step)]
+    if x.size == 0:
+        return np.empty((0, pipeline.design_matrix(geo.x[:1], np.zeros(1)).shape[1])), np.empty(0)
+    d = rs[0].direction
+    Xs, ys = [], []
+    for r in rs:
+        tq = np.full(x.shape, float(np.median(r.torque)))
+        Xs.append(pipeline.design_matrix(x, tq))
+        ys.append(parent.predict_def_um(x, tq, d))
+    return np.vstack(Xs), np.concatenate(ys)
+
+
+def _parent_note(extra: Mapping[str, Any]) -> str:
+    if not extra:
+        return ""
+    lo, hi = extra["covered_m"]
+    return f" over {lo * 1e3:.1f} ... {hi * 1e3:.1f} mm, + {extra['parent_rows']} rows of the parent beyond"
+
+
 def _mae(predict: Callable[..., np.ndarray], runs: Iterable[RunData]) -> float:
     err = [np.abs(predict(r.x, r.torque, r.direction) - r.te_def_um) for r in runs]
     return float(np.mean(np.concatenate(err))) if err else float("nan")
@@ -212,6 +307,7 @@ def update_trained(
     stage: str = "trees",
     update_stride: int = 1,
     log: Callable[[str], None] | None = None,
+    parent: Any = None,
 ) -> dict[str, Any]:
     """Apply the wear update in place; returns the update record.
 
@@ -229,11 +325,16 @@ def update_trained(
         (1 = every row; see ``docs/assumptions.md``, "te update").
     log : callable, optional
         Progress messages.
+    parent : TEModel, optional
+        The model being updated (``te update`` gives it; ``runs`` aligned to it with
+        :func:`align_to_parent` first). Then over the travel the passes do not cover, rows
+        of the parent's own prediction enter the refit, so the model keeps the parent there.
 
     Returns
     -------
     dict
-        ``stage``, ``update_stride``, per direction ``rows``, ``runs`` and ``time_s``.
+        ``stage``, ``update_stride``, per direction ``rows``, ``runs`` and ``time_s`` (with a
+        parent also ``parent_rows`` and ``covered_m``).
     """
     if stage not in UPDATE_STAGES:
         raise ParameterError(
@@ -257,13 +358,19 @@ def update_trained(
             say(f"{key}: no update pass, model kept")
             continue
         X, y = stack_runs(rs, trained.pipeline)
+        n_rows = int(X.shape[0])
+        extra: dict[str, Any] = {}
+        if parent is not None:
+            Xp, yp = _parent_rows(parent, trained.geo[key], rs, trained.pipeline)
+            X, y = np.vstack([X, Xp]), np.concatenate([y, yp])
+            extra = {"parent_rows": int(Xp.shape[0]), "covered_m": list(_covered(rs))}
         st.set_params(update_stride=int(update_stride))
         t0 = time.perf_counter()
         st.update(X, y, stage=stage)
         dt_s = time.perf_counter() - t0
-        rec["directions"][key] = {"rows": int(X.shape[0]), "runs": len(rs), "time_s": dt_s}
+        rec["directions"][key] = {"rows": n_rows, "runs": len(rs), "time_s": dt_s, **extra}
         say(f"{key}: updated stage {'2' if stage == 'trees' else '1 and 2'} on {len(rs)} passes "
-            f"({X.shape[0]} rows) in {dt_s:.1f} s")  # fmt: skip
+            f"({n_rows} rows{_parent_note(extra)}) in {dt_s:.1f} s")  # fmt: skip
     return rec
 
 
