@@ -158,6 +158,7 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
                 " directions"
                 f" (no-load TE; valid range {tab.valid[0] * 1e3:.3f} ... {tab.valid[1] * 1e3:.3f} mm;"
                 f" interpolation <= {tab.interpolation_error * 1e6:.3f} um)"
+                + (f"; {tab.update_note}" if tab.update_note else "")
             )
             return
         n = table.te.shape

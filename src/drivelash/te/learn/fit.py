@@ -55,6 +55,12 @@ class TrainedTEModel:
     context : ModelContext or None
         Axis, valid range, compensator settings and simulator
         (:class:`drivelash.te.runtime.persist.ModelContext`); required to save the model.
+    noload_change : dict
+        ``{"pos": array, …}`` on the grid of ``geo[key]``: what the ``te update`` runs since the fit
+        changed the model's no-load TE [m] (its prediction at the no-load torque, new minus
+        parent, accumulated); empty for a model that was never updated. The CNC tables add it
+        to TE_geo (:func:`drivelash.te.runtime.cnc.geometric_table`); ``predict`` already
+        holds it through stage 2.
     """
 
     pipeline: TEPipeline
@@ -63,6 +69,7 @@ class TrainedTEModel:
     info: dict[str, Any] = field(default_factory=dict)
     offset: dict[str, tuple[float, float]] = field(default_factory=dict)
     context: Any = None
+    noload_change: dict[str, np.ndarray] = field(default_factory=dict)
 
     def geometric_range(self) -> tuple[float, float]:
         """Positions [m] where every direction's no-load curve holds measured data (x_min, x_max).

@@ -139,6 +139,9 @@ def restore_trained(directory: str | Path) -> tuple[Any, TrainedTEModel]:
         geo[key] = GeometricCurve(float(dm["geo_x0"]), float(dm["geo_step"]), a["geo_te"].copy())
         offset[key] = (float(a["offset"][0]), float(a["offset"][1]))
     trained = TrainedTEModel(model.pipeline, geo, models, dict(meta.get("info", {})), offset)
+    for key in model.directions:  # an earlier update's no-load change, accumulated by this one
+        if "noload_change" in arrays[key]:
+            trained.noload_change[key] = arrays[key]["noload_change"].copy()
     ctx = getattr(model, "context", None)
     if ctx is not None:
         trained.context = ctx  # type: ignore[attr-defined]
@@ -263,11 +266,28 @@ def _parent_rows(
     return np.vstack(Xs), np.concatenate(ys)
 
 
+def _noload_torque(rs: list[RunData]) -> float:
+    """Motor torque [N·m] of the no-load condition: the slowest zero-load pass's median torque.
+
+    The geometric curves were learnt on the slow no-load runs; without a zero-load pass the
+    pass of smallest mean |torque| stands in.
+    """
+    zero = [r for r in rs if abs(float(r.meta.get("load", np.nan))) < 1e-6]
+    if zero:
+        r = min(zero, key=lambda r: abs(float(r.meta.get("velocity", np.inf))))
+    else:
+        r = min(rs, key=lambda r: abs(float(np.mean(r.torque))))
+    return float(np.median(r.torque))
+
+
 def _parent_note(extra: Mapping[str, Any]) -> str:
     if not extra:
         return ""
     lo, hi = extra["covered_m"]
-    return f" over {lo * 1e3:.1f} ... {hi * 1e3:.1f} mm, + {extra['parent_rows']} rows of the parent beyond"
+    return (
+        f" over {lo * 1e3:.1f} ... {hi * 1e3:.1f} mm, + {extra['parent_rows']} rows of the parent beyond;"
+        f" no-load change up to {extra['noload_change_max_um']:.3f} um"
+    )
 
 
 def _mae(predict: Callable[..., np.ndarray], runs: Iterable[RunData]) -> float:
@@ -327,14 +347,17 @@ def update_trained(
         Progress messages.
     parent : TEModel, optional
         The model being updated (``te update`` gives it; ``runs`` aligned to it with
-        :func:`align_to_parent` first). Then over the travel the passes do not cover, rows
-        of the parent's own prediction enter the refit, so the model keeps the parent there.
+        :func:`align_to_parent` first). Then (1) over the travel the passes do not cover, rows
+        of the parent's own prediction enter the refit, so the model keeps the parent there;
+        (2) the change of the no-load prediction (at the no-load torque, :func:`_noload_torque`;
+        zero outside the passes' travel) is added to ``trained.noload_change``, which the CNC
+        tables hold.
 
     Returns
     -------
     dict
         ``stage``, ``update_stride``, per direction ``rows``, ``runs`` and ``time_s`` (with a
-        parent also ``parent_rows`` and ``covered_m``).
+        parent also ``parent_rows``, ``covered_m``, ``noload_torque_Nm``, ``noload_change_max_um``).
     """
     if stage not in UPDATE_STAGES:
         raise ParameterError(
@@ -368,6 +391,22 @@ def update_trained(
         t0 = time.perf_counter()
         st.update(X, y, stage=stage)
         dt_s = time.perf_counter() - t0
+        if parent is not None:
+            d = rs[0].direction
+            geo = trained.geo[key]
+            t0_nm = _noload_torque(rs)
+            lo, hi = extra["covered_m"]
+            inside = (geo.x >= lo) & (geo.x <= hi)
+            change = np.where(
+                inside,
+                (trained.predict_def_um(geo.x, t0_nm, d) - parent.predict_def_um(geo.x, t0_nm, d)) / 1e6,
+                0.0,
+            )
+            total = trained.noload_change.get(key, np.zeros_like(change)) + change
+            trained.noload_change[key] = total
+            extra.update(
+                {"noload_torque_Nm": t0_nm, "noload_change_max_um": float(np.max(np.abs(change)) * 1e6)}
+            )
         rec["directions"][key] = {"rows": n_rows, "runs": len(rs), "time_s": dt_s, **extra}
         say(f"{key}: updated stage {'2' if stage == 'trees' else '1 and 2'} on {len(rs)} passes "
             f"({n_rows} rows{_parent_note(extra)}) in {dt_s:.1f} s")  # fmt: skip

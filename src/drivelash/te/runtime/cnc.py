@@ -96,6 +96,14 @@ class GeometricModel(Protocol):
     def geometric_range(self) -> tuple[float, float]: ...
 
 
+def _noload(model: GeometricModel, x: np.ndarray, direction: int) -> tuple[np.ndarray, np.ndarray | None]:
+    """TE_geo and the ``te update`` change of the model's no-load TE (None if never updated) [m]."""
+    geo = np.asarray(model.geometric(x, direction), dtype=np.float64)
+    change = getattr(model, "noload_change", None)
+    delta = change(x, direction) if callable(change) else None
+    return geo, (None if delta is None else np.asarray(delta, dtype=np.float64))
+
+
 @dataclass(frozen=True)
 class GeometricTable:
     """No-load TE per direction on an equidistant grid.
@@ -114,6 +122,10 @@ class GeometricTable:
         Largest |linear interpolation between the points − model| on a 50 µm grid [m].
     source : str
         Provenance (model directory).
+    update_note : str
+        Empty for a model that was never updated; else what the values hold beyond the fit's
+        no-load curves (the ``te update`` change, :meth:`TEModel.noload_change`), written into
+        the file's header.
     """
 
     x0: float
@@ -123,6 +135,7 @@ class GeometricTable:
     valid: tuple[float, float]
     interpolation_error: float
     source: str = ""
+    update_note: str = ""
 
     @property
     def x(self) -> np.ndarray:
@@ -143,6 +156,11 @@ def geometric_table(
     source: str = "",
 ) -> GeometricTable:
     """Sample the model's geometric (no-load) error per direction for a CNC table.
+
+    For a model changed by ``te update`` the values are its no-load TE including the update:
+    TE_geo + the change of its prediction at the no-load torque (``model.noload_change``),
+    and the table's ``update_note`` says so (in the file's header); for a model never
+    updated they are TE_geo, as before.
 
     Parameters
     ----------
@@ -179,7 +197,16 @@ def geometric_table(
             "te export", "--step-mm", f"{step * 1e3:g} mm gives {n} points (limit {MAX_POINTS})"
         )
     x = a + step * np.arange(n)
-    te = [np.asarray(model.geometric(x, d), dtype=np.float64) for d in (1, -1)]
+    parts = [_noload(model, x, d) for d in (1, -1)]
+    te = [g if c is None else g + c for g, c in parts]
+    note = ""
+    if any(c is not None for _, c in parts):
+        worst = max(float(np.max(np.abs(c))) for _, c in parts if c is not None)
+        info = getattr(model, "info", {}) or {}
+        note = (
+            f"no-load TE of model version {info.get('model_version', '?')}: the fit's no-load curves"
+            f" + the te update change of the model's no-load prediction (up to {worst * 1e6:.3f} um)"
+        )
     for d, v in zip((1, -1), te, strict=True):
         if not np.all(np.isfinite(v)):
             raise DataError(f"the model's no-load curve of direction {d:+d} is not finite")
@@ -193,8 +220,9 @@ def geometric_table(
     xf = np.arange(a, x[-1], 50e-6)
     err = 0.0
     for d, v in zip((1, -1), te, strict=True):
-        err = max(err, float(np.max(np.abs(np.interp(xf, x, v) - model.geometric(xf, d)))))
-    return GeometricTable(float(a), float(step), te[0], te[1], (lo, hi), err, source)
+        g, c = _noload(model, xf, d)
+        err = max(err, float(np.max(np.abs(np.interp(xf, x, v) - (g if c is None else g + c)))))
+    return GeometricTable(float(a), float(step), te[0], te[1], (lo, hi), err, source, note)
 
 
 def _mm(v: float, decimals: int = 6) -> str:
@@ -262,6 +290,8 @@ def write_sinumerik(
         " (else the CEC tables are not evaluated)",
         f"; interpolation between the points differs from the model by <= {_um(tab)} um",
     ]
+    if tab.update_note:
+        lines.append(f"; {tab.update_note}")
     if tab.source:
         lines.append(f"; model: {tab.source}")
     lines += ["CHANDATA(1)"]
@@ -325,6 +355,8 @@ def write_heidenhain(tab: GeometricTable, path: Path, axis: str = "X", table_nam
         f"values TE = x_T - x_M [mm]: {axis} in the positive, BACKLASH in the negative direction of traverse",
         f"interpolation between the points differs from the model by <= {_um(tab)} um",
     ]
+    if tab.update_note:
+        lines.append(tab.update_note)
     if tab.source:
         lines.append(f"model: {tab.source}")
     return _write(path, lines)

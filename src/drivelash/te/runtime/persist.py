@@ -355,6 +355,9 @@ def model_arrays(trained: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         arrs["geo_te"] = np.asarray(geo.te, dtype=np.float64)
         arrs["offset"] = np.asarray(getattr(trained, "offset", {}).get(key, (0.0, 0.0)), dtype=np.float64)
         arrs.update(flatten_trees(st.trees_))
+        change = getattr(trained, "noload_change", {}).get(key)
+        if change is not None:  # only an updated model has one (never-updated files unchanged)
+            arrs["noload_change"] = np.asarray(change, dtype=np.float64)
         for n, a in arrs.items():
             flat[f"{key}.{n}"] = np.ascontiguousarray(a)
         meta["models"][key] = {
@@ -515,6 +518,14 @@ def _validate_direction(
     out["offset"] = _need(arrs, key, "offset", "f", 1) if f"{key}.offset" in arrs else np.zeros(2)
     for n in ("children_left", "children_right", "feature", "roots"):
         out[n] = _need(arrs, key, n, "iu", 1)
+    # the no-load change of te update (optional: a model never updated has none)
+    if f"{key}.noload_change" in arrs:
+        out["noload_change"] = _need(arrs, key, "noload_change", "f", 1)
+        if out["noload_change"].shape != out["geo_te"].shape:
+            raise ModelFileError(
+                f"weights: array '{key}.noload_change' has {out['noload_change'].size} values,"
+                f" the no-load curve {out['geo_te'].size}"
+            )
     n_in, hid = out["W1"].shape
     ok = (
         n_in == n_t + 1

@@ -386,6 +386,12 @@ class TEModel:
             )
         #: the same buffers by direction code +1/−1 (what the methods are given)
         self._flank = {_SIGN[key]: buf for key, buf in self._buf.items()}
+        #: no-load change of the te updates since the fit [m] on the geo grid (updated models only)
+        self._noload_change = {
+            _SIGN[key]: np.asarray(arrays[key]["noload_change"], dtype=np.float64)
+            for key in self.directions
+            if "noload_change" in arrays[key]
+        }
 
     @property
     def info(self) -> dict[str, Any]:
@@ -571,6 +577,54 @@ class TEModel:
         out = np.empty(x.size)
         _geo_batch(x, f, ib, out)
         return out
+
+    def noload_change(self, x_T: Any, direction: int) -> np.ndarray | None:
+        """What ``te update`` changed in the no-load TE since the fit [m], or None (never updated).
+
+        The change of the model's own prediction at the no-load torque (new minus parent,
+        accumulated over the updates; zero outside the travel of the update passes), stored on
+        the grid of the no-load curve and interpolated linearly like it.
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table positions [m] (flattened).
+        direction : int
+            Flank in contact: +1 or −1.
+
+        Returns
+        -------
+        numpy.ndarray or None
+            Change [m], 1-D, one per position; None for a model that was never updated.
+        """
+        f, ib = self.kernel_arrays(direction)
+        change = self._noload_change.get(check_direction(direction, "TEModel"))
+        if change is None:
+            return None
+        x = np.asarray(x_T, dtype=np.float64).reshape(-1)
+        grid = float(f[0]) + float(f[1]) * np.arange(change.size)
+        return np.interp(x, grid, change)
+
+    def noload(self, x_T: Any, direction: int) -> np.ndarray:
+        """The no-load TE [m] the CNC tables hold: TE_geo plus the updates' change (:meth:`noload_change`).
+
+        For a model that was never updated this is :meth:`geometric`, bit for bit.
+
+        Parameters
+        ----------
+        x_T : array_like
+            Table positions [m] (flattened).
+        direction : int
+            Flank in contact: +1 or −1.
+
+        Returns
+        -------
+        numpy.ndarray
+            No-load TE [m], 1-D, one per position.
+        """
+        geo = self.geometric(x_T, direction)
+        change = self.noload_change(x_T, direction)
+        return geo if change is None else geo + change
 
     def geometric_range(self) -> tuple[float, float]:
         """Positions [m] where every direction's no-load curve holds measured data (x_min, x_max).
