@@ -154,6 +154,11 @@ def prepare_campaign(
     ------
     DataError
         A direction without a geometric (no-load) run or without a load run.
+
+    Notes
+    -----
+    A load run is used only where its direction's no-load curve holds data (``span`` of
+    :meth:`TEPipeline.process`); ``te import``/``te fit`` warn for a run reaching beyond it.
     """
     if pipeline is None:
         pipeline = TEPipeline(GearGeometry.from_bench(campaign.bench))
@@ -165,12 +170,15 @@ def prepare_campaign(
         if not gruns:
             raise DataError(f"campaign has no geometric (no-load) run in direction {d:+d}")
         geo[key] = pipeline.geometric([r.trace().columns for r in gruns], d)
+        # only where TE_geo was measured (span): beyond the no-load curve it is held flat, and
+        # the geometric error there would be learnt as load behaviour (finding A9)
         runs[key] = [
             pipeline.process(
                 r.trace().columns,
                 d,
                 geo[key],
                 meta={"load": float(r.load), "velocity": float(r.velocity), "name": Path(r.path).stem},
+                span=geo[key].span(),
             )
             for r in campaign.select(kind="load", direction=d)
         ]

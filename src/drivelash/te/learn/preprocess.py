@@ -490,6 +490,7 @@ class TEPipeline:
         direction: int,
         geo: GeometricCurve,
         meta: Mapping[str, Any] | None = None,
+        span: tuple[float, float] | None = None,
     ) -> RunData:
         """Resample → TE → TE_def → low-pass → trim → offset removal, for one run and direction.
 
@@ -503,6 +504,13 @@ class TEPipeline:
             TE_geo of that direction (subtracted: TE_def = TE − TE_geo).
         meta : mapping, optional
             Provenance copied into the result's ``meta``.
+        span : tuple of float, optional
+            ``(x_min, x_max)`` [m] where ``geo`` holds data: an end of the pass reaching more
+            than ``trim`` beyond it is cut there before the low-pass (then trimmed like any end),
+            so no row is built on a held-flat TE_geo; ``meta["cropped_m"]`` records the travel
+            cut. A pass reaching at most ``trim`` beyond ``span`` (the usual: runs over the same
+            travel, the no-load curve trimmed by ``geo_trim`` only) is processed as without it.
+            Default: the whole pass.
 
         Raises
         ------
@@ -511,6 +519,23 @@ class TEPipeline:
             length.
         """
         grid, c = self._grid_run(columns, direction)
+        m = dict(meta or {})
+        if span is not None:
+            # an end reaching more than ``trim`` beyond the span is cut at the span (before the
+            # low-pass: no held-flat TE_geo enters the filter; the trim below then drops the
+            # filter's edge); a pass reaching at most ``trim`` beyond it is processed as before
+            tol = 1e-9
+            lo = span[0] if grid[0] < span[0] - self.trim - tol else -np.inf
+            hi = span[1] if grid[-1] > span[1] + self.trim + tol else np.inf
+            keep = (grid >= lo - tol) & (grid <= hi + tol)
+            if not keep.all():
+                m["cropped_m"] = float((~keep).sum() * self.step)
+                grid, c = grid[keep], {k: v[keep] for k, v in c.items()}
+                if grid.size < 16:
+                    raise DataError(
+                        f"the pass lies outside the no-load curve ({span[0]:.4f} ... {span[1]:.4f} m)",
+                        column="x_T",
+                    )
         # low-pass the whole pass, then drop the ends (ramps, flank change, filter edges);
         # the offset is removed over the kept part (a constant passes the low-pass unchanged)
         filt = {
@@ -522,7 +547,6 @@ class TEPipeline:
             raise DataError("run shorter than twice the trim length", column="x_T")
         te_def = remove_offset(filt["def"], self.offset)
         torque = filt["torque"]
-        m = dict(meta or {})
         m["offset_um"] = float(np.mean(filt["def"]) * UM) if self.offset == "mean" else 0.0
         m["torque_mean"] = float(np.mean(torque))
         return RunData(grid, torque, te_def * UM, int(np.sign(direction)), m)

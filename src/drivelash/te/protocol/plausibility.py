@@ -56,6 +56,9 @@ MIXED_SAME_WARN = 5e-6
 MIXED_SAME_SCATTER = 10.0
 #: Share of the recorded travel a geometric or load pass must cover (warning below).
 COVERAGE_WARN = 0.5
+#: A load pass reaching further than this [m] beyond its direction's no-load runs is warned:
+#: TE_geo is not known there, ``te fit`` uses the load pass only where it is (1 mm, as te update).
+GEO_SPAN_TOL = 1e-3
 #: Sample spacing over position, in cut-off wavelengths of the low-pass (3 × tooth mesh):
 #: error above 1/2 (Nyquist), warning above 1/10.
 SPACING_ERROR = 0.5
@@ -436,6 +439,7 @@ def check_runs(
             add("error", "runs", source, f"no geometric (no-load) run in direction {d:+d}")
         else:
             geo_ranges[d] = (max(i["range_m"][0] for i in geo), min(i["range_m"][1] for i in geo))
+            _beyond_no_load(rr, geo_ranges[d], d, add)
         if not loads:
             add("error", "runs", source, f"no load run in direction {d:+d}")
         elif len(train) < 2:
@@ -483,6 +487,29 @@ def check_runs(
         else:
             add("error", "coverage", source, "the geometric runs of the two directions do not overlap")
     return rep
+
+
+def _beyond_no_load(rr: Sequence[tuple[RunRecord, Any]], span: tuple[float, float], d: int, add: Any) -> None:
+    """Warn for each load pass reaching more than :data:`GEO_SPAN_TOL` beyond the no-load runs of its
+    direction, naming the uncovered positions (finding A9: such parts were trained on with TE_geo
+    held flat, and spoilt the model inside its valid range)."""
+    glo, ghi = span
+    for r, i in rr:
+        if r.kind != "load":
+            continue
+        a, b = i["range_m"]
+        parts = [(a, glo)] if a < glo - GEO_SPAN_TOL else []
+        parts += [(ghi, b)] if b > ghi + GEO_SPAN_TOL else []
+        if parts:
+            where = " and ".join(f"{u * 1e3:.1f} ... {v * 1e3:.1f} mm" for u, v in parts)
+            add(
+                "warning",
+                "coverage",
+                r.label,
+                f"travels {a * 1e3:.1f} ... {b * 1e3:.1f} mm, the no-load run(s) of direction {d:+d} only"
+                f" {glo * 1e3:.1f} ... {ghi * 1e3:.1f} mm: TE_geo is not known at {where}, so te fit"
+                " leaves that part out (record the no-load runs over the whole travel)",
+            )
 
 
 def _run_name(r: RunRecord) -> str:
