@@ -263,6 +263,9 @@ def _export_names() -> object:
         torque_max="--torque-max",
         torque_hint="leave --torque-max out or lower it",
         size_hint="raise --dx-mm or --torque-step, or lower --torque-max",
+        dx="--dx-mm",
+        dx_unit="mm",
+        coarse_dx_error=True,
         extra_bytes_per_value=40.0,  # the CSV text (~40 bytes per row) written from the table
     )
 

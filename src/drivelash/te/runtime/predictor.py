@@ -346,6 +346,17 @@ def _compact_nodes(arrays: Mapping[str, np.ndarray]) -> np.ndarray:
     return nodes
 
 
+def _check_finite(x: np.ndarray, tq: np.ndarray) -> None:
+    """Refuse NaN/inf positions or torques (one line naming the first; finding A12)."""
+    for name, v in (("x_T", x), ("torque", tq)):
+        bad = ~np.isfinite(v)
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise ParameterError(
+                "TEModel", name, f"value {k} is {float(v[k])!r}: positions and torques must be finite"
+            )
+
+
 # ---------------------------------------------------------------------------
 # the loaded model
 # ---------------------------------------------------------------------------
@@ -429,6 +440,7 @@ class TEModel:
         x = np.ascontiguousarray(np.asarray(x_T, dtype=np.float64).reshape(-1))
         tq = np.ascontiguousarray(np.broadcast_to(np.asarray(torque, dtype=np.float64), x.shape))
         f, ib = self.kernel_arrays(direction)
+        _check_finite(x, tq)
         out = np.empty(x.size)
         if x.size >= SORT_MIN:
             # neighbouring positions walk the same tree paths: sorted, the nodes stay in cache
@@ -440,7 +452,7 @@ class TEModel:
             _batch(x, tq, f, ib, with_geo, out)
         return out
 
-    def predict(self, x_T: Any, torque: Any, direction: int) -> np.ndarray:
+    def predict(self, x_T: Any, torque: Any, direction: int, *, strict: bool = False) -> np.ndarray:
         """TE [m] = TE_geo(x_T) + TE_def(x_T, torque) for direction +1/−1 (torque broadcast to x_T).
 
         Parameters
@@ -452,6 +464,11 @@ class TEModel:
         direction : int
             Flank in contact: +1 (moving in +x, positive torque) or −1; anything else is
             refused (:func:`~drivelash.te.runtime.table.check_direction`).
+        strict : bool
+            Also refuse positions outside the model's valid range (``context.valid_range``,
+            :func:`~drivelash.te.runtime.table.measured_range`) and torques of magnitude above
+            its ``torque_max``, where the model extrapolates (the runtime entry point; default
+            False: evaluation code asks beyond the range on purpose).
 
         Returns
         -------
@@ -461,9 +478,40 @@ class TEModel:
         Raises
         ------
         ParameterError
-            ``direction`` is not +1 or −1, or the model has no such direction (one line).
+            ``direction`` is not +1 or −1, or the model has no such direction; a position or
+            torque that is NaN or infinite; with ``strict``, one outside the valid range (one
+            line naming the first such value and the range).
         """
+        if strict:
+            self._check_valid(x_T, torque)
         return self._run(x_T, torque, direction, True)
+
+    def _check_valid(self, x_T: Any, torque: Any) -> None:
+        from drivelash.te.runtime.table import measured_range
+
+        x = np.asarray(x_T, dtype=np.float64).reshape(-1)
+        tq = np.broadcast_to(np.asarray(torque, dtype=np.float64), x.shape)
+        _check_finite(x, tq)
+        lo, hi = measured_range(self)
+        out = np.flatnonzero((x < lo - 1e-9) | (x > hi + 1e-9))
+        if out.size:
+            raise ParameterError(
+                "TEModel.predict",
+                "x_T",
+                f"{x[out[0]]:.6g} m is outside the model's valid range [{lo:.6g}, {hi:.6g}] m"
+                f" = [{lo * 1e3:.3f}, {hi * 1e3:.3f}] mm (x_T is in m)",
+            )
+        vr = getattr(self.context, "valid_range", None)
+        t_max = getattr(vr, "torque_max", None)
+        if t_max is not None:
+            big = np.flatnonzero(np.abs(tq) > float(t_max) * (1 + 1e-9))
+            if big.size:
+                raise ParameterError(
+                    "TEModel.predict",
+                    "torque",
+                    f"{tq[big[0]]:.6g} N·m is above the model's valid torque range ±{float(t_max):.4g} N·m"
+                    " (its training runs): the model would extrapolate",
+                )
 
     def predict_def_um(self, x_T: Any, torque: Any, direction: int) -> np.ndarray:
         """Deformation TE_def [µm] (stage 1 + stage 2), without TE_geo and the offset line.

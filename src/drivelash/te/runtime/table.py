@@ -28,6 +28,7 @@ __all__ = [
     "build_table",
     "check_direction",
     "measured_range",
+    "mesh_step_limit",
     "table_bytes",
     "table_size",
     "table_te",
@@ -108,9 +109,31 @@ class GridNames:
     #: the unit of ``x_min``/``x_max`` for a refused position range; when given, the valid range
     #: is stated in m and in mm (a command whose other lengths are in mm, e.g. ``te export``)
     x_unit_note: str = ""
+    #: the position step's name and the unit it is stated in
+    dx: str = "dx"
+    dx_unit: str = "m"
+    #: a step coarser than the model resolves (:func:`mesh_step_limit`): an error (``te export``)
+    #: or a ``UserWarning`` (the API; a step above one tooth pitch is an error for both)
+    coarse_dx_error: bool = False
 
 
 API_NAMES = GridNames()
+
+
+def mesh_step_limit(model: Any) -> tuple[float, float] | None:
+    """The largest table step [m] that holds the model's tooth meshing, and the tooth pitch [m].
+
+    The model keeps wavelengths down to ``1/cutoff`` (the low-pass at ``cutoff_factor`` × the
+    tooth-mesh frequency, 3 in the paper: pitch/3); sampling them needs a step of at most
+    half of that (Nyquist), pitch/6 — the bound ``te import`` applies to the recordings.
+    None for a model without a ``pipeline`` (nothing known of its resolution).
+    """
+    pipe = getattr(model, "pipeline", None)
+    geom = getattr(pipe, "geometry", None)
+    if pipe is None or geom is None:
+        return None
+    pitch = math.pi * float(geom.d_p) / float(geom.n_t)
+    return 0.5 / float(pipe.cutoff), pitch
 
 
 class TEPredictor(Protocol):
@@ -402,6 +425,7 @@ def check_grid(
     from drivelash.io.budget import check_budget
 
     check_measured(x_min, x_max, measured_range(model), names=names)
+    _check_step(model, dx, names)
     vr = getattr(getattr(model, "context", None), "valid_range", None)
     t_lim = getattr(vr, "torque_max", None)
     if t_lim is not None:
@@ -429,6 +453,35 @@ def check_grid(
         )
     extra = names.extra_bytes_per_value * 2 * n_x * n_torque
     check_budget(table_bytes(int(n_x), int(n_torque)) + extra, what=what, option=names.size_hint)
+
+
+def _check_step(model: Any, dx: float, names: GridNames) -> None:
+    """Refuse (or warn about) a position step the model's meshing cannot be held with (finding A12)."""
+    lim = mesh_step_limit(model)
+    if lim is None:
+        return
+    limit, pitch = lim
+    k = 1e3 if names.dx_unit == "mm" else 1.0
+    said = f"{dx * k:g} {names.dx_unit}"
+    if dx > pitch * (1 + 1e-9):
+        raise ParameterError(
+            names.owner,
+            names.dx,
+            f"{said} is more than one tooth pitch ({pitch * 1e3:.4g} mm): the table cannot hold the"
+            f" meshing — the model needs a step <= {limit * 1e3:.3g} mm"
+            + (" (a step in mm given in m?)" if names.dx_unit == "m" else ""),
+        )
+    if dx > limit * (1 + 1e-9):
+        msg = (
+            f"{said} is coarser than the model resolves: the tooth mesh (pitch {pitch * 1e3:.4g} mm,"
+            f" kept down to pitch/{pitch / (2 * limit):.3g}) needs <= {limit * 1e3:.3g} mm; linear"
+            " interpolation between the nodes would miss the meshing"
+        )
+        if names.coarse_dx_error:
+            raise ParameterError(names.owner, names.dx, msg)
+        import warnings
+
+        warnings.warn(f"{names.owner}: {names.dx}: {msg}", UserWarning, stacklevel=3)
 
 
 def check_measured(
