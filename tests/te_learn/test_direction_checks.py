@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from drivelash.errors import ParameterError
-from drivelash.te.runtime.persist import load_model, save_model
+from drivelash.te.runtime.persist import content_digests, load_model, save_model
 
 BAD = [0, 2, -2, 0.5, -0.5, float("nan"), "pos", True]
 X = np.linspace(0.01, 0.29, 40)
@@ -65,6 +65,7 @@ def test_one_direction_model_names_the_missing_direction(model_dir, tmp_path):
     d = shutil.copytree(model_dir, tmp_path / "pos_only")
     meta = json.loads((d / "model.json").read_text())
     meta["directions"] = ["pos"]
+    meta["content_sha256"] = content_digests(meta)  # saved so (a hand edit alone is refused)
     (d / "model.json").write_text(json.dumps(meta))
     m = load_model(d)
     assert np.isfinite(m.predict_one(0.1, 2.0, 1))

@@ -69,7 +69,10 @@ def old_dir(wide_dir, tmp_path_factory) -> Path:
     """The same model as a file written before the fix: model.json holds the runs' span."""
     tmp = tmp_path_factory.mktemp("old")
     lo, hi = RUNS_SPAN
-    return _copy_edit(wide_dir, tmp, lambda m: m["valid_range"].update(x_min=lo, x_max=hi))
+    # a file written before the fix also had no content digests (stored since session 20)
+    return _copy_edit(
+        wide_dir, tmp, lambda m: (m["valid_range"].update(x_min=lo, x_max=hi), m.pop("content_sha256"))
+    )
 
 
 def test_an_old_file_loads_and_behaves_as_a_new_one(wide_dir, old_dir):

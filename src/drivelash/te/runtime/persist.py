@@ -34,7 +34,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from pydantic import Field, field_validator, model_validator
@@ -213,6 +213,10 @@ class ModelMeta(ModelContext):
     weights: Literal["weights.safetensors", "weights.npz"]
     #: SHA-256 of the weight file as written (absent in files written before it was stored)
     weights_sha256: str | None = Field(default=None, pattern="^[0-9a-f]{64}$")
+    #: SHA-256 of every other key's canonical JSON as written (``models`` per direction), so a
+    #: hand-edited or corrupted ``model.json`` is refused naming the key (absent in files
+    #: written before it was stored: not checked)
+    content_sha256: dict[str, Annotated[str, Field(pattern="^[0-9a-f]{64}$")]] | None = None
 
     @model_validator(mode="after")
     def _dirs(self) -> ModelMeta:
@@ -453,7 +457,65 @@ def save_model(trained: Any, directory: str | Path, fmt: str = "safetensors") ->
         (d / WEIGHT_FILES[0]).unlink(missing_ok=True)
     meta["weights_sha256"] = _sha256(d / meta["weights"])
     write_json(d / META_FILE, meta, indent=1)
+    # each key's digest of the document as written (and as the loader will read it)
+    meta["content_sha256"] = content_digests(read_raw_document(d / META_FILE))
+    write_json(d / META_FILE, meta, indent=1)
     return d
+
+
+#: The key of ``model.json`` holding the digests of the others (:func:`content_digests`).
+CONTENT_KEY = "content_sha256"
+
+
+def content_digests(doc: Mapping[str, Any]) -> dict[str, str]:
+    """SHA-256 of each key of a parsed ``model.json`` but :data:`CONTENT_KEY`, ``models`` per direction.
+
+    Canonical form: ``json.dumps(value, sort_keys=True, separators=(",", ":"))`` — independent of
+    indentation and key order, so only a change of a value (or a key added or removed) changes it.
+
+    Parameters
+    ----------
+    doc : mapping
+        The raw JSON object of ``model.json``.
+
+    Returns
+    -------
+    dict
+        ``{key: hex digest}``; ``models`` as ``models.pos``, ``models.neg``.
+    """
+    import hashlib
+    import json
+
+    def dig(v: Any) -> str:
+        text = json.dumps(v, sort_keys=True, separators=(",", ":"), ensure_ascii=True)
+        return hashlib.sha256(text.encode("ascii")).hexdigest()
+
+    out: dict[str, str] = {}
+    for k, v in doc.items():
+        if k == CONTENT_KEY:
+            continue
+        if k == "models" and isinstance(v, Mapping):
+            out.update({f"models.{d}": dig(m) for d, m in v.items()})
+            out["models"] = dig(sorted(v))
+        else:
+            out[k] = dig(v)
+    return out
+
+
+def _check_content(head: Mapping[str, Any], mpath: Path) -> None:
+    """Refuse a ``model.json`` whose keys differ from the digests it was saved with (finding A1)."""
+    stored = head.get(CONTENT_KEY)
+    if stored is None:
+        return  # written before the digests were stored
+    now = content_digests(head)
+    for k in sorted(set(stored) | set(now)):
+        if stored.get(k) == now.get(k):
+            continue
+        what = "added" if k not in stored else "removed" if k not in now else "changed"
+        raise ModelFileError(
+            f"{mpath}: key '{k}' {what} after the model was saved (key '{CONTENT_KEY}'): a hand-edited"
+            " or corrupted model is refused — copy the model directory whole, or refit"
+        )
 
 
 def _sha256(path: Path) -> str:
@@ -631,8 +693,9 @@ def load_model(directory: str | Path) -> TEModel:
     model.context = measured_context(model, mpath)
     model.meta["valid_range"] = model.context.valid_range.model_dump(mode="json")
     check_outputs(model, wpath)
-    # last: the checks above name what is wrong in a broken file; this one sees a plausible one
+    # last: the checks above name what is wrong in a broken file; these see a plausible one
     # that is not the file the model was saved with (edited, swapped, or bit-flipped)
+    _check_content(head, mpath)
     if doc.weights_sha256 is not None and _sha256(wpath) != doc.weights_sha256:
         raise ModelFileError(
             f"{wpath}: does not match {META_FILE} (key 'weights_sha256': the file changed after"
