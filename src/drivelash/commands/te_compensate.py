@@ -233,7 +233,7 @@ def _export_table(
 ) -> object:
     """Build the runtime table over the model's measured range and write it (``te export``, table format)."""
     from drivelash.te.runtime.export import export_table
-    from drivelash.te.runtime.table import build_table, measured_range
+    from drivelash.te.runtime.table import build_table, check_measured, measured_range
 
     ctx = model.context  # type: ignore[attr-defined]
     vr = ctx.valid_range
@@ -241,6 +241,8 @@ def _export_table(
     lo = mlo if x_min is None else x_min
     hi = mhi if x_max is None else x_max
     tmax = vr.torque_max if torque_max is None else torque_max
+    if math.isfinite(lo) and math.isfinite(hi):  # a value outside names itself and the valid range
+        check_measured(lo, hi, (mlo, mhi), names=_export_names())  # type: ignore[arg-type]
     n_torque = _check_grid(lo, hi, dx_mm, tmax, torque_step)
     # build_table refuses positions outside the measured range, torques above the trained range
     # and oversized grids — the same checks for the API — worded with this command's options

@@ -186,9 +186,11 @@ def geometric_table(
     b = hi if x_max is None else float(x_max)
     if not (math.isfinite(step) and step > 0):
         raise ParameterError("te export", "--step-mm", f"must be > 0, got {step * 1e3!r} mm")
+    if math.isfinite(a) and math.isfinite(b):
+        # first: a value outside the valid range (e.g. mm typed for m) is named with the range
+        check_measured(a, b, (lo, hi), unit="mm")
     if not (math.isfinite(a) and math.isfinite(b) and b > a):
         raise ParameterError("te export", "--x-max", f"range [{a * 1e3:g}, {b * 1e3:g}] mm is empty")
-    check_measured(a, b, (lo, hi), unit="mm")
     n = int(math.floor((b - a) / step + 1e-9)) + 1
     if n < 2:
         raise ParameterError("te export", "--step-mm", f"{step * 1e3:g} mm leaves fewer than 2 points")

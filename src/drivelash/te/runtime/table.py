@@ -511,7 +511,7 @@ def check_measured(
     names = EXPORT_POSITIONS if names is None else names
     lo, hi = measured
     tol = 1e-9
-    if a < lo - tol or b > hi + tol:
+    if a < lo - tol or b > hi + tol or a > hi + tol or b < lo - tol:
         fmts = {"m": (1.0, ".6g"), "mm": (1e3, ".3f")}
         f, fmt = fmts[unit]
         valid = f"[{lo * f:{fmt}}, {hi * f:{fmt}}] {unit}"
@@ -523,7 +523,7 @@ def check_measured(
             note = f"; {names.x_unit_note}"
         raise ParameterError(
             names.owner,
-            names.x_min if a < lo - tol else names.x_max,
+            names.x_min if (a < lo - tol or a > hi + tol) else names.x_max,  # the one outside
             f"[{a * f:{fmt}}, {b * f:{fmt}}] {unit} leaves the model's valid range {valid} "
             f"(where its no-load runs of both directions were measured){note}",
         )
