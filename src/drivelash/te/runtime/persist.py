@@ -397,6 +397,11 @@ def _save_safetensors(arrays: dict[str, np.ndarray], path: Path) -> None:
 
     try:
         save_file(arrays, str(path))
+        # safetensors creates the file 0600; the project's outputs honour the umask (finding A8:
+        # a model directory shared with the CNC's service user had an unreadable weight file)
+        from drivelash.io.outputs import _umask
+
+        os.chmod(path, 0o666 & ~_umask())
     except SafetensorError as exc:
         m = re.search(r"\(os error (\d+)\)", str(exc))
         if m is None:
