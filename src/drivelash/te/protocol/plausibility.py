@@ -218,7 +218,37 @@ def _sign_advice(column: str, scales: dict[str, float] | None) -> str:
     return f"set scale = {-scale:g} (now {scale:g}) on the {column} column in [columns]"
 
 
-def _ratio_message(k: float, label_theta: str = "theta_m", scales: dict[str, float] | None = None) -> str:
+#: Length units a [columns] mapping of x_T may declare, in metres (for :func:`_declared_slip`).
+_LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "nm": 1e-9}
+
+
+def _declared_slip(k: float, declared: tuple[str, str] | None) -> str | None:
+    """The unit slip behind a ratio ``k`` given the declared ``(file column, unit)`` of x_T, or None.
+
+    The file holds x_T in a unit ``1/k`` times the declared one: e.g. k = 1000 under ``unit =
+    "mm"`` is micrometres (finding A3: the advice was "declare unit 'mm'", the unit declared).
+    """
+    if declared is None:
+        return None
+    column, unit = declared
+    scale = _LENGTH_UNITS.get(unit)
+    if scale is None:
+        return None
+    for name, s in _LENGTH_UNITS.items():
+        if name != "µm" and name != unit and abs(scale / s / k - 1.0) < 0.05:
+            return (
+                f"x_T is {k:.4g}× the motor travel: column {column!r} looks like {name} declared as"
+                f" {unit} (set unit = {name!r} in [columns.{column}])"
+            )
+    return None
+
+
+def _ratio_message(
+    k: float,
+    label_theta: str = "theta_m",
+    scales: dict[str, float] | None = None,
+    x_unit: tuple[str, str] | None = None,
+) -> str:
     if not math.isfinite(k):
         return "the motor angle does not move: check the theta_m column"
     if abs(k + 1.0) < 0.05:
@@ -226,6 +256,9 @@ def _ratio_message(k: float, label_theta: str = "theta_m", scales: dict[str, flo
             f"TE slope {1 - k:+.3f} m/m: the motor encoder counts against the linear scale"
             f" (encoder sign) — {_sign_advice(label_theta, scales)}"
         )
+    slip = _declared_slip(k, x_unit)
+    if slip is not None:
+        return f"TE slope {1 - k:+.4g} m/m: {slip}"
     for factor, text in _UNIT_SLIPS:
         if abs(k / factor - 1.0) < 0.05:
             return f"TE slope {1 - k:+.4g} m/m: {text}"
@@ -244,6 +277,7 @@ def check_runs(
     cutoff_factor: float = 3.0,
     source: str = "campaign",
     column_scales: dict[str, float] | None = None,
+    x_unit: tuple[str, str] | None = None,
 ) -> PlausibilityReport:
     """Run every plausibility check on a campaign's runs.
 
@@ -266,6 +300,9 @@ def check_runs(
     column_scales : dict, optional
         ``scale`` of the [columns] mapping per trace column (``theta_m``, ``torque_m``), so
         that sign advice accounts for a sign already flipped there.
+    x_unit : tuple of str, optional
+        ``(file column, declared unit)`` of the x_T mapping, so that a unit slip is named
+        against the unit declared (e.g. µm under ``unit = "mm"``).
 
     Returns
     -------
@@ -314,7 +351,7 @@ def check_runs(
         )
         # 1. encoder sign, ratio and position units
         if not (math.isfinite(k) and abs(k - 1.0) <= RATIO_ERROR):
-            add("error", "ratio", r.label, _ratio_message(k, scales=column_scales))
+            add("error", "ratio", r.label, _ratio_message(k, scales=column_scales, x_unit=x_unit))
             info["gross"] = True
             continue
         if abs(k - 1.0) > RATIO_WARN:
