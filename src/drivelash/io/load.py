@@ -242,6 +242,40 @@ def unwrap_encoder(x: np.ndarray, modulus: float) -> tuple[np.ndarray, int, int 
     return np.unwrap(x, period=modulus), int(jumps.sum()), int(np.flatnonzero(jumps)[0] + 1)
 
 
+def _refuse_counter_wrap(raw: np.ndarray, modulus: float, table: RawTable, source: str, unit: str) -> None:
+    """Refuse a position counter that wraps at a power of two other than one revolution, naming
+    the ``wrap`` to declare (a multi-turn counter of fixed width, e.g. 22 bit = 4 revolutions of
+    a 2^20 encoder: its jumps stay in the data and spoil every later check with a wrong cause).
+
+    Only when unambiguous: every step beyond half a revolution has the size of one power of two
+    W ≥ one revolution (to within twice the largest other step), and the other steps are
+    below W/100.
+    """
+    if raw.size < 3 or not np.all(np.isfinite(raw)):
+        return
+    d = np.diff(raw)
+    big = np.abs(d) > 0.5 * modulus
+    if not big.any() or big.all():
+        return
+    small = np.abs(d[~big])
+    step = float(small.max())
+    w = 2.0 ** np.round(np.log2(np.abs(d[big])))
+    if not (np.all(w == w[0]) and w[0] >= modulus * (1 - 1e-9) and w[0] > 100 * step):
+        return
+    if not np.all(np.abs(np.abs(d[big]) - w[0]) <= 2 * step + 1e-9 * w[0]):
+        return
+    first = int(np.flatnonzero(big)[0])
+    raise DataError(
+        f"the counter jumps by {d[first]:+.10g} {unit} ({int(big.sum())} time(s); other steps at most"
+        f" {step:.4g}): a counter that wraps at {w[0]:.10g} {unit} ({w[0] / modulus:g} revolutions);"
+        f" declare wrap = {w[0]:.10g} in its [columns] mapping",
+        path=table.path,
+        column=source,
+        row=first + 1,
+        rows=table.rows,
+    )
+
+
 def wrap_note(path: str, column: str, n_wraps: int, jump: str, row: int, rows: DataRows) -> str:
     """The warning for an unwrapped encoder column (the first jump lands on data row ``row``,
     named as ``rows`` does); the file loader's and the stream's text."""
@@ -366,6 +400,8 @@ def _apply_mapping(
         modulus = cm.wrap if cm.wrap is not None else (_one_rev(cm) if kind == "angle" else None)
         if modulus is not None and cm.column.startswith("theta"):
             raw = _unwrapped(raw, modulus, table, source, f"{modulus:g} {cm.unit}", warnings)
+            if cm.wrap is None:
+                _refuse_counter_wrap(raw, modulus, table, source, cm.unit)
         cols[cm.column] = raw * _factor(cm, table, source, warnings) * cm.scale + cm.offset
         kinds[cm.column] = kind
         origin[cm.column] = source
