@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from drivelash.errors import DataError
 from drivelash.io.campaign import (
     FORMAT_NAME,
     FORMAT_VERSION,
@@ -35,7 +36,7 @@ from drivelash.io.trace import Trace
 from drivelash.te.protocol.axis import load_axis
 from drivelash.te.protocol.plausibility import PlausibilityReport, check_runs, record_of
 
-__all__ = ["import_campaign", "recording_paths", "summary_lines"]
+__all__ = ["MAX_BRIDGED_PERIODS", "check_bridged_gap", "import_campaign", "recording_paths", "summary_lines"]
 
 
 def recording_paths(axis_path: str | Path) -> list[Path]:
@@ -57,6 +58,54 @@ def _direction_column(tr: Trace, direction: int) -> np.ndarray:
     s = s[idx]
     s[s == 0] = 1.0
     return s
+
+
+#: Longest stretch [sample periods] that ``[sampling] resample = true`` may bridge by linear
+#: interpolation while the axis moves: resampling is for jitter (a sample a little early or
+#: late bridges 1-2 periods); a longer stretch is a hole in the recording (a lost trace buffer)
+#: whose data would be invented (finding A11: 2 s = 2000 periods, 40 mm, TE 6.4 µm off).
+MAX_BRIDGED_PERIODS = 10
+
+
+def check_bridged_gap(tr: Trace, path: str) -> None:
+    """Refuse a resampled pass in which interpolation bridged a gap while the table moved.
+
+    Linear interpolation leaves x_T, θ_M and the torque *exactly* on one line (second differences
+    at rounding level) over the bridged stretch; measured data in motion never are (noise,
+    quantisation). A stretch longer than :data:`MAX_BRIDGED_PERIODS` sample periods over which
+    the table moved is refused in one line naming the file, the time, the length and the travel.
+
+    Parameters
+    ----------
+    tr : Trace
+        The loaded (resampled) pass: ``t`` [s], ``x_T`` [m], ``theta_m`` [rad], ``torque_m`` [N·m].
+    path : str
+        The recording, for the message.
+    """
+    t = np.asarray(tr["t"], dtype=np.float64)
+    if t.size < MAX_BRIDGED_PERIODS + 3:
+        return
+    lin = np.ones(t.size - 2, dtype=bool)
+    for name in ("x_T", "theta_m", "torque_m"):
+        v = np.asarray(tr[name], dtype=np.float64)
+        tol = 1e-9 * float(np.max(np.abs(v))) + 1e-300
+        lin &= np.abs(np.diff(v, 2)) <= tol
+    # runs of True: k consecutive linear second differences = k + 1 bridged intervals
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], lin.astype(np.int8), [0]))))
+    x = np.asarray(tr["x_T"], dtype=np.float64)
+    for a, b in zip(edges[0::2], edges[1::2], strict=True):
+        periods = b - a + 1
+        travel = abs(x[b + 1] - x[a])
+        if periods > MAX_BRIDGED_PERIODS and travel > 0:
+            dt = t[b + 1] - t[a]
+            raise DataError(
+                f"resampling bridged a gap of {dt:.4g} s ({periods} sample periods, {travel * 1e3:.3g} mm"
+                f" of travel) at t = {t[a]:.6g} s by linear interpolation: the data there would be"
+                f" invented — cut the recording at the gap or record the pass again (resample = true"
+                f" is for jitter: at most {MAX_BRIDGED_PERIODS} periods)",
+                path=path,
+                column="t",
+            )
 
 
 def import_campaign(
@@ -99,6 +148,8 @@ def import_campaign(
     for r in runs:
         path = axis.directory / str(r.file)
         tr = load_trace(path, mapping, required=REQUIRED_COLUMNS)
+        if any("resampled linearly" in w for w in tr.meta.get("warnings", [])):
+            check_bridged_gap(tr, str(path))
         for w in tr.meta.get("warnings", []):
             if warn is not None:
                 warn(w)
