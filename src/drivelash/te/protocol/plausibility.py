@@ -82,6 +82,12 @@ VELOCITY_WARN = 0.1
 MORE_LISTED = 4
 #: Shortest motion of a run that is judged at all [m].
 MIN_MOTION = 5e-3
+#: Fastest plausible constant-velocity pass of a rack-and-pinion axis [m/s] and highest plausible
+#: sample rate of a drive/CNC trace [Hz]: beyond either the time unit is wrong (finding A10: time
+#: in s declared as ms made a 10 mm/s pass "10 m/s sampled at 1 MHz"). Rack drives reach a few
+#: m/s in rapid traverse, TE passes are far slower; drive oscilloscopes sample at ≤ 32 kHz.
+MAX_PASS_SPEED = 5.0
+MAX_SAMPLE_RATE = 100e3
 #: Unit slips recognised in the ratio k (factor → description).
 _UNIT_SLIPS = (
     (1e3, "x_T looks like millimetres read as metres (declare unit 'mm')"),
@@ -377,6 +383,19 @@ def check_runs(
             add(
                 "warning", "zero", r.label, f"TE is {med * 1e3:+.3f} mm on average: are both positions homed?"
             )
+        # 2b. the time unit (after the ratio: x_T agrees with the motor, so a speed beyond a rack
+        # pass comes from the time column; the sample rate scales with it too)
+        if v_meas > MAX_PASS_SPEED or 1.0 / T_s > MAX_SAMPLE_RATE:
+            add(
+                "error",
+                "time",
+                r.label,
+                f"moves at {v_meas:.4g} m/s sampled at {1 / T_s:.4g} Hz: not a rack-and-pinion pass"
+                f" (limits {MAX_PASS_SPEED:g} m/s, {MAX_SAMPLE_RATE / 1e3:g} kHz) — check the unit of the"
+                " time column (time in s declared as ms gives 1000× both)",
+            )
+            info["gross"] = True
+            continue
         # 3. sample rate against the tooth mesh
         need_mm = SPACING_ERROR * lam_c * 1e3
         rate_ok = v_meas / (SPACING_WARN * lam_c)
