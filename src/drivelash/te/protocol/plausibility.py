@@ -203,6 +203,20 @@ def _moving(x: np.ndarray, t: np.ndarray) -> np.ndarray:
     return np.abs(v) > 0.2 * ref if ref > 0 else np.zeros(x.size, bool)
 
 
+def _position_gap(x: np.ndarray, t: np.ndarray, mv: np.ndarray, limit: float) -> tuple[int, float] | None:
+    """The first step of x_T beyond ``limit`` [m] between two samples while moving, as (index of
+    the sample before it, |step| [m]); None if there is none."""
+    if x.size < 2:
+        return None
+    step = np.abs(np.diff(x))
+    moving = mv[:-1] | mv[1:]
+    big = np.flatnonzero(moving & (step > limit))
+    if big.size == 0:
+        return None
+    i = int(big[0])
+    return i, float(step[i])
+
+
 def _ratio(x_T: np.ndarray, x_M: np.ndarray) -> float:
     """Least-squares slope k of x_T over x_M (both centred): Δx_T ≈ k Δx_M."""
     a = x_M - x_M.mean()
@@ -416,6 +430,23 @@ def check_runs(
                 f"{spacing * 1e3:.3g} mm between samples is coarse for the tooth mesh"
                 f" (recommended <= {SPACING_WARN * lam_c * 1e3:.3g} mm, >= {rate_ok:.0f} Hz)",
             )
+        # 3b. one step: samples lost with uniform time stamps (a renumbered trace) leave a jump of
+        # x_T the grid would bridge with a straight line (finding A15); the median above misses it
+        if spacing <= SPACING_ERROR * lam_c:
+            gap = _position_gap(x, t, mv, SPACING_ERROR * lam_c)
+            if gap is not None:
+                i, dx_gap = gap
+                add(
+                    "error",
+                    "gap",
+                    r.label,
+                    f"x_T jumps by {dx_gap * 1e3:.4g} mm between samples {i} and {i + 1} (t = {t[i]:.6g} s;"
+                    f" median step {spacing * 1e3:.3g} mm): samples lost? The tooth mesh (pitch"
+                    f" {tooth_pitch * 1e3:.4g} mm) needs <= {need_mm:.3g} mm between samples — cut the"
+                    " pass at the gap or record it again",
+                )
+                info["gross"] = True
+                continue
         # 4. listed direction against the motion the scale recorded
         if r.direction != 0 and r.kind != "sine":
             moved = float(np.median(np.gradient(x, t)[mv]))
