@@ -419,8 +419,9 @@ def check_runs(
                 "sampling",
                 r.label,
                 f"{1 / T_s:.4g} Hz at {v_meas * 1e3:.4g} mm/s puts {spacing * 1e3:.3g} mm between samples;"
-                f" the tooth mesh (pitch {tooth_pitch * 1e3:.4g} mm) needs <= {need_mm:.3g} mm:"
-                f" record at >= {rate_ok:.0f} Hz",
+                f" the tooth mesh (pitch {tooth_pitch * 1e3:.4g} mm) needs <= {need_mm:.3g} mm"
+                f" (>= {v_meas / (SPACING_ERROR * lam_c):.0f} Hz at this speed); record at"
+                f" >= {rate_ok:.0f} Hz to avoid the coarse-sampling warning too",
             )
         elif spacing > SPACING_WARN * lam_c:
             add(
