@@ -268,10 +268,16 @@ def _ratio_message(
     label_theta: str = "theta_m",
     scales: dict[str, float] | None = None,
     x_unit: tuple[str, str] | None = None,
+    scale_odd: bool = False,
 ) -> str:
     if not math.isfinite(k):
         return "the motor angle does not move: check the theta_m column"
     if abs(k + 1.0) < 0.05:
+        if scale_odd:  # the motor agrees with the listed direction: the scale counts the other way
+            return (
+                f"TE slope {1 - k:+.3f} m/m: the linear scale counts against the motor and the listed"
+                f" direction (scale sign) — {_sign_advice('x_T', scales)}"
+            )
         return (
             f"TE slope {1 - k:+.3f} m/m: the motor encoder counts against the linear scale"
             f" (encoder sign) — {_sign_advice(label_theta, scales)}"
@@ -371,7 +377,15 @@ def check_runs(
         )
         # 1. encoder sign, ratio and position units
         if not (math.isfinite(k) and abs(k - 1.0) <= RATIO_ERROR):
-            add("error", "ratio", r.label, _ratio_message(k, scales=column_scales, x_unit=x_unit))
+            # which of the two counts the other way: the one that disagrees with the listed direction
+            moved_m = float(np.median(np.gradient(x_M, t)[mv]))
+            odd = r.direction != 0 and r.kind != "sine" and np.sign(moved_m) == r.direction
+            add(
+                "error",
+                "ratio",
+                r.label,
+                _ratio_message(k, scales=column_scales, x_unit=x_unit, scale_odd=bool(odd)),
+            )
             info["gross"] = True
             continue
         if abs(k - 1.0) > RATIO_WARN:
