@@ -89,6 +89,11 @@ def _import(app: typer.Typer, te_app: typer.Typer) -> None:
         force: bool = typer.Option(
             False, "--force", help="Replace OUT even if it is not a drivelash output."
         ),
+        for_score: bool = typer.Option(
+            False,
+            "--for-score",
+            help="Passes to score (te score), not to fit: no geometric run and a single load are warned.",
+        ),
     ) -> None:
         """Bring real recordings into a campaign directory, after a plausibility check."""
         from drivelash.io.outputs import Outputs
@@ -97,7 +102,9 @@ def _import(app: typer.Typer, te_app: typer.Typer) -> None:
         recs = recording_paths(axis_file)
         with Outputs("te import", inputs=[axis_file, *recs], force=force) as outs:
             d = outs.directory(out, option="-o")
-            manifest, report = import_campaign(axis_file, outs.staging(d), max_load, warn=_warn)
+            manifest, report = import_campaign(
+                axis_file, outs.staging(d), max_load, warn=_warn, for_score=for_score
+            )
         for line in summary_lines(manifest, report):
             typer.echo(line)
         typer.echo(f"-> {out}/manifest.json")

@@ -16,10 +16,14 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
     @te_app.command("score")
     def score_cmd(
         uncompensated: Path = typer.Option(
-            ..., "--uncompensated", help="Campaign directory (te import) of the passes without compensation."
+            ...,
+            "--uncompensated",
+            help="Campaign directory (te import --for-score) of the passes without compensation.",
         ),
         compensated: Path = typer.Option(
-            ..., "--compensated", help="Campaign directory of the same passes with compensation."
+            ...,
+            "--compensated",
+            help="Campaign directory (te import --for-score) of the same passes with compensation.",
         ),
         out: Path | None = typer.Option(
             None, "-o", "--out", help="Output directory: score.json, improvement_sections.csv, figure."

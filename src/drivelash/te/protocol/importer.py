@@ -113,6 +113,7 @@ def import_campaign(
     out_dir: str | Path,
     max_load: float = 3000.0,
     warn: Callable[[str], None] | None = None,
+    for_score: bool = False,
 ) -> tuple[CampaignManifest, PlausibilityReport]:
     """Read, check and store the recordings of an axis file as a campaign in ``out_dir``.
 
@@ -127,6 +128,9 @@ def import_campaign(
         Largest training load [N] (only the plausibility's count of training loads uses it).
     warn : callable, optional
         Receives each plausibility warning as one line.
+    for_score : bool
+        Passes to be scored (``te score``), not fitted: the checks only a fit needs (geometric
+        runs, two training loads per direction) are warnings (``check_runs``).
 
     Returns
     -------
@@ -160,7 +164,7 @@ def import_campaign(
     x_unit = next(((name, str(m.unit)) for name, m in cols.items() if m.column == "x_T"), None)
     report = check_runs(
         records, bench.r_eff, bench.tooth_pitch, bench.travel, max_load=max_load, source=str(axis_path),
-        column_scales=scales, x_unit=x_unit,
+        column_scales=scales, x_unit=x_unit, for_score=for_score,
     )  # fmt: skip
     report.raise_errors()  # an error is the one line the user sees; warnings only when it goes on
     if warn is not None:

@@ -304,6 +304,7 @@ def check_runs(
     source: str = "campaign",
     column_scales: dict[str, float] | None = None,
     x_unit: tuple[str, str] | None = None,
+    for_score: bool = False,
 ) -> PlausibilityReport:
     """Run every plausibility check on a campaign's runs.
 
@@ -329,6 +330,10 @@ def check_runs(
     x_unit : tuple of str, optional
         ``(file column, declared unit)`` of the x_T mapping, so that a unit slip is named
         against the unit declared (e.g. µm under ``unit = "mm"``).
+    for_score : bool
+        Passes recorded to be scored (``te score``), not fitted: a direction without a geometric
+        run, or with fewer than 2 training loads, is a warning instead of an error (nothing is
+        learnt from them; ``te fit`` checks the campaign again and refuses it).
 
     Returns
     -------
@@ -537,8 +542,9 @@ def check_runs(
         train = [f for f in loads if f <= max_load + 1e-9]
         ds: dict[str, Any] = {"loads": loads, "training_loads": train}
         rep.directions[key] = ds
+        fit_only = "warning" if for_score else "error"  # what only a fit needs
         if not geo:
-            add("error", "runs", source, f"no geometric (no-load) run in direction {d:+d}")
+            add(fit_only, "runs", source, f"no geometric (no-load) run in direction {d:+d}")
         else:
             geo_ranges[d] = (max(i["range_m"][0] for i in geo), min(i["range_m"][1] for i in geo))
             _beyond_no_load(rr, geo_ranges[d], d, add)
@@ -546,7 +552,7 @@ def check_runs(
             add("error", "runs", source, f"no load run in direction {d:+d}")
         elif len(train) < 2:
             add(
-                "error",
+                fit_only,
                 "loads",
                 source,
                 f"only {len(train)} training load(s) ({', '.join(f'{f:g} N' for f in train) or 'none'}"
