@@ -351,12 +351,26 @@ def trace_blocks(trace: Trace, block: int = BLOCK) -> Callable[[], Iterator[Bloc
     return gen
 
 
+def _readonly_f64(x: np.ndarray) -> np.ndarray:
+    """``x`` as a C-contiguous float64 array behind a read-only view (no copy when it is one already).
+
+    The compiled :func:`~drivelash.estimation.deadzone.stack_finite` indexes its tuple of columns
+    with a runtime index, which numba compiles only for a tuple of one array type. A recording's
+    columns come as read-only buffers (zero-copy Parquet/Arrow) and as writable arrays (any column
+    the loader converted: a unit, offset or scale, an int column) side by side; a read-only view of
+    every column gives them one type without copying any.
+    """
+    a = np.ascontiguousarray(x, dtype=np.float64).view()
+    a.flags.writeable = False
+    return a
+
+
 def _block_samples(blk: Block, row0: int, use_torque: bool) -> np.ndarray:
     missing = [c for c in INPUT_COLUMNS if c not in blk]
     if missing:
         raise DataError(f"missing column(s) {', '.join(missing)} needed by the estimator", column=missing[0])
     cols = list(INPUT_COLUMNS) + ([TORQUE_COLUMN] if use_torque else [])
-    src = tuple(np.ascontiguousarray(blk[c], dtype=np.float64) for c in cols)
+    src = tuple(_readonly_f64(blk[c]) for c in cols)
     n = src[0].shape[0]
     if any(a.ndim != 1 or a.shape[0] != n for a in src):
         raise ValueError("the estimator's input columns must be 1-D and of equal length")
