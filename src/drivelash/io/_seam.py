@@ -13,11 +13,14 @@ A step ``Δθ_i = θ[i+1] − θ[i]`` between samples i and i+1 is a seam when a
 2. ``|Δθ_i| > SEAM_ISOLATION_FACTOR · max |Δθ_j|`` over the other steps j within
    ±:data:`SEAM_CONTEXT` (a genuine fast move has neighbouring steps of similar size, also
    when the recorded velocity is filtered or lags by more than two samples);
-3. ``|Δθ_i| > SEAM_COUNTS · q`` with q the :data:`SEAM_Q_QUANTILE` quantile of the column's
-   non-zero steps (on a 1/16-octave histogram, the lower edge of its bin): one encoder count of
-   a quantised position, whose count steps at a speed below one count per sample pass
-   conditions 1 and 2. A quantile, not the smallest step: one sample changed by an ulp would
-   make the smallest step an ulp and every count step a seam.
+3. ``|Δθ_i| > SEAM_COUNTS · q`` with q the travel-weighted median of the column's non-zero
+   steps (the step size below which half the column's total travel |Δθ| lies, on a
+   1/16-octave histogram, the lower edge of its bin): one encoder count for a quantised
+   position moving slower than a count per sample — whose count steps pass conditions 1 and 2
+   — and the typical step otherwise. Weighted by travel, not counted: one sample moved by an ulp,
+   or a recording resampled by linear interpolation (every count step split into a count less
+   ε and ε: half the non-zero steps a fraction of a count), would make a plain quantile tiny
+   and every count step a seam; such slivers carry almost no travel.
 
 :class:`SeamScan` is fed the whole column (``load_trace``) or its chunks in order
 (``TraceStream``): the same steps are judged with the same context either way.
@@ -39,8 +42,8 @@ SEAM_VELOCITY_FACTOR = 10.0
 SEAM_ISOLATION_FACTOR = 10.0
 #: … and by more than this many of the column's smallest non-zero steps (encoder counts).
 SEAM_COUNTS = 4.0
-#: Quantile of the non-zero steps taken as the position's resolution q (condition 3).
-SEAM_Q_QUANTILE = 0.01
+#: Share of the column's travel below the step size taken as q (condition 3): the weighted median.
+SEAM_Q_QUANTILE = 0.5
 #: Steps on each side compared with a candidate (condition 2) [samples].
 SEAM_CONTEXT = 4
 _VEL_BEFORE = 2  # velocity samples before step i's first sample (lag allowance)
@@ -82,7 +85,7 @@ class SeamScan:
         self._buf: dict[str, np.ndarray] | None = None
         self._row0 = 0  # global sample index of the buffer's first sample
         self._done = 0  # global index of the first step not yet judged
-        self._hist = np.zeros(_N_BINS, dtype=np.int64)  # non-zero |Δθ| per 1/16-octave bin
+        self._hist = np.zeros(_N_BINS)  # travel Σ|Δθ| of the non-zero steps per 1/16-octave bin
         # steps meeting conditions 1 and 2, each larger than the one before: (step i, |Δθ|, h·max|ω|, t_i)
         self.candidates: list[tuple[int, float, float, float]] = []
         self._largest = 0.0
@@ -122,7 +125,7 @@ class SeamScan:
             dk = d[k]
             pos = dk[(dk > 0) & np.isfinite(dk)]
             if pos.size:
-                self._hist += np.bincount(_bin_of(pos), minlength=_N_BINS)
+                self._hist += np.bincount(_bin_of(pos), weights=pos, minlength=_N_BINS)
             allowed = h[k] * vmax[k]
             hit = (dk > SEAM_VELOCITY_FACTOR * allowed) & (
                 dk > SEAM_ISOLATION_FACTOR * np.maximum(left[k], right[k])
@@ -146,9 +149,9 @@ class SeamScan:
     @property
     def q(self) -> float:
         """The position's resolution [SI]: the lower edge of the 1/16-octave bin holding the
-        :data:`SEAM_Q_QUANTILE` quantile of the non-zero steps judged so far (inf: none)."""
-        total = int(self._hist.sum())
-        if total == 0:
+        :data:`SEAM_Q_QUANTILE` quantile of the travel over the steps judged so far (inf: none)."""
+        total = float(self._hist.sum())
+        if not total > 0:
             return math.inf
         b = int(np.searchsorted(np.cumsum(self._hist), SEAM_Q_QUANTILE * total, side="left"))
         e, f = divmod(b, _BINS_PER_OCTAVE)
