@@ -122,6 +122,9 @@ HISTORY_BLOCKS = 4096
 SERIES_POINTS = 20000
 #: Samples per block when a whole trace is run (the same blocks as a streamed file).
 BLOCK = 1 << 16
+#: Correlation of the motor torque with Δθ below −this is refused as swapped channels or a wrong
+#: sign (:attr:`MotionSummary.torque_deflection_corr`; docs/assumptions.md).
+SWAP_CORRELATION = 0.2
 #: Largest 95 % half-width [rad] with which an estimate may be called converged: the accuracy
 #: the tool promises when it says "converged" (issue 11: |δ̂ − δ| ≤ 2 mrad or flagged).
 CLAIM_HALF_WIDTH = 2e-3
@@ -1070,6 +1073,16 @@ def _verdict(
         warnings.append(
             f"the estimate is uncertain by ±{1e3 * 1.96 * std:.1f} mrad (95 %), more than the "
             f"{1e3 * claim:.1f} mrad a converged estimate must meet: {why}"
+        )
+    rho = mo.torque_deflection_corr
+    if rho is not None and rho < -SWAP_CORRELATION:
+        # in contact the shaft torque follows the deflection and the motor pushes the load through
+        # the contact it is on: the motor torque rises with Δθ (bench scenarios +0.44 … +0.92);
+        # swapped motor/load channels turn Δθ around (B2: −0.78, "converged" 4–7 σ off)
+        warnings.append(
+            f"the motor torque falls as Δθ = θ_m/N − θ_l grows (correlation {rho:+.2f}; a motor driving "
+            "its load gives a positive one): the motor and load channels are swapped, or the sign of "
+            "one position or of the torque is wrong — check the [columns] mapping"
         )
     blocking = [w for w in warnings if not w.startswith("note:")]
     converged = bool(ok and settled and not blocking)

@@ -171,6 +171,11 @@ class MotionSummary:
         Encoder count of θ_m (motor side, as recorded) and of θ_l: the smallest non-zero step
         between consecutive samples [rad]; 0 when the signal never changes or the step is
         below :data:`COUNT_FLOOR` (unquantised).
+    torque_deflection_corr : float or None
+        Correlation coefficient of the motor torque with Δθ = θ_m/N − θ_l over every sample
+        [-]; None without a torque column or when either is constant. Positive on a drive whose
+        motor drives the load (in contact the shaft torque follows the deflection); negative
+        when the motor and load channels are swapped (B2).
     """
 
     n: int
@@ -184,6 +189,7 @@ class MotionSummary:
     t_last: float = math.nan
     count_m: float = 0.0
     count_l: float = 0.0
+    torque_deflection_corr: float | None = None
 
     @property
     def duration(self) -> float:
@@ -227,6 +233,9 @@ class MotionScanner:
         self.step_l = math.inf
         self._last_m = math.nan
         self._last_l = math.nan
+        # shifted sums of Δθ = θ_m/N − θ_l and the torque (by their first values), for their correlation
+        self._c0: tuple[float, float] | None = None
+        self._cs = np.zeros(6)  # n, Σx, Σu, Σx², Σu², Σxu
 
     def feed(
         self, t: np.ndarray, theta_m: np.ndarray, theta_l: np.ndarray, torque_m: np.ndarray | None = None
@@ -251,6 +260,13 @@ class MotionScanner:
             self._has_u = has_u
         if has_u and self._has_u:
             self._u.append(np.asarray(torque_m[start::B], dtype=np.float64))
+            uu = np.asarray(torque_m, dtype=np.float64)
+            x = np.asarray(theta_m, dtype=np.float64) / self.N - np.asarray(theta_l, dtype=np.float64)
+            if self._c0 is None:
+                self._c0 = (float(x[0]), float(uu[0]))
+            x = x - self._c0[0]
+            uu = uu - self._c0[1]
+            self._cs += (k, x.sum(), uu.sum(), x @ x, uu @ uu, x @ uu)
         else:
             self._has_u = False
         # min, max and smallest step of each position in one compiled pass
@@ -286,6 +302,12 @@ class MotionScanner:
         if self._has_u and self._u:
             u = np.concatenate(self._u)
             u_rms = float(np.sqrt(np.mean(u * u))) if u.size else None
+        corr = None
+        if self._has_u and self._cs[0] >= 2:
+            m, sx, su, sxx, suu, sxu = self._cs
+            vx, vu = sxx - sx * sx / m, suu - su * su / m
+            if vx > 0 and vu > 0:
+                corr = float((sxu - sx * su / m) / math.sqrt(vx * vu))
         return MotionSummary(
             n=n,
             T_s=float(T_s),
@@ -298,6 +320,7 @@ class MotionScanner:
             t_last=self.t_last,
             count_m=self.step_m if COUNT_FLOOR <= self.step_m < math.inf else 0.0,
             count_l=self.step_l if COUNT_FLOOR <= self.step_l < math.inf else 0.0,
+            torque_deflection_corr=corr,
         )
 
 
