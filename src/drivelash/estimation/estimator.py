@@ -385,7 +385,8 @@ def _block_samples(blk: Block, row0: int, use_torque: bool) -> np.ndarray:
 
 
 def scan_blocks(blocks: Callable[[], Iterable[Block]], N: float) -> MotionSummary:
-    """Pass 1 over a block source: :class:`MotionSummary`; also checks that time increases."""
+    """Pass 1 over a block source: :class:`MotionSummary`; also checks that time increases and
+    that the positions do not contradict the gear ratio ``N`` (:meth:`MotionScanner.check_gear_ratio`)."""
     sc = MotionScanner(N)
     t_prev = -math.inf
     row = 0
@@ -402,7 +403,9 @@ def scan_blocks(blocks: Callable[[], Iterable[Block]], N: float) -> MotionSummar
                 raise DataError(f"missing column {c} needed by the estimator", column=c)
         sc.feed(t, blk["theta_m"], blk["theta_l"], blk.get(TORQUE_COLUMN))
         row += t.size
-    return sc.summary()
+    summary = sc.summary()
+    sc.check_gear_ratio()  # a wrong N is named, not blamed on excitation or δ1 (B6)
+    return summary
 
 
 # ----------------------------------------------------------------------------------

@@ -223,6 +223,7 @@ class MotionScanner:
         self.t_last = math.nan
         self.B = 0  # decimation factor, fixed by the first two time stamps
         self._th: list[np.ndarray] = []
+        self._thl: list[np.ndarray] = []  # θ_l on the same samples (the gear-ratio check)
         self._u: list[np.ndarray] = []
         self._has_u: bool | None = None
         self.th_m_min = math.inf
@@ -255,6 +256,7 @@ class MotionScanner:
         start = (B - 1 - self.n) % B
         th = np.asarray(theta_m[start::B], dtype=np.float64) / self.N
         self._th.append(th)
+        self._thl.append(np.asarray(theta_l[start::B], dtype=np.float64))
         has_u = torque_m is not None
         if self._has_u is None:
             self._has_u = has_u
@@ -283,6 +285,22 @@ class MotionScanner:
         self._last_l = float(theta_l[-1])
         self.t_last = float(t[-1])
         self.n += k
+
+    def check_gear_ratio(self) -> None:
+        """Refuse a configured N the recorded positions contradict (B6), on the pass-1 series
+        (every B-th sample, ≥ 1 kHz): the rule and message of two-mass ``identify``
+        (:func:`drivelash.estimation.identify_two_mass.check_gear_ratio`).
+
+        Raises
+        ------
+        ParameterError
+            ``[drivetrain] N`` contradicts the ratio the motor and load positions move in.
+        """
+        if not self._th:
+            return
+        from drivelash.estimation.identify_two_mass import check_gear_ratio
+
+        check_gear_ratio(np.concatenate(self._th) * self.N, np.concatenate(self._thl), self.N)
 
     def summary(self) -> MotionSummary:
         """The :class:`MotionSummary` of everything fed so far."""
