@@ -464,8 +464,9 @@ def in_python_terms(exc: DataError) -> DataError:
 #: Sample period [s] from which a recording is refused as implausible, its time unit declared
 #: or not (docs/assumptions.md): the slowest series the project reads are ISO 230-2 time series
 #: at 10 Hz (0.1 s); drive recordings run at 100 Hz–10 kHz. Time stamps in ms read as seconds
-#: at ≤ 1 kHz (EMPS 1 kHz, KUKA 250 Hz) give 1–4 s.
-MAX_PLAUSIBLE_T_S = 1.0
+#: at ≤ 2 kHz (EMPS 1 kHz, KUKA 250 Hz) give 0.5–4 s — EMPS's ms stamps as a decimal CSV have
+#: a median step of 0.999984 "s" (B4), which the former limit of 1.0 s let through.
+MAX_PLAUSIBLE_T_S = 0.5
 
 
 def _check_plausible_period(
