@@ -124,3 +124,25 @@ def test_legitimate_recordings_still_load(tmp_path, rec):
         write_trace(Trace(v), path)
         tr = load_trace(path)
         assert len(tr) == v["t"].size, name
+
+
+def test_int16_counter_of_a_finer_encoder_is_named(tmp_path, rec):
+    """B10: a 19-bit encoder logged into int16 wraps every 1/8 revolution; without ``wrap`` the
+    jumps were read silently (estimate blamed gravity). The seam message names ``wrap``; with
+    ``wrap = 65536`` the same file loads (negative control)."""
+    cols, _ = rec
+    x = dict(cols)
+    for c in ("theta_m", "theta_l"):
+        n = np.round(cols[c] / (2 * np.pi) * 2**19).astype(np.int64)
+        x[c] = ((n + 2**15) % 2**16 - 2**15).astype(np.int16)
+    import pandas as pd
+
+    pd.DataFrame(x).to_parquet(tmp_path / "wrap16.parquet")
+    m = {c: {"column": c, "unit": "counts", "counts_per_rev": 2**19} for c in ("theta_m", "theta_l")}
+    if np.ptp(cols["theta_m"]) * 2**19 / (2 * np.pi) > 2**16:  # the recording does wrap
+        with pytest.raises(DataError, match="set wrap"):
+            load_trace(tmp_path / "wrap16.parquet", m)
+    for c in m:
+        m[c]["wrap"] = 65536
+    tr = load_trace(tmp_path / "wrap16.parquet", m)
+    assert np.max(np.abs(tr["theta_m"] - cols["theta_m"])) < 2 * np.pi / 2**19

@@ -172,5 +172,7 @@ def seam_message(size: float, allowed: float, t_i: float, linear: bool) -> str:
     return (
         f"position jumps {size * f:.4g} {u} in one sample at t = {t_i:.6g} s where the recorded"
         f" velocity allows {allowed * f:.3g} {u}: concatenated recordings (or signals that restart)?"
-        " — cut the recording at this row and use the parts separately"
+        " — cut the recording at this row and use the parts separately; or a position counter that"
+        " wraps (a 16-bit trace of a finer encoder)? — set wrap (its range, in the column's unit) in"
+        " [columns]"
     )
