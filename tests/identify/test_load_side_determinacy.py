@@ -98,3 +98,32 @@ def test_rules_on_hand_made_estimates():
     # just inside the limit: kept
     params = dict(ok, T_Cl=_p("T_Cl", 1.0, 0.99 * SPAN_LIMIT / 1.959963984540054))
     assert meaningless_intervals(params, data) == []
+
+
+def test_kuka_axis2_delta_interval_reaching_below_0_is_a_bound(tmp_path, capsys):
+    """B13: KUKA rec_B axis 2 (gravity axis) with the user's config wrote δ = 0.039 mrad
+    [−0.053, 0.130] as "identifiable" and δ1 = −0.041 mrad into [backlash]. A δ whose interval
+    reaches below 0 is an upper bound (the rule axis 1 gets when δ̂ < 0), nothing in [backlash]."""
+    import json
+    import tomllib
+
+    from cli_runner import run_in_process
+
+    rec = shared_data("kuka-kr300", "rec_B.mat")
+    N = 267.43
+    cfg = _k1(N)
+    cfg["columns"] = {k.replace("(1,:)", "(2,:)"): v for k, v in cfg["columns"].items()}
+    (tmp_path / "k2.toml").write_text(tomli_w.dumps(cfg))
+    code, _, err = run_in_process(
+        ["identify", str(rec), "-c", str(tmp_path / "k2.toml"), "--out", str(tmp_path / "o.toml"),
+         "--json", str(tmp_path / "o.json")],
+        capsys,
+    )  # fmt: skip
+    assert code == 0, err
+    par = json.loads((tmp_path / "o.json").read_text())["parameters"]
+    d = par["delta"]
+    assert d["identifiable"] is False, d
+    assert d["reason"].startswith("backlash below what the recording resolves: δ ≤ ")
+    assert d["ci95"][0] == 0.0 and 0.0 < d["ci95"][1] < 1e-3
+    assert par["delta1"]["identifiable"] is False
+    assert "backlash" not in tomllib.loads((tmp_path / "o.toml").read_text())

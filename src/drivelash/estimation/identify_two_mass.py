@@ -2238,16 +2238,18 @@ def _build_result(
         for n in FEW_TRAVERSALS_WITHHELD:
             if n in params:
                 params[n] = ParameterEstimate.unknown(n, why)
-    elif all(sides) and params["delta"].value < 0.0:
-        # the upper contact below the lower one: a gap is never negative — the contacts coincide
-        # within what the recording resolves, and δ1 (the lower contact) then only locates the
-        # encoders' zero offset, not a contact of a gap
+    elif all(sides) and not params["delta"].low > 0.0:
+        # the upper contact below the lower one, or an interval of δ reaching below 0 (B13: KUKA
+        # axis 2, δ̂ = +0.039 mrad [−0.053, 0.130] was written): a gap is never negative — the
+        # contacts coincide within what the recording resolves, and δ1 (the lower contact) then
+        # only locates the encoders' zero offset, not a contact of a gap
         dq, d1q = params["delta"], params["delta1"]
         where = 0.5 * (p[I_CLO] + p[I_CHI])
         if dq.high > 0.0:
+            how = "the fitted contacts overlap" if dq.value < 0.0 else "the interval reaches below 0"
             reason = (
                 f"backlash below what the recording resolves: δ ≤ {1e3 * dq.high:.3g} mrad (upper end of "
-                f"the 95 % interval; the fitted contacts overlap, δ̂ = {1e3 * dq.value:.3g} mrad < 0) — both "
+                f"the 95 % interval; {how}, δ̂ = {1e3 * dq.value:.3g} mrad) — both "
                 f"contacts seen, {ev['traversals']} traversals of the gap"
             )
             params["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0, high=dq.high)
