@@ -1004,6 +1004,13 @@ def _verdict(
     enc_bound = enc_gain * enc_offset
     extra.update(
         encoder_reading=setup.encoder_reading,
+        # where the applied convention came from (B7: the config said "unknown" in both runs of
+        # the same samples, one "converged" because the file's metadata said "nearest")
+        encoder_reading_from=(
+            "configuration"
+            if cfg.encoder_reading != "unknown"
+            else ("recording metadata" if setup.encoder_reading != "unknown" else "none")
+        ),
         encoder_count_motor=c_m,
         encoder_count_load=c_l,
         encoder_offset=enc_offset,
@@ -1065,7 +1072,9 @@ def _verdict(
             why_parts.append(
                 f"the encoders' counts ({1e3 * c_m:.3g} mrad motor, {1e3 * c_l:.3g} mrad load) leave "
                 f"Δθ offset by up to {1e3 * enc_offset:.2f} mrad depending on how they round "
-                f"(δ̂ by up to {1e3 * enc_bound:.2f} mrad)"
+                f"(δ̂ by up to {1e3 * enc_bound:.2f} mrad) — neither the configuration nor the "
+                'recording states the convention: set [estimator] encoder_reading = "nearest" or '
+                '"truncate"'
             )
         if 1.96 * std - alt_gap - disagreement - enc_bound > claim or not why_parts:
             why_parts.append(
