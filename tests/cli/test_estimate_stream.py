@@ -137,7 +137,10 @@ def test_long_file_streams_within_a_budget_that_refuses_whole_reads(recording, t
     (negative control: ``load_trace`` raises) is estimated in chunks under the same budget."""
     tr = load_trace(recording["parquet"])
     n, reps = len(tr), 4
-    cols = {c: np.tile(v, reps) for c, v in tr.columns.items() if c != "t"}
+    # the recording forward, backward (time-reversed: positions continuous, velocities negated),
+    # forward, backward: tiled copies would be joined recordings, which the loader refuses (B5)
+    back = {c: (-v[::-1] if c.startswith("omega") else v[::-1]) for c, v in tr.columns.items()}
+    cols = {c: np.concatenate([v, back[c]] * (reps // 2)) for c, v in tr.columns.items() if c != "t"}
     cols["t"] = np.arange(n * reps) * 125e-6
     p = write_trace(Trace(cols), tmp_path / "long.parquet")  # 384 000 samples × 10 columns
     monkeypatch.setenv("DRIVELASH_MEMORY_BUDGET", "150M")  # whole read: ≈ 245 MB planned

@@ -122,6 +122,9 @@ HISTORY_BLOCKS = 4096
 SERIES_POINTS = 20000
 #: Samples per block when a whole trace is run (the same blocks as a streamed file).
 BLOCK = 1 << 16
+#: Correlation of the motor torque with Δθ below −this is refused as swapped channels or a wrong
+#: sign (:attr:`MotionSummary.torque_deflection_corr`; docs/assumptions.md).
+SWAP_CORRELATION = 0.2
 #: Largest 95 % half-width [rad] with which an estimate may be called converged: the accuracy
 #: the tool promises when it says "converged" (issue 11: |δ̂ − δ| ≤ 2 mrad or flagged).
 CLAIM_HALF_WIDTH = 2e-3
@@ -351,12 +354,26 @@ def trace_blocks(trace: Trace, block: int = BLOCK) -> Callable[[], Iterator[Bloc
     return gen
 
 
+def _readonly_f64(x: np.ndarray) -> np.ndarray:
+    """``x`` as a C-contiguous float64 array behind a read-only view (no copy when it is one already).
+
+    The compiled :func:`~drivelash.estimation.deadzone.stack_finite` indexes its tuple of columns
+    with a runtime index, which numba compiles only for a tuple of one array type. A recording's
+    columns come as read-only buffers (zero-copy Parquet/Arrow) and as writable arrays (any column
+    the loader converted: a unit, offset or scale, an int column) side by side; a read-only view of
+    every column gives them one type without copying any.
+    """
+    a = np.ascontiguousarray(x, dtype=np.float64).view()
+    a.flags.writeable = False
+    return a
+
+
 def _block_samples(blk: Block, row0: int, use_torque: bool) -> np.ndarray:
     missing = [c for c in INPUT_COLUMNS if c not in blk]
     if missing:
         raise DataError(f"missing column(s) {', '.join(missing)} needed by the estimator", column=missing[0])
     cols = list(INPUT_COLUMNS) + ([TORQUE_COLUMN] if use_torque else [])
-    src = tuple(np.ascontiguousarray(blk[c], dtype=np.float64) for c in cols)
+    src = tuple(_readonly_f64(blk[c]) for c in cols)
     n = src[0].shape[0]
     if any(a.ndim != 1 or a.shape[0] != n for a in src):
         raise ValueError("the estimator's input columns must be 1-D and of equal length")
@@ -368,7 +385,8 @@ def _block_samples(blk: Block, row0: int, use_torque: bool) -> np.ndarray:
 
 
 def scan_blocks(blocks: Callable[[], Iterable[Block]], N: float) -> MotionSummary:
-    """Pass 1 over a block source: :class:`MotionSummary`; also checks that time increases."""
+    """Pass 1 over a block source: :class:`MotionSummary`; also checks that time increases and
+    that the positions do not contradict the gear ratio ``N`` (:meth:`MotionScanner.check_gear_ratio`)."""
     sc = MotionScanner(N)
     t_prev = -math.inf
     row = 0
@@ -385,7 +403,9 @@ def scan_blocks(blocks: Callable[[], Iterable[Block]], N: float) -> MotionSummar
                 raise DataError(f"missing column {c} needed by the estimator", column=c)
         sc.feed(t, blk["theta_m"], blk["theta_l"], blk.get(TORQUE_COLUMN))
         row += t.size
-    return sc.summary()
+    summary = sc.summary()
+    sc.check_gear_ratio()  # a wrong N is named, not blamed on excitation or δ1 (B6)
+    return summary
 
 
 # ----------------------------------------------------------------------------------
@@ -984,6 +1004,13 @@ def _verdict(
     enc_bound = enc_gain * enc_offset
     extra.update(
         encoder_reading=setup.encoder_reading,
+        # where the applied convention came from (B7: the config said "unknown" in both runs of
+        # the same samples, one "converged" because the file's metadata said "nearest")
+        encoder_reading_from=(
+            "configuration"
+            if cfg.encoder_reading != "unknown"
+            else ("recording metadata" if setup.encoder_reading != "unknown" else "none")
+        ),
         encoder_count_motor=c_m,
         encoder_count_load=c_l,
         encoder_offset=enc_offset,
@@ -1045,7 +1072,9 @@ def _verdict(
             why_parts.append(
                 f"the encoders' counts ({1e3 * c_m:.3g} mrad motor, {1e3 * c_l:.3g} mrad load) leave "
                 f"Δθ offset by up to {1e3 * enc_offset:.2f} mrad depending on how they round "
-                f"(δ̂ by up to {1e3 * enc_bound:.2f} mrad)"
+                f"(δ̂ by up to {1e3 * enc_bound:.2f} mrad) — neither the configuration nor the "
+                'recording states the convention: set [estimator] encoder_reading = "nearest" or '
+                '"truncate"'
             )
         if 1.96 * std - alt_gap - disagreement - enc_bound > claim or not why_parts:
             why_parts.append(
@@ -1056,6 +1085,16 @@ def _verdict(
         warnings.append(
             f"the estimate is uncertain by ±{1e3 * 1.96 * std:.1f} mrad (95 %), more than the "
             f"{1e3 * claim:.1f} mrad a converged estimate must meet: {why}"
+        )
+    rho = mo.torque_deflection_corr
+    if rho is not None and rho < -SWAP_CORRELATION:
+        # in contact the shaft torque follows the deflection and the motor pushes the load through
+        # the contact it is on: the motor torque rises with Δθ (bench scenarios +0.44 … +0.92);
+        # swapped motor/load channels turn Δθ around (B2: −0.78, "converged" 4–7 σ off)
+        warnings.append(
+            f"the motor torque falls as Δθ = θ_m/N − θ_l grows (correlation {rho:+.2f}; a motor driving "
+            "its load gives a positive one): the motor and load channels are swapped, or the sign of "
+            "one position or of the torque is wrong — check the [columns] mapping"
         )
     blocking = [w for w in warnings if not w.startswith("note:")]
     converged = bool(ok and settled and not blocking)

@@ -2101,6 +2101,12 @@ ONE_FLANK_CHECKED = ("J_l", "K_S", "D_S")
 MODEL_CHOICE_REL = 0.05
 #: Parameters of a fit whose inertia or stiffness came out negative: none is reported.
 MECHANICAL = ("J_m", "J_l", "K_S", "D_S", "T_Cm", "beta_m", "T_Cl", "beta_l", "torque_offset")
+#: Parameters defined through the shaft torque (its damping, and the load equation it drives):
+#: not determined when K_S is not (:func:`meaningless_intervals`).
+LOAD_SIDE = ("J_l", "D_S", "T_Cl", "beta_l")
+#: A drive-train parameter whose 95 % interval reaches further than this many times its value on
+#: each side is "not determined" (two orders of magnitude; docs/assumptions.md).
+SPAN_LIMIT = 100.0
 
 
 def meaningless_intervals(
@@ -2118,6 +2124,12 @@ def meaningless_intervals(
       more than its whole observed span — the data then do not fix the delay.
     - K_S: an interval reaching 0 — the recording does not show that the shaft transmits torque
       in proportion to its deflection (bounded above by the interval's upper end).
+    - D_S, J_l, T_Cl, β_l (:data:`LOAD_SIDE`) when K_S's interval reaches 0: D_S is the shaft
+      torque's other term and the shaft torque drives the load equation; the recording then
+      does not show the shaft torque at all. (K_S withheld for too few gap crossings keeps
+      them: the shaft torque is seen there, only its contact transients are too few.)
+    - any drive-train parameter but the torque offset whose interval's half-width exceeds
+      :data:`SPAN_LIMIT` times its value: no magnitude is determined.
     """
     span = float(np.ptp(data.dth)) if data.dth.size else 0.0
     wmax = float(np.max(np.abs(data.wl))) if data.wl.size else 0.0
@@ -2149,7 +2161,8 @@ def meaningless_intervals(
             f"range ({1e3 * span:.3g} mrad)",
         )
     q = params.get("K_S")
-    if q is not None and q.identifiable and not q.low > 0.0:
+    ks_reaches_0 = q is not None and q.identifiable and not q.low > 0.0
+    if ks_reaches_0:
         withhold(
             "K_S",
             f"not determined: its 95 % interval {q.interval_text(3)} reaches 0 — the recording does not "
@@ -2157,6 +2170,31 @@ def meaningless_intervals(
             low=0.0,
             high=max(q.high, 0.0),
         )
+    if ks_reaches_0:
+        # D_S is the shaft torque's other term; J_l, T_Cl, β_l are defined through the load
+        # equation J_l ω̇_l = T_shaft − T_Cl sgn ω_l − β_l ω_l, driven by the shaft torque
+        # K_S (Δθ − c) + D_S Δω: with K_S not determined, the recording does not fix their
+        # scale either (B3: KUKA rec_B with the velocities mapped gave J_l = 3.1e8 kg·m² ± 2e13
+        # and T_Cl = 3.8e6 N·m ± 2.6e11, written)
+        for n in LOAD_SIDE:
+            q = params.get(n)
+            if q is not None and q.identifiable:
+                withhold(
+                    n,
+                    f"not determined: {q.value:.4g} {q.unit} {q.interval_text(3)} rests on the shaft torque "
+                    "K_S (Δθ − c) + D_S Δω of the load equation, and K_S is not determined by this recording",
+                )
+    for n in MECHANICAL:
+        q = params.get(n)
+        if n == "torque_offset" or q is None or not q.identifiable:
+            continue
+        if not 0.5 * (q.high - q.low) <= SPAN_LIMIT * abs(q.value):
+            withhold(
+                n,
+                f"not determined: its 95 % interval {q.interval_text(3)} {q.unit} is more than "
+                f"{SPAN_LIMIT:g}× the value {q.value:.4g} wide on each side — the recording does not fix "
+                "its magnitude",
+            )
     return out
 
 
@@ -2200,16 +2238,18 @@ def _build_result(
         for n in FEW_TRAVERSALS_WITHHELD:
             if n in params:
                 params[n] = ParameterEstimate.unknown(n, why)
-    elif all(sides) and params["delta"].value < 0.0:
-        # the upper contact below the lower one: a gap is never negative — the contacts coincide
-        # within what the recording resolves, and δ1 (the lower contact) then only locates the
-        # encoders' zero offset, not a contact of a gap
+    elif all(sides) and not params["delta"].low > 0.0:
+        # the upper contact below the lower one, or an interval of δ reaching below 0 (B13: KUKA
+        # axis 2, δ̂ = +0.039 mrad [−0.053, 0.130] was written): a gap is never negative — the
+        # contacts coincide within what the recording resolves, and δ1 (the lower contact) then
+        # only locates the encoders' zero offset, not a contact of a gap
         dq, d1q = params["delta"], params["delta1"]
         where = 0.5 * (p[I_CLO] + p[I_CHI])
         if dq.high > 0.0:
+            how = "the fitted contacts overlap" if dq.value < 0.0 else "the interval reaches below 0"
             reason = (
                 f"backlash below what the recording resolves: δ ≤ {1e3 * dq.high:.3g} mrad (upper end of "
-                f"the 95 % interval; the fitted contacts overlap, δ̂ = {1e3 * dq.value:.3g} mrad < 0) — both "
+                f"the 95 % interval; {how}, δ̂ = {1e3 * dq.value:.3g} mrad) — both "
                 f"contacts seen, {ev['traversals']} traversals of the gap"
             )
             params["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0, high=dq.high)

@@ -171,6 +171,11 @@ class MotionSummary:
         Encoder count of θ_m (motor side, as recorded) and of θ_l: the smallest non-zero step
         between consecutive samples [rad]; 0 when the signal never changes or the step is
         below :data:`COUNT_FLOOR` (unquantised).
+    torque_deflection_corr : float or None
+        Correlation coefficient of the motor torque with Δθ = θ_m/N − θ_l over every sample
+        [-]; None without a torque column or when either is constant. Positive on a drive whose
+        motor drives the load (in contact the shaft torque follows the deflection); negative
+        when the motor and load channels are swapped (B2).
     """
 
     n: int
@@ -184,6 +189,7 @@ class MotionSummary:
     t_last: float = math.nan
     count_m: float = 0.0
     count_l: float = 0.0
+    torque_deflection_corr: float | None = None
 
     @property
     def duration(self) -> float:
@@ -217,6 +223,7 @@ class MotionScanner:
         self.t_last = math.nan
         self.B = 0  # decimation factor, fixed by the first two time stamps
         self._th: list[np.ndarray] = []
+        self._thl: list[np.ndarray] = []  # θ_l on the same samples (the gear-ratio check)
         self._u: list[np.ndarray] = []
         self._has_u: bool | None = None
         self.th_m_min = math.inf
@@ -227,6 +234,9 @@ class MotionScanner:
         self.step_l = math.inf
         self._last_m = math.nan
         self._last_l = math.nan
+        # shifted sums of Δθ = θ_m/N − θ_l and the torque (by their first values), for their correlation
+        self._c0: tuple[float, float] | None = None
+        self._cs = np.zeros(6)  # n, Σx, Σu, Σx², Σu², Σxu
 
     def feed(
         self, t: np.ndarray, theta_m: np.ndarray, theta_l: np.ndarray, torque_m: np.ndarray | None = None
@@ -246,11 +256,19 @@ class MotionScanner:
         start = (B - 1 - self.n) % B
         th = np.asarray(theta_m[start::B], dtype=np.float64) / self.N
         self._th.append(th)
+        self._thl.append(np.asarray(theta_l[start::B], dtype=np.float64))
         has_u = torque_m is not None
         if self._has_u is None:
             self._has_u = has_u
         if has_u and self._has_u:
             self._u.append(np.asarray(torque_m[start::B], dtype=np.float64))
+            uu = np.asarray(torque_m, dtype=np.float64)
+            x = np.asarray(theta_m, dtype=np.float64) / self.N - np.asarray(theta_l, dtype=np.float64)
+            if self._c0 is None:
+                self._c0 = (float(x[0]), float(uu[0]))
+            x = x - self._c0[0]
+            uu = uu - self._c0[1]
+            self._cs += (k, x.sum(), uu.sum(), x @ x, uu @ uu, x @ uu)
         else:
             self._has_u = False
         # min, max and smallest step of each position in one compiled pass
@@ -267,6 +285,22 @@ class MotionScanner:
         self._last_l = float(theta_l[-1])
         self.t_last = float(t[-1])
         self.n += k
+
+    def check_gear_ratio(self) -> None:
+        """Refuse a configured N the recorded positions contradict (B6), on the pass-1 series
+        (every B-th sample, ≥ 1 kHz): the rule and message of two-mass ``identify``
+        (:func:`drivelash.estimation.identify_two_mass.check_gear_ratio`).
+
+        Raises
+        ------
+        ParameterError
+            ``[drivetrain] N`` contradicts the ratio the motor and load positions move in.
+        """
+        if not self._th:
+            return
+        from drivelash.estimation.identify_two_mass import check_gear_ratio
+
+        check_gear_ratio(np.concatenate(self._th) * self.N, np.concatenate(self._thl), self.N)
 
     def summary(self) -> MotionSummary:
         """The :class:`MotionSummary` of everything fed so far."""
@@ -286,6 +320,12 @@ class MotionScanner:
         if self._has_u and self._u:
             u = np.concatenate(self._u)
             u_rms = float(np.sqrt(np.mean(u * u))) if u.size else None
+        corr = None
+        if self._has_u and self._cs[0] >= 2:
+            m, sx, su, sxx, suu, sxu = self._cs
+            vx, vu = sxx - sx * sx / m, suu - su * su / m
+            if vx > 0 and vu > 0:
+                corr = float((sxu - sx * su / m) / math.sqrt(vx * vu))
         return MotionSummary(
             n=n,
             T_s=float(T_s),
@@ -298,6 +338,7 @@ class MotionScanner:
             t_last=self.t_last,
             count_m=self.step_m if COUNT_FLOOR <= self.step_m < math.inf else 0.0,
             count_l=self.step_l if COUNT_FLOOR <= self.step_l < math.inf else 0.0,
+            torque_deflection_corr=corr,
         )
 
 

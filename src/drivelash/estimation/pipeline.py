@@ -259,6 +259,8 @@ def result_summary(res: Any) -> dict[str, Any]:
         "load_range",
         "motor_range",
         "encoder_offset_bound",
+        "encoder_reading",  # the convention applied (``gains`` holds the configuration's)
+        "encoder_reading_from",  # "configuration", "recording metadata" or "none" (B7)
         "law_disagreement",
     )
     out: dict[str, Any] = {

@@ -500,8 +500,9 @@ def in_python_terms(exc: DataError) -> DataError:
 #: Sample period [s] from which a recording is refused as implausible, its time unit declared
 #: or not (docs/assumptions.md): the slowest series the project reads are ISO 230-2 time series
 #: at 10 Hz (0.1 s); drive recordings run at 100 Hz–10 kHz. Time stamps in ms read as seconds
-#: at ≤ 1 kHz (EMPS 1 kHz, KUKA 250 Hz) give 1–4 s.
-MAX_PLAUSIBLE_T_S = 1.0
+#: at ≤ 2 kHz (EMPS 1 kHz, KUKA 250 Hz) give 0.5–4 s — EMPS's ms stamps as a decimal CSV have
+#: a median step of 0.999984 "s" (B4), which the former limit of 1.0 s let through.
+MAX_PLAUSIBLE_T_S = 0.5
 
 
 def _check_plausible_period(
@@ -671,6 +672,43 @@ def _check_units(
             continue
         column = origin.get(f"omega_{side}", f"omega_{side}")
         check_unit_ratio(float(s_od / s_dd), side, path, column, int(row), rows)
+
+
+def _check_seams(
+    cols: Mapping[str, np.ndarray],
+    kinds: Mapping[str, str],
+    origin: Mapping[str, str],
+    path: str,
+    rows: DataRows,
+) -> None:
+    """Refuse a position step that no recorded velocity allows (joined recordings; B5).
+
+    Each position with its velocity column (θ_m/ω_m, θ_l/ω_l) through
+    :class:`drivelash.io._seam.SeamScan`; the rule and its thresholds are in that module and in
+    docs/assumptions.md. Without a velocity column nothing is checked.
+    """
+    from drivelash.io._seam import SeamScan
+
+    for side in ("m", "l"):
+        th, om = cols.get(f"theta_{side}"), cols.get(f"omega_{side}")
+        if th is None or om is None or th.size < 3:
+            continue
+        scan = SeamScan(origin.get(f"theta_{side}", f"theta_{side}"))
+        scan.feed(cols["t"], th, om, 0, final=True)
+        raise_seam(scan, kinds.get(f"theta_{side}") == "length", path, rows)
+
+
+def raise_seam(scan: Any, linear: bool, path: str, rows: DataRows) -> None:
+    """Raise the loader's one-line :class:`DataError` for the first seam ``scan`` found, if any."""
+    from drivelash.io._seam import seam_message
+
+    seam = scan.first_seam()
+    if seam is None:
+        return
+    i, size, allowed, t_i = seam
+    raise DataError(
+        seam_message(size, allowed, t_i, linear), path=path, column=scan.column, row=i + 1, rows=rows
+    )
 
 
 def check_unit_ratio(ratio: float, side: str, path: str, column: str, row: int, rows: DataRows) -> None:
@@ -952,6 +990,7 @@ def trace_from_table(
         )
     check_position_spans({k: float(np.ptp(v)) for k, v in cols.items()}, kinds, origin, spath)
     _check_units(cols, origin, spath, rows)
+    _check_seams(cols, kinds, origin, spath, rows)
 
     prismatic = kinds.get("theta_m") == "length" or kinds.get("omega_m") == "velocity"
     kinds_m = {kinds.get("theta_m"), kinds.get("omega_m")} - {None, "dimensionless"}

@@ -456,6 +456,7 @@ class TraceStream:
 
     def _second_pass(self, stats: dict[str, _Stats]) -> None:
         """Constant and clipped signals; the position/velocity unit check."""
+        from drivelash.io._seam import SeamScan
         from drivelash.io.load import (
             MAY_STAND_STILL,
             SATURATION_FRACTION,
@@ -463,6 +464,7 @@ class TraceStream:
             SIGNAL_COLUMNS,
             check_position_spans,
             check_unit_ratio,
+            raise_seam,
         )
 
         spath = str(self.path)
@@ -505,6 +507,7 @@ class TraceStream:
             n: {"hi": [0, 0, 0, None], "lo": [0, 0, 0, None]} for n in sat
         }  # count, run, best, start
         units = {s: _UnitAcc(k) for s in pairs}
+        seams = {s: SeamScan(plan[f"theta_{s}"].source) for s in pairs}
         for ch in self.chunks():
             for n in sat:
                 a = ch[n]
@@ -512,6 +515,7 @@ class TraceStream:
                     _runs(sat_state[n][key], a == ext, ch.row0)
             for s, acc in units.items():
                 acc.feed(ch["t"], ch[f"theta_{s}"], ch[f"omega_{s}"], ch.row0)
+                seams[s].feed(ch["t"], ch[f"theta_{s}"], ch[f"omega_{s}"], ch.row0)
         n_all = self.n_samples
         for n in sat:
             for key, label, ext in (("hi", "maximum", stats[n].hi), ("lo", "minimum", stats[n].lo)):
@@ -533,6 +537,9 @@ class TraceStream:
             if ratio is None:
                 continue
             check_unit_ratio(ratio, s, spath, plan[f"omega_{s}"].source, row, self._src.rows)
+        for s, scan in seams.items():  # after the unit check, as in the loader
+            scan.finish()
+            raise_seam(scan, plan[f"theta_{s}"].kind == "length", spath, self._src.rows)
 
     def _read_whole(self) -> None:
         """Read the recording whole with :func:`load_trace` (within the memory budget)."""

@@ -1,0 +1,63 @@
+"""`estimate` names a gear ratio the positions contradict, as `identify` does (B6).
+
+Before: an inverted N or a link-side motor encoder was blamed on the excitation ("no
+engagement", "too little excitation") or on δ1 ("check [backlash] delta1").
+Reference: bench-0B (N = 1), the positions' ratio by numpy (cov(θ_m, θ_l) / var(θ_l)).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import tomli_w
+
+import drivelash as dl
+from cli_runner import run_in_process
+
+COLS = ["t", "theta_m", "omega_m", "theta_l", "omega_l", "torque_m"]
+
+
+@pytest.fixture(scope="module")
+def bench():
+    from drivelash.sim.scenarios import get_scenario
+
+    sc = get_scenario("bench-0B")
+    tr = sc.simulate(duration=6.0, seed=3)
+    return sc, dl.Trace({c: np.asarray(tr[c]) for c in COLS})
+
+
+@pytest.mark.parametrize("N", [0.2, 5.0])
+def test_wrong_N_is_named(bench, N):
+    sc, tr = bench
+    th_m, th_l = tr["theta_m"], tr["theta_l"]
+    dl_ = th_l - th_l.mean()
+    N_hat = float((th_m - th_m.mean()) @ dl_) / float(dl_ @ dl_)  # numpy by hand
+    assert abs(N_hat - 1.0) < 0.05
+    with pytest.raises(dl.ParameterError) as e:
+        dl.estimate_backlash(tr, replace(sc.estimator_drivetrain, N=N), sc.estimator_backlash.delta1)
+    msg = str(e.value)
+    assert "drivetrain.N" in msg and f"{N:g} contradicts the recording" in msg
+    assert f"ratio {N_hat:.4g}" in msg
+
+
+def test_cli_one_line_exit_2_and_negative_control(bench, tmp_path, capsys):
+    sc, tr = bench
+    from drivelash.io import write_trace
+
+    write_trace(tr, tmp_path / "b.parquet")
+    dt = {
+        k: getattr(sc.estimator_drivetrain, k)
+        for k in ("J_m", "J_l", "N", "K_S", "D_S", "T_Cm", "T_Cl", "beta_m", "beta_l")
+    }
+    for N, code_expected in ((0.2, 2), (1.0, 0)):
+        cfg = {"drivetrain": {**dt, "N": N}, "backlash": {"delta1": sc.estimator_backlash.delta1}}
+        (tmp_path / "c.toml").write_text(tomli_w.dumps(cfg))
+        code, _, err = run_in_process(
+            ["estimate", str(tmp_path / "b.parquet"), "-c", str(tmp_path / "c.toml")], capsys
+        )
+        assert code == code_expected, err
+        if code:
+            assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+            assert "drivetrain.N: 0.2 contradicts the recording" in err
