@@ -64,13 +64,23 @@ def test_estimate_backlash_equals_the_command_json(tmp_path, name, duration):
     js = tmp_path / "out.json"
     run_estimate(pq, cfg, json_out=js, quiet=True)
     cmd = json.loads(js.read_text())
+    cmd.pop("generator", None)
+
+    def as_json(res):
+        return json.loads(json.dumps({"trace": str(pq), "config": str(cfg), **res.summary}, default=float))
+
+    # from the path: the same input as the command, the same JSON
+    _equal(cmd, as_json(dl.estimate_backlash(pq, cfg)))
+    # from a DataFrame read back by pandas: the same numbers; only the file's metadata is gone —
+    # the encoder-reading convention the simulator's Parquet states (s20 B7: the JSON now says
+    # which convention was applied and where it came from)
     df = pd.read_parquet(pq)
     api = dl.estimate_backlash(df, cfg)
-    api_json = json.loads(json.dumps({"trace": str(pq), "config": str(cfg), **api.summary}, default=float))
-    cmd.pop("generator", None)
-    _equal(cmd, api_json)
-    # the same from a path and from the Trace itself
-    assert dl.estimate_backlash(pq, cfg).delta == api.delta == cmd["delta"]
+    api_json = as_json(api)
+    assert (cmd["encoder_reading"], cmd["encoder_reading_from"]) == ("nearest", "recording metadata")
+    assert (api_json["encoder_reading"], api_json["encoder_reading_from"]) == ("unknown", "none")
+    _equal(cmd, {**api_json, "encoder_reading": "nearest", "encoder_reading_from": "recording metadata"})
+    assert api.delta == cmd["delta"]
     assert dl.estimate_backlash(run, cfg).delta == api.delta
     # the low-level kernel wrapper as the README shows it: the same δ̂
     sc = get_scenario(name)

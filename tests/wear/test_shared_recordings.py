@@ -18,7 +18,9 @@ from .test_redate_duplicates import FILENAME_TIME, _tiny
 
 def _two_axes(small_fleet, dst, second_glob: str):
     f = _tiny(small_fleet, dst, FILENAME_TIME)  # M01/X on rec/*.parquet
-    shutil.copy(small_fleet / "drives" / "M02-X.toml", dst / "drives" / "M02-X.toml")
+    # M02/X gets M01/X's drive: its recording in the negative control below is a copy of an
+    # M01/X recording, which M02/X's own drive (N = 3) contradicts (named since s20 B6)
+    shutil.copy(small_fleet / "drives" / "M01-X.toml", dst / "drives" / "M02-X.toml")
     (dst / "rec2").mkdir()
     shutil.copy(next((dst / "rec").iterdir()), dst / "rec2")
     f.write_text(
