@@ -24,11 +24,12 @@ V = 0.05  # m/s
 T_S = 1e-3  # s
 
 
-def write_campaign(directory: Path, model, loads, defect: float) -> Path:
-    """One constant-velocity pass per load and direction over 10..290 mm at 1 kHz."""
+def write_campaign(directory: Path, model, loads, defect: float, lo: float = 0.01, hi: float = 0.29) -> Path:
+    """One constant-velocity pass per load and direction over lo … hi [m] (default 10..290 mm)
+    at 1 kHz."""
     directory.mkdir(parents=True)
     runs = []
-    x_up = np.arange(0.01, 0.29, V * T_S)
+    x_up = np.arange(lo, hi, V * T_S)
     for d, key in ((1, "pos"), (-1, "neg")):
         x = x_up if d > 0 else x_up[::-1]
         for F in loads:

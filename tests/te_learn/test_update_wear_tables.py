@@ -13,7 +13,6 @@ defect at 200 mm (σ 8 mm), the conftest's deformation otherwise unchanged:
 
 from __future__ import annotations
 
-import json
 import re
 from pathlib import Path
 
@@ -22,10 +21,10 @@ import pytest
 
 from cli_runner import run_in_process
 from drivelash.commands.te_update import run_update
-from drivelash.io.trace import Trace
 from drivelash.te.runtime.persist import load_model, save_model
 
-from .conftest import GEOM, te_def_um, torque_of
+from .conftest import torque_of
+from .test_update_cli import write_campaign
 
 V = 0.05  # m/s
 T_S = 1e-3  # s
@@ -39,33 +38,7 @@ def _defect_um(x: np.ndarray) -> np.ndarray:
 
 def write_partial_campaign(directory: Path, model, lo: float, hi: float) -> Path:
     """One pass per load and direction over lo … hi [m] of the worn rack (manifest layout)."""
-    directory.mkdir(parents=True)
-    runs = []
-    x_up = np.arange(lo, hi, V * T_S)
-    for d, key in ((1, "pos"), (-1, "neg")):
-        x = x_up if d > 0 else x_up[::-1]
-        for F in LOADS:
-            te = model.geometric(x, d) + d * te_def_um(x, F, DEFECT_UM) * 1e-6
-            cols = {
-                "t": np.arange(x.size) * T_S,
-                "x_T": x,
-                "theta_m": (x - te) * 2 * GEOM.i_pg / GEOM.d_p,
-                "torque_m": torque_of(F, x),
-                "direction": np.full(x.size, float(d)),
-            }
-            name = f"{key}_F{F:g}.parquet"
-            Trace(cols, {}).to_parquet(directory / name)
-            runs.append({"file": name, "kind": "load", "load": F, "velocity": V, "direction": d})
-    manifest = {
-        "format": "drivelash.te-campaign",
-        "version": 2,
-        "source": "imported",
-        "axis": model.context.axis.model_dump(mode="json"),
-        "columns": ["t", "x_T", "theta_m", "torque_m", "direction"],
-        "runs": runs,
-    }
-    (directory / "manifest.json").write_text(json.dumps(manifest), encoding="utf-8")
-    return directory
+    return write_campaign(directory, model, LOADS, DEFECT_UM, lo, hi)
 
 
 @pytest.fixture(scope="module")
