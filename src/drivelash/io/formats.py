@@ -74,6 +74,11 @@ class RawTable:
         Detected format.
     rows : DataRows
         Where the data rows are in the file, for messages (:class:`CsvLines` of a text file).
+    unread : dict[str, DataError]
+        Text columns of a CSV file that are not numbers (a CNC's status or comment column):
+        left out of ``columns``; the error naming the first bad cell is raised only when the
+        mapping uses the column (:func:`drivelash.io.load.trace_from_table`), as a Parquet
+        file's string columns are not numeric columns either.
     """
 
     columns: dict[str, np.ndarray]
@@ -82,6 +87,7 @@ class RawTable:
     path: str = ""
     fmt: str = ""
     rows: DataRows = field(default=NO_LINES, repr=False, compare=False)
+    unread: dict[str, DataError] = field(default_factory=dict, repr=False, compare=False)
 
 
 # --------------------------------------------------------------------------- sniffing
@@ -630,16 +636,16 @@ def _read_csv(p: Path, rows: DataRows = NO_LINES) -> RawTable:
     if stamps:
         meta["timestamp_columns"] = stamps
     cols: dict[str, np.ndarray] = {}
+    unread: dict[str, DataError] = {}
     seen: set[str] = set()
     # the header's own names, as the streamed reader has them (pandas renames an empty one
     # "Unnamed: k", and the streamed reader falls back to this one mid-file)
     names = tokens if len(tokens) == len(df.columns) else [str(c).strip() for c in df.columns]
-    # Decimal commas (``0,05;1,2``, a European spreadsheet's export): a comma in any cell of a
-    # file that is not comma-separated; a point anywhere in such a file is then ambiguous.
+    # Decimal commas (``0,05;1,2``, a European spreadsheet's export): a comma in a number of a
+    # file that is not comma-separated; a point anywhere in such a file is then ambiguous. A
+    # text column's commas ("ok, idle") say nothing about the numbers.
     comma = sep != "," and any(
-        df[c].str.contains(",", regex=False, na=False).any()
-        for c, name in zip(df.columns, names, strict=True)
-        if name not in stamps
+        _comma_number(df[c]) for c, name in zip(df.columns, names, strict=True) if name not in stamps
     )
     for c, name in zip(df.columns, names, strict=True):
         if not name:  # no name in the header (a trailing separator): nothing can map it
@@ -655,7 +661,7 @@ def _read_csv(p: Path, rows: DataRows = NO_LINES) -> RawTable:
         if comma:
             dotted = np.flatnonzero(s.str.contains(".", regex=False).to_numpy())
             if dotted.size:
-                raise DataError(
+                unread[name] = DataError(
                     f"decimal point in {str(obj[dotted[0]])[:40]!r} where the file's numbers have"
                     " decimal commas (mixed decimal marks; thousands separators are not read)",
                     path=str(p),
@@ -663,6 +669,7 @@ def _read_csv(p: Path, rows: DataRows = NO_LINES) -> RawTable:
                     row=int(dotted[0]),
                     rows=rows,
                 )
+                continue
         num = s.str.replace(",", ".", regex=False).to_numpy(dtype=object) if comma else obj
         try:
             vals = np.array(num, dtype=np.float64)  # Python float(): exact, accepts nan/inf
@@ -678,12 +685,31 @@ def _read_csv(p: Path, rows: DataRows = NO_LINES) -> RawTable:
                             " day/month is not known; write ISO 8601 (2026-11-27 13:00:00) or"
                             " DD.MM.YYYY, or a time column in seconds"
                         )
-                    raise DataError(what, path=str(p), column=name, row=row, rows=rows) from None
-            raise DataError("unparseable values", path=str(p), column=name) from None
+                    # raised when the column is used (A16: a CNC's status column, unmapped,
+                    # is dropped as a Parquet file's string column is)
+                    unread[name] = DataError(what, path=str(p), column=name, row=row, rows=rows)
+                    break
+            else:
+                unread[name] = DataError("unparseable values", path=str(p), column=name)
+            continue
         cols[name] = vals
+    if not cols and unread:
+        raise next(iter(unread.values()))
     if not cols or len(next(iter(cols.values()))) == 0:
         raise DataError("no data rows below the header", path=str(p))
-    return RawTable(cols, {}, meta, str(p), "csv", rows)
+    return RawTable(cols, {}, meta, str(p), "csv", rows, unread)
+
+
+def _comma_number(col: Any) -> bool:
+    """Whether a CSV column (strings) holds a number written with a decimal comma."""
+    with_comma = col[col.str.contains(",", regex=False, na=False)]
+    if with_comma.empty:
+        return False
+    try:
+        float(str(with_comma.iloc[0]).strip().replace(",", "."))
+    except ValueError:
+        return False
+    return True
 
 
 def csv_error() -> type[Exception]:
@@ -735,6 +761,11 @@ class ColumnSource:
     """
 
     rows: DataRows = NO_LINES
+
+    @property
+    def unread(self) -> dict[str, DataError]:
+        """Text columns (name → the error naming their first bad cell); see :class:`RawTable`."""
+        return {}
 
     def __init__(
         self, path: str, fmt: str, names: list[str], n_rows: int, scalars: dict[str, float], meta: dict
@@ -1047,9 +1078,30 @@ class CsvSource(ColumnSource):
             n = self._count_arrow()
         if n == 0:
             raise DataError("no data rows below the header", path=str(p))
-        names = list(self._strict.columns) if self._strict is not None else [t for t in lay.tokens if t]
+        if self._strict is not None:  # a text column stays a name: using it raises its error
+            st = self._strict
+            names = [*st.columns, *(u for u in st.unread if u not in st.columns)]
+        else:
+            names = [t for t in lay.tokens if t]
         meta = self._strict.meta if self._strict is not None else lay.meta
         super().__init__(str(p), "csv", names, n, {}, meta)
+
+    @property
+    def unread(self) -> dict[str, DataError]:
+        """Text columns the strict reader found (none before it ran); see :class:`RawTable`."""
+        return self._strict.unread if self._strict is not None else {}
+
+    def read(self, names: list[str] | None = None) -> dict[str, np.ndarray]:
+        """``names`` whole; by default every column but the text ones (:attr:`unread`)."""
+        if names is not None:
+            return super().read(names)
+        try:
+            return super().read([n for n in self.names if n not in self.unread])
+        except DataError as exc:
+            if exc.column is None or exc.column not in self.unread:
+                raise
+        # pyarrow met a text column: the strict reader now knows them all
+        return super().read([n for n in self.names if n not in self.unread])
 
     def _strict_table(self) -> RawTable:
         if self._strict is None:
@@ -1071,6 +1123,12 @@ class CsvSource(ColumnSource):
             )
             self._strict = _read_csv(self._p, self.rows)
         return self._strict
+
+    def _check_read(self, names: list[str]) -> None:
+        """Raise the error of the first text column among ``names`` (its first bad cell)."""
+        for n in names:
+            if n in self.unread:
+                raise self.unread[n]
 
     def _reader(self, names: list[str], block: int) -> Any:
         import pyarrow as pa
@@ -1114,6 +1172,7 @@ class CsvSource(ColumnSource):
         self, names: list[str], chunk_rows: int = DEFAULT_CHUNK_ROWS
     ) -> Iterator[dict[str, np.ndarray]]:
         if self._strict is not None:
+            self._check_read(names)
             yield from ArraySource(self._strict.columns).chunks(names, chunk_rows)
             return
         import pyarrow as pa
@@ -1134,6 +1193,7 @@ class CsvSource(ColumnSource):
         except (pa.ArrowException, UnicodeDecodeError, ValueError) as exc:
             strict = self._strict_table()  # names the bad cell (DataError), or reads what Python accepts
             del exc
+            self._check_read(names)
             yield from ArraySource(strict.columns).chunks(names, chunk_rows)
             return
         if have:
@@ -1427,7 +1487,8 @@ def read_raw(path: str | Path, data: bytes | None = None) -> RawTable:
     """
     with open_source(path, data) as src:
         cols = src.read()
-        return RawTable(cols, dict(src.scalars), dict(src.meta), src.path, src.fmt, src.rows)
+        unread = dict(src.unread)
+        return RawTable(cols, dict(src.scalars), dict(src.meta), src.path, src.fmt, src.rows, unread)
 
 
 # --------------------------------------------------------------------------- writers

@@ -384,6 +384,9 @@ def _apply_mapping(
     kinds: dict[str, str] = {}
     origin: dict[str, str] = {}
     cols: dict[str, np.ndarray] = {}
+    used = _used_text_column(table, cmap)
+    if used is not None:  # a text column the mapping uses: its first bad cell (A16)
+        raise table.unread[used]
     if cmap is None:
         cols = dict(table.columns)
         origin = {k: k for k in cols}
@@ -415,6 +418,22 @@ def _apply_mapping(
             cols[name] = raw
             origin[name] = name
     return cols, kinds, origin
+
+
+def _used_text_column(table: RawTable, cmap: dict[str, ColumnMap] | None) -> str | None:
+    """The first column the mapping uses that the reader left unread as text, else None.
+
+    Used: a mapped source, or (unmapped) a column carrying a Trace name that is not mapped
+    from another source; ``t`` too without a mapping. Other text columns (a CNC's status or
+    comment column) are dropped as a Parquet file's string columns are.
+    """
+    for name in table.unread:
+        if cmap is not None and name in cmap:
+            return name
+        if name in TRACE_UNITS and (cmap is None or name != "t"):
+            if cmap is None or all(cm.column != name for cm in cmap.values()):
+                return name
+    return None
 
 
 def check_mapped_column(source: str, cm: ColumnMap, available: list[str], taken: Any, path: str) -> str:
@@ -938,6 +957,8 @@ def trace_from_table(
 
     if "t" not in cols and sampling.sample_rate is None:
         for name in ("t", "time"):  # an unmapped time column in [sampling] time_unit
+            if name in table.unread:
+                raise table.unread[name]
             if name in table.columns:
                 cols = {"t": table.columns[name] * time_factor(table, name, sampling), **cols}
                 origin["t"] = name

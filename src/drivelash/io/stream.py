@@ -255,7 +255,22 @@ class TraceStream:
         self._unwrap: dict[str, float] = {}
         self.names = ["t", *[c.name for c in plan if c.name != "t"]]
         self.meta: dict[str, Any] = {}
-        self._validate()
+        while True:
+            try:
+                self._validate()
+                break
+            except DataError as exc:
+                # a text column (a CNC's status or comment column) passed through only because
+                # no [columns] table names what to read: dropped, as the whole-file loader and a
+                # Parquet file's string columns do (A16); a column a computation uses still fails
+                text = self._src.unread
+                if cmap is not None or exc.column not in text or exc.column in TRACE_UNITS:
+                    raise
+                self._plan = [c for c in self._plan if c.source != exc.column]
+                self.names = ["t", *[c.name for c in self._plan if c.name != "t"]]
+                self._unread.discard(exc.column)
+                self._warnings, self._unwrap = list(plan_warnings), {}
+        plan = self._plan
         kinds = {c.name: c.kind for c in plan if c.kind}
         self.meta = self._meta(kinds, cmap)
 
