@@ -231,7 +231,8 @@ def estimate_backlash(
     identify : bool
         ``drivelash estimate --identify``: identify the drive offline first (two-mass model,
         95 % intervals); the drive-train values and δ1 the configuration does not set come from
-        it (:func:`estimate_with_identification`). Needs θ_m, θ_l and torque_m; ω_m, ω_l
+        it (:func:`estimate_with_identification`; an identified δ1's uncertainty is carried into
+        δ̂'s). Needs θ_m, θ_l and torque_m; ω_m, ω_l
         only when the online law runs.
 
     Returns
@@ -355,7 +356,11 @@ def estimate_with_identification(
     ``agreement`` says whether they differ beyond their intervals (a warning). A configured δ1
     that lies outside the identified δ1's 95 % interval and farther from it than the δ1 check's
     tolerance (``offset_switch``, at least 1 mrad) is replaced by the identified δ1, with a
-    warning and ``delta1_configured`` in the summary. When the recording
+    warning and ``delta1_configured`` in the summary. An identified δ1 is not exact: its standard
+    error, times ∂δ̂/∂δ1 measured by rerunning the online law at δ1 ± that error
+    (:func:`_delta1_uncertainty`), is part of ``delta_std`` (``delta1_std``,
+    ``delta1_sensitivity``, ``delta1_propagated_std`` in the summary), so a δ1 the recording
+    leaves uncertain withholds ``converged`` with a warning naming δ1. When the recording
     cannot give the drive (implausible fit, load side or backlash not seen), the online law
     is not run: ``online_run`` is false with the reason, ``excitation_ok`` false.
     """
