@@ -179,7 +179,11 @@ def _print_summary(s: dict[str, Any]) -> None:
     else:
         std = s.get("delta_std")
         pm = f" ± {1e3 * 1.96 * std:.2f} mrad (95 %)" if std is not None and math.isfinite(std) else ""
-        c.print(f"  δ̂ = {1e3 * s['delta']:.3f} mrad{pm}   (δ1 = {1e3 * s['delta1']:.3f} mrad)")
+        d1 = f"{1e3 * s['delta1']:.3f} mrad"
+        d1_std = s.get("delta1_std")  # an identified δ1 (--identify): its own 95 % interval
+        if s.get("delta1_source") == "identification" and d1_std is not None and math.isfinite(d1_std):
+            d1 = f"{1e3 * s['delta1']:.3f} ± {1e3 * 1.96 * d1_std:.2f} mrad, identified"
+        c.print(f"  δ̂ = {1e3 * s['delta']:.3f} mrad{pm}   (δ1 = {d1})")
         if "delta_true" in s:
             c.print(
                 f"  true δ = {1e3 * s['delta_true']:.3f} mrad, MAEE = {1e3 * s['maee_rad']:.3f} mrad, "
@@ -296,7 +300,8 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
             False,
             "--identify",
             help="Identify the drive first (two-mass, 95 % intervals); values the config lacks come "
-            "from it; the JSON carries offline δ and online δ̂ and flags disagreement.",
+            "from it (an identified δ1's uncertainty is carried into δ̂'s interval); the JSON carries "
+            "offline δ and online δ̂ and flags disagreement.",
         ),
         force: bool = typer.Option(False, "--force", help=FORCE_HELP),
     ) -> None:

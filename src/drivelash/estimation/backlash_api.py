@@ -140,6 +140,7 @@ def estimate_from_config(
     method: str | None = "default",
     drivetrain: Any = None,
     delta1: float | None = None,
+    delta1_uncertainty: Any = None,
 ) -> BacklashEstimate:
     """Run the online estimator on ``trace`` as ``drivelash estimate`` does
     (:func:`drivelash.estimation.pipeline.estimate_trace`) and build the command's summary.
@@ -156,6 +157,10 @@ def estimate_from_config(
         Replaces ``[drivetrain]``.
     delta1 : float, optional
         Known offset δ1 [rad]; replaces ``[backlash] delta1``.
+    delta1_uncertainty : Delta1Uncertainty, optional
+        δ1 is itself uncertain (identified): its standard uncertainty [rad] and δ̂ of reruns at
+        shifted δ1, propagated into ``delta_std`` and the verdict
+        (:class:`~drivelash.estimation.estimator.Delta1Uncertainty`).
     """
     from drivelash.errors import DrivelashError
     from drivelash.estimation.pipeline import MAEE_FRACTION, SS_FRACTION, estimate_summary, estimate_trace
@@ -171,7 +176,7 @@ def estimate_from_config(
         update["backlash"] = _backlash_with_delta1(cfg, delta1)
     if update:
         cfg = cfg.model_copy(update=update)
-    res, motion = estimate_trace(cfg, trace, method)
+    res, motion = estimate_trace(cfg, trace, method, delta1_uncertainty=delta1_uncertainty)
     t = res.t
     summary = estimate_summary(cfg, res, motion, len(trace), trace.T_s)
     if "delta_true" in trace:
@@ -226,7 +231,8 @@ def estimate_backlash(
     identify : bool
         ``drivelash estimate --identify``: identify the drive offline first (two-mass model,
         95 % intervals); the drive-train values and δ1 the configuration does not set come from
-        it (:func:`estimate_with_identification`). Needs θ_m, θ_l and torque_m; ω_m, ω_l
+        it (:func:`estimate_with_identification`; an identified δ1's uncertainty is carried into
+        δ̂'s). Needs θ_m, θ_l and torque_m; ω_m, ω_l
         only when the online law runs.
 
     Returns
@@ -350,7 +356,11 @@ def estimate_with_identification(
     ``agreement`` says whether they differ beyond their intervals (a warning). A configured δ1
     that lies outside the identified δ1's 95 % interval and farther from it than the δ1 check's
     tolerance (``offset_switch``, at least 1 mrad) is replaced by the identified δ1, with a
-    warning and ``delta1_configured`` in the summary. When the recording
+    warning and ``delta1_configured`` in the summary. An identified δ1 is not exact: its standard
+    error, times ∂δ̂/∂δ1 measured by rerunning the online law at δ1 ± that error
+    (:func:`_delta1_uncertainty`), is part of ``delta_std`` (``delta1_std``,
+    ``delta1_sensitivity``, ``delta1_propagated_std`` in the summary), so a δ1 the recording
+    leaves uncertain withholds ``converged`` with a warning naming δ1. When the recording
     cannot give the drive (implausible fit, load side or backlash not seen), the online law
     is not run: ``online_run`` is false with the reason, ``excitation_ok`` false.
     """
@@ -446,12 +456,14 @@ def estimate_with_identification(
 
     vals = {**off["drivetrain"], **(base or {})}  # the configuration's own values win
     dt = DrivetrainParams(**{k: v for k, v in vals.items() if k in DrivetrainParams.__dataclass_fields__})
-    est = estimate_from_config(trace, cfg, method=method, drivetrain=dt, delta1=d1)
+    from_ident = d1_cfg is None or d1_note is not None
+    d1u = _delta1_uncertainty(trace, cfg, method, dt, d1, ident) if from_ident else None
+    est = estimate_from_config(trace, cfg, method=method, drivetrain=dt, delta1=d1, delta1_uncertainty=d1u)
     s = est.summary
     s["online_run"] = True
     s["identification"] = off
     s["drivetrain_used"] = {k: float(v) for k, v in dt.__dict__.items()}
-    s["delta1_source"] = "identification" if d1_cfg is None or d1_note else "config"
+    s["delta1_source"] = "identification" if from_ident else "config"
     s.setdefault("warnings", [])
     if d1_note:
         s["delta1_configured"] = d1_cfg
@@ -483,6 +495,52 @@ def estimate_with_identification(
     est.summary = jsonable(s)
     est.identification = ident
     return est
+
+
+def _delta1_uncertainty(trace: Trace, cfg: Any, method: str | None, dt: Any, d1: float, ident: Any) -> Any:
+    """The identified δ1's standard error and δ̂ of the online law rerun at δ1 ± that error.
+
+    The anchored online law does not correct a δ1 offset: δ̂ moves with δ1, by a factor the
+    law's stiffness scale makes larger than 1 (geared drive, 250 Hz: 1.9 below, 0.9 above the
+    identified δ1). The reruns measure it where it matters — one standard error either side
+    (the lower one not below δ1 = 0), both sides because the response is not symmetric; each
+    rerun is the whole online estimate (tuning, δ1 check), a small fraction of the
+    identification's time. :class:`~drivelash.estimation.estimator.Delta1Uncertainty` turns
+    them into δ̂'s part of the uncertainty (docs/assumptions.md).
+
+    Parameters
+    ----------
+    trace : Trace
+        The recording.
+    cfg : DriveConfig
+        The configuration (``[estimator]`` keys apply to the reruns as to the estimate).
+    method : {"default", "paper"} or None
+        The law, as for the estimate.
+    dt : DrivetrainParams
+        The drive train given to the online law.
+    d1 : float
+        The identified δ1 the estimate uses [rad].
+    ident : DriveIdentification
+        The identification (its ``delta1`` standard error [rad]).
+
+    Returns
+    -------
+    Delta1Uncertainty or None
+        None when the identification gives no finite positive standard error for δ1.
+    """
+    from drivelash.estimation.estimator import Delta1Uncertainty
+
+    p = ident.parameters.get("delta1")
+    sd = float(p.std) if p is not None else math.nan
+    if not (math.isfinite(sd) and sd > 0.0):
+        return None
+    shifted = []
+    for h in (sd, max(d1 - sd, 0.0) - d1):
+        if h == 0.0:
+            continue
+        e = estimate_from_config(trace, cfg, method=method, drivetrain=dt, delta1=d1 + h)
+        shifted.append((h, float(e.result.extra.get("delta_final", math.nan))))
+    return Delta1Uncertainty(std=sd, shifted=tuple(shifted))
 
 
 def _undetermined(ident: Any, missing: list[str]) -> str:

@@ -75,6 +75,7 @@ __all__ = [
     "INPUT_COLUMNS",
     "REVERSAL_HYSTERESIS",
     "DeadzoneEstimator",
+    "Delta1Uncertainty",
     "EstimationResult",
     "EstimatorConfig",
     "MotionSummary",
@@ -253,6 +254,58 @@ def build_params(
     p[dz.P_K0] = float(k0)
     p[dz.P_BOUND] = 1.0 if config.contact_bound else 0.0
     return dz.derive_params(p)
+
+
+@dataclass(frozen=True)
+class Delta1Uncertainty:
+    """An uncertain δ1 given to the online law, and δ̂ at δ1 shifted by its standard error.
+
+    ``estimate --identify`` supplies δ1 from the offline identification when ``[backlash]
+    delta1`` is absent; the anchored law does not correct a δ1 offset, so δ̂ moves with δ1
+    (geared drive at 250 Hz: about 1.9 mrad per mrad below the identified δ1, 0.9 above). The
+    sensitivity is measured, not assumed: the caller reruns the online law with δ1 + ``std`` and
+    δ1 − ``std`` (not below 0) and passes the two δ̂; :func:`_verdict` takes the larger of the two
+    one-sided changes per unit shift as ∂δ̂/∂δ1 (the response is not symmetric) and adds
+    |∂δ̂/∂δ1|·``std`` to δ̂'s standard uncertainty in quadrature (docs/assumptions.md).
+
+    Attributes
+    ----------
+    std : float
+        Standard uncertainty of δ1 [rad] (the identification's standard error).
+    shifted : tuple of (float, float)
+        ``(shift, delta)`` pairs: the δ1 shift [rad] of a rerun and its final δ̂ [rad] (NaN when
+        the rerun gave none). Pairs with a zero shift or a NaN δ̂ are not used.
+    source : str
+        Where δ1 came from, for the warning (``"the identification"``).
+    """
+
+    std: float
+    shifted: tuple[tuple[float, float], ...] = ()
+    source: str = "the identification"
+
+    def effect(self, final: float) -> tuple[float, float, bool]:
+        """The part of δ̂'s standard uncertainty due to δ1.
+
+        Parameters
+        ----------
+        final : float
+            δ̂ [rad] at the given δ1 (the reported one).
+
+        Returns
+        -------
+        (float, float, bool)
+            The propagated standard uncertainty [rad], the sensitivity ∂δ̂/∂δ1 used
+            (dimensionless, ≥ 0), and whether it was measured; without a usable rerun the
+            anchored law's one-for-one response (sensitivity 1) is used and ``False`` returned.
+        """
+        slopes = [
+            abs(d - final) / abs(h)
+            for h, d in self.shifted
+            if h != 0.0 and math.isfinite(d) and math.isfinite(final)
+        ]
+        measured = bool(slopes)
+        k = max(slopes) if measured else 1.0
+        return k * self.std, k, measured
 
 
 @dataclass
@@ -546,6 +599,7 @@ class _Setup:
     motion: MotionSummary
     encoder_reading: str = "unknown"
     cross_config: EstimatorConfig | None = None
+    delta1_uncertainty: Delta1Uncertainty | None = None
 
 
 def _check_config(config: EstimatorConfig, default_cfg: EstimatorConfig) -> EstimatorConfig:
@@ -574,6 +628,7 @@ def estimate_blocks(
     motion: MotionSummary | None = None,
     error_since: tuple[float, ...] = (),
     encoder_reading: str | None = None,
+    delta1_uncertainty: Delta1Uncertainty | None = None,
 ) -> EstimationResult:
     """Run the online estimator over a block source in two passes (module docstring).
 
@@ -607,6 +662,9 @@ def estimate_blocks(
     encoder_reading : {"nearest", "truncate"}, optional
         The recording's own statement of its encoders' reading convention (``Trace.meta``);
         used when the configuration leaves ``encoder_reading`` "unknown".
+    delta1_uncertainty : Delta1Uncertainty, optional
+        ``delta1`` is itself uncertain (identified, not configured): its standard uncertainty
+        [rad] and δ̂ of reruns at shifted δ1, propagated into ``delta_std`` and the verdict.
 
     Returns
     -------
@@ -645,7 +703,9 @@ def estimate_blocks(
     check_cfg = None
     if config.offset_check and not config.estimate_offset:
         check_cfg = _check_config(config, base)
-    setup = _Setup(drivetrain, float(delta1), T_s, config, check_cfg, motion, reading, cross_cfg)
+    setup = _Setup(
+        drivetrain, float(delta1), T_s, config, check_cfg, motion, reading, cross_cfg, delta1_uncertainty
+    )
     return _run_session(setup, blocks, keep, tuple(float(x) for x in error_since))
 
 
@@ -1042,8 +1102,26 @@ def _verdict(
     alt_gap = max(d1_gap, range_gap)
     # at its projection bound δ̂ is the bound, not a measurement: no uncertainty either (a wear
     # history takes an unconverged estimate only with a stated one)
-    std = (
+    # δ1 given with an uncertainty of its own (estimate --identify: the identified δ1): the
+    # anchored law does not correct a δ1 offset, so δ1's standard error reaches δ̂ through the
+    # measured sensitivity — a standard uncertainty like the others, added in quadrature
+    s_d1 = 0.0
+    d1u = setup.delta1_uncertainty
+    if d1u is not None:
+        s_d1, k_d1, k_measured = d1u.effect(final)
+        extra.update(
+            delta1_std=d1u.std,
+            delta1_sensitivity=k_d1,
+            delta1_sensitivity_measured=k_measured,
+            delta1_propagated_std=s_d1,
+        )
+    std_base = (
         _uncertainty(a, extra, cfg.theta_def, enc_bound + disagreement + alt_gap)
+        if ok and not at_bound
+        else math.nan
+    )
+    std = (
+        _uncertainty(a, extra, cfg.theta_def, enc_bound + disagreement + alt_gap, s_d1)
         if ok and not at_bound
         else math.nan
     )
@@ -1062,13 +1140,21 @@ def _verdict(
                 f"the observed Δθ range less the two contact deflections lies {1e3 * range_gap:.1f} mrad"
                 " above δ̂"
             )
-        if disagreement > 0.0 and 1.96 * std - disagreement - alt_gap <= claim:
+        if d1u is not None and (1.96 * std_base <= claim or 1.96 * s_d1 > claim):
+            how = "measured at δ1 ± its standard error" if k_measured else "assumed one-for-one"
+            why_parts.append(
+                f"δ1 from {d1u.source} is uncertain by ±{1e3 * 1.96 * d1u.std:.2f} mrad (95 %); "
+                f"δ̂ moves ~{k_d1:.2g} mrad per mrad of δ1 ({how}), ±{1e3 * 1.96 * s_d1:.2f} mrad "
+                "of δ̂ — the online law does not correct δ1: give [backlash] delta1 or a recording "
+                "that determines it"
+            )
+        if disagreement > 0.0 and 1.96 * std_base - disagreement - alt_gap <= claim:
             why_parts.append(
                 f"the paper law and the default law (which learns the contact stiffness) disagree by "
                 f"{1e3 * disagreement:.2f} mrad: the stated drive parameters do not fit the data "
                 "(use --method default)"
             )
-        if enc_bound > 0.0 and 1.96 * std - enc_bound - alt_gap <= claim:
+        if enc_bound > 0.0 and 1.96 * std_base - enc_bound - alt_gap <= claim:
             why_parts.append(
                 f"the encoders' counts ({1e3 * c_m:.3g} mrad motor, {1e3 * c_l:.3g} mrad load) leave "
                 f"Δθ offset by up to {1e3 * enc_offset:.2f} mrad depending on how they round "
@@ -1076,7 +1162,7 @@ def _verdict(
                 'recording states the convention: set [estimator] encoder_reading = "nearest" or '
                 '"truncate"'
             )
-        if 1.96 * std - alt_gap - disagreement - enc_bound > claim or not why_parts:
+        if 1.96 * std_base - alt_gap - disagreement - enc_bound > claim or not why_parts:
             why_parts.append(
                 "the data disagree with the stated drive parameters "
                 + (f"(contact stiffness {kappa:.2f}× the stated model's)" if default else "")
@@ -1128,11 +1214,16 @@ def _verdict(
 
 
 def _uncertainty(
-    a: dict[str, float], extra: dict[str, Any], theta_def: float, enc_bound: float = 0.0
+    a: dict[str, float],
+    extra: dict[str, Any],
+    theta_def: float,
+    enc_bound: float = 0.0,
+    s_delta1: float = 0.0,
 ) -> float:
     """Standard uncertainty of δ̂ [rad], from the estimator's own statistics.
 
-    Four parts added in quadrature, plus a systematic bound added linearly:
+    Four parts (five with ``s_delta1``) added in quadrature, plus a systematic bound added
+    linearly:
 
     * the spread (standard deviation) of δ̂ over the last third of the run — how far the
       estimate wanders under noise;
@@ -1155,6 +1246,10 @@ def _uncertainty(
       The caller adds the other bounded alternatives the same way: the paper law's disagreement
       with the default law and, when the δ1 check is "inconsistent", the distance to the joint
       δ/δ1 law's δ.
+    * ``s_delta1`` [rad], an uncertain δ1 (``estimate --identify`` without ``[backlash]
+      delta1``) propagated through the measured ∂δ̂/∂δ1 (:class:`Delta1Uncertainty`): the
+      identification's standard error is a standard uncertainty, not a bound, so it is added in
+      quadrature. A configured δ1 has none (0).
 
     Coverage of δ̂ ± 1.96 σ against the truth is measured in tests/estimation/test_robustness.py.
     """
@@ -1172,7 +1267,7 @@ def _uncertainty(
             # model (κ held at 1), the anchored law only the upper one: twice the model part
             s_mod *= SWITCHED_MODEL_FACTOR
     s_res = UNCERTAINTY_FLOOR * theta_def
-    s = math.sqrt(s_stat * s_stat + s_d1 * s_d1 + s_mod * s_mod + s_res * s_res)
+    s = math.sqrt(s_stat * s_stat + s_d1 * s_d1 + s_mod * s_mod + s_res * s_res + s_delta1 * s_delta1)
     return float(s + enc_bound / 1.96)
 
 

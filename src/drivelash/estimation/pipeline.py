@@ -75,7 +75,9 @@ def _estimator_config(
         raise ConfigError(f"{src}: table [{table}], key '{exc.field}': {exc.problem}") from None
 
 
-def estimate_trace(cfg: Any, trace: Any, method: str | None = None, keep: str = "full") -> tuple[Any, Any]:
+def estimate_trace(
+    cfg: Any, trace: Any, method: str | None = None, keep: str = "full", delta1_uncertainty: Any = None
+) -> tuple[Any, Any]:
     """The estimator exactly as ``drivelash estimate`` runs it on a loaded recording.
 
     Two passes (:func:`drivelash.estimation.estimator.estimate_blocks`): the recording's
@@ -95,6 +97,10 @@ def estimate_trace(cfg: Any, trace: Any, method: str | None = None, keep: str = 
         Output series kept in the result (``estimate_blocks``); the verdict and every figure
         are the same either way — "decimated" spares the copies when only the figures count
         (the wear tracker).
+    delta1_uncertainty : Delta1Uncertainty, optional
+        ``[backlash] delta1`` is itself uncertain (``estimate --identify``: the identified δ1);
+        propagated into δ̂'s uncertainty and verdict
+        (:class:`~drivelash.estimation.estimator.Delta1Uncertainty`).
 
     Returns
     -------
@@ -102,7 +108,15 @@ def estimate_trace(cfg: Any, trace: Any, method: str | None = None, keep: str = 
     """
     from drivelash.estimation.estimator import trace_blocks
 
-    return _estimate_blocks(cfg, trace_blocks(trace), trace.T_s, method, keep=keep, meta=trace.meta)
+    return _estimate_blocks(
+        cfg,
+        trace_blocks(trace),
+        trace.T_s,
+        method,
+        keep=keep,
+        meta=trace.meta,
+        delta1_uncertainty=delta1_uncertainty,
+    )
 
 
 def _estimate_blocks(
@@ -114,12 +128,14 @@ def _estimate_blocks(
     keep: str = "full",
     truth: bool = False,
     meta: Mapping[str, Any] | None = None,
+    delta1_uncertainty: Any = None,
 ) -> tuple[Any, Any]:
     """:func:`estimate_trace` on a block source (an in-memory trace or a file read in chunks).
 
     ``truth``: the blocks carry ``delta_true``; max |δ* − δ̂| over the MAEE and steady-state
     windows is accumulated while streaming (``extra["max_abs_error_since"]``). ``meta``: the
-    recording's metadata (its ``encoder_reading``, when stated, is used).
+    recording's metadata (its ``encoder_reading``, when stated, is used). ``delta1_uncertainty``:
+    as for :func:`estimate_trace`.
     """
     from drivelash.errors import ConfigError
     from drivelash.estimation.estimator import estimate_blocks, scan_blocks
@@ -148,6 +164,7 @@ def _estimate_blocks(
         keep=keep,  # type: ignore[arg-type]
         error_since=since,
         encoder_reading=(meta or {}).get("encoder_reading"),
+        delta1_uncertainty=delta1_uncertainty,
     )
     return res, motion
 
@@ -262,6 +279,11 @@ def result_summary(res: Any) -> dict[str, Any]:
         "encoder_reading",  # the convention applied (``gains`` holds the configuration's)
         "encoder_reading_from",  # "configuration", "recording metadata" or "none" (B7)
         "law_disagreement",
+        # an uncertain δ1 (estimate --identify): its std [rad], ∂δ̂/∂δ1 and the part of delta_std
+        "delta1_std",
+        "delta1_sensitivity",
+        "delta1_sensitivity_measured",
+        "delta1_propagated_std",
     )
     out: dict[str, Any] = {
         "delta_std": res.delta_std,

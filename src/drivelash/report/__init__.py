@@ -330,6 +330,10 @@ def render_estimate_report(
         if summary.get("delta1_used") is not None:
             d1_src = summary.get("delta1_source")
             rows.append([f"delta1 (used{', from ' + str(d1_src) if d1_src else ''})", summary["delta1_used"]])
+            if summary.get("delta1_std") is not None:  # an identified δ1: carried into δ̂'s interval
+                rows.append(["delta1 standard uncertainty", summary["delta1_std"]])
+                how = "measured" if summary.get("delta1_sensitivity_measured") else "assumed"
+                rows.append([f"dδ̂/d(delta1) ({how})", summary.get("delta1_sensitivity")])
         used_tables.append((f"drive the estimator was given{src}, SI units", ["key", "value"], rows))
     cfg_tables = _param_tables(config, getattr(result, "config", None))
     sec_par = Section("Parameters", tables=used_tables + cfg_tables)
