@@ -2567,12 +2567,14 @@ def _build_result(
             )
             why = "the shaft torque is not distinguishable in the motor torque"
             low = 0.0
-            # the motor-only fit's J_m, T_Cm, β_m are then the totals of motor and load (B8)
-            totals = _motor_side_totals(
-                params,
-                {n: (params[n].value, params[n].std) for n in RIGID_TOTALS if params[n].identifiable},
-                "the load travelled with the motor and no shaft deflection is resolved",
-            )
+            if not _plausibility(params):
+                # the motor-only fit's J_m, T_Cm, β_m are then the totals of motor and load (B8); an
+                # implausible one (negative inertia: a sign error) keeps its values for the verdict
+                totals = _motor_side_totals(
+                    params,
+                    {n: (params[n].value, params[n].std) for n in RIGID_TOTALS if params[n].identifiable},
+                    "the load travelled with the motor and no shaft deflection is resolved",
+                )
         else:
             reason = (
                 "no contact: the shaft never carried torque in this recording (motion inside the gap, or "
@@ -2584,7 +2586,9 @@ def _build_result(
             params[n] = ParameterEstimate.unknown(n, why)
         params["delta"] = ParameterEstimate.unknown("delta", reason, low=low)
         params["delta1"] = ParameterEstimate.unknown("delta1", why)
-    rigid = rigid_contact_fit(fit) if any(sides) else None
+    # an implausible fit (negative inertia or friction) is in a wrong basin: the comparison with the
+    # rigid contact means nothing there, and the plausibility verdict below names its cause
+    rigid = rigid_contact_fit(fit) if any(sides) and not _plausibility(params) else None
     if rigid is not None and not rigid.rejected:
         # a rigid contact explains the recording as well as the compliant shaft: the deflection
         # under the recorded torques is below what the encoders resolve, and K_S fitted to it is
