@@ -2779,17 +2779,23 @@ def _build_result(
         )
         if raw:
             notes.append(f"rigid contact not rejected (shaft deflection not resolved), not reported: {raw}")
-        for n in ("K_S", "D_S"):
-            if params[n].identifiable:
-                params[n] = ParameterEstimate.unknown(n, shaft_why, low=0.0)
+        if params["K_S"].identifiable:
+            params["K_S"] = ParameterEstimate.unknown("K_S", shaft_why, low=0.0)
+        if params["D_S"].identifiable:
+            params["D_S"] = ParameterEstimate.unknown(
+                "D_S",
+                "not determined: the shaft torque's other term, and K_S is not determined: the contact "
+                f"deflection is below what the recording resolves — {test}",
+                low=0.0,
+            )
         for n in ("J_l", "T_Cl", "beta_l"):
             q = params.get(n)
             if q is not None and q.identifiable:
                 params[n] = ParameterEstimate.unknown(
                     n,
                     f"not determined: {q.value:.4g} {q.unit} {q.interval_text(3)} rests on the shaft torque "
-                    "K_S (Δθ − c) + D_S Δω of the load equation, and the contact deflection is below what "
-                    "the recording resolves",
+                    "K_S (Δθ − c) + D_S Δω of the load equation, and K_S is not determined: the contact "
+                    "deflection is below what the recording resolves",
                 )
         totals = _motor_side_totals(
             params,
