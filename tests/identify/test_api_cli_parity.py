@@ -292,7 +292,9 @@ def test_kuka_estimate_identify_without_the_drive_writes_the_identification_repo
     assert code == 0, err
     s = _json(js)
     assert s["online_run"] is False
-    assert "does not determine J_l, K_S, D_S" in s["reason"] and "give them in [drivetrain]" in s["reason"]
+    # J_m too since B8: the motor-only fit's J_m is the total J_m + J_l/N² (load moving with the motor)
+    assert "does not determine J_m, J_l, K_S, D_S" in s["reason"]
+    assert "give them in [drivetrain]" in s["reason"]
     assert any("--report holds the offline identification only" in w for w in s["warnings"])
     html = rep.read_text(encoding="utf-8")
     assert "drivelash identify (two-mass)" in html and "Identified parameters" in html
