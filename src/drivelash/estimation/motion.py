@@ -256,12 +256,15 @@ class MotionScanner:
         start = (B - 1 - self.n) % B
         th = np.asarray(theta_m[start::B], dtype=np.float64) / self.N
         self._th.append(th)
-        self._thl.append(np.asarray(theta_l[start::B], dtype=np.float64))
+        # compact copies: a strided view of the chunk would keep the whole chunk alive, i.e. the
+        # whole column over the recording (+190 MiB peak RSS on 1 h at 8 kHz, found by the slow
+        # 1 GiB test)
+        self._thl.append(np.ascontiguousarray(theta_l[start::B], dtype=np.float64))
         has_u = torque_m is not None
         if self._has_u is None:
             self._has_u = has_u
         if has_u and self._has_u:
-            self._u.append(np.asarray(torque_m[start::B], dtype=np.float64))
+            self._u.append(np.ascontiguousarray(torque_m[start::B], dtype=np.float64))
             uu = np.asarray(torque_m, dtype=np.float64)
             x = np.asarray(theta_m, dtype=np.float64) / self.N - np.asarray(theta_l, dtype=np.float64)
             if self._c0 is None:
