@@ -12,10 +12,8 @@ import pytest
 
 import drivelash as dl
 
-GEARED = """base = "bench-0B"
-duration = 6.0
-seed = 5
-[plant]
+#: The geared drive of tester B's findings (session 20): bench-0B's rig with a 5:1 gear.
+GEARED_BODY = """[plant]
 N = 5.0
 J_l = 0.0207
 K_S = 823.5
@@ -34,6 +32,14 @@ beta_l = 0.04
 delta = 0.04
 delta1 = 0.02
 """
+
+
+def geared_toml(duration: float, seed: int = 5) -> str:
+    """The geared drive's scenario TOML (δ = 40 mrad, δ1 = 20 mrad) over ``duration`` [s]."""
+    return f'base = "bench-0B"\nduration = {duration}\nseed = {seed}\n' + GEARED_BODY
+
+
+GEARED = geared_toml(6.0)
 COLS = ["t", "theta_m", "omega_m", "theta_l", "omega_l", "torque_m"]
 
 

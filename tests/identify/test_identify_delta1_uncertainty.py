@@ -17,34 +17,13 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
+from tests.estimation.test_encoder_reading_source import geared_toml
 
 import drivelash as dl
 from drivelash.estimation.estimator import CLAIM_HALF_WIDTH
 
-#: The geared drive of finding B9 (tester B, session 20): bench-0B's rig with a 5:1 gear.
-GEARED = """\
-base = "bench-0B"
-duration = 10.0
-seed = 5
-[plant]
-N = 5.0
-J_l = 0.0207
-K_S = 823.5
-D_S = 1.37
-T_Cl = 0.58
-T_Sl = 1.1
-beta_l = 0.04
-[drivetrain]
-N = 5.0
-J_l = 0.0207
-K_S = 823.5
-D_S = 1.37
-T_Cl = 0.58
-beta_l = 0.04
-[backlash]
-delta = 0.04
-delta1 = 0.02
-"""
+#: The geared drive of finding B9 (tester B, session 20): bench-0B's rig with a 5:1 gear, 10 s.
+GEARED = geared_toml(10.0)
 #: Only the gear ratio and the simulator's encoder convention: the rest is identified.
 N_NEAREST = '[drivetrain]\nN = 5.0\n[estimator]\nencoder_reading = "nearest"\n'
 DELTA_TRUE = 0.04
