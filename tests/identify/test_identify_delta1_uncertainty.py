@@ -79,6 +79,9 @@ def test_250hz_identified_delta1_widens_the_interval(at_250hz: dl.BacklashEstima
     assert "per mrad of δ1" in w[0] and "[backlash] delta1" in w[0], w[0]
     # the agreement block weighs the combined uncertainty
     assert s["agreement"]["online_std"] == pytest.approx(s["delta_std"])
+    # the figures README quotes: δ̂ = 35.08 ± 10.6 mrad, ∂δ̂/∂δ1 ≈ 1.9
+    assert round(1e3 * s["delta"], 2) == 35.08 and round(1e3 * 1.96 * s["delta_std"], 1) == 10.6, s
+    assert round(s["delta1_sensitivity"], 1) == 1.9, s["delta1_sensitivity"]
 
 
 def test_250hz_command_prints_the_combined_interval(geared: dict[str, object]) -> None:
@@ -120,6 +123,7 @@ def test_8khz_tight_delta1_does_not_blow_up(geared: dict[str, object]) -> None:
     assert not any("δ1 from the identification" in x for x in est.warnings), est.warnings
     lo, hi = s["delta_interval_95"]
     assert lo <= DELTA_TRUE <= hi, (s["delta"], lo, hi)
+    assert round(1e3 * 1.96 * s["delta_std"], 2) == 0.25, s["delta_std"]  # README: "at 8 kHz ± 0.25"
 
 
 def test_configured_delta1_gets_no_term(geared: dict[str, object], at_250hz: dl.BacklashEstimate) -> None:
