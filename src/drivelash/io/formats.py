@@ -1180,6 +1180,7 @@ class CsvSource(ColumnSource):
         block = CSV_BLOCK_BYTES
         pending: dict[str, list[np.ndarray]] = {n: [] for n in names}
         have = 0
+        done = 0  # rows already yielded
         try:
             fh, rd = self._reader(names, block)
             with fh:
@@ -1189,12 +1190,16 @@ class CsvSource(ColumnSource):
                     have += b.num_rows
                     while have >= chunk_rows:
                         out, pending, have = _take(pending, chunk_rows, have)
+                        done += chunk_rows
                         yield out
         except (pa.ArrowException, UnicodeDecodeError, ValueError) as exc:
             strict = self._strict_table()  # names the bad cell (DataError), or reads what Python accepts
             del exc
             self._check_read(names)
-            yield from ArraySource(strict.columns).chunks(names, chunk_rows)
+            # pyarrow may refuse a cell Python accepts (``1_000``) after chunks went out: the strict
+            # reader re-read the file from its first row, so go on from the first row not yet yielded
+            rest = {n: strict.columns[n][done:] for n in names}
+            yield from ArraySource(rest).chunks(names, chunk_rows)
             return
         if have:
             yield {n: np.concatenate(v) if len(v) > 1 else v[0] for n, v in pending.items()}
