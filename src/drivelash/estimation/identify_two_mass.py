@@ -1483,9 +1483,17 @@ def _contact_evidence(fit: TwoMassFit) -> dict[str, Any]:
     return out
 
 
+#: A contact is confirmed when its mean motor-side shaft torque has the contact's sign and lies
+#: this many standard errors from 0 (:func:`_side_ok`).
+CONTACT_EVIDENCE_Z = 3.0
+
+
 def _side_ok(ev: dict[str, Any], side: str, sign: float) -> bool:
     e = ev[side]
-    return e["windows"] >= MIN_CONTACT_WINDOWS and sign * e["shaft_torque_mean"] > 3.0 * e["shaft_torque_se"]
+    return (
+        e["windows"] >= MIN_CONTACT_WINDOWS
+        and sign * e["shaft_torque_mean"] > CONTACT_EVIDENCE_Z * e["shaft_torque_se"]
+    )
 
 
 def _linear_transform(names: tuple[str, ...], p: np.ndarray) -> tuple[list[str], np.ndarray, np.ndarray]:
@@ -2702,10 +2710,35 @@ def _build_result(
             # one-flank fit stands only if the two-contact fit agrees with it
             both = _fit_estimates(unconfirmed[0])
             cand = 1e3 * (unconfirmed[0].p[I_CHI] - unconfirmed[0].p[I_CLO])
-            reason += (
-                f"; a second contact (δ ≈ {cand:.3g} mrad) was fitted but the shaft torque does not "
-                "confirm it, so δ has no lower bound from this recording"
-            )
+            other = "lower" if sides[1] else "upper"
+            ev2 = _contact_evidence(unconfirmed[0])
+            e2 = ev2[other]
+            sign = -1.0 if sides[1] else 1.0
+            if (
+                ev2["traversals"] >= 1
+                and e2["windows"] >= MIN_CONTACT_WINDOWS
+                and sign * e2["shaft_torque_mean"] > 0
+            ):
+                # the second contact carried torque of its own sign, only below the evidence
+                # threshold: the shaft torque may well have reversed (st10_9: −0.0062 ± 0.0021 N·m,
+                # 2.95 standard errors, a ±1 rad sine through a 5 mrad gap 8 times) — saying the
+                # load "stayed on the flank" would be a false reason
+                z = abs(e2["shaft_torque_mean"]) / e2["shaft_torque_se"]
+                reason = (
+                    f"backlash not determined: a fit with both contacts finds a gap of δ ≈ {cand:.3g} mrad "
+                    f"crossed {ev2['traversals']} times, but the shaft torque in its {other} contact "
+                    f"({e2['shaft_torque_mean']:.3g} ± {e2['shaft_torque_se']:.2g} N·m over {e2['windows']} "
+                    f"windows) lies {z:.2f} standard errors from 0, below the {CONTACT_EVIDENCE_Z:g} that "
+                    f"confirm a contact (the {seen} contact carried {ev[seen]['shaft_torque_mean']:.3g} N·m) "
+                    "— the recording does not show the torque reversing across the gap clearly enough; "
+                    "larger torques in both directions (faster reversals) would, and δ has no bound from "
+                    "this recording"
+                )
+            else:
+                reason += (
+                    f"; a second contact (δ ≈ {cand:.3g} mrad) was fitted but the shaft torque does not "
+                    "confirm it, so δ has no lower bound from this recording"
+                )
             params["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0)
             if sides[1]:
                 params["delta1"] = ParameterEstimate.unknown(
@@ -2823,6 +2856,28 @@ def _build_result(
             params["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0)
             if params.get("delta1") is not None and params["delta1"].identifiable:
                 params["delta1"] = ParameterEstimate.unknown("delta1", "not determined: " + what)
+    if (
+        totals is None
+        and rigid is not None
+        and any(n == "K_S" for n, _, _ in withheld)
+        and any(params[n].identifiable for n in RIGID_TOTALS if n in params)
+    ):
+        # K_S's interval reaches 0: the recording does not show the shaft torque, and it is the
+        # shaft torque that splits inertia and friction between the motor and the load equation.
+        # The motor equation then carries what it cannot attribute — st10_9 (K_S = 329.4 N·m/rad,
+        # a 5 mrad gap of 1.6 encoder counts): T_Cm = 0.0412 [0.0330, 0.0494] N·m for 0.0223, the
+        # load's friction in it (T_Cm + T_Cl = 0.0455). Reported as the totals the rigid-contact
+        # refit determines, the motor's own values bounded by them (as where the rigid contact is
+        # not rejected, B8)
+        totals = _motor_side_totals(
+            params,
+            {
+                n: rigid.totals[t]
+                for n, t in zip(RIGID_TOTALS, ("J_total", "T_C_total", "beta_total"), strict=True)
+            },
+            "K_S is not determined (its 95 % interval reaches 0) and with it the shaft torque that splits "
+            "inertia and friction between motor and load",
+        )
     if prob.equations == "motor":
         why = "the load equation was not used (equations = 'motor')"
         for n in ("J_l", "T_Cl", "beta_l"):
