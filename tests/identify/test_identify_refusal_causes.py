@@ -103,3 +103,27 @@ def test_friction_causes_lead_with_the_data(ev, first):
     # J_m's interval reaching 0 does not show the torque's sign: the sign stays among the causes
     weak = _friction_causes("load", base, ParameterEstimate.normal("J_m", 8e-4, 5e-4))
     assert "may be wrong" in weak and "signs agree" not in weak
+
+
+def test_small_motion_verdict_does_not_claim_no_contact():
+    """The same 0.12 rad recording's backlash verdict was "no contact: the shaft never carried
+    torque" — false: the load travelled 55 mrad, driven beyond each contact (`estimate` gives
+    185.73 ± 0.35 mrad for 186). "No contact" rests on the motor-only fit explaining the recording;
+    this one is implausible, so the verdict decides nothing and says why (session 22)."""
+    r = identify_two_mass(_bench(0.12), 1.0)
+    assert "never carried torque" not in r.reason, r.reason
+    assert r.reason.startswith("backlash not determined: no contact was confirmed"), r.reason
+    assert "travelled 55.2 mrad" in r.reason and "beta_m" in r.reason
+    assert not r.backlash_visible and r["delta"].low == 0.0 and r["delta"].high == np.inf
+    for n in ("J_l", "K_S", "delta1"):
+        assert "never carried torque" not in r[n].reason, (n, r[n].reason)
+
+
+def test_motion_inside_the_gap_keeps_no_contact():
+    """Negative control: a 0.06 rad sine stays inside the 186 mrad gap (the load never moves,
+    ptp θ_l = 0) and the motor-only fit is plausible: "no contact" stands."""
+    t = _bench(0.06)
+    assert np.ptp(t["theta_l"]) == 0.0
+    r = identify_two_mass(t, 1.0)
+    assert r.plausible, r.warnings
+    assert r.reason.startswith("no contact: the shaft never carried torque"), r.reason

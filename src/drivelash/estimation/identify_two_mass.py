@@ -2910,6 +2910,23 @@ def _build_result(
         ordered["delta1"] = ParameterEstimate.unknown("delta1", "the fit is implausible")
         if fit_delta is not None:
             notes.append(f"implausible fit: δ = {fit_delta.value:.4g} rad {fit_delta.interval_text(4)}")
+    elif warnings and reason.startswith("no contact:"):
+        # "the shaft never carried torque" rests on the motor-only fit explaining the recording; an
+        # implausible one does not (B12's small-motion recording: a ±0.12 rad sine drives the load
+        # 27 mrad beyond each contact, `estimate` 185.73 ± 0.35 mrad for 186, yet this said "no
+        # contact") — no claim either way, the warning names the cause
+        travel = float(np.ptp(trace["theta_l"]))
+        reason = (
+            "backlash not determined: no contact was confirmed, but the motor-only fit that would "
+            f"stand for 'no contact' is implausible ({warnings[0].split(':')[0]}) and the load "
+            f"travelled {1e3 * travel:.3g} mrad — whether the shaft carried torque is not decided by "
+            "this fit (the warning names the likely cause)"
+        )
+        ordered["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0)
+        for n in ("delta1", *LOAD_SIDE, "K_S"):
+            q = ordered.get(n)
+            if q is not None and not q.identifiable and q.reason == "the shaft never carried torque":
+                ordered[n] = ParameterEstimate.unknown(n, "not determined: no contact confirmed")
     elif warnings:
         reason += f"; the fit is implausible as well ({warnings[0].split(':')[0]})"
         ordered["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0)  # no bound from it
