@@ -60,3 +60,47 @@ def fmt(name: str, s: dict[str, Any]) -> str:
 
 def np_max_abs(values: list[float]) -> float:
     return float(np.max(np.abs(values))) if values else float("nan")
+
+
+def bench_variant(
+    delta: float,
+    delta1: float,
+    seed: int,
+    duration: float = 8.0,
+    plant_only: dict[str, float] | None = None,
+    **drivetrain: float,
+):
+    """bench-0B with another drive train and gap (plant and estimator alike), simulated.
+
+    Parameters
+    ----------
+    delta, delta1 : float
+        Backlash and lower contact [rad].
+    seed : int
+        Noise seed.
+    duration : float
+        Length [s].
+    plant_only : dict, optional
+        Drive-train fields changed in the plant only (e.g. a load stiction ``T_Sl`` [N·m]).
+    **drivetrain
+        Drive-train fields changed in plant and estimator (``K_S`` [N·m/rad], ``N`` …).
+
+    Returns
+    -------
+    plant : DrivetrainParams
+        The true drive train.
+    trace : Trace
+        The simulated recording.
+    """
+    from drivelash.sim.scenarios import get_scenario
+
+    base = get_scenario("bench-0B")
+    plant = replace(base.plant_drivetrain, **(plant_only or {}), **drivetrain)
+    sc = replace(
+        base,
+        plant_drivetrain=plant,
+        estimator_drivetrain=replace(base.estimator_drivetrain, **drivetrain),
+        plant_backlash=replace(base.plant_backlash, delta=delta, delta1=delta1),
+        estimator_backlash=replace(base.estimator_backlash, delta=delta, delta1=delta1),
+    )
+    return plant, sc.simulate(duration=duration, seed=seed)

@@ -16,25 +16,14 @@ contact (statistic 874) and keeps K_S within 5 %.
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import pytest
 
 from drivelash.estimation.identify_two_mass import identify_two_mass
-from drivelash.sim.scenarios import get_scenario
+from identify.acceptance import bench_variant
 
 
 def _stiff(seed: int):
-    base = get_scenario("bench-0B")
-    plant = replace(base.plant_drivetrain, K_S=3294.0, D_S=0.548)
-    sc = replace(
-        base,
-        plant_drivetrain=plant,
-        estimator_drivetrain=replace(base.estimator_drivetrain, K_S=3294.0, D_S=0.548),
-        plant_backlash=replace(base.plant_backlash, delta=0.0005, delta1=0.00025),
-        estimator_backlash=replace(base.estimator_backlash, delta=0.0005, delta1=0.00025),
-    )
-    return plant, sc.simulate(duration=8.0, seed=seed)
+    return bench_variant(0.0005, 0.00025, seed, K_S=3294.0, D_S=0.548)
 
 
 @pytest.fixture(scope="module", params=[6, 9])
@@ -82,17 +71,9 @@ def test_geared_drive_keeps_its_stiffness():
     """Negative control (geared.toml of the findings): N = 5, J_l = 0.0207, K_S = 823.5, δ = 40 mrad,
     10 s seed 5 at 8 kHz — implied deflection 1.1 mrad, a third of one count, yet resolved by the
     fused positions: the rigid contact is rejected and K_S stays within 5 %."""
-    base = get_scenario("bench-0B")
     kw = {"N": 5.0, "J_l": 0.0207, "K_S": 823.5, "D_S": 1.37, "T_Cl": 0.58, "beta_l": 0.04}
-    plant = replace(base.plant_drivetrain, T_Sl=1.1, **kw)
-    sc = replace(
-        base,
-        plant_drivetrain=plant,
-        estimator_drivetrain=replace(base.estimator_drivetrain, **kw),
-        plant_backlash=replace(base.plant_backlash, delta=0.04, delta1=0.02),
-        estimator_backlash=replace(base.estimator_backlash, delta=0.04, delta1=0.02),
-    )
-    r = identify_two_mass(sc.simulate(duration=10.0, seed=5), 5.0)
+    plant, trace = bench_variant(0.04, 0.02, 5, 10.0, plant_only={"T_Sl": 1.1}, **kw)
+    r = identify_two_mass(trace, 5.0)
     assert r["K_S"].identifiable and abs(r["K_S"].value / 823.5 - 1) <= 0.05, r["K_S"]
     assert r["J_m"].identifiable and r["J_m"].covers(plant.J_m), r["J_m"]
     rc = r.fit["rigid_contact"]

@@ -18,25 +18,14 @@ a gravity axis that never loads the other flank keeps "stayed on the lower flank
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import pytest
 
 from drivelash.estimation.identify_two_mass import identify_two_mass
-from drivelash.sim.scenarios import get_scenario
+from identify.acceptance import bench_variant
 
 
 def _st10(seed: int):
-    base = get_scenario("bench-0B")
-    plant = replace(base.plant_drivetrain, K_S=329.4, D_S=0.173)
-    sc = replace(
-        base,
-        plant_drivetrain=plant,
-        estimator_drivetrain=replace(base.estimator_drivetrain, K_S=329.4, D_S=0.173),
-        plant_backlash=replace(base.plant_backlash, delta=0.005, delta1=0.0025),
-        estimator_backlash=replace(base.estimator_backlash, delta=0.005, delta1=0.0025),
-    )
-    return plant, sc.simulate(duration=8.0, seed=seed)
+    return bench_variant(0.005, 0.0025, seed, K_S=329.4, D_S=0.173)
 
 
 @pytest.fixture(scope="module")
