@@ -1,0 +1,50 @@
+"""A small gap on bench-0B: the two-mass identification's intervals miss (session 22, a known miss).
+
+A sweep of bench-0B variants (session 22; the cases rebuilt here with ``bench_variant``, 8 s at
+8 kHz, seeds 1–6) found the identification honest at the bench's own 186 mrad gap (K_S, J_l, δ inside
+every interval; the 100-seed coverage test measures 0.94 / 0.97) but biased at smaller gaps, with
+intervals that exclude the truth. K_S outside its interval in 4 of 18 runs: δ = 5 mrad seeds 1 and
+3 (+10.0 %, +12.2 %), 20 mrad seed 3 (+13.1 %, J_l +20.5 % outside too), 50 mrad seed 2 (−7.5 %);
+δ outside in 5 of 18: +0.49 / +0.51 mrad at 5 mrad, +0.47 / +0.33 at 20 mrad, +0.30 at 50 mrad.
+Not the encoders: 65536-count encoders give the same biases (seed 1, 5 mrad: K_S +9.7 %, δ +10.4 %).
+The random drives of the acceptance (δ 10–500 mrad on other drives) meet the 5 % / 1 mrad limits;
+here the shaft deflects up to ≈ 10 mrad beyond the contacts (Δθ spans −6.1 … +12.3 mrad around
+contacts at ±2.5 mrad) — where the bias comes from is not known yet. The goal is kept: the 95 %
+intervals hold the truth. The measured values are asserted so that the known miss cannot drift
+unnoticed.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from drivelash.estimation.identify_two_mass import identify_two_mass
+from identify.acceptance import bench_variant
+
+
+@pytest.fixture(scope="module")
+def small_gap():
+    plant, trace = bench_variant(0.005, 0.0025, 1)  # bench-0B's shaft, δ = 5 mrad, seed 1
+    return plant, identify_two_mass(trace, 1.0)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="known miss: bench-0B with δ = 5 mrad (seed 1): K_S 36.22 [33.44, 39.00] N·m/rad for 32.94 "
+    "(+10.0 %), δ 5.49 [5.07, 5.92] mrad for 5.00 — both intervals exclude the truth; goal: the 95 % "
+    "intervals hold it (as at the bench's own 186 mrad gap); because the identification is biased at "
+    "gaps much smaller than the shaft's deflection (cause not found; not the encoder resolution)",
+)
+def test_small_gap_intervals_hold_the_truth(small_gap):
+    plant, r = small_gap
+    assert r["K_S"].identifiable and r["K_S"].covers(plant.K_S), r["K_S"]
+    assert r["delta"].identifiable and r["delta"].covers(0.005), r["delta"]
+
+
+def test_small_gap_measured_as_stated(small_gap):
+    """The figures of the known miss above (and of docs/assumptions.md), as measured."""
+    plant, r = small_gap
+    assert r.backlash_visible
+    assert r["K_S"].value / plant.K_S - 1 == pytest.approx(0.100, abs=0.01)
+    assert 1e3 * r["delta"].value == pytest.approx(5.49, abs=0.03)
+    assert 1e3 * r["delta"].low == pytest.approx(5.07, abs=0.03)
