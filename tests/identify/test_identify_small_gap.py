@@ -65,3 +65,17 @@ def test_a_longer_window_holds_the_truth(small_gap):
     assert abs(r["K_S"].value / plant.K_S - 1) <= 0.05 and r["K_S"].covers(plant.K_S), r["K_S"]
     assert r["J_l"].covers(plant.J_l), r["J_l"]
     assert r["delta"].covers(0.005) and abs(r["delta"].value - 0.005) < 1e-4, r["delta"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("delta", "seed"), [(0.005, 1), (0.005, 3), (0.02, 1), (0.02, 3), (0.186, 1), (0.186, 3)]
+)
+def test_a_longer_window_holds_the_truth_on_every_measured_case(delta, seed):
+    """README: "window = 0.004 … holds the truth in every interval (K_S within 2.5 % on 6 of 6
+    runs at 5, 20 and 186 mrad)"."""
+    plant, trace = bench_variant(delta, delta / 2, seed)
+    r = identify_two_mass(trace, 1.0, window_s=0.004)
+    assert abs(r["K_S"].value / plant.K_S - 1) <= 0.025, r["K_S"]
+    for n, v in (("K_S", plant.K_S), ("J_l", plant.J_l), ("delta", delta)):
+        assert r[n].identifiable and r[n].covers(v), (n, r[n])
