@@ -79,3 +79,19 @@ def test_negative_control_a_determined_stiffness_keeps_the_motor_side(st10_6):
     assert r.fit["motor_side_totals"] is None
     for n in ("J_m", "T_Cm", "beta_m"):
         assert r[n].identifiable and r[n].covers(getattr(plant, n)), (n, r[n])
+
+
+def test_verdict_line_does_not_repeat_backlash(st10_9, st10_6):
+    """The TOML comment, the command's summary and the report said "backlash: backlash not
+    determined: …" (seen on this report in session 22); the verdict names the backlash once."""
+    from drivelash.report.identify_figures import render_two_mass_report
+
+    _, r9 = st10_9
+    _, r6 = st10_6
+    assert r9.reason.startswith("backlash not determined") and r9.verdict == r9.reason
+    assert r6.verdict == f"backlash: {r6.reason}"  # a reason that does not name it gets the prefix
+    for r in (r9, r6):
+        assert "backlash: backlash" not in r.to_toml().lower()
+    _, trace = _st10(9)
+    html = render_two_mass_report(trace, r9)
+    assert "Backlash: backlash" not in html and ">Backlash not determined: a fit with both" in html

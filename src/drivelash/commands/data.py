@@ -369,7 +369,7 @@ def run_identify_two_mass(
             else:
                 table.add_row(prm.name, "–", prm.interval_text(4), prm.unit, escape(prm.reason))
         console.print(table)
-        console.print(f"backlash: {escape(result.reason)}")
+        console.print(escape(result.verdict))
         if model_choice != "--model":
             console.print(f"model: two-mass ({escape(model_choice)})")
         for w in result.warnings:

@@ -259,6 +259,12 @@ class DriveIdentification:
         """False when a plausibility check failed (see ``warnings``)."""
         return not self.fit.get("implausible", False)
 
+    @property
+    def verdict(self) -> str:
+        """The backlash verdict as one line: ``"backlash: <reason>"``, or the reason itself where it
+        already starts with "backlash" ("backlash not determined: …", "backlash below what …")."""
+        return self.reason if self.reason.lower().startswith("backlash") else f"backlash: {self.reason}"
+
     def to_config(self) -> dict[str, dict[str, float]]:
         """The ``[drivetrain]`` and ``[backlash]`` tables ``drivelash estimate`` reads.
 
@@ -320,7 +326,7 @@ class DriveIdentification:
                 )
             else:
                 head.append(f"{p.name}: not identified ({p.reason})")
-        head.append(f"backlash: {self.reason}")
+        head.append(self.verdict)
         head += [f"warning: {w}" for w in self.warnings]
         text = "".join(f"# {c}\n" for c in head)
         return text + tomli_w.dumps({k: {kk: float(vv) for kk, vv in v.items()} for k, v in tables.items()})

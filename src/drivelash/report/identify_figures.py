@@ -77,7 +77,7 @@ def render_two_mass_report(
             '<p class="verdict-bad">No online deadzone estimate: '
             f"{html.escape(online_not_run)}. This report holds the offline identification only.</p>",
         )
-    raw.append(f'<p class="{verdict_cls}">Backlash: {html.escape(result.reason)}</p>')
+    raw.append(f'<p class="{verdict_cls}">{html.escape(result.verdict[:1].upper() + result.verdict[1:])}</p>')
     raw += [f'<div class="warn">{html.escape(w)}</div>' for w in result.warnings]
     raw += [f'<div class="warn">{html.escape(n)}</div>' for n in result.fit.get("notes", [])]
     rows = [_fmt_param(q) for q in p.values()]
