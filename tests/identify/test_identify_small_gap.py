@@ -35,7 +35,9 @@ def small_gap():
     reason="known miss: bench-0B with δ = 5 mrad (seed 1): K_S 36.22 [33.44, 39.00] N·m/rad for 32.94 "
     "(+10.0 %), δ 5.49 [5.07, 5.92] mrad for 5.00 — both intervals exclude the truth; goal: the 95 % "
     "intervals hold it (as at the bench's own 186 mrad gap); because the identification is biased at "
-    "gaps much smaller than the shaft's deflection (cause not found; not the encoder resolution)",
+    "gaps much smaller than the shaft's deflection — narrowed to the window accelerations built from the "
+    "recorded velocity noise, not fixed (a 4 ms window holds the truth: "
+    "test_a_longer_window_holds_the_truth)",
 )
 def test_small_gap_intervals_hold_the_truth(small_gap):
     plant, r = small_gap
@@ -50,6 +52,7 @@ def test_small_gap_measured_as_stated(small_gap):
     assert r["K_S"].value / plant.K_S - 1 == pytest.approx(0.100, abs=0.01)
     assert 1e3 * r["delta"].value == pytest.approx(5.49, abs=0.03)
     assert 1e3 * r["delta"].low == pytest.approx(5.07, abs=0.03)
+    assert 1e3 * r["delta"].high == pytest.approx(5.92, abs=0.03)
 
 
 def test_a_longer_window_holds_the_truth(small_gap):
@@ -79,3 +82,38 @@ def test_a_longer_window_holds_the_truth_on_every_measured_case(delta, seed):
     assert abs(r["K_S"].value / plant.K_S - 1) <= 0.025, r["K_S"]
     for n, v in (("K_S", plant.K_S), ("J_l", plant.J_l), ("delta", delta)):
         assert r[n].identifiable and r[n].covers(v), (n, r[n])
+
+
+def _sweep_case(args: tuple[float, int]) -> tuple[bool, bool]:
+    delta, seed = args
+    plant, trace = bench_variant(delta, delta / 2, seed)
+    r = identify_two_mass(trace, 1.0)
+    return not r["K_S"].covers(plant.K_S), not r["delta"].covers(delta)
+
+
+@pytest.mark.slow
+def test_small_gap_sweep_measured_as_stated():
+    """README / docs: at 5, 20 and 50 mrad, seeds 1–6, K_S's interval misses the truth in 4 of 18
+    runs and δ's in 5 of 18 (the known miss's extent, measured as stated)."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    cases = [(d, s) for d in (0.005, 0.02, 0.05) for s in range(1, 7)]
+    with ProcessPoolExecutor(2) as ex:
+        res = list(ex.map(_sweep_case, cases))
+    assert sum(k for k, _ in res) == 4 and sum(d for _, d in res) == 5, list(zip(cases, res, strict=True))
+
+
+@pytest.mark.slow
+def test_a_4ms_window_breaks_the_fast_random_drive():
+    """README: "a drive that resonates at 332 Hz needs the short window (K_S −17 % at 4 ms)" — random
+    drive seed 1 / case 0 of the acceptance (K_S −4.72 % at the default 1 ms)."""
+    import numpy as np
+
+    from estimation.test_generalisation import random_drive
+
+    rng = np.random.default_rng(1)
+    dt, bl, trace = random_drive(rng, 0)
+    f_res = np.sqrt(dt.K_S * (1 / dt.J_l + 1 / (dt.N**2 * dt.J_m))) / (2 * np.pi)
+    assert f_res == pytest.approx(332, abs=1)
+    r = identify_two_mass(trace, dt.N, window_s=0.004)
+    assert r["K_S"].value / dt.K_S - 1 == pytest.approx(-0.175, abs=0.01)

@@ -2869,6 +2869,12 @@ def _build_result(
         # load's friction in it (T_Cm + T_Cl = 0.0455). Reported as the totals the rigid-contact
         # refit determines, the motor's own values bounded by them (as where the rigid contact is
         # not rejected, B8)
+        raw = ", ".join(
+            f"{n} = {q.value:.4g} {q.unit} {q.interval_text(3)}"
+            for n in RIGID_TOTALS
+            if (q := params.get(n)) is not None and q.identifiable
+        )
+        notes.append(f"K_S not determined, motor side reported as totals; not reported: {raw}")
         totals = _motor_side_totals(
             params,
             {
