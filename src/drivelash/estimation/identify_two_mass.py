@@ -2565,6 +2565,15 @@ MOTOR_SIDE_TOTALS = {
 }
 
 
+def _fitted_text(params: dict[str, ParameterEstimate], names: tuple[str, ...]) -> str:
+    """ "name = value unit [low, high]" of the identified ones among ``names`` (for a note)."""
+    return ", ".join(
+        f"{n} = {q.value:.4g} {q.unit} {q.interval_text(3)}"
+        for n in names
+        if (q := params.get(n)) is not None and q.identifiable
+    )
+
+
 def _motor_side_totals(
     params: dict[str, ParameterEstimate], totals: dict[str, tuple[float, float]], why: str
 ) -> dict[str, dict[str, Any]]:
@@ -2805,11 +2814,7 @@ def _build_result(
             f"{rigid.statistic:.3g} ≤ {rigid.threshold:.3g}, the 95 % quantile of χ²({RIGID_TEST_DOF}))"
         )
         shaft_why = f"not determined: the contact deflection is below what the recording resolves — {test}"
-        raw = ", ".join(
-            f"{n} = {q.value:.4g} {q.unit} {q.interval_text(3)}"
-            for n in ("K_S", "D_S", "J_l", "T_Cl", "beta_l", *RIGID_TOTALS)
-            if (q := params.get(n)) is not None and q.identifiable
-        )
+        raw = _fitted_text(params, ("K_S", "D_S", "J_l", "T_Cl", "beta_l", *RIGID_TOTALS))
         if raw:
             notes.append(f"rigid contact not rejected (shaft deflection not resolved), not reported: {raw}")
         if params["K_S"].identifiable:
@@ -2869,12 +2874,8 @@ def _build_result(
         # load's friction in it (T_Cm + T_Cl = 0.0455). Reported as the totals the rigid-contact
         # refit determines, the motor's own values bounded by them (as where the rigid contact is
         # not rejected, B8)
-        raw = ", ".join(
-            f"{n} = {q.value:.4g} {q.unit} {q.interval_text(3)}"
-            for n in RIGID_TOTALS
-            if (q := params.get(n)) is not None and q.identifiable
-        )
-        notes.append(f"K_S not determined, motor side reported as totals; not reported: {raw}")
+        fitted = _fitted_text(params, RIGID_TOTALS)
+        notes.append(f"K_S not determined, motor side reported as totals; not reported: {fitted}")
         totals = _motor_side_totals(
             params,
             {
