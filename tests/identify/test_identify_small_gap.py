@@ -11,7 +11,8 @@ The random drives of the acceptance (δ 10–500 mrad on other drives) meet the 
 here the shaft deflects up to ≈ 10 mrad beyond the contacts (Δθ spans −6.1 … +12.3 mrad around
 contacts at ±2.5 mrad). Narrowed to the windows' acceleration targets built from the recorded
 velocities' noise (docs/assumptions.md, "Gaps much smaller than the shaft's deflection": true-velocity
-targets remove it, K_S −0.86 %), not yet fixed. The goal is kept: the 95 %
+targets remove it, K_S −0.86 %), not fixed in the default 1 ms window; ``window_s="auto"`` (a
+sixth of the resonance period, 3.6 ms here) holds the truth — the tests below. The goal is kept: the 95 %
 intervals hold the truth. The measured values are asserted so that the known miss cannot drift
 unnoticed.
 """
@@ -36,8 +37,8 @@ def small_gap():
     "(+10.0 %), δ 5.49 [5.07, 5.92] mrad for 5.00 — both intervals exclude the truth; goal: the 95 % "
     "intervals hold it (as at the bench's own 186 mrad gap); because the identification is biased at "
     "gaps much smaller than the shaft's deflection — narrowed to the window accelerations built from the "
-    "recorded velocity noise, not fixed (a 4 ms window holds the truth: "
-    "test_a_longer_window_holds_the_truth)",
+    "recorded velocity noise, not fixed in the default (window = 'auto' or 4 ms holds the truth: "
+    "test_the_auto_window_holds_the_truth, test_a_longer_window_holds_the_truth)",
 )
 def test_small_gap_intervals_hold_the_truth(small_gap):
     plant, r = small_gap
@@ -70,13 +71,121 @@ def test_a_longer_window_holds_the_truth(small_gap):
     assert r["delta"].covers(0.005) and abs(r["delta"].value - 0.005) < 1e-4, r["delta"]
 
 
+def test_the_auto_window_holds_the_truth(small_gap):
+    """README: ``[identification] window = "auto"`` (a sixth of the resonance period the 1 ms fit
+    shows, 1–4 ms) picks ≈ 3.6 ms on bench-0B's drive (its resonance: 44.8 Hz) and holds the truth
+    where the default misses (the fixture's miss is the negative control)."""
+    plant, r_default = small_gap
+    assert not r_default["K_S"].covers(plant.K_S)
+    _, trace = bench_variant(0.005, 0.0025, 1)
+    r = identify_two_mass(trace, 1.0, window_s="auto")
+    choice = r.fit["window_choice"]
+    f_true = (plant.K_S * (1 / plant.J_l + 1 / (plant.N**2 * plant.J_m))) ** 0.5 / (2 * 3.141592653589793)
+    assert choice["f_res"] == pytest.approx(f_true, rel=0.05)  # 46.2 Hz fitted for 44.8
+    assert r.fit["window_samples"] == round(choice["window_s"] / 1.25e-4) == 29  # 3.625 ms at 8 kHz
+    assert r["K_S"].value / plant.K_S - 1 == pytest.approx(-0.0414, abs=0.005)
+    for n, v in (("K_S", plant.K_S), ("J_l", plant.J_l), ("delta", 0.005)):
+        assert r[n].identifiable and r[n].covers(v), (n, r[n])
+    assert abs(r["delta"].value - 0.005) < 1e-4
+
+
+def test_auto_window_from_the_config_and_in_the_report(small_gap, tmp_path):
+    """``[identification] window = "auto"`` in a drive TOML gives the same fit as
+    ``window_s="auto"``, and the report's fit table names the window chosen and why (README)."""
+    import drivelash as dl
+    from drivelash.report.identify_figures import write_two_mass_report
+
+    _, trace = bench_variant(0.005, 0.0025, 1)
+    cfg = tmp_path / "drive.toml"
+    cfg.write_text('[drivetrain]\nN = 1.0\n\n[identification]\nmodel = "two-mass"\nwindow = "auto"\n')
+    r = dl.identify_drive(trace, str(cfg))
+    assert r.fit["window_samples"] == 29 and r.fit["window_choice"]["reason"].startswith("'auto': a sixth")
+    assert r["K_S"].value == identify_two_mass(trace, 1.0, window_s="auto")["K_S"].value
+    html = write_two_mass_report(tmp_path / "id.html", trace, r).read_text()
+    assert "window chosen" in html and "a sixth of the period of the shaft resonance" in html
+    # control: the default's report says the window was fixed
+    html0 = write_two_mass_report(tmp_path / "id0.html", trace, small_gap[1]).read_text()
+    assert "fixed ([identification] window; default 1 ms)" in html0
+
+
+def test_auto_window_rejects_nonsense():
+    from drivelash.errors import ParameterError
+
+    _, trace = bench_variant(0.005, 0.0025, 1)
+    for bad in ("fast", -1e-3, 0.0, float("nan")):
+        with pytest.raises(ParameterError, match="window"):
+            identify_two_mass(trace, 1.0, window_s=bad)
+
+
+def _auto_case(args: tuple[float, int]) -> tuple[bool, bool, bool]:
+    delta, seed = args
+    plant, trace = bench_variant(delta, delta / 2, seed)
+    r = identify_two_mass(trace, 1.0, window_s="auto")
+    truth = (("K_S", plant.K_S), ("J_l", plant.J_l), ("delta", delta))
+    return tuple(not (r[n].identifiable and r[n].covers(v)) for n, v in truth)
+
+
+@pytest.mark.slow
+def test_auto_window_sweep_holds_the_truth():
+    """README: with ``window = "auto"`` the sweep above (5, 20, 50 mrad, seeds 1–6) has every K_S,
+    J_l and δ interval holding the truth, 18 of 18 (the default: K_S misses 4, δ 5)."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    cases = [(d, s) for d in (0.005, 0.02, 0.05) for s in range(1, 7)]
+    with ProcessPoolExecutor(2) as ex:
+        res = list(ex.map(_auto_case, cases))
+    assert not any(any(m) for m in res), list(zip(cases, res, strict=True))
+
+
+@pytest.mark.slow
+def test_auto_window_keeps_the_fast_drive_at_1ms():
+    """The drive a fixed 4 ms window breaks (random drive 1/0, 332 Hz: K_S −17.5 %) keeps the 1 ms
+    fit under ``"auto"`` (a sixth of its period is 0.5 ms, clipped to 1 ms): the same numbers as the
+    default."""
+    import numpy as np
+
+    from estimation.test_generalisation import random_drive
+
+    dt, _, trace = random_drive(np.random.default_rng(1), 0)
+    r = identify_two_mass(trace, dt.N, window_s="auto")
+    ref = identify_two_mass(trace, dt.N)
+    assert r.fit["window_choice"]["window_s"] == 1e-3 and r.fit["window_s"] == ref.fit["window_s"]
+    assert r["K_S"].value == ref["K_S"].value
+    assert r["K_S"].value / dt.K_S - 1 == pytest.approx(-0.0472, abs=0.002)
+
+
+@pytest.mark.slow
+def test_auto_window_on_the_random_drives_3_7_and_3_2():
+    """docs/assumptions.md ("Window from the resonance"), why "auto" is not the default: on the
+    random drives it fixes 3/7 (J_l +5.95 % at 1 ms, a known miss) but takes 3/2 from within the
+    limits to J_l −5.06 % (its 36.8 Hz resonance → 4 ms); measured as stated."""
+    import numpy as np
+
+    from estimation.test_generalisation import random_drive
+
+    def drive(seed: int, case: int):
+        rng = np.random.default_rng(seed)
+        for k in range(case + 1):
+            d = random_drive(rng, k)
+        return d
+
+    dt, bl, trace = drive(3, 7)
+    r = identify_two_mass(trace, dt.N, window_s="auto")
+    assert abs(r["J_l"].value / dt.J_l - 1) <= 0.05 and abs(r["K_S"].value / dt.K_S - 1) <= 0.05
+    assert abs(r["delta"].value - bl.delta) <= 1e-3
+    dt, bl, trace = drive(3, 2)
+    r = identify_two_mass(trace, dt.N, window_s="auto")
+    assert r.fit["window_s"] == pytest.approx(4e-3)
+    assert r["J_l"].value / dt.J_l - 1 == pytest.approx(-0.0506, abs=0.001)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(
     ("delta", "seed"), [(0.005, 1), (0.005, 3), (0.02, 1), (0.02, 3), (0.186, 1), (0.186, 3)]
 )
 def test_a_longer_window_holds_the_truth_on_every_measured_case(delta, seed):
-    """README: "window = 0.004 … holds the truth in every interval (K_S within 2.5 % on 6 of 6
-    runs at 5, 20 and 186 mrad)"."""
+    """README: "a fixed `window = 0.004` holds 6 of 6 runs at 5, 20 and 186 mrad" (every K_S, J_l and
+    δ interval; K_S within 2.5 %)."""
     plant, trace = bench_variant(delta, delta / 2, seed)
     r = identify_two_mass(trace, 1.0, window_s=0.004)
     assert abs(r["K_S"].value / plant.K_S - 1) <= 0.025, r["K_S"]
@@ -105,7 +214,7 @@ def test_small_gap_sweep_measured_as_stated():
 
 @pytest.mark.slow
 def test_a_4ms_window_breaks_the_fast_random_drive():
-    """README: "a drive that resonates at 332 Hz needs the short window (K_S −17 % at 4 ms)" — random
+    """README: "(a fixed `window = 0.004` …) gives that drive K_S −17 %" — random
     drive seed 1 / case 0 of the acceptance (K_S −4.72 % at the default 1 ms)."""
     import numpy as np
 

@@ -123,9 +123,9 @@ COVERAGE_SCENARIO = "bench-0B"
 COVERAGE_SEEDS = range(100)
 
 
-def _z_scores(seed: int) -> tuple[float, float]:
+def _z_scores(seed: int, window_s: float | str = 1e-3) -> tuple[float, float]:
     sc = get_scenario(COVERAGE_SCENARIO)
-    r = identify_two_mass(sc.simulate(seed=seed), sc.plant_drivetrain.N)
+    r = identify_two_mass(sc.simulate(seed=seed), sc.plant_drivetrain.N, window_s=window_s)
     zd = (r["delta"].value - sc.plant_backlash.delta) / r["delta"].std
     zk = (r["K_S"].value - sc.plant_drivetrain.K_S) / r["K_S"].std
     return float(zd), float(zk)
@@ -143,6 +143,25 @@ def test_interval_coverage_over_100_seeds():
     # README: "on bench-0B they still cover 94–97 % over 100 noise seeds" (δ 0.94, K_S 0.97 with the
     # torque-instrument IV step where the Hausman test rejects least squares; δ 0.95, K_S 0.96 before it)
     assert 0.94 <= cover[0] <= 0.97 and 0.94 <= cover[1] <= 0.97, cover
+
+
+def _z_scores_auto(seed: int) -> tuple[float, float]:
+    return _z_scores(seed, "auto")
+
+
+@pytest.mark.slow
+def test_auto_window_intervals_are_too_wide_on_bench_0b():
+    """docs/assumptions.md ("Window from the resonance"), why ``window = "auto"`` is not the
+    default: on bench-0B it picks ≈ 3.6 ms and the 95 % intervals cover the truth on 100 % (δ) and
+    99 % (K_S) of 100 seeds — above the 98 % the acceptance allows (the default's coverage test
+    above is the control); the estimates' spread is ≈ 0.7 of the stated standard errors."""
+    with ProcessPoolExecutor(2) as pool:
+        z = np.array(list(pool.map(_z_scores_auto, COVERAGE_SEEDS)))
+    cover = np.mean(np.abs(z) <= 1.959963984540054, axis=0)
+    assert cover[0] == pytest.approx(1.00, abs=0.011) and cover[1] == pytest.approx(0.99, abs=0.011), cover
+    assert cover[0] > 0.98 or cover[1] > 0.98, cover  # the miss that keeps it from being the default
+    sd = np.std(z, axis=0)
+    assert 0.6 <= sd[0] <= 0.8 and 0.6 <= sd[1] <= 0.8, sd
 
 
 # --------------------------------------------------------------------------------------

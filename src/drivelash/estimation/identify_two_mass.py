@@ -80,8 +80,14 @@ from drivelash.errors import DataError, ParameterError
 from drivelash.estimation.identify_result import IDENTIFY_NEEDS, Z95, DriveIdentification, ParameterEstimate
 from drivelash.io.trace import Trace
 
-#: Target window length of the integral equations [s] (M = round(WINDOW_S/T_s), at least 2).
+#: Target window length of the integral equations [s] (M = round(WINDOW_S/T_s), at least 2):
+#: the default, and the first fit and shortest window of ``window_s="auto"``.
 WINDOW_S = 1e-3
+#: Longest window of the ``"auto"`` choice [s] (:func:`resonance_window`).
+WINDOW_MAX_S = 4e-3
+#: The ``"auto"`` window is this fraction of the period of the first fit's shaft resonance [-]
+#: (:func:`resonance_window`; docs/assumptions.md "Window from the resonance").
+WINDOW_RESONANCE_FRACTION = 1.0 / 6.0
 #: Samples whose speed is below this fraction of the 99th-percentile speed are left out.
 STANDSTILL_FRACTION = 0.05
 #: ... or below this many standard deviations of the velocity noise.
@@ -1818,7 +1824,7 @@ def identify_two_mass(
     trace: Trace,
     N: float,
     *,
-    window_s: float = WINDOW_S,
+    window_s: float | str = WINDOW_S,
     equations: str = "both",
     fit_delay: bool = False,
     torque_offset: float | None = None,
@@ -1833,8 +1839,13 @@ def identify_two_mass(
         positions when absent).
     N : float
         Gear ratio θ_m/θ_l [-] (given, not identified).
-    window_s : float
-        Window length of the integral equations [s].
+    window_s : float or "auto"
+        Window length of the integral equations [s] (default :data:`WINDOW_S`). ``"auto"``: a
+        first fit at :data:`WINDOW_S`, then, when it determines the shaft resonance, a refit at
+        a sixth of the resonance's period clipped to [:data:`WINDOW_S`, :data:`WINDOW_MAX_S`]
+        (:func:`resonance_window`) — for gaps much smaller than the shaft's deflection, where
+        the 1 ms window's intervals miss; not the default (docs/assumptions.md, "Window from
+        the resonance"). The fit table (``fit["window_choice"]``) names the window and why.
     equations : {"both", "motor"}
         ``"motor"`` leaves the load equation out (a robot link, whose inertia depends on
         the pose and which carries gravity): J_l and the load friction are then not
@@ -1857,20 +1868,78 @@ def identify_two_mass(
     Raises
     ------
     ParameterError
-        ``equations`` other than ``"both"`` or ``"motor"``.
+        ``equations`` other than ``"both"`` or ``"motor"``; ``window_s`` neither a positive
+        number nor ``"auto"``.
     DataError
         A missing or unusable column, or a recording that does not determine the model.
     """
     if equations not in ("both", "motor"):
         raise ParameterError("identification", "equations", f"must be 'both' or 'motor', got {equations!r}")
+    numeric = isinstance(window_s, (int, float)) and not isinstance(window_s, bool)
+    if window_s != "auto" and not (numeric and math.isfinite(window_s) and window_s > 0):
+        raise ParameterError(
+            "identification", "window", f"must be a positive number [s] or 'auto', got {window_s!r}"
+        )
     try:
-        return _identify_two_mass(trace, N, window_s, equations, fit_delay, torque_offset)
+        if window_s != "auto":
+            return _identify_two_mass(trace, N, float(window_s), equations, fit_delay, torque_offset)
+        first = _identify_two_mass(trace, N, WINDOW_S, equations, fit_delay, torque_offset)
+        choice = resonance_window(first)
+        T_s = float(first.fit["window_s"]) / int(first.fit["window_samples"])
+        if choice is None or max(2, int(round(choice["window_s"] / T_s))) <= int(first.fit["window_samples"]):
+            first.fit["window_choice"] = choice or {
+                "window_s": WINDOW_S,
+                "reason": f"'auto': {1e3 * WINDOW_S:g} ms kept — the fit does not determine the shaft "
+                "resonance",
+            }
+            return first
+        result = _identify_two_mass(trace, N, choice["window_s"], equations, fit_delay, torque_offset)
+        result.fit["window_choice"] = choice
+        return result
     except np.linalg.LinAlgError as exc:  # a degenerate recording the checks above did not name
         raise DataError(
             f"two-mass identification failed: the recording does not determine the model ({exc}: "
             "its signals are linearly dependent — a constant or empty column, or no motion)",
             path=trace.meta.get("source"),
         ) from None
+
+
+def resonance_window(result: DriveIdentification) -> dict[str, Any] | None:
+    """The window for a recording from its first fit's shaft resonance.
+
+    The equation error's bias from the velocity noise in the windows' acceleration targets
+    falls as the window grows (docs/assumptions.md "Gaps much smaller than the shaft's
+    deflection"); its bias from standing in interior means for the integrals grows with the
+    window against the shaft's oscillation. A sixth of the resonance period
+    (:data:`WINDOW_RESONANCE_FRACTION`) keeps a window to a 60° phase of it; the window is
+    clipped to [:data:`WINDOW_S`, :data:`WINDOW_MAX_S`].
+
+    Parameters
+    ----------
+    result : DriveIdentification
+        A two-mass identification (the first fit, at :data:`WINDOW_S`).
+
+    Returns
+    -------
+    dict or None
+        ``window_s`` [s], ``f_res`` [Hz] (the two-mass resonance
+        √(K_S (1/J_l + 1/(N² J_m)))/2π of the fitted values) and ``reason``; ``None`` when the
+        fit does not determine K_S, J_m and J_l.
+    """
+    p = result.parameters
+    if not all(n in p and p[n].identifiable for n in ("K_S", "J_m", "J_l")):
+        return None
+    K_S, J_m, J_l, N = p["K_S"].value, p["J_m"].value, p["J_l"].value, result.N
+    if not (K_S > 0 and J_m > 0 and J_l > 0):
+        return None
+    f_res = math.sqrt(K_S * (1.0 / J_l + 1.0 / (N * N * J_m))) / (2.0 * math.pi)
+    w = min(max(WINDOW_RESONANCE_FRACTION / f_res, WINDOW_S), WINDOW_MAX_S)
+    return {
+        "window_s": w,
+        "f_res": f_res,
+        "reason": f"'auto': a sixth of the period of the shaft resonance the {1e3 * WINDOW_S:g} ms fit shows "
+        f"({f_res:.3g} Hz), within [{1e3 * WINDOW_S:g}, {1e3 * WINDOW_MAX_S:g}] ms",
+    }
 
 
 def _identify_two_mass(
@@ -3121,7 +3190,7 @@ def identify_from_config(
     return identify_two_mass(
         trace,
         float(N),
-        window_s=opts.window or WINDOW_S,
+        window_s=WINDOW_S if opts.window is None else opts.window,
         equations=opts.equations,
         fit_delay=opts.encoder_delay,
         torque_offset=opts.torque_offset,

@@ -469,7 +469,10 @@ class IdentificationSection(Table):
         IDIM-LS above, or the two-mass model with backlash
         (:mod:`drivelash.estimation.identify_two_mass`).
     window : float, optional
-        Window of the two-mass integral equations [s] (default 1 ms, at least 2 samples).
+        Window of the two-mass integral equations [s] (default 1 ms, at least 2 samples), or
+        ``"auto"``: a sixth of the period of the shaft resonance a 1 ms fit shows, within
+        1–4 ms — for gaps much smaller than the shaft's deflection (README; the report's fit
+        table names the window chosen and why).
     equations : {"both", "motor"}
         Two-mass model: fit both equations, or the motor equation only (a robot link whose
         inertia depends on the pose and which carries gravity).
@@ -490,11 +493,20 @@ class IdentificationSection(Table):
     n_border: int = Field(default=50, ge=0)
     side: Literal["motor", "load"] = "motor"
     model: Literal["rigid", "two-mass"] = "rigid"
-    window: float | None = Field(default=None, gt=0)
+    window: float | str | None = None
     equations: Literal["both", "motor"] = "both"
     encoder_delay: bool = False
     torque_offset: float | None = None
     max_samples: int = Field(default=480_000, ge=1000)
+
+    @field_validator("window", mode="before")
+    @classmethod
+    def _window(cls, v: Any) -> float | str | None:
+        if v is None or v == "auto":
+            return v
+        if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0:
+            return float(v)
+        raise ValueError(f"must be a window length > 0 [s] or 'auto', got {v!r}")
 
 
 # ----------------------------------------------------------------------------- files

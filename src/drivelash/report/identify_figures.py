@@ -19,6 +19,9 @@ import numpy as np
 from drivelash.report import _overview_figure, _param_tables, _recording_html, _thin, _write
 from drivelash.report.html import Figure, Section, render_html
 
+#: The fit table's "window chosen" row when the window was not chosen by ``window = "auto"``.
+WINDOW_FIXED = "fixed ([identification] window; default 1 ms)"
+
 
 def _fmt_param(p: Any) -> list[Any]:
     if not p.identifiable:
@@ -92,6 +95,7 @@ def render_two_mass_report(
         ["gear ratio N (given)", result.N],
         ["windows used, motor / load equation", pair("motor_windows_used", "load_windows_used", "{}")],
         ["window length [s]", fit.get("window_s")],
+        ["window chosen", (fit.get("window_choice") or {}).get("reason", WINDOW_FIXED)],
         ["RMS residual, motor / load acceleration [rad/s²]", pair("motor_accel_rms", "load_accel_rms")],
         ["relative error, motor / load equation", pair("relative_error_motor", "relative_error_load")],
         ["HAC lags (Bartlett, Andrews plug-in)", fit.get("hac_lags")],
