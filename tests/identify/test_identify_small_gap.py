@@ -117,6 +117,20 @@ def test_auto_window_rejects_nonsense():
             identify_two_mass(trace, 1.0, window_s=bad)
 
 
+@pytest.mark.parametrize("value", ['"Auto"', "0", "-0.001", "true"])
+def test_a_bad_window_key_is_one_line(value, tmp_path):
+    """``[identification] window`` other than a length > 0 or "auto": one line naming file and key."""
+    from drivelash.errors import ConfigError
+    from drivelash.io.config import load_config
+
+    f = tmp_path / "drive.toml"
+    f.write_text(f'[identification]\nmodel = "two-mass"\nwindow = {value}\n')
+    with pytest.raises(ConfigError) as e:
+        load_config(f)
+    msg = str(e.value)
+    assert "\n" not in msg and "drive.toml" in msg and "key 'window'" in msg and "'auto'" in msg, msg
+
+
 def _auto_case(args: tuple[float, int]) -> tuple[bool, bool, bool]:
     delta, seed = args
     plant, trace = bench_variant(delta, delta / 2, seed)
