@@ -1875,8 +1875,9 @@ def identify_two_mass(
     """
     if equations not in ("both", "motor"):
         raise ParameterError("identification", "equations", f"must be 'both' or 'motor', got {equations!r}")
-    numeric = isinstance(window_s, (int, float)) and not isinstance(window_s, bool)
-    if window_s != "auto" and not (numeric and math.isfinite(window_s) and window_s > 0):
+    from drivelash.io.config import is_window
+
+    if not is_window(window_s):
         raise ParameterError(
             "identification", "window", f"must be a positive number [s] or 'auto', got {window_s!r}"
         )
@@ -1902,6 +1903,10 @@ def identify_two_mass(
             "its signals are linearly dependent — a constant or empty column, or no motion)",
             path=trace.meta.get("source"),
         ) from None
+
+
+#: How the report words :data:`WINDOW_RESONANCE_FRACTION` (any other value is printed as a number).
+_FRACTION_WORDS = {1.0 / 6.0: "a sixth", 0.25: "a quarter", 1.0 / 8.0: "an eighth"}
 
 
 def resonance_window(result: DriveIdentification) -> dict[str, Any] | None:
@@ -1934,11 +1939,13 @@ def resonance_window(result: DriveIdentification) -> dict[str, Any] | None:
         return None
     f_res = math.sqrt(K_S * (1.0 / J_l + 1.0 / (N * N * J_m))) / (2.0 * math.pi)
     w = min(max(WINDOW_RESONANCE_FRACTION / f_res, WINDOW_S), WINDOW_MAX_S)
+    share = _FRACTION_WORDS.get(WINDOW_RESONANCE_FRACTION, f"{WINDOW_RESONANCE_FRACTION:g}")
     return {
         "window_s": w,
         "f_res": f_res,
-        "reason": f"'auto': a sixth of the period of the shaft resonance the {1e3 * WINDOW_S:g} ms fit shows "
-        f"({f_res:.3g} Hz), within [{1e3 * WINDOW_S:g}, {1e3 * WINDOW_MAX_S:g}] ms",
+        "reason": f"'auto': {share} of "
+        f"the period of the shaft resonance the {1e3 * WINDOW_S:g} ms fit shows ({f_res:.3g} Hz), within "
+        f"[{1e3 * WINDOW_S:g}, {1e3 * WINDOW_MAX_S:g}] ms",
     }
 
 

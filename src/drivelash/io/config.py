@@ -448,6 +448,13 @@ class SamplingSection(Table):
     resample: bool = False
 
 
+def is_window(v: Any) -> bool:
+    """Whether ``v`` is a two-mass integral window: a finite length > 0 [s] or ``"auto"``."""
+    if v == "auto":
+        return True
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0
+
+
 class IdentificationSection(Table):
     """``[identification]``: options of :func:`drivelash.estimation.identify.identify_rigid`.
 
@@ -502,10 +509,8 @@ class IdentificationSection(Table):
     @field_validator("window", mode="before")
     @classmethod
     def _window(cls, v: Any) -> float | str | None:
-        if v is None or v == "auto":
-            return v
-        if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0:
-            return float(v)
+        if v is None or is_window(v):
+            return v if v is None or v == "auto" else float(v)
         raise ValueError(f"must be a window length > 0 [s] or 'auto', got {v!r}")
 
 
