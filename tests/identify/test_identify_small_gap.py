@@ -4,15 +4,18 @@ A sweep of bench-0B variants (session 22; the cases rebuilt here with ``bench_va
 8 kHz, seeds 1–6) found the identification honest at the bench's own 186 mrad gap (K_S, J_l, δ inside
 every interval; the 100-seed coverage test measures 0.94 / 0.97) but biased at smaller gaps, with
 intervals that exclude the truth. K_S outside its interval in 4 of 18 runs: δ = 5 mrad seeds 1 and
-3 (+10.0 %, +12.2 %), 20 mrad seed 3 (+13.1 %, J_l +20.5 % outside too), 50 mrad seed 2 (−7.5 %);
-δ outside in 5 of 18: +0.49 / +0.51 mrad at 5 mrad, +0.47 / +0.33 at 20 mrad, +0.30 at 50 mrad.
+3 (+10.0 %, +12.2 %), 50 mrad seeds 2 and 3 (−7.5 %, +8.1 %; J_l −10.6 %, +15.4 % outside too);
+δ outside in 4 of 18: +0.49 / +0.51 mrad at 5 mrad, +0.47 at 20 mrad, +0.30 at 50 mrad (|z| ≤ 3.07;
+measured in session 24 with the bracket's centre covariance — before it, 20 mrad seed 3 instead of
+50 mrad seed 3 missed K_S, and δ missed in 5).
 Not the encoders: 65536-count encoders give the same biases (seed 1, 5 mrad: K_S +9.7 %, δ +10.4 %).
 The random drives of the acceptance (δ 10–500 mrad on other drives) meet the 5 % / 1 mrad limits;
 here the shaft deflects up to ≈ 10 mrad beyond the contacts (Δθ spans −6.1 … +12.3 mrad around
 contacts at ±2.5 mrad). Narrowed to the windows' acceleration targets built from the recorded
 velocities' noise (docs/assumptions.md, "Gaps much smaller than the shaft's deflection": true-velocity
 targets remove it, K_S −0.86 %), not fixed in the default 1 ms window; ``window_s="auto"`` (a
-sixth of the resonance period, 3.6 ms here) holds the truth — the tests below. The goal is kept: the 95 %
+sixth of the resonance period, 3.6 ms here) holds the truth on this case and 50 of the sweep's 54
+intervals (the default 43) — the tests below. The goal is kept: the 95 %
 intervals hold the truth. The measured values are asserted so that the known miss cannot drift
 unnoticed.
 """
@@ -33,7 +36,7 @@ def small_gap():
 
 @pytest.mark.xfail(
     strict=True,
-    reason="known miss: bench-0B with δ = 5 mrad (seed 1): K_S 36.22 [33.44, 39.00] N·m/rad for 32.94 "
+    reason="known miss: bench-0B with δ = 5 mrad (seed 1): K_S 36.22 [33.71, 38.74] N·m/rad for 32.94 "
     "(+10.0 %), δ 5.49 [5.07, 5.92] mrad for 5.00 — both intervals exclude the truth; goal: the 95 % "
     "intervals hold it (as at the bench's own 186 mrad gap); because the identification is biased at "
     "gaps much smaller than the shaft's deflection — narrowed to the window accelerations built from the "
@@ -51,6 +54,8 @@ def test_small_gap_measured_as_stated(small_gap):
     plant, r = small_gap
     assert r.backlash_visible
     assert r["K_S"].value / plant.K_S - 1 == pytest.approx(0.100, abs=0.01)
+    # [33.44, 39.00] before session 24's bracket covariance
+    assert (r["K_S"].low, r["K_S"].high) == pytest.approx((33.71, 38.74), abs=0.03)
     assert 1e3 * r["delta"].value == pytest.approx(5.49, abs=0.03)
     assert 1e3 * r["delta"].low == pytest.approx(5.07, abs=0.03)
     assert 1e3 * r["delta"].high == pytest.approx(5.92, abs=0.03)
@@ -140,16 +145,30 @@ def _sweep_case(args: tuple) -> tuple[bool, bool, bool]:
     return tuple(not (r[n].identifiable and r[n].covers(v)) for n, v in truth)
 
 
+#: The sweep's runs where a 95 % interval misses under ``window = "auto"`` (session 24, with the
+#: bracket's centre covariance): (δ, seed) → (K_S, J_l, δ) missed. Measured z: 5 mrad seed 5 J_l
+#: −2.08, δ −2.38; 20 mrad seed 5 δ −2.26; 50 mrad seed 3 K_S −2.70 (−2.6 %).
+AUTO_SWEEP_MISSES = {
+    (0.005, 5): (False, True, True),
+    (0.02, 5): (False, False, True),
+    (0.05, 3): (True, False, False),
+}
+
+
 @pytest.mark.slow
-def test_auto_window_sweep_holds_the_truth():
-    """README: with ``window = "auto"`` the sweep above (5, 20, 50 mrad, seeds 1–6) has every K_S,
-    J_l and δ interval holding the truth, 18 of 18 (the default: K_S misses 4, δ 5)."""
+def test_auto_window_sweep_measured_as_stated():
+    """README: with ``window = "auto"`` the sweep above (5, 20, 50 mrad, seeds 1–6) has 50 of its 54
+    K_S, J_l and δ intervals holding the truth (the default: 43 — K_S misses 4, J_l 3, δ 4 — with |z| up to
+    3.07 and K_S up to +12 %); the four misses are just outside (|z| 2.08–2.70), about what 95 %
+    intervals give (2.7 expected). Until session 24's bracket covariance "auto" held all 54 — with
+    intervals too wide (bench-0B coverage 1.00 / 0.99)."""
     from concurrent.futures import ProcessPoolExecutor
 
     cases = [(d, s) for d in (0.005, 0.02, 0.05) for s in range(1, 7)]
     with ProcessPoolExecutor(2) as ex:
         res = list(ex.map(_sweep_case, [(d, s, "auto") for d, s in cases]))
-    assert not any(any(m) for m in res), list(zip(cases, res, strict=True))
+    misses = {c: m for c, m in zip(cases, res, strict=True) if any(m)}
+    assert misses == AUTO_SWEEP_MISSES, misses
 
 
 @pytest.mark.slow
@@ -206,14 +225,16 @@ def test_a_longer_window_holds_the_truth_on_every_measured_case(delta, seed):
 @pytest.mark.slow
 def test_small_gap_sweep_measured_as_stated():
     """README / docs: at 5, 20 and 50 mrad, seeds 1–6, K_S's interval misses the truth in 4 of 18
-    runs and δ's in 5 of 18 (the known miss's extent, measured as stated)."""
+    runs, J_l's in 3 and δ's in 4 (the known miss's extent, measured as stated; 5 before session 24's
+    bracket covariance)."""
     from concurrent.futures import ProcessPoolExecutor
 
     cases = [(d, s) for d in (0.005, 0.02, 0.05) for s in range(1, 7)]
     with ProcessPoolExecutor(2) as ex:
         res = list(ex.map(_sweep_case, cases))
     misses = list(zip(cases, res, strict=True))
-    assert sum(k for k, _, _ in res) == 4 and sum(d for _, _, d in res) == 5, misses
+    assert sum(k for k, _, _ in res) == 4 and sum(d for _, _, d in res) == 4, misses
+    assert sum(j for _, j, _ in res) == 3, misses  # README: 43 of the 54 intervals hold
 
 
 @pytest.mark.slow

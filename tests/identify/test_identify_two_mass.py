@@ -561,8 +561,9 @@ def test_a_negative_gap_is_never_a_determined_backlash(seed):
     """A 2 µrad gap, far below what 11-bit encoders resolve: the fit puts the upper contact below
     the lower one (δ̂ = −0.072 / −0.084 mrad). Before, that was "both contacts seen", δ and δ1
     identified and written to [backlash] (which `estimate` then refused). Now δ is not determined
-    with the upper end of its interval as the bound when it is above 0 (seed 0: δ ≤ 8.7 µrad, 7.5
-    before the fused-position term, the truth 2 µrad inside), no bound when the whole interval is
+    with the upper end of its interval as the bound when it is above 0 (seed 0: δ ≤ 5.3 µrad, 8.7
+    before the bracket's centre covariance of session 24, 7.5 before the fused-position term, the
+    truth 2 µrad inside), no bound when the whole interval is
     below 0 (seed 1), δ1 not determined (the coinciding contacts locate the encoders' zero, not a
     flank), nothing written to [backlash]. The drive-train values stay. Negative control: the
     105 mrad gap of bench-0C is reported (test_bench_short_recording_within_limits)."""
@@ -572,7 +573,7 @@ def test_a_negative_gap_is_never_a_determined_backlash(seed):
     assert np.isnan(d.value) and d.low == 0.0 and d.low <= 2e-6 <= d.high
     assert "δ̂ = -0.0" in r.reason and "mrad" in r.reason
     if seed == 0:
-        assert r.reason.startswith("backlash below what the recording resolves: δ ≤ 0.00873 mrad")
+        assert r.reason.startswith("backlash below what the recording resolves: δ ≤ 0.00528 mrad")
     else:
         assert "entirely below 0" in r.reason and d.high == np.inf
     assert "backlash" not in r.to_config()

@@ -150,18 +150,18 @@ def _z_scores_auto(seed: int) -> tuple[float, float]:
 
 
 @pytest.mark.slow
-def test_auto_window_intervals_are_too_wide_on_bench_0b():
-    """docs/assumptions.md ("Window from the resonance"), why ``window = "auto"`` is not the
-    default: on bench-0B it picks ≈ 3.6 ms and the 95 % intervals cover the truth on 100 % (δ) and
-    99 % (K_S) of 100 seeds — above the 98 % the acceptance allows (the default's coverage test
-    above is the control); the estimates' spread is ≈ 0.7 of the stated standard errors."""
+def test_auto_window_intervals_on_bench_0b():
+    """docs/assumptions.md ("Window from the resonance"): with ``window = "auto"`` (≈ 3.6 ms on
+    bench-0B) the 95 % intervals cover the truth on 98 % (δ) and 95 % (K_S) of 100 seeds — within
+    the 90–98 % the acceptance asks of the default (the coverage test above). Until session 24's
+    bracket covariance (:func:`test_bracket_covariance_is_the_centres_own`) they covered 100 % / 99 %:
+    too wide, one of the reasons "auto" is not the default."""
     with ProcessPoolExecutor(2) as pool:
         z = np.array(list(pool.map(_z_scores_auto, COVERAGE_SEEDS)))
     cover = np.mean(np.abs(z) <= 1.959963984540054, axis=0)
-    assert cover[0] == pytest.approx(1.00, abs=0.011) and cover[1] == pytest.approx(0.99, abs=0.011), cover
-    assert cover[0] > 0.98 or cover[1] > 0.98, cover  # the miss that keeps it from being the default
-    sd = np.std(z, axis=0)
-    assert 0.6 <= sd[0] <= 0.8 and 0.6 <= sd[1] <= 0.8, sd
+    print(f"auto window: coverage over {len(z)} seeds δ {cover[0]:.2f}, K_S {cover[1]:.2f}")
+    assert 0.90 <= cover[0] <= 0.98 and 0.90 <= cover[1] <= 0.98, cover
+    assert cover[0] == pytest.approx(0.98, abs=0.011) and cover[1] == pytest.approx(0.95, abs=0.011), cover
 
 
 #: Seeds of the bracket diagnosis below (16: the relative standard error of a spread is ≈ 18 %).
@@ -208,16 +208,18 @@ def _bracket_at_auto_window(seed: int) -> dict[str, tuple[float, float]]:
 
 
 @pytest.mark.slow
-def test_auto_window_width_is_the_bracket_not_the_bandwidth():
-    """docs/assumptions.md ("Window from the resonance"), why the auto window's intervals are too
-    wide (session 24; session 23's lead, the Newey–West bandwidth, refuted). Measured over 16 seeds at
-    29-sample windows: the closed-loop bracket's decorrelating start weight is α = 0.70, so its two
-    fits' influence functions correlate only 0.72 and their centre averages noise out; the reported
-    covariance counts each fit's own noise, (C₀ + C₁)/2, plus the two fits' difference (mostly noise
-    here) as systematic. The centre's own sandwich (the averaged influence functions, Andrews
-    bandwidth) is K_S 0.144, δ 0.0161 mrad against a spread of the reported estimates of 0.167 /
-    0.0150; the reported standard errors are 0.178 / 0.0208 (× 1.24 / × 1.29). The look-back fit's
-    sandwich at lag 0 and lag 60 differs by 2 %: the bandwidth is not the cause."""
+def test_bracket_covariance_is_the_centres_own():
+    """docs/assumptions.md ("Closed-loop bracket", "Window from the resonance"): the auto window's
+    intervals were too wide because of the closed-loop bracket, not the Newey–West bandwidth
+    (session 23's lead, refuted in session 24). Measured over 16 seeds of bench-0B at 29-sample
+    windows: the bracket's decorrelating start weight is α = 0.70, so its two fits' influence
+    functions correlate only 0.72 and their centre averages noise out. The centre's own sandwich
+    (the averaged influence functions, Andrews bandwidth) is K_S 0.144, δ 0.0161 mrad against a
+    spread of the reported estimates of 0.167 / 0.0150. Until session 24 the bracket reported
+    (C₀ + C₁)/2 + ΔΔᵀ/z²₉₅ — 0.178 / 0.0208 (× 1.24 / × 1.29 the centre's sandwich); now the
+    centre's sandwich, Δ only where it is more than noise: 0.150 / 0.0174 (× 1.04 / × 1.08; the
+    rest is the max(IV, LS) rule and the sensitivity terms). Negative control of the cause: the
+    look-back fit's sandwich differs by 2 % between lag 0 and lag 60."""
     with ProcessPoolExecutor(2) as pool:
         rows = list(pool.map(_bracket_at_auto_window, BRACKET_SEEDS))
 
@@ -229,15 +231,15 @@ def test_auto_window_width_is_the_bracket_not_the_bandwidth():
     assert 0.6 <= mean("alpha")[0] <= 0.8, mean("alpha")
     assert np.all(mean("corr") < 0.8), mean("corr")
     # the centre's sandwich is the spread (± the 16-seed sampling error, ≈ 18 %)
-    assert np.all((0.75 <= spread / mean("centre_sd")) & (spread / mean("centre_sd") <= 1.33)), (
-        spread,
-        mean("centre_sd"),
-    )
-    # ... and the reported standard errors are wider than it: the bracket's covariance
-    assert np.all(mean("reported_sd") / mean("centre_sd") >= 1.15), (mean("reported_sd"), mean("centre_sd"))
+    ratio = spread / mean("centre_sd")
+    assert np.all((0.75 <= ratio) & (ratio <= 1.33)), (spread, mean("centre_sd"))
+    # the reported standard errors are the centre's (measured × 1.04 / × 1.08; × 1.24 / × 1.29
+    # with the old (C₀ + C₁)/2 + ΔΔᵀ/z²₉₅)
+    wide = mean("reported_sd") / mean("centre_sd")
+    assert np.all((1.0 <= wide) & (wide <= 1.12)), wide
     # not the bandwidth
-    ratio = mean("look_back_sd_lag60") / mean("look_back_sd_lag0")
-    assert np.all(np.abs(ratio - 1.0) < 0.03), ratio
+    lag = mean("look_back_sd_lag60") / mean("look_back_sd_lag0")
+    assert np.all(np.abs(lag - 1.0) < 0.03), lag
 
 
 # --------------------------------------------------------------------------------------

@@ -67,8 +67,9 @@ def test_undetermined_stiffness_leaves_the_motor_side_as_totals(st10_9):
         lo, hi = totals[n]["ci95"]
         assert lo <= v <= hi, (n, totals[n], v)
     assert "K_S is not determined" in r["T_Cm"].reason
-    # README: "gave T_Cm = 0.0412 [0.0330, 0.0494] N·m for 0.0223 before" — the fitted value, now a note
-    assert "T_Cm = 0.0412 N·m [0.0330, 0.0494]" in " ".join(r.fit["notes"]), r.fit["notes"]
+    # README: "gave T_Cm = 0.0412 [0.0329, 0.0495] N·m for 0.0223 before" — the fitted value, now a
+    # note ([0.0330, 0.0494] before session 24's bracket covariance)
+    assert "T_Cm = 0.0412 N·m [0.0329, 0.0495]" in " ".join(r.fit["notes"]), r.fit["notes"]
     dt = r.to_config()["drivetrain"]
     assert not {"J_m", "T_Cm", "beta_m", "K_S"} & dt.keys(), dt
 

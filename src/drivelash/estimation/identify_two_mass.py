@@ -59,8 +59,9 @@ Method: **integral equation error** on short windows (one staged pipeline, all i
    of step 3 still leaves the controller's one-sample-delayed answer to the noise before a
    window in the window's torque. The fit is repeated with the starting velocity weighted
    towards the window's first sample by the first-order decorrelating weight
-   (:func:`start_weight_for`), and the result is the centre of both fits with their
-   difference in the covariance (:func:`fit_bracketed`).
+   (:func:`start_weight_for`), and the result is the centre of both fits, with the
+   covariance of the centre's own influence and their difference added where it is more than
+   their noise (:func:`fit_bracketed`).
 8. *Rigid contact.* The fit is refitted with a rigid shaft in contact (:func:`rigid_contact_fit`);
    where a likelihood-ratio test does not reject it, the contact deflection is below what the
    recording resolves: K_S, D_S and the load side are not determined, and J_m, T_Cm, β_m are the
@@ -1009,6 +1010,9 @@ class TwoMassFit:
     #: The Durbin–Wu–Hausman test that chose between the two (:func:`hausman_test`); empty
     #: where no instrumental-variable refit was made.
     hausman: dict[str, Any] = field(default_factory=dict)
+    #: The closed-loop bracket's test of its two fits' difference against their noise
+    #: (``statistic``, ``threshold``, ``counted``: Δ in the covariance); empty without a bracket.
+    bracket: dict[str, Any] = field(default_factory=dict)
 
     def least_squares_part(self) -> tuple[np.ndarray, np.ndarray]:
         """(parameters, covariance of the free ones) of the least-squares fit under this fit."""
@@ -1382,6 +1386,49 @@ def closed_loop_refit(data: WindowData, fit: TwoMassFit, start: GridStart, **kw:
     return out
 
 
+#: The closed-loop bracket's difference counts as bias (its ΔΔᵀ/z²₉₅ enters the covariance) when
+#: its χ² statistic against the noise of the difference exceeds this quantile (one test, 5 %
+#: level; :func:`fit_bracketed`).
+BRACKET_LEVEL = 0.95
+
+
+def fit_influence(fit: TwoMassFit) -> tuple[np.ndarray, np.ndarray]:
+    """Per-window influences (n_win, n_free) of a fit's estimate and of its least-squares part.
+
+    The estimate's is :func:`iv_influence` where the instrumental-variable refit stands
+    (``fit.p_ls`` set), else :func:`ls_influence`; the HAC covariance of either is the fit's
+    sandwich covariance.
+    """
+    prob = fit.problem
+    q, _ = fit.least_squares_part()
+    x_ls = q[prob.free]
+    i_ls = ls_influence(prob.jacobian(x_ls), prob.scores(x_ls))
+    if fit.p_ls is None:
+        return i_ls, i_ls
+    return iv_influence(prob, fit.p[prob.free]), i_ls
+
+
+def _bracket_centre(
+    p0: np.ndarray, p1: np.ndarray, free: list[int], i0: np.ndarray, i1: np.ndarray, lags: int
+) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+    """Centre of two fits of the bracket, its covariance and the test of their difference
+    (see :func:`fit_bracketed`)."""
+    from scipy.stats import chi2
+    from statsmodels.stats.sandwich_covariance import S_hac_simple
+
+    dx = p1[free] - p0[free]
+    p = p0.copy()
+    p[free] = 0.5 * (p0[free] + p1[free])
+    cov = S_hac_simple(0.5 * (i0 + i1), nlags=lags)
+    V_d = S_hac_simple(i1 - i0, nlags=lags)
+    stat, dof = shift_statistic(dx, V_d, np.zeros_like(V_d))
+    thr = float(chi2.ppf(BRACKET_LEVEL, dof)) if dof > 0 else math.inf
+    counted = bool(stat > thr)
+    if counted:
+        cov = cov + np.outer(dx, dx) / Z95**2
+    return p, cov, {"statistic": stat, "threshold": thr, "counted": counted}
+
+
 def fit_bracketed(
     data: WindowData, sides: tuple[bool, bool] | None = None, start: GridStart | None = None, **kw: Any
 ) -> TwoMassFit:
@@ -1392,9 +1439,15 @@ def fit_bracketed(
     before a window is in the window's torque: J_m high) and the fit at the first-order
     decorrelating weight α of :func:`start_weight_for` the other way or not at all (that weight
     assumes the motor's velocity step persists through the window; a decaying step needs a
-    smaller α). The truth lies between: the result is their centre, with the covariance
-    (C₀ + C₁)/2 + ΔΔᵀ/z²₉₅ (Δ: the difference of the two fits), so every 95 % interval
-    holds both estimates. Without detected feedback this is the plain fit.
+    smaller α). The truth lies between: the result is their centre. Its noise covariance is the
+    HAC covariance of the centre's own influence (the mean of the two fits' per-window
+    influences, :func:`fit_influence`): the two fits see the same noise, the decorrelated one
+    through other samples, so at long windows (large α) their centre averages noise out and
+    (C₀ + C₁)/2 overstates it (session 24, docs/assumptions.md). Where the difference Δ of the two
+    fits is more than their noise explains (χ² of Δ against the HAC covariance of the difference
+    of the influences above the :data:`BRACKET_LEVEL` quantile), it is the bias the bracket spans
+    and ΔΔᵀ/z²₉₅ is added, so every 95 % interval holds both estimates. Without detected
+    feedback this is the plain fit.
     """
     if start is None:
         start = grid_start(data, equations=kw.get("equations", "both"), torque_offset=kw.get("torque_offset"))
@@ -1403,28 +1456,25 @@ def fit_bracketed(
     if f1 is None:
         return f0
     free = f0.problem.free
-    dx = f1.p[free] - f0.p[free]
-    p = f0.p.copy()
-    p[free] = 0.5 * (f0.p[free] + f1.p[free])
-    cov = 0.5 * (f0.cov_free + f1.cov_free) + np.outer(dx, dx) / Z95**2
+    lags = max(f0.lags, f1.lags)
+    (i0, i0_ls), (i1, i1_ls) = fit_influence(f0), fit_influence(f1)
+    p, cov, test = _bracket_centre(f0.p, f1.p, free, i0, i1, lags)
     p_ls = cov_ls = None
     if f0.p_ls is not None or f1.p_ls is not None:  # the same bracket of the least-squares fits
-        (q0, c0), (q1, c1) = f0.least_squares_part(), f1.least_squares_part()
-        dq = q1[free] - q0[free]
-        p_ls = q0.copy()
-        p_ls[free] = 0.5 * (q0[free] + q1[free])
-        cov_ls = 0.5 * (c0 + c1) + np.outer(dq, dq) / Z95**2
+        (q0, _c0), (q1, _c1) = f0.least_squares_part(), f1.least_squares_part()
+        p_ls, cov_ls, _ = _bracket_centre(q0, q1, free, i0_ls, i1_ls, lags)
     return TwoMassFit(
         p,
         cov,
         f0.problem,
-        max(f0.lags, f1.lags),
+        lags,
         f0.nfev + f1.nfev,
         f0.cost,
         f1.start_weight,
         p_ls=p_ls,
         cov_ls=cov_ls,
         hausman={"look_back": f0.hausman, "decorrelated": f1.hausman} if f0.hausman or f1.hausman else {},
+        bracket=test,
     )
 
 
@@ -3092,7 +3142,12 @@ def _build_result(
             )
             + (
                 f"; closed-loop bracket: centre of the look-back fit and the fit at start-velocity weight "
-                f"{fit.start_weight:.3g}, their difference in the intervals"
+                f"{fit.start_weight:.3g}, "
+                + (
+                    "their difference in the intervals"
+                    if fit.bracket.get("counted", True)
+                    else "their difference within their noise (not added)"
+                )
                 if fit.start_weight
                 else ""
             )
