@@ -1420,8 +1420,7 @@ def _bracket_centre(
     p = p0.copy()
     p[free] = 0.5 * (p0[free] + p1[free])
     cov = S_hac_simple(0.5 * (i0 + i1), nlags=lags)
-    V_d = S_hac_simple(i1 - i0, nlags=lags)
-    stat, dof = shift_statistic(dx, V_d, np.zeros_like(V_d))
+    stat, dof = shift_statistic(dx, S_hac_simple(i1 - i0, nlags=lags))
     thr = float(chi2.ppf(BRACKET_LEVEL, dof)) if dof > 0 else math.inf
     counted = bool(stat > thr)
     if counted:
@@ -1461,7 +1460,7 @@ def fit_bracketed(
     p, cov, test = _bracket_centre(f0.p, f1.p, free, i0, i1, lags)
     p_ls = cov_ls = None
     if f0.p_ls is not None or f1.p_ls is not None:  # the same bracket of the least-squares fits
-        (q0, _c0), (q1, _c1) = f0.least_squares_part(), f1.least_squares_part()
+        q0, q1 = f0.least_squares_part()[0], f1.least_squares_part()[0]
         p_ls, cov_ls, _ = _bracket_centre(q0, q1, free, i0_ls, i1_ls, lags)
     return TwoMassFit(
         p,
@@ -2236,16 +2235,18 @@ def start_sensitivity(fit: TwoMassFit, start: GridStart, **kw: Any) -> dict[str,
     return {"chi2": H, "dof": dof, "threshold": thr, "counted": bool(H > thr), "dx": dx}
 
 
-def shift_statistic(dx: np.ndarray, cov_a: np.ndarray, cov_b: np.ndarray) -> tuple[float, int]:
+def shift_statistic(dx: np.ndarray, cov_a: np.ndarray, cov_b: np.ndarray | None = None) -> tuple[float, int]:
     """χ² statistic Δᵀ(C_a + C_b)⁺Δ of a parameter shift and the rank of C_a + C_b.
 
     C_a + C_b is the variance of the difference of two estimates whose noises are independent;
     fits of the same recording have positively correlated noises, so the true variance of the
     difference is smaller and the test is conservative (it calls a shift systematic only when
-    even independent noises could not produce it). Computed on the correlation scale (the
+    even independent noises could not produce it). Without ``cov_b``, ``cov_a`` is the variance
+    of the difference itself (the closed-loop bracket: the HAC covariance of the difference of
+    the two fits' influences, :func:`fit_bracketed`). Computed on the correlation scale (the
     parameters differ by 10 orders of magnitude).
     """
-    V = cov_a + cov_b
+    V = cov_a if cov_b is None else cov_a + cov_b
     s = np.sqrt(np.clip(np.diag(V), 1e-300, None))
     R = V / np.outer(s, s)
     u = dx / s
