@@ -10,10 +10,13 @@ export NUMBA_CACHE_DIR := $(CURDIR)/.venv/numba-cache
 
 venv: $(STAMP)
 
+# --no-compile: Python writes the byte code of the modules it imports on first use instead of
+# pip compiling every installed file (torch's thousands among them): set-up 2 min 12 s -> 45 s
+# on 2 cores (session 25, a fresh venv each, same wheels).
 $(STAMP): pyproject.toml requirements.lock
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --disable-pip-version-check --upgrade pip
-	$(PY) -m pip install --quiet --disable-pip-version-check -c requirements.lock -e ".[train,batch,dev]"
+	$(PY) -m pip install --quiet --disable-pip-version-check --no-compile -c requirements.lock -e ".[train,batch,dev]"
 	@touch $(STAMP)
 
 demo: $(STAMP)
