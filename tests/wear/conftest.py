@@ -53,6 +53,16 @@ def serial_store(small_fleet, tmp_path_factory):
     return st, rep
 
 
+@pytest.fixture
+def cli250(monkeypatch, capsys):
+    """``drivelash ARGS`` run in this process at 250 columns (the commands read COLUMNS per call);
+    returns :class:`cli_runner.CliResult`."""
+    from cli_runner import run_in_process
+
+    monkeypatch.setenv("COLUMNS", "250")
+    return lambda args: run_in_process(args, capsys)
+
+
 def copy_fleet(src: Path, dst: Path) -> Path:
     """A private copy of a fleet directory (tests that write stores next to it)."""
     shutil.copytree(src, dst)

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import pytest
 
+from cli_runner import run_in_process
 from drivelash.wear import Store, ingest, load_fleet
 from drivelash.wear.alarms import fleet_summary
 
@@ -309,40 +310,28 @@ def test_postgresql_store_ingest_and_forecast(small_fleet, serial_store, pg_url)
     pg.close()
 
 
-def test_cli_status_forecast_report(small_fleet, serial_store, tmp_path):
+def test_cli_status_forecast_report(small_fleet, serial_store, tmp_path, monkeypatch, capsys):
     st, _ = serial_store
     db = str(st.url.database)
-    env = {**os.environ, "COLUMNS": "200"}
-    r = subprocess.run(
-        [sys.executable, "-m", "drivelash.cli", "track", "status", "--db", db],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        env=env,
-    )
-    assert r.returncode == 0, r.stderr
-    assert "M01/X" in r.stdout and "M02/Y" in r.stdout
+    capsys.readouterr()  # only the commands' output
+    with monkeypatch.context() as m:
+        m.setenv("COLUMNS", "200")  # for status only, as before
+        code, stdout, stderr = run_in_process(["track", "status", "--db", db], capsys)
+    assert code == 0, stderr
+    assert "M01/X" in stdout and "M02/Y" in stdout
     out = tmp_path / "f.json"
-    r = subprocess.run(
-        [sys.executable, "-m", "drivelash.cli", "track", "forecast", "M01/X", "--db", db, "--json", str(out)],
-        capture_output=True,
-        text=True,
-        timeout=120,
+    code, stdout, stderr = run_in_process(
+        ["track", "forecast", "M01/X", "--db", db, "--json", str(out)], capsys
     )
-    assert r.returncode == 0, r.stderr
+    assert code == 0, stderr
     doc = json.loads(out.read_text())
     assert doc["axis"] == "M01/X" and doc["generator"].startswith("drivelash ")
     assert len(doc["estimates"]) == len(st.estimates("M01/X"))
     ok = [e for e in doc["estimates"] if e["status"] == "ok"]
     assert ok and all(e["sample_rate_hz"] == pytest.approx(8000.0) for e in ok)
     assert all(e["estimate_rate_hz"] == pytest.approx(1000.0) for e in ok)  # the fleet's default
-    r = subprocess.run(
-        [sys.executable, "-m", "drivelash.cli", "track", "forecast", "M01/Q", "--db", db],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert r.returncode == 2 and "no axis 'M01/Q'" in r.stderr and r.stderr.count("\n") == 1
+    code, stdout, stderr = run_in_process(["track", "forecast", "M01/Q", "--db", db], capsys)
+    assert code == 2 and "no axis 'M01/Q'" in stderr and stderr.count("\n") == 1
 
 
 class _Dying:

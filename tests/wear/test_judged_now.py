@@ -9,14 +9,13 @@ from __future__ import annotations
 
 import json
 import shutil
-import subprocess
-import sys
 from datetime import datetime
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from cli_runner import run_in_process
 from drivelash.wear import Store, ingest, load_fleet
 from drivelash.wear.alarms import FUTURE_TOLERANCE_DAYS, fleet_summary
 from drivelash.wear.trend import _forecast, fit_trend
@@ -92,21 +91,18 @@ def test_a_late_or_misdated_recording_raises_no_threshold_alarm(small_fleet, tmp
         assert s["judged_at"] < datetime(2026, 1, 11)
 
 
-def test_a_recording_dated_after_the_clock_is_named_by_status(small_fleet, tmp_path):
+def test_a_recording_dated_after_the_clock_is_named_by_status(small_fleet, tmp_path, monkeypatch, capsys):
     """`track status` prints the note line; a date within the tolerance is no future date
     (the axis judged as before: negative control of the rule, not of the gap)."""
     f, _ = _gap_fleet(small_fleet, tmp_path / "f", "20370211")
     db = tmp_path / "w.sqlite"
     ingest(load_fleet(f), Store(db), workers=1)
-    out = subprocess.run(
-        [sys.executable, "-m", "drivelash.cli", "track", "status", "--fleet", str(f), "--db", str(db)],
-        capture_output=True,
-        text=True,
-        env={**__import__("os").environ, "COLUMNS": "400"},
-    )
-    assert out.returncode == 0, out.stderr
-    assert "note M02/Y: 1 recording dated more than 1 day after now" in out.stdout
-    assert "alarm threshold" not in out.stdout
+    monkeypatch.setenv("COLUMNS", "400")
+    capsys.readouterr()  # only the command's output
+    code, stdout, stderr = run_in_process(["track", "status", "--fleet", str(f), "--db", str(db)], capsys)
+    assert code == 0, stderr
+    assert "note M02/Y: 1 recording dated more than 1 day after now" in stdout
+    assert "alarm threshold" not in stdout
     # the tolerance: the same store judged as of 2037-02-10 (less than a day before): in the trend
     st = Store(db)
     (s,) = fleet_summary(

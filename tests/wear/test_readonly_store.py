@@ -11,20 +11,13 @@ import os
 import shutil
 import sqlite3
 import subprocess
-import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
 
-TRACK = [sys.executable, "-m", "drivelash.cli", "track"]
-
-
-def _run(args: list[str]) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        args, capture_output=True, text=True, timeout=300, env={**os.environ, "COLUMNS": "250"}
-    )
+TRACK = ["track"]
 
 
 def _try(cmd: list[str]) -> bool:
@@ -72,7 +65,7 @@ def _copy_store(serial_store, dst: Path) -> Path:
     return dst
 
 
-def _one_line_error(r: subprocess.CompletedProcess) -> str:
+def _one_line_error(r) -> str:
     lines = r.stderr.strip().splitlines()
     assert r.returncode == 2 and len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
     return lines[0]
@@ -81,14 +74,16 @@ def _one_line_error(r: subprocess.CompletedProcess) -> str:
 RO_CAUSES = ("is on a read-only file system", "is not writable (permission denied)")
 
 
-def test_ingest_into_a_read_only_directory_names_the_store_and_the_cause(small_fleet, serial_store, tmp_path):
+def test_ingest_into_a_read_only_directory_names_the_store_and_the_cause(
+    small_fleet, serial_store, tmp_path, cli250
+):
     d = tmp_path / "ro"
     d.mkdir()
     old = _copy_store(serial_store, d / "old.sqlite")
     before = old.read_bytes()
     with read_only(d):
         for store in (d / "new.sqlite", old):  # a new store, and an existing one
-            r = _run(
+            r = cli250(
                 [*TRACK, "ingest", str(small_fleet / "fleet.toml"), "--db", str(store), "--workers", "1"]
             )
             line = _one_line_error(r)
@@ -97,12 +92,12 @@ def test_ingest_into_a_read_only_directory_names_the_store_and_the_cause(small_f
             assert "unable to open database file" not in line
     assert sorted(p.name for p in d.iterdir()) == ["old.sqlite"] and old.read_bytes() == before
     # negative control: a missing directory keeps its own message
-    r = _run([*TRACK, "ingest", str(small_fleet / "fleet.toml"), "--db", str(d / "no" / "w.sqlite")])
+    r = cli250([*TRACK, "ingest", str(small_fleet / "fleet.toml"), "--db", str(d / "no" / "w.sqlite")])
     assert f"directory {d / 'no'} does not exist" in _one_line_error(r)
 
 
 def test_status_and_report_on_a_store_in_a_read_only_directory_say_why_they_cannot_read(
-    serial_store, tmp_path
+    serial_store, tmp_path, cli250
 ):
     """SQLite in WAL mode creates NAME-wal and NAME-shm next to the file to read it: in a
     read-only directory reading is impossible, and the one line says so."""
@@ -110,7 +105,7 @@ def test_status_and_report_on_a_store_in_a_read_only_directory_say_why_they_cann
     store = _copy_store(serial_store, d / "wear.sqlite")
     with read_only(d):
         for args in (["status"], ["report", "-o", str(tmp_path / "r.html")]):
-            line = _one_line_error(_run([*TRACK, *args, "--db", str(store)]))
+            line = _one_line_error(cli250([*TRACK, *args, "--db", str(store)]))
             assert line.startswith(f"drivelash: error: {store}: cannot read the store: directory {d} ")
             assert any(c in line for c in RO_CAUSES) and "wear.sqlite-wal and wear.sqlite-shm" in line
             assert "copy the store to a writable directory" in line
@@ -118,14 +113,14 @@ def test_status_and_report_on_a_store_in_a_read_only_directory_say_why_they_cann
 
 
 def test_a_read_only_store_file_in_a_writable_directory_is_read_but_not_written(
-    small_fleet, serial_store, tmp_path
+    small_fleet, serial_store, tmp_path, cli250
 ):
     store = _copy_store(serial_store, tmp_path / "w" / "wear.sqlite")
-    full = _run([*TRACK, "status", "--db", str(store)])
+    full = cli250([*TRACK, "status", "--db", str(store)])
     assert full.returncode == 0, full.stderr
     with read_only(store):
-        r = _run([*TRACK, "status", "--db", str(store)])
+        r = cli250([*TRACK, "status", "--db", str(store)])
         assert r.returncode == 0 and r.stdout == full.stdout, r.stderr
-        r = _run([*TRACK, "ingest", str(small_fleet / "fleet.toml"), "--db", str(store), "--workers", "1"])
+        r = cli250([*TRACK, "ingest", str(small_fleet / "fleet.toml"), "--db", str(store), "--workers", "1"])
         line = _one_line_error(r)
         assert line.startswith(f"drivelash: error: {store}: cannot write the store: the file is read-only")

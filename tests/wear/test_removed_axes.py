@@ -3,20 +3,11 @@ with ``--fleet`` show the fleet's axes only and say, in one line, which stored o
 
 from __future__ import annotations
 
-import os
 import re
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
-TRACK = [sys.executable, "-m", "drivelash.cli", "track"]
-
-
-def _run(args: list[str]) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        args, capture_output=True, text=True, timeout=300, env={**os.environ, "COLUMNS": "250"}
-    )
+TRACK = ["track"]
 
 
 def _without(small_fleet: Path, dst: Path, axis: str) -> Path:
@@ -41,18 +32,20 @@ def _rows(stdout: str) -> dict[str, str]:
     return out
 
 
-def test_an_axis_removed_from_the_fleet_file_is_kept_but_not_shown(small_fleet, serial_store, tmp_path):
+def test_an_axis_removed_from_the_fleet_file_is_kept_but_not_shown(
+    small_fleet, serial_store, tmp_path, cli250
+):
     st, _ = serial_store
     db = str(st.url.database)
     counts = st.counts()
     gone = "M02/Y"
-    full = _run([*TRACK, "status", "--db", db, "--fleet", str(small_fleet / "fleet.toml")])
+    full = cli250([*TRACK, "status", "--db", db, "--fleet", str(small_fleet / "fleet.toml")])
     assert full.returncode == 0, full.stderr
     before = _rows(full.stdout)
     assert gone in before and len(before) == 4 and "not in fleet.toml" not in full.stdout
     toml = _without(small_fleet, tmp_path / "f", gone)
 
-    r = _run([*TRACK, "status", "--db", db, "--fleet", str(toml)])
+    r = cli250([*TRACK, "status", "--db", db, "--fleet", str(toml)])
     assert r.returncode == 0, r.stderr
     after = _rows(r.stdout)
     assert gone not in after
@@ -61,15 +54,15 @@ def test_an_axis_removed_from_the_fleet_file_is_kept_but_not_shown(small_fleet, 
     # negative control: the remaining axes' figures are those of the full fleet
     assert after == {k: v for k, v in before.items() if k != gone}
 
-    r = _run([*TRACK, "forecast", gone, "--db", db, "--fleet", str(toml)])
+    r = cli250([*TRACK, "forecast", gone, "--db", db, "--fleet", str(toml)])
     assert r.returncode == 2 and "Traceback" not in r.stderr and not r.stdout
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"drivelash: error: {toml}: axis 'M02/Y' is in the store")
     assert "not in this fleet file" in lines[0] and "without --fleet" in lines[0]
-    assert _run([*TRACK, "forecast", "M01/X", "--db", db, "--fleet", str(toml)]).returncode == 0
+    assert cli250([*TRACK, "forecast", "M01/X", "--db", db, "--fleet", str(toml)]).returncode == 0
 
     html = tmp_path / "r.html"
-    r = _run([*TRACK, "report", "--db", db, "--fleet", str(toml), "-o", str(html)])
+    r = cli250([*TRACK, "report", "--db", db, "--fleet", str(toml), "-o", str(html)])
     assert r.returncode == 0, r.stderr
     assert "wrote" in r.stdout and "(3 axes)" in r.stdout and note in r.stdout
     text = html.read_text()
@@ -77,12 +70,12 @@ def test_an_axis_removed_from_the_fleet_file_is_kept_but_not_shown(small_fleet, 
 
     # the history is kept, and without --fleet every stored axis is shown as before
     assert st.counts() == counts
-    r = _run([*TRACK, "status", "--db", db])
+    r = cli250([*TRACK, "status", "--db", db])
     assert r.returncode == 0 and gone in _rows(r.stdout) and "not in fleet" not in r.stdout
 
 
 def test_an_axis_renamed_in_the_fleet_file_names_both_the_old_and_the_new_name(
-    small_fleet, serial_store, tmp_path
+    small_fleet, serial_store, tmp_path, cli250
 ):
     """M02/Y renamed to M02/W: the old history is "not in fleet.toml"; the new name, not in the
     store yet, was left out of status and report without a word."""
@@ -93,27 +86,27 @@ def test_an_axis_renamed_in_the_fleet_file_names_both_the_old_and_the_new_name(
     mine = next(t for t in spec if 'id = "M02/Y"' in t).replace('id = "M02/Y"', 'id = "M02/W"')
     toml.write_text(toml.read_text() + "\n" + mine)
 
-    r = _run([*TRACK, "status", "--db", db, "--fleet", str(toml)])
+    r = cli250([*TRACK, "status", "--db", db, "--fleet", str(toml)])
     assert r.returncode == 0, r.stderr
     flat = " ".join(r.stdout.split())
     assert "1 axis in the store is not in fleet.toml (M02/Y)" in flat
     assert "1 axis of fleet.toml is not in the store yet (M02/W)" in flat and "track ingest" in flat
 
     html = tmp_path / "r.html"
-    r = _run([*TRACK, "report", "--db", db, "--fleet", str(toml), "-o", str(html)])
+    r = cli250([*TRACK, "report", "--db", db, "--fleet", str(toml), "-o", str(html)])
     assert r.returncode == 0 and "not in the store yet (M02/W)" in r.stdout
     assert "not in the store yet (M02/W)" in html.read_text()
-    r = _run([*TRACK, "forecast", "M02/W", "--db", db, "--fleet", str(toml)])
+    r = cli250([*TRACK, "forecast", "M02/W", "--db", db, "--fleet", str(toml)])
     lines = r.stderr.strip().splitlines()
     assert r.returncode == 2 and len(lines) == 1 and "did you mean" not in lines[0], r.stderr
     assert "axis 'M02/W' is in this fleet file but not in the store" in lines[0]
     # negative control: the full fleet file names no missing axis
-    r = _run([*TRACK, "status", "--db", db, "--fleet", str(small_fleet / "fleet.toml")])
+    r = cli250([*TRACK, "status", "--db", db, "--fleet", str(small_fleet / "fleet.toml")])
     assert "not in the store yet" not in r.stdout
 
 
 def test_alarms_of_a_removed_axis_are_not_counted_and_the_note_says_how_many(
-    small_fleet, serial_store, tmp_path
+    small_fleet, serial_store, tmp_path, cli250
 ):
     """The store keeps a removed axis's active alarms (it is no longer re-judged). With
     ``--fleet`` neither status nor the report shows them, the report's "N active alarms"
@@ -130,7 +123,7 @@ def test_alarms_of_a_removed_axis_are_not_counted_and_the_note_says_how_many(
 
     def report(fleet: Path) -> tuple[str, int, int]:
         html = tmp_path / f"{fleet.parent.name}.html"
-        r = _run([*TRACK, "report", "--db", db, "--fleet", str(fleet), "-o", str(html)])
+        r = cli250([*TRACK, "report", "--db", db, "--fleet", str(fleet), "-o", str(html)])
         assert r.returncode == 0, r.stderr
         text = html.read_text()
         said = int(re.search(r"; (\d+) active alarms?\. ", text).group(1))
@@ -147,7 +140,7 @@ def test_alarms_of_a_removed_axis_are_not_counted_and_the_note_says_how_many(
         f"nor its {n_gone} active alarm{plural} (as of its last ingest)"
     )
     assert note in out, out
-    r = _run([*TRACK, "status", "--db", db, "--fleet", str(toml)])
+    r = cli250([*TRACK, "status", "--db", db, "--fleet", str(toml)])
     flat = " ".join(r.stdout.split())
     assert r.returncode == 0 and note in flat, flat
     assert not any(line.startswith("alarm") and gone in line for line in r.stdout.splitlines())
@@ -156,7 +149,7 @@ def test_alarms_of_a_removed_axis_are_not_counted_and_the_note_says_how_many(
     quiet = next((a["name"] for a in st.axes() if a["name"] not in by_axis), None)
     if quiet is not None:
         toml = _without(small_fleet, tmp_path / "g", quiet)
-        r = _run([*TRACK, "status", "--db", db, "--fleet", str(toml)])
+        r = cli250([*TRACK, "status", "--db", db, "--fleet", str(toml)])
         assert f"({quiet}): its history is kept; it is not shown (no active alarm as of its last ingest)" in (
             " ".join(r.stdout.split())
         )

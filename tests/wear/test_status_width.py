@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 from datetime import datetime, timedelta
 
+from cli_runner import run_in_process
 from drivelash.wear.alarms import Alarm
 
-TRACK = [sys.executable, "-m", "drivelash.cli", "track"]
+TRACK = ["track"]
 
 
 def _summaries(n: int = 120) -> list[dict]:
@@ -87,21 +85,17 @@ def test_status_of_120_axes_at_100_columns_is_one_line_per_axis(monkeypatch, cap
     assert "crossing: expected threshold crossing (UTC)" in flat and "(times UTC)" in flat
 
 
-def test_status_at_100_columns_from_the_cli_and_full_headers_when_wide(serial_store):
+def test_status_at_100_columns_from_the_cli_and_full_headers_when_wide(serial_store, monkeypatch, capsys):
     st, _ = serial_store
     db = str(st.url.database)
     names = [a["name"] for a in st.axes()]
 
     def status(cols: str) -> str:
-        r = subprocess.run(
-            [*TRACK, "status", "--db", db],
-            capture_output=True,
-            text=True,
-            timeout=300,
-            env={**os.environ, "COLUMNS": cols},
-        )
-        assert r.returncode == 0, r.stderr
-        return r.stdout
+        monkeypatch.setenv("COLUMNS", cols)  # the command's Console reads it when created
+        capsys.readouterr()  # only this command's output
+        code, out, err = run_in_process([*TRACK, "status", "--db", db], capsys)
+        assert code == 0, err
+        return out
 
     narrow = status("100")
     assert max(len(x) for x in narrow.splitlines()) <= 100, narrow

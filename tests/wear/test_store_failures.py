@@ -17,6 +17,7 @@ from typing import Any
 import pytest
 import sqlalchemy as sa
 
+from cli_runner import run_in_process
 from drivelash.wear.store import Store, StoreError
 
 from .conftest import ingest_cmd
@@ -91,10 +92,20 @@ def _run(args: list[str], **env: str) -> subprocess.CompletedProcess:
     return subprocess.run(args, capture_output=True, text=True, timeout=300, env={**os.environ, **env})
 
 
-def test_ingest_while_another_writer_holds_the_lock_is_one_line_and_writes_nothing(tiny_fleet, tmp_path):
+def _ingest_here(fleet_toml: Path, db, capsys) -> int:
+    """Exit code of :func:`ingest_cmd`'s ``track ingest`` run in this process (no other writer
+    involved: a store to set up, or the ingest once the other writer is gone)."""
+    cmd = ingest_cmd(fleet_toml, db)
+    assert cmd[:3] == [sys.executable, "-m", "drivelash.cli"], cmd
+    return run_in_process(cmd[3:], capsys)[0]
+
+
+def test_ingest_while_another_writer_holds_the_lock_is_one_line_and_writes_nothing(
+    tiny_fleet, tmp_path, capsys
+):
     fleet, held = _fleet_copy(tiny_fleet, tmp_path / "f", hold_back=1)
     db = tmp_path / "w.sqlite"
-    assert _run(ingest_cmd(fleet / "fleet.toml", db)).returncode == 0
+    assert _ingest_here(fleet / "fleet.toml", db, capsys) == 0
     for aside, p in held:  # a new recording to store
         aside.rename(p)
     before = _state(db)
@@ -114,15 +125,15 @@ def test_ingest_while_another_writer_holds_the_lock_is_one_line_and_writes_nothi
     assert waited < 60  # the lowered timeout was used, not 30 s per statement
     assert _state(db) == before
     # readers in WAL mode are not blocked by a writer, and once it is gone the ingest resumes
-    assert _run(ingest_cmd(fleet / "fleet.toml", db)).returncode == 0
+    assert _ingest_here(fleet / "fleet.toml", db, capsys) == 0
     rec, est = _state(db)
     assert rec[: len(before[0])] == before[0] and len(rec) == len(before[0]) + 1 and len(est) == len(rec)
 
 
-def test_readers_hitting_a_lock_say_so_in_one_line(tiny_fleet, tmp_path):
+def test_readers_hitting_a_lock_say_so_in_one_line(tiny_fleet, tmp_path, capsys):
     fleet, _ = _fleet_copy(tiny_fleet, tmp_path / "f")
     db = tmp_path / "w.sqlite"
-    assert _run(ingest_cmd(fleet / "fleet.toml", db)).returncode == 0
+    assert _ingest_here(fleet / "fleet.toml", db, capsys) == 0
     # a writer in exclusive locking mode keeps even WAL readers out
     other = sqlite3.connect(db, isolation_level=None)
     other.execute("PRAGMA locking_mode=EXCLUSIVE")
@@ -323,7 +334,7 @@ def _pg_state(url: str) -> tuple[list[tuple], list[tuple]]:
 
 
 def test_postgresql_writer_gives_up_on_a_held_write_lock_after_the_busy_timeout(
-    tiny_fleet, tmp_path, pg_server, pg_url
+    tiny_fleet, tmp_path, pg_server, pg_url, capsys
 ):
     """PostgreSQL waits for the advisory write lock no longer than SQLite for its file lock:
     ``DRIVELASH_STORE_BUSY_TIMEOUT`` seconds, then the same one line, nothing written."""
@@ -332,7 +343,7 @@ def test_postgresql_writer_gives_up_on_a_held_write_lock_after_the_busy_timeout(
     from drivelash.wear.store import PG_WRITE_LOCK
 
     fleet, held = _fleet_copy(tiny_fleet, tmp_path / "f", hold_back=1)
-    assert _run(ingest_cmd(fleet / "fleet.toml", pg_url)).returncode == 0
+    assert _ingest_here(fleet / "fleet.toml", pg_url, capsys) == 0
     for aside, p in held:  # a new recording to store
         aside.rename(p)
     before = _pg_state(pg_url)
@@ -362,7 +373,7 @@ def test_postgresql_writer_gives_up_on_a_held_write_lock_after_the_busy_timeout(
         assert _pg_state(pg_url) == before
         other.execute("SELECT pg_advisory_unlock(%s)", (PG_WRITE_LOCK,))
     # the lock released, the ingest stores the new recording
-    assert _run(ingest_cmd(fleet / "fleet.toml", pg_url)).returncode == 0
+    assert _ingest_here(fleet / "fleet.toml", pg_url, capsys) == 0
     rec, est = _pg_state(pg_url)
     assert rec[: len(before[0])] == before[0] and len(rec) == len(before[0]) + 1 and len(est) == len(rec)
 

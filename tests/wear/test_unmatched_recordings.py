@@ -8,12 +8,10 @@ file no longer exists stays in the history (negative control)."""
 
 from __future__ import annotations
 
-import os
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
+from cli_runner import run_in_process
 from drivelash.wear import Store, ingest, load_fleet
 from drivelash.wear.alarms import fleet_summary
 
@@ -54,7 +52,7 @@ def _wrong_then_fixed(small_fleet: Path, tmp_path: Path) -> tuple[Path, Store]:
     return d / "fleet.toml", st
 
 
-def test_a_corrected_glob_leaves_the_wrong_recordings_out(small_fleet, tmp_path):
+def test_a_corrected_glob_leaves_the_wrong_recordings_out(small_fleet, tmp_path, monkeypatch, capsys):
     """The tester's scenario: after the correction the old code judged M01/X on 15 estimates
     (8 of M02/Y up to 137 mrad and its own 58.6 mrad ones) and raised a threshold alarm; now
     its own recordings only — no threshold alarm, neither in the summary nor stored by the
@@ -74,16 +72,14 @@ def test_a_corrected_glob_leaves_the_wrong_recordings_out(small_fleet, tmp_path)
     (raw,) = fleet_summary(st)
     assert raw["recordings"] == 18 and raw["unmatched"] == 0
     # status --fleet prints the line
-    out = subprocess.run(
-        [sys.executable, "-m", "drivelash.cli", "track", "status", "--fleet", str(f), "--db",
-         str(tmp_path / "w.sqlite")],
-        capture_output=True,
-        text=True,
-        env={**os.environ, "COLUMNS": "400"},
-    )  # fmt: skip
-    assert out.returncode == 0, out.stderr
-    assert "note M01/X: 8 stored recordings left out" in out.stdout
-    assert "alarm threshold" not in out.stdout
+    monkeypatch.setenv("COLUMNS", "400")
+    capsys.readouterr()  # only the command's output
+    code, stdout, stderr = run_in_process(
+        ["track", "status", "--fleet", str(f), "--db", str(tmp_path / "w.sqlite")], capsys
+    )
+    assert code == 0, stderr
+    assert "note M01/X: 8 stored recordings left out" in stdout
+    assert "alarm threshold" not in stdout
     # a glob that matches them again counts them again
     f.write_text(FLEET.format(glob="M0*/[XY]"))
     (again,) = fleet_summary(st, load_fleet(f))

@@ -3,18 +3,12 @@
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 from datetime import UTC, datetime
 
-TRACK = [sys.executable, "-m", "drivelash.cli", "track"]
+TRACK = ["track"]
 
 
-def _run(args: list[str]) -> subprocess.CompletedProcess:
-    r = subprocess.run(
-        args, capture_output=True, text=True, timeout=300, env={**os.environ, "COLUMNS": "250"}
-    )
+def _ok(r):
     assert r.returncode == 0, r.stderr
     return r
 
@@ -26,23 +20,23 @@ def _dated_axis(st) -> str:
     return next(s["axis"] for s in fleet_summary(st) if s["crossing"] is not None)
 
 
-def test_status_and_forecast_text_say_utc(serial_store):
+def test_status_and_forecast_text_say_utc(serial_store, cli250):
     st, _ = serial_store
     db = str(st.url.database)
     axis = _dated_axis(st)
-    out = " ".join(_run([*TRACK, "status", "--db", db]).stdout.split())
+    out = " ".join(_ok(cli250([*TRACK, "status", "--db", db])).stdout.split())
     assert "(times UTC)" in out and "expected crossing (UTC)" in out and "90 % interval (UTC)" in out
-    text = _run([*TRACK, "forecast", axis, "--db", db]).stdout
+    text = _ok(cli250([*TRACK, "forecast", axis, "--db", db])).stdout
     dated = [x for x in text.splitlines() if "forecast crossing" in x or "threshold crossed" in x]
     assert dated and all(" UTC" in x for x in dated), text
 
 
-def test_forecast_json_times_are_explicit_utc(serial_store, tmp_path):
+def test_forecast_json_times_are_explicit_utc(serial_store, tmp_path, cli250):
     st, _ = serial_store
     db = str(st.url.database)
     axis = _dated_axis(st)
     out = tmp_path / "f.json"
-    _run([*TRACK, "forecast", axis, "--db", db, "--json", str(out)])
+    _ok(cli250([*TRACK, "forecast", axis, "--db", db, "--json", str(out)]))
     doc = json.loads(out.read_text())
     assert doc["time_zone"] == "UTC"
     stamps = [doc["last_recording"], doc["t0"], doc["crossing"], *doc["crossing_90"]]
@@ -58,12 +52,12 @@ def test_forecast_json_times_are_explicit_utc(serial_store, tmp_path):
             assert datetime.fromisoformat(e["time"]) == stored[e["path"]].replace(tzinfo=UTC)
 
 
-def test_report_says_utc_in_the_overview(serial_store, tmp_path):
+def test_report_says_utc_in_the_overview(serial_store, tmp_path, cli250):
     from drivelash.report.fleet import TIMES_UTC
 
     st, _ = serial_store
     html = tmp_path / "r.html"
-    _run([*TRACK, "report", "--db", str(st.url.database), "-o", str(html)])
+    _ok(cli250([*TRACK, "report", "--db", str(st.url.database), "-o", str(html)]))
     text = html.read_text()
     assert TIMES_UTC in text and "All dates and times are UTC" in text
     assert "expected crossing (UTC)" in text and "90 % interval (UTC)" in text
