@@ -5,14 +5,18 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 PYTEST_WORKERS ?= 2
 export NUMBA_CACHE_DIR := $(CURDIR)/.venv/numba-cache
+# Python's byte-code cache, in this project's .venv and src/ (an environment may switch it off
+# with PYTHONDONTWRITEBYTECODE=1): without it every CLI process the tests start compiles each
+# module again — `drivelash track --help` 4.5 s against 1.4 s (session 25).
+export PYTHONDONTWRITEBYTECODE :=
 
 .PHONY: venv components demo test test-slow bench lint clean
 
 venv: $(STAMP)
 
-# --no-compile: Python writes the byte code of the modules it imports on first use instead of
-# pip compiling every installed file (torch's thousands among them): set-up 2 min 12 s -> 45 s
-# on 2 cores (session 25, a fresh venv each, same wheels).
+# --no-compile: Python writes the byte code of the modules it imports on first use (see
+# PYTHONDONTWRITEBYTECODE above) instead of pip compiling every installed file, torch's thousands
+# among them: set-up 2 min 12 s -> 45 s on 2 cores (session 25, a fresh venv each, same wheels).
 $(STAMP): pyproject.toml requirements.lock
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --disable-pip-version-check --upgrade pip
