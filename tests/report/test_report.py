@@ -106,6 +106,16 @@ def test_excitation_shading_follows_sigma_window(estimate_run):
     assert green_fraction(flat) < 0.001
 
 
+@pytest.fixture(scope="module")
+def bench_0c_two_mass():
+    """bench-0C, 4 s, seed 1, and its two-mass identification (read by three report checks)."""
+    import drivelash as dl
+    from drivelash.sim import get_scenario
+
+    run = get_scenario("bench-0C").simulate(duration=4.0, seed=1)
+    return run, dl.identify_drive(run, model="two-mass", N=1.0)
+
+
 def test_identify_report_tables(tmp_path):
     from drivelash.estimation.identify import identify_rigid
     from drivelash.io import Trace
@@ -121,7 +131,7 @@ def test_identify_report_tables(tmp_path):
     assert all(_non_blank(i) > 0.01 for i in _images(html))
 
 
-def test_identify_report_takes_what_identify_drive_returns(tmp_path):
+def test_identify_report_takes_what_identify_drive_returns(tmp_path, bench_0c_two_mass):
     """Tester finding (session 14): ``write_identify_report(path, trace, identify_drive(...))``
     raised ``AttributeError: 'DriveIdentification' object has no attribute 'theta'`` for both
     models. It now writes the report the command writes: the rigid one from the IDIM-LS result
@@ -134,7 +144,6 @@ def test_identify_report_takes_what_identify_drive_returns(tmp_path):
     from drivelash.io import Trace
     from drivelash.report import write_identify_report
     from drivelash.report.identify_figures import render_two_mass_report
-    from drivelash.sim import get_scenario
 
     t = np.arange(6000) * 1e-3
     q = np.sin(2 * np.pi * 0.5 * t) + 0.2 * np.sin(2 * np.pi * 2.1 * t)
@@ -144,8 +153,7 @@ def test_identify_report_takes_what_identify_drive_returns(tmp_path):
     api = dl.identify_drive(tr, model="rigid")
     p = write_identify_report(tmp_path / "rigid.html", tr, api)
     assert p.read_text(encoding="utf-8") == render_identify_report(tr, identify_rigid(tr), None)
-    run = get_scenario("bench-0C").simulate(duration=4.0, seed=1)
-    two = dl.identify_drive(run, model="two-mass", N=1.0)
+    run, two = bench_0c_two_mass
     html = write_identify_report(tmp_path / "two.html", run, two).read_text(encoding="utf-8")
     assert html == render_two_mass_report(run, two, None)
     assert "generated 2026-01-01 12:00 UTC" in html  # SOURCE_DATE_EPOCH of tests/conftest.py
@@ -326,15 +334,13 @@ def test_deadzone_picture_draws_the_gap_the_estimator_ended_with(monkeypatch, es
     assert np.isclose(x0, lo) and np.isclose(x0 + span.get_width(), hi)
 
 
-def test_identify_reports_residual_axes_state_their_unit(monkeypatch):
+def test_identify_reports_residual_axes_state_their_unit(monkeypatch, bench_0c_two_mass):
     """The residual panels under the measured-vs-model plots had a bare "residual" y label: the
     rigid report's is in the force unit (N·m here), the two-mass one's in rad/s² like the
     acceleration above it."""
-    import drivelash as dl
     from drivelash.estimation.identify import identify_rigid
     from drivelash.io import Trace
     from drivelash.report.identify_figures import render_two_mass_report
-    from drivelash.sim import get_scenario
 
     t = np.arange(6000) * 1e-3
     q = np.sin(2 * np.pi * 0.5 * t) + 0.2 * np.sin(2 * np.pi * 2.1 * t)
@@ -345,9 +351,9 @@ def test_identify_reports_residual_axes_state_their_unit(monkeypatch):
     render_identify_report(tr, identify_rigid(tr), None)
     labels = [ax.get_ylabel() for f in drawn.values() for ax in f.axes]
     assert "residual [N·m]" in labels and "residual" not in labels
-    run = get_scenario("bench-0C").simulate(duration=4.0, seed=1)
+    run, two = bench_0c_two_mass
     drawn.clear()
-    render_two_mass_report(run, dl.identify_drive(run, model="two-mass", N=1.0), None)
+    render_two_mass_report(run, two, None)
     labels = [ax.get_ylabel() for f in drawn.values() for ax in f.axes]
     assert labels.count("residual [rad/s²]") == 2 and "residual" not in labels
 
@@ -362,7 +368,9 @@ def test_interval_text_has_no_bare_trailing_point():
     assert P("delta1", 0.513497, 1.38e-5, 0.51347, 0.513524).interval_text() == "[0.513470, 0.513524]"
 
 
-def test_two_mass_characteristic_does_not_show_an_undetermined_backlash_as_identified(monkeypatch):
+def test_two_mass_characteristic_does_not_show_an_undetermined_backlash_as_identified(
+    monkeypatch, bench_0c_two_mass
+):
     """KUKA rec_A, axis 1: the table says δ and δ1 are not identifiable (overlapping contacts,
     encoder delay), yet the characteristic drew "identified K_S·dz(Δθ)" with "contact −δ1 =
     1.5085 mrad" and a caption "and the identified deadzone". The fit's contacts stay as a
@@ -371,7 +379,6 @@ def test_two_mass_characteristic_does_not_show_an_undetermined_backlash_as_ident
 
     import drivelash as dl
     from drivelash.report.identify_figures import render_two_mass_report
-    from drivelash.sim.scenarios import get_scenario
     from realdata import shared_data
 
     def labels_and_caption(trace, r, cfg):
@@ -392,8 +399,7 @@ def test_two_mass_characteristic_does_not_show_an_undetermined_backlash_as_ident
     assert "and the identified deadzone" not in html
     assert "not reported: the backlash was not determined" in html
 
-    run = get_scenario("bench-0C").simulate(duration=4.0, seed=1)
-    rb = dl.identify_drive(run, model="two-mass", N=1.0)
+    run, rb = bench_0c_two_mass
     assert rb.parameters["delta"].identifiable
     labels, html = labels_and_caption(run, rb, None)
     assert "identified K_S·dz(Δθ)" in labels and any(lb.startswith("contact −δ1 = ") for lb in labels)

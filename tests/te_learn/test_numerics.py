@@ -26,8 +26,8 @@ import numpy as np
 from drivelash.te.learn.network import MLPRegressor, tune_mlp
 
 rng = np.random.default_rng(7)
-X = rng.normal(size=(3000, 4))
-y = np.sin(2.0 * X[:, 0]) * X[:, 1] + 0.3 * X[:, 2] ** 2 + 0.05 * rng.normal(size=3000)
+X = rng.normal(size=(1000, 4))
+y = np.sin(2.0 * X[:, 0]) * X[:, 1] + 0.3 * X[:, 2] ** 2 + 0.05 * rng.normal(size=1000)
 base = MLPRegressor(max_epochs=27, patience=30, batch_size=128)
 best, info = tune_mlp(base, X, y, n_trials=8, seed=0)
 h = hashlib.sha256()
