@@ -92,12 +92,12 @@ def _run(args: list[str], **env: str) -> subprocess.CompletedProcess:
     return subprocess.run(args, capture_output=True, text=True, timeout=300, env={**os.environ, **env})
 
 
-def _ingest_here(fleet_toml: Path, db, capsys) -> int:
-    """Exit code of :func:`ingest_cmd`'s ``track ingest`` run in this process (no other writer
-    involved: a store to set up, or the ingest once the other writer is gone)."""
+def _ingest_here(fleet_toml: Path, db, capsys):
+    """:func:`ingest_cmd`'s ``track ingest`` run in this process (no other writer involved: a
+    store to set up, or the ingest once the other writer is gone); a :class:`CliResult`."""
     cmd = ingest_cmd(fleet_toml, db)
     assert cmd[:3] == [sys.executable, "-m", "drivelash.cli"], cmd
-    return run_in_process(cmd[3:], capsys)[0]
+    return run_in_process(cmd[3:], capsys)
 
 
 def test_ingest_while_another_writer_holds_the_lock_is_one_line_and_writes_nothing(
@@ -105,7 +105,8 @@ def test_ingest_while_another_writer_holds_the_lock_is_one_line_and_writes_nothi
 ):
     fleet, held = _fleet_copy(tiny_fleet, tmp_path / "f", hold_back=1)
     db = tmp_path / "w.sqlite"
-    assert _ingest_here(fleet / "fleet.toml", db, capsys) == 0
+    r = _ingest_here(fleet / "fleet.toml", db, capsys)
+    assert r.returncode == 0, r.stderr
     for aside, p in held:  # a new recording to store
         aside.rename(p)
     before = _state(db)
@@ -125,7 +126,8 @@ def test_ingest_while_another_writer_holds_the_lock_is_one_line_and_writes_nothi
     assert waited < 60  # the lowered timeout was used, not 30 s per statement
     assert _state(db) == before
     # readers in WAL mode are not blocked by a writer, and once it is gone the ingest resumes
-    assert _ingest_here(fleet / "fleet.toml", db, capsys) == 0
+    r = _ingest_here(fleet / "fleet.toml", db, capsys)
+    assert r.returncode == 0, r.stderr
     rec, est = _state(db)
     assert rec[: len(before[0])] == before[0] and len(rec) == len(before[0]) + 1 and len(est) == len(rec)
 
@@ -133,7 +135,8 @@ def test_ingest_while_another_writer_holds_the_lock_is_one_line_and_writes_nothi
 def test_readers_hitting_a_lock_say_so_in_one_line(tiny_fleet, tmp_path, capsys):
     fleet, _ = _fleet_copy(tiny_fleet, tmp_path / "f")
     db = tmp_path / "w.sqlite"
-    assert _ingest_here(fleet / "fleet.toml", db, capsys) == 0
+    r = _ingest_here(fleet / "fleet.toml", db, capsys)
+    assert r.returncode == 0, r.stderr
     # a writer in exclusive locking mode keeps even WAL readers out
     other = sqlite3.connect(db, isolation_level=None)
     other.execute("PRAGMA locking_mode=EXCLUSIVE")
@@ -343,7 +346,8 @@ def test_postgresql_writer_gives_up_on_a_held_write_lock_after_the_busy_timeout(
     from drivelash.wear.store import PG_WRITE_LOCK
 
     fleet, held = _fleet_copy(tiny_fleet, tmp_path / "f", hold_back=1)
-    assert _ingest_here(fleet / "fleet.toml", pg_url, capsys) == 0
+    r = _ingest_here(fleet / "fleet.toml", pg_url, capsys)
+    assert r.returncode == 0, r.stderr
     for aside, p in held:  # a new recording to store
         aside.rename(p)
     before = _pg_state(pg_url)
@@ -373,7 +377,8 @@ def test_postgresql_writer_gives_up_on_a_held_write_lock_after_the_busy_timeout(
         assert _pg_state(pg_url) == before
         other.execute("SELECT pg_advisory_unlock(%s)", (PG_WRITE_LOCK,))
     # the lock released, the ingest stores the new recording
-    assert _ingest_here(fleet / "fleet.toml", pg_url, capsys) == 0
+    r = _ingest_here(fleet / "fleet.toml", pg_url, capsys)
+    assert r.returncode == 0, r.stderr
     rec, est = _pg_state(pg_url)
     assert rec[: len(before[0])] == before[0] and len(rec) == len(before[0]) + 1 and len(est) == len(rec)
 
