@@ -228,3 +228,24 @@ def test_sensor_noise_is_seeded_chunk_invariant_and_off_by_default(te_model):
     assert abs(z.mean()) < 0.03 and abs(z.std() - 1) < 0.03
     with pytest.raises(ParameterError):
         AxisSimConfig(sigma_x=-1.0)
+
+
+def test_read_only_inputs_compile_no_other_kernel(sim):
+    """A read-only trajectory (an Arrow-backed column, a broadcast scalar load, a single-sample
+    chunk) runs the same compiled ``axis_chunk`` as writable arrays: numba types a read-only array
+    apart, and each extra signature compiled the kernel again (≈ 10 s; three were compiled by
+    ``make test`` before session 26). Negative control: the read-only arrays reach ``step_chunk``."""
+    from drivelash.sim import rack_axis
+
+    t, xd, vd = sine_trajectory(1.0, 0.02, 2.0, periods=1.0, dwell=0.02)
+    state0 = sim.initial_state(xd[0], 1)
+    _, ref = sim.step_chunk(state0, xd, vd, np.full(xd.size, 800.0), None)
+    before = set(rack_axis.axis_chunk.signatures)
+    xr, vr = xd.copy(), vd.copy()
+    xr.flags.writeable = vr.flags.writeable = False
+    F = np.broadcast_to(np.asarray(800.0), xd.shape)
+    assert not (xr.flags.writeable or vr.flags.writeable or F.flags.writeable)
+    _, out = sim.step_chunk(state0, xr, vr, F, np.zeros(xd.size)[:1].repeat(xd.size))
+    _, one = sim.step_chunk(state0, xr[:1], vr[:1], 800.0, 0.0)
+    assert set(rack_axis.axis_chunk.signatures) == before and len(before) == 1
+    assert np.array_equal(out["x_T"], ref["x_T"]) and one["x_T"][0] == ref["x_T"][0]

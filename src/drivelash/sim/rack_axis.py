@@ -490,14 +490,17 @@ class RackAxisSimulator:
         ParameterError
             ``v_d`` not of the shape of ``x_d``.
         """
-        x_d = np.ascontiguousarray(x_d, dtype=np.float64)
+        # writable C-contiguous float64 whatever the caller passes: a read-only input (a
+        # broadcast scalar, an Arrow-backed column) would otherwise be another numba type and
+        # compile axis_chunk once more (≈ 10 s each; three signatures were compiled before)
+        x_d = np.require(x_d, np.float64, ("C", "W"))
         n = x_d.size
-        v_d = np.ascontiguousarray(v_d, dtype=np.float64)
+        v_d = np.require(v_d, np.float64, ("C", "W"))
         if v_d.shape != x_d.shape:
             raise ParameterError("RackAxisSimulator", "v_d", "must have the shape of x_d")
-        F = np.ascontiguousarray(np.broadcast_to(np.asarray(F_load, dtype=np.float64), (n,)))
+        F = np.require(np.broadcast_to(np.asarray(F_load, dtype=np.float64), (n,)), np.float64, ("C", "W"))
         vc = np.zeros(n) if v_c is None else np.broadcast_to(np.asarray(v_c, dtype=np.float64), (n,))
-        vc = np.ascontiguousarray(vc)
+        vc = np.require(vc, np.float64, ("C", "W"))
         out = np.empty((n, len(OUT_NAMES)))
         k0 = float(state[S_K])
         new = axis_chunk(
