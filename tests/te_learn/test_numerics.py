@@ -6,6 +6,10 @@ by ``crc32(study name, trial number)``, so the pruning — and the chosen networ
 from run to run; and torch's kernels follow the CPU (AVX-512 against AVX2 summation order).
 Each fit below runs in its own process (a fresh UUID, a fresh choice of kernels), on a
 Hyperband budget with three brackets so that the bracket assignment matters.
+
+The three checks on the four fits are marked slow (``make test-slow``): four training processes
+take ≈ 45 s of one core, the largest single item of ``make test`` (session 26, docs/assumptions.md
+"Test-suite set-up and time").
 """
 
 from __future__ import annotations
@@ -57,6 +61,7 @@ def fits() -> dict[str, dict]:
     }
 
 
+@pytest.mark.slow
 def test_fit_is_identical_from_run_to_run(fits):
     """Two processes, the same data and seed: the same trials pruned, the same network bit for bit
     (before the fixed study name the pruning followed a random UUID)."""
@@ -65,6 +70,7 @@ def test_fit_is_identical_from_run_to_run(fits):
     assert a["n_pruned"] > 0  # Hyperband did prune, so the bracket assignment was exercised
 
 
+@pytest.mark.slow
 def test_fit_uses_the_pinned_code_path_whatever_the_cpu(fits):
     """Without any setting the fit equals the one with the AVX2 branch forced: on a CPU with
     AVX-512 this fails unless drivelash pins the code path (measured on such a CPU before the
@@ -74,6 +80,7 @@ def test_fit_uses_the_pinned_code_path_whatever_the_cpu(fits):
     assert a["sha"] == b["sha"] and a["val"] == b["val"]
 
 
+@pytest.mark.slow
 def test_another_code_path_changes_the_fit(fits):
     """Negative control: the comparison above can see a change of kernels — the scalar ATen
     kernels and oneMKL's COMPATIBLE branch give another network; and a user's own setting is
