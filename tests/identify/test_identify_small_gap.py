@@ -208,6 +208,64 @@ def test_auto_window_on_the_random_drives_3_7_and_3_2():
     assert r["J_l"].value / dt.J_l - 1 == pytest.approx(-0.0506, abs=0.001)
 
 
+#: Random drives 3/0 and 3/2 (two-mass resonances 36.6 and 36.8 Hz, so "auto" asks for 4.5 ms and
+#: the cap decides) identified at fixed windows [ms] → (K_S, J_l) error [%], measured in session 26.
+CAP_SWEEP = {  # fmt: skip
+    (3, 0): {
+        2.0: (-5.50, -4.60),
+        2.5: (-5.33, -4.80),
+        3.0: (-6.66, -6.33),
+        3.5: (-5.66, -5.55),
+        4.0: (-2.75, -2.31),
+    },
+    (3, 2): {
+        2.0: (0.38, -0.28),
+        2.5: (0.50, 0.30),
+        3.0: (-0.84, -1.44),
+        3.5: (-4.12, -4.22),
+        4.0: (-4.89, -5.06),
+    },
+}
+
+
+@pytest.mark.slow
+def test_no_cap_of_the_auto_window_holds_both_slow_random_drives():
+    """docs/assumptions.md ("Window from the resonance"), why no other cap makes "auto" the
+    default (session 25's lead, a 3 ms cap, refuted in session 26): on two random drives of the
+    acceptance with the same 36.7 Hz resonance, no window between 2 and 4 ms keeps both within
+    the 5 % limits — 3/2 needs ≤ 3 ms, 3/0 holds only at 4 ms (and at the default 1 ms: K_S
+    −3.55 %). Their 95 % intervals hold the truth at every window (|z| ≤ 1.72): the longer
+    windows' scatter, not a hidden bias. Every figure measured as stated (±0.05 pp)."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    jobs = [(s, c, w) for (s, c), row in CAP_SWEEP.items() for w in row]
+    with ProcessPoolExecutor(2) as ex:
+        got = list(ex.map(_cap_case, jobs))
+    for (s, c, w), (k, j, covered) in zip(jobs, got, strict=True):
+        assert (k, j) == pytest.approx(CAP_SWEEP[s, c][w], abs=0.05), (s, c, w, k, j)
+        assert covered, (s, c, w)
+    for w in CAP_SWEEP[3, 0]:
+        assert max(abs(v) for row in CAP_SWEEP.values() for v in row[w]) > 5.0, w
+
+
+def _cap_case(args: tuple) -> tuple[float, float, bool]:
+    """(K_S %, J_l %, both 95 % intervals hold the truth) of random drive seed/case at a window [ms]."""
+    import numpy as np
+
+    from estimation.test_generalisation import random_drive
+
+    seed, case, w = args
+    rng = np.random.default_rng(seed)
+    for k in range(case + 1):
+        dt, _, trace = random_drive(rng, k)
+    r = identify_two_mass(trace, dt.N, window_s=w * 1e-3)
+    return (
+        round(100 * (r["K_S"].value / dt.K_S - 1), 2),
+        round(100 * (r["J_l"].value / dt.J_l - 1), 2),
+        r["K_S"].covers(dt.K_S) and r["J_l"].covers(dt.J_l),
+    )
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(
     ("delta", "seed"), [(0.005, 1), (0.005, 3), (0.02, 1), (0.02, 3), (0.186, 1), (0.186, 3)]
