@@ -28,3 +28,33 @@ def lazy_names(
         return sorted(namespace.get("__all__", names))
 
     return __getattr__, __dir__
+
+
+def lazy_ufuncs(
+    module: str, kernels: dict[str, tuple[Any, int]], namespace: dict[str, Any]
+) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
+    """``__getattr__`` and ``__dir__`` for a module whose NumPy ufuncs wrap scalar ``@njit`` kernels.
+
+    Each name in ``kernels`` (→ ``(kernel, number of float64 arguments)``) becomes
+    ``numba.vectorize(["float64(float64, …)"], cache=True)(kernel.py_func)`` on first use and
+    is cached in ``namespace``. Built at import instead, the eager signatures compiled — or
+    loaded from numba's cache — every ufunc in every process that imported the module, used or
+    not: ≈ 1.2 s of each CLI start with a warm cache (session 26).
+    """
+
+    def __getattr__(name: str) -> Any:
+        spec = kernels.get(name)
+        if spec is None:
+            raise AttributeError(f"module {module!r} has no attribute {name!r}")
+        from numba import vectorize
+
+        kernel, n_args = spec
+        ufunc = vectorize([f"float64({', '.join(['float64'] * n_args)})"], cache=True)(kernel.py_func)
+        ufunc.__doc__ = kernel.__doc__
+        namespace[name] = ufunc
+        return ufunc
+
+    def __dir__() -> list[str]:
+        return sorted(set(namespace) | set(kernels))
+
+    return __getattr__, __dir__

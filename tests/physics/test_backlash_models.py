@@ -73,3 +73,36 @@ def test_dtorque_ddelta_matches_central_differences(alpha: float) -> None:
     # rel 1e-6 of each value, floored at 1e-6·K_S where the sensitivity vanishes (far in the gap)
     np.testing.assert_allclose(an, fd, rtol=1e-6, atol=1e-6 * K_S)
     assert np.max(np.abs(an)) > K_S  # the test does look at non-trivial values
+
+
+def test_ufuncs_are_built_on_first_use_not_at_import() -> None:
+    """Importing the physics modules builds no ufunc: eager ``vectorize`` signatures compiled (or
+    loaded from numba's cache) all eight in every process that imported them — ≈ 1.2 s of each
+    CLI start (session 26). A fresh interpreter imports the estimator, which imports both modules;
+    then the first use builds the ufunc, with the kernel's docstring, and keeps it."""
+    import json
+    import subprocess
+    import sys
+
+    code = (
+        "import json\n"
+        "import drivelash.estimation.deadzone\n"
+        "from drivelash.physics import backlash, friction\n"
+        "names = ['deadzone_torque', 'smooth_stiffness', 'smooth_torque', 'chi1', 'chi2',"
+        " 'dtorque_ddelta', 'excitation']\n"
+        "before = [n for n in names if n in vars(backlash)]\n"
+        "before += ['friction'] if 'friction' in vars(friction) else []\n"
+        "v = float(backlash.deadzone_torque(0.5, 0.0, 10.0, 0.0, 0.2, 0.1))\n"
+        "print(json.dumps({'before': before, 'v': v, 'kept': 'deadzone_torque' in vars(backlash),"
+        " 'doc': backlash.deadzone_torque.__doc__ == backlash.deadzone_torque_scalar.__doc__,"
+        " 'listed': all(n in dir(backlash) for n in names)}))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    res = json.loads(out.stdout.strip().splitlines()[-1])
+    assert res["before"] == [], res
+    assert res["v"] == pytest.approx(10.0 * (0.5 + 0.1 - 0.2)), res  # upper flank, K_S (Δθ + δ1 − δ)
+    assert res["kept"] and res["doc"] and res["listed"], res
+    with pytest.raises(AttributeError, match="no attribute 'chi3'"):
+        import drivelash.physics.backlash as b
+
+        _ = b.chi3

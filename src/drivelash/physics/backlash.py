@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import math
 
-from numba import njit, vectorize
+from numba import njit
 
-_F8 = "float64"
+from drivelash._lazy import lazy_ufuncs
 
 
 @njit(cache=True, inline="always")
@@ -132,17 +132,16 @@ def excitation_scalar(dtheta, domega, K_S, D_S, Lambda, delta1, alpha):
     return s * s / (math.pi * math.pi)
 
 
-deadzone_torque = vectorize([f"{_F8}({','.join([_F8] * 6)})"], cache=True)(deadzone_torque_scalar.py_func)
-deadzone_torque.__doc__ = deadzone_torque_scalar.__doc__
-smooth_stiffness = vectorize([f"{_F8}({','.join([_F8] * 5)})"], cache=True)(smooth_stiffness_scalar.py_func)
-smooth_stiffness.__doc__ = smooth_stiffness_scalar.__doc__
-smooth_torque = vectorize([f"{_F8}({','.join([_F8] * 7)})"], cache=True)(smooth_torque_scalar.py_func)
-smooth_torque.__doc__ = smooth_torque_scalar.__doc__
-chi1 = vectorize([f"{_F8}({','.join([_F8] * 4)})"], cache=True)(chi1_scalar.py_func)
-chi1.__doc__ = chi1_scalar.__doc__
-chi2 = vectorize([f"{_F8}({','.join([_F8] * 7)})"], cache=True)(chi2_scalar.py_func)
-chi2.__doc__ = chi2_scalar.__doc__
-dtorque_ddelta = vectorize([f"{_F8}({','.join([_F8] * 7)})"], cache=True)(dtorque_ddelta_scalar.py_func)
-dtorque_ddelta.__doc__ = dtorque_ddelta_scalar.__doc__
-excitation = vectorize([f"{_F8}({','.join([_F8] * 7)})"], cache=True)(excitation_scalar.py_func)
-excitation.__doc__ = excitation_scalar.__doc__
+#: NumPy ufuncs of the scalar kernels above (same arguments, float64), built on first use
+#: (:func:`drivelash._lazy.lazy_ufuncs`): ``deadzone_torque``, ``smooth_stiffness``,
+#: ``smooth_torque``, ``chi1``, ``chi2``, ``dtorque_ddelta``, ``excitation``.
+_UFUNCS = {
+    "deadzone_torque": (deadzone_torque_scalar, 6),
+    "smooth_stiffness": (smooth_stiffness_scalar, 5),
+    "smooth_torque": (smooth_torque_scalar, 7),
+    "chi1": (chi1_scalar, 4),
+    "chi2": (chi2_scalar, 7),
+    "dtorque_ddelta": (dtorque_ddelta_scalar, 7),
+    "excitation": (excitation_scalar, 7),
+}
+__getattr__, __dir__ = lazy_ufuncs(__name__, _UFUNCS, globals())

@@ -14,7 +14,9 @@ from __future__ import annotations
 
 import math
 
-from numba import njit, vectorize
+from numba import njit
+
+from drivelash._lazy import lazy_ufuncs
 
 
 @njit(cache=True)
@@ -70,7 +72,6 @@ def friction_scalar(omega, T_C, beta, T_S, omega_s, omega_reg):
     return friction_inv_scalar(omega, T_C, beta, T_S, 1.0 / omega_s, inv_omega_reg)
 
 
-friction = vectorize(["float64(float64,float64,float64,float64,float64,float64)"], cache=True)(
-    friction_scalar.py_func
-)
-friction.__doc__ = friction_scalar.__doc__
+#: ``friction``: the NumPy ufunc of :func:`friction_scalar`, built on first use
+#: (:func:`drivelash._lazy.lazy_ufuncs`).
+__getattr__, __dir__ = lazy_ufuncs(__name__, {"friction": (friction_scalar, 6)}, globals())
