@@ -42,16 +42,17 @@ def test_te_runtime_and_protocol_import_no_learner():
 
 def test_the_command_line_and_the_estimator_import_no_store_and_build_no_ufunc():
     """Every ``drivelash`` command imports the command table (``drivelash.cli``, which imports
-    ``commands.track`` and its message helpers from ``drivelash.wear``) and most import the
-    estimator: neither loads SQLAlchemy (≈ 0.4 s; only the wear commands need it) nor builds the
-    physics ufuncs (≈ 1.2 s; session 26). Negative control: the wear package's public names still
-    resolve, and then SQLAlchemy is loaded."""
+    ``commands.track``) and most import the estimator: neither loads SQLAlchemy (≈ 0.4 s; only the
+    wear commands need it — ``commands.track`` imported ``drivelash.wear.words`` at the top, and the
+    ``drivelash.wear`` package imports its store) nor builds the physics ufuncs (≈ 1.2 s; session
+    26). Negative control: importing the wear package loads SQLAlchemy, and its public ``ingest``
+    is the function (an eager package import keeps it so, whatever imported the submodule first)."""
     code = (
         "import sys, drivelash.cli, drivelash.estimation.deadzone, drivelash.commands.estimate\n"
         "from drivelash.physics import backlash\n"
         "print(sorted(m for m in ('sqlalchemy', 'alembic') if m in sys.modules), 'chi1' in vars(backlash))\n"
-        "import drivelash.wear as w\n"
-        "print(w.Store.__name__, w.load_fleet.__name__, 'sqlalchemy' in sys.modules)\n"
+        "import drivelash.wear.ingest, drivelash.wear as w\n"
+        "print(w.Store.__name__, w.load_fleet.__name__, callable(w.ingest), 'sqlalchemy' in sys.modules)\n"
     )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert r.stdout.splitlines() == ["[] False", "Store load_fleet True"], r.stdout
+    assert r.stdout.splitlines() == ["[] False", "Store load_fleet True True"], r.stdout

@@ -26,7 +26,6 @@ from typing import Any
 import typer
 
 from drivelash.errors import DrivelashError
-from drivelash.wear.words import count
 
 track_app = typer.Typer(
     help="Wear tracking of backlash across a fleet: ingest, status, forecast, report.",
@@ -64,6 +63,7 @@ def run_ingest(
     from drivelash.wear.fleet import load_fleet
     from drivelash.wear.ingest import DaskRunner, check_files, ingest
     from drivelash.wear.store import Store
+    from drivelash.wear.words import count
 
     fleet = load_fleet(fleet_path)  # every config error before anything is opened
     check_files(fleet)  # and those its files show (a file of two axes, a time format that fits none)
@@ -416,6 +416,8 @@ def _print_forecast(s: dict[str, Any]) -> None:
     from rich.console import Console
     from rich.markup import escape
 
+    from drivelash.wear.words import count
+
     c = Console()
     mr = lambda x: "–" if x is None or not math.isfinite(x) else f"{1e3 * x:.3f} mrad"  # noqa: E731
     day = lambda t: t.strftime("%Y-%m-%d %H:%M UTC") if t is not None else "–"  # noqa: E731
@@ -466,6 +468,7 @@ def run_report(
     """Body of ``track report``; returns the written path (``label`` as in :func:`run_status`)."""
     from drivelash.io.outputs import HTML_EXTENSIONS, Outputs
     from drivelash.report.fleet import render_fleet_report, write_fleet_report
+    from drivelash.wear.words import count
 
     with Outputs("track report", inputs=_read_inputs(db, fleet), force=force) as out:
         target = out.file(out_path, option="-o", kinds=HTML_EXTENSIONS)
@@ -552,6 +555,8 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         Recordings that cannot be read are stored as failed with their reason; the exit
         status is then 2 (after everything else is stored).
         """
+        from drivelash.wear.words import count
+
         rep = run_ingest(fleet, db, workers, dask)
         if rep.failed:
             raise DrivelashError(

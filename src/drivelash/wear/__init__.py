@@ -9,34 +9,10 @@
 * :mod:`~drivelash.wear.trend` — change points (ruptures), outliers, growth models
   (statsmodels/scipy), forecast of the threshold crossing with a 90 % interval;
 * :mod:`~drivelash.wear.alarms` — threshold, forecast, jump and not-excited alarms.
-
-Public names are imported on first use (as in the other subpackages): every ``drivelash``
-command imports :mod:`~drivelash.wear.words` for its messages, and an eager package would load
-SQLAlchemy (≈ 0.4 s) into each of them.
 """
 
-from __future__ import annotations
-
-from typing import TYPE_CHECKING
-
-from drivelash._lazy import lazy_names
-
-if TYPE_CHECKING:
-    from drivelash.wear.fleet import AxisSpec, Fleet, load_fleet
-    from drivelash.wear.ingest import IngestReport, ingest
-    from drivelash.wear.store import EstimateRow, Store, StoreError
-
-_LAZY: dict[str, str] = {
-    "AxisSpec": "drivelash.wear.fleet",
-    "Fleet": "drivelash.wear.fleet",
-    "load_fleet": "drivelash.wear.fleet",
-    "IngestReport": "drivelash.wear.ingest",
-    "ingest": "drivelash.wear.ingest",
-    "EstimateRow": "drivelash.wear.store",
-    "Store": "drivelash.wear.store",
-    "StoreError": "drivelash.wear.store",
-}
+from drivelash.wear.fleet import AxisSpec, Fleet, load_fleet
+from drivelash.wear.ingest import IngestReport, ingest
+from drivelash.wear.store import EstimateRow, Store, StoreError
 
 __all__ = ["AxisSpec", "EstimateRow", "Fleet", "IngestReport", "Store", "StoreError", "ingest", "load_fleet"]
-
-__getattr__, __dir__ = lazy_names("drivelash.wear", _LAZY, globals())
