@@ -19,8 +19,6 @@ import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-import numpy as np
-
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 LIMITS = {"K_S": 5.0, "J_l": 5.0, "delta": 1.0, "delta1": 1.0}  # %, %, mrad, mrad
@@ -48,10 +46,9 @@ def _job(job: tuple) -> list[dict]:
 
         sc = get_scenario(key)
         return [_score(key, sc.plant_drivetrain, sc.plant_backlash, sc.simulate(), window)]
-    from estimation.test_generalisation import random_drive
+    from identify.test_identify_two_mass_slow import _random_cases
 
-    rng = np.random.default_rng(key)
-    return [_score(f"{key}/{c}", *random_drive(rng, c), window) for c in range(12)]
+    return [_score(f"{key}/{c}", *drive, window) for c, *drive in _random_cases(key)]
 
 
 def main(arg: str, cap: str | None = None) -> None:

@@ -250,14 +250,10 @@ def test_no_cap_of_the_auto_window_holds_both_slow_random_drives():
 
 def _cap_case(args: tuple) -> tuple[float, float, bool]:
     """(K_S %, J_l %, both 95 % intervals hold the truth) of random drive seed/case at a window [ms]."""
-    import numpy as np
-
-    from estimation.test_generalisation import random_drive
+    from identify.test_identify_two_mass_slow import _random_cases
 
     seed, case, w = args
-    rng = np.random.default_rng(seed)
-    for k in range(case + 1):
-        dt, _, trace = random_drive(rng, k)
+    dt, _, trace = next(tuple(d) for k, *d in _random_cases(seed) if k == case)
     r = identify_two_mass(trace, dt.N, window_s=w * 1e-3)
     return (
         round(100 * (r["K_S"].value / dt.K_S - 1), 2),
