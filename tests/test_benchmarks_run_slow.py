@@ -21,14 +21,17 @@ ROOT = Path(__file__).resolve().parents[1]
     [
         ["benchmarks/bench_compensation.py"],
         ["benchmarks/bench_memory.py", "--minutes", "0", "--prefix-minutes", "0.25", "--formats", "parquet"],
+        ["benchmarks/bench_first_run.py"],
     ],
-    ids=["compensation", "memory-prefix"],
+    ids=["compensation", "memory-prefix", "first-run"],
 )
 def test_benchmark_script_runs(args, tmp_path):
     env = {**os.environ, "DRIVELASH_CACHE": str(tmp_path / "cache")}
     cmd = [sys.executable, *args]
     r = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=1800)
     assert r.returncode == 0, (r.stdout + r.stderr)[-2000:]
+    if "first_run" in args[0]:  # three commands, each a first and a cached run
+        assert len([ln for ln in r.stdout.splitlines() if ln.rstrip().endswith("x")]) == 3, r.stdout
     if "memory" in args[0]:
         # the streamed command reproduces the in-memory figures (the bench's own check, printed)
         assert r.stdout.count(": True") == 4, r.stdout
