@@ -14,20 +14,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from .readme_figures import cpu_vendor, on_reference_cpu
+from .readme_figures import cpu_dependent
 
 pytestmark = pytest.mark.slow
 
-#: The margins depend on the network's fitted weights, and the network on the CPU (README,
-#: tests/te_comp/readme_figures.py): off the reference vendor's CPUs a strict known miss.
-cpu_dependent = pytest.mark.xfail(
-    not on_reference_cpu(),
-    strict=True,
-    reason=f"known miss on this CPU ({cpu_vendor() or 'vendor unknown'}): the README's margins are those of"
-    " the seed-0 network fitted on an Intel Xeon (pinned AVX2 path, promised by oneMKL on Intel CPUs"
-    " only); on an AMD EPYC (session 27) the fit ends in another network: gain margin 93.6 up to 1 m/s"
-    " (README 85 +-10 %), 216.7 up to 100 mm/s (197), slowest mode 1.17 % slower (1.3 %), K_v margin"
-    " 0.69 % smaller (0.8 %), raw motor torque 7.19 (6.5 +-10 %); the goals (no violation, <= 5 %) hold",
+#: The margins depend on the network's fitted weights, and the network on the CPU.
+network_margins = cpu_dependent(
+    "the README's margins (the seed-0 network's)",
+    "gain margin 93.6 up to 1 m/s (README 85 +-10 %), 216.7 up to 100 mm/s (197), slowest mode 1.17 %"
+    " slower (1.3 %), K_v margin 0.69 % smaller (0.8 %), raw motor torque 7.19 (6.5 +-10 %); the goals"
+    " (no violation, <= 5 %) hold",
 )
 
 VELOCITIES = (0.02, 0.05, 0.1, 0.25, 0.5, 1.0)
@@ -58,7 +54,7 @@ def learned(te_seed0):
     }
 
 
-@cpu_dependent
+@network_margins
 def test_learned_model_keeps_the_stated_margins(learned):
     from drivelash.control.stability import analyse_torque_path
 
@@ -74,7 +70,7 @@ def test_learned_model_keeps_the_stated_margins(learned):
     assert 1 - rep.K_v_margin_with / rep.K_v_margin_without == pytest.approx(0.008, abs=0.004)
 
 
-@cpu_dependent
+@network_margins
 def test_learned_model_with_raw_motor_torque_keeps_far_less_margin(learned):
     from drivelash.control.stability import analyse_torque_path
 

@@ -12,21 +12,13 @@ import json
 import numpy as np
 import pytest
 
-from .readme_figures import FIGURES, OTHER_CPU_MEASURED, cpu_vendor, on_reference_cpu
+from .readme_figures import FIGURES, OTHER_CPU_MEASURED, cpu_dependent
 
 pytestmark = pytest.mark.slow
 
-#: The learning figures and what follows from the network (te validate's pass averages) are the
-#: reference CPU's: elsewhere they are a known miss, measured (readme_figures.OTHER_CPU_MEASURED).
-#: Strict: should another vendor's CPU reproduce them, the marker has to go.
-cpu_dependent = pytest.mark.xfail(
-    not on_reference_cpu(),
-    strict=True,
-    reason=f"known miss on this CPU ({cpu_vendor() or 'vendor unknown'}): the README's learning figures"
-    " were measured on an Intel Xeon on the pinned AVX2 path (ATEN_CPU_CAPABILITY=avx2, MKL_CBWR=AVX2);"
-    " oneMKL promises that path's results on Intel CPUs only, and training is chaotic in the last bit,"
-    " so another network is fitted. Measured on an AMD EPYC (session 27): "
-    + ", ".join(f"{k} {v:g}" for k, v in OTHER_CPU_MEASURED.items()),
+#: The learning figures and what follows from the network (te validate's pass averages).
+network_figures = cpu_dependent(
+    "the README's learning figures", ", ".join(f"{k} {v:g}" for k, v in OTHER_CPU_MEASURED.items())
 )
 
 
@@ -83,19 +75,19 @@ def test_eq3_predicts_the_simulated_path_error(eq3_mae, name, v):
 
 
 # -- learning ------------------------------------------------------------------------------
-@cpu_dependent
+@network_figures
 def test_training_mae(evaluation):
     _check("train_mae_um", evaluation["summary"]["train"]["mae"]["stacked"])
 
 
-@cpu_dependent
+@network_figures
 def test_held_out_mae_and_ratio(evaluation):
     s = evaluation["summary"]["held-out"]
     _check("heldout_mae_um", s["mae"]["stacked"])
     _check("heldout_ratio_pct", 100 * s["ratio"]["stacked"])
 
 
-@cpu_dependent
+@network_figures
 def test_extrapolation_mae_and_ratio(evaluation):
     s = evaluation["summary"]["extrapolation"]
     _check("extrapolation_mae_um", s["mae"]["stacked"])
@@ -118,7 +110,7 @@ def test_stacked_beats_every_baseline_at_every_held_out_load(evaluation):
 
 
 # -- compensation ---------------------------------------------------------------------------
-@cpu_dependent
+@network_figures
 def test_constant_velocity_passes(summary):
     p = summary["passes"]
     _check("average_improvement_pct", 100 * p["average_improvement"])

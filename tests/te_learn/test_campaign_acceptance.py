@@ -14,7 +14,7 @@ import json
 import numpy as np
 import pytest
 
-from te_comp.readme_figures import cpu_vendor, on_reference_cpu
+from te_comp.readme_figures import cpu_dependent
 
 pytestmark = pytest.mark.slow
 
@@ -31,13 +31,9 @@ def _train_mae(evaluation, direction: str) -> float:
     return float(np.sum(n * np.array([r["mae"]["stacked"] for r in rows])) / n.sum())
 
 
-@pytest.mark.xfail(
-    not on_reference_cpu(),
-    strict=True,
-    reason=f"known miss on this CPU ({cpu_vendor() or 'vendor unknown'}): -x training MAE 0.0516 um on an"
-    " AMD EPYC (session 27; goal <= 0.05 um; +x 0.0649 um, see below), where the fit ends in another"
-    " network than on the reference Intel Xeon (0.0456 um): the pinned AVX2 path is promised by oneMKL on"
-    " Intel CPUs only (tests/te_comp/readme_figures.py)",
+@cpu_dependent(
+    "-x training MAE 0.0456 um (goal <= 0.05 um)",
+    "-x 0.0516 um, +x 0.0649 um (the +x known miss below)",
 )
 def test_training_mae_neg_direction(evaluation):
     assert _train_mae(evaluation, "neg") <= 0.05
