@@ -90,6 +90,21 @@ def cpu_vendor() -> str:
     return ""
 
 
+def cpu_model() -> str:
+    """``model name`` of the first CPU in /proc/cpuinfo ("" where there is none)."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return ""
+
+
+#: The CPU model :data:`OTHER_CPU_MEASURED` was measured on (its ``model name`` starts so).
+OTHER_CPU_MODEL = "AMD EPYC"
+
+
 def on_reference_cpu() -> bool:
     """True on a CPU of the reference's vendor (the learning figures hold there)."""
     return cpu_vendor() == REFERENCE_CPU_VENDOR
