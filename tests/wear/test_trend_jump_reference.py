@@ -112,3 +112,23 @@ def test_a_reference_of_two_or_of_three_that_disagree_makes_no_jump():
     y = 0.05 + 1.2e-3 * np.arange(6.0)
     y[1] -= 0.01
     assert detect_jumps(np.arange(6.0) * 7, y) == []
+
+
+@pytest.mark.parametrize("i", [1, 38])
+def test_a_wild_estimate_next_to_an_end_leaves_alone(i):
+    """Step 3 at a segment's end: a wild estimate second (or second-to-last) of 40 tilted the end
+    estimate's one-sided fit, and the end estimate — at the latest end, the one "now" leans on —
+    left first, taking a correct estimate with it (3 of 3 seeds before session 28). Excluded
+    estimates are now judged again against the inliers alone and rejoin within their limit."""
+    rng = np.random.default_rng(7)
+    end = 0 if i == 1 else 39
+    for _ in range(3):
+        days, y = _line_with_outlier(rng, 40, i)
+        tr = fit_trend(days, y, None, 0.1)
+        assert np.flatnonzero(~tr.inlier).tolist() == [i]
+        assert tr.change_points == []
+        # the mechanism (negative control): judged with the wild estimate among its neighbours,
+        # the correct end estimate is beyond its limit
+        r, step = trend._local_resid(days, y, [])
+        lim = max(trend.OUTLIER_SIGMA * noise_scale(y), trend.OUTLIER_FLOOR, trend.OUTLIER_STEPS * step[end])
+        assert abs(r[end]) > lim
