@@ -149,3 +149,21 @@ def test_the_jump_is_placed_at_its_first_recording(n_pre, n_post):
         cps = detect_jumps(t, y)
         right += bool(cps) and cps[0].index == n_pre
     assert right >= 47, right
+
+
+def test_a_fast_accelerating_fit_warns_nothing():
+    """The accelerating model's e^{kt} overflows far in the look-ahead (+inf there is right: the
+    crossing lies before it); the Python API printed seven RuntimeWarnings for such an axis
+    (axis 31 of these 200 — the only one — before session 28)."""
+    import warnings
+
+    rng = np.random.default_rng(11)
+    for _ in range(32):
+        t = np.arange(8, dtype=float) * 7.0
+        J, r, d0 = rng.uniform(0.003, 0.02), rng.uniform(0.5e-5, 3e-5), rng.uniform(0.01, 0.05)
+        y = d0 + r * t + rng.normal(0, 1e-4, t.size)
+        y[4:] += J
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        tr = fit_trend(t, y, np.full(t.size, 1e-4), d0 + J + 0.03)
+    assert tr.change_points and tr.change_points[0].index == 4

@@ -358,14 +358,19 @@ def _expm1_over_k(k: float, t: np.ndarray) -> np.ndarray:
     """(e^{kt} − 1)/k, continuous at k = 0 (→ t)."""
     if abs(k) < 1e-12:
         return t.copy()
-    return np.expm1(k * t) / k
+    # far in the look-ahead of a fast-accelerating fit e^{kt} overflows: +inf is the right value
+    # (the crossing lies before it) and no RuntimeWarning for the API user
+    with np.errstate(over="ignore"):
+        return np.expm1(k * t) / k
 
 
 def _d_dk(k: float, t: np.ndarray) -> np.ndarray:
     """∂/∂k of (e^{kt} − 1)/k (→ t²/2 at k = 0)."""
     if abs(k) < 1e-9:
         return 0.5 * t * t
-    return (t * np.exp(k * t) * k - np.expm1(k * t)) / (k * k)
+    # overflow far in the look-ahead gives inf or NaN (inf − inf) there, past the crossing
+    with np.errstate(over="ignore", invalid="ignore"):
+        return (t * np.exp(k * t) * k - np.expm1(k * t)) / (k * k)
 
 
 def _aicc(rss: float, n: int, p: int) -> float:
