@@ -79,26 +79,25 @@ OTHER_CPU_MEASURED: dict[str, float] = {
 }
 
 
-def cpu_vendor() -> str:
-    """``vendor_id`` of the first CPU in /proc/cpuinfo ("" where there is none)."""
+def _cpuinfo(field: str) -> str:
+    """Value of ``field`` for the first CPU in /proc/cpuinfo ("" where there is none)."""
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("vendor_id"):
+            if line.startswith(field):
                 return line.split(":", 1)[1].strip()
     except OSError:
         pass
     return ""
+
+
+def cpu_vendor() -> str:
+    """``vendor_id`` of the first CPU in /proc/cpuinfo ("" where there is none)."""
+    return _cpuinfo("vendor_id")
 
 
 def cpu_model() -> str:
     """``model name`` of the first CPU in /proc/cpuinfo ("" where there is none)."""
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return ""
+    return _cpuinfo("model name")
 
 
 #: The CPU model :data:`OTHER_CPU_MEASURED` was measured on (its ``model name`` starts so).
