@@ -159,13 +159,10 @@ def test_a_fast_accelerating_fit_warns_nothing():
 
     rng = np.random.default_rng(11)
     for _ in range(32):
-        t = np.arange(8, dtype=float) * 7.0
-        J, r, d0 = rng.uniform(0.003, 0.02), rng.uniform(0.5e-5, 3e-5), rng.uniform(0.01, 0.05)
-        y = d0 + r * t + rng.normal(0, 1e-4, t.size)
-        y[4:] += J
+        t, y, _, thr, _ = _new_axis_with_jump(rng, n_pre=4)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        tr = fit_trend(t, y, np.full(t.size, 1e-4), d0 + J + 0.03)
+        tr = fit_trend(t, y, np.full(t.size, 1e-4), thr)
     assert tr.change_points and tr.change_points[0].index == 4
 
 
@@ -179,8 +176,6 @@ def test_readme_false_jump_counts_of_a_single_wild_estimate(n, false_jumps):
     hits = 0
     for i in range(1, n):
         for _ in range(20):
-            days = np.arange(n, dtype=float)
-            y = 0.05 + 5e-4 * days + rng.normal(0, 3e-4, n)
-            y[i] += 0.01
+            days, y = _line_with_outlier(rng, n, i)
             hits += bool(fit_trend(days, y, None, 0.1).change_points)
     assert hits == false_jumps

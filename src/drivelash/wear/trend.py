@@ -223,7 +223,7 @@ def _huber_poly(x: np.ndarray, y: np.ndarray, deg: int, iters: int = 6) -> np.nd
 def _local_fit(t: np.ndarray, y: np.ndarray) -> np.poly1d:
     """Local trend before a candidate break (robust): quadratic from 5 points on (smooth
     acceleration must not look like a jump), linear below."""
-    deg = 2 if t.size >= 5 else min(1, t.size - 1)
+    deg = 2 if t.size >= 5 else 1  # a reference has three or more (:func:`_window_inliers`)
     return np.poly1d(_huber_poly(t - t[-1], y, deg))
 
 
@@ -330,7 +330,7 @@ def _search_jumps(t: np.ndarray, y: np.ndarray, s: float) -> list[ChangePoint]:
         ref = _local_fit(tw, yw)
         post = y[b : b + 2] - ref(t[b : b + 2] - tw[-1])
         # the recent wear increment per recording: a jump is sudden against it
-        step = float(np.median(np.abs(np.diff(yw)))) if yw.size >= 2 else 0.0
+        step = float(np.median(np.abs(np.diff(yw))))  # a reference has three or more
         j_b = max(j_min, JUMP_STEPS * step)
         if post.size < 2 or not (np.all(np.abs(post) > j_b) and np.sign(post[0]) == np.sign(post[1])):
             continue
@@ -599,21 +599,17 @@ def _outliers(
     # within its limit: at a segment's end, a wild estimate next to the end point tilted the end
     # point's one-sided fit, and the end point left first (a 10 mrad outlier second-to-last of a
     # 40-estimate line took the latest, correct estimate with it, in 3 of 3 seeds)
-    rejoined = False
-    for _ in range(n):
-        out = ~inl
-        if not out.any():
-            break
+    if inl.all():
+        return inl, lim
+    while not inl.all():  # each pass rejoins one or stops, judging with the current inliers
         r, step = _local_resid(t, y, cps, keep=inl, unjudged=np.inf)
-        lim_b = np.maximum(floor, OUTLIER_STEPS * step)
-        back = out & (np.abs(r) <= lim_b)
+        lim = np.maximum(floor, OUTLIER_STEPS * step)
+        back = ~inl & (np.abs(r) <= lim)
         if not back.any():
-            break
-        inl[int(np.flatnonzero(back)[np.argmin((np.abs(r) / lim_b)[back])])] = True
-        rejoined = True
-    if rejoined:
-        lim = np.maximum(floor, OUTLIER_STEPS * _local_resid(t, y, cps, keep=inl)[1])
-    return inl, lim
+            return inl, lim
+        inl[int(np.flatnonzero(back)[np.argmin((np.abs(r) / lim)[back])])] = True
+    # every one rejoined: the limits with all of them as neighbours
+    return inl, np.maximum(floor, OUTLIER_STEPS * _local_resid(t, y, cps, keep=inl)[1])
 
 
 def fit_trend(
