@@ -64,14 +64,14 @@ def test_quick_path_with_defaults(te_quick):
     # no-load runs covered, less the 5 mm the preprocessing trims off each end of the no-load
     # curves (geo_trim) — the range te export writes (measured_range), not the runs' span
     from drivelash.te.protocol.campaign import load_campaign
-    from drivelash.te.protocol.plausibility import geometric_coverage
+    from drivelash.te.protocol.plausibility import check_campaign
     from drivelash.te.runtime.persist import load_model
     from drivelash.te.runtime.table import measured_range
 
     vr = meta["valid_range"]
     model = load_model(te_quick["M"])
     assert (vr["x_min"], vr["x_max"]) == measured_range(model) == model.geometric_range()
-    runs = geometric_coverage(load_campaign(te_quick["C"]))
+    runs = check_campaign(load_campaign(te_quick["C"]), 3000.0).valid_range
     assert runs[1] - runs[0] == pytest.approx(0.4, abs=1e-3)
     trim = meta["pipeline"]["geo_trim"]
     assert (vr["x_min"], vr["x_max"]) == pytest.approx((runs[0] + trim, runs[1] - trim), abs=1e-3)

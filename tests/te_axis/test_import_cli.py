@@ -16,7 +16,8 @@ from drivelash.te.protocol.campaign import load_campaign
 from .synth import BENCH, K_T, Run, standard_runs, te_of, write_axis
 
 EXE = Path(sys.executable).parent / "drivelash"
-SHORT = {"lo": 0.05, "hi": 0.3}
+# 350 mm: the load passes leave 290 mm to train on, more than one pinion revolution (266.7 mm)
+SHORT = {"lo": 0.05, "hi": 0.4}
 
 
 def _run(*args: str) -> subprocess.CompletedProcess:

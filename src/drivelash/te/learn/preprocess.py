@@ -39,6 +39,7 @@ from drivelash.te.learn.features import bump_features
 
 __all__ = [
     "GRID_STEP",
+    "LOAD_TRIM",
     "UM",
     "GearGeometry",
     "GeometricCurve",
@@ -59,6 +60,8 @@ __all__ = [
 
 #: Resampling step over table position [m] (paper §IV: 50 µm).
 GRID_STEP = 50e-6
+#: Travel [m] dropped at both ends of each load run (:attr:`TEPipeline.trim`).
+LOAD_TRIM = 30e-3
 
 #: Conversion factor metres → micrometres.
 UM = 1e6
@@ -441,7 +444,7 @@ class TEPipeline:
     cutoff_factor: float = 3.0
     filter_order: int = 4
     offset: str = "mean"
-    trim: float = 30e-3
+    trim: float = LOAD_TRIM
     geo_trim: float = 5e-3
 
     @property

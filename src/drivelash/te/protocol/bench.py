@@ -221,17 +221,22 @@ def model_context(
     holdout_loads : tuple of float
         Loads left out of training [N].
     valid_x : tuple of float, optional
-        Valid position range [m]; default the span covered by the geometric runs of
-        both directions (:func:`~drivelash.te.protocol.plausibility.geometric_coverage`).
+        Valid position range [m]; default the plausibility report's
+        (:func:`~drivelash.te.protocol.plausibility.check_campaign`): the span the geometric
+        runs of both directions cover, where the load passes were recorded too.
         :func:`~drivelash.te.runtime.persist.save_model` stores it narrowed to where the
         fitted no-load curves hold data (:func:`~drivelash.te.runtime.persist.measured_context`).
     base : CompensatorParams, optional
         Compensator settings whose drive-train fields are filled from the axis.
     """
-    from drivelash.te.protocol.plausibility import geometric_coverage
-
     m = campaign.manifest
-    lo, hi = valid_x if valid_x is not None else geometric_coverage(campaign)
+    if valid_x is None:
+        from drivelash.te.protocol.plausibility import check_campaign
+
+        report = check_campaign(campaign, max_load)
+        report.raise_errors()
+        valid_x = report.valid_range
+    lo, hi = valid_x
     train = sorted(
         f for f in m.loads if f <= max_load + 1e-9 and all(abs(f - h) > 1e-6 for h in holdout_loads)
     )

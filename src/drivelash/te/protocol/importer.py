@@ -164,7 +164,7 @@ def import_campaign(
     x_unit = next(((name, str(m.unit)) for name, m in cols.items() if m.column == "x_T"), None)
     report = check_runs(
         records, bench.r_eff, bench.tooth_pitch, bench.travel, max_load=max_load, source=str(axis_path),
-        column_scales=scales, x_unit=x_unit, for_score=for_score,
+        column_scales=scales, x_unit=x_unit, for_score=for_score, n_t=bench.n_t,
     )  # fmt: skip
     report.raise_errors()  # an error is the one line the user sees; warnings only when it goes on
     if warn is not None:
@@ -238,8 +238,8 @@ def summary_lines(manifest: CampaignManifest, report: PlausibilityReport) -> lis
     if report.valid_range:
         lo, hi = report.valid_range
         lines.append(
-            f"covered by the geometric runs of both directions: {lo:.4f} … {hi:.4f} m (a fitted model's"
-            " valid range is where its no-load curves hold data within it)"
+            f"covered by the geometric runs of both directions and the load passes: {lo:.4f} … {hi:.4f} m"
+            " (a fitted model's valid range is where its no-load curves hold data within it)"
         )
     lines.append(f"plausibility: {len(report.warnings)} warning(s), no error")
     return lines
