@@ -633,9 +633,9 @@ def _measured_under_load(
     weights for their features are untrained, and its prediction where they mesh is not
     known (finding A9's residue: 140 mm of rows on a 266.7 mm pinion, 0.047 µm MAE on them,
     0.70–1.15 µm over the rest of the travel, 0.7–1.2 times the load term itself; 340 mm of
-    rows: 0.08 µm over the rest). The range then narrows to
-    the rows. A narrowed range is a warning naming it; nothing left is an error. With fewer
-    than two training loads (step 7 reports it) a direction does not narrow the range.
+    rows: 0.08 µm over the rest). The range then narrows to the rows. A narrowed range is a
+    warning naming it; nothing left is an error. With fewer than two training loads (step 7
+    reports it) a direction does not narrow the range.
     """
     g_lo, g_hi = span
     lo, hi = span
