@@ -126,6 +126,11 @@ BLOCK = 1 << 16
 #: Correlation of the motor torque with Δθ below −this is refused as swapped channels or a wrong
 #: sign (:attr:`MotionSummary.torque_deflection_corr`; docs/assumptions.md).
 SWAP_CORRELATION = 0.2
+#: Lowest sample rate [Hz] at which the online 95 % interval was measured to hold the truth: the
+#: 18 bench scenarios sliced to 2 kHz 18/18, to 1 kHz 9/18 (δ̂ 0.3–0.6 mrad low on the small gaps;
+#: tests/estimation/test_online_rate.py, docs/assumptions.md "Online estimate at 1 kHz"). Below
+#: it the result carries a note (not blocking: δ̂ met the 1 mrad goal at 1 kHz).
+ONLINE_VERIFIED_RATE_HZ = 2000.0
 #: Largest 95 % half-width [rad] with which an estimate may be called converged: the accuracy
 #: the tool promises when it says "converged" (issue 11: |δ̂ − δ| ≤ 2 mrad or flagged).
 CLAIM_HALF_WIDTH = 2e-3
@@ -1181,6 +1186,12 @@ def _verdict(
             f"the motor torque falls as Δθ = θ_m/N − θ_l grows (correlation {rho:+.2f}; a motor driving "
             "its load gives a positive one): the motor and load channels are swapped, or the sign of "
             "one position or of the torque is wrong — check the [columns] mapping"
+        )
+    if ok and not at_bound and 1.0 / T_s < 0.99 * ONLINE_VERIFIED_RATE_HZ:
+        warnings.append(
+            f"note: the sample rate {1.0 / T_s:.4g} Hz is below the {ONLINE_VERIFIED_RATE_HZ:.4g} Hz down to"
+            " which the 95 % interval is verified: at 1 kHz δ̂ ran 0.3–0.6 mrad low on the bench's 105 and"
+            " 186 mrad gaps, outside its interval (docs/assumptions.md, 'Online estimate at 1 kHz')"
         )
     blocking = [w for w in warnings if not w.startswith("note:")]
     converged = bool(ok and settled and not blocking)
