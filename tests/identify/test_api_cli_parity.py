@@ -300,3 +300,31 @@ def test_kuka_estimate_identify_without_the_drive_writes_the_identification_repo
     assert "drivelash identify (two-mass)" in html and "Identified parameters" in html
     text = " ".join((out + err).split())
     assert text.count("online estimate not run") == 1, text
+
+
+# ---------------------------------------------------------------- 9b. the option the message names
+def test_estimate_has_the_resample_option_its_message_names(rec, tmp_path, capsys):
+    """Session 30 tester A (L1): the command refused a recording with a gap in its time stamps
+    with "resample explicitly with --resample or [sampling] resample = true", while
+    ``estimate --resample`` was "No such option" (only ``identify`` had it). The option now
+    does what ``[sampling] resample = true`` does, streamed and with ``--identify``."""
+    from tests.cli_runner import run_in_process
+
+    df, _ = rec
+    gap = pd.concat([df.iloc[:20000], df.iloc[20800:]])
+    p = tmp_path / "gap.parquet"
+    gap.to_parquet(p)
+    cfg = _bench_cfg(tmp_path)
+    code, _, err = run_in_process(["estimate", str(p), "-c", str(cfg)], capsys)
+    assert code == 2 and "--resample" in err, err  # negative control: refused without it
+    ref = dl.estimate_backlash(dl.Trace.from_frame(gap, dl.load_config(cfg), resample=True), cfg, DELTA1)
+    for extra in ([], ["--identify"]):
+        out = tmp_path / f"est{len(extra)}.json"
+        code, _, err = run_in_process(
+            ["estimate", str(p), "-c", str(cfg), "--resample", "--json", str(out), *extra], capsys
+        )
+        assert code == 0, err
+        s = json.loads(out.read_text())
+        assert s["samples"] == len(df)  # the 100 ms hole filled on the 125 µs grid
+        if not extra:
+            assert s["delta"] == ref.delta  # the same numbers as the notebook's resample=True

@@ -70,12 +70,15 @@ def run_estimate(
     quiet: bool = False,
     identify: bool = False,
     force: bool = False,
+    resample: bool = False,
 ) -> dict[str, Any]:
     """Body of ``drivelash estimate`` (callable from Python; returns the JSON summary).
 
     ``identify``: identify the drive offline first (two-mass, 95 % intervals) and take the
     values the configuration lacks from it
     (:func:`drivelash.estimation.backlash_api.estimate_with_identification`).
+    ``resample``: put a non-uniformly sampled recording on a uniform grid (``--resample``, as
+    ``[sampling] resample = true``); without it such a recording is refused.
     Outputs (``json_out``, ``plot``, ``report``) are validated before any work and written
     together at the end (:class:`drivelash.io.outputs.Outputs`): a failing plot leaves none.
     """
@@ -99,14 +102,16 @@ def run_estimate(
             cfg.require("backlash")
         if identify:  # the offline identification needs the whole recording (read within the budget)
             # what the identification needs; the online law's velocities are checked when it runs
-            trace = load_trace(trace_path, cfg, required=IDENTIFY_COLUMNS)
+            trace = load_trace(trace_path, cfg, required=IDENTIFY_COLUMNS, resample=resample or None)
             if not quiet:
                 print_warnings(trace.meta)
             est = estimate_with_identification(trace, cfg, method=method)
             res, core = est.result, est.summary
         else:  # streamed: bounded memory, the same numbers as estimate_from_config on the whole trace
             rows = chunk_rows_from_env()
-            with TraceStream(trace_path, cfg, required=INPUT_COLUMNS, chunk_rows=rows) as stream:
+            with TraceStream(
+                trace_path, cfg, required=INPUT_COLUMNS, chunk_rows=rows, resample=resample or None
+            ) as stream:
                 check_budget(
                     _stream_bytes(stream),
                     what=f"{trace_path}: estimating {stream.n_samples} samples in chunks",
@@ -303,6 +308,9 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
             "from it (an identified δ1's uncertainty is carried into δ̂'s interval); the JSON carries "
             "offline δ and online δ̂ and flags disagreement.",
         ),
+        resample: bool = typer.Option(
+            False, "--resample", help="Resample non-uniform time onto a uniform grid."
+        ),
         force: bool = typer.Option(False, "--force", help=FORCE_HELP),
     ) -> None:
         """Estimate the deadzone (backlash) angle of a drive train from a recording."""
@@ -315,6 +323,7 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
             report=report,
             identify=identify,
             force=force,
+            resample=resample,
         )
 
     @app.command()
