@@ -44,3 +44,20 @@ def test_negative_control_unescaped_rich_drops_them(capsys):
 
     Console().print("warning: [backlash] delta1 = 95 mrad")
     assert "[backlash]" not in capsys.readouterr().out
+
+
+def test_a_note_prints_with_one_prefix_and_the_offline_warnings_print_too(capsys):
+    """Session 30 tester A: L2 — a note among the warnings printed as "warning: note: …";
+    M4 — with ``--identify`` the online line said "see the identification warning" while that
+    warning (the remedy: "add offset = 200.6 rad to theta_l") was only in the JSON."""
+    note = "note: the sample rate 1000 Hz is below the 2000 Hz down to which …"
+    remedy = "the encoders' zeros are offset — add offset = 200.6 rad to theta_l in [columns]"
+    s = SUMMARY | {
+        "warnings": [note, "a real warning"],
+        "identification": SUMMARY["identification"] | {"warnings": [remedy]},
+    }
+    _print_summary(s)
+    out = " ".join(capsys.readouterr().out.split())
+    assert "note: the sample rate 1000 Hz" in out and "warning: note:" not in out
+    assert "warning: a real warning" in out  # negative control: a warning keeps its prefix
+    assert f"offline warning: {remedy}" in out

@@ -179,6 +179,9 @@ def _print_summary(s: dict[str, Any]) -> None:
             )
         else:
             c.print(f"  offline δ not determined: {escape(ident['reason'])}")
+        for w in ident.get("warnings", []):  # the online warnings may point here ("see the
+            # identification warning"): the remedy must be on the terminal, not only in the JSON
+            c.print(f"  [yellow]offline warning:[/yellow] {escape(w)}")
     if s["delta"] is None:  # --identify could not give the drive: its reason and the warnings only
         c.print(f"  [yellow]{escape(s['reason'])}[/yellow]")
     else:
@@ -208,7 +211,10 @@ def _print_summary(s: dict[str, Any]) -> None:
     for w in s.get("warnings", []):
         if s["delta"] is None and w == s["reason"]:
             continue  # printed just above
-        c.print(f"  [yellow]warning:[/yellow] {escape(w)}")
+        if w.startswith("note: "):  # a note is not a warning: one prefix, not "warning: note:"
+            c.print(f"  note: {escape(w[len('note: ') :])}")
+        else:
+            c.print(f"  [yellow]warning:[/yellow] {escape(w)}")
 
 
 def run_reproduce(
