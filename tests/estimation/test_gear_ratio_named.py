@@ -61,3 +61,26 @@ def test_cli_one_line_exit_2_and_negative_control(bench, tmp_path, capsys):
         if code:
             assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
             assert "drivetrain.N: 0.2 contradicts the recording" in err
+
+
+def test_a_load_encoder_counting_the_other_way_is_named_by_both_commands(bench):
+    """Session 30 tester A (M2): θ_l counting against θ_m (fitted ratio −1.03) was let through —
+    ``estimate`` ended at its δ bound with "check the units", ``identify`` blamed the motion and
+    said "the signs agree with the data". Both now refuse it naming the sign; the numpy ratio is
+    the reference. Negative control: the same recording with its own sign is accepted."""
+    sc, tr = bench
+    flipped = dl.Trace({c: (-np.asarray(tr[c]) if c in ("theta_l", "omega_l") else tr[c]) for c in COLS})
+    th_m, th_l = flipped["theta_m"], flipped["theta_l"]
+    dl_ = th_l - th_l.mean()
+    N_hat = float((th_m - th_m.mean()) @ dl_) / float(dl_ @ dl_)
+    assert N_hat < -0.9
+    for call in (
+        lambda t: dl.estimate_backlash(t, sc.estimator_drivetrain, sc.estimator_backlash.delta1),
+        lambda t: dl.identify_drive(t, N=1.0),
+    ):
+        with pytest.raises(dl.ParameterError) as e:
+            call(flipped)
+        msg = str(e.value)
+        assert f"ratio {N_hat:.4g}" in msg and "check the sign of theta_l or theta_m" in msg, msg
+    est = dl.estimate_backlash(tr, sc.estimator_drivetrain, sc.estimator_backlash.delta1)
+    assert est.converged  # negative control

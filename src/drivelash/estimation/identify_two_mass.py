@@ -322,7 +322,9 @@ def check_gear_ratio(th_m: np.ndarray, th_l: np.ndarray, N: float, src: Any = No
     the gap's share of the load travel on a drive with the right N (the gap is bounded, the
     travel is not). A wrong N (a forgotten belt stage, N and 1/N swapped, motor counts per load
     revolution) makes Δθ = θ_m/N − θ_l follow the load travel: every later verdict ("the load
-    stayed on one flank", "no contact") would blame the recording instead of N.
+    stayed on one flank", "no contact") would blame the recording instead of N. A negative N̂
+    (the load moving against the motor: one encoder counts the other way) is refused by the
+    same rule, naming the sign.
 
     Raises
     ------
@@ -336,19 +338,26 @@ def check_gear_ratio(th_m: np.ndarray, th_l: np.ndarray, N: float, src: Any = No
     if not var_l > 0.0:
         return
     N_hat = float((th_m - th_m.mean()) @ dl) / var_l
-    if not (math.isfinite(N_hat) and N_hat > 0.0) or abs(N_hat / N - 1.0) <= GEAR_RATIO_TOLERANCE:
+    if not (math.isfinite(N_hat) and N_hat != 0.0) or abs(N_hat / N - 1.0) <= GEAR_RATIO_TOLERANCE:
         return
     span_hat = float(np.ptp(th_m / N_hat - th_l))
     span_cfg = float(np.ptp(th_m / N - th_l))
     travel = float(np.ptp(th_l))
     if span_cfg > GEAR_RATIO_SPAN_FACTOR * span_hat and travel > GEAR_RATIO_SPAN_FACTOR * span_hat:
+        # a negative ratio: the load moves against the motor — one encoder counts the other way
+        # (session 30 tester A, M2: it was let through and blamed on the motion and the signs)
+        check = (
+            "check the sign of theta_l or theta_m (scale = -1 in [columns]) and N"
+            if N_hat * N < 0.0
+            else "check N, the encoder scales and units"
+        )
         raise ParameterError(
             "drivetrain",
             "N",
             f"{N:.6g} contradicts the recording{f' {src}' if src else ''}: its motor and load positions "
             f"move in the ratio {N_hat:.4g} (Δθ = θ_m/N − θ_l spans {1e3 * span_cfg:.4g} mrad with N, "
             f"{1e3 * span_hat:.4g} mrad with {N_hat:.4g}, over a load travel of {travel:.4g} rad) — "
-            "check N, the encoder scales and units",
+            f"{check}",
         )
 
 
