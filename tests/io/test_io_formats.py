@@ -343,6 +343,32 @@ def test_a_units_row_below_the_header_is_read_and_checked(tmp_path, units):
     assert "column_units" not in ref.meta
 
 
+@pytest.mark.parametrize("units", [False, True])
+@pytest.mark.parametrize("pre", [PREAMBLE, "Recorder;Trace1\nSample time;0,001\n"])
+def test_a_preamble_above_a_table_with_a_text_column(tmp_path, pre, units):
+    """Session 30 tester A (M1): a preamble *and* a CNC's text status column together — each
+    alone worked — failed: the header search wanted a row of numbers only below the header, so
+    the first preamble line was taken for it ("column 'Trace', line 2: not a number: 'Axis:'",
+    or "7 fields where the header names 2 columns" below a key;value preamble). Now the same
+    numbers as the file without preamble and status column, whole and streamed."""
+    from drivelash.io.stream import iter_trace_chunks
+
+    t = np.arange(500) / 1000.0
+    head = "t;theta_m;Status\n" + ("s;rad;-\n" if units else "")
+    rows = "".join(f"{float(a)!r};{float(np.cos(a))!r};OK\n".replace(".", ",") for a in t)
+    plain = tmp_path / "plain.csv"
+    plain.write_text("t;theta_m\n" + "".join(f"{float(a)!r};{float(np.cos(a))!r}\n" for a in t))
+    p = tmp_path / "status.csv"
+    p.write_text(pre + head + rows)
+    ref, tr = load_trace(plain), load_trace(p)
+    np.testing.assert_array_equal(tr["theta_m"], ref["theta_m"])
+    assert "Status" not in tr.columns
+    n_pre = len(pre.strip().splitlines())
+    assert any(f"skipped {n_pre} line(s) above the column header" in w for w in tr.meta["warnings"])
+    chunks = list(iter_trace_chunks(p, chunk_rows=128))
+    np.testing.assert_array_equal(np.concatenate([c["theta_m"] for c in chunks]), ref["theta_m"])
+
+
 def test_a_units_row_below_a_preamble(tmp_path):
     """Preamble, names, units, numbers (a drive tool's export): both skipped, both said."""
     ref = load_trace(_units_csv(tmp_path / "plain.csv", None))

@@ -308,14 +308,24 @@ def _header_index(lines: list[str]) -> int:
         sep = _sniff_sep(lines[i])
         if (sep, _width(lines[i])) == skip:
             continue
-        if not _same_width(lines[i], lines[i + 1]) or _numeric_row(lines[i], sep):
-            continue
+        if not _same_width(lines[i], lines[i + 1]) or _mostly_numeric_row(lines[i], sep):
+            continue  # a header is no row of numbers (one with a trailing separator neither)
         below = i + 1
         if _unit_cells(_header_tokens(lines[i], sep), lines[i + 1], sep) and i + 2 < len(lines):
             below = i + 2  # names, units, then the numbers (a DAQ's export)
-        if _same_width(lines[i], lines[below]) and _numeric_row(lines[below], sep, stamps=True):
+        if _same_width(lines[i], lines[below]) and _mostly_numeric_row(lines[below], sep):
             return i
     return 0
+
+
+def _mostly_numeric_row(line: str, sep: str) -> bool:
+    """More than half of the fields of ``line`` are numbers or time stamps: a data row, which
+    may carry a text column (a CNC's status or comment) that the reader drops. A ``key;value``
+    preamble line (``Temp;20,3``: one of two) is not (session 30 tester A, M1: a preamble over
+    a table with a ``Status`` column was taken for the header)."""
+    fields = [f.strip().strip('"').strip() for f in _fields(line, sep)]
+    n = sum(_numeric_row(f, sep, stamps=True) for f in fields if f)
+    return 2 * n > len(fields)
 
 
 #: How drive tools and DAQ exports write the units a ``[columns]`` unit names (a cell of a
