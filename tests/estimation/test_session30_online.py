@@ -89,3 +89,29 @@ def test_true_delta1_keeps_its_claim(bench0b):
     assert not any("δ1" in w for w in est.warnings), est.warnings
     lo, hi = _interval(est)
     assert lo <= DELTA <= hi and hi - lo < 0.5e-3
+
+
+def test_below_2khz_the_note_states_no_signed_bias(bench0b):
+    """M5: below 2 kHz the note said δ̂ "ran 0.3–0.6 mrad low", but with identified parameters
+    bench-0B at 1 kHz ran 1.04 mrad high — a user correcting by the note made it worse. The note
+    now says the interval is not verified there and states no direction."""
+    df, p = bench0b
+    est = dl.estimate_backlash(df.iloc[::8].reset_index(drop=True), p, DELTA1)
+    notes = [w for w in est.warnings if "down to which the 95 % interval is verified" in w]
+    assert len(notes) == 1 and notes[0].startswith("note: the sample rate 1000 Hz is below the 2000 Hz")
+    assert "either sign" in notes[0] and " low" not in notes[0] and " high" not in notes[0], notes[0]
+
+
+def test_start_up_transient_is_not_called_swapped_channels(bench0b):
+    """M6: the first 0.5 s of a correct recording (the motor accelerating the load through the
+    gap, no reversal yet: torque/Δθ correlation −0.49) was told its channels are swapped or a sign
+    is wrong. The correlation is now judged only after two reversals. Negative control: the whole
+    recording with the torque's sign flipped keeps the warning (correlation −0.78)."""
+    df, p = bench0b
+    short = dl.estimate_backlash(df.iloc[:4000].reset_index(drop=True), p, DELTA1)
+    assert not short.result.excitation_ok  # shorter than the excitation window: said so
+    assert not any("channels are swapped" in w for w in short.warnings), short.warnings
+    flipped = df.copy()
+    flipped["torque_m"] *= -1.0
+    est = dl.estimate_backlash(flipped, p, DELTA1)
+    assert any("channels are swapped" in w for w in est.warnings) and not est.summary["converged"]
