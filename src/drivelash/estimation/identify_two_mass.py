@@ -3181,6 +3181,7 @@ def _build_result(
     evidence = refusal_evidence(trace, data)
     warnings = _plausibility(ordered, evidence)
     implausible = bool(warnings)
+    implausible_values: dict[str, dict[str, Any]] = {}  # the withheld values of an implausible fit
     if implausible:
         # a negative inertia, stiffness or friction: the fit sits in a wrong basin, and every
         # value of it is as wrong as that one — none is reported as determined (the raw values
@@ -3188,16 +3189,16 @@ def _build_result(
         # them: with the load encoder counting the other way a negative friction left K_S = 0.0406
         # [0.0146, 0.0667] N·m/rad (truth 32.94) "identifiable" in the JSON
         why = f"not determined: the two-mass fit is implausible ({warnings[0].split(':')[0]})"
-        raw = ", ".join(
-            f"{n} = {ordered[n].value:.4g}"
+        implausible_values = {
+            n: {"value": ordered[n].value, "ci95": [ordered[n].low, ordered[n].high]}
             for n in (*MECHANICAL, "encoder_delay")
             if n in ordered and ordered[n].identifiable
-        )
-        if raw:
+        }
+        if implausible_values:
+            raw = ", ".join(f"{n} = {v['value']:.4g}" for n, v in implausible_values.items())
             notes.append(f"implausible fit, not reported: {raw}")
-        for n in (*MECHANICAL, "encoder_delay"):
-            if n in ordered and ordered[n].identifiable:
-                ordered[n] = ParameterEstimate.unknown(n, why)
+        for n in implausible_values:
+            ordered[n] = ParameterEstimate.unknown(n, why)
     if warnings and visible:
         # a physically impossible fit (negative friction or inertia) does not support a backlash
         reason = (
@@ -3276,6 +3277,7 @@ def _build_result(
         "evidence": ev,
         "notes": notes,
         "implausible": implausible,
+        "implausible_values": implausible_values,
         "rigid_contact": None if rigid is None else rigid.as_dict(),
         "refusal_evidence": evidence,
         "motor_side_totals": totals,
