@@ -287,9 +287,11 @@ def run_identify_two_mass(
     (:func:`drivelash.estimation.identify_two_mass.identify_two_mass`) and writes the
     ``[drivetrain]``/``[backlash]`` tables ``estimate`` reads. A physically impossible result
     (negative inertia, stiffness or friction beyond its interval) never goes into a drive
-    table: with ``--out`` (or no output, TOML to stdout) it is refused with the likely cause,
-    exit code 2, nothing written; with only ``--json``/``--report`` the diagnosis is written
-    (``plausible: false``, the backlash verdict saying why δ is not determined).
+    table: no output requested (TOML to stdout) — refused with the likely cause, nothing
+    written; ``--json``/``--report`` — the diagnosis is written (``plausible: false``, no parameter
+    determined, the verdict saying why), then with ``--out`` the refusal is raised, without it
+    the summary is returned and the ``identify`` command exits 2 (the same exit code whether
+    ``--out`` was given or not).
     """
     from rich.console import Console
     from rich.markup import escape
@@ -315,9 +317,11 @@ def run_identify_two_mass(
         trace, window = select_window(stream, opts.max_samples)
     result = identify_checked(trace, cfg, model="two-mass")
     # an impossible drive (negative inertia or friction) never goes into a config file; the
-    # diagnosis alone (--json / --report without --out) is still written, with the verdict
-    diagnosis_only = out is None and (json_t is not None or report_t is not None)
-    if not result.plausible and not diagnosis_only:
+    # diagnosis (--json / --report) is still written, with the verdict, and the command exits 2
+    # either way (M7, session 30: with only --json it exited 0, without --out 2)
+    implausible = not result.plausible
+    diagnosis = json_t is not None or report_t is not None
+    if implausible and not diagnosis:
         raise DataError(
             f"implausible identification, nothing written: {result.warnings[0]}", path=str(trace_path)
         )
@@ -357,7 +361,16 @@ def run_identify_two_mass(
         from drivelash.report.identify_figures import render_two_mass_report
 
         html = render_two_mass_report(trace, result, cfg)
-    _write_identify_outputs(outputs, (out_t, text), (json_t, summary), (report_t, html))
+    _write_identify_outputs(
+        outputs, (None if implausible else out_t, text), (json_t, summary), (report_t, html)
+    )
+    if implausible and out is not None:
+        written = " and ".join(str(o) for o in (json_out, report) if o is not None)
+        raise DataError(
+            f"implausible identification, no drive table written (the diagnosis is in {written}): "
+            f"{result.warnings[0]}",
+            path=str(trace_path),
+        )
     if not quiet:
         console = Console(stderr=out is None)
         table = Table(title="two-mass identification (95 % intervals)")
@@ -564,8 +577,12 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         ),
         force: bool = typer.Option(False, "--force", help=FORCE_HELP),
     ) -> None:
-        """Identify a drive (rigid IDIM-LS or two-mass with backlash); write [drivetrain]/[backlash] TOML."""
-        run_identify(
+        """Identify a drive (rigid IDIM-LS or two-mass with backlash); write [drivetrain]/[backlash] TOML.
+
+        A physically impossible fit (negative inertia, stiffness or friction) exits with code 2
+        and writes no drive table; --json/--report still get the diagnosis.
+        """
+        summary = run_identify(
             trace,
             config,
             json_out=json_out,
@@ -576,6 +593,15 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
             model=model,
             force=force,
         )
+        if summary.get("plausible") is False:  # two-mass diagnosis only (--json/--report): exit 2 too
+            from drivelash.errors import DataError
+
+            written = " and ".join(str(o) for o in (json_out, report) if o is not None)
+            raise DataError(
+                f"implausible identification, no drive table written (the diagnosis is in {written}): "
+                f"{summary['warnings'][0]}",
+                path=str(trace),
+            )
 
     @app.command()
     def observe(

@@ -84,6 +84,9 @@ from drivelash.io.trace import Trace
 #: Target window length of the integral equations [s] (M = round(WINDOW_S/T_s), at least 2):
 #: the default, and the first fit and shortest window of ``window_s="auto"``.
 WINDOW_S = 1e-3
+#: Fewest samples in a window: the integral equations need a start and an end sample apart
+#: (a 1 ms window at 1 kHz is 2 ms, at 250 Hz 8 ms — said in the fit table, L3 of session 30).
+MIN_WINDOW_SAMPLES = 2
 #: Longest window of the ``"auto"`` choice [s] (:func:`resonance_window`).
 WINDOW_MAX_S = 4e-3
 #: The ``"auto"`` window is this fraction of the period of the first fit's shaft resonance [-]
@@ -400,6 +403,37 @@ def check_load_encoder(th_m: np.ndarray, th_l: np.ndarray, N: float, trace: Trac
     )
 
 
+def window_rule(window_s: float, T_s: float) -> str:
+    """How a requested window length became the window used, in words (the fit table's
+    "window chosen" row; L3 of session 30: it said "default 1 ms" for a 2 ms window).
+
+    Parameters
+    ----------
+    window_s : float
+        Requested window length [s] (``[identification] window``, default :data:`WINDOW_S`).
+    T_s : float
+        Sample period [s].
+
+    Returns
+    -------
+    str
+        The requested length and, where it differs, the one used and why (rounded to whole
+        samples, or raised to :data:`MIN_WINDOW_SAMPLES`).
+    """
+    n = window_s / T_s
+    M = max(MIN_WINDOW_SAMPLES, int(round(n)))
+    asked = f"{1e3 * window_s:.4g} ms ([identification] window; default {1e3 * WINDOW_S:g} ms)"
+    used = M * T_s
+    if math.isclose(used, window_s, rel_tol=1e-6):
+        return f"fixed: {asked}"
+    why = (
+        f"the {MIN_WINDOW_SAMPLES}-sample minimum at {1.0 / T_s:.4g} Hz"
+        if int(round(n)) < MIN_WINDOW_SAMPLES
+        else f"rounded to whole samples at {1.0 / T_s:.4g} Hz"
+    )
+    return f"fixed: {asked} asked, {M} samples = {1e3 * used:.4g} ms used ({why})"
+
+
 def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> WindowData:
     """Preprocess a two-mass recording into :class:`WindowData`.
 
@@ -420,7 +454,7 @@ def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> Window
     if not (math.isfinite(N) and N > 0):
         raise ParameterError("identification", "N", f"gear ratio must be finite and > 0, got {N!r}")
     T_s = trace.T_s
-    M = max(2, int(round(window_s / T_s)))
+    M = max(MIN_WINDOW_SAMPLES, int(round(window_s / T_s)))
     n = len(trace)
     th_m, th_l, u = trace["theta_m"], trace["theta_l"], trace["torque_m"]
     check_load_encoder(th_m, th_l, N, trace)
@@ -512,6 +546,8 @@ def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> Window
         info={
             "window_samples": M,
             "window_s": M * T_s,
+            "window_requested_s": float(window_s),
+            "window_rule": window_rule(float(window_s), T_s),
             "windows": nw,
             "sigma_omega_m": info_m["sigma_omega"],
             "sigma_omega_l": info_l["sigma_omega"],
@@ -1601,12 +1637,40 @@ REPORT_ORDER = (
 #: decimated to 2 kHz kept every 95 % interval on the truth, at 1 kHz δ, δ1, J_m, β_m and T_Cl
 #: missed (tester finding B9; docs/assumptions.md, "Causes of an implausible fit").
 VERIFIED_RATE_HZ = 2000.0
+#: A recording counts as below :data:`VERIFIED_RATE_HZ` from 1 % under it (time stamps that
+#: round a 2 kHz period up are not "below"; the online law's note uses the same slack).
+VERIFIED_RATE_SLACK = 0.99
 #: A correlation between a recorded velocity and its position's differences counts as evidence
 #: of the velocity's sign (either way) at this two-sided level (scipy.stats.pearsonr).
 SIGN_EVIDENCE_LEVEL = 0.05
 #: Runs of at least this many samples whose torque changes at a constant nonzero rate (second
 #: difference 0 to rounding) are linear interpolation — a measured torque always carries noise.
 INTERPOLATED_RUN = 10
+
+
+def below_verified_rate(T_s: float) -> str | None:
+    """The warning that a recording's sample rate is below :data:`VERIFIED_RATE_HZ` (H1, session 30).
+
+    Parameters
+    ----------
+    T_s : float
+        Sample period of the recording [s].
+
+    Returns
+    -------
+    str or None
+        One line naming the rate, the verified one and what to do; None at
+        :data:`VERIFIED_RATE_HZ` (within :data:`VERIFIED_RATE_SLACK`) and above.
+    """
+    rate = 1.0 / T_s
+    if not rate < VERIFIED_RATE_HZ * VERIFIED_RATE_SLACK:
+        return None
+    return (
+        f"the sample rate {rate:.4g} Hz is below the {VERIFIED_RATE_HZ:.4g} Hz at which the two-mass "
+        "identification was verified: its values may be biased beyond their 95 % intervals (bench-0B at "
+        f"1 kHz: J_m, δ and δ1 outside them) — record at {VERIFIED_RATE_HZ:.4g} Hz or more where they "
+        "matter (docs/assumptions.md, 'Sample rates below 2 kHz')"
+    )
 
 
 def interpolated_samples(u: np.ndarray) -> int:
@@ -1757,11 +1821,19 @@ def _friction_causes(side: str, ev: dict[str, Any] | None, J_m: ParameterEstimat
         )
         return "; ".join(causes)
     if not (vel_shown and r < 0):
+        # L4 (session 30): this read "the torque sign or gain is not shown right (J_m's interval
+        # reaches 0) may be wrong" also where J_m's interval lay wholly below 0
+        if J_m is None or not J_m.identifiable:
+            unshown = "J_m is not determined"
+        elif J_m.high < 0.0:
+            unshown = f"J_m's 95 % interval lies below 0, up to {J_m.high:.3g}"
+        else:
+            unshown = f"J_m's 95 % interval {J_m.interval_text(3)} reaches 0"
         causes.append(
             "the torque sign or gain"
-            + (" is not shown right (J_m's interval reaches 0)" if not torque_ok else "")
             + (", or the velocity sign," if not vel_ok else "")
             + " may be wrong"
+            + (f" (the data do not show the torque's sign: {unshown})" if not torque_ok else "")
         )
     causes.append("the drive has dynamics the two-mass model lacks")
     return "; ".join(causes)
@@ -1945,7 +2017,9 @@ def identify_two_mass(
         first = _identify_two_mass(trace, N, WINDOW_S, equations, fit_delay, torque_offset)
         choice = resonance_window(first)
         T_s = float(first.fit["window_s"]) / int(first.fit["window_samples"])
-        if choice is None or max(2, int(round(choice["window_s"] / T_s))) <= int(first.fit["window_samples"]):
+        if choice is None or max(MIN_WINDOW_SAMPLES, int(round(choice["window_s"] / T_s))) <= int(
+            first.fit["window_samples"]
+        ):
             first.fit["window_choice"] = choice or {
                 "window_s": WINDOW_S,
                 "reason": f"'auto': {1e3 * WINDOW_S:g} ms kept — the fit does not determine the shaft "
@@ -2031,6 +2105,7 @@ def _identify_two_mass(
     notes: list[str] = []
     sides = fit.problem.sides
     unconfirmed: tuple[TwoMassFit, bool] | None = None
+    candidate: TwoMassFit | None = None  # the two-contact fit whose contacts were not confirmed
     if all(sides):
         lo_ok = _side_ok(ev, "lower", -1.0)
         hi_ok = _side_ok(ev, "upper", 1.0)
@@ -2047,7 +2122,7 @@ def _identify_two_mass(
                 >= abs(ev["lower"]["shaft_torque_mean"]) * ev["lower"]["windows"]
             )
             sides = (not keep_hi, keep_hi)
-            both = fit
+            both = candidate = fit
             fit = fit_bracketed(data, sides=sides, start=start, **kw)
             ev = _contact_evidence(fit)
             unconfirmed = (both, keep_hi)
@@ -2060,7 +2135,7 @@ def _identify_two_mass(
             ev = _contact_evidence(fit)
             unconfirmed = None
     fit = window_sensitivity(trace, fit, start, **kw)
-    return _build_result(trace, data, fit, ev, notes, unconfirmed)
+    return _build_result(trace, data, fit, ev, notes, unconfirmed, candidate)
 
 
 #: Window lengths (multiples of the fit's M) of the window-length sensitivity fits.
@@ -2594,7 +2669,7 @@ ONE_FLANK_CHECKED = ("J_l", "K_S", "D_S")
 #: … and withheld when the two fits differ by more than this fraction (the 5 % accuracy the
 #: acceptance of issue 11 asks for; see docs/assumptions.md).
 MODEL_CHOICE_REL = 0.05
-#: Parameters of a fit whose inertia or stiffness came out negative: none is reported.
+#: Parameters of an implausible fit (an inertia, stiffness or friction below 0): none is reported.
 MECHANICAL = ("J_m", "J_l", "K_S", "D_S", "T_Cm", "beta_m", "T_Cl", "beta_l", "torque_offset")
 #: Parameters defined through the shaft torque (its damping, and the load equation it drives):
 #: not determined when K_S is not (:func:`meaningless_intervals`).
@@ -2752,6 +2827,71 @@ def _motor_side_totals(
     return out
 
 
+def _contacts_seen_unconfirmed(
+    candidate: TwoMassFit | None, travel: float, span: float, data: WindowData
+) -> str | None:
+    """Why "no contact" would be false although no contact was confirmed (H2, session 30).
+
+    The two-contact fit whose contacts missed the confirmation (:func:`_side_ok`) still shows the
+    shaft carrying torque when all three hold: it crosses the gap at least
+    :data:`MIN_TRAVERSALS` times, the mean motor-side shaft torque in each contact has that
+    contact's sign (negative in the lower, positive in the upper one), and the load travelled
+    farther than the whole Δθ span (a load the shaft never drove does not move beyond the gap).
+
+    Parameters
+    ----------
+    candidate : TwoMassFit or None
+        The two-contact fit that was not confirmed (None: there was none).
+    travel : float
+        The load's whole travel, ptp θ_l [rad].
+    span : float
+        The span of Δθ = θ_m/N − θ_l of the fit without contacts [rad].
+    data : WindowData
+        The windows (for the sample rate and window length).
+
+    Returns
+    -------
+    str or None
+        The clause for the verdict (what was seen, why it is not confirmed, and at a sample rate
+        below :data:`VERIFIED_RATE_HZ` that the rate is below the verified one); None when the
+        evidence above is missing and "no contact" stands.
+    """
+    if candidate is None:
+        return None
+    ev = _contact_evidence(candidate)
+    lo, hi = ev["lower"], ev["upper"]
+    if not (
+        ev["traversals"] >= MIN_TRAVERSALS
+        and lo["shaft_torque_mean"] < 0.0
+        and hi["shaft_torque_mean"] > 0.0
+        and travel > span
+    ):
+        return None
+    few = lo["windows"] < MIN_CONTACT_WINDOWS or hi["windows"] < MIN_CONTACT_WINDOWS
+    why = (
+        f"on too few windows fully in contact ({lo['windows']} / {hi['windows']}, at least "
+        f"{MIN_CONTACT_WINDOWS} needed)"
+        if few
+        else f"less than {CONTACT_EVIDENCE_Z:g} standard errors from 0"
+    )
+    gap = 1e3 * (candidate.p[I_CHI] - candidate.p[I_CLO])
+    text = (
+        f"contacts seen but not confirmed — a fit with both contacts crosses a gap of δ ≈ {gap:.4g} mrad "
+        f"{ev['traversals']} times and the load travelled {travel:.3g} rad ({travel / span:.2g}× the Δθ "
+        f"span), so the shaft carried torque, but its shaft torque in the lower / upper contact "
+        f"({lo['shaft_torque_mean']:.3g} ± {lo['shaft_torque_se']:.2g} / {hi['shaft_torque_mean']:.3g} ± "
+        f"{hi['shaft_torque_se']:.2g} N·m) rests {why}"
+    )
+    rate = 1.0 / data.T_s
+    if rate < VERIFIED_RATE_HZ * VERIFIED_RATE_SLACK:
+        text += (
+            f"; the sample rate {rate:.4g} Hz is below the {VERIFIED_RATE_HZ:.4g} Hz at which the two-mass "
+            f"identification was verified ({1e3 * data.M * data.T_s:.3g} ms windows) — record at "
+            f"{VERIFIED_RATE_HZ:.4g} Hz or more"
+        )
+    return text + "; neither δ nor the drive's parameters are determined"
+
+
 def _build_result(
     trace: Trace,
     data: WindowData,
@@ -2759,6 +2899,7 @@ def _build_result(
     ev: dict[str, Any],
     notes: list[str],
     unconfirmed: tuple[TwoMassFit, bool] | None = None,
+    candidate: TwoMassFit | None = None,
 ) -> DriveIdentification:
     prob, p = fit.problem, fit.p
     sides = prob.sides
@@ -2927,6 +3068,26 @@ def _build_result(
                     {n: (params[n].value, params[n].std) for n in RIGID_TOTALS if params[n].identifiable},
                     "the load travelled with the motor and no shaft deflection is resolved",
                 )
+        elif (seen_text := _contacts_seen_unconfirmed(candidate, travel, dmax - dmin, data)) is not None:
+            # H2 (session 30): the two-contact fit crossed the gap with shaft torques of both
+            # contacts' signs and the load travelled farther than the gap, yet the contacts missed
+            # the confirmation (bench-0B at 250 Hz: 9 / 9 windows in contact, 20 needed) — "the
+            # shaft never carried torque" would be false, and the motor-only fit this verdict falls
+            # back to treats the load as uncoupled, which the recording contradicts (J_m = 2.26e-3
+            # [1.81e-3, 2.71e-3] for 8.31e-4; even J_m + J_l = 1.66e-3 is outside): none of its
+            # values is reported, δ has no bound
+            reason = f"backlash not determined: {seen_text}"
+            why = (
+                "not determined: the gap was crossed but the contacts were not confirmed — the fit "
+                "without contacts treats the load as uncoupled, which the recording contradicts"
+            )
+            low = 0.0
+            raw = _fitted_text(params, ("J_m", "T_Cm", "beta_m", "torque_offset"))
+            if raw:
+                notes.append(f"fit without contacts (load uncoupled), not reported: {raw}")
+            for n in ("J_m", "T_Cm", "beta_m", "torque_offset"):
+                if n in params and params[n].identifiable:
+                    params[n] = ParameterEstimate.unknown(n, why)
         else:
             reason = (
                 "no contact: the shaft never carried torque in this recording (motion inside the gap, or "
@@ -3029,18 +3190,24 @@ def _build_result(
     evidence = refusal_evidence(trace, data)
     warnings = _plausibility(ordered, evidence)
     implausible = bool(warnings)
-    negative = [
-        n for n in ("J_m", "J_l", "K_S") if n in ordered and ordered[n].identifiable and ordered[n].high < 0
-    ]
-    if negative:
-        # a negative inertia or stiffness: the fit sits in a wrong basin, and every mechanical
-        # value of it is as wrong as that one — none is reported (the raw values go to the notes)
+    implausible_values: dict[str, dict[str, Any]] = {}  # the withheld values of an implausible fit
+    if implausible:
+        # a negative inertia, stiffness or friction: the fit sits in a wrong basin, and every
+        # value of it is as wrong as that one — none is reported as determined (the raw values
+        # go to the notes). Before (M7, session 30) only a negative inertia or stiffness withheld
+        # them: with the load encoder counting the other way a negative friction left K_S = 0.0406
+        # [0.0146, 0.0667] N·m/rad (truth 32.94) "identifiable" in the JSON
         why = f"not determined: the two-mass fit is implausible ({warnings[0].split(':')[0]})"
-        raw = ", ".join(f"{n} = {ordered[n].value:.4g}" for n in MECHANICAL if n in ordered)
-        notes.append(f"implausible fit, not reported: {raw}")
-        for n in MECHANICAL:
-            if n in ordered and ordered[n].identifiable:
-                ordered[n] = ParameterEstimate.unknown(n, why)
+        implausible_values = {
+            n: {"value": ordered[n].value, "ci95": [ordered[n].low, ordered[n].high]}
+            for n in (*MECHANICAL, "encoder_delay")
+            if n in ordered and ordered[n].identifiable
+        }
+        if implausible_values:
+            raw = ", ".join(f"{n} = {v['value']:.4g}" for n, v in implausible_values.items())
+            notes.append(f"implausible fit, not reported: {raw}")
+        for n in implausible_values:
+            ordered[n] = ParameterEstimate.unknown(n, why)
     if warnings and visible:
         # a physically impossible fit (negative friction or inertia) does not support a backlash
         reason = (
@@ -3087,6 +3254,12 @@ def _build_result(
                 f"encoders' zeros are offset — add offset = {dd / 2 - d1:.4g} rad to theta_l "
                 "in [columns] to centre the gap (δ1 must lie in [0, δ] for `estimate`)"
             )
+    rate_note = below_verified_rate(data.T_s)
+    if rate_note is not None:
+        # H1 (session 30): said on every fit below the verified rate, not only among the causes
+        # of an implausible one — a plausible fit there looks as trustworthy as at 8 kHz (bench-0B
+        # at 1 kHz: J_m +36 %, δ 187.55 [187.31, 187.80] mrad for 186, no word before)
+        warnings.append(rate_note)
     am, al, T = prob.predict(p)
     rms = {
         "motor_accel_rms": float(np.sqrt(np.mean((data.a_m - am)[prob.im] ** 2))) if prob.im.size else None,
@@ -3113,6 +3286,7 @@ def _build_result(
         "evidence": ev,
         "notes": notes,
         "implausible": implausible,
+        "implausible_values": implausible_values,
         "rigid_contact": None if rigid is None else rigid.as_dict(),
         "refusal_evidence": evidence,
         "motor_side_totals": totals,

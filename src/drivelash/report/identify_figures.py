@@ -19,7 +19,8 @@ import numpy as np
 from drivelash.report import _overview_figure, _param_tables, _recording_html, _thin, _write
 from drivelash.report.html import Figure, Section, render_html
 
-#: The fit table's "window chosen" row when the window was not chosen by ``window = "auto"``.
+#: The fit table's "window chosen" row for a result without ``fit["window_rule"]`` (the window
+#: actually used, :func:`drivelash.estimation.identify_two_mass.window_rule`) nor an "auto" choice.
 WINDOW_FIXED = "fixed ([identification] window; default 1 ms)"
 
 
@@ -90,12 +91,14 @@ def render_two_mass_report(
         va, vb = fit.get(a), fit.get(b)
         return " / ".join("–" if v is None else fmt.format(v) for v in (va, vb))
 
+    # L3 (session 30): the window actually used and why ("default 1 ms" was said of 2 and 8 ms)
+    window_row = (fit.get("window_choice") or {}).get("reason", fit.get("window_rule", WINDOW_FIXED))
     stats = [
         ["method", result.method],
         ["gear ratio N (given)", result.N],
         ["windows used, motor / load equation", pair("motor_windows_used", "load_windows_used", "{}")],
         ["window length [s]", fit.get("window_s")],
-        ["window chosen", (fit.get("window_choice") or {}).get("reason", WINDOW_FIXED)],
+        ["window chosen", window_row],
         ["RMS residual, motor / load acceleration [rad/s²]", pair("motor_accel_rms", "load_accel_rms")],
         ["relative error, motor / load equation", pair("relative_error_motor", "relative_error_load")],
         ["HAC lags (Bartlett, Andrews plug-in)", fit.get("hac_lags")],
