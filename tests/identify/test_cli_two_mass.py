@@ -65,8 +65,9 @@ def test_negative_torque_gain_is_refused_with_the_cause(tmp_path, recording):
 
 
 def test_implausible_drive_diagnosis_is_written_without_a_drive_table(tmp_path, recording):
-    """--json alone on the same wrong-sign torque: the diagnosis is written (exit 0), marked
-    implausible, and carries no backlash figure; nothing goes to stdout as a drive table."""
+    """--json alone on the same wrong-sign torque: the diagnosis is written, marked implausible,
+    and carries no backlash figure; nothing goes to stdout as a drive table (the command then
+    exits 2, with or without --out, since session 30: tests/identify/test_session30_identify.py)."""
     from drivelash.commands.data import run_identify
 
     cfg = tmp_path / "neg.toml"
