@@ -110,11 +110,19 @@ def delta1_outside_range(
     margin = max(DELTA1_OUTSIDE_RANGE_FACTOR * width, DELTA1_OUTSIDE_FLOOR)
     if dtheta_min - margin <= -delta1 <= dtheta_max + margin:
         return None
-    return (
+    head = (
         f"[backlash] delta1 = {delta1:.4g} rad is outside the observed motor–load offset range "
         f"[{dtheta_min:.4g}, {dtheta_max:.4g}] rad (Δθ = θ_m/N − θ_l, whose lower contact is at "
-        f"−δ1) — wrong unit? {_delta1_unit_hint(delta1)}"
+        f"−δ1) — "
     )
+    if not dtheta_min - margin <= 0.0 <= dtheta_max + margin:
+        # Δθ = 0 (motor and load at their zeros) is never near the gap: the encoders' zeros are
+        # offset, whatever δ1's unit (session 30 tester A, M4: "wrong unit?" for a 200.6 rad offset)
+        return head + (
+            f"the encoders' zeros are offset: add offset = {dtheta_min + delta1:.6g} rad to theta_l "
+            "in [columns] to put the lower contact at −δ1 (or identify δ1 with --identify)"
+        )
+    return head + f"wrong unit? {_delta1_unit_hint(delta1)}"
 
 
 def require_finite(obj: object) -> None:

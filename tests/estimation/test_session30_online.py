@@ -115,3 +115,18 @@ def test_start_up_transient_is_not_called_swapped_channels(bench0b):
     flipped["torque_m"] *= -1.0
     est = dl.estimate_backlash(flipped, p, DELTA1)
     assert any("channels are swapped" in w for w in est.warnings) and not est.summary["converged"]
+
+
+def test_a_delta1_far_from_a_range_that_excludes_zero_names_the_encoder_zeros():
+    """Tester A, M4: 16-bit encoder counters with arbitrary zeros put Δθ at 200.5 … 200.7 rad;
+    the message asked "wrong unit? … if 0.093 is in mrad, write 9.3e-05" — no unit brings −δ1
+    there. Now it names the zero offset and the offset that puts the lower contact at −δ1
+    (Δθ_min + δ1, what `identify` also says). Negative control: a range around 0 keeps the unit
+    hint (test_cli_estimate's δ1 = 1.0 slip)."""
+    from drivelash.params import delta1_outside_range
+
+    msg = delta1_outside_range(0.093, 200.5, 200.7, 0.002)
+    assert msg is not None and "the encoders' zeros are offset: add offset = 200.593 rad to theta_l" in msg
+    assert "wrong unit" not in msg
+    slip = delta1_outside_range(1.0, -0.1, 0.1, 0.002)
+    assert slip is not None and slip.endswith("wrong unit? δ1 is in rad — if 1 is in mrad, write 0.001")
