@@ -110,7 +110,7 @@ def test_auto_window_from_the_config_and_in_the_report(small_gap, tmp_path):
     assert "window chosen" in html and "a sixth of the period of the shaft resonance" in html
     # control: the default's report says the window was fixed
     html0 = write_two_mass_report(tmp_path / "id0.html", trace, small_gap[1]).read_text()
-    assert "fixed ([identification] window; default 1 ms)" in html0
+    assert "fixed: 1 ms ([identification] window; default 1 ms)" in html0  # the length used (s30 L3)
 
 
 def test_auto_window_rejects_nonsense():
