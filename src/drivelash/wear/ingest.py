@@ -705,7 +705,8 @@ def _warn_store_notes(fleet: Fleet, store: Store, new_paths: set[str], warnings:
         spec = specs.get(a["name"])
         if spec is None:
             continue
-        rows, out = split_unmatched(store.current_estimates(a), matched_files(spec))
+        seen = store.seen_paths(a["name"])
+        rows, out = split_unmatched(store.current_estimates(a), matched_files(spec), seen)
         if out:
             warnings.append(unmatched_note(a["name"], out, fleet.path.name))
         if new_paths:

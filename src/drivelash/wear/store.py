@@ -1302,6 +1302,27 @@ class Store:
                 )
         return len(ins) + len(upd)
 
+    def seen_paths(self, axis: str) -> dict[str, set[str]]:
+        """Every path the content of each recording of ``axis`` was seen under: content hash →
+        paths (its stored ``path`` and those of ``recording_path``: copies, moves).
+
+        Parameters
+        ----------
+        axis : str
+            The axis (``machine/axis``).
+        """
+        out: dict[str, set[str]] = {}
+        mine = (axis_t.c.name == axis, axis_t.c.id == recording_t.c.axis_id)
+        q1 = sa.select(recording_t.c.content_hash, recording_t.c.path).where(*mine)
+        q2 = (
+            sa.select(recording_t.c.content_hash, recording_path_t.c.path)
+            .join(recording_t, recording_t.c.id == recording_path_t.c.recording_id)
+            .where(*mine)
+        )
+        for h, p in [*self._read(q1), *self._read(q2)]:
+            out.setdefault(h, set()).add(p)
+        return out
+
     def estimates(self, axis: str | None = None) -> list[dict[str, Any]]:
         """Recording-based estimates joined with their recordings, ordered by axis and time.
 
