@@ -4,10 +4,15 @@
   (or a fleet directory copied together with its store): every axis showed 0/0 recordings and
   every active alarm was cleared — a recording whose content the glob matches under any path
   stays with its axis; one whose files are truly no longer matched is still left out.
+* B-02: a controller overwriting one fixed export file name each day (start time in the file's
+  metadata): each ingest replaced the previous day's recording, the store kept 1 of 6 — a
+  rewrite with another start time is a new recording; a re-export (same start) still replaces.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 import shutil
 from pathlib import Path
 from typing import Any
@@ -97,3 +102,74 @@ def test_recordings_no_longer_matched_are_still_left_out(small_fleet, tmp_path):
     (s,) = fleet_summary(st, load_fleet(f))
     assert s["unmatched"] == len(files[1::2]) and s["recordings"] == before["recordings"] - s["unmatched"]
     assert any("no longer matched" in n for n in s["notes"])
+
+
+# -- B-02: one export file name overwritten each day ------------------------------------------------
+
+METADATA_FLEET = """[fleet]
+name = "fixed export name"
+time = { from = "metadata" }
+[[axis]]
+id = "M01/X"
+drive = "drives/M01-X.toml"
+recordings = "rec/*.parquet"
+threshold = 0.2
+"""
+
+
+def _daily_exports(small_fleet: Path, n: int) -> list[Path]:
+    """The first ``n`` good, excited recordings of M01/X (one a day)."""
+    truth = json.loads((small_fleet / "truth.json").read_text())["axes"]["M01/X"]["recordings"]
+    return [small_fleet / r["file"] for r in truth if r["excited"] and r["corrupt"] is None][:n]
+
+
+def _fixed_name_fleet(small_fleet: Path, d: Path) -> Path:
+    (d / "rec").mkdir(parents=True)
+    shutil.copytree(small_fleet / "drives", d / "drives")
+    f = d / "fleet.toml"
+    f.write_text(METADATA_FLEET)
+    return f
+
+
+def test_a_fixed_export_name_overwritten_each_day_keeps_every_days_recording(small_fleet, tmp_path):
+    """Each day's recording (start time in its metadata) copied over one file name and ingested:
+    each ingest replaced the previous day's recording; after 5 days the store held 1 (no trend)."""
+    f = _fixed_name_fleet(small_fleet, tmp_path / "f")
+    st = Store(tmp_path / "w.sqlite")
+    target = tmp_path / "f" / "rec" / "X_trace.parquet"
+    days = _daily_exports(small_fleet, 5)
+    for k, src in enumerate(days):
+        shutil.copy(src, target)
+        rep = ingest(load_fleet(f), st, workers=1)
+        assert rep.replaced == 0  # was 1 each day after the first
+        assert rep.rewritten_new == (1 if k else 0)
+    rows = st.estimates("M01/X")
+    assert len(rows) == 5 and len({r["start_time"] for r in rows}) == 5
+    assert {hashlib.sha256(p.read_bytes()).hexdigest() for p in days} == {r["content_hash"] for r in rows}
+    (s,) = fleet_summary(st, load_fleet(f))
+    assert s["recordings"] == 5 and s["used"] == 5 and s["unmatched"] == 0 and s["model"] is not None
+    # nothing new: nothing to do, nothing replaced
+    rep = ingest(load_fleet(f), st, workers=1)
+    assert rep.planned == 0 and rep.replaced == 0 and rep.rewritten_new == 0
+
+
+def test_a_re_export_of_the_same_measurement_still_replaces_it(small_fleet, tmp_path):
+    """Negative control: the latest day's file written again with other bytes (zstd) but the
+    same start time is a re-export: it replaces that recording, the earlier days stay."""
+    import pyarrow.parquet as pq
+
+    f = _fixed_name_fleet(small_fleet, tmp_path / "f")
+    st = Store(tmp_path / "w.sqlite")
+    target = tmp_path / "f" / "rec" / "X_trace.parquet"
+    for src in _daily_exports(small_fleet, 2):
+        shutil.copy(src, target)
+        ingest(load_fleet(f), st, workers=1)
+    old = hashlib.sha256(target.read_bytes()).hexdigest()
+    pq.write_table(pq.read_table(target), target, compression="zstd")
+    assert hashlib.sha256(target.read_bytes()).hexdigest() != old
+    rep = ingest(load_fleet(f), st, workers=1)
+    assert rep.replaced == 1
+    assert rep.rewritten_new == 0
+    rows = st.estimates("M01/X")
+    assert len(rows) == 2 and old not in {r["content_hash"] for r in rows}
+    assert len({r["start_time"] for r in rows}) == 2

@@ -89,6 +89,9 @@ class IngestReport:
         … and how many of those failed again.
     replaced : int
         Stored recordings replaced by a new content of their file (same axis and path).
+    rewritten_new : int
+        Files rewritten with a new measurement (another start time, e.g. a fixed export file
+        name): the new recording is stored, the old one stays in the history.
     new_axes : int
         Axes of the fleet that this ingest added to the store (registered before any estimate).
     moved : int
@@ -114,6 +117,7 @@ class IngestReport:
     retried: int = 0
     still_failing: int = 0
     replaced: int = 0
+    rewritten_new: int = 0
     new_axes: int = 0
     moved: int = 0
     renamed_dated: int = 0
@@ -635,8 +639,10 @@ def _ingest(
         if batch:
             again: list[tuple[str, str]] = []
             gone: list[str] = []
-            rep.stored += store.commit_batch(batch, ids, rep.duplicates, again, gone)
+            kept: list[str] = []
+            rep.stored += store.commit_batch(batch, ids, rep.duplicates, again, gone, kept)
             rep.replaced += len(gone)
+            rep.rewritten_new += len(set(kept) - set(gone))  # older ones kept by earlier runs again
             rep.retried += len(again)
             rep.still_failing += sum(status != "ok" for _, status in again)
             rep.batches += 1

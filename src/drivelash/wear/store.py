@@ -1073,6 +1073,7 @@ class Store:
         duplicates: list[str] | None = None,
         retried: list[tuple[str, str]] | None = None,
         replaced: list[str] | None = None,
+        kept: list[str] | None = None,
     ) -> int:
         """Store a batch of results in ONE transaction; returns how many estimates were new or
         replaced a failed one.
@@ -1091,7 +1092,13 @@ class Store:
         recording of other content) replaces that recording in the same transaction: its
         estimates and paths are deleted (``replaced`` gets the path), so the trend never counts
         the old and the new content of one file twice. The old recording stays only while its
-        content is still at another path it was seen under (that path becomes its own).
+        content is still at another path it was seen under (that path becomes its own) — or
+        when the new content is a new recording whose start time (from the axis's time
+        source) differs from the old one's: a new measurement under a fixed export name, not a
+        re-export of the same one (a new file that cannot be dated still replaces); the old
+        recording stays in the history, as a deleted file's does (``kept`` gets the path;
+        session 30 tester B, B-02: a controller overwriting one file name each day kept 1
+        recording of 6).
 
         Parameters
         ----------
@@ -1105,6 +1112,9 @@ class Store:
             Receives (path, new status) per retried ``failed`` estimate.
         replaced : list of str, optional
             Receives the path of each recording replaced by new content.
+        kept : list of str, optional
+            Receives the path of each file rewritten with a new measurement (another start
+            time) whose old recording stays in the history.
         """
         if not rows:
             return 0
@@ -1185,7 +1195,8 @@ class Store:
             # every file of the batch now shows its row's content: a stored recording of other
             # content at that path was rewritten — by new content, by a copy of another stored
             # recording (a duplicate) or by a stored recording moved onto its name
-            _replace_rewritten(conn, keyed, rec_id, replaced)
+            fresh_ids = {rec_id[k] for k in new_recs}
+            _replace_rewritten(conn, keyed, rec_id, replaced, fresh_ids, kept)
             seen = [
                 {
                     "rid_": rec_id[(aid, r.content_hash)],
@@ -1557,13 +1568,24 @@ def _replace_rewritten(
     keyed: Sequence[tuple[int, EstimateRow]],
     rec_id: dict[tuple[int, str], int],
     replaced: list[str] | None,
+    fresh: set[int] | None = None,
+    kept: list[str] | None = None,
 ) -> None:
     """Drop the recordings that the batch's files replace: same axis and path, another content
     hash (the file was rewritten, e.g. re-exported, or overwritten by a copy of another
     recording or by another recording moved onto its name). See :meth:`Store.commit_batch`.
 
-    An unreadable file (``unreadable:`` marker, content unknown) replaces nothing.
+    An unreadable file (``unreadable:`` marker, content unknown) replaces nothing. A new
+    recording (its id in ``fresh``: first stored by this batch) replaces a dated one only when
+    it starts at the same time or its start is unknown (it failed before being dated): another
+    start time is another measurement written under the same name (a fixed export file name),
+    and the old recording stays (``kept`` gets the path).
     """
+    starts = {
+        (aid, r.path): utc_naive(r.start_time)
+        for aid, r in keyed
+        if not r.content_hash.startswith("unreadable:")
+    }
     # (axis, path) -> the recording whose content the file shows now
     by_path = {
         (aid, r.path): rec_id[(aid, r.content_hash)]
@@ -1574,13 +1596,22 @@ def _replace_rewritten(
     gone: list[int] = []
     for k in range(0, len(paths), 500):
         chunk = paths[k : k + 500]
-        q = sa.select(recording_t.c.id, recording_t.c.axis_id, recording_t.c.path).where(
-            recording_t.c.path.in_(chunk)
-        )
+        q = sa.select(
+            recording_t.c.id, recording_t.c.axis_id, recording_t.c.path, recording_t.c.start_time
+        ).where(recording_t.c.path.in_(chunk))
         for x in conn.execute(q).all():
             rid = int(x.id)
             now_there = by_path.get((int(x.axis_id), x.path))
             if now_there is None or rid == now_there:
+                continue
+            if (
+                fresh
+                and now_there in fresh
+                and x.start_time is not None
+                and starts.get((int(x.axis_id), x.path)) not in (None, x.start_time)
+            ):
+                if kept is not None:  # another measurement under the same name: both stay
+                    kept.append(x.path)
                 continue
             others = conn.execute(
                 sa.select(recording_path_t.c.path, recording_path_t.c.size_bytes, recording_path_t.c.mtime_ns)
