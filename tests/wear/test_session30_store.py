@@ -7,6 +7,9 @@
 * B-02: a controller overwriting one fixed export file name each day (start time in the file's
   metadata): each ingest replaced the previous day's recording, the store kept 1 of 6 — a
   rewrite with another start time is a new recording; a re-export (same start) still replaces.
+* B-06: the latest recordings of an axis all failed (a lost load encoder): status showed the δ
+  and forecast of 10 days before as current, with no word — a note (an alarm from
+  ``not_excited_alarm`` recordings on) says so and as of when the figures are.
 """
 
 from __future__ import annotations
@@ -173,3 +176,77 @@ def test_a_re_export_of_the_same_measurement_still_replaces_it(small_fleet, tmp_
     rows = st.estimates("M01/X")
     assert len(rows) == 2 and old not in {r["content_hash"] for r in rows}
     assert len({r["start_time"] for r in rows}) == 2
+
+
+# -- B-06: the latest recordings of an axis all fail ---------------------------------------------
+
+FAILING_FLEET = """[fleet]
+name = "lost encoder"
+time = {{ from = "filename", pattern = '_(\\d{{8}}T\\d{{6}})', format = "%Y%m%dT%H%M%S" }}
+not_excited_alarm = {n}
+[[axis]]
+id = "M01/X"
+drive = "drives/M01-X.toml"
+recordings = "rec/*.parquet"
+threshold = 0.2
+"""
+
+
+def _lost_encoder(src: Path, dst: Path, row: int) -> None:
+    """``src`` with the load encoder lost after about 0.5 s (NaN from ``row`` of ``theta_l``:
+    each day's file another content)."""
+    import numpy as np
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    t = pq.read_table(src)
+    col = t.column("theta_l").to_numpy().copy()
+    col[row:] = np.nan
+    pq.write_table(t.set_column(t.column_names.index("theta_l"), "theta_l", pa.array(col)), dst)
+
+
+def _failing_fleet(small_fleet: Path, d: Path, n_alarm: int = 3) -> tuple[Path, Path]:
+    """M01/X's first 5 good recordings (a trend), under their own names; (fleet file, last one)."""
+    (d / "rec").mkdir(parents=True)
+    shutil.copytree(small_fleet / "drives", d / "drives")
+    days = _daily_exports(small_fleet, 5)
+    for p in days:
+        shutil.copy(p, d / "rec" / p.name)
+    f = d / "fleet.toml"
+    f.write_text(FAILING_FLEET.format(n=n_alarm))
+    return f, days[-1]
+
+
+def _failing(s: dict[str, Any]) -> tuple[list[str], list[str]]:
+    return [n for n in s["notes"] if "failed" in n], [a.message for a in s["alarms"] if a.kind == "failed"]
+
+
+def test_latest_recordings_that_all_fail_are_named_with_the_date_of_the_figures(small_fleet, tmp_path):
+    f, last = _failing_fleet(small_fleet, tmp_path / "f")
+    st = Store(tmp_path / "w.sqlite")
+    ingest(load_fleet(f), st, workers=1)
+    (s,) = fleet_summary(st, load_fleet(f))
+    assert _failing(s) == ([], [])  # negative control: every recording usable
+    judged = s["judged_at"]
+    for day in (1, 2):
+        _lost_encoder(last, tmp_path / "f" / "rec" / f"M01-X_202604{day:02d}T060000.parquet", 5000 + day)
+    rep = ingest(load_fleet(f), st, workers=1)
+    assert rep.failed == 2
+    (s,) = fleet_summary(st, load_fleet(f))
+    (note,), alarms = _failing(s)  # fewer than not_excited_alarm: a note, no alarm
+    assert alarms == []
+    assert note.startswith("M01/X: the last 2 recordings failed (2026-04-01 UTC … 2026-04-02 UTC; latest: ")
+    assert "theta_l" in note and f"as of {judged:%Y-%m-%d} UTC" in note
+    _lost_encoder(last, tmp_path / "f" / "rec" / "M01-X_20260403T060000.parquet", 5003)
+    ingest(load_fleet(f), st, workers=1)
+    (s,) = fleet_summary(st, load_fleet(f))
+    notes, (alarm,) = _failing(s)  # the alarm says it; no note repeating it
+    assert notes == [] and alarm.startswith("M01/X: the last 3 recordings failed")
+    assert [a["kind"] for a in st.alarms(active_only=True) if a["kind"] == "failed"] == ["failed"]
+    # a good recording after them ends it (negative control): the alarm is cleared
+    good = _daily_exports(small_fleet, 6)[5]  # not yet stored (a copy would be a duplicate)
+    shutil.copy(good, tmp_path / "f" / "rec" / "M01-X_20260404T060000.parquet")
+    ingest(load_fleet(f), st, workers=1)
+    (s,) = fleet_summary(st, load_fleet(f))
+    assert _failing(s) == ([], [])
+    assert not [a for a in st.alarms(active_only=True) if a["kind"] == "failed"]

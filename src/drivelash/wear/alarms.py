@@ -14,7 +14,10 @@ Alarm kinds (each keyed so the same event is raised once and cleared when it no 
 * ``not_excited`` / ``not_converged`` / ``no_estimate`` — the latest N recordings
   (``[fleet] not_excited_alarm``) gave no usable estimate: all because the motion did not
   excite the deadzone, all because the estimator did not converge and stated no uncertainty,
-  or a mix (failed files do not count).
+  or a mix (failed files do not count);
+* ``failed`` — the latest N recordings (the same ``not_excited_alarm``) all failed (unreadable,
+  a lost encoder signal): "δ now" and the forecast are those of the last usable one, and the
+  alarm says as of when. Fewer than N give a note with the same line (:func:`failed_note`).
 """
 
 from __future__ import annotations
@@ -175,7 +178,57 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
                 ok_rows[-1]["start_time"],
             )
         )
+    fails = failed_run(rows)
+    if fails and len(fails) >= axis["not_excited_alarm"]:
+        out.append(
+            Alarm("failed", "latest", str(failed_note(name, fails, last_used)), fails[-1]["start_time"])
+        )
     return out
+
+
+def failed_run(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The axis's latest recordings (store rows) that all failed, oldest first (none when the
+    latest dated recording did not fail); recordings without a start time cannot be placed and
+    are not counted."""
+    dated = sorted(
+        (r for r in rows if r["start_time"] is not None), key=lambda r: (r["start_time"], r["path"])
+    )
+    run: list[dict[str, Any]] = []
+    for r in reversed(dated):
+        if r["status"] == "ok":
+            break
+        run.append(r)
+    return run[::-1]
+
+
+def _reason(r: dict[str, Any]) -> str:
+    """The first line of a stored row's reason, without its file name (the messages name it)."""
+    why = ((r["reason"] or "").strip().splitlines() or [str(r["status"])])[0]
+    return why.removeprefix(f"{r['path']}, ").removeprefix(f"{r['path']}: ")
+
+
+def failed_note(name: str, fails: list[dict[str, Any]], as_of: datetime | None) -> str | None:
+    """The one line saying that the latest recordings of axis ``name`` failed (``fails``:
+    :func:`failed_run`) and that "δ now" and the forecast are as of ``as_of`` (the time the
+    trend is judged at; None: no usable estimate) — None when none failed (session 30 tester
+    B, B-06: a lost load-encoder signal left status showing the δ and forecast of 10 days
+    before as current)."""
+    if not fails:
+        return None
+    last = fails[-1]
+    span = f"{_day(fails[0]['start_time'])} … {_day(last['start_time'])}"
+    what = (
+        f"the last {len(fails)} recordings failed ({span}"
+        if len(fails) > 1
+        else f"the last recording failed ({_day(last['start_time'])}"
+    )
+    since = (
+        f"δ now and the forecast are as of {_day(as_of)}"
+        if as_of is not None
+        else "no usable estimate before them"
+    )
+    check = "check the axis's signals (encoders) and its export"
+    return f"{name}: {what}; latest: {_reason(last)}): {since} — {check}"
 
 
 def _in_fit(trend: AxisTrend, r: dict[str, Any]) -> bool:
@@ -421,6 +474,10 @@ def axis_summary(store: Store, axis: dict[str, Any], now: datetime | None = None
     if fc is not None and fc.t_cross is not None and t_now is not None:
         remaining = fc.t_cross - t_now
     notes = _axis_notes(axis["name"], trend, used, unmatched, future, axis.get("fleet_file"))
+    as_of = trend.t_now if trend.t_now is not None else (float(trend.t[-1]) if trend.t.size else None)
+    failed = failed_note(axis["name"], failed_run(rows), trend.to_time(as_of))
+    if failed is not None and not any(a.kind == "failed" for a in alarms):  # else the alarm says it
+        notes.append(failed)
     twins = twin_note(axis["name"], twin_groups(rows))
     if twins is not None:
         notes.append(twins)

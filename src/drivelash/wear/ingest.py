@@ -659,8 +659,10 @@ def _ingest(
     now = datetime.now(UTC).replace(tzinfo=None)
     future: list[EstimateRow] = [r for r in known if _future(r, now)]
     new_paths: set[str] = set()
+    specs = {a.name: a for a in fleet.axes}
     try:
         for row in results:
+            row = _dated(row, specs.get(row.axis))
             new_paths.add(row.path)
             if _future(row, now):
                 future.append(row)
@@ -720,6 +722,29 @@ def _warn_store_notes(fleet: Fleet, store: Store, new_paths: set[str], warnings:
             note = twin_note(a["name"], groups)
             if note is not None:
                 warnings.append(note)
+
+
+def _dated(row: EstimateRow, spec: Any) -> EstimateRow:
+    """A failed result with its start time when the axis's ``time`` source still gives one (the
+    estimator stops at the first bad column, before dating the file): a failed recording is then
+    placed in the axis's history, so status can say that the latest recordings failed (session
+    30 tester B, B-06: ten failed recordings of a lost load encoder were undated and invisible).
+    Unchanged when it is dated, ok, unreadable or the source gives no time."""
+    if (
+        row.status == "ok"
+        or row.start_time is not None
+        or spec is None
+        or row.content_hash.startswith("unreadable:")
+    ):
+        return row
+    from drivelash.io.formats import read_raw
+    from drivelash.wear.estimate import recording_start
+
+    try:
+        meta = read_raw(Path(row.path)).meta if spec.time.source == "metadata" else None
+        return replace(row, start_time=recording_start(Path(row.path), spec.time, meta))
+    except Exception:  # noqa: BLE001 - a file that cannot be dated stays undated, as before
+        return row
 
 
 def _future(row: EstimateRow, now: datetime) -> bool:

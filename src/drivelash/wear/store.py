@@ -1243,6 +1243,7 @@ class Store:
             ins = []
             upd = []
             redo = []
+            undated = []  # failed again, now dated (ingest dates failures): fill a missing start
             for aid, r in keyed:
                 rid = rec_id[(aid, r.content_hash)]
                 ident = (rid, r.method, r.config_hash, r.code_version)
@@ -1275,6 +1276,8 @@ class Store:
                     )
                     if retried is not None:
                         retried.append((r.path, r.status))
+                    if r.status != "ok" and r.start_time is not None:
+                        undated.append({"rid_": rid, "st": utc_naive(r.start_time)})
                     if r.status == "ok":
                         redo.append(
                             {
@@ -1295,6 +1298,13 @@ class Store:
                     .where(estimate_t.c.id == sa.bindparam("eid"))
                     .values({c: sa.bindparam(f"v_{c}") for c in cols}),
                     upd,
+                )
+            if undated:
+                conn.execute(
+                    sa.update(recording_t)
+                    .where(recording_t.c.id == sa.bindparam("rid_"), recording_t.c.start_time.is_(None))
+                    .values(start_time=sa.bindparam("st")),
+                    undated,
                 )
             if redo:
                 # the recording's facts as the successful estimate found them (a failed one may
