@@ -122,6 +122,12 @@ def run_ingest(
             )
             + (f"; {rep.retried} retried, {rep.still_failing} still failing" if rep.retried else "")
             + (f"; {rep.replaced} replaced (content changed)" if rep.replaced else "")
+            + (
+                f"; {count(rep.rewritten_new, 'file')} rewritten with a new measurement (another "
+                "start time: stored as new, the previous one stays in the history)"
+                if rep.rewritten_new
+                else ""
+            )
             + (f" ({rep.redated} re-dated: the time specification changed)" if rep.redated else "")
             + f"; {rep.wall_s:.1f} s -> {store.name}"
         )

@@ -14,7 +14,10 @@ Alarm kinds (each keyed so the same event is raised once and cleared when it no 
 * ``not_excited`` / ``not_converged`` / ``no_estimate`` — the latest N recordings
   (``[fleet] not_excited_alarm``) gave no usable estimate: all because the motion did not
   excite the deadzone, all because the estimator did not converge and stated no uncertainty,
-  or a mix (failed files do not count).
+  or a mix (failed files do not count);
+* ``failed`` — the latest N recordings (the same ``not_excited_alarm``) all failed (unreadable,
+  a lost encoder signal): "δ now" and the forecast are those of the last usable one, and the
+  alarm says as of when. Fewer than N give a note with the same line (:func:`failed_note`).
 """
 
 from __future__ import annotations
@@ -175,7 +178,57 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
                 ok_rows[-1]["start_time"],
             )
         )
+    fails = failed_run(rows)
+    if fails and len(fails) >= axis["not_excited_alarm"]:
+        out.append(
+            Alarm("failed", "latest", str(failed_note(name, fails, last_used)), fails[-1]["start_time"])
+        )
     return out
+
+
+def failed_run(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The axis's latest recordings (store rows) that all failed, oldest first (none when the
+    latest dated recording did not fail); recordings without a start time cannot be placed and
+    are not counted."""
+    dated = sorted(
+        (r for r in rows if r["start_time"] is not None), key=lambda r: (r["start_time"], r["path"])
+    )
+    run: list[dict[str, Any]] = []
+    for r in reversed(dated):
+        if r["status"] == "ok":
+            break
+        run.append(r)
+    return run[::-1]
+
+
+def _reason(r: dict[str, Any]) -> str:
+    """The first line of a stored row's reason, without its file name (the messages name it)."""
+    why = ((r["reason"] or "").strip().splitlines() or [str(r["status"])])[0]
+    return why.removeprefix(f"{r['path']}, ").removeprefix(f"{r['path']}: ")
+
+
+def failed_note(name: str, fails: list[dict[str, Any]], as_of: datetime | None) -> str | None:
+    """The one line saying that the latest recordings of axis ``name`` failed (``fails``:
+    :func:`failed_run`) and that "δ now" and the forecast are as of ``as_of`` (the time the
+    trend is judged at; None: no usable estimate) — None when none failed (session 30 tester
+    B, B-06: a lost load-encoder signal left status showing the δ and forecast of 10 days
+    before as current)."""
+    if not fails:
+        return None
+    last = fails[-1]
+    span = f"{_day(fails[0]['start_time'])} … {_day(last['start_time'])}"
+    what = (
+        f"the last {len(fails)} recordings failed ({span}"
+        if len(fails) > 1
+        else f"the last recording failed ({_day(last['start_time'])}"
+    )
+    since = (
+        f"δ now and the forecast are as of {_day(as_of)}"
+        if as_of is not None
+        else "no usable estimate before them"
+    )
+    check = "check the axis's signals (encoders) and its export"
+    return f"{name}: {what}; latest: {_reason(last)}): {since} — {check}"
 
 
 def _in_fit(trend: AxisTrend, r: dict[str, Any]) -> bool:
@@ -301,10 +354,14 @@ class MatchedFiles:
         The matched paths.
     ids : frozenset of tuple
         Their (device, inode) identities.
+    sizes : tuple of (str, int)
+        (path, size in bytes) of each: the files a stored recording's content may be at
+        (equal content has equal size; :func:`split_unmatched` hashes only those).
     """
 
     paths: frozenset[str]
     ids: frozenset[tuple[int, int]]
+    sizes: tuple[tuple[str, int], ...] = ()
 
 
 def matched_files(spec: Any) -> MatchedFiles | None:
@@ -317,29 +374,65 @@ def matched_files(spec: Any) -> MatchedFiles | None:
     entries = spec.entries()
     if not entries:
         return None
-    return MatchedFiles(frozenset(str(f.path) for f in entries), frozenset(f.ident for f in entries))
+    return MatchedFiles(
+        frozenset(str(f.path) for f in entries),
+        frozenset(f.ident for f in entries),
+        tuple((str(f.path), int(f.size)) for f in entries),
+    )
 
 
 def split_unmatched(
-    rows: list[dict[str, Any]], files: MatchedFiles | None
+    rows: list[dict[str, Any]],
+    files: MatchedFiles | None,
+    seen: dict[str, set[str]] | None = None,
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """(rows judged, rows left out): a stored recording whose file still exists but is no longer
     matched by the axis's ``recordings`` glob (``files``, :func:`matched_files`; None = the fleet
     file is not known: nothing left out) is left out — a glob that first pointed at the wrong
     directory and was corrected. A recording whose file no longer exists (archived, deleted)
     stays: that is what a history store is for. A stored path the glob names is kept without
-    looking at the file again; only the others are looked up by identity."""
+    looking at the file again; only the others are looked up by identity.
+
+    A recording is the content, not one path (session 30 tester B, B-01: the globs pointed at a
+    copy of the recordings while the originals still existed, or a fleet directory copied with
+    its store; every axis showed 0/0 and every alarm was cleared): it stays when the glob
+    matches any path its content was seen under (``seen``: content hash → paths,
+    :meth:`~drivelash.wear.store.Store.seen_paths`), or a matched file of its size holds its
+    content now (hashed only for a recording that would otherwise be left out)."""
     if files is None:
         return rows, []
     keep: list[dict[str, Any]] = []
     out: list[dict[str, Any]] = []
+    digests: dict[str, str] = {}  # matched path -> content hash, hashed once per call
     for r in rows:
-        if r["path"] in files.paths:
+        paths = [r["path"], *sorted((seen or {}).get(r["content_hash"], set()) - {r["path"]})]
+        if any(p in files.paths for p in paths):
             keep.append(r)
             continue
-        fid = _file_id(r["path"])
-        (out if fid is not None and fid not in files.ids else keep).append(r)
+        fids = [fid for fid in map(_file_id, paths) if fid is not None]
+        if not fids or any(fid in files.ids for fid in fids):
+            keep.append(r)  # every file gone (the history), or the glob names one by another path
+            continue
+        (keep if _content_matched(r, files, digests) else out).append(r)
     return keep, out
+
+
+def _content_matched(r: dict[str, Any], files: MatchedFiles, digests: dict[str, str]) -> bool:
+    """Whether a file the glob matches (of the stored recording ``r``'s size) holds its content;
+    ``digests`` caches the hashes (matched path → content hash)."""
+    from drivelash.wear.estimate import content_hash
+
+    size = r.get("size_bytes")
+    if size is None or str(r["content_hash"]).startswith("unreadable:"):
+        return False
+    for p, n in files.sizes:
+        if n != size:
+            continue
+        if p not in digests:
+            digests[p] = content_hash(p)[0]
+        if digests[p] == r["content_hash"]:
+            return True
+    return False
 
 
 def _naive_utc(t: datetime) -> datetime:
@@ -364,7 +457,9 @@ def axis_summary(store: Store, axis: dict[str, Any], now: datetime | None = None
         :data:`FUTURE_TOLERANCE_DAYS` after it is left out of the trend and named in
         ``notes`` (a wrong clock or file name).
     """
-    rows, unmatched = split_unmatched(store.current_estimates(axis), axis.get("files"))
+    files = axis.get("files")
+    seen = store.seen_paths(axis["name"]) if files is not None else None
+    rows, unmatched = split_unmatched(store.current_estimates(axis), files, seen)
     limit = _naive_utc(now or datetime.now(UTC)) + timedelta(days=FUTURE_TOLERANCE_DAYS)
     future = [r for r in rows if r["start_time"] is not None and _naive_utc(r["start_time"]) > limit]
     if future:
@@ -379,6 +474,10 @@ def axis_summary(store: Store, axis: dict[str, Any], now: datetime | None = None
     if fc is not None and fc.t_cross is not None and t_now is not None:
         remaining = fc.t_cross - t_now
     notes = _axis_notes(axis["name"], trend, used, unmatched, future, axis.get("fleet_file"))
+    as_of = trend.t_now if trend.t_now is not None else (float(trend.t[-1]) if trend.t.size else None)
+    failed = failed_note(axis["name"], failed_run(rows), trend.to_time(as_of))
+    if failed is not None and not any(a.kind == "failed" for a in alarms):  # else the alarm says it
+        notes.append(failed)
     twins = twin_note(axis["name"], twin_groups(rows))
     if twins is not None:
         notes.append(twins)

@@ -89,6 +89,9 @@ class IngestReport:
         … and how many of those failed again.
     replaced : int
         Stored recordings replaced by a new content of their file (same axis and path).
+    rewritten_new : int
+        Files rewritten with a new measurement (another start time, e.g. a fixed export file
+        name): the new recording is stored, the old one stays in the history.
     new_axes : int
         Axes of the fleet that this ingest added to the store (registered before any estimate).
     moved : int
@@ -114,6 +117,7 @@ class IngestReport:
     retried: int = 0
     still_failing: int = 0
     replaced: int = 0
+    rewritten_new: int = 0
     new_axes: int = 0
     moved: int = 0
     renamed_dated: int = 0
@@ -635,8 +639,10 @@ def _ingest(
         if batch:
             again: list[tuple[str, str]] = []
             gone: list[str] = []
-            rep.stored += store.commit_batch(batch, ids, rep.duplicates, again, gone)
+            kept: list[str] = []
+            rep.stored += store.commit_batch(batch, ids, rep.duplicates, again, gone, kept)
             rep.replaced += len(gone)
+            rep.rewritten_new += len(set(kept) - set(gone))  # older ones kept by earlier runs again
             rep.retried += len(again)
             rep.still_failing += sum(status != "ok" for _, status in again)
             rep.batches += 1
@@ -653,8 +659,10 @@ def _ingest(
     now = datetime.now(UTC).replace(tzinfo=None)
     future: list[EstimateRow] = [r for r in known if _future(r, now)]
     new_paths: set[str] = set()
+    specs = {a.name: a for a in fleet.axes}
     try:
         for row in results:
+            row = _dated(row, specs.get(row.axis))
             new_paths.add(row.path)
             if _future(row, now):
                 future.append(row)
@@ -705,7 +713,8 @@ def _warn_store_notes(fleet: Fleet, store: Store, new_paths: set[str], warnings:
         spec = specs.get(a["name"])
         if spec is None:
             continue
-        rows, out = split_unmatched(store.current_estimates(a), matched_files(spec))
+        seen = store.seen_paths(a["name"])
+        rows, out = split_unmatched(store.current_estimates(a), matched_files(spec), seen)
         if out:
             warnings.append(unmatched_note(a["name"], out, fleet.path.name))
         if new_paths:
@@ -713,6 +722,29 @@ def _warn_store_notes(fleet: Fleet, store: Store, new_paths: set[str], warnings:
             note = twin_note(a["name"], groups)
             if note is not None:
                 warnings.append(note)
+
+
+def _dated(row: EstimateRow, spec: Any) -> EstimateRow:
+    """A failed result with its start time when the axis's ``time`` source still gives one (the
+    estimator stops at the first bad column, before dating the file): a failed recording is then
+    placed in the axis's history, so status can say that the latest recordings failed (session
+    30 tester B, B-06: ten failed recordings of a lost load encoder were undated and invisible).
+    Unchanged when it is dated, ok, unreadable or the source gives no time."""
+    if (
+        row.status == "ok"
+        or row.start_time is not None
+        or spec is None
+        or row.content_hash.startswith("unreadable:")
+    ):
+        return row
+    from drivelash.io.formats import read_raw
+    from drivelash.wear.estimate import recording_start
+
+    try:
+        meta = read_raw(Path(row.path)).meta if spec.time.source == "metadata" else None
+        return replace(row, start_time=recording_start(Path(row.path), spec.time, meta))
+    except Exception:  # noqa: BLE001 - a file that cannot be dated stays undated, as before
+        return row
 
 
 def _future(row: EstimateRow, now: datetime) -> bool:

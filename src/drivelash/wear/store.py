@@ -1073,6 +1073,7 @@ class Store:
         duplicates: list[str] | None = None,
         retried: list[tuple[str, str]] | None = None,
         replaced: list[str] | None = None,
+        kept: list[str] | None = None,
     ) -> int:
         """Store a batch of results in ONE transaction; returns how many estimates were new or
         replaced a failed one.
@@ -1091,7 +1092,13 @@ class Store:
         recording of other content) replaces that recording in the same transaction: its
         estimates and paths are deleted (``replaced`` gets the path), so the trend never counts
         the old and the new content of one file twice. The old recording stays only while its
-        content is still at another path it was seen under (that path becomes its own).
+        content is still at another path it was seen under (that path becomes its own) — or
+        when the new content is a new recording whose start time (from the axis's time
+        source) differs from the old one's: a new measurement under a fixed export name, not a
+        re-export of the same one (a new file that cannot be dated still replaces); the old
+        recording stays in the history, as a deleted file's does (``kept`` gets the path;
+        session 30 tester B, B-02: a controller overwriting one file name each day kept 1
+        recording of 6).
 
         Parameters
         ----------
@@ -1105,6 +1112,9 @@ class Store:
             Receives (path, new status) per retried ``failed`` estimate.
         replaced : list of str, optional
             Receives the path of each recording replaced by new content.
+        kept : list of str, optional
+            Receives the path of each file rewritten with a new measurement (another start
+            time) whose old recording stays in the history.
         """
         if not rows:
             return 0
@@ -1185,7 +1195,8 @@ class Store:
             # every file of the batch now shows its row's content: a stored recording of other
             # content at that path was rewritten — by new content, by a copy of another stored
             # recording (a duplicate) or by a stored recording moved onto its name
-            _replace_rewritten(conn, keyed, rec_id, replaced)
+            fresh_ids = {rec_id[k] for k in new_recs}
+            _replace_rewritten(conn, keyed, rec_id, replaced, fresh_ids, kept)
             seen = [
                 {
                     "rid_": rec_id[(aid, r.content_hash)],
@@ -1232,6 +1243,7 @@ class Store:
             ins = []
             upd = []
             redo = []
+            undated = []  # failed again, now dated (ingest dates failures): fill a missing start
             for aid, r in keyed:
                 rid = rec_id[(aid, r.content_hash)]
                 ident = (rid, r.method, r.config_hash, r.code_version)
@@ -1264,6 +1276,8 @@ class Store:
                     )
                     if retried is not None:
                         retried.append((r.path, r.status))
+                    if r.status != "ok" and r.start_time is not None:
+                        undated.append({"rid_": rid, "st": utc_naive(r.start_time)})
                     if r.status == "ok":
                         redo.append(
                             {
@@ -1285,6 +1299,13 @@ class Store:
                     .values({c: sa.bindparam(f"v_{c}") for c in cols}),
                     upd,
                 )
+            if undated:
+                conn.execute(
+                    sa.update(recording_t)
+                    .where(recording_t.c.id == sa.bindparam("rid_"), recording_t.c.start_time.is_(None))
+                    .values(start_time=sa.bindparam("st")),
+                    undated,
+                )
             if redo:
                 # the recording's facts as the successful estimate found them (a failed one may
                 # have had no start time: e.g. a time format that did not match its name)
@@ -1301,6 +1322,27 @@ class Store:
                     redo,
                 )
         return len(ins) + len(upd)
+
+    def seen_paths(self, axis: str) -> dict[str, set[str]]:
+        """Every path the content of each recording of ``axis`` was seen under: content hash →
+        paths (its stored ``path`` and those of ``recording_path``: copies, moves).
+
+        Parameters
+        ----------
+        axis : str
+            The axis (``machine/axis``).
+        """
+        out: dict[str, set[str]] = {}
+        mine = (axis_t.c.name == axis, axis_t.c.id == recording_t.c.axis_id)
+        q1 = sa.select(recording_t.c.content_hash, recording_t.c.path).where(*mine)
+        q2 = (
+            sa.select(recording_t.c.content_hash, recording_path_t.c.path)
+            .join(recording_t, recording_t.c.id == recording_path_t.c.recording_id)
+            .where(*mine)
+        )
+        for h, p in [*self._read(q1), *self._read(q2)]:
+            out.setdefault(h, set()).add(p)
+        return out
 
     def estimates(self, axis: str | None = None) -> list[dict[str, Any]]:
         """Recording-based estimates joined with their recordings, ordered by axis and time.
@@ -1536,13 +1578,24 @@ def _replace_rewritten(
     keyed: Sequence[tuple[int, EstimateRow]],
     rec_id: dict[tuple[int, str], int],
     replaced: list[str] | None,
+    fresh: set[int] | None = None,
+    kept: list[str] | None = None,
 ) -> None:
     """Drop the recordings that the batch's files replace: same axis and path, another content
     hash (the file was rewritten, e.g. re-exported, or overwritten by a copy of another
     recording or by another recording moved onto its name). See :meth:`Store.commit_batch`.
 
-    An unreadable file (``unreadable:`` marker, content unknown) replaces nothing.
+    An unreadable file (``unreadable:`` marker, content unknown) replaces nothing. A new
+    recording (its id in ``fresh``: first stored by this batch) replaces a dated one only when
+    it starts at the same time or its start is unknown (it failed before being dated): another
+    start time is another measurement written under the same name (a fixed export file name),
+    and the old recording stays (``kept`` gets the path).
     """
+    starts = {
+        (aid, r.path): utc_naive(r.start_time)
+        for aid, r in keyed
+        if not r.content_hash.startswith("unreadable:")
+    }
     # (axis, path) -> the recording whose content the file shows now
     by_path = {
         (aid, r.path): rec_id[(aid, r.content_hash)]
@@ -1553,13 +1606,22 @@ def _replace_rewritten(
     gone: list[int] = []
     for k in range(0, len(paths), 500):
         chunk = paths[k : k + 500]
-        q = sa.select(recording_t.c.id, recording_t.c.axis_id, recording_t.c.path).where(
-            recording_t.c.path.in_(chunk)
-        )
+        q = sa.select(
+            recording_t.c.id, recording_t.c.axis_id, recording_t.c.path, recording_t.c.start_time
+        ).where(recording_t.c.path.in_(chunk))
         for x in conn.execute(q).all():
             rid = int(x.id)
             now_there = by_path.get((int(x.axis_id), x.path))
             if now_there is None or rid == now_there:
+                continue
+            if (
+                fresh
+                and now_there in fresh
+                and x.start_time is not None
+                and starts.get((int(x.axis_id), x.path)) not in (None, x.start_time)
+            ):
+                if kept is not None:  # another measurement under the same name: both stay
+                    kept.append(x.path)
                 continue
             others = conn.execute(
                 sa.select(recording_path_t.c.path, recording_path_t.c.size_bytes, recording_path_t.c.mtime_ns)
