@@ -6,7 +6,10 @@ by it; :func:`usable`). An unexcited recording never enters a trend. Steps (numb
 docs/assumptions.md, "Wear tracking"):
 
 1. **Noise scale** σ̂: the MAD of second differences / √6 (insensitive to a trend and to
-   isolated jumps), floored at :data:`SIGMA_FLOOR`. A jump enters two second differences, half
+   isolated jumps), floored at :data:`SIGMA_FLOOR`. The second differences are divided
+   differences in time, scaled to the noise of an equally spaced triple
+   (:func:`_second_differences`): recordings at varying times of day made the plain
+   second differences of a fast linear trend read as noise. A jump enters two second differences, half
    of them on a series of six: there σ̂ grows with the jump and hides it (3 + 3 estimates
    around a 5 mrad jump: σ̂ 1.5 mrad, the limit 8σ̂ above the jump, and a line through the step
    forecast the crossing at day 107 [75, 216] for a true ≈ 1500). When step 2 finds no jump with
@@ -173,28 +176,74 @@ class AxisTrend:
 
 
 # ------------------------------------------------------------------------------- noise, jumps
-def noise_scale(y: np.ndarray) -> float:
-    """Robust noise σ̂ [rad]: 1.4826 · MAD(Δ²y) / √6, floored at :data:`SIGMA_FLOOR`."""
+def _equally_spaced(t: np.ndarray | None) -> bool:
+    """Whether times ``t`` [days] are equally spaced (within float rounding: 1e-12 of the
+    span), or not increasing — then the time-aware forms fall back to the plain ones."""
+    if t is None or np.size(t) < 3:
+        return True
+    dt = np.diff(np.asarray(t, dtype=float))
+    if np.any(dt <= 0):
+        return True
+    return bool(np.allclose(dt, dt[0], rtol=0.0, atol=1e-12 * max(1.0, float(np.ptp(t)))))
+
+
+def _second_differences(y: np.ndarray, t: np.ndarray | None = None) -> np.ndarray:
+    """Second differences of ``y`` [rad], time-aware: each triple's second divided difference
+    y[t_{i-1}, t_i, t_{i+1}] scaled to the noise of an equally spaced triple (var = 6σ² for white
+    noise σ, as ``numpy.diff(y, 2)``). A linear trend cancels whatever the spacing; with
+    ``t`` None or equally spaced it equals ``numpy.diff(y, 2)`` (within float rounding).
+    Recordings at varying times of day gave second differences of the trend itself with the
+    plain ``numpy.diff`` (session 30, B-05)."""
+    if y.size < 3 or _equally_spaced(t):
+        return np.diff(y, 2)  # the plain second difference, bit for bit as before
+    t = np.asarray(t, dtype=float)
+    h0, h1 = np.diff(t)[:-1], np.diff(t)[1:]
+    # divided difference = c0·y0 + c1·y1 + c2·y2; its noise is σ·‖c‖, so √6·(c·y)/‖c‖ has the
+    # noise of an equally spaced triple's y0 − 2y1 + y2
+    c0 = 1.0 / (h0 * (h0 + h1))
+    c1 = -1.0 / (h0 * h1)
+    c2 = 1.0 / (h1 * (h0 + h1))
+    dd = c0 * y[:-2] + c1 * y[1:-1] + c2 * y[2:]
+    return math.sqrt(6.0) * dd / np.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+
+
+def noise_scale(y: np.ndarray, t: np.ndarray | None = None) -> float:
+    """Robust noise σ̂ [rad]: 1.4826 · MAD(Δ²y) / √6, floored at :data:`SIGMA_FLOOR`.
+
+    Parameters
+    ----------
+    y : numpy.ndarray
+        δ̂ [rad], in time order.
+    t : numpy.ndarray, optional
+        Times [days]; when given, Δ²y are second divided differences scaled to an equally
+        spaced triple (:func:`_second_differences`), so uneven recording times do not read as
+        noise. None: equally spaced.
+    """
     if y.size < 4:
         return SIGMA_FLOOR
-    d2 = np.diff(y, 2)
+    d2 = _second_differences(y, t)
     mad = float(np.median(np.abs(d2 - np.median(d2))))
     return max(1.4826 * mad / math.sqrt(6.0), SIGMA_FLOOR)
 
 
-def jump_scale(y: np.ndarray) -> float:
+def jump_scale(y: np.ndarray, t: np.ndarray | None = None) -> float:
     """Noise scale [rad] of ``y`` with its largest step taken out: the step Δy_m farthest from
     the median step is replaced by that median (the later samples shift by the difference),
     then :func:`noise_scale`. Without a jump it is :func:`noise_scale` of a series one step
-    quieter; with one, the scale the jump would otherwise inflate."""
+    quieter; with one, the scale the jump would otherwise inflate. With times ``t`` [days] the
+    steps are judged as rates: Δy_m farthest from the median rate × Δt_m is replaced by that."""
     if y.size < 4:
         return SIGMA_FLOOR
     d = np.diff(y)
-    med = float(np.median(d))
+    if _equally_spaced(t):
+        med = np.full(d.size, float(np.median(d)))
+    else:
+        dt = np.diff(np.asarray(t, dtype=float))
+        med = float(np.median(d / dt)) * dt
     m = int(np.argmax(np.abs(d - med)))
     y2 = np.array(y, dtype=float)
-    y2[m + 1 :] -= d[m] - med
-    return noise_scale(y2)
+    y2[m + 1 :] -= d[m] - med[m]
+    return noise_scale(y2, t)
 
 
 def _huber_poly(x: np.ndarray, y: np.ndarray, deg: int, iters: int = 6) -> np.ndarray:
@@ -249,12 +298,12 @@ def jumps_and_scale(t: np.ndarray, y: np.ndarray) -> tuple[list[ChangePoint], fl
     """Change points and the noise scale σ̂ [rad] they were found with (module docstring, steps
     1–2): :func:`noise_scale`; when no jump passes with it, the search once more with
     :func:`jump_scale` if that is smaller — σ̂ is then that scale if a jump passes."""
-    sigma = noise_scale(y)
+    sigma = noise_scale(y, t)
     if y.size < 4:
         return [], sigma
     cps = _search_jumps(t, y, sigma)
     if not cps:
-        s2 = jump_scale(y)
+        s2 = jump_scale(y, t)
         if s2 < sigma:
             cps = _search_jumps(t, y, s2)
             if cps:

@@ -1,0 +1,56 @@
+"""Wear trend defects found by session 30's tester B (docs/assumptions.md, "Wear tracking").
+
+* B-05: the noise scale σ̂ took second differences as if the recordings were equally spaced;
+  recordings at varying times of day (``simulate fleet``: a random minute within 2 h) gave
+  second differences of the trend itself, σ̂ above the stated uncertainty, σ_sys = 0 and a
+  90 % crossing interval minutes wide that missed the truth.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from drivelash.wear import trend
+from drivelash.wear.trend import fit_trend, jump_scale, noise_scale
+
+
+def _jittered_line(rng: np.random.Generator, rate: float, jitter_h: float = 2.0, n: int = 20):
+    """Daily recordings at a random minute within ``jitter_h`` hours, linear wear ``rate``
+    [rad/day], a per-axis error of 0.1 mrad (≈ the stated sd) and 0.03 mrad scatter."""
+    t = np.arange(n) + rng.uniform(0, jitter_h / 24, n)
+    d0 = rng.uniform(0.05, 0.08)
+    thr = d0 + 0.08
+    y = d0 + rate * t + rng.normal(0, 0.1e-3) + rng.normal(0, 0.03e-3, n)
+    return t, y, thr, (thr - d0) / rate
+
+
+def test_noise_scale_of_a_noise_free_trend_at_uneven_times_is_the_floor():
+    rng = np.random.default_rng(5)
+    t = np.arange(20) + rng.uniform(0, 2 / 24, 20)
+    y = 0.05 + 4.3e-3 * t
+    assert noise_scale(y) > 3 * trend.SIGMA_FLOOR  # the rule as it was: the trend read as noise
+    assert noise_scale(y, t) == trend.SIGMA_FLOOR
+    assert jump_scale(y, t) == trend.SIGMA_FLOOR
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_negative_control_equally_spaced_scale_is_unchanged(seed):
+    rng = np.random.default_rng(seed)
+    t = np.arange(30) * 7.0
+    y = 0.05 + 1e-3 * t + rng.normal(0, 0.2e-3, t.size)
+    y[17:] += 0.01
+    assert noise_scale(y, t) == noise_scale(y)
+    assert jump_scale(y, t) == jump_scale(y)
+
+
+def test_fast_axis_at_varying_times_keeps_its_systematic_uncertainty_and_the_interval_holds():
+    """4–6 mrad/day recorded within 2 h each day (mc_jitter.py, 150 axes): coverage 0.31 → 0.95."""
+    rng = np.random.default_rng(1)
+    held = 0
+    for _ in range(10):
+        t, y, thr, t_cross = _jittered_line(rng, rng.uniform(4e-3, 6e-3))
+        tr = fit_trend(t, y, np.full(t.size, 0.105e-3), thr)
+        assert tr.sigma_sys > 0.08e-3
+        held += tr.forecast.t_early <= t_cross <= tr.forecast.t_late
+    assert held >= 8, held
