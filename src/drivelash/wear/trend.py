@@ -20,7 +20,10 @@ docs/assumptions.md, "Wear tracking"):
    two recordings after it both lie more than J_min = max(:data:`JUMP_SIGMA`·σ̂,
    :data:`JUMP_MIN`, :data:`JUMP_STEPS` × the median change between recordings before it)
    from the local trend of up to :data:`JUMP_PRE` recordings before it
-   (quadratic from 5 points on), on the same side — so a jump is flagged on its second
+   (quadratic from 5 points on), on the same side — or, as a level shift, beyond
+   max(:data:`JUMP_SIGMA`·σ̂, :data:`JUMP_MIN`, :data:`JUMP_WEAR_FRAC` × the wear the trend
+   predicts to each) and agreeing within :data:`JUMP_LEVEL_TOL` (weekly data: the change
+   between recordings is a week of wear) — so a jump is flagged on its second
    recording, a lone outlier never. That trend needs three recordings that agree; an outlier
    among them leaves it first (:func:`_window_inliers`): a wild estimate as the last before a
    break bent the trend, and the normal recordings after it read as a jump (a 10 mrad outlier
@@ -75,8 +78,15 @@ JUMP_SIGMA = 8.0
 #: … and JUMP_MIN [rad] (2 mrad: below it a jump is not "sudden damage" for maintenance).
 JUMP_MIN = 2e-3
 #: … and JUMP_STEPS times the median change between consecutive recordings before it
-#: (fast but smooth wear is not a jump).
+#: (fast but smooth wear is not a jump) …
 JUMP_STEPS = 3.0
+#: … or (session 30, B-03: on weekly data 3 × the change between recordings is three weeks of
+#: wear and hid a 15–20 mrad jump) a level shift: both residuals beyond JUMP_WEAR_FRAC × the
+#: wear the reference predicts to each (median rate × time since its last recording) …
+JUMP_WEAR_FRAC = 0.5
+#: … that agree within JUMP_LEVEL_TOL × the smaller (a jump's step stays; the extrapolation
+#: error of smooth acceleration grows with the horizon, ≈ 4× from one interval to two).
+JUMP_LEVEL_TOL = 0.25
 #: Recordings before a break whose linear trend is the jump's reference.
 JUMP_PRE = 10
 #: Outlier rule: |residual from the running median| > max(OUTLIER_SIGMA · σ̂, OUTLIER_FLOOR).
@@ -381,8 +391,24 @@ def _search_jumps(t: np.ndarray, y: np.ndarray, s: float) -> list[ChangePoint]:
         # the recent wear increment per recording: a jump is sudden against it
         step = float(np.median(np.abs(np.diff(yw))))  # a reference has three or more
         j_b = max(j_min, JUMP_STEPS * step)
-        if post.size < 2 or not (np.all(np.abs(post) > j_b) and np.sign(post[0]) == np.sign(post[1])):
+        # … or, a level shift against the wear the reference predicts over the time to each
+        # recording judged (JUMP_WEAR_FRAC × median rate × that time): on weekly data the
+        # change between recordings is a week of wear and 3× it hid a 15–20 mrad jump (B-03).
+        # Then the two residuals must agree (JUMP_LEVEL_TOL): the extrapolation error of smooth
+        # acceleration grows with the horizon, a jump's step stays.
+        rate = max(float(np.median(np.abs(np.diff(yw)) / np.diff(tw))), abs(float(ref.deriv()(0.0))))
+        j_t = np.maximum(j_min, JUMP_WEAR_FRAC * rate * (t[b : b + 2] - tw[-1]))
+        if post.size < 2 or np.sign(post[0]) != np.sign(post[1]):
             continue
+        by_step = bool(np.all(np.abs(post) > j_b))
+        by_level = bool(
+            np.all(np.abs(post) > j_t)
+            and abs(post[1] - post[0]) <= JUMP_LEVEL_TOL * float(np.min(np.abs(post)))
+        )
+        if not (by_step or by_level):
+            continue
+        if not by_step:
+            j_b = float(j_t[0])
         # recordings just before the break that the reference left out and that lie beyond the
         # limit on the jump's side are the jump's first: with a scale near the noise floor, Pelt
         # splits 3 + 3 estimates into 2 + 2 + 2 exact lines and proposes the break one late
