@@ -106,3 +106,39 @@ def test_negative_control_a_lone_outlier_on_weekly_data_is_no_jump():
         y[i] += 0.015
         tr = fit_trend(t, y, np.full(16, 0.105e-3), 0.2)
         assert tr.change_points == [] and not tr.inlier[i]
+
+
+# ------------------------------------------------------------------ B-04: the new part's own rate
+def _repaired(rng: np.random.Generator, r1: float, r2: float, n2: int = 8):
+    """mc_repair.py's axes: 15 daily estimates at r1 [rad/day], a repair at day 14.5 to 55 mrad,
+    then ``n2`` at r2; 0.03 mrad scatter, 0.05 mrad per-axis error; threshold 110 mrad."""
+    t = np.arange(15 + n2, dtype=float)
+    true = np.where(t < 14.5, 0.060 + r1 * t, 0.055 + r2 * (t - 14.5))
+    y = true + rng.normal(0, 0.03e-3, t.size) + rng.normal(0, 0.05e-3)
+    return t, y, 0.110, 14.5 + (0.110 - 0.055) / r2
+
+
+@pytest.mark.parametrize("r1, r2", [(3e-3, 1e-3), (1e-3, 3e-3)])
+def test_after_a_repair_the_new_part_wears_at_its_own_rate(r1, r2):
+    """B-04 (mc_repair.py, 40 seeds): interval holding the truth 0/40 → 35/40 (r2 = r1/3) and
+    39/40 (r2 = 3 r1); before, one slope across the repair put δ now 6.6 mrad high and the
+    forecast a month early."""
+    rng = np.random.default_rng(3)
+    held = 0
+    for _ in range(6):
+        t, y, thr, t_cross = _repaired(rng, r1, r2)
+        tr = fit_trend(t, y, np.full(t.size, 0.105e-3), thr)
+        assert len(tr.change_points) == 1 and tr.change_points[0].size < 0
+        assert tr.model == "linear" and tr.params["b"] + tr.params["b1"] == pytest.approx(r2, rel=0.05)
+        assert float(tr.curve(t[-1:])[0][0]) == pytest.approx(y[-1], abs=0.3e-3)  # δ now
+        held += tr.forecast.t_early <= t_cross <= tr.forecast.t_late
+    assert held >= 5, held
+
+
+def test_negative_control_equal_rates_across_a_repair_share_the_slope():
+    rng = np.random.default_rng(3)
+    for _ in range(6):
+        t, y, thr, t_cross = _repaired(rng, 3e-3, 3e-3)
+        tr = fit_trend(t, y, np.full(t.size, 0.105e-3), thr)
+        assert "b1" not in tr.params
+        assert tr.forecast.t_early <= t_cross <= tr.forecast.t_late

@@ -43,7 +43,9 @@ docs/assumptions.md, "Wear tracking"):
 4. **Growth models** on the inliers, with one level-shift term per change point and weights
    1/σ_i² when the estimator gives uncertainties (else equal; the scale is estimated):
    *linear* δ = a + b t (``statsmodels`` WLS) and *accelerating* δ = a + v (e^{kt} − 1)/k,
-   k ≥ 0 (nested: k → 0 is linear; ``scipy.optimize.least_squares``). The accelerating model is
+   k ≥ 0 (nested: k → 0 is linear; ``scipy.optimize.least_squares``). After a negative
+   change point (repair) with :data:`MIN_OWN_RATE_POINTS` inliers after it, the linear model
+   gets a slope-change term there (the new part's own rate), taken by AICc as below. The accelerating model is
    chosen only when its AICc is lower by more than :data:`AICC_MARGIN` (Burnham & Anderson's
    "substantial support").
 5. **Forecast**: the fitted mean crosses the threshold at t*; the 90 % interval of t* comes from
@@ -97,6 +99,9 @@ OUTLIER_FLOOR = 0.5e-3
 OUTLIER_STEPS = 0.5
 #: The accelerating model needs an AICc lower by more than this.
 AICC_MARGIN = 2.0
+#: Fewest inliers after a repair (a negative change point) for the new part's own wear rate
+#: (a slope-change term, chosen by AICc): three, the fewest whose line can show its scatter.
+MIN_OWN_RATE_POINTS = 3
 #: Two-sided level of the forecast interval and bands.
 LEVEL = 0.90
 #: Fewest inliers for a forecast.
@@ -464,13 +469,28 @@ class _Fit:
     curve: Any
 
 
+def _ramp(t: np.ndarray, t_c: float | None) -> np.ndarray:
+    """Columns of the new part's own wear rate: (t − t_c) from the change point t_c on [days];
+    none when ``t_c`` is None."""
+    if t_c is None:
+        return np.zeros((t.size, 0))
+    return (np.maximum(t - t_c, 0.0) * (t >= t_c - 1e-9))[:, None]
+
+
 def _fit_linear(
-    t: np.ndarray, y: np.ndarray, w: np.ndarray, cps: list[ChangePoint], s_sys: float = 0.0
+    t: np.ndarray,
+    y: np.ndarray,
+    w: np.ndarray,
+    cps: list[ChangePoint],
+    s_sys: float = 0.0,
+    t_own: float | None = None,
 ) -> _Fit:
+    """Linear growth δ = a + b t + Σ J_i·1[t ≥ t_i]; with ``t_own`` [days] (the last repair)
+    + b1·(t − t_own)₊: the part fitted after it wears at its own rate b + b1."""
     import statsmodels.api as sm
     from scipy.stats import t as student
 
-    X = np.column_stack([np.ones_like(t), t, _steps(t, cps)])
+    X = np.column_stack([np.ones_like(t), t, _steps(t, cps), _ramp(t, t_own)])
     res = sm.WLS(y, X, weights=w).fit()
     n, p = y.size, X.shape[1]
     rss = float(np.sum(w * res.resid**2))
@@ -479,7 +499,7 @@ def _fit_linear(
     q = float(student.ppf(0.5 + LEVEL / 2, max(n - p, 1)))
 
     def curve(tt: np.ndarray):
-        Xn = np.column_stack([np.ones_like(tt), tt, _steps(tt, cps)])
+        Xn = np.column_stack([np.ones_like(tt), tt, _steps(tt, cps), _ramp(tt, t_own)])
         pr = res.get_prediction(Xn)
         mean = pr.predicted_mean
         half = q * np.sqrt(pr.var_pred_mean + s_sys * s_sys)
@@ -487,7 +507,9 @@ def _fit_linear(
         return mean, mean - half, mean + half, mean - halfp, mean + halfp
 
     params = {"a": float(res.params[0]), "b": float(res.params[1])}
-    params.update({f"J{i}": float(v) for i, v in enumerate(res.params[2:])})
+    params.update({f"J{i}": float(v) for i, v in enumerate(res.params[2 : 2 + len(cps)])})
+    if t_own is not None:
+        params["b1"] = float(res.params[-1])
     return _Fit("linear", params, rss, _aicc(rss, n, p), curve)
 
 
@@ -781,6 +803,13 @@ def _fit_models(
     if yi.size < MIN_POINTS + len(keep):
         return trend
     lin = _fit_linear(ti, yi, wi, keep, s_sys)
+    # after a repair or re-adjustment (a negative change point) the new part wears at its own
+    # rate: a slope-change term for the last segment, taken when its AICc is lower by more than
+    # AICC_MARGIN (a shared slope forecast a repaired axis a month early, B-04)
+    if keep and keep[-1].size < 0 and int(np.sum(ti >= keep[-1].t_days - 1e-9)) >= MIN_OWN_RATE_POINTS:
+        own = _fit_linear(ti, yi, wi, keep, s_sys, t_own=keep[-1].t_days)
+        if own.aicc < lin.aicc - AICC_MARGIN:
+            lin = own
     fits = {"linear": lin}
     acc = _fit_accelerating(ti, yi, wi, keep, lin, s_sys) if yi.size >= MIN_POINTS + 1 + len(keep) else None
     if acc is not None:
