@@ -142,3 +142,17 @@ def test_negative_control_equal_rates_across_a_repair_share_the_slope():
         tr = fit_trend(t, y, np.full(t.size, 0.105e-3), thr)
         assert "b1" not in tr.params
         assert tr.forecast.t_early <= t_cross <= tr.forecast.t_late
+
+
+# ------------------------------------------------------------------ B-07: the report's monotone line
+def test_monotone_trend_does_not_pass_through_an_outlier():
+    """B-07: a +12 mrad wild estimate on a 1 mrad/day line (the report's M03/Y): the isotonic
+    line jumped to it and stayed up to 3.8 mrad above every inlier; now it follows the inliers."""
+    rng = np.random.default_rng(2)
+    t = np.arange(30, dtype=float)
+    y = 0.07 + 1e-3 * t + rng.normal(0, 0.05e-3, t.size)
+    y[12] += 0.012
+    tr = fit_trend(t, y, np.full(t.size, 0.1e-3), 0.2)
+    assert not tr.inlier[12] and tr.inlier.sum() == 29
+    assert np.all(np.abs(tr.isotonic - (0.07 + 1e-3 * t)) < 0.5e-3)
+    assert np.all(np.diff(tr.isotonic) >= 0)
