@@ -6,7 +6,10 @@ by it; :func:`usable`). An unexcited recording never enters a trend. Steps (numb
 docs/assumptions.md, "Wear tracking"):
 
 1. **Noise scale** σ̂: the MAD of second differences / √6 (insensitive to a trend and to
-   isolated jumps), floored at :data:`SIGMA_FLOOR`. A jump enters two second differences, half
+   isolated jumps), floored at :data:`SIGMA_FLOOR`. The second differences are divided
+   differences in time, scaled to the noise of an equally spaced triple
+   (:func:`_second_differences`): recordings at varying times of day made the plain
+   second differences of a fast linear trend read as noise. A jump enters two second differences, half
    of them on a series of six: there σ̂ grows with the jump and hides it (3 + 3 estimates
    around a 5 mrad jump: σ̂ 1.5 mrad, the limit 8σ̂ above the jump, and a line through the step
    forecast the crossing at day 107 [75, 216] for a true ≈ 1500). When step 2 finds no jump with
@@ -17,7 +20,10 @@ docs/assumptions.md, "Wear tracking"):
    two recordings after it both lie more than J_min = max(:data:`JUMP_SIGMA`·σ̂,
    :data:`JUMP_MIN`, :data:`JUMP_STEPS` × the median change between recordings before it)
    from the local trend of up to :data:`JUMP_PRE` recordings before it
-   (quadratic from 5 points on), on the same side — so a jump is flagged on its second
+   (quadratic from 5 points on), on the same side — or, as a level shift, beyond
+   max(:data:`JUMP_SIGMA`·σ̂, :data:`JUMP_MIN`, :data:`JUMP_WEAR_FRAC` × the wear the trend
+   predicts to each) and agreeing within :data:`JUMP_LEVEL_TOL` (weekly data: the change
+   between recordings is a week of wear) — so a jump is flagged on its second
    recording, a lone outlier never. That trend needs three recordings that agree; an outlier
    among them leaves it first (:func:`_window_inliers`): a wild estimate as the last before a
    break bent the trend, and the normal recordings after it read as a jump (a 10 mrad outlier
@@ -37,7 +43,9 @@ docs/assumptions.md, "Wear tracking"):
 4. **Growth models** on the inliers, with one level-shift term per change point and weights
    1/σ_i² when the estimator gives uncertainties (else equal; the scale is estimated):
    *linear* δ = a + b t (``statsmodels`` WLS) and *accelerating* δ = a + v (e^{kt} − 1)/k,
-   k ≥ 0 (nested: k → 0 is linear; ``scipy.optimize.least_squares``). The accelerating model is
+   k ≥ 0 (nested: k → 0 is linear; ``scipy.optimize.least_squares``). After a negative
+   change point (repair) with :data:`MIN_OWN_RATE_POINTS` inliers after it, the linear model
+   gets a slope-change term there (the new part's own rate), taken by AICc as below. The accelerating model is
    chosen only when its AICc is lower by more than :data:`AICC_MARGIN` (Burnham & Anderson's
    "substantial support").
 5. **Forecast**: the fitted mean crosses the threshold at t*; the 90 % interval of t* comes from
@@ -49,7 +57,8 @@ docs/assumptions.md, "Wear tracking"):
    not average out with more recordings and the fit's band alone would be far too narrow.
    Prediction bands for a new estimate (the fit's mean band widened by the residual scale;
    the axis's systematic error is shared by its next estimate) are drawn in the plots.
-6. **Monotone trend** for display: isotonic regression (scikit-learn) per segment.
+6. **Monotone trend** for display: isotonic regression (scikit-learn) per segment, fitted to
+   the inliers (an outlier gets the line's value at its time).
 """
 
 from __future__ import annotations
@@ -72,8 +81,15 @@ JUMP_SIGMA = 8.0
 #: … and JUMP_MIN [rad] (2 mrad: below it a jump is not "sudden damage" for maintenance).
 JUMP_MIN = 2e-3
 #: … and JUMP_STEPS times the median change between consecutive recordings before it
-#: (fast but smooth wear is not a jump).
+#: (fast but smooth wear is not a jump) …
 JUMP_STEPS = 3.0
+#: … or (session 30, B-03: on weekly data 3 × the change between recordings is three weeks of
+#: wear and hid a 15–20 mrad jump) a level shift: both residuals beyond JUMP_WEAR_FRAC × the
+#: wear the reference predicts to each (median rate × time since its last recording) …
+JUMP_WEAR_FRAC = 0.5
+#: … that agree within JUMP_LEVEL_TOL × the smaller (a jump's step stays; the extrapolation
+#: error of smooth acceleration grows with the horizon, ≈ 4× from one interval to two).
+JUMP_LEVEL_TOL = 0.25
 #: Recordings before a break whose linear trend is the jump's reference.
 JUMP_PRE = 10
 #: Outlier rule: |residual from the running median| > max(OUTLIER_SIGMA · σ̂, OUTLIER_FLOOR).
@@ -84,6 +100,9 @@ OUTLIER_FLOOR = 0.5e-3
 OUTLIER_STEPS = 0.5
 #: The accelerating model needs an AICc lower by more than this.
 AICC_MARGIN = 2.0
+#: Fewest inliers after a repair (a negative change point) for the new part's own wear rate
+#: (a slope-change term, chosen by AICc): three, the fewest whose line can show its scatter.
+MIN_OWN_RATE_POINTS = 3
 #: Two-sided level of the forecast interval and bands.
 LEVEL = 0.90
 #: Fewest inliers for a forecast.
@@ -173,28 +192,74 @@ class AxisTrend:
 
 
 # ------------------------------------------------------------------------------- noise, jumps
-def noise_scale(y: np.ndarray) -> float:
-    """Robust noise σ̂ [rad]: 1.4826 · MAD(Δ²y) / √6, floored at :data:`SIGMA_FLOOR`."""
+def _equally_spaced(t: np.ndarray | None) -> bool:
+    """Whether times ``t`` [days] are equally spaced (within float rounding: 1e-12 of the
+    span), or not increasing — then the time-aware forms fall back to the plain ones."""
+    if t is None or np.size(t) < 3:
+        return True
+    dt = np.diff(np.asarray(t, dtype=float))
+    if np.any(dt <= 0):
+        return True
+    return bool(np.allclose(dt, dt[0], rtol=0.0, atol=1e-12 * max(1.0, float(np.ptp(t)))))
+
+
+def _second_differences(y: np.ndarray, t: np.ndarray | None = None) -> np.ndarray:
+    """Second differences of ``y`` [rad], time-aware: each triple's second divided difference
+    y[t_{i-1}, t_i, t_{i+1}] scaled to the noise of an equally spaced triple (var = 6σ² for white
+    noise σ, as ``numpy.diff(y, 2)``). A linear trend cancels whatever the spacing; with
+    ``t`` None or equally spaced it equals ``numpy.diff(y, 2)`` (within float rounding).
+    Recordings at varying times of day gave second differences of the trend itself with the
+    plain ``numpy.diff`` (session 30, B-05)."""
+    if y.size < 3 or _equally_spaced(t):
+        return np.diff(y, 2)  # the plain second difference, bit for bit as before
+    t = np.asarray(t, dtype=float)
+    h0, h1 = np.diff(t)[:-1], np.diff(t)[1:]
+    # divided difference = c0·y0 + c1·y1 + c2·y2; its noise is σ·‖c‖, so √6·(c·y)/‖c‖ has the
+    # noise of an equally spaced triple's y0 − 2y1 + y2
+    c0 = 1.0 / (h0 * (h0 + h1))
+    c1 = -1.0 / (h0 * h1)
+    c2 = 1.0 / (h1 * (h0 + h1))
+    dd = c0 * y[:-2] + c1 * y[1:-1] + c2 * y[2:]
+    return math.sqrt(6.0) * dd / np.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+
+
+def noise_scale(y: np.ndarray, t: np.ndarray | None = None) -> float:
+    """Robust noise σ̂ [rad]: 1.4826 · MAD(Δ²y) / √6, floored at :data:`SIGMA_FLOOR`.
+
+    Parameters
+    ----------
+    y : numpy.ndarray
+        δ̂ [rad], in time order.
+    t : numpy.ndarray, optional
+        Times [days]; when given, Δ²y are second divided differences scaled to an equally
+        spaced triple (:func:`_second_differences`), so uneven recording times do not read as
+        noise. None: equally spaced.
+    """
     if y.size < 4:
         return SIGMA_FLOOR
-    d2 = np.diff(y, 2)
+    d2 = _second_differences(y, t)
     mad = float(np.median(np.abs(d2 - np.median(d2))))
     return max(1.4826 * mad / math.sqrt(6.0), SIGMA_FLOOR)
 
 
-def jump_scale(y: np.ndarray) -> float:
+def jump_scale(y: np.ndarray, t: np.ndarray | None = None) -> float:
     """Noise scale [rad] of ``y`` with its largest step taken out: the step Δy_m farthest from
     the median step is replaced by that median (the later samples shift by the difference),
     then :func:`noise_scale`. Without a jump it is :func:`noise_scale` of a series one step
-    quieter; with one, the scale the jump would otherwise inflate."""
+    quieter; with one, the scale the jump would otherwise inflate. With times ``t`` [days] the
+    steps are judged as rates: Δy_m farthest from the median rate × Δt_m is replaced by that."""
     if y.size < 4:
         return SIGMA_FLOOR
     d = np.diff(y)
-    med = float(np.median(d))
+    if _equally_spaced(t):
+        med = np.full(d.size, float(np.median(d)))
+    else:
+        dt = np.diff(np.asarray(t, dtype=float))
+        med = float(np.median(d / dt)) * dt
     m = int(np.argmax(np.abs(d - med)))
     y2 = np.array(y, dtype=float)
-    y2[m + 1 :] -= d[m] - med
-    return noise_scale(y2)
+    y2[m + 1 :] -= d[m] - med[m]
+    return noise_scale(y2, t)
 
 
 def _huber_poly(x: np.ndarray, y: np.ndarray, deg: int, iters: int = 6) -> np.ndarray:
@@ -249,12 +314,12 @@ def jumps_and_scale(t: np.ndarray, y: np.ndarray) -> tuple[list[ChangePoint], fl
     """Change points and the noise scale σ̂ [rad] they were found with (module docstring, steps
     1–2): :func:`noise_scale`; when no jump passes with it, the search once more with
     :func:`jump_scale` if that is smaller — σ̂ is then that scale if a jump passes."""
-    sigma = noise_scale(y)
+    sigma = noise_scale(y, t)
     if y.size < 4:
         return [], sigma
     cps = _search_jumps(t, y, sigma)
     if not cps:
-        s2 = jump_scale(y)
+        s2 = jump_scale(y, t)
         if s2 < sigma:
             cps = _search_jumps(t, y, s2)
             if cps:
@@ -332,8 +397,24 @@ def _search_jumps(t: np.ndarray, y: np.ndarray, s: float) -> list[ChangePoint]:
         # the recent wear increment per recording: a jump is sudden against it
         step = float(np.median(np.abs(np.diff(yw))))  # a reference has three or more
         j_b = max(j_min, JUMP_STEPS * step)
-        if post.size < 2 or not (np.all(np.abs(post) > j_b) and np.sign(post[0]) == np.sign(post[1])):
+        # … or, a level shift against the wear the reference predicts over the time to each
+        # recording judged (JUMP_WEAR_FRAC × median rate × that time): on weekly data the
+        # change between recordings is a week of wear and 3× it hid a 15–20 mrad jump (B-03).
+        # Then the two residuals must agree (JUMP_LEVEL_TOL): the extrapolation error of smooth
+        # acceleration grows with the horizon, a jump's step stays.
+        rate = max(float(np.median(np.abs(np.diff(yw)) / np.diff(tw))), abs(float(ref.deriv()(0.0))))
+        j_t = np.maximum(j_min, JUMP_WEAR_FRAC * rate * (t[b : b + 2] - tw[-1]))
+        if post.size < 2 or np.sign(post[0]) != np.sign(post[1]):
             continue
+        by_step = bool(np.all(np.abs(post) > j_b))
+        by_level = bool(
+            np.all(np.abs(post) > j_t)
+            and abs(post[1] - post[0]) <= JUMP_LEVEL_TOL * float(np.min(np.abs(post)))
+        )
+        if not (by_step or by_level):
+            continue
+        if not by_step:
+            j_b = float(j_t[0])
         # recordings just before the break that the reference left out and that lie beyond the
         # limit on the jump's side are the jump's first: with a scale near the noise floor, Pelt
         # splits 3 + 3 estimates into 2 + 2 + 2 exact lines and proposes the break one late
@@ -389,13 +470,28 @@ class _Fit:
     curve: Any
 
 
+def _ramp(t: np.ndarray, t_c: float | None) -> np.ndarray:
+    """Columns of the new part's own wear rate: (t − t_c) from the change point t_c on [days];
+    none when ``t_c`` is None."""
+    if t_c is None:
+        return np.zeros((t.size, 0))
+    return (np.maximum(t - t_c, 0.0) * (t >= t_c - 1e-9))[:, None]
+
+
 def _fit_linear(
-    t: np.ndarray, y: np.ndarray, w: np.ndarray, cps: list[ChangePoint], s_sys: float = 0.0
+    t: np.ndarray,
+    y: np.ndarray,
+    w: np.ndarray,
+    cps: list[ChangePoint],
+    s_sys: float = 0.0,
+    t_own: float | None = None,
 ) -> _Fit:
+    """Linear growth δ = a + b t + Σ J_i·1[t ≥ t_i]; with ``t_own`` [days] (the last repair)
+    + b1·(t − t_own)₊: the part fitted after it wears at its own rate b + b1."""
     import statsmodels.api as sm
     from scipy.stats import t as student
 
-    X = np.column_stack([np.ones_like(t), t, _steps(t, cps)])
+    X = np.column_stack([np.ones_like(t), t, _steps(t, cps), _ramp(t, t_own)])
     res = sm.WLS(y, X, weights=w).fit()
     n, p = y.size, X.shape[1]
     rss = float(np.sum(w * res.resid**2))
@@ -404,7 +500,7 @@ def _fit_linear(
     q = float(student.ppf(0.5 + LEVEL / 2, max(n - p, 1)))
 
     def curve(tt: np.ndarray):
-        Xn = np.column_stack([np.ones_like(tt), tt, _steps(tt, cps)])
+        Xn = np.column_stack([np.ones_like(tt), tt, _steps(tt, cps), _ramp(tt, t_own)])
         pr = res.get_prediction(Xn)
         mean = pr.predicted_mean
         half = q * np.sqrt(pr.var_pred_mean + s_sys * s_sys)
@@ -412,7 +508,9 @@ def _fit_linear(
         return mean, mean - half, mean + half, mean - halfp, mean + halfp
 
     params = {"a": float(res.params[0]), "b": float(res.params[1])}
-    params.update({f"J{i}": float(v) for i, v in enumerate(res.params[2:])})
+    params.update({f"J{i}": float(v) for i, v in enumerate(res.params[2 : 2 + len(cps)])})
+    if t_own is not None:
+        params["b1"] = float(res.params[-1])
     return _Fit("linear", params, rss, _aicc(rss, n, p), curve)
 
 
@@ -529,14 +627,23 @@ def systematic_std(std: np.ndarray, sigma: float) -> float:
     return float(math.sqrt(max(float(np.median(s * s)) - sigma * sigma, 0.0)))
 
 
-def _isotonic(t: np.ndarray, y: np.ndarray, w: np.ndarray, cps: list[ChangePoint]) -> np.ndarray:
+def _isotonic(
+    t: np.ndarray, y: np.ndarray, w: np.ndarray, cps: list[ChangePoint], keep: np.ndarray | None = None
+) -> np.ndarray:
+    """Monotone (isotonic) trend per segment [rad] at every ``t``, fitted to the estimates in
+    ``keep`` (default all; :func:`fit_trend` passes the inliers, so the line does not pass
+    through estimates the fit left out, B-07); the others get its value at their time."""
     from sklearn.isotonic import IsotonicRegression
 
-    out = np.empty_like(y)
+    ok = np.ones(y.size, dtype=bool) if keep is None else np.asarray(keep, dtype=bool)
+    out = np.array(y, dtype=float)
     edges = [0, *[c.index for c in cps], y.size]
     for a, b in zip(edges[:-1], edges[1:], strict=True):
-        if b > a:
-            out[a:b] = IsotonicRegression(increasing=True).fit_transform(t[a:b], y[a:b], sample_weight=w[a:b])
+        m = ok[a:b]
+        if m.any():
+            iso = IsotonicRegression(increasing=True, out_of_bounds="clip")
+            iso.fit(t[a:b][m], y[a:b][m], sample_weight=w[a:b][m])
+            out[a:b] = iso.predict(t[a:b])
     return out
 
 
@@ -681,6 +788,10 @@ def fit_trend(
         with_them = _fit_models(t, y, w_all, s_in, cand, cps, sigma, threshold, t0, iso, lim)
         if with_them.model is not None and np.all(np.abs(y - with_them.curve(t)[0])[cand] <= lim[cand]):
             trend = with_them
+    if n:
+        # the display's monotone trend through the estimates the fit kept (B-07: it went through
+        # a +12 mrad wild estimate and stayed 3.8 mrad above every inlier for five days)
+        trend.isotonic = _isotonic(t, y, w_all, cps, trend.inlier)
     return trend
 
 
@@ -706,6 +817,13 @@ def _fit_models(
     if yi.size < MIN_POINTS + len(keep):
         return trend
     lin = _fit_linear(ti, yi, wi, keep, s_sys)
+    # after a repair or re-adjustment (a negative change point) the new part wears at its own
+    # rate: a slope-change term for the last segment, taken when its AICc is lower by more than
+    # AICC_MARGIN (a shared slope forecast a repaired axis a month early, B-04)
+    if keep and keep[-1].size < 0 and int(np.sum(ti >= keep[-1].t_days - 1e-9)) >= MIN_OWN_RATE_POINTS:
+        own = _fit_linear(ti, yi, wi, keep, s_sys, t_own=keep[-1].t_days)
+        if own.aicc < lin.aicc - AICC_MARGIN:
+            lin = own
     fits = {"linear": lin}
     acc = _fit_accelerating(ti, yi, wi, keep, lin, s_sys) if yi.size >= MIN_POINTS + 1 + len(keep) else None
     if acc is not None:
