@@ -431,7 +431,8 @@ def render_fleet_report(
         "Axes",
         paragraphs=[
             "Growth models: linear δ = a + b·t and accelerating δ = a + v·(e^{kt} − 1)/k, chosen by AICc "
-            "(the accelerating one only when lower by more than 2); one level shift per detected jump."
+            "(the accelerating one only when lower by more than 2); one level shift per detected jump, and "
+            "after a repair (a drop) the linear model may give the new part its own rate, also by AICc."
         ],
     )
     for s in summaries:
