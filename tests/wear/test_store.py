@@ -179,6 +179,9 @@ def test_measurement_api_for_iso230_converts_mm_to_rad(tmp_path):
     assert m["M01/Y"]["value_rad"] is None and m["M01/Y"]["value"] == 12.0  # no transmission: kept in um
     with pytest.raises(StoreError, match="no axis 'M01/Z'; did you mean"):
         st.add_measurement("M01/Z", t, value=1.0, std=None, unit="mm")
+    # a name sharing only the "M0" and "/" of the axis ids is no slip (session 30, B-10)
+    with pytest.raises(StoreError, match=r"^.*no axis 'M09/Q' \(2 axes in the store\)$"):
+        st.add_measurement("M09/Q", t, value=1.0, std=None, unit="mm")
     with pytest.raises(StoreError, match="unit 'inch'"):
         st.add_measurement("M01/X", t, value=1.0, std=None, unit="inch")
 

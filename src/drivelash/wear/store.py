@@ -900,7 +900,9 @@ class Store:
             known = [r.name for r in self._read(sa.select(axis_t.c.name).order_by(axis_t.c.name))]
             import difflib
 
-            close = difflib.get_close_matches(name, known, n=1)
+            # 0.7: 'M01/Z' → 'M01/X' (0.8) is a likely slip, 'M09/Z' → 'M04/X' (0.6, the shared
+            # "M0" and "/") is not (session 30 tester B, B-10)
+            close = difflib.get_close_matches(name, known, n=1, cutoff=0.7)
             hint = (
                 f"; did you mean {close[0]!r}?"
                 if close
