@@ -61,6 +61,14 @@ class RecordingTask:
 EARLIEST_COLUMN_START = datetime(2000, 1, 1)
 
 
+def _in_zone(t: datetime, spec: TimeSpec) -> datetime:
+    """``t`` as naive UTC; a stamp without an offset is read in the spec's ``zone`` (default UTC;
+    session 30 tester B, B-09: local wall-clock stamps were taken as UTC, 1 h off in CET)."""
+    from zoneinfo import ZoneInfo
+
+    return utc_naive(t if t.tzinfo else t.replace(tzinfo=ZoneInfo(spec.zone)))  # type: ignore[return-value]
+
+
 def recording_start(path: Path, spec: TimeSpec, meta: dict[str, Any] | None = None) -> datetime:
     """Start time of a recording (naive UTC) as the fleet's ``time`` table says.
 
@@ -82,7 +90,7 @@ def recording_start(path: Path, spec: TimeSpec, meta: dict[str, Any] | None = No
             raise DataError(
                 f"time stamp {text!r} in the file name does not match format {spec.format!r}", path=str(path)
             ) from None
-        return utc_naive(t if t.tzinfo else t.replace(tzinfo=UTC))  # type: ignore[return-value]
+        return _in_zone(t, spec)
     if spec.source == "mtime":
         return datetime.fromtimestamp(path.stat().st_mtime, UTC).replace(tzinfo=None)
     if spec.source == "metadata":
@@ -95,7 +103,7 @@ def recording_start(path: Path, spec: TimeSpec, meta: dict[str, Any] | None = No
             raise DataError(
                 f"metadata '{spec.key}' = {value!r} is not an ISO 8601 time", path=str(path)
             ) from None
-        return utc_naive(t if t.tzinfo else t.replace(tzinfo=UTC))  # type: ignore[return-value]
+        return _in_zone(t, spec)
     # column: POSIX time stamps in the file
     import math
 
@@ -107,7 +115,7 @@ def recording_start(path: Path, spec: TimeSpec, meta: dict[str, Any] | None = No
         raise DataError("no such column for the start time", path=str(path), column=spec.column)
     stamp = raw.meta.get("time_origin", {}).get(spec.column)
     if stamp is not None:  # ISO 8601 stamps: the reader kept the first (the column is seconds from it)
-        return utc_naive(datetime.fromisoformat(stamp))  # type: ignore[return-value]
+        return _in_zone(datetime.fromisoformat(stamp), spec)
     v = float(col[0]) * {"s": 1.0, "ms": 1e-3, "us": 1e-6}[spec.unit]
     if not math.isfinite(v):
         raise DataError(

@@ -29,6 +29,10 @@ How the recording's start time is found (``time`` per axis, or the fleet default
   (the ``drivelash.meta`` block of Parquet/CSV/HDF5/MAT files), ISO 8601;
 * ``from = "mtime"``: the file's modification time (last resort: copies change it).
 
+A stamp without an offset (file name, ISO column or metadata) is read in ``zone`` (an IANA time
+zone name, default ``"UTC"``): ``zone = "Europe/Berlin"`` for a controller writing local wall-clock
+time; a stamp with an offset keeps it, and POSIX stamps and mtime are UTC by definition.
+
 Every error is one :class:`~drivelash.errors.ConfigError` line naming the file, the table
 (``[[axis]] #k (id 'M01/X')``) and the key.
 """
@@ -103,6 +107,20 @@ class TimeSpec(_Strict):
     column: str | None = None
     unit: Literal["s", "ms", "us"] = "s"
     key: str = "start_time"
+    zone: str = "UTC"
+
+    @field_validator("zone")
+    @classmethod
+    def _zone(cls, v: str) -> str:
+        from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
+
+        try:
+            ZoneInfo(v)
+        except (ZoneInfoNotFoundError, ValueError):
+            raise ValueError(
+                f"zone {v!r} is not a time zone name (IANA, e.g. 'Europe/Berlin' or 'UTC')"
+            ) from None
+        return v
 
     @model_validator(mode="after")
     def _complete(self) -> TimeSpec:
@@ -398,6 +416,8 @@ def time_spec_hash(spec: TimeSpec) -> str:
     """SHA-256 (hex) of a ``time`` specification's canonical JSON: stored with each recording's
     start time, so a changed specification re-dates the recordings (``wear.ingest.redate``)."""
     doc = spec.model_dump(mode="json", by_alias=True)
+    if doc.get("zone") == "UTC":  # the default: absent, so the hashes stored before it are unchanged
+        del doc["zone"]
     return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()
 
 
