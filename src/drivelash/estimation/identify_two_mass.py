@@ -1648,6 +1648,13 @@ SIGN_EVIDENCE_LEVEL = 0.05
 INTERPOLATED_RUN = 10
 
 
+def below_verified(rate_hz: float) -> bool:
+    """Whether a sample rate [Hz] is below :data:`VERIFIED_RATE_HZ` (within
+    :data:`VERIFIED_RATE_SLACK`): the one test of the rate warning, the causes of an implausible
+    fit and the unconfirmed-contacts verdict."""
+    return rate_hz < VERIFIED_RATE_HZ * VERIFIED_RATE_SLACK
+
+
 def below_verified_rate(T_s: float) -> str | None:
     """The warning that a recording's sample rate is below :data:`VERIFIED_RATE_HZ` (H1, session 30).
 
@@ -1663,7 +1670,7 @@ def below_verified_rate(T_s: float) -> str | None:
         :data:`VERIFIED_RATE_HZ` (within :data:`VERIFIED_RATE_SLACK`) and above.
     """
     rate = 1.0 / T_s
-    if not rate < VERIFIED_RATE_HZ * VERIFIED_RATE_SLACK:
+    if not below_verified(rate):
         return None
     return (
         f"the sample rate {rate:.4g} Hz is below the {VERIFIED_RATE_HZ:.4g} Hz at which the two-mass "
@@ -1806,7 +1813,7 @@ def _friction_causes(side: str, ev: dict[str, Any] | None, J_m: ParameterEstimat
             f"transients dominate and the {side} friction is not separated from the shaft torque; "
             "record a larger motion"
         )
-    if ev["rate_hz"] < VERIFIED_RATE_HZ:
+    if below_verified(ev["rate_hz"]):
         causes.append(
             f"the sample rate {ev['rate_hz']:.4g} Hz is below the {VERIFIED_RATE_HZ:.4g} Hz at which the "
             "two-mass identification was verified (its equation error is biased at lower rates)"
@@ -2883,7 +2890,7 @@ def _contacts_seen_unconfirmed(
         f"{hi['shaft_torque_se']:.2g} N·m) rests {why}"
     )
     rate = 1.0 / data.T_s
-    if rate < VERIFIED_RATE_HZ * VERIFIED_RATE_SLACK:
+    if below_verified(rate):
         text += (
             f"; the sample rate {rate:.4g} Hz is below the {VERIFIED_RATE_HZ:.4g} Hz at which the two-mass "
             f"identification was verified ({1e3 * data.M * data.T_s:.3g} ms windows) — record at "
