@@ -394,7 +394,8 @@ def test_cli_ingest_with_unreadable_recordings_exit_2_after_storing(tmp_path):
     assert len(warnings) >= 2 and all("M01-X_2026030" in w or "column" in w or "file" in w for w in warnings)
     assert err[-1].startswith("drivelash: error: ") and "recordings failed (stored as failed" in err[-1]
     out = " ".join(r.stdout.split())  # the summary says at which rate δ was estimated
-    assert "new recordings estimated (at most 1000 Hz: every k-th sample of faster recordings;" in out
+    # (files that only failed are not counted as estimated: session 31, B-10)
+    assert "estimated, 2 failed (at most 1000 Hz: every k-th sample of faster recordings;" in out, out
     rows = Store(db, create=False).estimates()
     assert len(rows) == 5 and sum(r["status"] == "failed" for r in rows) == len(warnings)
 

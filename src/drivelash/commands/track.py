@@ -106,8 +106,15 @@ def run_ingest(
         c = Console()
         hz = fleet.axes[0].estimate_rate_hz  # fleet-wide ([fleet] estimate_rate_hz)
         rate = "every sample" if hz is None else f"at most {hz:g} Hz: every k-th sample of faster recordings"
+        n_new = rep.planned - rep.retried
+        new_failed = rep.failed - rep.still_failing  # files read for the first time that failed
+        head = (
+            f"{count(n_new, 'new recording')} estimated "
+            if new_failed == 0
+            else f"{count(n_new, 'new recording')}: {n_new - new_failed} estimated, {new_failed} failed "
+        )  # a file that only failed is not "estimated" (session 30 tester B, B-10)
         c.print(
-            f"[bold]{fleet.name}[/bold]: {count(rep.planned - rep.retried, 'new recording')} estimated "
+            f"[bold]{fleet.name}[/bold]: {head}"
             f"({rate}; {rep.stored} stored in {count(rep.batches, 'transaction')}, {rep.failed} failed), "
             f"{rep.skipped} already in the store"
             + (
@@ -184,6 +191,7 @@ def run_status(
     from rich.console import Console
     from rich.markup import escape
 
+    from drivelash.report.fleet import NOW_LEGEND, any_latest_only
     from drivelash.wear.alarms import stale_notes
 
     store, summ, note = _summaries(db, fleet)
@@ -198,6 +206,8 @@ def run_status(
         c.print(table)
         if legend is not None:
             c.print(escape(legend), style="dim")
+        if any_latest_only(summ):
+            c.print(escape(NOW_LEGEND), style="dim")
         if note is not None:
             c.print(f"[yellow]note[/yellow] {escape(note)}")
         for s in summ:
@@ -433,15 +443,24 @@ def _print_forecast(s: dict[str, Any]) -> None:
             f", {s['unconverged']} excited but not converged ({s['unconverged_used']} of them in the trend, "
             "weighted by their uncertainty)"
         )
+    fit = (
+        f"{s['used'] - s['outliers']} in the fit ({count(s['outliers'], 'outlier')} left out; "
+        if s["model"]
+        else f"none fitted: {s.get('min_points', 5)} needed for a trend ("
+    )  # "3 in the fit … model: none" contradicted itself (session 30 tester B, B-08)
     c.print(
         f"[bold]{s['axis']}[/bold]: {s['used']} of {count(s['recordings'], 'recording')} usable, "
-        f"{s['used'] - s['outliers']} in the fit ({count(s['outliers'], 'outlier')} left out; "
-        f"{s['unexcited']} not excited{conv}, {s['failed']} failed)"
+        f"{fit}{s['unexcited']} not excited{conv}, {s['failed']} failed)"
     )
     c.print(
         f"  threshold {mr(s['threshold_rad'])}; fitted now {mr(s['current_rad'])} "
         f"(noise {mr(s['noise_rad'])}); model: {s['model'] or 'none (too few estimates)'}"
     )
+    if s.get("latest_rad") is not None:
+        sd = s.get("latest_std")
+        pm = f" ± {1e3 * sd:.3f}" if sd is not None and math.isfinite(sd) else ""
+        when = day(s["latest_time"])
+        c.print(f"  latest estimate {1e3 * s['latest_rad']:.3f}{pm} mrad ({when}), no trend yet")
     if s["crossed"]:
         c.print(f"  [red]threshold crossed[/red] (fitted trend reached it {day(s['crossing'])})")
     elif s["crossing"] is not None:

@@ -41,6 +41,23 @@ def _interval(s: dict[str, Any]) -> str:
     return crossing_interval(s["crossing_early"], s["crossing_late"], s["crossing_late_never"])
 
 
+def _now_cell(s: dict[str, Any]) -> str:
+    """The "δ now" cell: the fitted trend now, or — too few estimates for a trend — the latest
+    usable estimate in parentheses (:data:`NOW_LEGEND`)."""
+    if s["current_rad"] is None and s.get("latest_rad") is not None:
+        return f"({_mrad(s['latest_rad'])})"
+    return _mrad(s["current_rad"])
+
+
+#: What the parentheses in the "δ now" column mean (under the status table and the report's).
+NOW_LEGEND = "(…) in δ now: the latest estimate — too few recordings for a trend"
+
+
+def any_latest_only(summaries: list[dict[str, Any]]) -> bool:
+    """Whether a "δ now" cell shows a latest estimate in parentheses (:func:`_now_cell`)."""
+    return any(s["current_rad"] is None and s.get("latest_rad") is not None for s in summaries)
+
+
 def overview_rows(summaries: list[dict[str, Any]]) -> list[list[Any]]:
     """Rows of the overview table (also used by ``track status``)."""
     rows = []
@@ -49,7 +66,7 @@ def overview_rows(summaries: list[dict[str, Any]]) -> list[list[Any]]:
         rows.append(
             [
                 s["axis"],
-                _mrad(s["current_rad"]),
+                _now_cell(s),
                 _mrad(s["threshold_rad"]),
                 s["model"] or "–",
                 "crossed" if s["crossed"] else _day(s["crossing"]),
@@ -71,7 +88,7 @@ OVERVIEW_HEADER = [
     "model",
     "expected crossing (UTC)",
     "90 % interval (UTC)",
-    "days left",
+    "days after last rec.",
     "used/recordings",
     "unexcited",
     "failed",
@@ -110,7 +127,8 @@ ALARM_ABBREV = {
 MODEL_ABBREV = {"accelerating": "accel."}
 COMPACT_LEGEND = (
     "δ now, thresh.: mrad; crossing: expected threshold crossing (UTC); 90 % int.: its 90 % interval, "
-    "days before … after it; days: days left; used: usable/recordings; unexc: not excited; fail: failed; "
+    "days before … after it; days: days from the last recording to the crossing; used: usable/recordings; "
+    "unexc: not excited; fail: failed; "
     "accel.: accelerating; alarms: "
     + ", ".join(f"{v} {k}" for k, v in ALARM_ABBREV.items() if v != k)
     + " (listed in full below)"
@@ -408,6 +426,8 @@ def render_fleet_report(
         tables=[("", OVERVIEW_HEADER, overview_rows(summaries))],
         text_left=True,
     )
+    if any_latest_only(summaries):
+        overview.paragraphs.append(NOW_LEGEND + ".")
     overview.paragraphs.extend(notes)
     stale = stale_notes(summaries)
     if stale:

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from drivelash.wear.store import Store
-from drivelash.wear.trend import AxisTrend, analyse, usable
+from drivelash.wear.trend import MIN_POINTS, AxisTrend, analyse, usable
 from drivelash.wear.words import count, crossing_time, to_the_minute
 
 __all__ = [
@@ -95,8 +95,13 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
             if not r["converged"] and sd is not None
             else "estimate not converged, no uncertainty stated"
             if not r["converged"]
+            else (
+                f"too few recordings for a trend yet, {count(len(trend.t), 'usable estimate')} of "
+                f"{MIN_POINTS}: this estimate alone is above it"
+            )
+            if trend.model is None
             else "not in the fitted trend yet: a jump or a bad recording, the next recording decides"
-            if trend.model is None or not _in_fit(trend, r)
+            if not _in_fit(trend, r)
             else "the fitted trend is still below"
         )
         out.append(
@@ -470,6 +475,10 @@ def axis_summary(store: Store, axis: dict[str, Any], now: datetime | None = None
     last_t = trend.to_time(float(trend.t[-1])) if trend.t.size else None
     t_now = trend.t_now if trend.model and trend.t_now is not None else None
     current = float(trend.curve(np.array([t_now]))[0][0]) if t_now is not None else None
+    # without a trend (too few estimates) the views show the latest usable estimate instead of
+    # an empty "δ now" (session 30 tester B, B-08)
+    latest = None if trend.model else next((r for r in reversed(sorted(
+        used, key=lambda r: (r["start_time"] or datetime.min, r["path"])))), None)  # fmt: skip
     remaining = None
     if fc is not None and fc.t_cross is not None and t_now is not None:
         remaining = fc.t_cross - t_now
@@ -502,6 +511,10 @@ def axis_summary(store: Store, axis: dict[str, Any], now: datetime | None = None
         "outliers": int((~trend.inlier).sum()) if trend.t.size else 0,
         "last_recording": last_t,
         "current_rad": current,
+        "latest_rad": latest["delta"] if latest is not None else None,
+        "latest_std": latest["delta_std"] if latest is not None else None,
+        "latest_time": latest["start_time"] if latest is not None else None,
+        "min_points": MIN_POINTS,
         "model": trend.model,
         "params": trend.params,
         "aicc": trend.aicc,
@@ -639,6 +652,17 @@ def fleet_summary(
     return out
 
 
+def _dated_or_written(r: dict[str, Any]) -> datetime | None:
+    """A row's start time; for a failed recording that could not be dated, its file's time
+    (naive UTC) — a file that failed after the last usable one is a later recording too (the
+    stale note left it out: session 30 tester B, B-10)."""
+    if r["start_time"] is not None:
+        return r["start_time"]
+    if r["status"] != "ok" and r.get("mtime_ns") is not None:
+        return datetime.fromtimestamp(r["mtime_ns"] / 1e9, UTC).replace(tzinfo=None)
+    return None
+
+
 def stale_notes(summaries: list[dict[str, Any]], now: datetime | None = None) -> list[tuple[str, str]]:
     """Axes whose expected threshold crossing lies in the past with no recording since: the
     forecast is frozen at the last data, so it says nothing about today (a machine whose
@@ -654,7 +678,7 @@ def stale_notes(summaries: list[dict[str, Any]], now: datetime | None = None) ->
         if tc < ref:
             last = s.get("judged_at") or last
             age = (ref - last).total_seconds() / 86400.0
-            later = [r for r in s.get("rows", []) if r["start_time"] is not None and r["start_time"] > last]
+            later = [r for r in s.get("rows", []) if (t := _dated_or_written(r)) is not None and t > last]
             if not later:
                 since = f"with no recording since the last one ({_day(last)}, {count(round(age), 'day')} ago)"
                 advice = "record the axis again"
