@@ -84,3 +84,25 @@ def test_a_load_encoder_counting_the_other_way_is_named_by_both_commands(bench):
         assert f"ratio {N_hat:.4g}" in msg and "check the sign of theta_l or theta_m" in msg, msg
     est = dl.estimate_backlash(tr, sc.estimator_drivetrain, sc.estimator_backlash.delta1)
     assert est.converged  # negative control
+
+
+def test_a_doubled_ratio_on_a_direct_drive_is_named(bench):
+    """Session 30 tester A (M3): N = 2 stated for the direct-drive bench-0B passed the rule
+    (Δθ spanned 3.93× what it spans with the fitted ratio, the factor was 4) and the user was
+    sent to δ1, K_S and the velocity signals. The factor is 2.5 (the largest ratio with the true
+    N: 1.82 over the 48 random drives, docs/assumptions.md). Both commands refuse it; negative
+    control: N = 1.05 (within the 10 % tolerance) and the true N pass."""
+    from drivelash.estimation.identify_two_mass import GEAR_RATIO_SPAN_FACTOR, check_gear_ratio
+
+    sc, tr = bench
+    th_m, th_l = tr["theta_m"], tr["theta_l"]
+    dl_ = th_l - th_l.mean()
+    N_hat = float((th_m - th_m.mean()) @ dl_) / float(dl_ @ dl_)
+    span = np.ptp(th_m / 2.0 - th_l) / np.ptp(th_m / N_hat - th_l)
+    assert 2.5 < span < 4.0 and GEAR_RATIO_SPAN_FACTOR == 2.5  # the case the old factor let through
+    with pytest.raises(dl.ParameterError, match=r"drivetrain.N: 2 contradicts the recording"):
+        dl.estimate_backlash(tr, replace(sc.estimator_drivetrain, N=2.0), sc.estimator_backlash.delta1)
+    with pytest.raises(dl.ParameterError, match=r"drivetrain.N: 2 contradicts the recording"):
+        dl.identify_drive(tr, N=2.0, model="two-mass")
+    for N in (1.0, 1.05):
+        check_gear_ratio(th_m, th_l, N)

@@ -314,8 +314,11 @@ def _interior_mean(x: np.ndarray, start: int, M: int, nw: int) -> np.ndarray:
 GEAR_RATIO_TOLERANCE = 0.1
 #: ... and Δθ = θ_m/N − θ_l spans this many times more with the configured N than with the
 #: fitted ratio, while the load travelled this many times the fitted ratio's Δθ span (it was
-#: driven through the gear, not moving inside the gap); see docs/assumptions.md.
-GEAR_RATIO_SPAN_FACTOR = 4.0
+#: driven through the gear, not moving inside the gap); see docs/assumptions.md. With the right
+#: N the span ratio was at most 1.82 over the 18 bench scenarios (≤ 1.02), the 48 random drives
+#: (1.82, seed 1 case 3) and the KUKA axes (≤ 1.02); 2.5 keeps 1.37× above that. It was 4.0
+#: until session 31: N = 2 on the direct-drive bench-0B (ratio 3.93) passed (session 30 M3).
+GEAR_RATIO_SPAN_FACTOR = 2.5
 
 
 def check_gear_ratio(th_m: np.ndarray, th_l: np.ndarray, N: float, src: Any = None) -> None:
