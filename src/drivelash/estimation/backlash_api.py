@@ -468,6 +468,7 @@ def estimate_with_identification(
     if d1_note:
         s["delta1_configured"] = d1_cfg
         s["warnings"].append(d1_note)
+    s["warnings"].extend(_configured_disagreements(base or {}, ident))
     std_on = s.get("delta_std")
     if std_on is not None and not math.isfinite(std_on):
         std_on = None
@@ -495,6 +496,48 @@ def estimate_with_identification(
     est.summary = jsonable(s)
     est.identification = ident
     return est
+
+
+#: ``estimate --identify`` keeps a configured drive value (the configuration's own values win)
+#: but names it when it lies outside the identified 95 % interval AND differs from the
+#: identified value by more than this factor either way: well beyond the identification's
+#: own systematic misses (K_S / J_l at most 5.95 % off on the 48 random drives, 7–9 % before
+#: session 18), so the note names a stated value, not the fit's bias (session 30 tester A, L6:
+#: K_S stated 2× the truth sat next to the identified one without a remark).
+CONFIG_DISAGREE_FACTOR = 1.25
+
+#: The drive values ``estimate --identify`` compares with the identification, and their units.
+_COMPARED = {"J_m": "kg·m²", "J_l": "kg·m²", "K_S": "N·m/rad", "D_S": "N·m·s/rad"}
+
+
+def _configured_disagreements(given: dict[str, Any], ident: Any) -> list[str]:
+    """Notes naming configured drive values the recording contradicts (:data:`CONFIG_DISAGREE_FACTOR`).
+
+    Parameters
+    ----------
+    given : dict
+        The ``[drivetrain]`` values the user set (SI units).
+    ident : DriveIdentification
+        The two-mass identification of the same recording.
+
+    Returns
+    -------
+    list of str
+        One ``"note: …"`` per contradicted value (the online law still uses the configured one).
+    """
+    out = []
+    for k, unit in _COMPARED.items():
+        v, p = given.get(k), ident.parameters.get(k)
+        if v is None or p is None or not p.identifiable or p.covers(v) or not (p.value > 0.0 and v > 0.0):
+            continue
+        ratio = float(v) / p.value
+        if max(ratio, 1.0 / ratio) > CONFIG_DISAGREE_FACTOR:
+            out.append(
+                f"note: [drivetrain] {k} = {v:.4g} {unit} is used as configured, but the recording gives "
+                f"{p.value:.4g} [{p.low:.4g}, {p.high:.4g}] {unit} ({ratio:.2f}× the identified value): "
+                f"check it (leave {k} out to use the identified value)"
+            )
+    return out
 
 
 def _delta1_uncertainty(trace: Trace, cfg: Any, method: str | None, dt: Any, d1: float, ident: Any) -> Any:
