@@ -160,11 +160,12 @@ def import_campaign(
         traces.append(tr)
         records.append(record_of(str(path), r.kind, r.direction, r.load, r.velocity, tr))
     scales = {m.column: float(m.scale) for m in (axis.columns or {}).values()}
+    offsets = {m.column: float(m.offset) for m in (axis.columns or {}).values()}
     cols = axis.columns or {}
     x_unit = next(((name, str(m.unit)) for name, m in cols.items() if m.column == "x_T"), None)
     report = check_runs(
         records, bench.r_eff, bench.tooth_pitch, bench.travel, max_load=max_load, source=str(axis_path),
-        column_scales=scales, x_unit=x_unit, for_score=for_score, n_t=bench.n_t,
+        column_scales=scales, x_unit=x_unit, for_score=for_score, n_t=bench.n_t, column_offsets=offsets,
     )  # fmt: skip
     report.raise_errors()  # an error is the one line the user sees; warnings only when it goes on
     if warn is not None:

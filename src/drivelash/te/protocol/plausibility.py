@@ -43,6 +43,20 @@ RATIO_WARN = 1e-3
 ZERO_ERROR = 5e-3
 #: |median TE| of a run: warning beyond [m].
 ZERO_WARN = 0.5e-3
+#: Travel [m] a pass may go back against its main motion before it counts as reversing inside
+#: the run (out and back in one file, finding D4: blamed on the torque sign). Half a tooth pitch
+#: of the example axes (9.4 … 10 mm): far above a settling overshoot (µm) or scale noise, far
+#: below any pass (≥ 100 mm); a leg that long holds the other flank's TE under this run's label.
+REVERSAL_MIN = 5e-3
+#: Machine frame of the linear scale, in multiples of ``[geometry] travel``: machine coordinates
+#: (the positions of the CNC tables) lie within ±travel of the machine zero, which is on or near
+#: the travel. A campaign whose every x_T lies beyond FRAME_WARN × travel + FRAME_SLACK from zero
+#: is warned, beyond FRAME_ERROR × travel + FRAME_SLACK refused (finding D1: an offset of 3.82 m
+#: on x_T put a 1.2 m axis's campaign at 3.87 … 4.27 m, accepted). FRAME_SLACK is the travel
+#: check's 10 mm.
+FRAME_WARN = 1.0
+FRAME_ERROR = 2.0
+FRAME_SLACK = 0.01
 #: Offset of one run's TE from the other runs of its direction (load trend removed): error [m].
 MIXED_ERROR = 0.5e-3
 #: … warning [m].
@@ -295,6 +309,97 @@ def _ratio_message(
     )
 
 
+def _reversal(x: np.ndarray) -> tuple[float, tuple[float, float]] | None:
+    """Where a pass turns back: (x_T at the turn, (first, last x_T)) [m] when it travels more than
+    :data:`REVERSAL_MIN` out from its start and back again towards it; None for one direction."""
+    if x.size < 3:
+        return None
+    a, b = float(x[0]), float(x[-1])
+    i_hi, i_lo = int(np.argmax(x)), int(np.argmin(x))
+    for i in (i_hi, i_lo):
+        turn = float(x[i])
+        if min(abs(turn - a), abs(turn - b)) > REVERSAL_MIN:
+            return turn, (a, b)
+    return None
+
+
+def _in_frame(lo: float, hi: float, travel: float, factor: float) -> bool:
+    """Whether some of [lo, hi] [m] lies within ``factor`` × travel + FRAME_SLACK of zero."""
+    lim = factor * travel + FRAME_SLACK
+    return hi >= -lim and lo <= lim
+
+
+def _zero_message(
+    med: float,
+    r_eff: float,
+    x_range: tuple[float, float],
+    travel: float | None,
+    offsets: dict[str, float] | None,
+) -> str:
+    """The advice for two position zeros that differ by the run's median TE ``med`` [m].
+
+    The linear scale reads the machine coordinates the CNC tables are positioned in, so the
+    motor column is the one to shift: θ_M + med/r_eff [rad] makes TE = x_T − θ_M r_eff lose
+    ``med`` (finding D1: the advice on x_T moved the scale, i.e. the tables, by metres). Only when
+    the scale itself lies outside the axis's frame (beyond travel from zero) and shifting it by
+    −med brings it in is the x_T column named.
+    """
+    offsets = offsets or {}
+    lo, hi = x_range
+    head = f"TE is {med * 1e3:+.3f} mm: the linear scale and the motor position have different zeros"
+    if (
+        travel is not None
+        and not _in_frame(lo, hi, travel, FRAME_WARN)
+        and _in_frame(lo - med, hi - med, travel, FRAME_WARN)
+    ):
+        now = offsets.get("x_T", 0.0)
+        was = f" (now {now:g})" if now else ""
+        return (
+            f"{head}, and x_T lies at {lo:.4g} … {hi:.4g} m, beyond the travel ({travel:g} m) of any"
+            f" machine frame — the scale's zero is off: set offset = {now - med:.6g} (m){was} on the x_T"
+            " column in [columns] or home both"
+        )
+    now = offsets.get("theta_m", 0.0)
+    was = f" (now {now:g})" if now else ""
+    return (
+        f"{head} — the scale gives the machine coordinates of the tables: set offset ="
+        f" {now + med / r_eff:.6f} (rad){was} on the theta_m column in [columns] (the motor encoder's"
+        " zero to the scale's) or home both"
+    )
+
+
+def _frame(
+    per_run: Sequence[dict[str, Any]],
+    travel: float | None,
+    offsets: dict[str, float] | None,
+    source: str,
+    add: Any,
+) -> None:
+    """x_T of every run beyond the axis's machine frame (±travel around zero): warning beyond
+    FRAME_WARN × travel, error beyond FRAME_ERROR × travel (+ FRAME_SLACK each)."""
+    spans = [i["range_m"] for i in per_run if "range_m" in i]
+    if travel is None or not spans:
+        return
+    lo, hi = min(a for a, _ in spans), max(b for _, b in spans)
+    if _in_frame(lo, hi, travel, FRAME_WARN):
+        return
+    x_off = (offsets or {}).get("x_T", 0.0)
+    why = (
+        f"the offset = {x_off:g} (m) on the x_T column in [columns] moved it there — the scale gives"
+        " the machine coordinates of the tables: shift the motor column (theta_m) instead"
+        if abs(x_off) > FRAME_SLACK
+        else "the scale's zero or unit is off (the CNC tables are positioned in the scale's coordinates)"
+    )
+    err = not _in_frame(lo, hi, travel, FRAME_ERROR)
+    add(
+        "error" if err else "warning",
+        "frame",
+        source,
+        f"x_T lies at {lo:.4g} … {hi:.4g} m, beyond the [geometry] travel of {travel:g} m from the machine"
+        f" zero everywhere: {why}",
+    )
+
+
 def check_runs(
     runs: Sequence[RunRecord],
     r_eff: float,
@@ -306,6 +411,7 @@ def check_runs(
     column_scales: dict[str, float] | None = None,
     x_unit: tuple[str, str] | None = None,
     for_score: bool = False,
+    column_offsets: dict[str, float] | None = None,
     n_t: int | None = None,
     trim: float = LOAD_TRIM,
 ) -> PlausibilityReport:
@@ -333,6 +439,10 @@ def check_runs(
     x_unit : tuple of str, optional
         ``(file column, declared unit)`` of the x_T mapping, so that a unit slip is named
         against the unit declared (e.g. µm under ``unit = "mm"``).
+    column_offsets : dict, optional
+        ``offset`` of the [columns] mapping per trace column (``x_T`` [m], ``theta_m`` [rad]):
+        zero advice states the total offset to set, and an x_T offset that moves the campaign out
+        of the axis's frame is named (:func:`_frame`).
     for_score : bool
         Passes recorded to be scored (``te score``), not fitted: a direction without a geometric
         run, or with fewer than 2 training loads, is a warning instead of an error (nothing is
@@ -370,6 +480,19 @@ def check_runs(
                 r.label,
                 f"the table moves only {span * 1e3:.2f} mm: not a pass (x_T column?)",
             )
+            continue
+        rev = _reversal(x) if r.kind != "sine" else None
+        if rev is not None:
+            x_turn, ends = rev
+            add(
+                "error",
+                "reversal",
+                r.label,
+                f"the run reverses at {x_turn * 1e3:.1f} mm (x_T {ends[0] * 1e3:.1f} → {x_turn * 1e3:.1f} →"
+                f" {ends[1] * 1e3:.1f} mm): one pass per run — split the file into one run per direction"
+                " in [[runs]]",
+            )
+            info["gross"] = True
             continue
         k = _ratio(x[mv], x_M[mv])
         te = x - x_M
@@ -412,13 +535,7 @@ def check_runs(
             )
         # 2. the two position zeros
         if abs(med) > ZERO_ERROR:
-            add(
-                "error",
-                "zero",
-                r.label,
-                f"TE is {med * 1e3:+.3f} mm: the linear scale and the motor position have different zeros"
-                f" — set offset = {-med:.6g} (m) on the x_T column in [columns] or home both",
-            )
+            add("error", "zero", r.label, _zero_message(med, r_eff, (lo, hi), travel, column_offsets))
             info["gross"] = True
             continue
         if abs(med) > ZERO_WARN:
@@ -514,6 +631,7 @@ def check_runs(
                 f" {_sign_advice('torque_m', column_scales)}",
             )
     rep.runs = per_run
+    _frame(per_run, travel, column_offsets, source, add)
     judged = [(r, i) for r, i in zip(runs, per_run, strict=True) if "ratio" in i and not i.get("gross")]
     if not judged:
         if not rep.errors:
@@ -552,13 +670,17 @@ def check_runs(
         ds: dict[str, Any] = {"loads": loads, "training_loads": train}
         rep.directions[key] = ds
         fit_only = "warning" if for_score else "error"  # what only a fit needs
+        if for_score and not rr:
+            # te score pairs passes by direction, velocity and load: one direction is scored alone
+            add("warning", "runs", source, f"no pass in direction {d:+d}: only the other direction is scored")
+            continue
         if not geo:
             add(fit_only, "runs", source, f"no geometric (no-load) run in direction {d:+d}")
         else:
             geo_ranges[d] = (max(i["range_m"][0] for i in geo), min(i["range_m"][1] for i in geo))
             _beyond_no_load(rr, geo_ranges[d], d, add)
         if not loads:
-            add("error", "runs", source, f"no load run in direction {d:+d}")
+            add(fit_only, "runs", source, f"no load run in direction {d:+d}")
         elif len(train) < 2:
             add(
                 fit_only,
