@@ -136,3 +136,76 @@ def test_for_score_accepts_passes_of_one_direction():
     assert not any("direction -1" in f.message and "geometric" in f.message for f in rep.warnings)
     # negative control: a fit campaign still needs both directions
     assert any("no load run in direction -1" in f.message for f in _check(_records(runs)).errors)
+
+
+# --- D8, D9: te score pairs by velocity within a tolerance; max load from the imports ------------------
+
+
+def _score_dirs(tmp_path, capsys, max_load="2000"):
+    """Passes of the synthetic axis without `velocity` in [[runs]] (measured at import): the
+    compensated recording runs 1e-4 faster (the TE slope a compensation removes, scale noise)."""
+    from cli_runner import run_in_process
+
+    from .synth import write_axis
+
+    gains = "[gains]\nK_v = 230.0\nK_p = 15.7\nT_n = 0.003\ntorque_limit = 100.0\n"
+    passes = [(1, 0.1, 1000.0), (1, 0.2, 2500.0), (-1, 0.1, 1000.0)]
+    dirs = []
+    for tag, k in (("unc", 1.0), ("comp", 1.0 + 1e-4)):
+        runs = [Run("load", d, F, v * k, **SHORT) for d, v, F in passes]
+        axis = write_axis(tmp_path / f"rec_{tag}", runs, gains)
+        listed = axis.read_text().splitlines()
+        axis.write_text("\n".join(ln for ln in listed if not ln.startswith("velocity")))
+        amp = 5e-3 if tag == "unc" else 1e-3  # path error on the scale [mm]: 5 µm, compensated 1 µm
+        for f in axis.parent.glob("*.csv"):
+            head, *rows = f.read_text().splitlines()
+            cells = [r.split(",") for r in rows]
+            for c in cells:
+                x = float(c[2])
+                c[2] = f"{x + amp * np.sin(2 * np.pi * x / (BENCH.tooth_pitch * 1e3)):.9f}"
+            f.write_text("\n".join([head, *(",".join(c) for c in cells)]) + "\n")
+        out = tmp_path / f"c_{tag}"
+        code, so, err = run_in_process(
+            ["te", "import", str(axis), "-o", str(out), "--for-score", "--max-load", max_load], capsys
+        )
+        assert code == 0, err
+        dirs.append(out)
+        summary = so
+    return dirs, summary
+
+
+def test_score_pairs_measured_velocities_and_splits_by_the_imports_max_load(tmp_path, capsys):
+    """Before: paired to 1e-9 — "no compensated run with direction +1, 50 mm/s, 1000 N" for
+    passes measured at 50.000 and 50.005 mm/s; the 2500 N pass above the import's 2000 N
+    counted as in range unless --max-load was given again."""
+    import json
+
+    from cli_runner import run_in_process
+
+    (unc, comp), summary = _score_dirs(tmp_path, capsys)
+    assert re.search(r"velocities 100, 200 mm/s", summary), summary  # distinct, not "50, 50, 100"
+    code, out, err = run_in_process(
+        ["te", "score", "--uncompensated", str(unc), "--compensated", str(comp), "-o", str(tmp_path / "s"),
+         "--gains", "axis"], capsys,
+    )  # fmt: skip
+    assert code == 0, err
+    doc = json.loads((tmp_path / "s" / "score.json").read_text())
+    assert doc["unmatched"] == [] and len(doc["passes"]["pass_averages"]) == 3, doc["unmatched"]
+    assert "no compensated run" not in out
+    assert doc["train_max_load"] == 2000.0 and doc["passes"]["mean_beyond_range"] is not None, out
+    assert "in range (<= 2000 N, the imports' max load)" in out and "beyond it" in out, out
+    assert "F=2500 N" in out and "(beyond the training load)" in out
+
+
+def test_pairing_tolerance_negative_control():
+    """Another commanded speed (2 % off, beyond the 1 % tolerance) or another load is not paired."""
+    from types import SimpleNamespace as R
+
+    from drivelash.te.protocol.score import _partner
+
+    ru = R(direction=1, load=1000.0, velocity=0.05)
+    near = R(direction=1, load=1000.0, velocity=0.050005)
+    assert _partner(ru, [R(direction=1, load=1000.0, velocity=0.051), near], 0.01) is near
+    assert _partner(ru, [R(direction=1, load=1000.0, velocity=0.051)], 0.01) is None
+    assert _partner(ru, [R(direction=1, load=2000.0, velocity=0.05)], 0.01) is None
+    assert _partner(ru, [R(direction=-1, load=1000.0, velocity=0.05)], 0.01) is None

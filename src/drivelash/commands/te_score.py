@@ -36,7 +36,10 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         ),
         section_mm: float = typer.Option(100.0, "--section-mm", help="Section length [mm] (paper: 100)."),
         max_load: float | None = typer.Option(
-            None, "--max-load", help="Largest training load [N]: passes above it count as beyond range."
+            None,
+            "--max-load",
+            help="Largest training load [N]: passes above it count as beyond range (default: the max load"
+            " the imports recorded, te import --max-load).",
         ),
         force: bool = typer.Option(False, "--force", help="Replace an existing output that is not ours."),
     ) -> None:
@@ -45,17 +48,34 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
         from drivelash.te.protocol.campaign import load_campaign
         from drivelash.te.protocol.score import ScoreConfig, score_campaigns
 
-        cfg = ScoreConfig(section_length=section_mm * 1e-3, train_max_load=max_load)
         with Outputs("te score", inputs=[uncompensated, compensated], force=force) as outs:
             d = outs.directory(out, option="-o")
             unc = load_campaign(uncompensated)
             comp = load_campaign(compensated)
+            source = "--max-load"
+            if max_load is None:
+                max_load, source = recorded_max_load(unc, comp), "the imports' max load"
+            cfg = ScoreConfig(section_length=section_mm * 1e-3, train_max_load=max_load)
             result = score_campaigns(unc, comp, cfg, gains=gains, progress=typer.echo)
+            result["train_max_load_source"] = source if max_load is not None else None
             if d is not None:
                 _write(outs.staging(d), result, cfg, unc, comp)
         typer.echo(format_score(result))
         if out is not None:
             typer.echo(f"outputs in {out}/")
+
+
+def recorded_max_load(*campaigns: object) -> float | None:
+    """The training load limit [N] the imports recorded (``import.max_load`` of their manifests; the
+    smallest if they differ), None if none did (finding D9: a 4000 N pass of a model trained to
+    3000 N counted as in range unless ``--max-load`` was repeated)."""
+    found = []
+    for c in campaigns:
+        block = getattr(getattr(c, "manifest", None), "import_", None) or {}
+        v = block.get("max_load")
+        if isinstance(v, (int, float)) and v > 0:
+            found.append(float(v))
+    return min(found) if found else None
 
 
 def _write(d: Path, result: dict, cfg: object, unc: object, comp: object) -> None:
@@ -81,6 +101,12 @@ def _write(d: Path, result: dict, cfg: object, unc: object, comp: object) -> Non
     fig_heatmaps(result["rows"], max_load, d / "fig9_improvement.png")
 
 
+def _pct(v: object) -> str:
+    import math
+
+    return f"{100 * v:.1f} %" if isinstance(v, float) and math.isfinite(v) else "n/a"
+
+
 def format_score(result: dict) -> str:
     """The figures of a score as a short text block."""
     p = result["passes"]
@@ -89,9 +115,19 @@ def format_score(result: dict) -> str:
         f"set position: {', '.join(result['set_position'])}",
         f"average improvement {100 * p['average_improvement']:.1f} % over {len(p['pass_averages'])} passes",
     ]
+    lim = result.get("train_max_load")
+    if lim is not None:
+        inr, beyond = p.get("mean_in_range"), p.get("mean_beyond_range")
+        n_in = sum(a["load"] <= lim for a in p["pass_averages"])
+        n_out = len(p["pass_averages"]) - n_in
+        src = result.get("train_max_load_source")
+        split = f"in range (<= {lim:g} N{', ' + src if src else ''}) {_pct(inr)} over {n_in} pass(es)"
+        split += f", beyond it {_pct(beyond)} over {n_out}" if n_out else ", none beyond it"
+        lines.append(split)
     for a in p["pass_averages"]:
+        beyond = " (beyond the training load)" if lim is not None and a["load"] > lim else ""
         lines.append(f"  d={a['direction']:+d} v={a['velocity'] * 1e3:g} mm/s F={a['load']:g} N: "
-                     f"{100 * a['improvement']:.1f} %")  # fmt: skip
+                     f"{100 * a['improvement']:.1f} %{beyond}")  # fmt: skip
     u = g["used"]
     if u is None:
         lines.append(f"eq. (3) gains ({g['source']}): implausible ({g.get('implausible')}), not used")

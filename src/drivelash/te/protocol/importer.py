@@ -13,7 +13,7 @@ warnings are printed and kept in the manifest.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -227,14 +227,31 @@ def import_campaign(
     return manifest, report
 
 
+def distinct_velocities(velocities: Sequence[float]) -> list[float]:
+    """Velocities [m/s] grouped within ``te score``'s pairing tolerance (``ScoreConfig.velocity_tolerance``,
+    relative to a group's slowest), one median per group: measured velocities of one commanded speed
+    differ by ~1e-4 (finding D8: "50, 50, 50, 99.98, 99.99, 99.99, 100" for 50 and 100 mm/s)."""
+    from drivelash.te.protocol.score import ScoreConfig
+
+    tol = ScoreConfig().velocity_tolerance
+    groups: list[list[float]] = []
+    for v in sorted(velocities):
+        if groups and v <= groups[-1][0] * (1.0 + tol):
+            groups[-1].append(v)
+        else:
+            groups.append([v])
+    return [float(np.median(g)) for g in groups]
+
+
 def summary_lines(manifest: CampaignManifest, report: PlausibilityReport) -> list[str]:
     """What ``te import`` prints: runs, loads, velocities, the geometric runs' coverage."""
     runs = manifest.runs
+    speeds = distinct_velocities(manifest.velocities)
     kinds = {k: sum(r.kind == k for r in runs) for k in ("geometric", "load", "sine")}
     lines = [
         f"{len(runs)} runs ({kinds['geometric']} geometric, {kinds['load']} load, {kinds['sine']} sine);"
         f" loads {', '.join(f'{f:g}' for f in manifest.loads) or 'none'} N;"
-        f" velocities {', '.join(f'{v * 1e3:.4g}' for v in manifest.velocities) or 'none'} mm/s",
+        f" velocities {', '.join(f'{v * 1e3:.4g}' for v in speeds) or 'none'} mm/s",
     ]
     if report.valid_range:
         lo, hi = report.valid_range

@@ -176,11 +176,11 @@ def summarize_passes(rows: list[dict[str, Any]], train_max_load: float) -> dict[
         "average_improvement_positive_direction": float(np.mean(pos)) if pos else float("nan"),
         "min_in_range_pass_average": float(min(inr)) if inr else float("nan"),
         "min_beyond_range_pass_average": float(min(out_r)) if out_r else float("nan"),
-        "mean_in_range": float(np.mean(imp[load <= train_max_load])),
+        "mean_in_range": float(np.mean(imp[load <= train_max_load])) if inr else float("nan"),
         "mean_beyond_range": float(np.mean(imp[load > train_max_load]))
         if np.any(load > train_max_load)
         else float("nan"),  # fmt: skip
-        "min_in_range_section": float(np.min(imp[load <= train_max_load])),
+        "min_in_range_section": float(np.min(imp[load <= train_max_load])) if inr else float("nan"),
         "min_section": float(np.min(imp)),
         "pass_averages": [
             {"direction": k[0], "velocity": k[1], "load": k[2], "improvement": v}
