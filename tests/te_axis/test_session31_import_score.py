@@ -209,3 +209,48 @@ def test_pairing_tolerance_negative_control():
     assert _partner(ru, [R(direction=1, load=1000.0, velocity=0.051)], 0.01) is None
     assert _partner(ru, [R(direction=1, load=2000.0, velocity=0.05)], 0.01) is None
     assert _partner(ru, [R(direction=-1, load=1000.0, velocity=0.05)], 0.01) is None
+
+
+# --- D10: the constant part of the TE; D5: the tables hold the backlash -------------------------------
+
+
+def test_constant_part_of_the_te_is_warned_with_the_motor_offset():
+    """Before: a 0.45 mm zero between raw motor counts and the scale passed silently (run limit 0.5 mm)."""
+    theta0 = 0.45e-3 / BENCH.r_eff  # motor zero 0.45 mm at the table off the scale's
+    rep = _check(_motor_zero(_records(), theta0))
+    f = [x for x in rep.warnings if "constant part" in x.message]
+    assert len(f) == 1 and rep.errors == [], [x.line() for x in rep.findings]
+    assert rep.constant_te == pytest.approx(-0.45e-3, abs=5e-6)
+    m = re.search(r"add ([-+]\d+\.\d+) rad to the offset of the theta_m column", f[0].message)
+    assert m and float(m.group(1)) == pytest.approx(-theta0, rel=0.02), f[0].message
+    # negative control: the clean synthetic axis (±20 µm backlash per direction, runout 25 µm)
+    clean = _check(_records())
+    assert not [x for x in clean.warnings if "constant part" in x.message]
+    assert abs(clean.constant_te) < 10e-6
+
+
+class _Linear:
+    """No-load curves TE+ = 1 µm + 1 µm/mm·(x − 100 mm), TE− = 21 µm + 3 µm/mm·(x − 100 mm)."""
+
+    def geometric_range(self):
+        return 0.100, 0.104
+
+    def geometric(self, x, direction):
+        u = np.clip(np.asarray(x, dtype=float), 0.100, 0.104) - 0.100
+        return 1e-6 + 1e-3 * u if direction > 0 else 21e-6 + 3e-3 * u
+
+
+def test_cnc_headers_say_the_backlash_is_in_them_and_give_the_constant_part(tmp_path):
+    """Before: neither layout named the control's own backlash compensation (double compensation)
+    nor the table's constant part."""
+    from drivelash.te.runtime.cnc import geometric_table, write_heidenhain, write_sinumerik
+
+    tab = geometric_table(_Linear(), step=1e-3)
+    ini = write_sinumerik(tab, tmp_path / "a.ini").read_text()
+    com = write_heidenhain(tab, tmp_path / "x.com").read_text()
+    head = [ln for ln in ini.splitlines() if ln.startswith(";")]
+    b = "20.000 ... 28.000 um"
+    assert any("MD32450 $MA_BACKLASH[0]" in ln and b in ln and "= 0" in ln for ln in head)
+    assert any("constant part" in ln and "+15.000 um" in ln for ln in head)
+    tail = com.split("[END]")[1]
+    assert "MP710" in tail and "backLash" in tail and "20.000 ... 28.000 um" in tail and "+15.000 um" in tail

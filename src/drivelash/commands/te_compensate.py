@@ -157,7 +157,10 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
                 f" {tab.x0 * 1e3:.3f} ... {tab.x_max * 1e3:.3f} mm, step {tab.step * 1e3:g} mm, both"
                 " directions"
                 f" (no-load TE; valid range {tab.valid[0] * 1e3:.3f} ... {tab.valid[1] * 1e3:.3f} mm;"
-                f" interpolation <= {tab.interpolation_error * 1e6:.3f} um)"
+                f" interpolation <= {tab.interpolation_error * 1e6:.3f} um; constant part"
+                f" {tab.constant * 1e6:+.3f} um; backlash {tab.backlash_range[0] * 1e6:.3f} ..."
+                f" {tab.backlash_range[1] * 1e6:.3f} um in the tables: the control's backlash"
+                " compensation must be 0)"
                 + (f"; {tab.update_note}" if tab.update_note else "")
             )
             return

@@ -57,6 +57,14 @@ REVERSAL_MIN = 5e-3
 FRAME_WARN = 1.0
 FRAME_ERROR = 2.0
 FRAME_SLACK = 0.01
+#: Constant part of the campaign's TE (mean over the directions of the median TE of their
+#: no-load runs, else of their lowest-load runs): warning beyond [m]. It goes as a constant into
+#: the absolute CNC tables (te export), so an arbitrary zero between raw motor counts and the
+#: scale would shift the whole axis (finding D10: −460 µm passed silently under the 0.5 mm run
+#: limit). The seed-0 quick campaign's constant part is −10 µm (run medians −37 … +16 µm:
+#: backlash ±b/2 and deflection cancel between the directions); a rack's cumulative pitch error
+#: over a pass is tens of µm.
+CONSTANT_TE_WARN = 50e-6
 #: Offset of one run's TE from the other runs of its direction (load trend removed): error [m].
 MIXED_ERROR = 0.5e-3
 #: … warning [m].
@@ -171,6 +179,8 @@ class PlausibilityReport:
     directions : dict
         Per direction (``"pos"``/``"neg"``): training loads [N], torque slope [N·m/N],
         covered range [m].
+    constant_te : float or None
+        Constant part of the TE [m] (:func:`_constant_part`).
     valid_range : tuple of float or None
         Positions [m] covered by the geometric runs of both directions where the load passes
         were recorded too (where a model of this campaign is valid; :func:`_measured_under_load`).
@@ -180,6 +190,7 @@ class PlausibilityReport:
     runs: list[dict[str, Any]] = field(default_factory=list)
     directions: dict[str, dict[str, Any]] = field(default_factory=dict)
     valid_range: tuple[float, float] | None = None
+    constant_te: float | None = None
 
     @property
     def errors(self) -> list[Finding]:
@@ -208,6 +219,7 @@ class PlausibilityReport:
             "runs": self.runs,
             "directions": self.directions,
             "valid_range": list(self.valid_range) if self.valid_range else None,
+            "constant_te_m": self.constant_te,
         }
 
 
@@ -718,6 +730,7 @@ def check_runs(
                     f"direction {d:+d}: the torque grows {slope * 1e3:.3g} N·m per kN of load, the lever"
                     f" d_p/(2 i_PG) gives {r_eff * 1e3:.3g}: torque constant or unit of torque_m?",
                 )
+    _constant_part(judged, r_eff, rep, source, add)
     if 1 in geo_ranges and -1 in geo_ranges:
         lo = max(geo_ranges[1][0], geo_ranges[-1][0])
         hi = min(geo_ranges[1][1], geo_ranges[-1][1])
@@ -733,6 +746,36 @@ def check_runs(
         else:
             add("error", "coverage", source, "the geometric runs of the two directions do not overlap")
     return rep
+
+
+def _constant_part(
+    judged: Sequence[tuple[RunRecord, Any]], r_eff: float, rep: PlausibilityReport, source: str, add: Any
+) -> None:
+    """The constant part of the TE (:data:`CONSTANT_TE_WARN`), stored in ``rep.constant_te``."""
+    levels = []
+    for d in (1, -1):
+        rr = [(r, i) for r, i in judged if r.direction == d and r.kind in ("geometric", "load")]
+        if not rr:
+            continue
+        geo = [i["te_median_m"] for r, i in rr if r.kind == "geometric"]
+        if not geo:
+            low = min(r.load for r, _ in rr)
+            geo = [i["te_median_m"] for r, i in rr if r.load == low]
+        levels.append(float(np.median(geo)))
+    if not levels:
+        return
+    c = float(np.mean(levels))
+    rep.constant_te = c
+    if abs(c) > CONSTANT_TE_WARN:
+        add(
+            "warning",
+            "zero",
+            source,
+            f"the TE's constant part is {c * 1e6:+.1f} um (mean of both directions' no-load TE): it goes"
+            " into the absolute CNC tables as a constant — if the motor encoder's zero is arbitrary (raw"
+            f" counts), add {c / r_eff:+.6f} rad to the offset of the theta_m column in [columns] or home"
+            " both",
+        )
 
 
 def _measured_under_load(

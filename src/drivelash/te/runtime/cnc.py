@@ -147,6 +147,35 @@ class GeometricTable:
         """Last compensation point [m]."""
         return float(self.x[-1])
 
+    @property
+    def constant(self) -> float:
+        """Constant part of the table: mean over the points of the mean of both directions [m]
+        (a zero offset between the scale and the motor encoder ends up here)."""
+        return float(np.mean(0.5 * (self.te_pos + self.te_neg)))
+
+    @property
+    def backlash_range(self) -> tuple[float, float]:
+        """Smallest and largest TE_neg − TE_pos over the points [m]: the backlash the tables hold."""
+        b = self.te_neg - self.te_pos
+        return float(np.min(b)), float(np.max(b))
+
+    def backlash_note(self, control: str) -> str:
+        """Header line: the tables hold the backlash, so ``control``'s own backlash compensation
+        must be 0 (finding D5: else every reversal is compensated twice)."""
+        lo, hi = self.backlash_range
+        return (
+            f"the tables hold the backlash (TE- minus TE+ {lo * 1e6:.3f} ... {hi * 1e6:.3f} um):"
+            f" set {control} = 0, else every reversal is compensated twice"
+        )
+
+    def constant_note(self) -> str:
+        """Header line: the table's constant part (finding D10)."""
+        return (
+            f"constant part (mean of both directions over the table) {self.constant * 1e6:+.3f} um:"
+            " a zero offset between scale and motor encoder is in it (the value at the reference point"
+            " should be 0)"
+        )
+
 
 def geometric_table(
     model: GeometricModel,
@@ -291,6 +320,8 @@ def write_sinumerik(
         f"; and SD41300 $SN_CEC_TABLE_ENABLE[{t_pos}] = 1, SD41300 $SN_CEC_TABLE_ENABLE[{t_neg}] = 1"
         " (else the CEC tables are not evaluated)",
         f"; interpolation between the points differs from the model by <= {_um(tab)} um",
+        f"; {tab.backlash_note('MD32450 $MA_BACKLASH[0] (backlash compensation)')}",
+        f"; {tab.constant_note()}",
     ]
     if tab.update_note:
         lines.append(f"; {tab.update_note}")
@@ -356,6 +387,8 @@ def write_heidenhain(tab: GeometricTable, path: Path, axis: str = "X", table_nam
         f"table {_mm(tab.x0, 3)} ... {_mm(tab.x_max, 3)} mm, step {_mm(tab.step, 3)} mm",
         f"values TE = x_T - x_M [mm]: {axis} in the positive, BACKLASH in the negative direction of traverse",
         f"interpolation between the points differs from the model by <= {_um(tab)} um",
+        tab.backlash_note("the control's backlash compensation (MP710, backLash in CfgAxisComp)"),
+        tab.constant_note(),
     ]
     if tab.update_note:
         lines.append(tab.update_note)
