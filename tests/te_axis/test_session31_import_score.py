@@ -254,3 +254,31 @@ def test_cnc_headers_say_the_backlash_is_in_them_and_give_the_constant_part(tmp_
     assert any("constant part" in ln and "+15.000 um" in ln for ln in head)
     tail = com.split("[END]")[1]
     assert "MP710" in tail and "backLash" in tail and "20.000 ... 28.000 um" in tail and "+15.000 um" in tail
+
+
+# --- D2: identified K_p, T_n are reported as weakly determined --------------------------------------
+
+
+def test_identified_velocity_loop_gains_are_weakly_determined():
+    """Before: "K_p 54.13 N*m*s/rad, T_n 8.688 ms" with a 2 % σ for the drive's 15.7 and 3.05 ms."""
+    from drivelash.commands.te_score import format_score
+    from drivelash.control.path_error import predict_path_error
+    from drivelash.params import CascadeGains
+    from drivelash.te.protocol.score import identify_loop_gains
+
+    true = CascadeGains(K_v=231.0, K_p=15.7, T_n=0.00305, torque_limit=60.0)
+    t = np.arange(0.0, 2.0, 1e-3)
+    te = 5e-6 * np.sin(2 * np.pi * 7.5 * t) + 20e-6 * np.sin(2 * np.pi * 0.4 * t)
+    m = t > 0.2
+    e = predict_path_error(te, t, 0.0068, true)[m]
+    g, info = identify_loop_gains([{"t": t, "te": te, "mask": m, "e": e}], 0.0068, None, detrend=False)
+    assert g.K_v == pytest.approx(231.0, rel=0.05)
+    assert info["relative_std"]["K_p"] is None and info["relative_std"]["T_n"] is None
+    assert info["weakly_determined"] == ["K_p", "T_n"] and "weakly determined" in info["note"]
+    res = {"set_position": ["recorded"], "unmatched": [], "warnings": [],
+           "passes": {"average_improvement": 0.8, "pass_averages": []},
+           "gains": {"source": "identified", "used": {"K_v": 231.0, "K_p": 54.1, "T_n": 0.0087}}}  # fmt: skip
+    line = [ln for ln in format_score(res).splitlines() if ln.startswith("eq. (3)")][0]
+    assert "K_v identified; K_p, T_n weakly determined" in line
+    res["gains"]["source"] = "axis file"  # negative control: the axis file's gains are stated as such
+    assert "weakly" not in format_score(res)

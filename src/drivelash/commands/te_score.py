@@ -132,8 +132,11 @@ def format_score(result: dict) -> str:
     if u is None:
         lines.append(f"eq. (3) gains ({g['source']}): implausible ({g.get('implausible')}), not used")
     else:
+        weak = g["source"] == "identified"
         lines.append(f"eq. (3) gains ({g['source']}): K_v {u['K_v']:.4g} 1/s, K_p {u['K_p']:.4g} N*m*s/rad, "
-                     f"T_n {u['T_n'] * 1e3:.4g} ms")  # fmt: skip
+                     f"T_n {u['T_n'] * 1e3:.4g} ms"
+                     + (" (K_v identified; K_p, T_n weakly determined: effective values for eq. (3), not the"
+                        " drive's velocity-controller settings)" if weak else ""))  # fmt: skip
     m = result.get("monitoring")
     if m:
         lines.append(f"monitoring: eq. (3) on the compensated passes' TE estimates the uncompensated "
