@@ -354,11 +354,53 @@ Method = Literal["paper", "default"]
 OFFSET_FLOOR = 1e-3
 
 
-def delta1_tolerance(offset_switch: float = OFFSET_FLOOR) -> float:
+def delta1_tolerance(offset_switch: float = OFFSET_FLOOR, angle_scale: float = 1.0) -> float:
     """Distance [rad] up to which a configured δ1 is consistent with the data's: ``offset_switch``
-    (``[estimator]``), never below :data:`OFFSET_FLOOR` (the online δ1 check and, with
-    ``estimate --identify``, the comparison with the identified δ1)."""
-    return max(float(offset_switch), OFFSET_FLOOR)
+    (``[estimator]``), never below :data:`OFFSET_FLOOR` × ``angle_scale`` (the online δ1 check
+    and, with ``estimate --identify``, the comparison with the identified δ1).
+
+    ``angle_scale`` [-] is the recording's angle scale σ (:func:`angle_scale_of`, the online
+    estimator's :attr:`EstimatorConfig.angle_scale`): 1 for a recording whose Δθ spans at least
+    :data:`ANGLE_SCALE_RANGE`; the floor follows a smaller one (a linear axis in m, a precision
+    gearbox), where a fixed 1 mrad is several times the gap (C8 of session 31).
+    """
+    return max(float(offset_switch), OFFSET_FLOOR * float(angle_scale))
+
+
+#: Δθ range [rad] (:attr:`~drivelash.estimation.motion.MotionSummary.dtheta_range`) from which
+#: down the online tuning rule's angle constants — 1 mrad of contact deflection in T_ref, the
+#: bounds 10³ … 10⁵ 1/rad of α, the 1 rad of relative motion in the observers' ρ, the 2 mrad
+#: convergence band and claim, the 1 mrad δ1 floor, the 50 mrad range-excess floor — are scaled
+#: by σ = Δθ range / this. 10 mrad is the smallest gap the rule was validated on at σ = 1 (the
+#: random drives of tests/estimation/test_generalisation.py, δ 10–500 mrad; the 18 bench
+#: scenarios span ≥ 105 mrad, the acceptance fleet ≈ 45 mrad, so none of them changes). Bench-0B
+#: rewritten in units s = 0.5 … 0.02 with the fixed constants stayed within 0.2 mrad·s of the
+#: unscaled δ̂ (185.916 mrad; 185.85 … 185.72) while s = 1e-2 / 1e-3 / 1e-4 gave 185.61 / 182.22 /
+#: 179.8 "converged" outside their intervals (session 31, tester C, C8; docs/assumptions.md).
+ANGLE_SCALE_RANGE = 1e-2
+#: Smallest angle scale σ [-]: a Δθ range below ANGLE_SCALE_RANGE × this (0.1 µrad … 1 µrad,
+#: the resolution of a 24-bit encoder) is no measured relative motion; the constants stay at
+#: this scale and the estimate is not called converged (a blocking warning names the cause).
+ANGLE_SCALE_MIN = 1e-4
+
+
+def angle_scale_of(dtheta_range: float) -> float:
+    """The recording's angle scale σ [-] for the tuning rule: min(1, Δθ range / 10 mrad).
+
+    Parameters
+    ----------
+    dtheta_range : float
+        max − min of the recorded Δθ = θ_m/N − θ_l [rad]; NaN when unknown (no recording seen).
+
+    Returns
+    -------
+    float
+        1 for a range of :data:`ANGLE_SCALE_RANGE` or more (and when unknown), else the range
+        divided by it, never below :data:`ANGLE_SCALE_MIN`.
+    """
+    if not math.isfinite(dtheta_range):
+        return 1.0
+    return min(1.0, max(dtheta_range / ANGLE_SCALE_RANGE, ANGLE_SCALE_MIN))
 
 
 #: The motor-side shaft torque is used when N T_C,m ≤ this × the expected shaft torque.
@@ -442,6 +484,11 @@ class EstimatorConfig:
         Data-consistency bounds of the default method: while a contact torque is confirmed,
         a flank no further out than the extreme Δθ seen, and the flank recovery
         (:mod:`drivelash.estimation.deadzone`, ``P_BOUND``).
+    angle_scale : float
+        Angle scale σ of the recording [-] (:func:`angle_scale_of`): the tuning rule's and the
+        verdict's absolute angle constants (1 mrad of deflection, α's bounds, the 1 rad of ρ, the
+        2 mrad band and claim, the 1 mrad δ1 floor, the 50 mrad range-excess floor) are
+        multiplied by it; 1 unless the recording's Δθ spans less than 10 mrad.
     encoder_reading : {"unknown", "nearest", "truncate"}
         How both encoders turn an angle into a count: the nearest count, or the count below
         (truncation, as a counter reads). With a gear or unequal counts this offsets Δθ by up
@@ -486,6 +533,7 @@ class EstimatorConfig:
     omega_g: float = 0.1
     gap_margin: float = 0.15
     contact_bound: bool = True
+    angle_scale: float = 1.0
     encoder_reading: Literal["unknown", "nearest", "truncate"] = "unknown"
 
     def __post_init__(self) -> None:
@@ -509,6 +557,7 @@ class EstimatorConfig:
             "k1_m",
             "k2_m",
             "omega_g",
+            "angle_scale",
         ):
             v = getattr(self, f)
             if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
@@ -563,7 +612,8 @@ class EstimatorConfig:
             Upper bound of δ [rad]; default 2 rad.
         motion : MotionSummary, optional
             Pass-1 summary of the recording: scales the contact threshold with the torque it
-            carries and chooses the motor-side torque source when it has a motor torque.
+            carries, chooses the motor-side torque source when it has a motor torque and sets
+            the angle scale σ from its Δθ range (:func:`angle_scale_of`; 1 without ``motion``).
         **overrides
             Any field of :class:`EstimatorConfig` to set explicitly (``None`` values ignored).
 
@@ -591,13 +641,18 @@ class EstimatorConfig:
             # … and through its reflected inertia N² J_m: when it dwarfs J_l the shaft torque is
             # a small perturbation of the motor's own dynamics
             motor = motor and N * N * J_m <= MOTOR_INERTIA_RATIO * J_l
+        # the recording's angle scale: every absolute angle constant below follows a Δθ range
+        # smaller than ANGLE_SCALE_RANGE (a linear axis in m, a precision gearbox); 1 otherwise
+        sigma = overrides.get("angle_scale")
+        if sigma is None:
+            sigma = angle_scale_of(motion.dtheta_range if motion is not None else math.nan)
         src = overrides.get("torque_source")
         if src is not None:
             motor = src == "motor"
         # contact torque scale: friction, or 1 mrad of shaft deflection if frictionless —
         # capped by the torque the recording carries (a stiff drive's contact torque can be
         # far below 1 mrad of deflection)
-        T_ref = max(drivetrain.T_Cl, 1e-3 * K_S)
+        T_ref = max(drivetrain.T_Cl, 1e-3 * sigma * K_S)
         if motion is not None:
             if motor and motion.torque_rms is not None:
                 T_data = N * motion.torque_rms
@@ -606,16 +661,16 @@ class EstimatorConfig:
             if T_data > 0:
                 T_ref = min(T_ref, T_data)
         T_thr = 0.5 * T_ref
-        rho = (K_S / J_l) * w_r * 1.0
+        rho = (K_S / J_l) * w_r * sigma  # relative speed ω_r · 1 rad (× σ)
         # slower observer when the sample time is coarse against the shaft resonance
         s_ts = min(1.0, 0.1 / (w_n * T_s))
         k2 = 1.1 * rho * s_ts * s_ts
         k1 = 1.5 * math.sqrt(rho) * s_ts
-        rho_m = K_S * w_r / (N * J_m)
+        rho_m = K_S * w_r / (N * J_m) * sigma
         w_nm = math.sqrt(K_S / (N * N * J_m))
         s_m = min(1.0, 0.1 / (max(w_nm, w_n) * T_s))
         theta_def = T_ref / K_S
-        alpha = min(max(20.0 / theta_def, 1e3), 1e5)
+        alpha = min(max(20.0 / theta_def, 1e3 / sigma), 1e5 / sigma)
         v_typ = motion.v_typ if motion is not None and motion.v_typ > 0 else math.pi * f_exc
         values: dict[str, Any] = dict(
             k1=k1,
@@ -641,6 +696,8 @@ class EstimatorConfig:
             k2_m=1.1 * rho_m * s_m * s_m,
             lam_g=w_r,
             omega_g=0.05 * v_typ,
+            offset_switch=OFFSET_FLOOR * sigma,
+            angle_scale=sigma,
         )
         values.update({k: v for k, v in overrides.items() if v is not None})
         return cls(**values)

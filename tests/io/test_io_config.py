@@ -233,7 +233,7 @@ def test_every_estimator_key_reaches_the_estimator_config():
         "estimate_offset = true\nq_offset = 0.5\noffset_check = false\noffset_switch = 0.004\n"
         "theta_def = 0.002\nq_aux = 0.2\nreset_e = 2.0\nreset_t = 0.05\n"
         'torque_source = "motor"\nk1_m = 5.0\nk2_m = 50.0\nlam_g = 1.0\nomega_g = 0.2\ngap_margin = 0.2\n'
-        'contact_bound = false\nencoder_reading = "truncate"\n'
+        'contact_bound = false\nencoder_reading = "truncate"\nangle_scale = 0.5\n'
     )
     cfg = loads_config(text)
     given = cfg.estimator.given()

@@ -37,7 +37,11 @@ Inputs: J_l, K_S, T_C,l (estimator side), T_s, f_r and, when known, the recordin
 * default law: τ_f = max(2/ω_n, 4 T_s), P_max = min(16 ω_r, ω_n), λ = ω_r/25, ω_c = 10 ω_r,
   stiffness-scale gain q = 0.1; gain reset when the residual stays above 3 θ_def for 2 τ_f
   in informative samples; gap offset learning at rate ω_r above 5 % of v_typ;
-* excitation window max(2/f_r, 1 s); δ_max = 2 rad, ε_δ = 0.1, δ0 = 0.
+* excitation window max(2/f_r, 1 s); δ_max = 2 rad, ε_δ = 0.1, δ0 = 0;
+* angle scale σ = min(1, Δθ range / 10 mrad) ≥ 10⁻⁴ (:func:`~drivelash.params.angle_scale_of`):
+  every absolute angle above (10⁻³ rad in T_ref, α's bounds, the 1 rad of ρ) and in the
+  verdict (2 mrad band and claim, 1 mrad δ1 floor, 50 mrad range excess) is multiplied by it,
+  so a recording in m or of a precision gearbox is tuned as one in rad of a 10 mrad Δθ range.
 """
 
 from __future__ import annotations
@@ -60,6 +64,7 @@ from drivelash.estimation.motion import (
 )
 from drivelash.io.trace import Trace
 from drivelash.params import (
+    ANGLE_SCALE_RANGE,
     OFFSET_FLOOR,
     BacklashParams,
     DrivetrainParams,
@@ -146,6 +151,13 @@ SWAP_MIN_REVERSALS = 2
 #: parameters) that states no signed bias: with identified parameters bench-0B at 1 kHz ran
 #: 1.04 mrad *high* (session 30, tester A M5).
 ONLINE_VERIFIED_RATE_HZ = 2000.0
+#: Smallest convergence band [rad] (× the angle scale σ, :attr:`EstimatorConfig.angle_scale`):
+#: δ̂ settled when it varied by ≤ max(this σ, 2 % of δ̂) over the last window (issue 11).
+BAND_FLOOR = 2e-3
+#: The angle constants mismatch the recording when its Δθ range is below this fraction of the
+#: range they were scaled for (ANGLE_SCALE_RANGE × σ): at the smallest σ, or with gains tuned
+#: without the recording (a given configuration). A blocking warning names it (C8, session 31).
+ANGLE_SCALE_MISMATCH = 0.5
 #: Largest 95 % half-width [rad] with which an estimate may be called converged: the accuracy
 #: the tool promises when it says "converged" (issue 11: |δ̂ − δ| ≤ 2 mrad or flagged).
 CLAIM_HALF_WIDTH = 2e-3
@@ -201,6 +213,13 @@ def check_sample_period(T_s: float, period: float, owner: str, median: float | N
         f"{T_s:.6g} s differs from the trace's sample period {period:.6g} s (mean interval{also}) by"
         f" more than {T_S_RTOL:.1%}; build the estimator with T_s=trace.T_s",
     )
+
+
+def _mrad(x: float) -> str:
+    """``x`` [rad] in mrad for a message: one decimal, or 2 significant digits below 0.1 mrad
+    (a small angle scale σ: "±0.0 mrad, more than the 0.0 mrad" said nothing)."""
+    v = 1e3 * x
+    return f"{v:.1f}" if abs(v) >= 0.1 or v == 0.0 else f"{v:.2g}"
 
 
 def _rms(x: np.ndarray) -> float:
@@ -823,6 +842,10 @@ def _verdict(
     default = cfg.method == "default"
     extra: dict[str, Any] = {"delta1_outside_range": False}
     warnings: list[str] = []
+    # the recording's angle scale: the absolute angle constants of the verdict (2 mrad band and
+    # claim, 1 mrad δ1 floor, 50 mrad range excess) follow a small Δθ range as the gains do
+    sigma = cfg.angle_scale
+    extra["angle_scale"] = sigma
 
     n_trav = int(st[dz.S_TRAV])
     raw_trav = int(st[dz.S_RAW_TRAV])
@@ -937,7 +960,7 @@ def _verdict(
             residual_rms_anchored=a_main["residual_rms"],
             residual_rms_joint=a_chk["residual_rms"],
         )
-        floor = delta1_tolerance(cfg.offset_switch)
+        floor = delta1_tolerance(cfg.offset_switch, sigma)
         ratio = a_chk["residual_rms"] / a_main["residual_rms"] if a_main["residual_rms"] > 0 else math.nan
         # per contact side: a wrong δ1 spoils the anchored law's fit in the *lower* contact
         # (where δ1 anchors it) and not the joint law's; a wrong torque model spoils both sides
@@ -962,7 +985,11 @@ def _verdict(
             # drive of test_generalisation with its true δ1: balance 6.8, joint δ1 3.9 mrad off)
             # and it settled as δ̂ must
             track_j = check.track
-            band_j = max(2e-3, 0.02 * float(np.max(track_j.dmax))) if track_j.dmax.size else 2e-3
+            band_j = (
+                max(BAND_FLOOR * sigma, 0.02 * float(np.max(track_j.dmax)))
+                if track_j.dmax.size
+                else BAND_FLOOR * sigma
+            )
             d1_unjudged = 1.0 / OFFSET_BALANCE_ALTERNATIVE < j_bal < OFFSET_BALANCE_ALTERNATIVE and _settled(
                 track_j, n, max(1, int(round(win / T_s))), band_j
             )
@@ -1048,7 +1075,7 @@ def _verdict(
     # δ̂ one-for-one: bench-0A for 4 s with bench-0B's δ1 settled at 606.6 ± 1.0 mrad for 1027)
     range_gap = 0.0
     excess = dth_range - final - 2.0 * D_peak
-    if ok and not at_bound and excess > max(RANGE_EXCESS_FACTOR * D_peak, RANGE_EXCESS_MIN):
+    if ok and not at_bound and excess > max(RANGE_EXCESS_FACTOR * D_peak, RANGE_EXCESS_MIN * sigma):
         range_gap = excess
         d1_note = (
             f" (the data's δ1 check gives {1e3 * float(extra['delta1_check']):.1f} mrad)"
@@ -1086,6 +1113,24 @@ def _verdict(
                     f"{c0:+.3g} N·m (a load torque such as gravity, or a wrong load friction or "
                     "inertia); the shaft torque was taken from the motor side, which includes it"
                 )
+    # the angle constants assume a Δθ scale the recording does not have: the smallest angle
+    # scale (ANGLE_SCALE_MIN) or a configuration's own gains (tuned without the recording) leave
+    # the α cap, the 1 mrad contact term, the observers' ρ and the 2 mrad band far above it
+    r_dth = mo.dtheta_range
+    extra["dtheta_range_recorded"] = r_dth
+    if math.isfinite(r_dth) and r_dth < ANGLE_SCALE_MISMATCH * ANGLE_SCALE_RANGE * sigma:
+        size = (
+            f"({r_dth:.3g} rad) is {ANGLE_SCALE_RANGE * sigma / r_dth:.3g}× smaller than"
+            if r_dth > 0
+            else "is zero (θ_l follows θ_m exactly), below"
+        )
+        warnings.append(
+            f"the recording's Δθ range {size} the scale the estimator's angle constants assume "
+            f"({ANGLE_SCALE_RANGE * sigma:.3g} rad: α ≤ {1e5 / sigma:.3g} 1/rad, band ≥ "
+            f"{BAND_FLOOR * sigma:.3g} rad): δ̂ is biased and its interval unreliable — check the "
+            "position units (rad, m) and the load encoder, or let the tuning rule set the gains "
+            "([estimator] angle_scale)"
+        )
     # --- encoder reading convention ---------------------------------------------------
     # δ1 anchors δ̂ to the recorded Δθ = θ_m/N − θ_l. An encoder reading stands for an
     # interval one count wide; whether it reports the interval's start (truncation), centre or
@@ -1123,7 +1168,7 @@ def _verdict(
     )
     # --- settling, convergence, uncertainty -----------------------------------------
     delta_max_seen = float(np.max(chosen.track.dmax)) if chosen.track.dmax.size else 0.0
-    band = max(2e-3, 0.02 * delta_max_seen)
+    band = max(BAND_FLOOR * sigma, 0.02 * delta_max_seen)
     k_win = max(1, int(round(win / T_s)))
     settled = _settled(chosen.track, n, k_win, band) if n else False
     # the uncertainty of a measurement; without sufficient excitation δ̂ is none (NaN → null)
@@ -1162,16 +1207,16 @@ def _verdict(
             delta1_propagated_std=s_d1,
         )
     std_base = (
-        _uncertainty(a, extra, cfg.theta_def, enc_bound + disagreement + alt_gap)
+        _uncertainty(a, extra, cfg.theta_def, enc_bound + disagreement + alt_gap, angle_scale=sigma)
         if ok and not at_bound
         else math.nan
     )
     std = (
-        _uncertainty(a, extra, cfg.theta_def, enc_bound + disagreement + alt_gap, s_d1)
+        _uncertainty(a, extra, cfg.theta_def, enc_bound + disagreement + alt_gap, s_d1, sigma)
         if ok and not at_bound
         else math.nan
     )
-    claim = min(band, CLAIM_HALF_WIDTH)
+    claim = min(band, CLAIM_HALF_WIDTH * sigma)
     if ok and 1.96 * std > claim:
         # every bounded alternative that widens the interval is named; the rest (spread, δ1
         # check, model part, floor) is "the data disagree with the stated drive parameters"
@@ -1215,8 +1260,8 @@ def _verdict(
             )
         why = "; ".join(why_parts)
         warnings.append(
-            f"the estimate is uncertain by ±{1e3 * 1.96 * std:.1f} mrad (95 %), more than the "
-            f"{1e3 * claim:.1f} mrad a converged estimate must meet: {why}"
+            f"the estimate is uncertain by ±{_mrad(1.96 * std)} mrad (95 %), more than the "
+            f"{_mrad(claim)} mrad a converged estimate must meet: {why}"
         )
     rho = mo.torque_deflection_corr
     if rho is not None and rho < -SWAP_CORRELATION and mo.reversals >= SWAP_MIN_REVERSALS:
@@ -1272,6 +1317,7 @@ def _uncertainty(
     theta_def: float,
     enc_bound: float = 0.0,
     s_delta1: float = 0.0,
+    angle_scale: float = 1.0,
 ) -> float:
     """Standard uncertainty of δ̂ [rad], from the estimator's own statistics.
 
@@ -1305,13 +1351,16 @@ def _uncertainty(
       identification's standard error is a standard uncertainty, not a bound, so it is added in
       quadrature. A configured δ1 has none (0).
 
+    ``angle_scale`` [-] is the recording's angle scale σ (:attr:`EstimatorConfig.angle_scale`):
+    the cap of the δ1 check's part, :data:`~drivelash.params.OFFSET_FLOOR`, is taken times σ.
+
     Coverage of δ̂ ± 1.96 σ against the truth is measured in tests/estimation/test_robustness.py.
     """
     s_stat = a["delta_spread"] if math.isfinite(a["delta_spread"]) else 0.0
     s_d1 = 0.0
     state = extra.get("delta1_check_result")
     if state in ("consistent", "inconclusive") and "delta1_check" in extra:
-        s_d1 = 0.5 * min(abs(extra["delta1_check"] - extra["delta1_used"]), OFFSET_FLOOR)
+        s_d1 = 0.5 * min(abs(extra["delta1_check"] - extra["delta1_used"]), OFFSET_FLOOR * angle_scale)
     s_mod = 0.0
     kappa = extra.get("stiffness_scale")
     if kappa is not None and extra.get("torque_source") == "load":

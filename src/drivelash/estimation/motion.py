@@ -9,6 +9,8 @@ in one cheap pass that keeps only:
   (≥ 1 kHz is plenty for motion reversals at a few Hz; a 1-hour 8 kHz recording keeps
   3.6 M samples of each, 29 MB);
 * min / max of θ_m/N and θ_l (exact), the sample count, the first and last time stamp;
+* min / max of Δθ = θ_m/N − θ_l (exact): the scale of the recording's relative motion, which
+  the tuning rule's angle constants follow (:attr:`MotionSummary.dtheta_range`);
 * the encoder count of θ_m and θ_l: the smallest non-zero step between consecutive samples
   (exact, every sample). A count-quantised signal gives its count, since the motion passes
   single counts at its reversals; an unquantised one only its slowest step (µrad at kHz
@@ -176,6 +178,10 @@ class MotionSummary:
         [-]; None without a torque column or when either is constant. Positive on a drive whose
         motor drives the load (in contact the shaft torque follows the deflection); negative
         when the motor and load channels are swapped (B2).
+    dtheta_range : float
+        max − min of the recorded Δθ = θ_m/N − θ_l over every sample [rad] (the gap plus the
+        contact deflections and noise); NaN when not scanned. The tuning rule scales its angle
+        constants with it when it is small (:func:`~drivelash.params.angle_scale_of`).
     """
 
     n: int
@@ -190,6 +196,7 @@ class MotionSummary:
     count_m: float = 0.0
     count_l: float = 0.0
     torque_deflection_corr: float | None = None
+    dtheta_range: float = math.nan
 
     @property
     def duration(self) -> float:
@@ -232,6 +239,8 @@ class MotionScanner:
         self.th_l_max = -math.inf
         self.step_m = math.inf
         self.step_l = math.inf
+        self.dth_min = math.inf
+        self.dth_max = -math.inf
         self._last_m = math.nan
         self._last_l = math.nan
         # shifted sums of Δθ = θ_m/N − θ_l and the torque (by their first values), for their correlation
@@ -282,6 +291,11 @@ class MotionScanner:
         self.th_m_max = max(self.th_m_max, float(hi_m) / self.N)
         self.th_l_min = min(self.th_l_min, float(lo_l))
         self.th_l_max = max(self.th_l_max, float(hi_l))
+        # Δθ = θ_m/N − θ_l: its range is the recording's scale of relative motion
+        dth = np.asarray(theta_m, dtype=f64) / self.N - np.asarray(theta_l, dtype=f64)
+        lo_d, hi_d, _ = _block_stats(np.ascontiguousarray(dth), math.nan, STEP_FLOOR)
+        self.dth_min = min(self.dth_min, float(lo_d))
+        self.dth_max = max(self.dth_max, float(hi_d))
         self.step_m = min(self.step_m, float(st_m))
         self.step_l = min(self.step_l, float(st_l))
         self._last_m = float(theta_m[-1])
@@ -342,6 +356,7 @@ class MotionScanner:
             count_m=self.step_m if COUNT_FLOOR <= self.step_m < math.inf else 0.0,
             count_l=self.step_l if COUNT_FLOOR <= self.step_l < math.inf else 0.0,
             torque_deflection_corr=corr,
+            dtheta_range=float(self.dth_max - self.dth_min) if n else math.nan,
         )
 
 
