@@ -118,3 +118,15 @@ def test_range_below_the_smallest_scale_is_not_converged(bench0b):
     assert res.config.angle_scale == 1e-4
     assert not res.converged
     assert any(w.startswith("the recording's Δθ range") for w in res.warnings), res.warnings
+
+
+def test_scaled_recording_paper_law(bench0b):
+    """The paper's law alike: s = 1e-3 gave δ̂/s = 194.296 [181.05, 207.54] mrad, "converged" (in m:
+    ±13 µm around 194 µm for a 186 µm gap passed the absolute claim of 2 mrad, i.e. 2 mm); now
+    187.336 [185.17, 189.50], inside the unscaled 187.181 [185.61, 188.76]."""
+    ref = dl.estimate_backlash(*_scaled(bench0b, 1.0), method="paper")
+    est = dl.estimate_backlash(*_scaled(bench0b, 1e-3), method="paper")
+    lo1, hi1 = ref.summary["delta_interval_95"]
+    lo, hi = (v / 1e-3 for v in est.summary["delta_interval_95"])
+    assert lo1 <= est.delta / 1e-3 <= hi1, (est.delta / 1e-3, lo1, hi1)
+    assert lo <= DELTA <= hi and hi - lo < 5e-3, (lo, hi)
