@@ -406,6 +406,54 @@ def check_load_encoder(th_m: np.ndarray, th_l: np.ndarray, N: float, trace: Trac
     )
 
 
+def check_channel_swap(trace: Trace, N: float, omega_m: np.ndarray) -> None:
+    """Refuse a recording whose motor and load channels are swapped (session 31 tester C, C4).
+
+    The online estimator's data test (:data:`~drivelash.estimation.estimator.SWAP_CORRELATION`,
+    :data:`~drivelash.estimation.estimator.SWAP_MIN_REVERSALS`, on the same
+    :class:`~drivelash.estimation.motion.MotionSummary`): a motor driving its load pushes it
+    through the contact it is on, so the motor torque rises with Δθ = θ_m/N − θ_l; swapped
+    channels turn Δθ around. Fitted anyway, the "motor" equation carries the load (bench-0B
+    swapped: "the shaft never carried torque", J_m +70 %, β_m 5× with intervals excluding the
+    truth). A torque recorded with the wrong sign turns the correlation around too; it is told
+    apart by the motor's mean power ⟨u ω_m⟩, which is positive while the motor supplies the
+    friction losses (18 bench scenarios +0.68 … +0.90 normalised, swapped too; KUKA 9 cases
+    +0.17 … +0.76; torque sign flipped −0.76 … −0.90): such a recording is left to the fit,
+    whose J_m < 0 names the torque sign (:func:`_plausibility`).
+
+    Parameters
+    ----------
+    trace : Trace
+        ``t``, ``theta_m``, ``theta_l`` [rad], ``torque_m`` [N·m].
+    N : float
+        Gear ratio θ_m/θ_l [-].
+    omega_m : numpy.ndarray
+        Motor velocity [rad/s] (recorded or differentiated).
+
+    Raises
+    ------
+    DataError
+        The torque–Δθ correlation below −SWAP_CORRELATION after at least SWAP_MIN_REVERSALS
+        reversals while the motor does positive work.
+    """
+    from drivelash.estimation.estimator import SWAP_CORRELATION, SWAP_MIN_REVERSALS
+    from drivelash.estimation.motion import scan_trace
+
+    mo = scan_trace(trace, N)
+    rho = mo.torque_deflection_corr
+    if rho is None or not (rho < -SWAP_CORRELATION and mo.reversals >= SWAP_MIN_REVERSALS):
+        return
+    if not float(np.dot(trace["torque_m"], omega_m)) > 0.0:
+        return  # the torque's sign is wrong: the fit's J_m < 0 says so
+    raise DataError(
+        f"the motor torque falls as Δθ = θ_m/N − θ_l grows (correlation {rho:+.2f} over {mo.reversals} "
+        "reversals; a motor driving its load gives a positive one): the motor and load channels are "
+        "swapped, the sign of one position or of the torque is wrong, or θ_l is a reference / set-point "
+        "(the torque then follows θ_l − θ_m/N) and not a load encoder — check the [columns] mapping",
+        path=trace.meta.get("source"),
+    )
+
+
 def window_rule(window_s: float, T_s: float) -> str:
     """How a requested window length became the window used, in words (the fit table's
     "window chosen" row; L3 of session 30: it said "default 1 ms" for a 2 ms window).
@@ -2096,6 +2144,8 @@ def _identify_two_mass(
 ) -> DriveIdentification:
     """Body of :func:`identify_two_mass` (arguments checked)."""
     data = window_data(trace, N, window_s=window_s)
+    omega_m = trace["omega_m"] if "omega_m" in trace else np.gradient(trace["theta_m"], trace.T_s)
+    check_channel_swap(trace, N, omega_m)
     kw: dict[str, Any] = {"equations": equations, "fit_delay": fit_delay, "torque_offset": torque_offset}
     start, fit = fit_from_grid(data, **kw)
     if fit_delay:
@@ -3270,6 +3320,15 @@ def _build_result(
         # of an implausible one — a plausible fit there looks as trustworthy as at 8 kHz (bench-0B
         # at 1 kHz: J_m +36 %, δ 187.55 [187.31, 187.80] mrad for 186, no word before)
         warnings.append(rate_note)
+    tau = ordered.get("encoder_delay")
+    if tau is not None and tau.identifiable and tau.high < 0.0:
+        # C4 (session 31): the KUKA rec_A axis 1 with its two encoders swapped gave a determined
+        # τ = −2.25 ms [−2.59, −1.91] (the link encoder lags by ~+3 ms) and no word of the swap
+        warnings.append(
+            f"the fitted encoder delay is negative ({1e3 * tau.value:.3g} ms, 95 % interval "
+            f"[{1e3 * tau.low:.3g}, {1e3 * tau.high:.3g}] ms): the load encoder would lead the motor "
+            "encoder — the motor and load channels may be swapped; check the [columns] mapping"
+        )
     am, al, T = prob.predict(p)
     rms = {
         "motor_accel_rms": float(np.sqrt(np.mean((data.a_m - am)[prob.im] ** 2))) if prob.im.size else None,
