@@ -3,14 +3,21 @@
 - C4: the motor and load channels swapped (θ_m↔θ_l, ω_m↔ω_l) on bench-0B: "the shaft never carried
   torque", J_m +70 %, β_m 5× written with intervals excluding the truth; the swap never named.
   Now refused before the fit with the online estimator's data test (torque–Δθ correlation).
+- C9: EMPS (rigid axis, no backlash) with its reference position as θ_l: δ = 0.954 mm [0.738, 1.171]
+  "both contacts seen" while J_l = 2.2e10 ± 4.5e18. The swap check now refuses it (the torque
+  follows θ_l − θ_m: a set-point); behind it, a load equation that does not determine J_l by
+  orders of magnitude withholds δ, δ1, K_S, D_S.
 """
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
+import drivelash.estimation.identify_two_mass as itm
 from drivelash.errors import DataError
-from drivelash.estimation.identify_two_mass import check_channel_swap, identify_two_mass
+from drivelash.estimation.identify_result import ParameterEstimate
+from drivelash.estimation.identify_two_mass import check_channel_swap, identify_two_mass, load_not_driven
 from drivelash.io.trace import Trace
 from drivelash.sim.scenarios import get_scenario, list_scenarios
 
@@ -73,3 +80,56 @@ def test_torque_sign_error_is_left_to_the_fit(bench_0b):
     (tests/identify/test_identify_two_mass.py::test_negative_torque_gain_is_flagged)."""
     bad = bench_0b.with_columns({"torque_m": -bench_0b["torque_m"]})
     check_channel_swap(bad, 1.0, bad["omega_m"])
+
+
+# ------------------------------------------------------------------------------------ C9
+def _emps_reference_as_load() -> Trace:
+    """EMPS (DATA_EMPS.mat) with the reference position qg mapped as θ_l (and its derivative as ω_l)."""
+    import scipy.io as sio
+
+    from identify.helpers import emps_file
+
+    d = sio.loadmat(emps_file("DATA_EMPS.mat"))
+    t, qm, qg = d["t"].ravel(), d["qm"].ravel(), d["qg"].ravel()
+    return Trace(
+        {
+            "t": t,
+            "theta_m": qm,
+            "omega_m": np.gradient(qm, t),
+            "theta_l": qg,
+            "omega_l": np.gradient(qg, t),
+            "torque_m": float(d["gtau"].item()) * d["vir"].ravel(),
+        },
+        {"source": "emps_ref_as_load"},
+    )
+
+
+def test_reference_as_load_is_refused_naming_a_set_point():
+    """C9: the position loop's torque follows qg − qm, so the torque falls as Δθ = qm − qg grows
+    (correlation −0.71 over 7 reversals): refused, the message names a reference / set-point."""
+    with pytest.raises(DataError, match="reference / set-point"):
+        identify_two_mass(_emps_reference_as_load(), 1.0)
+
+
+def test_load_not_driven_rule():
+    """J_l's 95 % half-width over |J_l| above SPAN_LIMIT (C9: 2.0e8) marks the load as not driven;
+    a determined J_l (bench ≤ 0.03) or the motor equation alone does not."""
+    bad = {"J_l": ParameterEstimate.normal("J_l", 2.207e10, 4.49e18 / 1.96)}
+    good = {"J_l": ParameterEstimate.normal("J_l", 8.36e-4, 1.2e-5)}
+    assert load_not_driven(bad, "both") == pytest.approx(2.03e8, rel=0.01)
+    assert load_not_driven(bad, "motor") is None
+    assert load_not_driven(good, "both") is None
+
+
+@pytest.mark.slow
+def test_undetermined_load_equation_withholds_the_gap(monkeypatch):
+    """C9 behind the swap check (a recording it lets through, e.g. one reversal): before, δ = 0.954 mm
+    [0.738, 1.171], δ1, K_S = 14312 [11180, 17443] were reported with J_l = 2.2e10 ± 4.5e18; now
+    withheld with the reason, and not written to the drive table."""
+    monkeypatch.setattr(itm, "check_channel_swap", lambda *a, **k: None)
+    r = identify_two_mass(_emps_reference_as_load(), 1.0)
+    for n in ("delta", "delta1", "K_S", "D_S"):
+        assert not r[n].identifiable and "does not follow the shaft torque" in r[n].reason, n
+    assert not r.backlash_visible and r.reason.startswith("backlash not determined: θ_l does not follow")
+    assert "delta" not in r.to_config().get("backlash", {})
+    assert r["J_m"].identifiable  # the motor equation stands (EMPS: M = 95.1 kg)

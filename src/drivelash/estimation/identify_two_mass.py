@@ -2737,6 +2737,46 @@ LOAD_SIDE = ("J_l", "D_S", "T_Cl", "beta_l")
 #: A drive-train parameter whose 95 % interval reaches further than this many times its value on
 #: each side is "not determined" (two orders of magnitude; docs/assumptions.md).
 SPAN_LIMIT = 100.0
+#: Parameters whose meaning rests on Δθ = θ_m/N − θ_l being the shaft's deflection: withheld with
+#: δ when the load equation shows that θ_l does not follow the shaft torque
+#: (:func:`load_not_driven`; session 31 tester C, C9).
+SHAFT_DEFINED = ("delta", "delta1", "K_S", "D_S")
+#: Why they are withheld then (the reason names what to check).
+LOAD_NOT_DRIVEN = (
+    "θ_l does not follow the shaft torque — is it a load encoder, or a reference / set-point column?"
+)
+
+
+def load_not_driven(params: dict[str, ParameterEstimate], equations: str) -> float | None:
+    """J_l's 95 % half-width over |J_l| where the load equation leaves it undetermined, else None.
+
+    The load equation J_l ω̇_l = T_shaft − T_Cl sgn ω_l − β_l ω_l is what ties θ_l to the shaft
+    torque. Where its inertia's 95 % interval reaches more than :data:`SPAN_LIMIT` times its value
+    on each side (the rule that withholds J_l itself, :func:`meaningless_intervals`), 1/J_l is 0
+    within the noise: θ_l does not respond to the torque the fitted contacts put through the shaft,
+    and the contacts the motor equation finds in Δθ are not evidence of a gap (C9: EMPS, a rigid
+    axis, with its reference position as θ_l — J_l = 2.2e10 ± 4.5e18, half-width 2e8 × the value —
+    gave δ = 0.954 mm [0.738, 1.171] "both contacts seen": the position loop's following error).
+    Measured half-width over |J_l| on correct recordings: 18 bench scenarios (60 s) ≤ 0.03, random
+    drives ≤ 0.2 (docs/assumptions.md, "Load equation not determined").
+
+    Parameters
+    ----------
+    params : dict
+        The fit's estimates by name (before :func:`meaningless_intervals`).
+    equations : {"both", "motor"}
+        The equations fitted; with ``"motor"`` J_l is not identified and nothing is said.
+
+    Returns
+    -------
+    float or None
+        The ratio [-] when it exceeds :data:`SPAN_LIMIT`, else None.
+    """
+    q = params.get("J_l")
+    if equations != "both" or q is None or not q.identifiable:
+        return None
+    ratio = 0.5 * (q.high - q.low) / abs(q.value) if q.value != 0.0 else math.inf
+    return ratio if not ratio <= SPAN_LIMIT else None
 
 
 def meaningless_intervals(
@@ -3202,6 +3242,7 @@ def _build_result(
         )
         if visible:
             reason += "; the shaft is rigid at the recording's resolution (K_S not determined)"
+    undriven = load_not_driven(params, prob.equations)
     withheld = meaningless_intervals(params, data)
     if withheld:
         notes.append(
@@ -3218,6 +3259,25 @@ def _build_result(
             params["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0)
             if params.get("delta1") is not None and params["delta1"].identifiable:
                 params["delta1"] = ParameterEstimate.unknown("delta1", "not determined: " + what)
+    if undriven is not None and any(params[n].identifiable for n in SHAFT_DEFINED if n in params):
+        # C9: the load equation does not determine J_l by orders of magnitude — θ_l is not driven
+        # through the shaft, so Δθ is no shaft deflection and no contact the motor equation finds
+        # in it is a gap
+        raw = _fitted_text(params, SHAFT_DEFINED)
+        notes.append(f"θ_l does not follow the shaft torque, not reported: {raw}")
+        reason = (
+            f"backlash not determined: {LOAD_NOT_DRIVEN} (J_l's 95 % interval is {undriven:.3g}× its "
+            "value wide on each side: the load equation does not respond to the shaft torque)"
+        )
+        visible = False
+        for n in SHAFT_DEFINED:
+            q = params.get(n)
+            if q is not None and q.identifiable:
+                params[n] = ParameterEstimate.unknown(
+                    n,
+                    reason if n == "delta" else f"not determined: {LOAD_NOT_DRIVEN}",
+                    low=-math.inf if n == "delta1" else 0.0,
+                )
     if (
         totals is None
         and rigid is not None
