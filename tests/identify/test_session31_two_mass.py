@@ -7,9 +7,13 @@
   "both contacts seen" while J_l = 2.2e10 ± 4.5e18. The swap check now refuses it (the torque
   follows θ_l − θ_m: a set-point); behind it, a load equation that does not determine J_l by
   orders of magnitude withholds δ, δ1, K_S, D_S.
+- H6: paper-sim (δ 200 → 210 mrad at 3 s) gave δ = 211.85 [210.89, 212.80] mrad, J_m +40 %, no
+  warning; now δ refitted on each half differs by many standard errors: warned, δ/δ1 withheld.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import pytest
@@ -133,3 +137,35 @@ def test_undetermined_load_equation_withholds_the_gap(monkeypatch):
     assert not r.backlash_visible and r.reason.startswith("backlash not determined: θ_l does not follow")
     assert "delta" not in r.to_config().get("backlash", {})
     assert r["J_m"].identifiable  # the motor equation stands (EMPS: M = 95.1 kg)
+
+
+# ------------------------------------------------------------------------------------ H6
+@pytest.fixture(scope="module")
+def paper_change() -> Trace:
+    return get_scenario("paper-sim").simulate()
+
+
+def test_gap_change_inside_the_recording_is_named(paper_change):
+    """H6: δ 200 → 210 mrad at 3 s; before: δ = 211.85 [210.89, 212.80] mrad "both contacts seen",
+    no warning. Now the halves give ≈ 202.7 and 212.6 mrad (z ≈ 117): warned, δ and δ1 withheld."""
+    r = identify_two_mass(paper_change, 1.0)
+    w = [x for x in r.warnings if x.startswith("the gap changed during the recording")]
+    assert len(w) == 1, r.warnings
+    h = r.fit["gap_halves"]
+    assert h["z"] > itm.GAP_CHANGE_Z and h["delta"][1] - h["delta"][0] > 5e-3
+    assert not r["delta"].identifiable and not r["delta1"].identifiable and not r.backlash_visible
+    assert math.isnan(r["delta"].value)
+
+
+def test_constant_gap_gives_no_gap_change_warning():
+    """Negative control: paper-sim with a constant gap (the same drive, δ = 200 mrad throughout):
+    halves 199.95 / 199.87 mrad (z ≈ 1.2), no warning, δ determined and accurate."""
+    from dataclasses import replace
+
+    from drivelash.sim.scenarios import DeadzoneProfile
+
+    sc = get_scenario("paper-sim")
+    r = identify_two_mass(replace(sc, deadzone_profile=DeadzoneProfile("constant")).simulate(), 1.0)
+    assert not any("gap changed" in w for w in r.warnings), r.warnings
+    assert r.fit["gap_halves"]["z"] < itm.GAP_CHANGE_Z
+    assert r.backlash_visible and abs(r["delta"].value - 0.2) < 1e-3

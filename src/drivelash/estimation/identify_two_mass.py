@@ -2747,6 +2747,67 @@ LOAD_NOT_DRIVEN = (
 )
 
 
+#: A gap that differs between the two halves of a recording by more than this many standard
+#: errors of the difference is "changed during the recording" (:func:`gap_halves`; H6 of session
+#: 30: paper-sim, δ 200 → 210 mrad at 3 s, gave one δ = 211.85 [210.89, 212.80] and J_m +40 %
+#: without a word). Measured on constant gaps (docs/assumptions.md, "Gap changing during a
+#: recording"): 18 bench scenarios (60 s) z ≤ 2.40, paper-sim with a constant gap 1.24, random
+#: drives ≤ 1.26; paper-sim with the change 117. Not 1.96: the halves' standard errors are
+#: conditional on the shared parameters, and the warning is for a change, not a 95 % test.
+GAP_CHANGE_Z = 5.0
+
+
+def gap_halves(fit: TwoMassFit) -> dict[str, Any] | None:
+    """δ refitted on each half of the recording, the other parameters held at the whole fit's.
+
+    Only the two contact points are refitted (windows of the first half, then of the second);
+    their covariance is the HAC sandwich of :func:`hac_covariance` on that half's scores. Both
+    halves share every other parameter, so their δ differ only by the data — a constant gap
+    gives a difference within its standard error, a gap that changed (wear, a slipped clamp)
+    one of many.
+
+    Parameters
+    ----------
+    fit : TwoMassFit
+        The final fit (both contacts seen).
+
+    Returns
+    -------
+    dict or None
+        ``delta`` (first, second half) [rad], ``std`` (their standard errors) [rad], ``z`` the
+        difference over its standard error [-], ``t_split`` the time of the split [s]; ``None``
+        without both contacts or when a half's fit fails.
+    """
+    from scipy.optimize import least_squares
+
+    prob, p = fit.problem, fit.p
+    if not all(prob.sides):
+        return None
+    d = prob.d
+    half = d.n_win // 2
+    sub = TwoMassProblem(d, prob.sides, equations=prob.equations)
+    sub.fixed = p.copy()
+    sub.free = [I_CLO, I_CHI]
+    sub.names = ("c_lo", "c_hi")
+    sub.w = prob.w.copy()
+    deltas, stds = [], []
+    for rows in (slice(0, half), slice(half, d.n_win)):
+        sub.im = prob.im[(prob.im >= rows.start) & (prob.im < rows.stop)]
+        sub.il = prob.il[(prob.il >= rows.start) & (prob.il < rows.stop)]
+        if sub.im.size + sub.il.size < 2 * MIN_CONTACT_WINDOWS:
+            return None
+        res = least_squares(sub.residuals, p[[I_CLO, I_CHI]], jac=sub.jacobian, method="lm", x_scale="jac")
+        g = sub.scores(res.x)[rows]
+        cov = hac_covariance(sub.jacobian(res.x), g, andrews_bandwidth(g))
+        var = float(cov[0, 0] + cov[1, 1] - 2.0 * cov[0, 1])
+        if not (res.success and np.all(np.isfinite(res.x)) and var > 0.0):
+            return None
+        deltas.append(float(res.x[1] - res.x[0]))
+        stds.append(math.sqrt(var))
+    z = abs(deltas[1] - deltas[0]) / math.hypot(*stds)
+    return {"delta": deltas, "std": stds, "z": z, "t_split": float(d.t[half])}
+
+
 def load_not_driven(params: dict[str, ParameterEstimate], equations: str) -> float | None:
     """J_l's 95 % half-width over |J_l| where the load equation leaves it undetermined, else None.
 
@@ -2757,8 +2818,8 @@ def load_not_driven(params: dict[str, ParameterEstimate], equations: str) -> flo
     and the contacts the motor equation finds in Δθ are not evidence of a gap (C9: EMPS, a rigid
     axis, with its reference position as θ_l — J_l = 2.2e10 ± 4.5e18, half-width 2e8 × the value —
     gave δ = 0.954 mm [0.738, 1.171] "both contacts seen": the position loop's following error).
-    Measured half-width over |J_l| on correct recordings: 18 bench scenarios (60 s) ≤ 0.03, random
-    drives ≤ 0.2 (docs/assumptions.md, "Load equation not determined").
+    Measured half-width over |J_l| on correct recordings: 18 bench scenarios (60 s) ≤ 0.039, random
+    drives ≤ 0.35 (docs/assumptions.md, "Load equation not determined").
 
     Parameters
     ----------
@@ -3278,6 +3339,27 @@ def _build_result(
                     reason if n == "delta" else f"not determined: {LOAD_NOT_DRIVEN}",
                     low=-math.inf if n == "delta1" else 0.0,
                 )
+    halves = gap_halves(fit) if visible else None
+    gap_warning = None
+    if halves is not None and halves["z"] > GAP_CHANGE_Z:
+        (d_a, d_b), (s_a, s_b) = halves["delta"], halves["std"]
+        gap_warning = (
+            f"the gap changed during the recording (first half δ {1e3 * d_a:.4g} ± {1e3 * Z95 * s_a:.2g} "
+            f"mrad, second half {1e3 * d_b:.4g} ± {1e3 * Z95 * s_b:.2g} mrad, split at t = "
+            f"{halves['t_split']:.3g} s; "
+            f"{halves['z']:.1f} standard errors apart): the fit assumes one gap — δ and δ1 are not reported "
+            "and its other values may be biased; identify the parts before and after the change separately"
+        )
+        notes.append(f"gap changed, not reported: {_fitted_text(params, ('delta', 'delta1'))}")
+        reason = (
+            f"backlash not determined: the gap changed during the recording (δ {1e3 * d_a:.4g} mrad in the "
+            f"first half, {1e3 * d_b:.4g} mrad in the second)"
+        )
+        visible = False
+        params["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0)
+        params["delta1"] = ParameterEstimate.unknown(
+            "delta1", "not determined: the gap changed during the recording"
+        )
     if (
         totals is None
         and rigid is not None
@@ -3380,6 +3462,8 @@ def _build_result(
         # of an implausible one — a plausible fit there looks as trustworthy as at 8 kHz (bench-0B
         # at 1 kHz: J_m +36 %, δ 187.55 [187.31, 187.80] mrad for 186, no word before)
         warnings.append(rate_note)
+    if gap_warning is not None:
+        warnings.append(gap_warning)
     tau = ordered.get("encoder_delay")
     if tau is not None and tau.identifiable and tau.high < 0.0:
         # C4 (session 31): the KUKA rec_A axis 1 with its two encoders swapped gave a determined
@@ -3419,6 +3503,7 @@ def _build_result(
         "rigid_contact": None if rigid is None else rigid.as_dict(),
         "refusal_evidence": evidence,
         "motor_side_totals": totals,
+        "gap_halves": halves,
     }
     signals = {
         "t": data.t,
