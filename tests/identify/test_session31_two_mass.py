@@ -86,6 +86,35 @@ def test_torque_sign_error_is_left_to_the_fit(bench_0b):
     check_channel_swap(bad, 1.0, bad["omega_m"])
 
 
+def _kuka_axis1(swapped: bool) -> tuple[str, object]:
+    """KUKA rec_A axis 1 with examples/kuka/axis1.toml, the two encoders swapped if asked."""
+    from identify.helpers import REPO, shared_data
+
+    text = (REPO / "examples" / "kuka" / "axis1.toml").read_text(encoding="utf-8")
+    if swapped:
+        text = text.replace("act_pos_se_deg", "@").replace("act_pos_mot_deg", "act_pos_se_deg")
+        text = text.replace("@", "act_pos_mot_deg")
+    return text, shared_data("kuka-kr300", "rec_A.mat")
+
+
+@pytest.mark.parametrize("swapped", [True, False])
+def test_negative_encoder_delay_is_named_as_a_possible_swap(tmp_path, swapped):
+    """C4 on KUKA rec_A axis 1 (one reversal: the data test does not judge it): with the encoders
+    swapped the fit determines encoder_delay = −2.25 ms [−2.59, −1.91] (the link encoder lags by
+    ~+3 ms) — now a warning names the possible swap; the config as shipped gets none."""
+    import drivelash as dl
+
+    text, mat = _kuka_axis1(swapped)
+    cfg_path = tmp_path / "axis1.toml"
+    cfg_path.write_text(text, encoding="utf-8")
+    cfg = dl.load_config(cfg_path)
+    r = dl.identify_drive(dl.load_trace(mat, cfg, required=["theta_m", "theta_l", "torque_m"]), cfg)
+    named = [w for w in r.warnings if w.startswith("the fitted encoder delay is negative")]
+    assert len(named) == int(swapped), r.warnings
+    if swapped:
+        assert "channels may be swapped" in named[0] and r["encoder_delay"].high < 0.0
+
+
 # ------------------------------------------------------------------------------------ C9
 def _emps_reference_as_load() -> Trace:
     """EMPS (DATA_EMPS.mat) with the reference position qg mapped as θ_l (and its derivative as ω_l)."""
