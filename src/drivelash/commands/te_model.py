@@ -96,6 +96,8 @@ def run_fit(
         f"fit both directions (Hyperband + grid search) in {trained.info['fit_time_total_s']:.1f} s "
         f"(total with preprocessing {total:.1f} s) -> {model_dir}"
     )
+    for line in trained.info.get("limitations", []):
+        echo(f"limitation: {line}")
     num = trained.info["numerics"]  # always recorded by fit_te_model
     echo(
         f"torch code path: ATen {num['aten_in_use']}, MKL_CBWR={num['MKL_CBWR']} ("
