@@ -166,6 +166,7 @@ def import_campaign(
     report = check_runs(
         records, bench.r_eff, bench.tooth_pitch, bench.travel, max_load=max_load, source=str(axis_path),
         column_scales=scales, x_unit=x_unit, for_score=for_score, n_t=bench.n_t, column_offsets=offsets,
+        geometry=bench,
     )  # fmt: skip
     report.raise_errors()  # an error is the one line the user sees; warnings only when it goes on
     if warn is not None:
