@@ -183,7 +183,8 @@ def run_identify(
             spill_dir = spill_directory(out_t, json_t, report_t)
             result, trace = _identify_motor_stream(stream, opts, spill_dir, report_t is not None)
             obs = None
-            if result["M"] > 0 and not rigid_result(result).warnings:
+            # the observer's report compares d̂ with F_c sign q̇ + offset: not with an undetermined F_c
+            if result["M"] > 0 and not rigid_result(result).warnings and not result.not_determined:
                 obs, _ = observe_recording(
                     stream,
                     J=result["M"],
@@ -228,7 +229,13 @@ def run_identify(
     comments = [
         f"drivelash identify {trace_path} ({result.side} side, IDIM-LS, units {unit}; model rigid "
         + (f"from {why})" if why in ("--model", "[identification] model") else f"{why})"),
-        "identified: " + ", ".join(f"{n} = {result[n]:.6g} ± {result.std_of(n):.2g}" for n in result.names),
+        "identified: "
+        + ", ".join(
+            f"{n} not determined"
+            if n in result.not_determined
+            else f"{n} = {result[n]:.6g} ± {result.std_of(n):.2g}"
+            for n in result.names
+        ),
         f"relative force error {100 * result.relative_error:.2f} %"
         + (f"; cross-test {100 * ct.relative_error:.2f} % on {cross}" if ct else ""),
         *(f"warning: {note}" for note in result.notes),
@@ -255,7 +262,10 @@ def run_identify(
         for col in ("parameter", "value", "std", "std %"):
             table.add_column(col, justify="right")
         for n, v, s in zip(result.names, result.theta, result.std, strict=True):
-            table.add_row(n, f"{v:.6g}", f"{s:.3g}", f"{100 * s / abs(v):.2f}" if v else "-")
+            if n in result.not_determined:
+                table.add_row(n, "not determined", "-", "-")
+            else:
+                table.add_row(n, f"{v:.6g}", f"{s:.3g}", f"{100 * s / abs(v):.2f}" if v else "-")
         console.print(table)
         console.print(f"relative force error: {100 * result.relative_error:.2f} %")
         if why != "--model":

@@ -30,7 +30,7 @@ where the load rests: with backlash the load stands still while the motor crosse
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -47,6 +47,15 @@ REST_WEIGHT_MAX = 0.05
 #: (EMPS, a rigid axis: 0.040, cross-test 0.060; bench-0A, backlash 1.027 rad: 0.60 with
 #: J_m 6.7× low; docs/assumptions.md).
 RIGID_POOR_FIT = 0.2
+#: A decimated row counts as moving forward (backward) when its decimated sign(q̇) column is
+#: above this level (below its negative): most of the row's anti-alias window moves that way;
+#: encoder jitter at standstill averages out and counts as neither [-].
+REVERSAL_SIGN_LEVEL = 0.5
+#: Fewer decimated rows than this moving in either direction: Coulomb friction F_c sign(q̇) and
+#: the offset are (nearly) the same column, not separable; only their sum for the direction moved
+#: is fitted (docs/assumptions.md, "Identification (IDIM-LS)"). EMPS 0.5–3.0 s (forward only):
+#: 0 rows backward, cond(W) 3.8e16, F_c = 3.6e15 N before this rule.
+REVERSAL_MIN_ROWS = 20
 LOAD_NAMES = ("J_l", "beta_l", "T_Cl", "offset")
 
 
@@ -83,6 +92,11 @@ class IdentificationResult:
         ``"motor"`` or ``"load"``.
     cov : numpy.ndarray, optional
         Covariance σ̂²(WᵀW)⁻¹ of ``theta``.
+    not_determined : dict of str to str
+        Parameters the recording cannot determine, with the reason (e.g. ``F_c`` and ``offset``
+        when the axis moved one way only). Their ``theta`` entries are what the fit used for the
+        prediction (``F_c`` = 0, ``offset`` = the constant force of the direction moved), their
+        ``std`` NaN; they are never written as drive parameters.
     """
 
     names: tuple[str, ...]
@@ -101,6 +115,7 @@ class IdentificationResult:
     axis: str = "rotary"
     side: str = "motor"
     cov: np.ndarray | None = field(default=None, repr=False)
+    not_determined: dict[str, str] = field(default_factory=dict)
 
     def __getitem__(self, name: str) -> float:
         return float(self.theta[self.names.index(name)])
@@ -111,10 +126,15 @@ class IdentificationResult:
 
     @property
     def notes(self) -> list[str]:
-        """Warnings about the fit itself: the rigid model leaves much of the torque unexplained."""
+        """Warnings about the fit itself: parameters the recording cannot determine, and the rigid
+        model leaving much of the torque unexplained."""
+        out = [
+            f"{' and '.join(n for n, w in self.not_determined.items() if w == why)} not determined: {why}"
+            for why in dict.fromkeys(self.not_determined.values())
+        ]
         if not self.relative_error > RIGID_POOR_FIT:
-            return []
-        return [
+            return out
+        return out + [
             f"the rigid model leaves {100 * self.relative_error:.0f} % of the torque unexplained "
             f"(relative error above {100 * RIGID_POOR_FIT:.0f} %): these are not the drive's values — "
             "a drive with backlash or a compliant shaft needs --model two-mass"
@@ -127,11 +147,20 @@ class IdentificationResult:
             "side": self.side,
             "axis": self.axis,
             "parameters": {
-                n: {
-                    "value": float(v),
-                    "std": float(s),
-                    "rel_std_percent": float(100 * s / abs(v)) if v else None,
-                }
+                n: (
+                    {
+                        "value": None,
+                        "std": None,
+                        "rel_std_percent": None,
+                        "not_determined": self.not_determined[n],
+                    }
+                    if n in self.not_determined
+                    else {
+                        "value": float(v),
+                        "std": float(s),
+                        "rel_std_percent": float(100 * s / abs(v)) if v else None,
+                    }
+                )
                 for n, v, s in zip(self.names, self.theta, self.std, strict=True)
             },
             "relative_error": self.relative_error,
@@ -145,11 +174,16 @@ class IdentificationResult:
         """The identified values under their ``[drivetrain]`` names.
 
         Motor side: J_m ← M, beta_m ← F_v, T_Cm ← F_c. Load side: J_l, beta_l, T_Cl.
-        A negative friction estimate is clipped to 0 (params require ≥ 0).
+        A negative friction estimate is clipped to 0 (params require ≥ 0); a parameter in
+        :attr:`not_determined` is left out.
         """
         if self.side == "motor":
-            return {"J_m": self["M"], "beta_m": max(self["F_v"], 0.0), "T_Cm": max(self["F_c"], 0.0)}
-        return {"J_l": self["J_l"], "beta_l": max(self["beta_l"], 0.0), "T_Cl": max(self["T_Cl"], 0.0)}
+            out = {"J_m": self["M"], "beta_m": max(self["F_v"], 0.0), "T_Cm": max(self["F_c"], 0.0)}
+            names = dict(zip(("M", "F_v", "F_c"), out, strict=True))
+        else:
+            out = {"J_l": self["J_l"], "beta_l": max(self["beta_l"], 0.0), "T_Cl": max(self["T_Cl"], 0.0)}
+            names = {k: k for k in out}
+        return {k: v for n, k in names.items() for v in [out[k]] if n not in self.not_determined}
 
 
 def central_difference(x: np.ndarray, T_s: float) -> np.ndarray:
@@ -261,21 +295,32 @@ class ChunkedLSQ:
         stacked = A if self.R is None else np.vstack([self.R, A])
         self.R = np.linalg.qr(stacked, mode="r")
 
-    def solve(self) -> tuple[np.ndarray, np.ndarray, float, float, float, np.ndarray]:
-        """(θ̂, std, relative error, σ̂, cond(W), cov)."""
+    def solve(
+        self, drop: tuple[int, ...] = ()
+    ) -> tuple[np.ndarray, np.ndarray, float, float, float, np.ndarray]:
+        """(θ̂, std, relative error, σ̂, cond(W), cov).
+
+        ``drop``: indices of columns left out of the fit (the returned arrays cover the others,
+        in order): the triangular factor of ``[W | y]`` without them is the QR of the factor's
+        remaining columns (WᵀW = RᵀR), so no second pass over the rows is needed.
+        """
         from scipy.linalg import solve_triangular
 
         if self._buf:
             self._factor(np.concatenate(self._buf))
             self._buf, self._have = [], 0
         r, p = self.rows, self.p
-        if r <= p:
-            raise DataError(f"only {r} rows after decimation for {p} parameters; record longer")
-        if np.any(self.col_sq == 0):
-            bad = self.names[int(np.flatnonzero(self.col_sq == 0)[0])]
+        cols = [j for j in range(p) if j not in drop]
+        if r <= len(cols):
+            raise DataError(f"only {r} rows after decimation for {len(cols)} parameters; record longer")
+        zero = [j for j in cols if self.col_sq[j] == 0]
+        if zero:
+            bad = self.names[zero[0]]
             raise DataError(f"the recording does not excite parameter {bad} (its regressor column is zero)")
         assert self.R is not None
-        Rw, rwy, ryy = self.R[:p, :p], self.R[:p, p], float(self.R[p, p])
+        R = self.R if not drop else np.linalg.qr(self.R[:, [*cols, p]], mode="r")
+        p = len(cols)
+        Rw, rwy, ryy = R[:p, :p], R[:p, p], float(R[p, p])
         theta = solve_triangular(Rw, rwy)
         e2 = ryy * ryy
         sigma2 = e2 / (r - p)
@@ -467,8 +512,11 @@ def identify_rigid_stream(
             lsq = ChunkedLSQ(RIGID_NAMES)
             kept: list[np.ndarray] = []
             row = 0
+            n_fwd = n_bwd = 0
             for block in source_rows:
                 lsq.add(block[:, :4], block[:, 4])
+                n_fwd += int(np.count_nonzero(block[:, 2] > REVERSAL_SIGN_LEVEL))
+                n_bwd += int(np.count_nonzero(block[:, 2] < -REVERSAL_SIGN_LEVEL))
                 if keep is not None:
                     kept.append(block[(-row) % keep :: keep].copy() if keep > 1 else block)
                 row += len(block)
@@ -482,10 +530,54 @@ def identify_rigid_stream(
         "filter_order": filter_order,
         "decimate": decimate,
         "n_border": n_border,
+        "rows_forward": n_fwd,
+        "rows_backward": n_bwd,
     }
-    return _result(
-        RIGID_NAMES, lsq.solve(), lsq.rows, {**options, "T_s": T_s}, td, Wk[:, :4], Wk[:, 4], axis, "motor"
+    if min(n_fwd, n_bwd) >= REVERSAL_MIN_ROWS:
+        solution = lsq.solve()
+        not_determined: dict[str, str] = {}
+    else:
+        solution, not_determined = _one_way(lsq, n_fwd, n_bwd, axis)
+    res = _result(
+        RIGID_NAMES, solution, lsq.rows, {**options, "T_s": T_s}, td, Wk[:, :4], Wk[:, 4], axis, "motor"
     )
+    return res if not not_determined else replace(res, not_determined=not_determined)
+
+
+def _one_way(
+    lsq: ChunkedLSQ, n_fwd: int, n_bwd: int, axis: str
+) -> tuple[tuple[np.ndarray, np.ndarray, float, float, float, np.ndarray], dict[str, str]]:
+    """The rigid fit of a recording that moved one way only (fewer than :data:`REVERSAL_MIN_ROWS`
+    decimated rows in one direction): sign(q̇) is (nearly) the offset's column, F_c and the offset
+    are not separable. With no row the other way the two columns are one (± 1): M, F_v and one
+    constant c are fitted and returned in the four-parameter layout (F_c = 0, offset = c); with a
+    few rows the other way the four-parameter fit is kept for the prediction. Either way the std
+    and covariance of F_c and offset are NaN, and the reason (with the sum F_c + offset the data
+    do determine, or offset − F_c backward) is given for both."""
+    if min(n_fwd, n_bwd) == 0:
+        theta3, std3, rel, sigma, cond, cov3 = lsq.solve(drop=(2,))
+        theta = np.zeros(4)
+        theta[[0, 1, 3]] = theta3
+        std = np.full(4, np.nan)
+        std[[0, 1]] = std3[:2]
+        cov = np.full((4, 4), np.nan)
+        cov[np.ix_([0, 1], [0, 1])] = cov3[:2, :2]
+    else:
+        theta, std, rel, sigma, cond, cov = lsq.solve()
+        std, cov = std.copy(), cov.copy()
+        std[[2, 3]] = np.nan
+        cov[[2, 3], :] = np.nan
+        cov[:, [2, 3]] = np.nan
+    unit = "N" if axis == "prismatic" else "N·m"
+    forward = n_fwd >= n_bwd
+    moved = "forward" if forward else "backward"
+    total, c = ("F_c + offset", theta[2] + theta[3]) if forward else ("offset − F_c", theta[3] - theta[2])
+    why = (
+        f"the axis moved in one direction only ({moved}; {min(n_fwd, n_bwd)} of {lsq.rows} decimated rows "
+        f"the other way, fewer than {REVERSAL_MIN_ROWS}): Coulomb friction and offset are not separable "
+        f"(their sum {total} is {c:.4g} {unit}) — record a motion in both directions"
+    )
+    return (theta, std, rel, sigma, cond, cov), {"F_c": why, "offset": why}
 
 
 def _result(

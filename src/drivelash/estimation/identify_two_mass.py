@@ -3575,15 +3575,22 @@ def rigid_result(result: Any) -> DriveIdentification:
     if result.side == "load":
         rename = {"J_l": "J_l", "beta_l": "beta_l", "T_Cl": "T_Cl", "offset": "torque_offset"}
         units = {"J_l": "kg·m²", "beta_l": "N·m·s/rad", "T_Cl": "N·m", "offset": "N·m"}
+    nd = getattr(result, "not_determined", {})
     params = {
-        rename[n]: ParameterEstimate.normal(rename[n], result[n], result.std_of(n), units[n]) for n in names
+        rename[n]: (
+            ParameterEstimate.unknown(rename[n], nd[n], unit=units[n])
+            if n in nd
+            else ParameterEstimate.normal(rename[n], result[n], result.std_of(n), units[n])
+        )
+        for n in names
     }
     if result.cov is not None:
         sd = np.sqrt(np.clip(np.diag(result.cov), 1e-300, None))
         corr = result.cov / np.outer(sd, sd)
     else:
         corr = np.eye(len(names))
-    warnings = _plausibility(params)
+    # the causes name the model that was fitted (C7, session 31: "dynamics the two-mass model lacks")
+    warnings = [w.replace("the two-mass model", "the rigid model") for w in _plausibility(params)]
     if not warnings and result.side == "motor" and result["M"] <= 0:
         warnings.append(f"J_m = {result['M']:.4g} ≤ 0: the torque sign or gain is wrong")
     return DriveIdentification(
