@@ -16,8 +16,10 @@ Practice of Gautier and Janot for IDIM-LS (and of the EMPS benchmark):
    (``scipy.signal.decimate``: order-8 Chebyshev I, zero phase — as MATLAB's
    ``decimate``). This removes the high-frequency torque ripple the rigid
    model does not explain, identically on both sides of the equation;
-4. ordinary least squares θ̂ = argmin ‖y − Wθ‖; σ̂² = ‖y − Wθ̂‖²/(r − p);
-   cov(θ̂) = σ̂² (WᵀW)⁻¹; relative error ‖y − Wθ̂‖/‖y‖.
+4. ordinary least squares θ̂ = argmin ‖y − Wθ‖; σ̂² = ‖y − Wθ̂‖²/(r − p); relative error
+   ‖y − Wθ̂‖/‖y‖; cov(θ̂) (motor side) the Newey–West sandwich (WᵀW)⁻¹ S (WᵀW)⁻¹ of the scores
+   w_t e_t, Bartlett kernel, Andrews' lag (the rows are autocorrelated: σ̂² (WᵀW)⁻¹, kept as
+   ``std_ols``, is 2–4.5× too narrow on EMPS).
 
 Load side of a two-mass drive (J_l ω̇_l = T_l − T_F,l(ω_l), spec 01 eq 3): the
 shaft torque is estimated from the motor side with known motor parameters,
@@ -29,6 +31,7 @@ where the load rests: with backlash the load stands still while the motor crosse
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -71,7 +74,8 @@ class IdentificationResult:
         Estimates (units: M [kg·m²] or [kg], F_v [N·m·s/rad] or [N·s/m],
         F_c and offset [N·m] or [N]).
     std : numpy.ndarray
-        Standard deviations σ̂ √diag((WᵀW)⁻¹), same units as ``theta``.
+        Standard deviations, same units as ``theta``: motor side the Newey–West (HAC) sandwich
+        (:func:`hac_sandwich`; the decimated rows are autocorrelated), load side σ̂ √diag((WᵀW)⁻¹).
     relative_error : float
         ‖y − Wθ̂‖ / ‖y‖ on the (decimated) identification data [-].
     sigma : float
@@ -91,12 +95,15 @@ class IdentificationResult:
     side : str
         ``"motor"`` or ``"load"``.
     cov : numpy.ndarray, optional
-        Covariance σ̂²(WᵀW)⁻¹ of ``theta``.
+        Covariance of ``theta`` (of which ``std`` is the root of the diagonal).
     not_determined : dict of str to str
         Parameters the recording cannot determine, with the reason (e.g. ``F_c`` and ``offset``
         when the axis moved one way only). Their ``theta`` entries are what the fit used for the
         prediction (``F_c`` = 0, ``offset`` = the constant force of the direction moved), their
         ``std`` NaN; they are never written as drive parameters.
+    std_ols : numpy.ndarray, optional
+        The white-residual std σ̂ √diag((WᵀW)⁻¹) (motor side; what the published EMPS figures
+        state): 2–4.5× below ``std`` on EMPS — not an uncertainty of these rows.
     """
 
     names: tuple[str, ...]
@@ -116,6 +123,7 @@ class IdentificationResult:
     side: str = "motor"
     cov: np.ndarray | None = field(default=None, repr=False)
     not_determined: dict[str, str] = field(default_factory=dict)
+    std_ols: np.ndarray | None = field(default=None, repr=False)
 
     def __getitem__(self, name: str) -> float:
         return float(self.theta[self.names.index(name)])
@@ -163,6 +171,11 @@ class IdentificationResult:
                 )
                 for n, v, s in zip(self.names, self.theta, self.std, strict=True)
             },
+            "std_method": (
+                "Newey–West (HAC) sandwich, Bartlett kernel, Andrews lag"
+                if self.std_ols is not None
+                else "σ̂²(WᵀW)⁻¹ (white residuals)"
+            ),
             "relative_error": self.relative_error,
             "residual_std": self.sigma,
             "condition_number": self.condition,
@@ -325,7 +338,9 @@ class ChunkedLSQ:
         e2 = ryy * ryy
         sigma2 = e2 / (r - p)
         Rinv = solve_triangular(Rw, np.eye(p))
-        cov = sigma2 * (Rinv @ Rinv.T)
+        #: (WᵀW)⁻¹ of the columns solved for (the bread of :func:`hac_sandwich`)
+        self.inv_gram = Rinv @ Rinv.T
+        cov = sigma2 * self.inv_gram
         std = np.sqrt(np.clip(np.diag(cov), 0, None))
         rel = float(np.sqrt(e2) / np.sqrt(self.yy)) if self.yy > 0 else float("inf")
         return theta, std, rel, float(np.sqrt(sigma2)), float(np.linalg.cond(Rw)), cov
@@ -513,13 +528,33 @@ def identify_rigid_stream(
             kept: list[np.ndarray] = []
             row = 0
             n_fwd = n_bwd = 0
+            dec = make(size, 5, spill_dir)  # the decimated system, read again for the HAC covariance
             for block in source_rows:
+                dec.write(row, block)
                 lsq.add(block[:, :4], block[:, 4])
                 n_fwd += int(np.count_nonzero(block[:, 2] > REVERSAL_SIGN_LEVEL))
                 n_bwd += int(np.count_nonzero(block[:, 2] < -REVERSAL_SIGN_LEVEL))
                 if keep is not None:
                     kept.append(block[(-row) % keep :: keep].copy() if keep > 1 else block)
                 row += len(block)
+            if held is not None:
+                held.close()
+                held = None
+            held = dec
+            if min(n_fwd, n_bwd) >= REVERSAL_MIN_ROWS:
+                solution = lsq.solve()
+                not_determined: dict[str, str] = {}
+            else:
+                solution, not_determined = _one_way(lsq, n_fwd, n_bwd, axis)
+            cols = [0, 1, 3] if min(n_fwd, n_bwd) == 0 else [0, 1, 2, 3]
+            cov, lags = hac_sandwich(
+                lambda: (dec.read(a, min(row, a + back_rows)) for a in range(0, row, back_rows)),
+                solution[0],
+                cols,
+                lsq.inv_gram,
+            )
+            std_ols = solution[1]
+            solution = _with_hac(solution, cov, cols, not_determined)
         finally:
             if held is not None:
                 held.close()
@@ -532,16 +567,129 @@ def identify_rigid_stream(
         "n_border": n_border,
         "rows_forward": n_fwd,
         "rows_backward": n_bwd,
+        "hac_lags": lags,
     }
-    if min(n_fwd, n_bwd) >= REVERSAL_MIN_ROWS:
-        solution = lsq.solve()
-        not_determined: dict[str, str] = {}
-    else:
-        solution, not_determined = _one_way(lsq, n_fwd, n_bwd, axis)
     res = _result(
         RIGID_NAMES, solution, lsq.rows, {**options, "T_s": T_s}, td, Wk[:, :4], Wk[:, 4], axis, "motor"
     )
-    return res if not not_determined else replace(res, not_determined=not_determined)
+    return replace(res, not_determined=not_determined, std_ols=std_ols)
+
+
+def andrews_lag(n: int, v: np.ndarray, c: np.ndarray) -> int:
+    """Andrews (1991) AR(1) plug-in bandwidth of the Bartlett kernel from the scores' moments —
+    the rule of the two-mass fit (:func:`~drivelash.estimation.identify_two_mass.andrews_bandwidth`,
+    same result), computable over a stream.
+
+    Parameters
+    ----------
+    n : int
+        Rows of the score series.
+    v, c : numpy.ndarray
+        Per column: Σ x_t² and Σ x_t x_{t−1} of the demeaned scores x.
+    """
+    num = den = 0.0
+    for vj, cj in zip(v, c, strict=True):
+        if vj <= 0:
+            continue
+        rho = min(max(float(cj) / float(vj), -0.97), 0.97)
+        s2 = float(vj) / n * (1 - rho * rho)
+        num += 4 * rho * rho * s2 * s2 / ((1 - rho) ** 6 * (1 + rho) ** 2)
+        den += s2 * s2 / (1 - rho) ** 4
+    if den <= 0:
+        return 0
+    return int(min(max(math.floor(1.1447 * (num / den * n) ** (1.0 / 3.0)), 0), n // 4))
+
+
+def hac_sandwich(
+    blocks: Callable[[], Iterable[np.ndarray]], theta: np.ndarray, cols: list[int], inv_gram: np.ndarray
+) -> tuple[np.ndarray, int]:
+    """Newey–West (HAC) covariance (WᵀW)⁻¹ S (WᵀW)⁻¹ of least-squares estimates, over a stream.
+
+    S is the Bartlett-weighted long-run covariance of the scores g_t = w_t e_t (as
+    ``statsmodels.stats.sandwich_covariance.S_hac_simple``), with the lag of :func:`andrews_lag`.
+    The decimated IDIM-LS rows are autocorrelated (EMPS residuals: lag-1 0.68), so the OLS
+    σ̂²(WᵀW)⁻¹ understated the std 2–4.5× (session 31, tester C, C1).
+
+    Parameters
+    ----------
+    blocks : callable
+        ``blocks()`` yields the rows ``[W | y]`` in order (called twice).
+    theta : numpy.ndarray
+        Estimates in the layout of W's columns (the columns not in ``cols`` do not enter).
+    cols : list of int
+        Columns of W that were solved for.
+    inv_gram : numpy.ndarray
+        (WᵀW)⁻¹ of those columns.
+
+    Returns
+    -------
+    cov : numpy.ndarray
+        Covariance of the estimates of ``cols``.
+    lags : int
+        Bartlett lag used (rows).
+    """
+    k = len(cols)
+    th = np.asarray(theta, dtype=np.float64)
+
+    def scores() -> Iterator[np.ndarray]:
+        for b in blocks():
+            e = b[:, -1] - b[:, :-1] @ th
+            yield b[:, cols] * e[:, None]
+
+    n = 0
+    s1, s2, c1 = np.zeros(k), np.zeros(k), np.zeros(k)
+    head, prev = None, None
+    for g in scores():
+        if len(g) == 0:
+            continue
+        if head is None:
+            head = g[0].copy()
+        n += len(g)
+        s1 += g.sum(0)
+        s2 += np.einsum("ij,ij->j", g, g)
+        c1 += np.einsum("ij,ij->j", g[1:], g[:-1]) + (prev * g[0] if prev is not None else 0.0)
+        prev = g[-1].copy()
+    if n == 0 or head is None or prev is None:
+        return np.full((k, k), np.nan), 0
+    m = s1 / n
+    v = s2 - n * m * m
+    # Σ (x_t − m)(x_{t−1} − m) over t = 1 … n−1
+    c = c1 - m * ((s1 - head) + (s1 - prev)) + (n - 1) * m * m
+    lags = andrews_lag(n, v, c)
+    weights = 1.0 - np.arange(lags + 1) / (lags + 1.0)
+    S = np.zeros((k, k))
+    carry = np.empty((0, k))
+    for g in scores():
+        X = np.vstack([carry, g])
+        off = len(carry)
+        S += g.T @ g
+        for lag in range(1, lags + 1):
+            a = max(off, lag)
+            if a >= len(X):
+                break
+            G = X[a:].T @ X[a - lag : len(X) - lag]
+            S += weights[lag] * (G + G.T)
+        carry = X[-lags:] if lags else carry
+    return inv_gram @ S @ inv_gram, lags
+
+
+def _with_hac(
+    solution: tuple[np.ndarray, np.ndarray, float, float, float, np.ndarray],
+    cov_cols: np.ndarray,
+    cols: list[int],
+    not_determined: dict[str, str],
+) -> tuple[np.ndarray, np.ndarray, float, float, float, np.ndarray]:
+    """``solution`` with the HAC covariance of ``cols`` in place of the OLS one (the estimates
+    unchanged); a parameter in ``not_determined`` keeps its NaN std and covariance."""
+    theta, _, rel, sigma, cond, _ = solution
+    p = len(theta)
+    cov = np.full((p, p), np.nan)
+    cov[np.ix_(cols, cols)] = cov_cols
+    nd = [RIGID_NAMES.index(n) for n in not_determined]
+    cov[nd, :] = np.nan
+    cov[:, nd] = np.nan
+    std = np.sqrt(np.clip(np.diag(cov), 0, None))
+    return theta, std, rel, sigma, cond, cov
 
 
 def _one_way(

@@ -3561,8 +3561,8 @@ def rigid_result(result: Any) -> DriveIdentification:
     """The rigid-axis IDIM-LS result (:mod:`drivelash.estimation.identify`) as a :class:`DriveIdentification`.
 
     Names: ``M`` → ``J_m``, ``F_v`` → ``beta_m``, ``F_c`` → ``T_Cm``, ``offset`` → ``torque_offset``
-    (on a prismatic axis: kg, N·s/m, N). The intervals are the IDIM-LS ones (σ̂²(WᵀW)⁻¹ on the
-    decimated system).
+    (on a prismatic axis: kg, N·s/m, N). The intervals are the IDIM-LS ones (motor side: the
+    Newey–West sandwich on the decimated system, :func:`drivelash.estimation.identify.hac_sandwich`).
     """
     prismatic = result.axis == "prismatic"
     units = (
