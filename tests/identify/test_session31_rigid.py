@@ -222,3 +222,43 @@ def test_emps_recordings_of_the_same_axis_agree_within_their_intervals():
     # point estimates bit-identical to before the HAC covariance (session 30 values)
     assert a["J_m"].value == 95.11323491247255 and a["T_Cm"].value == 20.40893356950891
     assert a["J_m"].std / a.source.std_ols[0] > 2.0
+
+
+# ---------------------------------------------------------------- C13: cross-test warnings
+def test_cross_test_names_a_flipped_sign_a_unit_and_a_poor_fit(rng):
+    """Before: 199.88 % (force sign flipped) and 79 142 % (mm read as m) printed without a word."""
+    from drivelash.estimation.identify import cross_test
+
+    q = _both_ways()
+    r = identify_rigid(_rigid(q, rng))
+    val = _rigid(q[::-1].copy(), rng)
+    ok = cross_test(r, val)
+    assert ok.relative_error < 0.2 and ok.notes == [] and ok.scale == pytest.approx(1.0, abs=0.05)
+    flipped = cross_test(r, Trace({"t": val["t"], "theta_m": val["theta_m"], "torque_m": -val["torque_m"]}))
+    assert flipped.relative_error == pytest.approx(2.0, abs=0.1)
+    assert len(flipped.notes) == 1 and "sign" in flipped.notes[0] and "likely flipped" in flipped.notes[0]
+    mm = cross_test(r, Trace({"t": val["t"], "theta_m": 1e3 * val["theta_m"], "torque_m": val["torque_m"]}))
+    assert len(mm.notes) == 1 and "a unit of the validation file" in mm.notes[0]
+    other = _rigid(q, rng)  # another axis: twice the inertia and friction
+    poor = cross_test(r, Trace({"t": other["t"], "theta_m": q, "torque_m": 2.2 * other["torque_m"]}))
+    assert poor.relative_error > 0.2 and "does not describe the validation recording" in poor.notes[0]
+
+
+def test_cross_test_warning_reaches_the_command(tmp_path, rng, capsys):
+    from drivelash.commands.data import run_identify
+
+    q = _both_ways()
+    est = _parquet(tmp_path, _rigid(q, rng), "est.parquet")
+    v = _rigid(q, rng)
+    neg = _parquet(
+        tmp_path, Trace({"t": v["t"], "theta_m": v["theta_m"], "torque_m": -v["torque_m"]}), "neg.parquet"
+    )
+    s = run_identify(est, _cfg(tmp_path), model="rigid", cross=neg, out=tmp_path / "d.toml")
+    assert "likely flipped" in s["cross_test"]["notes"][0]
+    assert "# warning: the cross-test leaves" in (tmp_path / "d.toml").read_text()
+    cap = capsys.readouterr()
+    assert "likely flipped" in " ".join((cap.out + cap.err).split())
+    ok = _parquet(tmp_path, v, "ok.parquet")
+    s = run_identify(est, _cfg(tmp_path), model="rigid", cross=ok, out=tmp_path / "e.toml", force=True)
+    text = (tmp_path / "e.toml").read_text()
+    assert s["cross_test"]["notes"] == [] and "cross-test leaves" not in text, text

@@ -218,7 +218,12 @@ def run_identify(
         vtrace = load_trace(cross, cfg, required=need, resample=resample or None)
         print_warnings(vtrace.meta)
         ct = cross_test(result, vtrace)
-        summary["cross_test"] = {"trace": str(cross), "relative_error": ct.relative_error}
+        summary["cross_test"] = {
+            "trace": str(cross),
+            "relative_error": ct.relative_error,
+            "scale": ct.scale,
+            "notes": ct.notes,
+        }
 
     values = result.drivetrain_values()
     merged: dict[str, float] = {}
@@ -239,6 +244,7 @@ def run_identify(
         f"relative force error {100 * result.relative_error:.2f} %"
         + (f"; cross-test {100 * ct.relative_error:.2f} % on {cross}" if ct else ""),
         *(f"warning: {note}" for note in result.notes),
+        *(f"warning: {note}" for note in (ct.notes if ct else [])),
     ]
     fragment = drivetrain_fragment(merged, comments)
     summary["drivetrain"] = merged
@@ -274,6 +280,8 @@ def run_identify(
             console.print(f"warning: {escape(note)}")
         if ct is not None:
             console.print(f"cross-test on {escape(str(cross))}: {100 * ct.relative_error:.2f} %")
+            for note in ct.notes:
+                console.print(f"warning: {escape(note)}")
         if out is None:
             sys.stdout.write(fragment)
     return summary

@@ -60,6 +60,11 @@ REVERSAL_SIGN_LEVEL = 0.5
 #: 0 rows backward, cond(W) 3.8e16, F_c = 3.6e15 N before this rule.
 REVERSAL_MIN_ROWS = 20
 LOAD_NAMES = ("J_l", "beta_l", "T_Cl", "offset")
+#: Cross-test: a least-squares scale of the prediction beyond this factor (or below its inverse)
+#: is named a unit slip [-] — a wrong gain or unit is a factor of 10^k (mm read as m: 1e-3, EMPS
+#: 79 142 %); the model error of a right reading leaves the scale near 1 (EMPS → EMPS_PULSES:
+#: docs/assumptions.md).
+CROSS_UNIT_FACTOR = 10.0
 
 
 @dataclass(frozen=True)
@@ -902,6 +907,42 @@ class CrossTest:
     t: np.ndarray = field(repr=False)
     y: np.ndarray = field(repr=False)
     y_hat: np.ndarray = field(repr=False)
+
+    @property
+    def scale(self) -> float:
+        """Least-squares factor a of y ≈ a ŷ [-]: 1 when the validation recording is read like the
+        estimation one, ≈ −1 with a sign flipped, a power of ten with a unit slip."""
+        d = float(self.y_hat @ self.y_hat)
+        return float(self.y_hat @ self.y) / d if d > 0 else float("nan")
+
+    @property
+    def notes(self) -> list[str]:
+        """One warning when the cross-test error is above :data:`RIGID_POOR_FIT` (the fit's own
+        limit), naming a flipped sign (a < 0) or a unit (|a| beyond :data:`CROSS_UNIT_FACTOR`)
+        where the best scale of the prediction shows one."""
+        if not self.relative_error > RIGID_POOR_FIT:
+            return []
+        head = (
+            f"the cross-test leaves {100 * self.relative_error:.0f} % of the validation force/torque "
+            f"unexplained (above {100 * RIGID_POOR_FIT:.0f} %): "
+        )
+        a = self.scale
+        if a < 0:
+            return [
+                head + f"the measured force/torque runs against the prediction (best scale {a:.3g}) — the "
+                "validation file's force/torque sign (or its position's) is likely flipped; check its "
+                "scale in [columns]"
+            ]
+        if not 1.0 / CROSS_UNIT_FACTOR <= a <= CROSS_UNIT_FACTOR:
+            return [
+                head
+                + f"the prediction is off by a factor {1.0 / a:.3g} (best scale {a:.3g}) — a unit of the "
+                "validation file (position, force/torque or time) likely differs from the estimation file's"
+            ]
+        return [
+            head + "the identified model does not describe the validation recording — check it is the "
+            "same axis, read with the same [columns]"
+        ]
 
 
 def cross_test(result: IdentificationResult, trace: Trace) -> CrossTest:
