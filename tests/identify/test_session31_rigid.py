@@ -262,3 +262,20 @@ def test_cross_test_warning_reaches_the_command(tmp_path, rng, capsys):
     s = run_identify(est, _cfg(tmp_path), model="rigid", cross=ok, out=tmp_path / "e.toml", force=True)
     text = (tmp_path / "e.toml").read_text()
     assert s["cross_test"]["notes"] == [] and "cross-test leaves" not in text, text
+
+
+# ---------------------------------------------------------------- C7: units of a prismatic axis
+def test_prismatic_refusal_states_the_mass_in_kg(tmp_path, rng):
+    """Force sign flipped on a linear axis (m, N): the refusal said 'J_m = … kg·m² < 0'."""
+    v = _rigid(_both_ways(), rng)
+    neg = _parquet(
+        tmp_path, Trace({"t": v["t"], "theta_m": v["theta_m"], "torque_m": -v["torque_m"]}), "n.parquet"
+    )
+    r = dl.identify_drive(neg, _cfg(tmp_path, unit="m", force="N"), model="rigid")
+    assert not r.plausible and r["J_m"].unit == "kg"
+    assert any("J_m = " in w and " kg < 0" in w for w in r.warnings) and all(
+        "kg·m²" not in w for w in r.warnings
+    )
+    # negative control: a rotary axis keeps kg·m²
+    rot = dl.identify_drive(neg, _cfg(tmp_path), model="rigid")
+    assert any("kg·m² < 0" in w for w in rot.warnings)

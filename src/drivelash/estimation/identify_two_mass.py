@@ -3591,6 +3591,8 @@ def rigid_result(result: Any) -> DriveIdentification:
         corr = np.eye(len(names))
     # the causes name the model that was fitted (C7, session 31: "dynamics the two-mass model lacks")
     warnings = [w.replace("the two-mass model", "the rigid model") for w in _plausibility(params)]
+    if prismatic:  # a linear axis's mass is in kg (C7, session 31: "J_m = -95.11 kg·m²" on EMPS)
+        warnings = [w.replace("kg·m²", "kg") for w in warnings]
     if not warnings and result.side == "motor" and result["M"] <= 0:
         warnings.append(f"J_m = {result['M']:.4g} ≤ 0: the torque sign or gain is wrong")
     return DriveIdentification(
