@@ -215,13 +215,37 @@ def test_emps_recordings_of_the_same_axis_agree_within_their_intervals():
     b = dl.identify_drive(
         shared_data("emps", "DATA_EMPS_PULSES.mat"), load_config(ex / "emps_pulses.toml"), model="rigid"
     )
-    z = {k: (a[k].value - b[k].value) / np.hypot(a[k].std, b[k].std) for k in a.parameters}
+    z = _emps_z(a, b)
     for k in ("beta_m", "T_Cm", "torque_offset"):
         assert abs(z[k]) < 2.0, z
-    assert 2.0 < z["J_m"] < 4.0, z  # was 5.9; the rest is model error (documented)
+    assert z["J_m"] < 5.9 / 1.5, z  # was 5.9 with the OLS std; the rest: test below (known miss)
     # point estimates bit-identical to before the HAC covariance (session 30 values)
     assert a["J_m"].value == 95.11323491247255 and a["T_Cm"].value == 20.40893356950891
     assert a["J_m"].std / a.source.std_ols[0] > 2.0
+
+
+def _emps_z(a, b) -> dict[str, float]:
+    return {k: (a[k].value - b[k].value) / np.hypot(a[k].std, b[k].std) for k in a.parameters}
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="known miss: the EMPS mass from DATA_EMPS and DATA_EMPS_PULSES (same axis) differs by "
+    "1.1 % (95.11 vs 94.06 kg), z = 3.4 of the HAC intervals (5.9 with the old OLS std); goal: "
+    "|z| < 2 like F_v, F_c and the offset; because of an excitation-dependent model error (the "
+    "two halves of each recording agree), which no single-recording interval contains",
+)
+def test_emps_masses_of_the_two_recordings_agree_within_their_intervals():
+    from pathlib import Path
+
+    from drivelash.io import load_config
+
+    ex = Path(__file__).resolve().parents[2] / "examples"
+    a = dl.identify_drive(shared_data("emps", "DATA_EMPS.mat"), load_config(ex / "emps.toml"), model="rigid")
+    b = dl.identify_drive(
+        shared_data("emps", "DATA_EMPS_PULSES.mat"), load_config(ex / "emps_pulses.toml"), model="rigid"
+    )
+    assert abs(_emps_z(a, b)["J_m"]) < 2.0
 
 
 # ---------------------------------------------------------------- C13: cross-test warnings
