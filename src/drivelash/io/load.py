@@ -86,6 +86,14 @@ _ACCEPTS: dict[str, tuple[str, ...]] = {
 #: Relative tolerance for recognising a unit-factor mix-up (deg↔rad 57.3, rpm↔rad/s 9.55).
 UNIT_FACTOR_TOLERANCE = 0.15
 
+#: A velocity column whose least-squares ratio to d(position)/dt (on the samples with motion,
+#: :func:`check_unit_ratio`) is below this — or negative and a known unit factor in magnitude
+#: (−57.3, −1e-3, …) — counts against its position: refused (one of the two needs
+#: ``scale = -1``). Correct recordings give ≈ +1 (tests/io, bench scenarios, EMPS, KUKA); a
+#: sign-flipped velocity gives −1 (EMPS −1.00, bench-0B −0.98). Not 0: an unwrapped int16 counter
+#: of a finer encoder gives −0.012 from its wrap jumps, which the seam check names (set wrap).
+NEGATIVE_UNIT_RATIO = -0.5
+
 #: A torque/force column is "saturated" when at least this fraction of samples sits
 #: exactly at its maximum or minimum, in runs of at least SATURATION_MIN_RUN samples.
 SATURATION_FRACTION = 0.02
@@ -733,8 +741,34 @@ def raise_seam(scan: Any, linear: bool, path: str, rows: DataRows) -> None:
 def check_unit_ratio(ratio: float, side: str, path: str, column: str, row: int, rows: DataRows) -> None:
     """Refuse a velocity/derivative-of-position ratio that is a known unit mix-up factor: an
     angle or speed unit (57.3, 9.55) or a factor 1000 / 10⁶ (time in ms or µs read as s, or
-    mm against m on a linear axis); the message names data row ``row`` (the first with
-    motion) as ``rows`` does."""
+    mm against m on a linear axis), and a negative ratio below :data:`NEGATIVE_UNIT_RATIO`
+    or a negative known factor (the velocity counts against its position, a sign-convention
+    slip); the message names data row
+    ``row`` (the first with motion) as ``rows`` does."""
+    if ratio < NEGATIVE_UNIT_RATIO or (ratio < 0 and _factor_hint(-ratio)):
+        raise DataError(
+            f"velocity counts against the derivative of theta_{side} (ratio {ratio:.4g}): set"
+            f" scale = -1 on one of them in [columns]{_factor_hint(-ratio)}",
+            path=path,
+            column=column,
+            row=row,
+            rows=rows,
+        )
+    hint = _factor_hint(ratio)
+    if hint:
+        raise DataError(
+            f"implausible units: velocity is {ratio:.4g}× the derivative of"
+            f" theta_{side}; {hint[2:]} — fix the unit in [columns]",
+            path=path,
+            column=column,
+            row=row,
+            rows=rows,
+        )
+
+
+def _factor_hint(ratio: float) -> str:
+    """``"; <what the factor means>"`` when ``ratio`` (> 0) is a known unit mix-up factor
+    (within :data:`UNIT_FACTOR_TOLERANCE`), else ``""``."""
     for factor, hint in (
         (180.0 / math.pi, "velocity looks like deg/s (or position like rad where deg was meant)"),
         (60.0 / (2 * math.pi), "velocity looks like rpm"),
@@ -747,14 +781,8 @@ def check_unit_ratio(ratio: float, side: str, path: str, column: str, row: int, 
         (1e-3, "time in s declared as ms, or a position in mm against a velocity in m/s?"),
     ):  # fmt: skip
         if abs(ratio / factor - 1) < UNIT_FACTOR_TOLERANCE:
-            raise DataError(
-                f"implausible units: velocity is {ratio:.4g}× the derivative of"
-                f" theta_{side}; {hint} — fix the unit in [columns]",
-                path=path,
-                column=column,
-                row=row,
-                rows=rows,
-            )
+            return f"; {hint}"
+    return ""
 
 
 #: Positions that share one scale on a prismatic axis (m of carriage travel): the motor and load
