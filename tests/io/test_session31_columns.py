@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+import drivelash as dl
 from drivelash.errors import DataError
 from drivelash.io import Trace, load_trace, write_trace
 from drivelash.io.stream import TraceStream
@@ -74,3 +75,55 @@ def test_correct_recordings_still_load(tmp_path, name):
     p = write_trace(Trace(cols), tmp_path / "ok.parquet")
     got = load_trace(p)
     np.testing.assert_array_equal(got["omega_m"], cols["omega_m"])
+
+
+# ------------------------------------------------------------------------------------------ C6
+@pytest.mark.parametrize(
+    ("spec", "key", "needs"),
+    [
+        ({"unit": "N", "gain": "gtau"}, "gain", "'V'"),
+        ({"unit": "N·m", "gain": 35.15}, "gain", "'V'"),
+        ({"unit": "N", "torque_constant": 35.15}, "torque_constant", "'A'"),
+        ({"unit": "V", "torque_constant": 0.8, "gain": 2.0}, "torque_constant", "'A'"),
+        ({"unit": "m", "counts_per_rev": 4096}, "counts_per_rev", "'counts'"),
+        ({"unit": "rad", "counts_per_rev": 4096}, "counts_per_rev", "'counts'"),
+    ],
+)
+def test_conversion_key_with_a_unit_that_ignores_it_is_refused(tmp_path, spec, key, needs):
+    from drivelash.errors import ConfigError, ParameterError
+
+    col = "torque_m" if key != "counts_per_rev" else "theta_m"
+    df = pd.DataFrame(_good())
+    mapping = {k: k for k in df.columns if k != col} | {"raw": {"column": col, **spec}}
+    df = df.rename(columns={col: "raw"})
+    with pytest.raises(ParameterError) as e:  # notebook: Trace.from_frame / load_trace mappings
+        Trace.from_frame(df, mapping)
+    msg = str(e.value)
+    assert "\n" not in msg and key in msg and f"unit = {needs}" in msg
+    # the same in a TOML [columns] table: one line naming file, table, source and key
+    lines = [f"{k} = {v!r}".replace("'", '"') for k, v in spec.items()]
+    (tmp_path / "c.toml").write_text('[columns.raw]\ncolumn = "' + col + '"\n' + "\n".join(lines) + "\n")
+    with pytest.raises(ConfigError) as e:
+        dl.load_config(tmp_path / "c.toml")
+    msg = str(e.value)
+    assert "\n" not in msg and "c.toml" in msg and "'raw'" in msg and key in msg and needs in msg
+
+
+def test_conversion_keys_with_their_unit_still_apply():
+    """Negative control: each key with its own unit converts as before."""
+    c = _good()
+    df = pd.DataFrame(
+        {
+            "t": c["t"],
+            "enc": np.rint(c["theta_m"] * 4096 / (2 * np.pi)),
+            "iq": c["torque_m"] / 0.8,
+            "cmd": c["torque_m"] / 2.5,
+        }
+    )
+    enc = {"column": "theta_m", "unit": "counts", "counts_per_rev": 4096}
+    iq = {"column": "torque_m", "unit": "A", "torque_constant": 0.8}
+    tr = Trace.from_frame(df, {"t": "t", "enc": enc, "iq": iq})
+    np.testing.assert_allclose(tr["torque_m"], c["torque_m"], rtol=1e-12)
+    np.testing.assert_allclose(tr["theta_m"], df["enc"].to_numpy() * 2 * np.pi / 4096)
+    tr = Trace.from_frame(df, {"t": "t", "enc": enc, "cmd": {"column": "torque_m", "unit": "V", "gain": 2.5}})
+    np.testing.assert_allclose(tr["torque_m"], c["torque_m"], rtol=1e-12)

@@ -78,6 +78,7 @@ from pydantic import (
     ValidationError,
     create_model,
     field_validator,
+    model_validator,
 )
 
 from drivelash.errors import ConfigError, ParameterError
@@ -373,6 +374,14 @@ BacklashSection = section(BacklashParams, optional=("delta",))
 EstimatorSection = section(EstimatorConfig, overrides=True)
 
 
+#: ``[columns]`` conversion keys and the one unit that applies each (key, unit, what it converts).
+_FACTOR_UNITS = (
+    ("gain", "V", "a voltage times gain is the torque/force"),
+    ("torque_constant", "A", "a current times torque_constant is the torque/force"),
+    ("counts_per_rev", "counts", "encoder counts per revolution"),
+)
+
+
 class ColumnMap(Table):
     """One ``[columns.<source>]`` entry: where a source column goes and its unit.
 
@@ -391,7 +400,9 @@ class ColumnMap(Table):
     gain : float or str, optional
         Scale of a ``V`` signal into torque/force [N·m/V or N/V], required with
         ``unit = "V"``; a string names a scalar stored in the same file (e.g.
-        ``"gtau"`` in the EMPS ``.mat`` files).
+        ``"gtau"`` in the EMPS ``.mat`` files). ``gain``, ``torque_constant`` and
+        ``counts_per_rev`` are refused with any other unit than theirs (they would
+        change nothing).
     scale, offset : float
         Extra affine correction applied after the unit conversion:
         ``value = scale·converted + offset``.
@@ -424,6 +435,20 @@ class ColumnMap(Table):
         if v is not None and not (math.isfinite(v) and v > 0):
             raise ValueError(f"must be a finite number > 0, got {v!r}")
         return v
+
+    @model_validator(mode="after")
+    def _factor_used(self) -> ColumnMap:
+        # a conversion factor only the unit that needs it applies: given with another unit it
+        # would change nothing (session 31 tester C, C6: EMPS force declared "N" with
+        # gain = "gtau" gave M = 2.7 kg instead of 95.1, no word)
+        for key, unit, what in _FACTOR_UNITS:
+            if getattr(self, key) is not None and self.unit != unit:
+                raise ValueError(
+                    f"{key} applies only with unit = {unit!r} ({what}), got unit = {self.unit!r}:"
+                    f" declare unit = {unit!r} for the raw column, or drop {key} (use scale for a"
+                    " plain factor)"
+                )
+        return self
 
 
 class SamplingSection(Table):
