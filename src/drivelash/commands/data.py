@@ -494,6 +494,11 @@ def observe_recording(
     return res, thin
 
 
+#: Values of the two-mass keys a rigid ``[drivetrain]`` (J_m, beta_m, T_Cm) leaves out, used only
+#: to run the DrivetrainParams field checks on the keys it has (``observe``).
+_RIGID_PLACEHOLDERS = {"J_l": 1.0, "N": 1.0, "K_S": 1.0, "D_S": 0.0}
+
+
 def run_observe(
     trace_path: Path,
     config_path: Path,
@@ -532,6 +537,12 @@ def run_observe(
             f"{drivetrain or config_path}: table [drivetrain], key 'J_m': missing"
             " (run `drivelash identify … --out FRAGMENT.toml` and pass --drivetrain FRAGMENT.toml)"
         )
+    # the same field checks as `estimate` (finite, J_m > 0, beta_m >= 0, …); the two-mass keys a
+    # rigid table leaves out are filled with neutral values for the check only
+    dt_sec.to_params(
+        f"{drivetrain or config_path}: table [drivetrain]",
+        **{k: _RIGID_PLACEHOLDERS.get(k, 1.0) for k in dt_sec.missing()},
+    )
     opts = cfg.identification_or_default()
     with outputs, _open_stream(trace_path, cfg, ["torque_m"], resample, "observing") as stream:
         print_warnings(stream.meta)

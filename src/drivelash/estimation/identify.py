@@ -1233,7 +1233,7 @@ def observe_disturbance(
     Raises
     ------
     ParameterError
-        ``J`` is not > 0.
+        ``J`` is not finite and > 0, or ``beta`` not finite and >= 0.
     DataError
         The trace has neither ``omega_<side>`` nor ``theta_<side>``, or no ``torque_m``.
     """
@@ -1302,8 +1302,10 @@ def observe_stream(
     from drivelash.estimation.zero_phase import ZeroPhase, filtfilt_to_spill, gradient_rows
     from drivelash.io.spill import Spill
 
-    if not J > 0:
-        raise ParameterError("observer", "J", f"must be > 0, got {J!r}")
+    if not (math.isfinite(J) and J > 0):
+        raise ParameterError("observer", "J", f"must be finite and > 0, got {J!r}")
+    if not (math.isfinite(beta) and beta >= 0):
+        raise ParameterError("observer", "beta", f"must be finite and >= 0, got {beta!r}")
     if f"omega_{side}" in names:
         vcol, filt = f"omega_{side}", None
     elif f"theta_{side}" in names:
