@@ -17,7 +17,7 @@ from scipy import signal
 from tests.cli.test_estimate_stream import GIB, _bench_memory
 from tests.cli_runner import run_in_process
 
-from drivelash.estimation.identify import DEFAULT_RHO, observe_disturbance
+from drivelash.estimation.identify import default_rho, observe_disturbance
 from drivelash.estimation.stsmo import STSMOParams, SuperTwistingObserver
 from drivelash.io import load_config, load_trace
 from drivelash.io.formats import write_trace
@@ -47,7 +47,7 @@ def _reference_observer(trace: Trace, J: float, beta: float) -> tuple[np.ndarray
     T_s = trace.T_s
     b, a = signal.butter(4, 100.0 / (0.5 / T_s))
     v = np.gradient(signal.filtfilt(b, a, trace["theta_m"]), T_s, edge_order=1)
-    p = STSMOParams.from_rho(DEFAULT_RHO, T_s)
+    p = STSMOParams.from_rho(default_rho(float(np.abs(v).max())), T_s)
     obs = SuperTwistingObserver(STSMOParams(k1=p.k1, k2=p.k2, T_s=T_s), omega0=float(v[0]))
     _, phi = obs.run(v, (trace["torque_m"] - beta * v) / J)
     d = -J * phi

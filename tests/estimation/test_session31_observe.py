@@ -24,12 +24,12 @@ T_S = 1e-3
 
 
 def rigid_axis(scale: float = 1.0, duration: float = 12.0) -> Trace:
-    """A linear axis moving ±0.22 m (× ``scale`` in position) at 0.25 Hz, 1 kHz.
+    """A linear axis moving ±0.066 m (× ``scale`` in position) at 0.25 Hz, 1 kHz.
 
     Positions and velocities × ``scale``, J and β ÷ ``scale``, the force unchanged: the same
     physics in other units (the disturbance in N must not change)."""
     t = np.arange(int(duration / T_S)) * T_S
-    q = 0.2 * np.sin(2 * np.pi * 0.25 * t) + 0.02 * np.sin(2 * np.pi * 0.75 * t)
+    q = 0.06 * np.sin(2 * np.pi * 0.25 * t) + 0.006 * np.sin(2 * np.pi * 0.75 * t)  # max |q̇| 0.12 m/s
     v = np.gradient(q, T_S)
     a = np.gradient(v, T_S)
     u = J * a + BETA * v + F_C * np.tanh(v / 1e-3) + OFFSET
@@ -112,3 +112,70 @@ def test_observe_disturbance_requires_finite_J_and_beta(kw, name):
 def test_observe_disturbance_beta_zero_allowed():
     r = observe_disturbance(rigid_axis(), J=J, beta=0.0)  # the viscous force then counts as disturbance
     assert np.isfinite(r.mean_positive) and np.isfinite(r.mean_negative)
+
+
+# ----------------------------------------------------------------------------------------- C12
+@pytest.mark.parametrize("scale", [1e-3, 100.0, 1000.0])
+def test_default_gains_follow_the_units(scale):
+    """The same axis in other units (positions × s, J and β ÷ s, force unchanged): the same d̂ in N.
+    Before, ρ = 20 was absolute: EMPS in motor rad (× 1000) gave 0.97 / −5.14 N for 17.0 / −24.2."""
+    ref = observe_disturbance(rigid_axis(), J=J, beta=BETA)
+    assert ref.mean_positive == pytest.approx(F_C + OFFSET, rel=0.05)  # the truth
+    got = observe_disturbance(rigid_axis(scale), J=J / scale, beta=BETA / scale)
+    assert got.mean_positive == pytest.approx(ref.mean_positive, rel=1e-6)
+    assert got.mean_negative == pytest.approx(ref.mean_negative, rel=1e-6)
+    assert got.k2 == pytest.approx(ref.k2 * scale, rel=1e-12)
+
+
+def test_given_gains_stay_as_given():
+    """Negative control: [estimator] k1/k2 (the API's k1, k2) are used as they are."""
+    got = observe_disturbance(rigid_axis(1000.0), J=J / 1000, beta=BETA / 1000, k1=6.0, k2=20.0)
+    assert (got.k1, got.k2) == (6.0, 20.0)
+
+
+def test_emps_keeps_its_gains_and_figures():
+    """EMPS in m (README, docs/assumptions.md "Observer gains"): ρ = 20 exactly, d̂ 17.00 / −24.19 N;
+    the same recording as motor rad (× 1000) now gives the same figures."""
+    from drivelash.io import load_trace
+    from identify.helpers import EMPS_CONFIG, emps_file
+
+    tr = load_trace(emps_file("DATA_EMPS.mat"), EMPS_CONFIG)
+    M, F_v = 95.11323491247255, 203.37028053902424  # identify --model rigid on this file
+    r = observe_disturbance(tr, J=M, beta=F_v)
+    assert (r.k1, r.k2) == (1.5 * math.sqrt(20.0), 1.1 * 20.0)
+    assert r.mean_positive == pytest.approx(17.003, abs=5e-4)
+    assert r.mean_negative == pytest.approx(-24.193, abs=5e-4)
+    motor = Trace({"t": tr["t"], "theta_m": 1000 * tr["theta_m"], "torque_m": tr["torque_m"]})
+    m = observe_disturbance(motor, J=M / 1000, beta=F_v / 1000)
+    assert m.mean_positive == pytest.approx(r.mean_positive, rel=1e-6)  # was 0.971
+    assert m.mean_negative == pytest.approx(r.mean_negative, rel=1e-6)  # was -5.138
+
+
+# ------------------------------------------------------------------- C2 (observe's own check)
+@pytest.mark.parametrize("flip", ["torque_m", "theta_m"])
+def test_observe_warns_on_negative_friction(tmp_path, capsys, flip):
+    """The force or the position with the other sign: d̂ pushes along the motion (EMPS −55.3 /
+    +61.7 N with a correct drive table, exit 0, no word before)."""
+    tr = rigid_axis()
+    r = observe_disturbance(tr.with_columns({flip: -tr[flip]}), J=J, beta=BETA)
+    assert r.mean_positive < r.mean_negative
+    assert len(r.warnings) == 1 and "pushes along the motion" in r.warnings[0]
+    assert r.as_dict()["warnings"] == list(r.warnings)
+    rec, cfg, dtp = _files(tmp_path)
+    bad = write_trace(tr.with_columns({flip: -tr[flip]}), tmp_path / "bad.parquet")
+    code, _, err = run_in_process(
+        ["observe", str(bad), "--config", str(cfg), "--drivetrain", str(dtp)], capsys
+    )
+    assert code == 0
+    w = [ln for ln in err.splitlines() if "warning" in ln]
+    assert len(w) == 1 and "scale = -1" in w[0]
+
+
+def test_no_negative_friction_warning_on_a_correct_axis():
+    """Negative control: the correct axis, and a frictionless one (both means ≈ the offset)."""
+    r = observe_disturbance(rigid_axis(), J=J, beta=BETA)
+    assert r.warnings == () and "warnings" not in r.as_dict()
+    tr = rigid_axis()
+    v = np.gradient(tr["theta_m"], T_S)
+    no_friction = tr.with_columns({"torque_m": tr["torque_m"] - F_C * np.tanh(v / 1e-3)})
+    assert observe_disturbance(no_friction, J=J, beta=BETA).warnings == ()

@@ -572,6 +572,8 @@ def run_observe(
         if json_t is not None:
             write_json(outputs.staging(json_t), summary)
         axis = stream.meta.get("axis")
+    for w in res.warnings:
+        typer.echo(f"drivelash: warning: {w}", err=True)
     if not quiet:
         unit = "N" if axis == "prismatic" else "N·m"
         typer.echo(f"mean disturbance, forward constant-velocity stretches:  {res.mean_positive:.4g} {unit}")

@@ -1002,6 +1002,69 @@ def identify(trace: Trace, options: Any = None, drivetrain: Any = None) -> Ident
 #: (Levant's rule via STSMOParams.from_rho: k2 = 1.1 ρ, k1 = 1.5 √ρ).
 DEFAULT_RHO = 20.0
 
+#: Speed [m/s] at which the default ρ is :data:`DEFAULT_RHO`: the max |q̇| of the EMPS
+#: recordings ρ = 20 was chosen on (0.128 m/s DATA_EMPS, 0.137 m/s DATA_EMPS_PULSES).
+#: :func:`default_rho` scales ρ with the recording's max |q̇| in whole decades.
+RHO_REF_SPEED = 0.13
+
+
+#: ``observe`` warns when the mean disturbance forward lies below the backward one by more than
+#: this fraction of the larger of the two: d̂_fwd − d̂_bwd = 2 F_c would be negative (friction
+#: pushing along the motion). EMPS: +41.2 N (17.00 − (−24.19)); with the force, position or
+#: velocity sign flipped −117 N (−55.3 / +61.7), i.e. −1.9 × 61.7. A fraction, not 0, so that a
+#: nearly frictionless axis (both means ≈ its offset) is not flagged on noise.
+NEGATIVE_FRICTION_FRACTION = 0.5
+
+
+def negative_friction_warning(d_forward: float, d_backward: float) -> str | None:
+    """One-line warning when the constant-velocity means imply negative Coulomb friction.
+
+    Parameters
+    ----------
+    d_forward, d_backward : float
+        Mean d̂ on the forward / backward constant-velocity stretches [N·m] or [N].
+
+    Returns
+    -------
+    str or None
+        The warning, or None when d̂_fwd − d̂_bwd ≥ −:data:`NEGATIVE_FRICTION_FRACTION` ·
+        max(|d̂_fwd|, |d̂_bwd|) (or a mean is not finite).
+    """
+    if not (math.isfinite(d_forward) and math.isfinite(d_backward)):
+        return None
+    if d_forward - d_backward >= -NEGATIVE_FRICTION_FRACTION * max(abs(d_forward), abs(d_backward)):
+        return None
+    return (
+        f"the disturbance pushes along the motion (mean {d_forward:.4g} forward, {d_backward:.4g}"
+        f" backward: Coulomb friction {(d_forward - d_backward) / 2:.4g} < 0) — is the sign of the"
+        " torque/force, the position or the velocity column wrong? (scale = -1 in [columns])"
+    )
+
+
+def default_rho(v_max: float) -> float:
+    """Default STSMO bound ρ for a recording whose max |q̇| is ``v_max``.
+
+    ρ = :data:`DEFAULT_RHO` · 10^round(log10(v_max / :data:`RHO_REF_SPEED`)): the perturbation
+    φ = d/J and its rate scale with the unit of q (positions × s: J ÷ s, φ × s), so ρ follows
+    the recording's speed. In whole decades, so that a unit change by 10^k (m → mm, metres of a
+    ball screw → ~10³ motor rad) scales the observer exactly (the same d̂ in N) and the EMPS
+    recordings in m keep ρ = 20 bit for bit; within a decade the effective ρ stays in
+    20/√10 … 20·√10 of the axis's scale, inside the 5 … 100 where the EMPS means move < 0.1 N.
+
+    Parameters
+    ----------
+    v_max : float
+        Max |q̇| of the observed velocity [rad/s] or [m/s].
+
+    Returns
+    -------
+    float
+        ρ [rad/s³] or [m/s³]; :data:`DEFAULT_RHO` when ``v_max`` is not finite and > 0.
+    """
+    if not (math.isfinite(v_max) and v_max > 0):
+        return DEFAULT_RHO
+    return DEFAULT_RHO * 10.0 ** round(math.log10(v_max / RHO_REF_SPEED))
+
 
 @dataclass(frozen=True)
 class DisturbanceEstimate:
@@ -1026,6 +1089,9 @@ class DisturbanceEstimate:
         STSMO gains used.
     n_constant_velocity : int, optional
         Samples on constant-velocity stretches (when the mask above is thinned or empty).
+    warnings : tuple of str
+        One line each: a result that implies negative Coulomb friction
+        (:func:`negative_friction_warning`).
     """
 
     t: np.ndarray = field(repr=False)
@@ -1039,10 +1105,12 @@ class DisturbanceEstimate:
     k1: float
     k2: float
     n_constant_velocity: int | None = None
+    warnings: tuple[str, ...] = ()
 
     def as_dict(self) -> dict[str, Any]:
-        """JSON-ready summary."""
+        """JSON-ready summary (``warnings`` only when there are any)."""
         return {
+            **({"warnings": list(self.warnings)} if self.warnings else {}),
             "J": self.J,
             "beta": self.beta,
             "k1": self.k1,
@@ -1220,7 +1288,8 @@ def observe_disturbance(
     beta : float
         Viscous coefficient [N·m·s/rad] ([N·s/m]).
     k1, k2 : float, optional
-        STSMO gains; default from ρ = :data:`DEFAULT_RHO` by Levant's rule.
+        STSMO gains; default from ρ = :func:`default_rho` of the recording's max |q̇|
+        (:data:`DEFAULT_RHO` = 20 on EMPS in m) by Levant's rule.
     cutoff_hz : float
         Cut-off of the zero-phase Butterworth low-pass applied to ``theta_<side>`` before
         differentiating it [Hz] (unused when ``omega_<side>`` is recorded).
@@ -1314,11 +1383,6 @@ def observe_stream(
         raise DataError("the observer needs a velocity or position column", column=f"omega_{side}")
     if "torque_m" not in names:
         raise DataError("the observer needs the motor torque/force", column="torque_m")
-    if k1 is None or k2 is None:
-        p = STSMOParams.from_rho(DEFAULT_RHO, T_s)
-        k1 = p.k1 if k1 is None else k1
-        k2 = p.k2 if k2 is None else k2
-    params = STSMOParams(k1=k1, k2=k2, T_s=T_s)
     store = (spill or Spill)(n, 1, spill_dir)
     with store:
         if filt is not None:
@@ -1349,6 +1413,11 @@ def observe_stream(
                 v0 = float(v[0])
             vmax, amax = max(vmax, float(np.abs(v).max())), max(amax, float(np.abs(acc).max()))
         skip = min(n // 10, int(round(0.5 / T_s)))
+        if k1 is None or k2 is None:  # ρ follows the recording's speed (units): default_rho
+            p = STSMOParams.from_rho(default_rho(vmax), T_s)
+            k1 = p.k1 if k1 is None else k1
+            k2 = p.k2 if k2 is None else k2
+        params = STSMOParams(k1=k1, k2=k2, T_s=T_s)
 
         def mask(a: int, v: np.ndarray, acc: np.ndarray) -> np.ndarray:
             cv = (np.abs(acc) < 0.05 * amax) & (np.abs(v) > 0.2 * vmax)
@@ -1387,7 +1456,10 @@ def observe_stream(
     def cat(key: str, dtype: Any = np.float64) -> np.ndarray:
         return np.concatenate(kept[key]) if kept[key] else np.empty(0, dtype)
 
+    both = pos_sum.count and neg_sum.count  # both directions on constant-velocity stretches
+    neg = negative_friction_warning(pos_sum.mean(), neg_sum.mean()) if both else None
     return DisturbanceEstimate(
+        warnings=(neg,) if neg else (),
         t=cat("t"),
         velocity=cat("v"),
         disturbance=cat("d"),
