@@ -151,6 +151,39 @@ def test_emps_keeps_its_gains_and_figures():
     assert m.mean_negative == pytest.approx(r.mean_negative, rel=1e-6)  # was -5.138
 
 
+# ----------------------------------------------------------------------------------------- C10
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_stsmo_refuses_non_finite_input_state_unchanged(bad):
+    from drivelash.errors import DataError
+    from drivelash.estimation.stsmo import STSMOParams, SuperTwistingObserver
+
+    rng = np.random.default_rng(0)
+    w, a = np.cumsum(rng.normal(0, 0.01, 2000)), rng.normal(0, 1, 2000)
+    obs = SuperTwistingObserver(STSMOParams.from_rho(20.0, 1e-3))
+    obs.run(w[:1000], a[:1000])
+    before = obs.state.copy()
+    ww = w[1000:].copy()
+    ww[5] = bad
+    with pytest.raises(DataError, match=r"sample 5 \(0-based in this call\).*omega_meas must be finite") as e:
+        obs.run(ww, a[1000:])
+    assert "\n" not in str(e.value)
+    aa = a[1000:].copy()
+    aa[7] = bad
+    with pytest.raises(DataError, match=r"sample 7 .*known_accel must be finite"):
+        obs.run(w[1000:], aa)
+    with pytest.raises(DataError, match="omega_meas must be finite"):
+        obs.step(bad)
+    with pytest.raises(DataError, match="known_accel must be finite"):
+        obs.step(0.1, bad)
+    np.testing.assert_array_equal(obs.state, before)
+    # negative control: the clean block continues exactly as an uninterrupted run
+    om, phi = obs.run(w[1000:], a[1000:])
+    ref = SuperTwistingObserver(STSMOParams.from_rho(20.0, 1e-3))
+    om_ref, phi_ref = ref.run(w, a)
+    np.testing.assert_array_equal(phi, phi_ref[1000:])
+    assert np.isfinite(om).all()
+
+
 # ------------------------------------------------------------------- C2 (observe's own check)
 @pytest.mark.parametrize("flip", ["torque_m", "theta_m"])
 def test_observe_warns_on_negative_friction(tmp_path, capsys, flip):

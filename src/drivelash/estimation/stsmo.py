@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from drivelash.errors import ParameterError
+from drivelash.errors import DataError, ParameterError
 from drivelash.physics.backlash import sgn
 
 STATE_SIZE = 2
@@ -158,6 +158,22 @@ class STSMOParams:
         return np.array([self.k1, self.k2, self.T_s], dtype=np.float64)
 
 
+def check_finite_inputs(omega_meas: np.ndarray, known_accel: np.ndarray) -> None:
+    """Refuse a non-finite measured velocity or known acceleration: one-line
+    :class:`~drivelash.errors.DataError` naming the input and the 0-based sample of its first
+    NaN/inf in this call (a NaN would stay in the observer state ``[ω̂, z]`` for good), as
+    :func:`drivelash.estimation.deadzone.check_finite` does for the deadzone estimator."""
+    for name, a in (("omega_meas", omega_meas), ("known_accel", known_accel)):
+        finite = np.isfinite(a)
+        if not finite.all():
+            i = int(np.argmin(finite))
+            raise DataError(
+                f"sample {i} (0-based in this call) is {a.flat[i]}: {name} must be finite (a NaN"
+                " would stay in the observer state); nothing was run, the state is unchanged",
+                column=name,
+            )
+
+
 class SuperTwistingObserver:
     """Stateful wrapper of :func:`stsmo_run` (chunk-able: run block after block).
 
@@ -187,9 +203,15 @@ class SuperTwistingObserver:
             Measured velocity [rad/s], one value per sample period T_s.
         known_accel : numpy.ndarray or float
             Known part of the acceleration [rad/s²] (scalar or per sample).
+
+        Raises
+        ------
+        DataError
+            A NaN/inf in either input (:func:`check_finite_inputs`); the state is unchanged.
         """
         w = np.ascontiguousarray(omega_meas, dtype=np.float64)
         a = np.broadcast_to(np.asarray(known_accel, dtype=np.float64), w.shape)
+        check_finite_inputs(w, a)
         self.state, omega_hat, phi_hat = stsmo_run(self.state, w, np.ascontiguousarray(a), self._p)
         return omega_hat, phi_hat
 
@@ -202,6 +224,14 @@ class SuperTwistingObserver:
             Measured velocity [rad/s].
         known_accel : float
             Known part of the acceleration [rad/s²].
+
+        Raises
+        ------
+        DataError
+            A NaN/inf input (:func:`check_finite_inputs`); the state is unchanged.
         """
+        w, a = float(omega_meas), float(known_accel)
+        if not (math.isfinite(w) and math.isfinite(a)):
+            check_finite_inputs(np.array([w]), np.array([a]))
         p = self._p
-        return stsmo_step(self.state, float(omega_meas), float(known_accel), p[0], p[1], p[2])
+        return stsmo_step(self.state, w, a, p[0], p[1], p[2])
