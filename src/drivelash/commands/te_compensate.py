@@ -160,8 +160,7 @@ def register(app: typer.Typer, te_app: typer.Typer) -> None:
                 f" interpolation <= {tab.interpolation_error * 1e6:.3f} um; constant part"
                 f" {tab.constant * 1e6:+.3f} um; backlash {tab.backlash_range[0] * 1e6:.3f} ..."
                 f" {tab.backlash_range[1] * 1e6:.3f} um in the tables: the control's backlash"
-                " compensation must be 0)"
-                + (f"; {tab.update_note}" if tab.update_note else "")
+                " compensation must be 0)" + (f"; {tab.update_note}" if tab.update_note else "")
             )
             return
         n = table.te.shape
