@@ -582,8 +582,8 @@ def identify_rigid_stream(
 
 def andrews_lag(n: int, v: np.ndarray, c: np.ndarray) -> int:
     """Andrews (1991) AR(1) plug-in bandwidth of the Bartlett kernel from the scores' moments —
-    the rule of the two-mass fit (:func:`~drivelash.estimation.identify_two_mass.andrews_bandwidth`,
-    same result), computable over a stream.
+    the one implementation of the rule, computable over a stream (the two-mass fit's
+    :func:`~drivelash.estimation.identify_two_mass.andrews_bandwidth` calls it on its series).
 
     Parameters
     ----------

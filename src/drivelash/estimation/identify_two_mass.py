@@ -1046,24 +1046,14 @@ def motor_only_start(data: WindowData, *, torque_offset: float | None = None) ->
 # 6. covariance: HAC (Newey–West) sandwich
 # --------------------------------------------------------------------------------------
 def andrews_bandwidth(g: np.ndarray) -> int:
-    """Andrews (1991) AR(1) plug-in bandwidth of the Bartlett kernel for the score series ``g``."""
-    n = g.shape[0]
-    num = 0.0
-    den = 0.0
-    for j in range(g.shape[1]):
-        x = g[:, j] - g[:, j].mean()
-        v = float(x @ x)
-        if v <= 0:
-            continue
-        rho = float(x[1:] @ x[:-1]) / v
-        rho = min(max(rho, -0.97), 0.97)
-        s2 = v / n * (1 - rho * rho)
-        num += 4 * rho * rho * s2 * s2 / ((1 - rho) ** 6 * (1 + rho) ** 2)
-        den += s2 * s2 / (1 - rho) ** 4
-    if den <= 0:
-        return 0
-    alpha1 = num / den
-    return int(min(max(math.floor(1.1447 * (alpha1 * n) ** (1.0 / 3.0)), 0), n // 4))
+    """Andrews (1991) AR(1) plug-in bandwidth of the Bartlett kernel for the score series ``g``
+    (the rule of :func:`drivelash.estimation.identify.andrews_lag`, from the whole series)."""
+    from drivelash.estimation.identify import andrews_lag
+
+    xs = [g[:, j] - g[:, j].mean() for j in range(g.shape[1])]
+    v = np.array([float(x @ x) for x in xs])
+    c = np.array([float(x[1:] @ x[:-1]) for x in xs])
+    return andrews_lag(g.shape[0], v, c)
 
 
 def hac_covariance(J: np.ndarray, g: np.ndarray, lags: int) -> np.ndarray:
