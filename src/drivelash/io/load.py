@@ -738,6 +738,23 @@ def raise_seam(scan: Any, linear: bool, path: str, rows: DataRows) -> None:
     )
 
 
+def time_hint(names: list[str], meta: dict[str, Any] | None = None) -> str:
+    """``"; …"`` naming what looks like the time in a table without a ``t`` column: a column
+    whose name differs from ``t``/``time`` only in case or by a suffix (``Time``, ``time_s``), or
+    a DataFrame's unnamed increasing float index (``meta["unnamed_float_index"]``); ``""`` when
+    there is none (session 31 tester C, C14: "missing required column 't'" left the cause out).
+    """
+    near = [n for n in names if n.lower() in ("t", "time") or n.lower().startswith(("time", "t_", "t ["))]
+    if near:
+        return (
+            f'; a column {near[0]!r} is there: map it ([columns."{near[0]}"] column = "t", unit = "s"; '
+            f"or columns={{{near[0]!r}: 't'}} in Python) or rename it 't'"
+        )
+    if (meta or {}).get("unnamed_float_index"):
+        return "; the DataFrame's unnamed index looks like time: df.rename_axis('t').reset_index()"
+    return ""
+
+
 def check_unit_ratio(ratio: float, side: str, path: str, column: str, row: int, rows: DataRows) -> None:
     """Refuse a velocity/derivative-of-position ratio that is a known unit mix-up factor: an
     angle or speed unit (57.3, 9.55) or a factor 1000 / 10⁶ (time in ms or µs read as s, or
@@ -994,7 +1011,8 @@ def trace_from_table(
     if "t" not in cols:
         if sampling.sample_rate is None:
             raise DataError(
-                "missing required column 't' (no time column mapped and no [sampling] sample_rate)",
+                "missing required column 't' (no time column mapped and no [sampling] sample_rate)"
+                + time_hint(list(table.columns), table.meta),
                 path=spath,
                 column="t",
             )

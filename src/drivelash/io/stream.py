@@ -226,8 +226,11 @@ class TraceStream:
         plan = _plan(src, cmap, sampling, plan_warnings)
         names = [c.name for c in plan]
         if "t" not in names and sampling.sample_rate is None:
+            from drivelash.io.load import time_hint
+
             raise DataError(
-                "missing required column 't' (no time column mapped and no [sampling] sample_rate)",
+                "missing required column 't' (no time column mapped and no [sampling] sample_rate)"
+                + time_hint(list(src.names)),
                 path=spath,
                 column="t",
             )
