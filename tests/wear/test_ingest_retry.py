@@ -60,13 +60,19 @@ def test_a_touched_file_replaces_its_failed_row(small_fleet, tmp_path):
     assert rep.retried == 3 and _statuses(st) == ["ok"] * 3 and st.counts()["estimate"] == 3
 
 
-def test_still_failing_recordings_are_counted_and_stay_once(small_fleet, tmp_path):
+def tiny_with_corrupt(small_fleet, tmp_path):
+    """The tiny fleet (3 good recordings of M01/X) plus 2 unreadable files in its glob."""
     f = _tiny(small_fleet, tmp_path / "f", FILENAME_TIME)
     d = tmp_path / "f" / "recordings" / "M01" / "X"  # _add_corrupt writes there: then into rec/
     d.mkdir(parents=True)
     shutil.copy(next((tmp_path / "f" / "rec").iterdir()), d)
     for p in _add_corrupt(tmp_path / "f"):
         p.rename(tmp_path / "f" / "rec" / p.name)
+    return f
+
+
+def test_still_failing_recordings_are_counted_and_stay_once(small_fleet, tmp_path):
+    f = tiny_with_corrupt(small_fleet, tmp_path)
     st = Store(tmp_path / "w.sqlite")
     rep = ingest(load_fleet(f), st, workers=1)
     assert rep.failed == 2 and rep.retried == 0

@@ -14,25 +14,16 @@ from drivelash.report.fleet import NOW_LEGEND
 from drivelash.wear import Store, ingest, load_fleet
 from drivelash.wear.alarms import stale_notes
 
-from .conftest import _add_corrupt, ingest_cmd
+from .conftest import ingest_cmd
+from .test_ingest_retry import tiny_with_corrupt
 from .test_redate_duplicates import FILENAME_TIME, _tiny
 
 DRIVELASH = [sys.executable, "-m", "drivelash.cli"]
 
 
-def _with_corrupt(small_fleet, tmp_path):
-    f = _tiny(small_fleet, tmp_path / "f", FILENAME_TIME)
-    d = tmp_path / "f" / "recordings" / "M01" / "X"  # _add_corrupt writes there: then into rec/
-    d.mkdir(parents=True)
-    shutil.copy(next((tmp_path / "f" / "rec").iterdir()), d)
-    for p in _add_corrupt(tmp_path / "f"):
-        p.rename(tmp_path / "f" / "rec" / p.name)
-    return f
-
-
 def test_cli_summary_does_not_count_failed_files_as_estimated(small_fleet, tmp_path):
     """B-10: '5 new recordings estimated (…, 2 failed)' called two unreadable files estimated."""
-    f = _with_corrupt(small_fleet, tmp_path)
+    f = tiny_with_corrupt(small_fleet, tmp_path)
     cmd = ingest_cmd(f, tmp_path / "w.sqlite")
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     out = " ".join(r.stdout.split())
