@@ -631,11 +631,14 @@ def check_samples(samples: object, name: str = "samples") -> np.ndarray:
     return samples
 
 
-def nonfinite_message(value: float, i: int) -> str:
-    """The message of a non-finite position or velocity at 0-based sample ``i`` of a call."""
+def nonfinite_message(
+    value: float, i: int, inputs: str = "θ_m, ω_m, θ_l and ω_l", owner: str = "estimator"
+) -> str:
+    """The message of a non-finite input at 0-based sample ``i`` of a call to a stateful
+    ``owner`` (the deadzone estimator; the super-twisting observer names its own inputs)."""
     return (
-        f"sample {i} (0-based in this call) is {value}: θ_m, ω_m, θ_l and ω_l must be finite "
-        "(a NaN would stay in the estimator state); nothing was run, the state is unchanged"
+        f"sample {i} (0-based in this call) is {value}: {inputs} must be finite "
+        f"(a NaN would stay in the {owner} state); nothing was run, the state is unchanged"
     )
 
 

@@ -163,15 +163,13 @@ def check_finite_inputs(omega_meas: np.ndarray, known_accel: np.ndarray) -> None
     :class:`~drivelash.errors.DataError` naming the input and the 0-based sample of its first
     NaN/inf in this call (a NaN would stay in the observer state ``[ω̂, z]`` for good), as
     :func:`drivelash.estimation.deadzone.check_finite` does for the deadzone estimator."""
+    from drivelash.estimation.deadzone import nonfinite_message
+
     for name, a in (("omega_meas", omega_meas), ("known_accel", known_accel)):
         finite = np.isfinite(a)
         if not finite.all():
             i = int(np.argmin(finite))
-            raise DataError(
-                f"sample {i} (0-based in this call) is {a.flat[i]}: {name} must be finite (a NaN"
-                " would stay in the observer state); nothing was run, the state is unchanged",
-                column=name,
-            )
+            raise DataError(nonfinite_message(float(a.flat[i]), i, name, "observer"), column=name)
 
 
 class SuperTwistingObserver:
