@@ -57,6 +57,17 @@ def test_standard_deviations_reported_and_plausible(result):
     assert result.n_rows == pytest.approx(24841 / 10, rel=0.01)
 
 
+def test_readme_figures(result):
+    """The README's EMPS sentence, at the digits it quotes: "M = 95.11 ± 0.24 kg, F_v = 203.4 ±
+    4.5 N·s/m, F_c = 20.41 ± 0.35 N, offset −3.17 N" (± one Newey–West std, session 31), relative
+    force error 4.04 %."""
+    sd = dict(zip(result.names, result.std, strict=True))
+    assert f"{result['M']:.2f} {sd['M']:.2f}" == "95.11 0.24"
+    assert f"{result['F_v']:.1f} {sd['F_v']:.1f}" == "203.4 4.5"
+    assert f"{result['F_c']:.2f} {sd['F_c']:.2f}" == "20.41 0.35"
+    assert f"{result['offset']:.2f}" == "-3.17" and f"{100 * result.relative_error:.2f}" == "4.04"
+
+
 def test_relative_error_close_to_published(result):
     assert result.relative_error == pytest.approx(0.0408, abs=0.005)
     assert result.notes == []  # a rigid axis: no "needs --model two-mass" warning
