@@ -111,9 +111,13 @@ def test_load_trace_takes_a_config_path_and_refuses_other_mappings(df, tmp_path)
     pq = tmp_path / "r.parquet"
     df.to_parquet(pq)
     cfg = tmp_path / "c.toml"
-    cfg.write_text('[columns.theta_l]\ncolumn = "theta_l"\nunit = "rad"\nscale = 2.0\n')
+    cfg.write_text(  # the load's position and velocity scaled alike (the loader checks one against the other)
+        '[columns.theta_l]\ncolumn = "theta_l"\nunit = "rad"\nscale = 2.0\n'
+        '[columns.omega_l]\ncolumn = "omega_l"\nunit = "rad/s"\nscale = 2.0\n'
+    )
     tr = dl.load_trace(pq, str(cfg))
     np.testing.assert_array_equal(tr["theta_l"], 2.0 * df["theta_l"].to_numpy())
+    np.testing.assert_array_equal(tr["omega_l"], 2.0 * df["omega_l"].to_numpy())
     with pytest.raises(dl.ParameterError, match="mapping.int: must be a DriveConfig, a configuration path"):
         dl.load_trace(pq, 3)
 

@@ -28,8 +28,10 @@ def _recording(tmp_path, n=4001, *, nan_row=None, wrap=False):
         "load_vel": np.gradient(th, t) + 1e-3 * rng.standard_normal(n),
         "iq": np.cos(2 * np.pi * 3 * t),
     }
-    if wrap:  # a 12-bit single-turn encoder over 3 revolutions
-        cols["pos_deg"] = np.mod(np.round(1.5 * (1 - np.cos(np.pi * t / t[-1])) * 4096), 4096)
+    if wrap:  # a 12-bit single-turn encoder over 3 revolutions, its velocity with it
+        revs = 1.5 * (1 - np.cos(np.pi * t / t[-1]))
+        cols["pos_deg"] = np.mod(np.round(revs * 4096), 4096)
+        cols["vel"] = np.gradient(2 * np.pi * revs, t)
     if nan_row is not None:
         cols["load_vel"][nan_row] = np.nan
     path = write_trace(Trace(cols), tmp_path / "r.parquet")

@@ -94,6 +94,20 @@ UNIT_FACTOR_TOLERANCE = 0.15
 #: of a finer encoder gives −0.012 from its wrap jumps, which the seam check names (set wrap).
 NEGATIVE_UNIT_RATIO = -0.5
 
+#: A velocity whose integral ∫ω dt follows its position with a scale farther than this factor
+#: from 1 either way (θ ≈ a + s·∫ω dt explaining at least :data:`VELOCITY_SCALE_MIN_R2` of θ's
+#: variance; no known unit factor, which is refused first) is refused after the seam check:
+#: the time axis (a sample rate stated 2× too high makes the velocity 0.5× the derivative) or
+#: the velocity's scale (a gear ratio, rev vs rad) is wrong. Consistent recordings give
+#: 1/s = 0.996 … 1.004 (bench-0A/0B/0C and paper-sim at 8 kHz and decimated to 250 Hz,
+#: tester A's CNC exports at 250 Hz … 8 kHz, a coarse encoder on a still load); session 32,
+#: M8 of session 30's tester A (docs/assumptions.md).
+VELOCITY_SCALE_FACTOR = 1.5
+
+#: Share of the position's variance the velocity's integral must explain before its scale is
+#: judged (a drifting or noise-dominated integral is left alone).
+VELOCITY_SCALE_MIN_R2 = 0.9
+
 #: A torque/force column is "saturated" when at least this fraction of samples sits
 #: exactly at its maximum or minimum, in runs of at least SATURATION_MIN_RUN samples.
 SATURATION_FRACTION = 0.02
@@ -701,6 +715,40 @@ def _check_units(
         check_unit_ratio(float(s_od / s_dd), side, path, column, int(row), rows)
 
 
+def _check_velocity_scales(cols: Mapping[str, np.ndarray], origin: Mapping[str, str], path: str) -> None:
+    """Each position with its velocity through :class:`~drivelash.io._velscale.VelocityScaleFit`
+    and :func:`check_velocity_scale` (after the unit and seam checks)."""
+    from drivelash.io._velscale import VelocityScaleFit
+
+    for side in ("m", "l"):
+        th, om = cols.get(f"theta_{side}"), cols.get(f"omega_{side}")
+        if th is None or om is None or th.size < 3:
+            continue
+        fit = VelocityScaleFit()
+        fit.feed(cols["t"], th, om)
+        check_velocity_scale(fit, side, path, origin.get(f"omega_{side}", f"omega_{side}"))
+
+
+def check_velocity_scale(fit: Any, side: str, path: str, column: str) -> None:
+    """Refuse a velocity whose integral follows its position with a scale off 1 by more than
+    :data:`VELOCITY_SCALE_FACTOR` either way (the fit explaining at least
+    :data:`VELOCITY_SCALE_MIN_R2`): the sample rate or the velocity's scale is wrong — a rate
+    stated 2× too high makes the velocity 0.5× the derivative (session 30, M8: the estimator
+    then said "not converged" with no reason and ``identify`` called the shaft rigid)."""
+    s, r2 = fit.result()
+    if not (math.isfinite(s) and s > 0 and r2 >= VELOCITY_SCALE_MIN_R2):
+        return
+    if 1 / VELOCITY_SCALE_FACTOR <= s <= VELOCITY_SCALE_FACTOR:
+        return
+    raise DataError(
+        f"velocity is {1 / s:.3g}× the derivative of theta_{side} (its integral follows the"
+        " position at that scale): the time axis ([sampling] sample_rate, or the time column's"
+        " unit) or the velocity's scale/unit in [columns] is wrong; a correct recording gives 1",
+        path=path,
+        column=column,
+    )
+
+
 def _check_seams(
     cols: Mapping[str, np.ndarray],
     kinds: Mapping[str, str],
@@ -1058,6 +1106,7 @@ def trace_from_table(
     check_position_spans({k: float(np.ptp(v)) for k, v in cols.items()}, kinds, origin, spath)
     _check_units(cols, origin, spath, rows)
     _check_seams(cols, kinds, origin, spath, rows)
+    _check_velocity_scales(cols, origin, spath)
 
     prismatic = kinds.get("theta_m") == "length" or kinds.get("omega_m") == "velocity"
     kinds_m = {kinds.get("theta_m"), kinds.get("omega_m")} - {None, "dimensionless"}

@@ -475,6 +475,7 @@ class TraceStream:
     def _second_pass(self, stats: dict[str, _Stats]) -> None:
         """Constant and clipped signals; the position/velocity unit check."""
         from drivelash.io._seam import SeamScan
+        from drivelash.io._velscale import VelocityScaleFit
         from drivelash.io.load import (
             MAY_STAND_STILL,
             SATURATION_FRACTION,
@@ -482,6 +483,7 @@ class TraceStream:
             SIGNAL_COLUMNS,
             check_position_spans,
             check_unit_ratio,
+            check_velocity_scale,
             raise_seam,
         )
 
@@ -526,6 +528,7 @@ class TraceStream:
         }  # count, run, best, start
         units = {s: _UnitAcc(k) for s in pairs}
         seams = {s: SeamScan(plan[f"theta_{s}"].source) for s in pairs}
+        scales = {s: VelocityScaleFit() for s in pairs}
         for ch in self.chunks():
             for n in sat:
                 a = ch[n]
@@ -534,6 +537,7 @@ class TraceStream:
             for s, acc in units.items():
                 acc.feed(ch["t"], ch[f"theta_{s}"], ch[f"omega_{s}"], ch.row0)
                 seams[s].feed(ch["t"], ch[f"theta_{s}"], ch[f"omega_{s}"], ch.row0)
+                scales[s].feed(ch["t"], ch[f"theta_{s}"], ch[f"omega_{s}"])
         n_all = self.n_samples
         for n in sat:
             for key, label, ext in (("hi", "maximum", stats[n].hi), ("lo", "minimum", stats[n].lo)):
@@ -558,6 +562,8 @@ class TraceStream:
         for s, scan in seams.items():  # after the unit check, as in the loader
             scan.finish()
             raise_seam(scan, plan[f"theta_{s}"].kind == "length", spath, self._src.rows)
+        for s, fit in scales.items():  # after the seam check, as in the loader
+            check_velocity_scale(fit, s, spath, plan[f"omega_{s}"].source)
 
     def _read_whole(self) -> None:
         """Read the recording whole with :func:`load_trace` (within the memory budget)."""
