@@ -23,6 +23,8 @@ from drivelash.io.load import VELOCITY_SCALE_FACTOR
 from drivelash.io.stream import TraceStream
 from drivelash.sim.scenarios import get_scenario
 
+BENCH_TOML = str(__import__("pathlib").Path(__file__).resolve().parents[2] / "examples" / "drive_bench.toml")
+
 
 @pytest.fixture(scope="module")
 def bench(tmp_path_factory):
@@ -38,10 +40,10 @@ def _config(tmp_path, rate: float):
     """The README's bench configuration with the stated sample rate."""
     from pathlib import Path
 
-    bench_toml = Path(__file__).resolve().parents[2] / "examples" / "drive_bench.toml"
     cfg = tmp_path / f"rate{rate:g}.toml"
     cfg.write_text(
-        bench_toml.read_text(encoding="utf-8") + f"\n[sampling]\nsample_rate = {rate!r}\n", encoding="utf-8"
+        Path(BENCH_TOML).read_text(encoding="utf-8") + f"\n[sampling]\nsample_rate = {rate!r}\n",
+        encoding="utf-8",
     )
     return cfg
 
@@ -116,3 +118,29 @@ def test_fit_over_chunks_equals_the_whole_and_scipy():
     assert chunked.result()[0] == pytest.approx(ref, rel=1e-9)
     assert chunked.result()[1] == pytest.approx(whole.result()[1], rel=1e-9)
     assert whole.result()[0] == pytest.approx(0.7, rel=1e-3)
+
+
+@pytest.fixture(scope="module")
+def bench_0c():
+    return get_scenario("bench-0C").simulate(duration=8.0, seed=1)
+
+
+@pytest.mark.parametrize(
+    ("factor", "match"), [(-1.0, "counts against the derivative"), (0.5, "0.5× the derivative")]
+)
+def test_api_trace_gets_the_loaders_velocity_checks(bench_0c, factor, match):
+    """A Trace built in Python skipped the loader's checks: bench-0C with ω_m counting against
+    θ_m gave δ̂ = 197.924 mrad "converged" for the true 105 (session 31 left-over, measured on
+    1338a88); now refused like the file, naming the API call and the column."""
+    from drivelash.io.trace import Trace
+
+    cols = {n: np.array(bench_0c[n]) for n in bench_0c.names}
+    cols["omega_m"] = factor * cols["omega_m"]
+    with pytest.raises(dl.DataError, match=match) as exc:
+        dl.estimate_backlash(Trace(cols, meta=dict(bench_0c.meta)), BENCH_TOML, delta1=0.0525)
+    assert str(exc.value).startswith("estimate_backlash(data=Trace), column 'omega_m'")
+
+
+def test_api_trace_negative_control_unchanged(bench_0c):
+    est = dl.estimate_backlash(bench_0c, BENCH_TOML, delta1=0.0525)
+    assert round(1e3 * est.delta) == 105 and est.converged

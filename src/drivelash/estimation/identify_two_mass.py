@@ -3659,6 +3659,9 @@ def identify_from_config(
 def as_trace(data: Any, mapping: Any, need: list[str], caller: str) -> Trace:
     """A Trace from a Trace, a pandas DataFrame (validated like a file) or a path.
 
+    A Trace built in Python (``Trace({...})``, a simulation) gets the loader's velocity checks
+    (sign, unit factor, scale against the position: :func:`drivelash.io.load.check_trace_velocities`).
+
     ``mapping`` is a DriveConfig or a ``[columns]``-style dict; ``need`` the required columns;
     ``caller`` names the API function in the error message. A loading error's command-line hint
     (``--resample``) is put in Python terms (:func:`drivelash.io.load.in_python_terms`).
@@ -3669,6 +3672,9 @@ def as_trace(data: Any, mapping: Any, need: list[str], caller: str) -> Trace:
     from drivelash.io.load import in_python_terms
 
     if isinstance(data, Trace):
+        from drivelash.io.load import check_trace_velocities
+
+        check_trace_velocities(data, caller)
         return data
     import pandas as pd
 

@@ -729,6 +729,24 @@ def _check_velocity_scales(cols: Mapping[str, np.ndarray], origin: Mapping[str, 
         check_velocity_scale(fit, side, path, origin.get(f"omega_{side}", f"omega_{side}"))
 
 
+def check_trace_velocities(trace: Any, caller: str) -> None:
+    """The loader's velocity checks on a :class:`~drivelash.io.trace.Trace` built in Python
+    (the API's ``data=Trace``): each velocity against its position — sign, a unit factor
+    (:func:`check_unit_ratio`) and its scale (:func:`check_velocity_scale`). The file and
+    DataFrame paths run them in the loader; a Trace went unchecked until session 32 (a velocity
+    counting against its position reached the estimator from Python, not from a file)."""
+    cols = {n: np.asarray(trace[n], dtype=np.float64) for n in ("t", *_VELOCITY_PAIRS) if n in trace.names}
+    if "t" not in cols:
+        return
+    where = f"{caller}(data=Trace)"
+    _check_units(cols, {}, where, NO_LINES)
+    _check_velocity_scales(cols, {}, where)
+
+
+#: The position/velocity columns the velocity checks pair (motor and load side).
+_VELOCITY_PAIRS = ("theta_m", "omega_m", "theta_l", "omega_l")
+
+
 def check_velocity_scale(fit: Any, side: str, path: str, column: str) -> None:
     """Refuse a velocity whose integral follows its position with a scale off 1 by more than
     :data:`VELOCITY_SCALE_FACTOR` either way (the fit explaining at least
