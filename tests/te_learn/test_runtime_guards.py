@@ -73,5 +73,7 @@ def test_predict_refuses_non_finite_input_and_strict_refuses_the_outside(model):
     assert np.array_equal(model.predict(x, 2.0, 1, strict=True), model.predict(x, 2.0, 1))
     with pytest.raises(ParameterError, match=r"200 m is outside the model's valid range \[0, 0.3\] m"):
         model.predict(np.array([200.0]), 1.0, 1, strict=True)  # mm typed for m
-    with pytest.raises(ParameterError, match="500 N·m is above the model's valid torque range ±9 N·m"):
+    with pytest.raises(
+        ParameterError, match=r"500 N·m is outside the model's valid torque range of flank \+1, \[0, 9\] N·m"
+    ):
         model.predict(np.array([0.1]), 500.0, 1, strict=True)

@@ -466,9 +466,11 @@ class TEModel:
             refused (:func:`~drivelash.te.runtime.table.check_direction`).
         strict : bool
             Also refuse positions outside the model's valid range (``context.valid_range``,
-            :func:`~drivelash.te.runtime.table.measured_range`) and torques of magnitude above
-            its ``torque_max``, where the model extrapolates (the runtime entry point; default
-            False: evaluation code asks beyond the range on purpose).
+            :func:`~drivelash.te.runtime.table.measured_range`) and torques outside the flank's
+            trained range (:func:`~drivelash.te.runtime.table.valid_torque_range`: flank +1
+            [0, torque_max], flank −1 [−torque_max, 0], the range of the runtime table), where
+            the model extrapolates (the runtime entry point; default False: evaluation code
+            asks beyond the range on purpose).
 
         Returns
         -------
@@ -483,11 +485,11 @@ class TEModel:
             line naming the first such value and the range).
         """
         if strict:
-            self._check_valid(x_T, torque)
+            self._check_valid(x_T, torque, direction)
         return self._run(x_T, torque, direction, True)
 
-    def _check_valid(self, x_T: Any, torque: Any) -> None:
-        from drivelash.te.runtime.table import measured_range
+    def _check_valid(self, x_T: Any, torque: Any, direction: int) -> None:
+        from drivelash.te.runtime.table import TORQUE_RTOL, measured_range, valid_torque_range
 
         x = np.asarray(x_T, dtype=np.float64).reshape(-1)
         tq = np.broadcast_to(np.asarray(torque, dtype=np.float64), x.shape)
@@ -501,16 +503,22 @@ class TEModel:
                 f"{x[out[0]]:.6g} m is outside the model's valid range [{lo:.6g}, {hi:.6g}] m"
                 f" = [{lo * 1e3:.3f}, {hi * 1e3:.3f}] mm (x_T is in m)",
             )
-        vr = getattr(self.context, "valid_range", None)
-        t_max = getattr(vr, "torque_max", None)
-        if t_max is not None:
-            big = np.flatnonzero(np.abs(tq) > float(t_max) * (1 + 1e-9))
-            if big.size:
+        d = check_direction(direction, "TEModel")
+        rng = valid_torque_range(self, d)
+        if rng is not None:
+            # per flank, as the runtime table spans it (flank_torques): +1 [0, T_max], −1 [−T_max, 0]
+            t_lo, t_hi = rng
+            slack = TORQUE_RTOL * max(abs(t_lo), abs(t_hi))
+            bad = np.flatnonzero((tq < t_lo - slack) | (tq > t_hi + slack))
+            if bad.size:
+                o_lo, o_hi = valid_torque_range(self, -d) or rng
                 raise ParameterError(
                     "TEModel.predict",
                     "torque",
-                    f"{tq[big[0]]:.6g} N·m is above the model's valid torque range ±{float(t_max):.4g} N·m"
-                    " (its training runs): the model would extrapolate",
+                    f"{tq[bad[0]]:.6g} N·m is outside the model's valid torque range of flank {d:+d},"
+                    f" [{t_lo:.6g}, {t_hi:.6g}] N·m (flank {-d:+d}: [{o_lo:.6g}, {o_hi:.6g}] N·m; its"
+                    " training runs, the motor torque has the sign of the flank in contact): the model"
+                    " would extrapolate",
                 )
 
     def predict_def_um(self, x_T: Any, torque: Any, direction: int) -> np.ndarray:

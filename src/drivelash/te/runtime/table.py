@@ -25,13 +25,17 @@ __all__ = [
     "MAX_TABLE_POINTS",
     "TEPredictor",
     "TETable",
+    "TORQUE_RTOL",
     "build_table",
     "check_direction",
+    "flank_torque_range",
+    "flank_torques",
     "measured_range",
     "mesh_step_limit",
     "table_bytes",
     "table_size",
     "table_te",
+    "valid_torque_range",
 ]
 
 #: Direction codes: index 0 ⇔ positive flank (+1), index 1 ⇔ negative flank (−1).
@@ -81,6 +85,85 @@ def check_direction(direction: object, owner: str, key: str = "direction") -> in
         if value == 1 or value == -1:
             return 1 if value == 1 else -1
     raise ParameterError(owner, key, f"must be +1 or -1, got {direction!r}")
+
+
+#: Relative slack [-] (of ``torque_max``) of the torque range checks (:func:`check_grid`,
+#: ``TEModel.predict(strict=True)``): floating-point noise of a torque computed at the range's
+#: end (1e-8 N·m at 10 N·m), far below any motor-current resolution.
+TORQUE_RTOL = 1e-9
+
+
+def flank_torques(magnitudes: np.ndarray, direction: int) -> np.ndarray:
+    """The torques [N·m] of flank ``direction`` for ascending torque magnitudes [N·m].
+
+    The one rule of a flank's torque range: the load acts against the motion, so the motor
+    torque has the sign of the flank — flank +1 takes ``magnitudes`` as they are, flank −1
+    their negatives in reverse (ascending again). :func:`build_table` builds its grids with
+    it (so the table the compensator reads and ``te export`` writes spans these ranges) and
+    :func:`valid_torque_range` states the model's valid range with it.
+
+    Parameters
+    ----------
+    magnitudes : numpy.ndarray
+        Ascending torque magnitudes [N·m], ≥ 0.
+    direction : int
+        Flank: +1 or −1 (:func:`check_direction`; anything else is refused).
+
+    Returns
+    -------
+    numpy.ndarray
+        The flank's torques [N·m], ascending.
+    """
+    return magnitudes if check_direction(direction, "flank_torques") == 1 else -magnitudes[::-1]
+
+
+def flank_torque_range(torque_min: float, torque_max: float, direction: int) -> tuple[float, float]:
+    """Torque range [N·m] of flank ``direction`` for magnitudes ``torque_min`` … ``torque_max``.
+
+    Flank +1: [torque_min, torque_max]; flank −1: [−torque_max, −torque_min]
+    (:func:`flank_torques`).
+
+    Parameters
+    ----------
+    torque_min, torque_max : float
+        Smallest and largest torque magnitude [N·m].
+    direction : int
+        Flank: +1 or −1.
+
+    Returns
+    -------
+    lo, hi : float
+        The flank's smallest and largest motor torque [N·m] (a zero end is +0.0).
+    """
+    lo, hi = flank_torques(np.array([float(torque_min), float(torque_max)]), direction)
+    return float(lo) + 0.0, float(hi) + 0.0  # + 0.0: −0.0 is stated as 0
+
+
+def valid_torque_range(model: Any, direction: int) -> tuple[float, float] | None:
+    """The motor torques [N·m] flank ``direction`` of ``model`` was trained on, or None.
+
+    ``context.valid_range.torque_max`` per flank (:func:`flank_torque_range` from 0): flank +1
+    [0, torque_max], flank −1 [−torque_max, 0] — the range of the table :func:`build_table`
+    builds by default (the compensator's and ``te export``'s) and the one
+    ``TEModel.predict(strict=True)`` accepts. None for a model without a ``torque_max``.
+
+    Parameters
+    ----------
+    model : TEModel or TrainedTEModel
+        Anything with a ``context.valid_range.torque_max``.
+    direction : int
+        Flank: +1 or −1.
+
+    Returns
+    -------
+    tuple of float or None
+        (lo, hi) [N·m].
+    """
+    vr = getattr(getattr(model, "context", None), "valid_range", None)
+    t_max = getattr(vr, "torque_max", None)
+    if t_max is None:
+        return None
+    return flank_torque_range(0.0, float(t_max), direction)
 
 
 #: Largest table :func:`build_table` builds (``te export`` writes) [grid points per flank]: 10 M
@@ -316,7 +399,8 @@ def build_table(
 
     The torque grid of flank +1 runs over [torque_min, torque_max], that of flank
     −1 over [−torque_max, −torque_min] (the load acts against the motion, so the
-    motor torque has the sign of the flank).
+    motor torque has the sign of the flank: :func:`flank_torques`, the rule
+    ``TEModel.predict(strict=True)`` checks too, :func:`valid_torque_range`).
 
     Parameters
     ----------
@@ -366,10 +450,10 @@ def build_table(
     step = tq[1] - tq[0] if n_torque > 1 else 1.0
     te = np.empty((2, n_x, n_torque))
     for d, sgn in enumerate(DIRECTIONS):
-        grid_t = tq if sgn == 1 else -tq[::-1]
+        grid_t = flank_torques(tq, sgn)
         X, T = np.meshgrid(x, grid_t, indexing="ij")
         te[d] = np.asarray(model.predict(X.ravel(), T.ravel(), sgn), dtype=np.float64).reshape(n_x, n_torque)
-    torque0 = np.array([tq[0], -tq[-1]])
+    torque0 = np.array([flank_torques(tq, sgn)[0] for sgn in DIRECTIONS])
     return TETable(float(x_min), float(dx), torque0, np.array([step, step]), te, dict(meta or {}))
 
 
@@ -430,7 +514,7 @@ def check_grid(
     t_lim = getattr(vr, "torque_max", None)
     if t_lim is not None:
         t_max = float(t_lim)
-        if torque_max > t_max * (1 + 1e-9):
+        if torque_max > t_max * (1 + TORQUE_RTOL):
             raise ParameterError(
                 names.owner,
                 names.torque_max,
