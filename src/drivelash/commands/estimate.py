@@ -107,6 +107,7 @@ def run_estimate(
                 print_warnings(trace.meta)
             est = estimate_with_identification(trace, cfg, method=method)
             res, core = est.result, est.summary
+            axis = trace.meta.get("axis")
         else:  # streamed: bounded memory, the same numbers as estimate_from_config on the whole trace
             rows = chunk_rows_from_env()
             with TraceStream(
@@ -119,6 +120,7 @@ def run_estimate(
                 )
                 if not quiet:
                     print_warnings(stream.meta)
+                axis = stream.meta.get("axis")
                 core, res, trace = estimate_stream(
                     cfg, stream, method, series=plot_t is not None or report_t is not None
                 )
@@ -154,15 +156,19 @@ def run_estimate(
 
             write_estimate_report(out.staging(report_t), trace, res, cfg, summary=summary)
     if not quiet:
-        _print_summary(summary)
+        _print_summary(summary, axis)
     return summary
 
 
-def _print_summary(s: dict[str, Any]) -> None:
+def _print_summary(s: dict[str, Any], axis: str | None = None) -> None:
+    """The terminal summary; δ, δ1 and the band in mrad, or in µm on a prismatic axis (positions
+    in m: a linear axis's lost motion is micrometres, and "0.002 mrad … band 2 mrad" read as an
+    angle; session 31 tester C, C7). The JSON keeps SI (rad or m)."""
     from rich.console import Console
     from rich.markup import escape
 
     c = Console()
+    k, u = (1e6, "µm") if axis == "prismatic" else (1e3, "mrad")
     verdict = "[green]sufficient[/green]" if s["excitation_ok"] else "[red]INSUFFICIENT[/red]"
     if s.get("delta1_outside_range"):  # the reason names a wrong δ1, not the recording
         verdict = "[red]not judged[/red]"
@@ -174,8 +180,8 @@ def _print_summary(s: dict[str, Any]) -> None:
         d = ident["delta"]
         if d["identifiable"]:
             c.print(
-                f"  offline δ = {1e3 * d['value']:.3f} mrad, 95 % interval "
-                f"[{1e3 * d['ci95'][0]:.3f}, {1e3 * d['ci95'][1]:.3f}] mrad"
+                f"  offline δ = {k * d['value']:.3f} {u}, 95 % interval "
+                f"[{k * d['ci95'][0]:.3f}, {k * d['ci95'][1]:.3f}] {u}"
             )
         else:
             c.print(f"  offline δ not determined: {escape(ident['reason'])}")
@@ -186,27 +192,27 @@ def _print_summary(s: dict[str, Any]) -> None:
         c.print(f"  [yellow]{escape(s['reason'])}[/yellow]")
     else:
         std = s.get("delta_std")
-        pm = f" ± {1e3 * 1.96 * std:.2f} mrad (95 %)" if std is not None and math.isfinite(std) else ""
-        d1 = f"{1e3 * s['delta1']:.3f} mrad"
+        pm = f" ± {k * 1.96 * std:.2f} {u} (95 %)" if std is not None and math.isfinite(std) else ""
+        d1 = f"{k * s['delta1']:.3f} {u}"
         d1_std = s.get("delta1_std")  # an identified δ1 (--identify): its own 95 % interval
         if s.get("delta1_source") == "identification" and d1_std is not None and math.isfinite(d1_std):
-            d1 = f"{1e3 * s['delta1']:.3f} ± {1e3 * 1.96 * d1_std:.2f} mrad, identified"
-        c.print(f"  δ̂ = {1e3 * s['delta']:.3f} mrad{pm}   (δ1 = {d1})")
+            d1 = f"{k * s['delta1']:.3f} ± {k * 1.96 * d1_std:.2f} {u}, identified"
+        c.print(f"  δ̂ = {k * s['delta']:.3f} {u}{pm}   (δ1 = {d1})")
         if "delta_true" in s:
             c.print(
-                f"  true δ = {1e3 * s['delta_true']:.3f} mrad, MAEE = {1e3 * s['maee_rad']:.3f} mrad, "
-                f"steady-state peak = {1e3 * s['steady_state_peak_rad']:.3f} mrad"
+                f"  true δ = {k * s['delta_true']:.3f} {u}, MAEE = {k * s['maee_rad']:.3f} {u}, "
+                f"steady-state peak = {k * s['steady_state_peak_rad']:.3f} {u}"
             )
         c.print(f"  excitation {verdict}: {escape(s['reason'])}")
         conv = s["convergence_time_s"]
         if s["converged"]:
             after = f" after {conv:.2f} s" if conv is not None else ""
-            c.print(f"  converged (band {1e3 * s['convergence_band_rad']:.2g} mrad){after}")
+            c.print(f"  converged (band {k * s['convergence_band_rad']:.2g} {u}){after}")
         else:
             c.print("  [yellow]not converged[/yellow] — do not use this estimate")
         if s.get("delta1_check_result") not in (None, "not run"):
             d1 = s.get("delta1_estimate")
-            d1s = f" (data: {1e3 * d1:.2f} mrad)" if d1 is not None else ""
+            d1s = f" (data: {k * d1:.2f} {u})" if d1 is not None else ""
             c.print(f"  δ1 check: {escape(str(s['delta1_check_result']))}{d1s}")
     for w in s.get("warnings", []):
         if s["delta"] is None and w == s["reason"]:

@@ -1,0 +1,96 @@
+"""`estimate` on a linear axis prints its lost motion in µm, not mrad (session 31 tester C, C7:
+"δ̂ = 0.002 mrad … converged (band 2 mrad)" on an axis in metres). The JSON stays SI (m).
+
+Recording: bench-0B, 6 s, seed 1, rewritten exactly in units s = 1e-3 and mapped as a linear axis
+(positions in m, velocities in m/s, force in N): a 186 µm gap (tests/estimation/test_session31_scale.py
+for why the numbers carry over). Negative control: the same recording as an angle prints mrad.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import replace
+
+import pytest
+
+from drivelash.sim.scenarios import get_scenario
+
+POSITIONS = ("theta_m", "omega_m", "theta_l", "omega_l")
+UNITS = {"theta_m": "m", "omega_m": "m/s", "theta_l": "m", "omega_l": "m/s", "torque_m": "N", "t": "s"}
+
+
+@pytest.fixture(scope="module")
+def linear(tmp_path_factory):
+    sc = get_scenario("bench-0B")
+    tr = sc.simulate(duration=6.0, seed=1)
+    s = 1e-3
+    d = tmp_path_factory.mktemp("lin")
+    p = replace(
+        sc.estimator_drivetrain,
+        **{
+            f: getattr(sc.estimator_drivetrain, f) / s
+            for f in ("J_m", "J_l", "K_S", "D_S", "beta_m", "beta_l")
+        },
+    )
+    import pandas as pd
+
+    pd.DataFrame(
+        {c: tr[c] * s if c in POSITIONS else tr[c] for c in ("t", *POSITIONS, "torque_m")}
+    ).to_parquet(d / "lin.parquet")
+    dt = "".join(
+        f"{k} = {getattr(p, k)!r}\n"
+        for k in ("J_m", "J_l", "N", "K_S", "D_S", "T_Cm", "T_Cl", "beta_m", "beta_l")
+    )
+    cols = "".join(f'[columns.{c}]\ncolumn = "{c}"\nunit = "{u}"\n' for c, u in UNITS.items())
+    (d / "lin.toml").write_text(
+        f"[drivetrain]\n{dt}[backlash]\ndelta1 = {sc.estimator_backlash.delta1 * s!r}\n{cols}",
+        encoding="utf-8",
+    )
+    return d
+
+
+def _run(d, capsys, cfg):
+    from cli_runner import run_in_process
+
+    out = d / f"{cfg}.json"
+    code, stdout, err = run_in_process(
+        [
+            "estimate",
+            str(d / "lin.parquet"),
+            "--config",
+            str(d / f"{cfg}.toml"),
+            "--json",
+            str(out),
+            "--force",
+        ],
+        capsys,
+    )
+    assert code == 0, err
+    return stdout, json.loads(out.read_text())
+
+
+def test_linear_axis_prints_micrometres(linear, capsys):
+    stdout, js = _run(linear, capsys, "lin")
+    m = re.search(r"δ̂ = ([0-9.]+) µm ± ([0-9.]+) µm \(95 %\)\s+\(δ1 = ([0-9.]+) µm\)", stdout)
+    assert m, stdout
+    assert float(m.group(1)) == pytest.approx(1e6 * js["delta"], abs=5e-4)  # the JSON's metres, printed in µm
+    assert float(m.group(3)) == pytest.approx(93.0, abs=5e-4)
+    assert abs(float(m.group(1)) - 186.0) < 2.0  # the 186 µm gap
+    assert "mrad" not in stdout.split("excitation")[0]
+    if js["converged"]:
+        assert re.search(r"converged \(band [0-9.]+ µm\)", stdout), stdout
+
+
+def test_negative_control_an_angle_prints_mrad(linear, capsys):
+    text = (linear / "lin.toml").read_text(encoding="utf-8")
+    for u in UNITS.values():
+        text = text.replace(
+            f'unit = "{u}"',
+            {"m": 'unit = "rad"', "m/s": 'unit = "rad/s"', "N": 'unit = "Nm"'}.get(u, f'unit = "{u}"'),
+        )
+    (linear / "ang.toml").write_text(text, encoding="utf-8")
+    stdout, js = _run(linear, capsys, "ang")
+    m = re.search(r"δ̂ = ([0-9.]+) mrad", stdout)
+    assert m and float(m.group(1)) == pytest.approx(1e3 * js["delta"], abs=5e-4), stdout
+    assert "µm" not in stdout
