@@ -111,6 +111,7 @@ UNIT_KIND: dict[str, str] = {
     "mm": "length",
     "um": "length",
     "µm": "length",
+    "in": "length",  # inch, 25.4 mm (US laser software and CNC traces)
     "m/s": "velocity",
     "mm/s": "velocity",
     "N·m": "torque",

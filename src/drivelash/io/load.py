@@ -52,6 +52,7 @@ _TO_SI: dict[str, float] = {
     "mm": 1e-3,
     "um": 1e-6,
     "µm": 1e-6,
+    "in": 25.4e-3,
     "arcsec": math.pi / 648000.0,
     "mrad": 1e-3,
     "urad": 1e-6,
