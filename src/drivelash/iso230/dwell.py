@@ -31,7 +31,7 @@ The rule (numbers in :class:`DwellParams`, defaults in ``docs/assumptions.md``):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 import numpy as np
@@ -39,7 +39,35 @@ import numpy as np
 from drivelash.errors import NO_LINES, DataError, DataRows, ParameterError
 from drivelash.iso230.evaluate import DOWN, MAX_ABS, UP, Approaches, _fmt_pos, approaches_from_rows
 
-__all__ = ["Drift", "DwellParams", "Dwells", "detect_dwells", "estimate_drift"]
+__all__ = [
+    "Drift",
+    "DwellParams",
+    "Dwells",
+    "detect_dwells",
+    "estimate_drift",
+    "settle_dwells",
+    "settling_trend",
+]
+
+#: Relative tolerance of the check T_dwell_min >= T_settle + T_guard + T_avg_min: the sum of
+#: decimal seconds carries float round-off (0.8 + 0.05 + 0.1 = 0.9500000000000001), far below
+#: one sample of any recording (docs/assumptions.md, "ISO 230-2").
+DWELL_SUM_RTOL = 1e-9
+
+#: A settling signature D (:func:`settling_trend`) counts as "the reading still moves" when it
+#: exceeds this many of its own standard uncertainties *and* the standard uncertainty of B̄ (the
+#: bias it leaves in B̄ is about D) *and* :data:`SETTLE_FLOOR_FRACTION` of the travel. Measured
+#: (docs/assumptions.md, "ISO 230-2"): settled recordings give |D|/u_D ≤ 0.5; the tester's
+#: slow axis (Kv 16.7 1/s) 85 at T_settle 0.25 s, 8.4 at 0.6 s (B̄ still 9 u off), 1.9 at 0.7 s.
+SETTLE_SIGNIFICANCE = 3.0
+
+#: Floor of that rule as a fraction of the travel [-]: 1 % of a laser's environmental
+#: uncertainty (≈ 1 ppm of the distance), so noise-free simulations are not flagged for
+#: nanometres.
+SETTLE_FLOOR_FRACTION = 1e-8
+
+#: Step [s] by which T_settle is lengthened until the windows are settled.
+SETTLE_STEP = 0.05
 
 
 @dataclass(frozen=True)
@@ -92,7 +120,7 @@ class DwellParams:
         if not self.v_rel < 1:
             raise ParameterError("DwellParams", "v_rel", f"must be < 1, got {self.v_rel!r}")
         need = self.T_settle + self.T_guard + self.T_avg_min
-        if self.T_dwell_min < need:
+        if self.T_dwell_min < need * (1.0 - DWELL_SUM_RTOL):
             raise ParameterError(
                 "DwellParams",
                 "T_dwell_min",
@@ -130,6 +158,9 @@ class Dwells:
         Feed speed and still threshold [m/s or rad/s].
     warnings : list of str
         Dwells skipped and why.
+    trend : numpy.ndarray or None
+        Mean of P_actual − P_cmd over the second half of the window minus that over the
+        first half [m or rad]: how much the reading still moves while it is averaged.
     """
 
     t_start: np.ndarray
@@ -147,6 +178,7 @@ class Dwells:
     v_feed: float
     v_threshold: float
     warnings: list[str] = field(default_factory=list)
+    trend: np.ndarray | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The dwell table as JSON-ready lists (SI units)."""
@@ -279,7 +311,7 @@ def detect_dwells(
     tol = p.target_tolerance * travel
     moving = ~still
     warnings: list[str] = []
-    rows: list[tuple[float, float, float, float, float, int, float, float]] = []
+    rows: list[tuple[float, float, float, float, float, int, float, float, float]] = []
     for a, b in zip(starts, stops, strict=True):
         prev = np.flatnonzero(moving[:a])
         if prev.size == 0:
@@ -306,10 +338,23 @@ def detect_dwells(
                 " lower [dwell] v_rel or raise [dwell] target_tolerance",
                 path=source,
             )
-        dev = float(np.mean(P_actual[win] - cmd))
+        dev_w = P_actual[win] - cmd
+        dev = float(np.mean(dev_w))
+        half = dev_w.size // 2
+        trend = float(np.mean(dev_w[dev_w.size - half :]) - np.mean(dev_w[:half]))
         dev_axis = float(np.mean(P_actual[win] - P_axis[win])) if P_axis is not None else math.nan
         rows.append(
-            (t[a], t[b - 1], t[win.start], t[win.stop - 1], float(np.median(cmd)), direction, dev, dev_axis)
+            (
+                t[a],
+                t[b - 1],
+                t[win.start],
+                t[win.stop - 1],
+                float(np.median(cmd)),
+                direction,
+                dev,
+                dev_axis,
+                trend,
+            )
         )
     if not rows:
         raise DataError("no dwell with an approach direction found", path=source)
@@ -367,10 +412,16 @@ def detect_dwells(
                 if sel.size
                 else ""
             )
+            hint = (
+                "; a reversal point of the cycle (approached from one side only)? give the nominal"
+                " [iso230] targets = [...] and dwells elsewhere are skipped"
+                if nominal is None and min(n_up[i], n_dn[i]) == 0
+                else ""
+            )
             raise DataError(
                 f"target {_fmt_pos(float(centres[i]), unit)}: {cnt} dwell(s) approached in direction {arrow}"
                 f" but {cnt_other} in direction {other}, {n_ref} at the other targets"
-                f" (missing or extra dwell){when}",
+                f" (missing or extra dwell){when}{hint}",
                 path=source,
             )
     run = np.zeros(pos.size)
@@ -401,6 +452,7 @@ def detect_dwells(
         v_feed=v_feed,
         v_threshold=v_th,
         warnings=warnings,
+        trend=arr[:, 8],
     )
 
 
@@ -502,6 +554,7 @@ def _drop_overrun(
     tol, travel, p = how
     dirs = arr[:, 5].astype(np.int64)
     pos = arr[:, 4]
+    inner = np.zeros(pos.size, dtype=bool)
     if nominal is not None and nominal.size:
         out = np.zeros(pos.size, dtype=bool)
         for beyond, outward in (
@@ -510,6 +563,13 @@ def _drop_overrun(
         ):
             if beyond.any() and np.all(dirs[beyond] == outward):
                 out |= beyond
+        # the user has said which positions are targets: a stop elsewhere (a pendulum cycle's
+        # turn-around, session 32 tester E4) is no approach — skipped when every nominal target
+        # keeps its dwells and the stop is not approached like one (else the refusal below names
+        # the mismatch: targets in mm, a target missing from the list)
+        rest = far & ~out
+        if rest.any() and np.unique(labels[~far]).size == nominal.size:
+            inner = _not_target_like(pos, dirs, labels, far, rest, tol)
     else:
         out = np.zeros(pos.size, dtype=bool)
         if centres.size > 2:
@@ -518,18 +578,50 @@ def _drop_overrun(
                 sel = labels == lab
                 if sel.any() and np.all(dirs[sel] == outward):
                     out |= sel
-    if not out.any():
+    if not (out.any() or inner.any()):
         return arr, labels, centres, far
-    shown = ", ".join(sorted({_fmt_pos(float(x), unit) for x in pos[out]}))
-    warnings.append(
-        f"{int(out.sum())} dwell(s) at {shown}, beyond the outermost target and approached only outward:"
-        " taken as the cycle's overrun (reversal) points, skipped"
-    )
-    arr = arr[~out]
+    if out.any():
+        shown = ", ".join(sorted({_fmt_pos(float(x), unit) for x in pos[out]}))
+        warnings.append(
+            f"{int(out.sum())} dwell(s) at {shown}, beyond the outermost target and approached only outward:"
+            " taken as the cycle's overrun (reversal) points, skipped"
+        )
+    if inner.any():
+        places = list(dict.fromkeys(_fmt_pos(float(x), unit) for x in np.sort(pos[inner])))
+        shown = ", ".join(places[:6]) + (f", … ({len(places)} positions)" if len(places) > 6 else "")
+        warnings.append(
+            f"{int(inner.sum())} dwell(s) at {shown} match no nominal [iso230] target: taken as stops"
+            " between the approaches (a pendulum cycle's turn-arounds), skipped"
+        )
+    arr = arr[~(out | inner)]
     if arr.shape[0] == 0:
         raise DataError("no dwell left after the overrun points", path=source)
     labels, centres, far = _assign(arr, nominal, tol, travel, p)
     return arr, labels, centres, far
+
+
+def _not_target_like(
+    pos: np.ndarray, dirs: np.ndarray, labels: np.ndarray, far: np.ndarray, cand: np.ndarray, tol: float
+) -> np.ndarray:
+    """Which of the dwells ``cand`` (matching no nominal target) are not approached the way a
+    target is: their position (grouped within ``tol`` [m or rad]) has other dwell counts per
+    direction than the nominal targets have (n ↑ and n ↓). A pendulum cycle's turn-arounds are
+    approached from one side, or once from one side and n − 1 times from the other."""
+    from drivelash.iso230.evaluate import cluster_targets
+
+    out = np.zeros(pos.size, dtype=bool)
+    idx = np.flatnonzero(cand)
+    counts = [
+        (int(np.sum((labels == g) & ~far & (dirs == UP))), int(np.sum((labels == g) & ~far & (dirs == DOWN))))
+        for g in np.unique(labels[~far])
+    ]
+    ref = max(set(counts), key=counts.count)
+    _, lab = cluster_targets(pos[idx], tol / max(float(np.ptp(pos[idx])), 1e-300))
+    for g in np.unique(lab):
+        sel = idx[lab == g]
+        if (int(np.sum(dirs[sel] == UP)), int(np.sum(dirs[sel] == DOWN))) != ref:
+            out[sel] = True
+    return out
 
 
 def targets_unit_hint(nominal: Any, measured: np.ndarray, unit: str, travel: float) -> str:
@@ -546,3 +638,141 @@ def targets_unit_hint(nominal: Any, measured: np.ndarray, unit: str, travel: flo
         small = "mm" if unit == "m" else "mrad"
         return f" — [iso230] targets are in {unit}; these look like {small} (divide by 1000)"
     return ""
+
+
+def settling_trend(d: Dwells) -> tuple[float, float, int]:
+    """How much the reading still moves inside the averaging windows, by approach direction.
+
+    A servo that has not settled moves the reading the same way after every approach from one
+    side (the load creeps after the motor toward the target): the half-window changes Δ
+    (:attr:`Dwells.trend`) of ↑ and ↓ approaches differ in sign. A drift of the reference moves
+    both alike and cancels in D = (mean Δ↑ − mean Δ↓)/2, the settling signature; B̄ carries about
+    −D of it (the window means lag the settled reading by about Δ/2 per direction).
+
+    Parameters
+    ----------
+    d : Dwells
+        The dwells of a time series (:func:`detect_dwells`).
+
+    Returns
+    -------
+    D : float
+        The settling signature [m or rad] (0 without trends).
+    u_D : float
+        Its standard uncertainty from the scatter of Δ within each direction [m or rad].
+    worst : int
+        Index of the dwell whose direction-signed Δ goes furthest the way of D.
+    """
+    if d.trend is None or d.trend.size == 0:
+        return 0.0, math.inf, 0
+    up = d.direction > 0
+    if up.sum() < 2 or (~up).sum() < 2:
+        return 0.0, math.inf, 0
+    tr_up, tr_dn = d.trend[up], d.trend[~up]
+    D = 0.5 * float(tr_up.mean() - tr_dn.mean())
+    u_D = 0.5 * math.sqrt(float(tr_up.var(ddof=1)) / tr_up.size + float(tr_dn.var(ddof=1)) / tr_dn.size)
+    signed = d.trend * np.where(up, 1.0, -1.0) * math.copysign(1.0, D)
+    return D, u_D, int(np.argmax(signed))
+
+
+def _moving(d: Dwells, travel: float) -> tuple[bool, float, float, int, float]:
+    """(still moving?, D, u_D, worst dwell, u(B̄)) of the dwells' windows."""
+    from drivelash.iso230.evaluate import evaluate
+
+    D, u_D, worst = settling_trend(d)
+    try:
+        u_Bm = evaluate(d.approaches).u_B_mean
+    except DataError:
+        return False, D, u_D, worst, math.nan
+    bound = max(SETTLE_SIGNIFICANCE * u_D, u_Bm, SETTLE_FLOOR_FRACTION * travel)
+    return abs(D) > bound, D, u_D, worst, u_Bm
+
+
+def settle_dwells(
+    d: Dwells,
+    t: np.ndarray,
+    P_cmd: np.ndarray,
+    P_actual: np.ndarray,
+    P_axis: np.ndarray | None = None,
+    *,
+    params: DwellParams | None = None,
+    nominal: np.ndarray | None = None,
+    unit: str = "m",
+    source: str = "",
+    rows: DataRows = NO_LINES,
+) -> tuple[Dwells, str | None]:
+    """Dwells whose averaging windows hold a settled reading: T_settle lengthened when needed.
+
+    When the reading still moves inside the windows of ``d`` (:func:`settling_trend`: the
+    settling signature D beyond :data:`SETTLE_SIGNIFICANCE` of its uncertainty, beyond u(B̄) and
+    beyond :data:`SETTLE_FLOOR_FRACTION` of the travel), the dwells are found again with T_settle
+    lengthened by :data:`SETTLE_STEP` until they are settled, at most until the shortest dwell
+    keeps T_guard + T_avg_min. Arguments as :func:`detect_dwells`; ``d`` is its result.
+
+    Returns
+    -------
+    dwells : Dwells
+        ``d`` unchanged when settled, else the dwells with the longer T_settle.
+    note : str or None
+        The warning naming the worst target, the movement and the T_settle used.
+
+    Raises
+    ------
+    DataError
+        No T_settle the dwells allow settles the reading (one line naming the target, the dwell
+        and the movement): B and B̄ would lag the settled reading.
+    """
+    p = params or DwellParams()
+    travel = float(np.ptp(P_cmd))
+    moving, D, u_D, worst, u_Bm = _moving(d, travel)
+    if not moving:
+        return d, None
+    assert d.trend is not None
+    arrow = "↑" if d.direction[worst] > 0 else "↓"
+    where = (
+        f"target {_fmt_pos(float(d.target[worst]), unit)} {arrow}, dwell at t = {d.t_start[worst]:.6g} s,"
+        f" moves {_fmt_dev(float(d.trend[worst]), unit)} between the halves of its window"
+    )
+    size = (
+        f"settling signature {_fmt_dev(D, unit)} (↑ against ↓), {abs(D) / max(u_Bm, 1e-300):.3g}× u(B̄)"
+        if u_Bm > 0
+        else f"settling signature {_fmt_dev(D, unit)} (↑ against ↓)"
+    )
+    T_max = float(np.min(d.t_end - d.t_start)) - p.T_guard - p.T_avg_min
+    T_new = p.T_settle
+    for _ in range(10_000):
+        T_new = round(T_new + SETTLE_STEP, 9)
+        if T_new > T_max + 1e-9:
+            break
+        q = replace(p, T_settle=T_new, T_dwell_min=max(p.T_dwell_min, T_new + p.T_guard + p.T_avg_min))
+        try:
+            d2 = detect_dwells(
+                t, P_cmd, P_actual, P_axis, params=q, nominal=nominal, unit=unit, source=source, rows=rows
+            )
+        except DataError:
+            break
+        if (
+            d2.approaches.up.shape != d.approaches.up.shape
+            or d2.approaches.down.shape != d.approaches.down.shape
+        ):
+            break
+        if not _moving(d2, travel)[0]:
+            return d2, (
+                "the reading still moves inside the averaging windows after [dwell] T_settle ="
+                f" {p.T_settle:g} s ({where}; {size}): a slowly settling axis — evaluated with"
+                f" T_settle = {T_new:g} s"
+                f" instead (set [dwell] T_settle = {T_new:g} or more)"
+            )
+    raise DataError(
+        f"the reading still moves inside the averaging windows ({where}; {size}) and no [dwell] T_settle"
+        f" up to {max(T_max, p.T_settle):g} s (the shortest dwell less T_guard and T_avg_min) settles it:"
+        " B and B̄ would lag the settled reading; record longer dwells",
+        path=source,
+    )
+
+
+def _fmt_dev(x: float, unit: str) -> str:
+    """A deviation for a message: µm for linear axes, arcsec for rotary ones."""
+    if unit == "rad":
+        return f"{math.degrees(x) * 3600:.3g} arcsec"
+    return f"{x * 1e6:.3g} µm"

@@ -32,6 +32,7 @@ from drivelash.iso230.dwell import (
     Dwells,
     detect_dwells,
     estimate_drift,
+    settle_dwells,
     targets_unit_hint,
 )
 from drivelash.iso230.evaluate import COVERAGE, Approaches, approaches_from_rows
@@ -59,6 +60,21 @@ OFFSET_WARNING_FRACTION = 0.01
 #: uncertainty (≈ 1 ppm of the distance: 1 µm per m); a column in mm declared as µm reads
 #: 1000× small (the tester's 3–21 µm test read 3–21 nm).
 MIN_DEVIATION_SPREAD = 50e-9
+
+#: Deviations of a linear axis spreading more than this over the whole test [m] *and* more than
+#: :data:`LARGE_DEVIATION_FRACTION` of the travel are reported as a likely unit slip, the mirror of
+#: :data:`MIN_DEVIATION_SPREAD` (docs/assumptions.md, "ISO 230-2"): a column in µm declared as mm
+#: reads 1000× large (session 32 tester E3: a good 500 mm axis's 4.9 µm read 4.9 mm, 0.98 % of the
+#: travel, just under the 1 % refusal). The shipped tables spread 18–26 µm; the largest genuine
+#: spread seen is PSI ecmc's mcu1025 stage, 0.13 mm over 40.8 mm (3.2e-3 of its travel): 0.5 mm
+#: leaves it a factor 3.8.
+MAX_DEVIATION_SPREAD = 0.5e-3
+
+#: The relative half of that rule [-]: a laser's environmental uncertainty is ≈ 1 ppm of the
+#: distance, so a measurable spread is ≥ 1e-6 of the travel and reads ≥ 1e-3 of it after a µm→mm
+#: slip; genuine axes spread 1e-5…1e-4 of the travel (shipped tests 3.7e-5…5.2e-5), long axes with
+#: a millimetre of lead error stay below 1e-3.
+LARGE_DEVIATION_FRACTION = 1e-3
 
 
 @dataclass(frozen=True)
@@ -347,6 +363,22 @@ def _tiny_warning(x: np.ndarray, unit: str, col: str) -> list[str]:
     return []
 
 
+def _large_warning(x: np.ndarray, travel: float, unit: str, col: str, source: str) -> list[str]:
+    """A warning when the deviations of a linear axis spread more than :data:`MAX_DEVIATION_SPREAD`
+    and more than :data:`LARGE_DEVIATION_FRACTION` of the travel [m] — far beyond what a machine
+    axis positions to (a column in µm declared as mm reads 1000× large; the mirror of
+    :func:`_tiny_warning`). Beyond :data:`MAX_DEVIATION_FRACTION` :func:`_check_spread` refuses."""
+    spread = float(np.ptp(x))
+    if unit == "m" and travel > 0 and spread > max(MAX_DEVIATION_SPREAD, LARGE_DEVIATION_FRACTION * travel):
+        return [
+            f"{Path(source).name}, column {col!r}: the deviations spread over {spread * 1e3:.4g} mm"
+            f" ({spread / travel:.2%} of the travel), far beyond what a machine axis positions to"
+            f" (> {MAX_DEVIATION_SPREAD * 1e3:g} mm and > {LARGE_DEVIATION_FRACTION:.1%} of the travel):"
+            " is the column in a smaller unit than [columns] says (µm declared as mm?)"
+        ]
+    return []
+
+
 def _offset_warning(x: np.ndarray, travel: float, unit: str) -> list[str]:
     off = float(np.median(x))
     if travel > 0 and abs(off) > OFFSET_WARNING_FRACTION * travel:
@@ -432,6 +464,7 @@ def _read_table(path: Path, mapping: Any, params: Iso230Params, table: Any) -> M
                 column=names["target"],
             )
     warnings = list(table.meta.get("warnings", [])) + list(ap.warnings) + _tiny_warning(x, unit, dev_col)
+    warnings += _large_warning(x, travel, unit, dev_col, src)
     if "x_dev" not in cols and wrap_note:
         warnings.append(wrap_note)
     if snap_note:
@@ -466,8 +499,13 @@ def _read_series(path: Path, mapping: Any, params: Iso230Params, dwell: DwellPar
     d = detect_dwells(
         t, cmd, ref, axis, params=dwell, nominal=nominal, unit=unit, source=src, rows=trace.rows
     )
+    d, settle_note = settle_dwells(
+        d, t, cmd, ref, axis, params=dwell, nominal=nominal, unit=unit, source=src, rows=trace.rows
+    )
     travel = float(np.ptp(cmd))
     warnings = list(trace.meta.get("warnings", [])) + list(d.warnings) + list(d.approaches.warnings)
+    if settle_note:
+        warnings.append(settle_note)
     warnings += _offset_warning(d.deviation, travel, unit)
     series = {"t": t, "P_cmd": cmd, "P_actual": ref}
     if axis is not None:
