@@ -100,6 +100,12 @@ TORQUE_COLUMN = "torque_m"
 #: the figure is no share of time and may exceed 1; it was printed as "% of the window" until
 #: session 12).
 SIGMA_FRACTION_MIN = 0.01
+
+#: Δθ = θ_m/N − θ_l spanning less than this share of the motor's (load-side) range over the
+#: whole run is "the same signal": the load position is the motor's own channel, or nothing
+#: between the encoders moves (session 31 tester C, C14 d; a real drive's Δθ spans at least its
+#: encoders' counts and deflection, ≥ 1e-4 of the range; rounding of θ_m/N − θ_l ≈ 1e-16).
+DTH_SAME_SIGNAL = 1e-9
 #: δ1 check: the joint law replaces the anchored one only if its residual (RMS of the filtered
 #: torque residual over the last third) is below this fraction of the anchored law's.
 OFFSET_RESIDUAL_RATIO = 0.8
@@ -880,7 +886,14 @@ def _verdict(
         )
     elif n_trav < 2:
         ok = False
-        if peak_tq < cfg.T_thr:
+        dth_span = float(st[dz.S_DTH_MAX]) - float(st[dz.S_DTH_MIN])
+        if dth_span <= DTH_SAME_SIGNAL * max(mo.motor_range, 1e-300):
+            reason = (
+                f"Δθ = θ_m/N − θ_l stays at {float(st[dz.S_DTH_MAX]):.6g} rad at every sample while the "
+                f"motor moved {mo.motor_range:.3g} rad: the load position is the motor's own signal "
+                "(one channel mapped twice?) or nothing between the encoders moves — no gap to see"
+            )
+        elif peak_tq < cfg.T_thr:
             reason = (
                 "no engagement: the shaft torque never exceeded the contact threshold "
                 f"({cfg.T_thr:.3g} N·m) — the motion seems to stay inside the deadzone (gap)"
