@@ -621,7 +621,8 @@ def _check_time(
         i = int(np.flatnonzero(steps <= 0)[0])
         what = "duplicated time stamp" if steps[i] == 0 else "time goes backwards (non-increasing)"
         raise DataError(
-            f"{what}: t={float(t[i + 1])!r} after t={float(t[i])!r}",
+            f"{what}: t={float(t[i + 1])!r} after t={float(t[i])!r}"
+            + float32_time_hint(float(t[i]), float(t[i + 1])),
             path=path,
             column=column,
             row=i + 1,
@@ -802,6 +803,28 @@ def raise_seam(scan: Any, linear: bool, path: str, rows: DataRows) -> None:
     i, size, allowed, t_i = seam
     raise DataError(
         seam_message(size, allowed, t_i, linear), path=path, column=scan.column, row=i + 1, rows=rows
+    )
+
+
+#: Float32 resolution of a time stamp [s] from which two equal or reversed float32-exact stamps
+#: are put down to the float32 type rather than to the logger (a collision needs a resolution of
+#: about the sample period; 1 µs = a 1 MHz rate).
+FLOAT32_TIME_RESOLUTION = 1e-6
+
+
+def float32_time_hint(a: float, b: float) -> str:
+    """``"; …"`` when two successive stamps ``a``, ``b`` [s] that do not increase are both exact
+    float32 values whose float32 resolution at ``b`` is at least
+    :data:`FLOAT32_TIME_RESOLUTION`: the stamps were (most likely) stored as float32, which at
+    3000 s resolves 0.24 ms — coarser than a 0.125 ms period (session 31 tester C, C14 b: the
+    message named the duplicate but not the cause)."""
+    exact = all(math.isfinite(v) and float(np.float32(v)) == v for v in (a, b))
+    ulp = float(np.spacing(np.float32(abs(b)))) if exact else 0.0
+    if not exact or ulp < FLOAT32_TIME_RESOLUTION:
+        return ""
+    return (
+        f"; the stamps look like float32, which resolves only {ulp:.2g} s at t = {b:.6g} s:"
+        " store the time as float64 (e.g. astype('float64') before adding an offset)"
     )
 
 

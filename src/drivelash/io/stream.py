@@ -393,7 +393,7 @@ class TraceStream:
                     check_budget(8.0 * n, what=f"{spath}: the exact median of {n} irregular sample intervals")
                     all_steps = [np.repeat(np.array(list(step_vals)), list(step_vals.values()))]
         # an unread column with NaN/inf is left out (the loader's rule, load.unread_column)
-        from drivelash.io.load import unread_note
+        from drivelash.io.load import float32_time_hint, unread_note
 
         for c in [c for c in plan if c.name in self._unread and stats[c.name].first_bad is not None]:
             st = stats.pop(c.name)
@@ -420,7 +420,11 @@ class TraceStream:
             row, a, b = bad_time
             what = "duplicated time stamp" if a == b else "time goes backwards (non-increasing)"
             raise DataError(
-                f"{what}: t={b!r} after t={a!r}", path=spath, column=tcol, row=row, rows=self._src.rows
+                f"{what}: t={b!r} after t={a!r}" + float32_time_hint(float(a), float(b)),
+                path=spath,
+                column=tcol,
+                row=row,
+                rows=self._src.rows,
             )
         if all_steps is not None:
             med = float(np.median(np.concatenate(all_steps)))
