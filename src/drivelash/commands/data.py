@@ -248,6 +248,15 @@ def run_identify(
     ]
     fragment = drivetrain_fragment(merged, comments)
     summary["drivetrain"] = merged
+    if result.side == "motor" and "offset" not in result.not_determined:
+        # the constant part of the recorded force/torque (sensor offset, a constant load): in the
+        # table `observe` reads it from, so that its reference is F_c sign q̇ + offset as here
+        fragment += (
+            "\n# the recorded motor torque's constant offset (IDIM-LS 'offset'; observe draws"
+            " T_Cm sign q̇ + torque_offset)\n[identification]\n"
+            f"torque_offset = {float(result['offset'])!r}\n"
+        )
+        summary["torque_offset"] = float(result["offset"])
 
     if obs is not None:
         summary["observer"] = {
@@ -529,9 +538,12 @@ def run_observe(
     report_t = outputs.file(report, option="--report", kinds=HTML_EXTENSIONS)
     cfg = load_config(config_path)
     dt_sec = cfg.drivetrain
+    t_off = cfg.identification_or_default().torque_offset
     if drivetrain is not None:
         extra = load_config(drivetrain)
         dt_sec = extra.require("drivetrain")
+        if extra.identification is not None and extra.identification.torque_offset is not None:
+            t_off = extra.identification.torque_offset  # written by `identify --model rigid`
     if dt_sec is None or dt_sec.J_m is None:
         raise ConfigError(
             f"{drivetrain or config_path}: table [drivetrain], key 'J_m': missing"
@@ -560,14 +572,20 @@ def run_observe(
         summary: dict[str, Any] = {"trace": str(trace_path), **res.as_dict()}
         if dt_sec.T_Cm:
             summary["coulomb_friction"] = dt_sec.T_Cm
+        if t_off is not None:
+            summary["torque_offset"] = t_off
         if report_t is not None and thin is not None:
             from drivelash.report import render_observe_report
 
             t_c = dt_sec.T_Cm or 0.0
-            expected = (lambda v: t_c * np.sign(v)) if t_c > 0 else None
-            html = render_observe_report(
-                thin, res, cfg, expected=expected, expected_label="T_Cm sign q̇ ([drivetrain])"
+            c0 = t_off or 0.0
+            expected = (lambda v: t_c * np.sign(v) + c0) if t_c > 0 else None
+            label = (
+                "T_Cm sign q̇ + torque_offset ([drivetrain], [identification])"
+                if t_off is not None
+                else "T_Cm sign q̇ ([drivetrain]; no torque_offset given)"
             )
+            html = render_observe_report(thin, res, cfg, expected=expected, expected_label=label)
             outputs.staging(report_t).write_text(html, encoding="utf-8")
         if json_t is not None:
             write_json(outputs.staging(json_t), summary)
