@@ -53,7 +53,12 @@ def steady_state_peak(t: np.ndarray, est: np.ndarray, ref: np.ndarray | float, T
 
 
 def convergence_time(
-    t: np.ndarray, est: np.ndarray, ref: np.ndarray | float, band: float, t_start: float | None = None
+    t: np.ndarray,
+    est: np.ndarray,
+    ref: np.ndarray | float,
+    band: float,
+    t_start: float | None = None,
+    hold: float = 0.0,
 ) -> float | None:
     """First time after which |δ* − δ̂| stays ≤ ``band`` to the end [s], measured from ``t_start``.
 
@@ -66,11 +71,15 @@ def convergence_time(
     t_start : float, optional
         Only consider samples from this time on and return the time relative to it
         (default: from the first sample, returned as absolute time minus t[0]).
+    hold : float
+        Minimum time [s] the error must then stay in the band before the last sample; a run
+        that enters the band for good later than ``hold`` before its end has not settled.
 
     Returns
     -------
     float or None
-        Convergence time [s]; None when the error is outside the band at the last sample.
+        Convergence time [s]; None (not settled) when the error is outside the band at the
+        last sample, or stays inside it for less than ``hold`` before the end.
     """
     t, est, ref = _check(t, est, ref)
     if t.size == 0:
@@ -81,7 +90,7 @@ def convergence_time(
     if tt.size == 0 or err[-1] > band:
         return None
     outside = np.nonzero(err > band)[0]
-    if outside.size == 0:
-        return 0.0
-    k = outside[-1] + 1
-    return float(tt[k] - t0)
+    k = 0 if outside.size == 0 else outside[-1] + 1
+    if float(tt[-1] - tt[k]) < hold:
+        return None
+    return 0.0 if outside.size == 0 else float(tt[k] - t0)

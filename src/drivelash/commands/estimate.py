@@ -59,6 +59,12 @@ def _stream_bytes(stream: Any) -> float:
     return stream.peak_bytes() + pass1 + laws
 
 
+def _window(s: dict[str, Any], key: str) -> str:
+    """A truth-metric window of an estimate summary, e.g. "20.0 s" (its length [s] at the end)."""
+    w = s.get(key)
+    return f"{w:.3g} s" if isinstance(w, (int, float)) and math.isfinite(w) else "?"
+
+
 def run_estimate(
     trace_path: Path,
     config_path: Path,
@@ -199,9 +205,13 @@ def _print_summary(s: dict[str, Any], axis: str | None = None) -> None:
             d1 = f"{k * s['delta1']:.3f} ± {k * 1.96 * d1_std:.2f} {u}, identified"
         c.print(f"  δ̂ = {k * s['delta']:.3f} {u}{pm}   (δ1 = {d1})")
         if "delta_true" in s:
+            c.print(  # windows stated (F8): they are fractions of the recording, not reproduce's
+                f"  true δ = {k * s['delta_true']:.3f} {u}, MAEE (last {_window(s, 'maee_window_s')})"
+                f" = {k * s['maee_rad']:.3f} {u},"
+            )
             c.print(
-                f"  true δ = {k * s['delta_true']:.3f} {u}, MAEE = {k * s['maee_rad']:.3f} {u}, "
-                f"steady-state peak = {k * s['steady_state_peak_rad']:.3f} {u}"
+                f"  steady-state peak (last {_window(s, 'steady_state_window_s')})"
+                f" = {k * s['steady_state_peak_rad']:.3f} {u}"
             )
         c.print(f"  excitation {verdict}: {escape(s['reason'])}")
         conv = s["convergence_time_s"]
@@ -248,6 +258,13 @@ def run_reproduce(
 
 def _reproduce_into(out: Path, quick: bool, workers: int, console: Any) -> dict[str, Any]:
     from drivelash.estimation.reproduce import (
+        BENCH_MAEE_WINDOW_S,
+        BENCH_SETTLE_HOLD_S,
+        BENCH_SS_WINDOW_S,
+        PAPER_SIM_MAEE_AFTER_STEP_S,
+        PAPER_SIM_SETTLE_HOLD_S,
+        PAPER_SIM_SS_WINDOW_S,
+        SCORED_ESTIMATOR,
         reproduce_table,
         summary_numbers,
         table_csv,
@@ -274,16 +291,29 @@ def _reproduce_into(out: Path, quick: bool, workers: int, console: Any) -> dict[
     head = (
         "# Deadzone estimation: paper vs this implementation\n\n"
         + ("**Quick run** (subset, 30 s bench runs).\n\n" if quick else "")
-        + "MAEE: max |δ̂ − δ*| over the last 20 s of each bench run (paper-sim: from 2 s after the step); "
-        "SS peak: last 10 s (bench) / last 0.5 s before the step and at the end (paper-sim); "
-        "t(band): first time after which |δ̂ − δ*| stays within the band (after the step for "
-        "paper-sim). Paper values: §V–VI (MAEE 1.75/1.90/0.66 mrad for 0A/0B/0C, ≤ 4 mrad "
-        "elsewhere; convergence ≈ 40 s on the bench, < 2 s in simulation).\n\n"
+        + f'Each row scores {SCORED_ESTIMATOR}; "converged" and "±95 %" are that estimate\'s own '
+        "verdict and interval half-width (a run not converged is one `estimate` says not to use). "
+        f"MAEE: max |δ̂ − δ*| over the last {BENCH_MAEE_WINDOW_S:g} s of each bench run (paper-sim: "
+        f"from {PAPER_SIM_MAEE_AFTER_STEP_S:g} s after the step to the end); SS peak: last "
+        f"{BENCH_SS_WINDOW_S:g} s (bench) / max over the last {PAPER_SIM_SS_WINDOW_S:g} s before the "
+        "step and at the end (paper-sim: so it can exceed its MAEE). `drivelash estimate` on a "
+        "recording with δ* uses other windows: the last third (MAEE) and the last sixth (SS peak) of "
+        "the recording — the same as here for a 60 s bench run only. t(band): first time after which "
+        '|δ̂ − δ*| stays within the band (after the step for paper-sim); "not settled" when it '
+        f"does not stay there for the last {BENCH_SETTLE_HOLD_S:g} s of a bench run "
+        f"({PAPER_SIM_SETTLE_HOLD_S:g} s of each paper-sim interval). Paper values: §V–VI (MAEE "
+        "1.75/1.90/0.66 mrad for 0A/0B/0C, ≤ 4 mrad elsewhere; convergence ≈ 40 s on the bench, "
+        "< 2 s in simulation).\n\n"
     )
     summ = {m: summary_numbers(rows, m) for m in ("paper", "default")}
+
+    def _conv(v: float) -> str:
+        return f"{v:.2f} s" if math.isfinite(v) else "— (a run did not settle)"
+
     tail = "\n" + "".join(
         f"- {m}: worst bench MAEE {v['max_maee_mrad']:.3f} mrad, "
-        f"worst t(10 mrad) {v['max_conv_10mrad_s']:.2f} s\n"
+        f"worst t(10 mrad) {_conv(v['max_conv_10mrad_s'])}, "
+        f"converged on {v['converged']:.0f} of {v['runs']:.0f} bench runs\n"
         for m, v in summ.items()
         if v
     )

@@ -163,7 +163,13 @@ def estimate_from_config(
         (:class:`~drivelash.estimation.estimator.Delta1Uncertainty`).
     """
     from drivelash.errors import DrivelashError
-    from drivelash.estimation.pipeline import MAEE_FRACTION, SS_FRACTION, estimate_summary, estimate_trace
+    from drivelash.estimation.pipeline import (
+        MAEE_FRACTION,
+        SS_FRACTION,
+        estimate_summary,
+        estimate_trace,
+        truth_windows,
+    )
     from drivelash.io.config import DrivetrainSection
     from drivelash.metrics import maee, steady_state_peak
 
@@ -185,6 +191,7 @@ def estimate_from_config(
         summary["delta_true"] = float(truth[-1])
         summary["maee_rad"] = maee(t, res.delta_hat, truth, float(t[-1]) - MAEE_FRACTION * T)
         summary["steady_state_peak_rad"] = steady_state_peak(t, res.delta_hat, truth, SS_FRACTION * T)
+        summary.update(truth_windows(T))
     # the command's JSON: non-finite numbers are null (the project's one JSON sanitiser)
     return BacklashEstimate(summary=jsonable(summary), result=res, trace=trace, gains=res.config)
 

@@ -18,7 +18,7 @@ def demo_estimate(out_dir: Path, console: Console) -> None:
     ``estimate-bench-0A.json``, ``estimate-bench-0A.png`` and the self-contained HTML report
     ``estimate-bench-0A.html`` of the default method.
     """
-    from drivelash.estimation.reproduce import estimator_for, score
+    from drivelash.estimation.reproduce import estimate_scenario, score
     from drivelash.io.trace import Trace
     from drivelash.report import write_estimate_report
     from drivelash.report.estimation_figures import estimate_figure
@@ -31,15 +31,17 @@ def demo_estimate(out_dir: Path, console: Console) -> None:
     trace = Trace.from_parquet(path) if path.exists() else sc.simulate()
     summary = {}
     for method in ("paper", "default"):
-        res = estimator_for(sc, method).run(trace)
+        res = estimate_scenario(sc, trace, method)  # as `drivelash estimate --method`
         m = score(DEMO_SCENARIO, method, trace, res)
         summary[method] = m | {"reason": res.reason, "convergence_time_s": res.convergence_time_s}
         truth = float(trace["delta_true"][-1])
         console.print(
             f"estimate ({method:7s}): δ̂ = {1e3 * res.delta:8.3f} mrad   true δ = "
             f"{1e3 * truth:8.3f} mrad   error {1e3 * (res.delta - truth):+.3f}"
-            f" mrad, MAEE(last 20 s) {1e3 * m['maee_rad']:.3f} mrad, into 10 mrad after "
-            f"{m['conv_10mrad_s']:.2f} s, excitation {'ok' if res.excitation_ok else 'NOT ok'}"
+            f" mrad, MAEE(last 20 s) {1e3 * m['maee_rad']:.3f} mrad, into 10 mrad "
+            + (f"after {c10:.2f} s" if (c10 := m["conv_10mrad_s"]) is not None else "not settled")
+            + f", excitation {'ok' if res.excitation_ok else 'NOT ok'}"
+            + f", {'converged' if res.converged else 'NOT converged'}"
         )
         if method == "default":
             estimate_figure(trace, res, out_dir / f"estimate-{DEMO_SCENARIO}.png")

@@ -24,12 +24,21 @@ __all__ = [
     "estimate_summary",
     "estimate_trace",
     "result_summary",
+    "truth_windows",
 ]
 
 #: Fractions of a recording used for MAEE and steady-state peak when the truth is known
 #: (for a 60 s bench run: the last 20 s and the last 10 s, as in ``reproduce``).
 MAEE_FRACTION = 1.0 / 3.0
 SS_FRACTION = 1.0 / 6.0
+
+
+def truth_windows(T: float) -> dict[str, float]:
+    """Lengths [s] of the windows at the end of a recording of duration ``T`` [s] over which the
+    summary's ``maee_rad`` and ``steady_state_peak_rad`` are taken (keys ``maee_window_s``,
+    ``steady_state_window_s``; session 32, tester F, F8: the JSON and the terminal did not say
+    which window, and ``reproduce`` uses others for paper-sim)."""
+    return {"maee_window_s": MAEE_FRACTION * T, "steady_state_window_s": SS_FRACTION * T}
 
 
 def _estimator_overrides(cfg: Any, method: str | None = None) -> tuple[str, dict[str, Any], bool]:
@@ -252,6 +261,7 @@ def estimate_stream(
         summary["delta_true"] = res.extra["delta_true_last"]
         summary["maee_rad"] = maee_v
         summary["steady_state_peak_rad"] = ss_v
+        summary.update(truth_windows(motion.t_last - motion.t0))
     trace = Trace({c: np.concatenate(v) for c, v in kept.items()}, meta=stream.meta) if series else None
     return summary, res, trace
 

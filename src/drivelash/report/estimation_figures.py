@@ -160,7 +160,7 @@ def fig13_bench_errors(rows: list[dict[str, Any]], path: Path) -> Path | None:
 
 def fig15_torque(path: Path, scenario: str = "bench-0B", duration: float | None = None) -> Path:
     """Fig. 15: observed and model shaft torque against Δθ on one bench test (both methods)."""
-    from drivelash.estimation.reproduce import estimator_for
+    from drivelash.estimation.reproduce import estimate_scenario
     from drivelash.sim.scenarios import get_scenario
 
     plt = _plt()
@@ -168,7 +168,7 @@ def fig15_torque(path: Path, scenario: str = "bench-0B", duration: float | None 
     trace = sc.simulate(duration=duration)
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5), sharey=True)
     for ax, method in zip(axes, ("paper", "default"), strict=True):
-        res = estimator_for(sc, method).run(trace)
+        res = estimate_scenario(sc, trace, method)  # the table's run: `drivelash estimate --method`
         _torque_panel(ax, res)
         ax.set_title(
             f"{scenario}, {method} law: δ̂ = {1e3 * res.delta:.2f} mrad "
