@@ -55,33 +55,72 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from drivelash.errors import ConfigError, DrivelashError
 from drivelash.io.config import DriveConfig, load_config, read_toml
+from drivelash.params import DELTA_MAX_DEFAULT
 
 __all__ = ["AxisSpec", "Fleet", "ListedFile", "TimeSpec", "load_fleet", "parse_fleet", "time_spec_hash"]
 
 
-#: Largest maintenance threshold on the backlash δ [rad at the load] taken as meant
-#: (docs/assumptions.md): the project's thresholds are 0.07–0.2 rad (simulated fleets:
-#: δ₀ + growth ≤ 0.2 rad); 0.5 rad (29°) is no backlash of a drive train, while a threshold
-#: written in mrad (86.46 for 0.08646 rad) lands far above it.
+#: Largest maintenance threshold on the backlash δ [rad at the load] taken as meant on an axis
+#: whose drive file does not say its gap is large (docs/assumptions.md): the project's thresholds
+#: are 0.07–0.2 rad (simulated fleets: δ₀ + growth ≤ 0.2 rad); 0.5 rad (29°) is no backlash of a
+#: usual drive train, while a threshold written in mrad (86.46 for 0.08646 rad) lands far above it.
 MAX_THRESHOLD_RAD = 0.5
+#: … unless the axis's own drive file gives a larger gap: up to this multiple of its
+#: ``[backlash] delta1`` (δ1 lies inside the gap, about half of it on the bench's couplings:
+#: 0.093 of 0.186 rad, 0.5135 of 1.027 rad), so 4·δ1 ≈ twice the gap — 100 % wear — and never
+#: beyond the estimator's δ_max, which no estimate can exceed. The paper's deadzone A (δ = 1.027
+#: rad, δ1 = 0.5135) was refused at any threshold ≥ 0.5 rad (session 32 tester F, F7); with it
+#: the limit is min(4 × 0.5135, δ_max = 2) = 2 rad, and an mrad slip (1100 for 1.1 rad) is still
+#: 550× beyond.
+THRESHOLD_DELTA1_FACTOR = 4.0
 
 
-def _threshold_slip(a: AxisSection) -> str | None:
-    """Why ``a.threshold`` looks like a unit slip (None: plausible)."""
+def threshold_limit(drive: DriveConfig) -> tuple[float, str]:
+    """The largest threshold [rad at the load] an axis with this drive file takes as meant, and
+    what sets it (for the message): :data:`MAX_THRESHOLD_RAD`, or :data:`THRESHOLD_DELTA1_FACTOR`
+    × the drive's δ1 (at most its δ_max) when that is larger.
+
+    Parameters
+    ----------
+    drive : DriveConfig
+        The axis's drive configuration ([backlash] delta1 [rad], [estimator] delta_max [rad]).
+
+    Returns
+    -------
+    (float, str)
+        The limit [rad] and its basis, e.g. ``"limit 0.5 rad"``.
+    """
+    delta1 = getattr(drive.backlash, "delta1", None)
+    delta_max = getattr(drive.estimator, "delta_max", None)
+    delta_max = DELTA_MAX_DEFAULT if delta_max is None else float(delta_max)
+    if delta1 is None or not math.isfinite(delta1):
+        return MAX_THRESHOLD_RAD, f"limit {MAX_THRESHOLD_RAD:g} rad"
+    own = min(THRESHOLD_DELTA1_FACTOR * float(delta1), delta_max)
+    if own <= MAX_THRESHOLD_RAD:
+        return MAX_THRESHOLD_RAD, f"limit {MAX_THRESHOLD_RAD:g} rad"
+    if own >= delta_max:
+        return own, f"limit {own:g} rad: the estimator's delta_max, no estimate exceeds it"
+    return own, f"limit {own:g} rad: {THRESHOLD_DELTA1_FACTOR:g} × the drive's delta1 {float(delta1):g} rad"
+
+
+def _threshold_slip(a: AxisSection, drive: DriveConfig) -> str | None:
+    """Why ``a.threshold`` looks like a unit slip (None: plausible), judged against the axis's
+    drive file (:func:`threshold_limit`)."""
+    limit, basis = threshold_limit(drive)
     if a.threshold_unit == "rad":
-        if a.threshold < MAX_THRESHOLD_RAD:
+        if a.threshold < limit:
             return None
         return (
             f"{a.threshold:g} rad ({math.degrees(a.threshold):.4g}°) at the load is no backlash threshold"
-            f" (limit {MAX_THRESHOLD_RAD:g} rad); the key is in rad — {a.threshold:g} mrad is"
+            f" ({basis}); the key is in rad — {a.threshold:g} mrad is"
             f" threshold = {a.threshold * 1e-3:.6g}"
         )
     rad = a.threshold / float(a.transmission or 1.0)
-    if rad < MAX_THRESHOLD_RAD:
+    if rad < limit:
         return None
     return (
         f"{a.threshold:g} mm is {rad:.4g} rad at the load (transmission {a.transmission:g} mm/rad),"
-        f" no backlash threshold (limit {MAX_THRESHOLD_RAD:g} rad); the key is in mm — {a.threshold:g} µm"
+        f" no backlash threshold ({basis}); the key is in mm — {a.threshold:g} µm"
         f" is threshold = {a.threshold * 1e-3:.6g}"
     )
 
@@ -456,9 +495,6 @@ def parse_fleet(data: dict[str, Any], path: Path) -> Fleet:
         if a.id in seen:
             raise ConfigError(f"{src}: table {table}, key 'id': duplicate of [[axis]] #{seen[a.id] + 1}")
         seen[a.id] = k
-        slip = _threshold_slip(a)
-        if slip:
-            raise ConfigError(f"{src}: table {table}, key 'threshold': {slip}")
         spec = a.time or doc.fleet.time
         if spec is None:
             raise ConfigError(f"{src}: table {table}, key 'time': missing (and no [fleet] time default)")
@@ -471,6 +507,9 @@ def parse_fleet(data: dict[str, Any], path: Path) -> Fleet:
             drive.require("backlash")
         except DrivelashError as exc:
             raise ConfigError(f"{src}: table {table}, key 'drive': {exc}") from None
+        slip = _threshold_slip(a, drive)  # after the drive: its gap sets the limit (F7)
+        if slip:
+            raise ConfigError(f"{src}: table {table}, key 'threshold': {slip}")
         rate = None if doc.fleet.estimate_rate_hz == "full" else float(doc.fleet.estimate_rate_hz)
         thr = a.threshold if a.threshold_unit == "rad" else a.threshold / float(a.transmission or 1.0)
         axes.append(
