@@ -96,7 +96,9 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
             else "estimate not converged, no uncertainty stated"
             if not r["converged"]
             else (
-                f"too few recordings for a trend yet, {count(len(trend.t), 'usable estimate')} of "
+                f"no trend: {trend.unfitted}; this estimate alone is above it"
+                if trend.unfitted
+                else f"too few recordings for a trend yet, {count(len(trend.t), 'usable estimate')} of "
                 f"{MIN_POINTS}: this estimate alone is above it"
             )
             if trend.model is None
@@ -281,6 +283,12 @@ def _axis_notes(
             f"({first['path']}: {first['start_time']:%Y-%m-%d %H:%M} UTC"
             + (", …" if n > 1 else "")
             + "): left out of the trend — a wrong clock or file name?"
+        )
+    if trend.unfitted is not None:
+        # one line instead of statsmodels' SingularMatrixWarning (session 32 tester F, F2)
+        out.append(
+            f"{name}: no growth model — {trend.unfitted}; check how the recordings are dated "
+            f"(the axis's 'time' in {fleet_file or 'the fleet file'}: file-name stamp, clock)"
         )
     if trend.model is not None and trend.t_now is not None and trend.t.size:
         later = np.flatnonzero(trend.t > trend.t_now + 1e-9)

@@ -70,6 +70,8 @@ from typing import Any
 
 import numpy as np
 
+from drivelash.wear.words import count
+
 __all__ = ["AxisTrend", "ChangePoint", "Forecast", "analyse", "fit_trend", "systematic_std", "usable"]
 
 #: Lower bound of the noise scale σ̂ [rad] (estimates agree better than the encoder model).
@@ -172,6 +174,10 @@ class AxisTrend:
     #: or above the fitted mean at its time (:func:`judged_at`); None without a fit.
     t_now: float | None = None
     _curve: Any = field(default=None, repr=False)
+    #: Why no growth model was fitted although there were enough inliers (None otherwise): their
+    #: times do not determine it — all at one start time (a batch export named with the export
+    #: time, a coarse clock) or, with jumps, too few distinct times (:func:`_fit_linear`).
+    unfitted: str | None = None
 
     def curve(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(mean, lower, upper, pred_lower, pred_upper) of the fitted model at days ``t`` [rad].
@@ -485,13 +491,19 @@ def _fit_linear(
     cps: list[ChangePoint],
     s_sys: float = 0.0,
     t_own: float | None = None,
-) -> _Fit:
+) -> _Fit | None:
     """Linear growth δ = a + b t + Σ J_i·1[t ≥ t_i]; with ``t_own`` [days] (the last repair)
-    + b1·(t − t_own)₊: the part fitted after it wears at its own rate b + b1."""
+    + b1·(t − t_own)₊: the part fitted after it wears at its own rate b + b1. None when the
+    times do not determine these terms (a rank-deficient design: all at one time)."""
     import statsmodels.api as sm
     from scipy.stats import t as student
 
     X = np.column_stack([np.ones_like(t), t, _steps(t, cps), _ramp(t, t_own)])
+    if np.linalg.matrix_rank(np.sqrt(w)[:, None] * X) < X.shape[1]:
+        # the times do not determine the model (all at one time; a jump between two times):
+        # statsmodels would print its SingularMatrixWarning and return a minimum-norm "fit"
+        # (slope 0, labelled linear) — no model (session 32 tester F, F2)
+        return None
     res = sm.WLS(y, X, weights=w).fit()
     n, p = y.size, X.shape[1]
     rss = float(np.sum(w * res.resid**2))
@@ -817,12 +829,21 @@ def _fit_models(
     if yi.size < MIN_POINTS + len(keep):
         return trend
     lin = _fit_linear(ti, yi, wi, keep, s_sys)
+    if lin is None:
+        n_t = np.unique(ti).size
+        trend.unfitted = (
+            f"all {yi.size} usable estimates start at one time"
+            if n_t == 1
+            else f"the {yi.size} usable estimates start at only {n_t} distinct times, too few for "
+            f"{count(len(keep), 'jump')}"
+        )
+        return trend
     # after a repair or re-adjustment (a negative change point) the new part wears at its own
     # rate: a slope-change term for the last segment, taken when its AICc is lower by more than
     # AICC_MARGIN (a shared slope forecast a repaired axis a month early, B-04)
     if keep and keep[-1].size < 0 and int(np.sum(ti >= keep[-1].t_days - 1e-9)) >= MIN_OWN_RATE_POINTS:
         own = _fit_linear(ti, yi, wi, keep, s_sys, t_own=keep[-1].t_days)
-        if own.aicc < lin.aicc - AICC_MARGIN:
+        if own is not None and own.aicc < lin.aicc - AICC_MARGIN:
             lin = own
     fits = {"linear": lin}
     acc = _fit_accelerating(ti, yi, wi, keep, lin, s_sys) if yi.size >= MIN_POINTS + 1 + len(keep) else None
