@@ -191,7 +191,7 @@ def run_status(
     from rich.console import Console
     from rich.markup import escape
 
-    from drivelash.report.fleet import NOW_LEGEND, any_latest_only
+    from drivelash.report.fleet import NOW_LEGEND, any_latest_only, not_excited_line
     from drivelash.wear.alarms import stale_notes
 
     store, summ, note = _summaries(db, fleet)
@@ -208,6 +208,9 @@ def run_status(
             c.print(escape(legend), style="dim")
         if any_latest_only(summ):
             c.print(escape(NOW_LEGEND), style="dim")
+        why = not_excited_line(summ)
+        if why is not None:
+            c.print(escape(why))
         if note is not None:
             c.print(f"[yellow]note[/yellow] {escape(note)}")
         for s in summ:
@@ -432,7 +435,7 @@ def _print_forecast(s: dict[str, Any]) -> None:
     from rich.console import Console
     from rich.markup import escape
 
-    from drivelash.wear.words import count
+    from drivelash.wear.words import count, not_excited_reasons
 
     c = Console()
     mr = lambda x: "–" if x is None or not math.isfinite(x) else f"{1e3 * x:.3f} mrad"  # noqa: E731
@@ -443,18 +446,25 @@ def _print_forecast(s: dict[str, Any]) -> None:
             f", {s['unconverged']} excited but not converged ({s['unconverged_used']} of them in the trend, "
             "weighted by their uncertainty)"
         )
+    unfitted = s["trend"].unfitted if s.get("trend") is not None else None
     fit = (
         f"{s['used'] - s['outliers']} in the fit ({count(s['outliers'], 'outlier')} left out; "
         if s["model"]
         else f"none fitted: {s.get('min_points', 5)} needed for a trend ("
+        if unfitted is None
+        else f"none fitted: {unfitted} ("  # the note below says why (F2)
     )  # "3 in the fit … model: none" contradicted itself (session 30 tester B, B-08)
     c.print(
         f"[bold]{s['axis']}[/bold]: {s['used']} of {count(s['recordings'], 'recording')} usable, "
         f"{fit}{s['unexcited']} not excited{conv}, {s['failed']} failed)"
     )
+    why = not_excited_reasons(s["rows"])
+    if why is not None:
+        c.print(f"  not excited: {escape(why)}")
+    model = s["model"] or ("none (too few estimates)" if unfitted is None else "none")
     c.print(
         f"  threshold {mr(s['threshold_rad'])}; fitted now {mr(s['current_rad'])} "
-        f"(noise {mr(s['noise_rad'])}); model: {s['model'] or 'none (too few estimates)'}"
+        f"(noise {mr(s['noise_rad'])}); model: {model}"
     )
     if s.get("latest_rad") is not None:
         sd = s.get("latest_std")

@@ -22,7 +22,7 @@ import numpy as np
 from drivelash.report.html import Figure, Section, render_html
 from drivelash.wear.alarms import stale_notes
 from drivelash.wear.trend import UNCONVERGED_MAX_U95
-from drivelash.wear.words import count, crossing_interval
+from drivelash.wear.words import count, crossing_interval, not_excited_reasons
 
 __all__ = ["render_fleet_report", "write_fleet_report"]
 
@@ -49,8 +49,18 @@ def _now_cell(s: dict[str, Any]) -> str:
     return _mrad(s["current_rad"])
 
 
+def not_excited_line(summaries: list[dict[str, Any]]) -> str | None:
+    """The one line under the fleet table (``track status``, the report's overview) that says why
+    the recordings counted "unexcited" were not excited, grouped by cause with their axes
+    (:func:`~drivelash.wear.words.not_excited_reasons`); None when none is. The stored reason was
+    shown nowhere but in ``track forecast --json`` (session 32 tester F, F3)."""
+    pairs = [(s["axis"], r) for s in summaries for r in s.get("rows", [])]
+    why = not_excited_reasons([r for _, r in pairs], [a for a, _ in pairs])
+    return None if why is None else f"not excited: {why} (`drivelash estimate FILE` explains each)"
+
+
 #: What the parentheses in the "δ now" column mean (under the status table and the report's).
-NOW_LEGEND = "(…) in δ now: the latest estimate — too few recordings for a trend"
+NOW_LEGEND = "(…) in δ now: the latest estimate — no trend (too few recordings, or all at one time)"
 
 
 def any_latest_only(summaries: list[dict[str, Any]]) -> bool:
@@ -177,6 +187,40 @@ def _dates(t0: datetime, days: np.ndarray) -> list[datetime]:
 TIMES_UTC = "All dates and times are UTC (recording starts, forecast crossings and their intervals)."
 
 
+#: The ticks along the bottom of an axis figure: (key of :func:`tick_marks`, colour, legend).
+TICKS = (
+    ("not_excited", "0.5", "not excited"),
+    ("left_out", "C5", "excited, left out of the trend"),
+    ("failed", "C3", "failed file"),
+)
+
+
+def tick_marks(s: dict[str, Any]) -> dict[str, list[datetime]]:
+    """Start times of an axis's recordings that are not in its trend, by why (:data:`TICKS`):
+    ``not_excited`` (``ok``, excitation insufficient), ``left_out`` (``ok`` and excited, but not
+    used — not converged without a usable stated uncertainty, :func:`~drivelash.wear.trend.usable`)
+    and ``failed`` (not ``ok``). A recording the trend uses is never ticked: an unconverged one
+    in the trend was also ticked "not excited" (session 32 tester F, F9).
+
+    Parameters
+    ----------
+    s : dict
+        :func:`drivelash.wear.alarms.axis_summary` (``rows``, ``used_rows``).
+    """
+    used = {(r["path"], r["start_time"]) for r in s.get("used_rows") or []}
+    out: dict[str, list[datetime]] = {k: [] for k, _, _ in TICKS}
+    for r in s["rows"]:
+        if r["start_time"] is None or (r.get("path"), r["start_time"]) in used:
+            continue
+        if r["status"] != "ok":
+            out["failed"].append(r["start_time"])
+        elif not r["excitation_ok"]:
+            out["not_excited"].append(r["start_time"])
+        else:
+            out["left_out"].append(r["start_time"])
+    return out
+
+
 def _axis_figure(s: dict[str, Any], meas: list[dict[str, Any]]) -> Figure:
     name = s["axis"]
 
@@ -192,14 +236,42 @@ def _axis_figure(s: dict[str, Any], meas: list[dict[str, Any]]) -> Figure:
             t0 = tr.t0
             ok = tr.inlier
             d = _dates(t0, tr.t)
-            ax.plot(
-                [x for x, k in zip(d, ok, strict=True) if k],
-                1e3 * tr.y[ok],
-                "o",
-                ms=3.5,
-                color="C0",
-                label="estimate (excited)",
+            used = s.get("used_rows") or []
+            conv = (
+                np.array([bool(r["converged"]) for r in used])
+                if len(used) == tr.t.size
+                else np.ones(tr.t.size, dtype=bool)
             )
+            std = np.array(
+                [np.nan if r["delta_std"] is None else float(r["delta_std"]) for r in used]
+                if len(used) == tr.t.size
+                else np.full(tr.t.size, np.nan)
+            )
+            good = ok & conv
+            if good.any():
+                ax.plot(
+                    [x for x, k in zip(d, good, strict=True) if k],
+                    1e3 * tr.y[good],
+                    "o",
+                    ms=3.5,
+                    color="C0",
+                    label="estimate (converged)",
+                )
+            weak = ok & ~conv
+            if weak.any():
+                # in the trend although the estimator did not call it converged: weighted by its
+                # stated uncertainty, so the reader sees that uncertainty (session 32 tester F, F9)
+                ax.errorbar(
+                    [x for x, k in zip(d, weak, strict=True) if k],
+                    1e3 * tr.y[weak],
+                    yerr=1e3 * 1.96 * np.nan_to_num(std[weak]),
+                    fmt="s",
+                    ms=5,
+                    mfc="white",
+                    color="C9",
+                    capsize=3,
+                    label=f"not converged, in the trend, ±95 % ({int(weak.sum())})",
+                )
             if (~ok).any():
                 ax.plot(
                     [x for x, k in zip(d, ok, strict=True) if not k],
@@ -258,16 +330,10 @@ def _axis_figure(s: dict[str, Any], meas: list[dict[str, Any]]) -> Figure:
                 ax.axvline(t0 + timedelta(days=c.t_days), color="C3" if c.size > 0 else "C2", ls="--", lw=1.0)
         if thr is not None:
             ax.axhline(1e3 * thr, color="k", lw=1.2, ls="-.", label=f"threshold {1e3 * thr:.1f} mrad")
-        bad = [
-            r["start_time"]
-            for r in rows
-            if r["status"] == "ok"
-            and not (r["excitation_ok"] and r["converged"])
-            and r["start_time"] is not None
-        ]
-        failed = [r["start_time"] for r in rows if r["status"] != "ok" and r["start_time"] is not None]
+        marks = tick_marks(s)
         trans = ax.get_xaxis_transform()
-        for when, color, what in ((bad, "0.5", "not excited"), (failed, "C3", "failed file")):
+        for key, color, what in TICKS:
+            when = marks[key]
             if when:
                 ax.plot(
                     when,
@@ -311,10 +377,13 @@ def _axis_figure(s: dict[str, Any], meas: list[dict[str, Any]]) -> Figure:
     return Figure(
         key="axis-" + name.replace("/", "-"),
         caption=(
-            f"{name}: estimates of excited recordings (outliers ×), monotone trend, fitted growth "
-            "model with its 90 % band and 90 % prediction band, threshold (dash-dot) and forecast "
-            "crossing with its 90 % interval; dashed verticals are detected jumps; ticks at the bottom "
-            "mark unexcited (grey) and failed (red) recordings."
+            f"{name}: estimates in the trend (dots: converged; open squares with their 95 % interval: "
+            "not converged, weighted by their stated uncertainty; outliers ×), monotone trend, fitted "
+            "growth model with its 90 % band and 90 % prediction band, threshold (dash-dot) and "
+            "forecast crossing with its 90 % interval; dashed verticals are detected jumps; ticks at "
+            "the bottom mark recordings not in the trend: not excited (grey), excited but left out "
+            "(brown: not converged and not admitted, see the overview) and failed (red)."
+            + (f" Not excited: {why}." if (why := not_excited_reasons(s["rows"])) else "")
         ),
         draw=draw,
         size=(10.0, 4.2),
@@ -428,6 +497,9 @@ def render_fleet_report(
     )
     if any_latest_only(summaries):
         overview.paragraphs.append(NOW_LEGEND + ".")
+    why = not_excited_line(summaries)
+    if why is not None:
+        overview.paragraphs.append(why[0].upper() + why[1:] + ".")
     overview.paragraphs.extend(notes)
     stale = stale_notes(summaries)
     if stale:
