@@ -157,6 +157,15 @@ SWAP_MIN_REVERSALS = 2
 #: parameters) that states no signed bias: with identified parameters bench-0B at 1 kHz ran
 #: 1.04 mrad *high* (session 30, tester A M5).
 ONLINE_VERIFIED_RATE_HZ = 2000.0
+#: Below :data:`ONLINE_VERIFIED_RATE_HZ` an estimate is called converged only with at least this
+#: excitation information (∫g² dt / window; 10× :data:`SIGMA_FRACTION_MIN`): the sampled sum of
+#: g² under-resolves the contact-edge peak of g (width ~1/α), which a stated K_S too stiff makes
+#: narrow and dominant. Measured (session 32 tester F, F6): bench-0B 10 s with K_S stated 6×,
+#: information 0.0100 at 8 kHz, 0.0068 at 2 kHz (insufficient) but 0.0217 at 1 kHz ("converged"
+#: 3.09 mrad off, ±0.75); the 18 bench scenarios with their true parameters at 500 Hz–2 kHz have
+#: ≥ 0.254 (2.5× above), a mismatch scan (0A/0B/0C × 3 seeds × K_S ×¼…8, 1 kHz) has every other
+#: converged run at ≥ 0.25 (docs/assumptions.md, "Online estimate at 1 kHz").
+LOW_RATE_INFORMATION_MIN = 0.1
 #: Smallest convergence band [rad] (× the angle scale σ, :attr:`EstimatorConfig.angle_scale`):
 #: δ̂ settled when it varied by ≤ max(this σ, 2 % of δ̂) over the last window (issue 11).
 BAND_FLOOR = 2e-3
@@ -811,11 +820,15 @@ def _run_session(
 # ----------------------------------------------------------------------------------
 # verdict
 # ----------------------------------------------------------------------------------
+def _window_movement(track: _Track, n: int, k_win: int) -> float:
+    """How far δ̂ moved [rad] (max − min) over the blocks covering the last ``k_win`` samples."""
+    b0 = max(0, (n - k_win) // track.Bh)
+    return float(np.max(track.dmax[b0:])) - float(np.min(track.dmin[b0:]))
+
+
 def _settled(track: _Track, n: int, k_win: int, band: float) -> bool:
     """δ̂ varied by ≤ band over the blocks covering the last ``k_win`` samples."""
-    b0 = max(0, (n - k_win) // track.Bh)
-    lo, hi = float(np.min(track.dmin[b0:])), float(np.max(track.dmax[b0:]))
-    return hi - lo <= band
+    return _window_movement(track, n, k_win) <= band
 
 
 def _convergence_time(
@@ -1184,6 +1197,9 @@ def _verdict(
     band = max(BAND_FLOOR * sigma, 0.02 * delta_max_seen)
     k_win = max(1, int(round(win / T_s)))
     settled = _settled(chosen.track, n, k_win, band) if n else False
+    # how far δ̂ moved over the last window (a wear trend widens an unsettled estimate's σ by it:
+    # wear.estimate.unconverged_cause; session 32 tester F, F5)
+    window_move = _window_movement(chosen.track, n, k_win) if n else math.nan
     # the uncertainty of a measurement; without sufficient excitation δ̂ is none (NaN → null)
     # the paper law against the default law on the same data: the paper law has no stiffness
     # scale, so a wrong K_S (or friction, inertia) moves its contact points unseen; where the
@@ -1276,6 +1292,9 @@ def _verdict(
             f"the estimate is uncertain by ±{_mrad(1.96 * std)} mrad (95 %), more than the "
             f"{_mrad(claim)} mrad a converged estimate must meet: {why}"
         )
+        # the one blocking warning whose interval states the doubt itself (a wear trend may take
+        # such an estimate with its σ; every other blocking warning keeps it out)
+        extra["uncertainty_warning"] = warnings[-1]
     rho = mo.torque_deflection_corr
     if rho is not None and rho < -SWAP_CORRELATION and mo.reversals >= SWAP_MIN_REVERSALS:
         # in contact the shaft torque follows the deflection and the motor pushes the load through
@@ -1293,11 +1312,21 @@ def _verdict(
             " of either sign depending on the drive and its parameters (with the bench's true parameters"
             " δ̂ met the 1 mrad goal at 1 kHz; docs/assumptions.md, 'Online estimate at 1 kHz')"
         )
+    low_rate = 1.0 / T_s < 0.99 * ONLINE_VERIFIED_RATE_HZ
+    if ok and not at_bound and low_rate and sigma_frac < LOW_RATE_INFORMATION_MIN:
+        warnings.append(
+            f"at {1.0 / T_s:.4g} Hz the excitation information {sigma_frac:.3g} is below "
+            f"{LOW_RATE_INFORMATION_MIN:g} "
+            f"({LOW_RATE_INFORMATION_MIN / SIGMA_FRACTION_MIN:.0f}× the minimum): at this rate it depends "
+            "on where the samples hit the contact edge — estimate at "
+            f"≥ {ONLINE_VERIFIED_RATE_HZ:.4g} Hz, and check K_S (a stated shaft too stiff sharpens the edge)"
+        )
     blocking = [w for w in warnings if not w.startswith("note:")]
     converged = bool(ok and settled and not blocking)
     conv = _convergence_time(chosen.track, mo.t0, T_s, n, band, final) if ok else None
     extra["delta_spread"] = a["delta_spread"]
     extra["settled"] = settled
+    extra["window_movement"] = window_move
     if chosen.track.error_since:
         extra["max_abs_error_since"] = [v if v > -math.inf else None for v in chosen.track.err_max]
         extra["delta_true_last"] = chosen.track.truth_last

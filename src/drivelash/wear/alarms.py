@@ -32,7 +32,7 @@ import numpy as np
 
 from drivelash.wear.store import Store
 from drivelash.wear.trend import MIN_POINTS, AxisTrend, analyse, usable
-from drivelash.wear.words import count, crossing_time, to_the_minute
+from drivelash.wear.words import UNCONVERGED_MARK, count, crossing_time, to_the_minute
 
 __all__ = [
     "Alarm",
@@ -80,7 +80,16 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
     ok_rows = sorted(
         (r for r in rows if r["status"] == "ok"), key=lambda r: (r["start_time"] or datetime.min, r["path"])
     )
-    latest = next((r for r in reversed(ok_rows) if r["excitation_ok"] and r["delta"] is not None), None)
+    # an unconverged estimate only when the trend could take it (its σ states its doubt): one a
+    # blocking warning made unconverged raises no alarm (session 32 tester F, F5)
+    latest = next(
+        (
+            r
+            for r in reversed(ok_rows)
+            if r["excitation_ok"] and r["delta"] is not None and (r["converged"] or usable(r))
+        ),
+        None,
+    )
     single = None
     if thr is not None and latest is not None and not (fc is not None and fc.crossed):
         sd = latest["delta_std"] if latest["delta_std"] and math.isfinite(latest["delta_std"]) else None
@@ -90,8 +99,10 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
     if single is not None:
         r, sd = single
         pm = f" ± {1e3 * sd:.2f}" if sd is not None else ""
+        cause = (r.get("reason") or "").partition(UNCONVERGED_MARK)[2]
+        because = f" ({cause})" if cause else ""
         why = (
-            f"estimate not converged: uncertainty ±{1e3 * 1.96 * sd:.2f} mrad (95 %)"
+            f"estimate not converged{because}: uncertainty ±{1e3 * 1.96 * sd:.2f} mrad (95 %)"
             if not r["converged"] and sd is not None
             else "estimate not converged, no uncertainty stated"
             if not r["converged"]

@@ -26,8 +26,9 @@ from drivelash.errors import DataError, DrivelashError
 from drivelash.io.config import DriveConfig
 from drivelash.wear.fleet import TimeSpec, time_spec_hash
 from drivelash.wear.store import EstimateRow, utc_naive
+from drivelash.wear.words import UNCONVERGED_MARK
 
-__all__ = ["RecordingTask", "code_version", "estimate_recording", "recording_start"]
+__all__ = ["RecordingTask", "code_version", "estimate_recording", "recording_start", "unconverged_cause"]
 
 
 def code_version() -> str:
@@ -228,6 +229,10 @@ def estimate_recording(task: RecordingTask) -> EstimateRow:
         std = getattr(res, "delta_std", None)
         if std is None:
             std = res.extra.get("delta_std")
+        reason = res.reason
+        if res.excitation_ok and not res.converged:
+            cause, std = unconverged_cause(res, std)
+            reason = f"{reason}{UNCONVERGED_MARK}{cause}"
         return EstimateRow(
             **base,
             content_hash=digest,
@@ -236,7 +241,7 @@ def estimate_recording(task: RecordingTask) -> EstimateRow:
             sample_rate_hz=rate,
             samples=n,
             status="ok",
-            reason=res.reason,
+            reason=reason,
             delta=res.delta,
             delta1_estimate=None if d1 is None else float(d1),
             delta_std=_std_or_none(std),
@@ -262,6 +267,46 @@ def estimate_recording(task: RecordingTask) -> EstimateRow:
         reason=reason,
         runtime_s=time.perf_counter() - t0,
     )
+
+
+def unconverged_cause(res: Any, std: Any) -> tuple[str, Any]:
+    """Why an excited estimate did not converge, and the uncertainty a wear trend may use.
+
+    Parameters
+    ----------
+    res : EstimationResult
+        The estimator's result (excited, not converged).
+    std : float or None
+        Its stated standard uncertainty of δ̂ [rad].
+
+    Returns
+    -------
+    cause : str
+        One line: the first blocking warning, else "not settled …" or the uncertainty warning.
+    std : float or None
+        ``std`` when its interval states the doubt itself — the only blocking warning is "the
+        estimate is uncertain by …" — or, when δ̂ had not settled over the last window, ``std``
+        widened to that window's movement (hypot(σ, movement/1.96)) — else None: a blocking warning (contact
+        stiffness at its limit, δ1 inconsistent, excitation information unresolved at the rate,
+        swapped channels, …) makes the stated σ conditional on parameters the data contradict,
+        so the estimate must not enter a trend weighted by it, nor raise an alarm (session 32
+        tester F, F5: 188.37 ± 0.08 mrad stored for a true 186, a false threshold alarm).
+    """
+    claim = res.extra.get("uncertainty_warning")
+    blocking = [w for w in res.warnings if not w.startswith("note:") and w != claim]
+    if blocking:
+        return blocking[0], None
+    if not res.extra.get("settled", True):
+        move = res.extra.get("window_movement")
+        if move is None or not math.isfinite(move) or std is None or not math.isfinite(std):
+            return "not settled", None
+        # the trend's σ spans the last window's movement (quadrature: one more standard
+        # uncertainty of where δ̂ ends): KR300 rec_C axis 1 moved 1.41 mrad with a stated ±0.27
+        return (
+            f"not settled: δ̂ moved {1e3 * move:.2f} mrad over its last window (σ widened to include it)",
+            math.hypot(std, move / 1.96),
+        )
+    return claim or "not settled", std
 
 
 def _std_or_none(std: Any) -> float | None:

@@ -216,7 +216,8 @@ class EstimateRow:
         The estimator's δ1 estimate or check value [rad].
     delta_std : float or None
         Standard uncertainty of δ̂ [rad] from the estimator; None when it gives none
-        (never made up).
+        (never made up), or when a blocking warning made the estimate unconverged (its σ is
+        conditional on parameters the data contradict; ``reason`` names the cause).
     excitation_ok, converged : bool or None
         The estimator's verdicts.
     runtime_s : float

@@ -928,7 +928,9 @@ def usable(r: dict[str, Any]) -> bool:
     """Whether a store row enters the trend: ok, excited, with δ̂ and a start time, and either
     converged or with a stated 95 % uncertainty 1.96·σ of at most :data:`UNCONVERGED_MAX_U95`
     (an excited estimate the estimator did not call converged — its uncertainty above its
-    2 mrad claim — enters weighted by 1/σ²; docs/assumptions.md, "Wear tracking")."""
+    2 mrad claim — enters weighted by 1/σ²; docs/assumptions.md, "Wear tracking"). An estimate a
+    blocking warning made unconverged is stored without σ and so stays out
+    (:func:`drivelash.wear.estimate.unconverged_cause`)."""
     if r["status"] != "ok" or not r["excitation_ok"] or r["delta"] is None or r["start_time"] is None:
         return False
     if r["converged"]:

@@ -10,6 +10,7 @@ from typing import Any
 __all__ = [
     "MINUTE_INTERVAL_DAYS",
     "REASON_GROUPS_SHOWN",
+    "UNCONVERGED_MARK",
     "brief_reason",
     "count",
     "crossing_interval",
@@ -18,6 +19,9 @@ __all__ = [
     "to_the_minute",
 ]
 
+#: Separates a stored excited-but-unconverged estimate's excitation reason from why it did not
+#: converge (``reason`` column; :func:`drivelash.wear.estimate.estimate_recording`).
+UNCONVERGED_MARK = "; not converged: "
 #: A crossing interval shorter than this is printed to the minute [days]: as dates alone its ends
 #: read "2026-01-13 … 2026-01-13", which says nothing about its width.
 MINUTE_INTERVAL_DAYS = 2.0
