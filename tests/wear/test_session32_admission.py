@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import dataclasses
 from datetime import datetime, timedelta
-from pathlib import Path
 
 import pytest
 
@@ -119,13 +118,57 @@ def test_uncertain_unconverged_estimates_still_enter_weighted():
     assert len(msg) == 1 and "(not settled: δ̂ moved 2.00 mrad over its last window)" in msg[0]
 
 
-KR300 = Path("/work/shared/data/kuka-kr300/rec_C.mat")
-KR300_DRIVE = Path("/work/team/diag32/testerF/kgrid/ax1_J3000.toml")
+#: Axis 1 of the KR300 with the authors' parameters where known (``para`` in the MAT file) and a
+#: plausible J_l = 3000 kg·m² (session 32 tester F's drive file for this case; N = 1798/7).
+KR300_AXIS1 = """
+[drivetrain]
+N = 256.85714285714283
+J_m = 0.0364
+J_l = 3000.0
+K_S = 870000.0
+D_S = 0.0
+T_Cm = 1.4
+T_Cl = 50.0
+beta_m = 0.03
+beta_l = 100.0
+
+[backlash]
+delta1 = 0.001
+
+[columns."rec.time_cont"]
+column = "t"
+unit = "s"
+
+[columns."rec.act_pos_mot_deg(1,:)"]
+column = "theta_m"
+unit = "deg"
+scale = 256.85714285714283
+
+[columns."rec.act_pos_se_deg(1,:)"]
+column = "theta_l"
+unit = "deg"
+
+[columns."rec.act_vel_mot_deg_per_s(1,:)"]
+column = "omega_m"
+unit = "deg/s"
+scale = 256.85714285714283
+
+[columns."rec.act_vel_se_deg_per_s(1,:)"]
+column = "omega_l"
+unit = "deg/s"
+
+[columns."rec.act_torque_abs_nm(1,:)"]
+column = "torque_m"
+unit = "N·m"
+"""
 
 
-@pytest.mark.skipif(not (KR300.exists() and KR300_DRIVE.exists()), reason="KR300 recording not here")
-def test_unsettled_estimate_enters_the_trend_only_with_its_last_window_movement():
-    est = dl.estimate_backlash(str(KR300), str(KR300_DRIVE))
+def test_unsettled_estimate_enters_the_trend_only_with_its_last_window_movement(tmp_path):
+    from realdata import shared_data
+
+    drive = tmp_path / "kr300_axis1.toml"
+    drive.write_text(KR300_AXIS1, encoding="utf-8")
+    est = dl.estimate_backlash(str(shared_data("kuka-kr300", "rec_C.mat")), str(drive))
     r = est.result
     assert not r.extra["settled"] and not est.converged and est.excitation_ok
     move = r.extra["window_movement"]
