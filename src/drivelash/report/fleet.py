@@ -487,8 +487,9 @@ def render_fleet_report(
             f"{count(len(summaries), 'axis', 'axes')}, {count(n_rec, 'recording')} in {store}; "
             f"{count(len(alarms), 'active alarm')}. "
             "Only recordings with sufficient excitation enter a trend: converged estimates, and "
-            f"unconverged ones whose stated 95 % uncertainty is at most {1e3 * UNCONVERGED_MAX_U95:g} mrad, "
-            "weighted by it. "
+            "unconverged ones only when nothing but their uncertainty (or an unsettled last window, "
+            "its movement added to σ) kept them from converging and that 95 % uncertainty is at most "
+            f"{1e3 * UNCONVERGED_MAX_U95:g} mrad, weighted by it. "
             "Axes are sorted by the forecast time to their maintenance threshold. "
             f"{TIMES_UTC} " + rate_sentence(summaries),
         ],
