@@ -14,6 +14,24 @@ from drivelash.sim.engine import simulate
 from drivelash.sim.scenarios import RIG_DRIVETRAIN
 
 TS = 125e-6
+
+#: The bench drive (bench-0B's estimator parameters and δ1) as the `[drivetrain]`/`[backlash]`
+#: TOML `estimate` reads.
+BENCH_DRIVE_TOML = """
+[drivetrain]
+J_m = 8.31e-4
+J_l = 8.31e-4
+N = 1.0
+K_S = 32.94
+D_S = 0.0548
+T_Cm = 0.0223
+T_Cl = 0.0232
+beta_m = 0.0016
+beta_l = 0.0016
+
+[backlash]
+delta1 = 0.093
+"""
 BENCH_SENSORS = SensorParams(counts_m=2048, counts_l=2048, sigma_omega_m=0.0316, sigma_omega_l=0.0316)
 RIG_ESTIMATOR = replace(RIG_DRIVETRAIN, T_Sm=0.0, T_Sl=0.0)
 

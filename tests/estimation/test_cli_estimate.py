@@ -11,24 +11,7 @@ import pytest
 from cli_runner import run_in_process
 from drivelash.control.references import position_sine
 
-from .conftest import TS, rig_trace
-
-GOOD_TOML = """
-[drivetrain]
-J_m = 8.31e-4
-J_l = 8.31e-4
-N = 1.0
-K_S = 32.94
-D_S = 0.0548
-T_Cm = 0.0223
-T_Cl = 0.0232
-beta_m = 0.0016
-beta_l = 0.0016
-
-[backlash]
-delta1 = 0.093
-"""
-
+from .conftest import BENCH_DRIVE_TOML, TS, rig_trace
 
 _run = run_in_process
 
@@ -48,7 +31,7 @@ def _toml(tmp_path: Path, text: str) -> Path:
 
 
 def test_estimate_json_contract(bench_csv, tmp_path, capsys):
-    cfg = _toml(tmp_path, GOOD_TOML)
+    cfg = _toml(tmp_path, BENCH_DRIVE_TOML)
     out = tmp_path / "o.json"
     code, stdout, err = _run(["estimate", str(bench_csv), "--config", str(cfg), "--json", str(out)], capsys)
     assert code == 0, err
@@ -92,7 +75,7 @@ def _bad_csv(tmp_path: Path, src: Path, edit) -> Path:
     ids=["missing-column", "nan", "time-not-increasing"],
 )
 def test_bad_trace_one_line(bench_csv, tmp_path, capsys, edit, field):
-    cfg = _toml(tmp_path, GOOD_TOML)
+    cfg = _toml(tmp_path, BENCH_DRIVE_TOML)
     bad = _bad_csv(tmp_path, bench_csv, edit)
     code, _, err = _run(["estimate", str(bad), "--config", str(cfg)], capsys)
     assert code == 2
@@ -105,13 +88,13 @@ def test_bad_trace_one_line(bench_csv, tmp_path, capsys, edit, field):
 @pytest.mark.parametrize(
     ("text", "field"),
     [
-        (GOOD_TOML.replace("K_S = 32.94\n", ""), "K_S"),
-        (GOOD_TOML.replace("K_S = 32.94", "K_s = 32.94"), "K_s"),
-        (GOOD_TOML.replace("J_l = 8.31e-4", "J_l = -8.31e-4"), "J_l"),
-        (GOOD_TOML.replace("delta1 = 0.093", "delta1 = -0.093"), "delta1"),
-        (GOOD_TOML + "\n[estimator]\ngamma = -3.0\n", "gamma"),
-        (GOOD_TOML + "\n[estimator]\nk1 = 'fast'\n", "k1"),
-        (GOOD_TOML.replace("[backlash]\ndelta1 = 0.093\n", ""), "backlash"),
+        (BENCH_DRIVE_TOML.replace("K_S = 32.94\n", ""), "K_S"),
+        (BENCH_DRIVE_TOML.replace("K_S = 32.94", "K_s = 32.94"), "K_s"),
+        (BENCH_DRIVE_TOML.replace("J_l = 8.31e-4", "J_l = -8.31e-4"), "J_l"),
+        (BENCH_DRIVE_TOML.replace("delta1 = 0.093", "delta1 = -0.093"), "delta1"),
+        (BENCH_DRIVE_TOML + "\n[estimator]\ngamma = -3.0\n", "gamma"),
+        (BENCH_DRIVE_TOML + "\n[estimator]\nk1 = 'fast'\n", "k1"),
+        (BENCH_DRIVE_TOML.replace("[backlash]\ndelta1 = 0.093\n", ""), "backlash"),
     ],
     ids=[
         "missing-key",
@@ -138,7 +121,7 @@ def test_delta1_in_mrad_is_refused_before_the_run(bench_csv, tmp_path, capsys, e
     """``delta1 = 93`` (mrad for 0.093 rad) exceeds δ_max ≥ δ ≥ δ1: refused in one line naming file,
     table and key. Before, the run went ahead and reported an unexcited recording ("the gap was
     never crossed ... a constant load torque such as gravity") and δ̂ at its bound."""
-    cfg = _toml(tmp_path, GOOD_TOML.replace("delta1 = 0.093", "delta1 = 93.0") + estimator)
+    cfg = _toml(tmp_path, BENCH_DRIVE_TOML.replace("delta1 = 0.093", "delta1 = 93.0") + estimator)
     code, out, err = _run(["estimate", str(bench_csv), "--config", str(cfg)], capsys)
     assert code == 2 and out == ""
     bound = "1" if estimator else "2"
@@ -155,9 +138,9 @@ def test_delta1_up_to_delta_max_is_taken(tmp_path):
     from drivelash.io.config import load_config
 
     for text in (
-        GOOD_TOML.replace("delta1 = 0.093", "delta1 = 0.5135"),
-        GOOD_TOML.replace("delta1 = 0.093", "delta1 = 2.0"),
-        GOOD_TOML.replace("delta1 = 0.093", "delta1 = 3.0") + "\n[estimator]\ndelta_max = 4.0\n",
+        BENCH_DRIVE_TOML.replace("delta1 = 0.093", "delta1 = 0.5135"),
+        BENCH_DRIVE_TOML.replace("delta1 = 0.093", "delta1 = 2.0"),
+        BENCH_DRIVE_TOML.replace("delta1 = 0.093", "delta1 = 3.0") + "\n[estimator]\ndelta_max = 4.0\n",
     ):
         cfg = load_config(_toml(tmp_path, text))
         assert cfg.backlash.delta1 in (0.5135, 2.0, 3.0)
@@ -182,7 +165,7 @@ def test_delta1_unit_slip_below_delta_max_is_named_not_called_unexcited(bench_cs
     spans about ±0.1 rad — the verdict names δ1 in the summary and the JSON, not converged.
     Before: "excitation INSUFFICIENT: the shaft torque reversed 12 times but the gap was never
     crossed … gravity". Negative control: the right δ1 on the same recording is not flagged."""
-    slip = _toml(tmp_path, GOOD_TOML.replace("delta1 = 0.093", "delta1 = 1.0"))
+    slip = _toml(tmp_path, BENCH_DRIVE_TOML.replace("delta1 = 0.093", "delta1 = 1.0"))
     out_json = tmp_path / "e.json"
     code, out, err = _run(
         ["estimate", str(bench_csv), "--config", str(slip), "--json", str(out_json)], capsys
@@ -197,7 +180,7 @@ def test_delta1_unit_slip_below_delta_max_is_named_not_called_unexcited(bench_cs
     assert " ".join(out.split()).count(" ".join(start.split())) == 1, out  # the summary names it
     assert "excitation not judged: [backlash] delta1" in out and "INSUFFICIENT" not in out
 
-    good = _toml(tmp_path, GOOD_TOML)
+    good = _toml(tmp_path, BENCH_DRIVE_TOML)
     code, out, err = _run(
         ["estimate", str(bench_csv), "--config", str(good), "--json", str(out_json)], capsys
     )
@@ -234,7 +217,7 @@ def test_delta1_outside_range_never_flags_the_right_delta1_of_the_bench_scenario
 
 
 def test_estimate_plot_and_report(bench_csv, tmp_path, capsys):
-    cfg = _toml(tmp_path, GOOD_TOML)
+    cfg = _toml(tmp_path, BENCH_DRIVE_TOML)
     png, html = tmp_path / "e.png", tmp_path / "e.html"
     code, _, err = _run(
         ["estimate", str(bench_csv), "--config", str(cfg), "--plot", str(png), "--report", str(html)], capsys
@@ -245,7 +228,7 @@ def test_estimate_plot_and_report(bench_csv, tmp_path, capsys):
 
 
 def test_estimate_paper_method_and_bad_method(bench_csv, tmp_path, capsys):
-    cfg = _toml(tmp_path, GOOD_TOML)
+    cfg = _toml(tmp_path, BENCH_DRIVE_TOML)
     out = tmp_path / "p.json"
     code, _, _ = _run(
         ["estimate", str(bench_csv), "-c", str(cfg), "--method", "paper", "--json", str(out)], capsys
@@ -270,14 +253,14 @@ def test_estimate_prints_load_warnings_and_unwraps(bench_csv, tmp_path, capsys):
         f'[columns.{c}]\ncolumn = "{c}"\nunit = "counts"\ncounts_per_rev = 2048\n'
         for c in ("theta_m", "theta_l")
     )
-    cfg = _toml(tmp_path, GOOD_TOML + cols)
+    cfg = _toml(tmp_path, BENCH_DRIVE_TOML + cols)
     js_si, js_counts = tmp_path / "si.json", tmp_path / "counts.json"
     code, _, _ = _run(
         [
             "estimate",
             str(bench_csv),
             "--config",
-            str(_toml(tmp_path / "..", GOOD_TOML)),
+            str(_toml(tmp_path / "..", BENCH_DRIVE_TOML)),
             "--json",
             str(js_si),
         ],
@@ -296,7 +279,9 @@ def test_estimate_prints_load_warnings_and_unwraps(bench_csv, tmp_path, capsys):
 def test_estimator_table_sets_any_gain_and_the_command_line_wins(bench_csv, tmp_path, capsys):
     """[estimator] reaches EstimatorConfig key for key (here method, eps_delta, window);
     --method on the command line overrides the file's method."""
-    cfg = _toml(tmp_path, GOOD_TOML + '\n[estimator]\nmethod = "paper"\neps_delta = 0.05\nwindow = 3.0\n')
+    cfg = _toml(
+        tmp_path, BENCH_DRIVE_TOML + '\n[estimator]\nmethod = "paper"\neps_delta = 0.05\nwindow = 3.0\n'
+    )
     out = tmp_path / "o.json"
     code, _, err = _run(["estimate", str(bench_csv), "--config", str(cfg), "--json", str(out)], capsys)
     assert code == 0, err
@@ -311,7 +296,7 @@ def test_estimator_table_sets_any_gain_and_the_command_line_wins(bench_csv, tmp_
     # alpha given twice with different values is refused, not silently resolved
     both = _toml(
         tmp_path,
-        GOOD_TOML.replace("delta1 = 0.093", "delta1 = 0.093\nalpha = 500.0")
+        BENCH_DRIVE_TOML.replace("delta1 = 0.093", "delta1 = 0.093\nalpha = 500.0")
         + "\n[estimator]\nalpha = 900.0\n",
     )
     code, _, err = _run(["estimate", str(bench_csv), "--config", str(both)], capsys)

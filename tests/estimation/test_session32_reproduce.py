@@ -22,23 +22,7 @@ from drivelash.estimation.reproduce import (
 )
 from drivelash.metrics import convergence_time
 
-from .conftest import TS, rig_trace
-
-DRIVE_TOML = """
-[drivetrain]
-J_m = 8.31e-4
-J_l = 8.31e-4
-N = 1.0
-K_S = 32.94
-D_S = 0.0548
-T_Cm = 0.0223
-T_Cl = 0.0232
-beta_m = 0.0016
-beta_l = 0.0016
-
-[backlash]
-delta1 = 0.093
-"""
+from .conftest import BENCH_DRIVE_TOML, TS, rig_trace
 
 
 def _fake_run(t: np.ndarray, err: np.ndarray, converged: bool = True) -> tuple[dict, SimpleNamespace]:
@@ -156,7 +140,7 @@ def truth_recording(tmp_path_factory) -> tuple[Path, Path]:
     p = d / "bench.csv"
     trace.select(["theta_m", "omega_m", "theta_l", "omega_l", "torque_m", "delta_true"]).to_csv(p)
     cfg = d / "drive.toml"
-    cfg.write_text(DRIVE_TOML, encoding="utf-8")
+    cfg.write_text(BENCH_DRIVE_TOML, encoding="utf-8")
     return p, cfg
 
 
