@@ -122,6 +122,7 @@ class _Stop:
     pending: int | None = None  # a signal that could not stop the command where it landed
     timer: Any = None
     raised_at: float | None = None  # when the handler raised the stop (monotonic clock [s])
+    raised_sig: int | None = None  # the signal of that stop
 
 
 #: A further Ctrl-C/SIGTERM within this time after the one that stopped the command is not
@@ -153,7 +154,7 @@ def _on_signal(signum: int, frame: Any) -> None:
     if _Stop.active and not _Stop.in_hook:
         now = time.monotonic()
         if _Stop.raised_at is None or now - _Stop.raised_at >= STOP_AGAIN_AFTER_S:
-            _Stop.raised_at = now
+            _Stop.raised_at, _Stop.raised_sig = now, signum
             raise _stop_exception(signum)
         return  # the stop is under way (see STOP_AGAIN_AFTER_S)
     _Stop.pending = signum
@@ -255,9 +256,17 @@ def main(argv: list[str] | None = None) -> None:
                 warnings.simplefilter("error", RuntimeWarning)
             else:
                 warnings.simplefilter("ignore", RuntimeWarning)
-            _Stop.pending, _Stop.active, _Stop.raised_at = None, True, None
+            _Stop.pending, _Stop.active, _Stop.raised_at, _Stop.raised_sig = None, True, None, None
             try:
                 rv = _click_command()(args=argv, prog_name="drivelash", standalone_mode=False)
+            except Exception:
+                # a stop raised inside library code can come back as another error: numba's
+                # compiler swallowed the Interrupted and its cache then failed with "no compiled
+                # object yet" (a traceback, exit 1, in the clean-clone run of session 32)
+                sig = _Stop.raised_sig if _Stop.raised_at is not None else _Stop.pending
+                if sig is None:
+                    raise
+                raise _stop_exception(sig) from None
             finally:  # from here on a signal is only remembered, never raised
                 _Stop.active = False
                 if _Stop.timer is not None:
