@@ -144,3 +144,18 @@ def test_api_trace_gets_the_loaders_velocity_checks(bench_0c, factor, match):
 def test_api_trace_negative_control_unchanged(bench_0c):
     est = dl.estimate_backlash(bench_0c, BENCH_TOML, delta1=0.0525)
     assert round(1e3 * est.delta) == 105 and est.converged
+
+
+def test_a_loaded_trace_is_not_checked_twice(bench, tmp_path, monkeypatch):
+    """`identify` hands the trace the loader checked to the fit: the velocity checks (0.14 s on a
+    60 s recording at 8 kHz) run once, in the loader."""
+    import drivelash.io.load as load
+    from drivelash.estimation.identify_two_mass import as_trace
+
+    tr = dl.load_trace(bench, str(_config(tmp_path, 8000.0)))
+    calls = []
+    monkeypatch.setattr(load, "check_trace_velocities", lambda *a: calls.append(a))
+    assert as_trace(tr, None, [], "identify_drive") is tr and calls == []
+    built = dl.Trace({n: tr[n] for n in tr.names}, {})  # negative control: built in Python
+    as_trace(built, None, [], "identify_drive")
+    assert len(calls) == 1

@@ -3660,7 +3660,8 @@ def as_trace(data: Any, mapping: Any, need: list[str], caller: str) -> Trace:
     """A Trace from a Trace, a pandas DataFrame (validated like a file) or a path.
 
     A Trace built in Python (``Trace({...})``, a simulation) gets the loader's velocity checks
-    (sign, unit factor, scale against the position: :func:`drivelash.io.load.check_trace_velocities`).
+    (sign, unit factor, scale against the position: :func:`drivelash.io.load.check_trace_velocities`);
+    one the loader returned (``meta["format"]`` set: ``identify``'s own trace) is not checked twice.
 
     ``mapping`` is a DriveConfig or a ``[columns]``-style dict; ``need`` the required columns;
     ``caller`` names the API function in the error message. A loading error's command-line hint
@@ -3672,9 +3673,10 @@ def as_trace(data: Any, mapping: Any, need: list[str], caller: str) -> Trace:
     from drivelash.io.load import in_python_terms
 
     if isinstance(data, Trace):
-        from drivelash.io.load import check_trace_velocities
+        if "format" not in data.meta:  # not read by the loader, which ran these checks already
+            from drivelash.io.load import check_trace_velocities
 
-        check_trace_velocities(data, caller)
+            check_trace_velocities(data, caller)
         return data
     import pandas as pd
 
