@@ -159,6 +159,9 @@ def test_an_update_that_makes_the_model_worse_is_refused_unless_accepted(setup, 
         assert e["after_um"] == pytest.approx(1.5 * e["before_um"])
 
 
+# slow since session 33 (12.5 s of `make test`: a training in a fresh process); the update's
+# version, refusal and record stay fast in this file.
+@pytest.mark.slow
 def test_update_pins_the_numerics_like_te_fit_and_records_no_worsening(setup, tmp_path):
     """The real entry point (a fresh process): no raw torch warning, the pinned code path recorded."""
     import os

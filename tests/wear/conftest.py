@@ -193,6 +193,19 @@ def pg_url(pg_server) -> str:
     return f"postgresql+psycopg://{pg_server['user']}@{pg_server['host']}:{pg_server['port']}/{name}"
 
 
+def ingest_here(fleet_toml: Path, db, capsys):
+    """:func:`ingest_cmd`'s ``track ingest`` run in this process (a :class:`cli_runner.CliResult`):
+    for checks whose subject is the command's output, not the process (no other writer, no
+    signal); a fresh interpreter costs ≈ 2.5 s of `make test` per call (session 33)."""
+    import sys
+
+    from cli_runner import run_in_process
+
+    cmd = ingest_cmd(fleet_toml, db)
+    assert cmd[:3] == [sys.executable, "-m", "drivelash.cli"], cmd
+    return run_in_process(cmd[3:], capsys)
+
+
 def ingest_cmd(fleet_toml: Path, db: Path) -> list[str]:
     """``drivelash track ingest FLEET --db DB --workers 1`` as a subprocess argument list."""
     import sys

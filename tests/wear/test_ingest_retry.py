@@ -8,14 +8,13 @@ from __future__ import annotations
 
 import os
 import shutil
-import subprocess
 from dataclasses import replace
 
 from drivelash.wear import Store, ingest, load_fleet
 from drivelash.wear.estimate import estimate_recording
 from drivelash.wear.fleet import TimeSpec
 
-from .conftest import _add_corrupt, ingest_cmd
+from .conftest import _add_corrupt, ingest_here
 from .test_redate_duplicates import FILENAME_TIME, _tiny
 
 BAD_FORMAT = TimeSpec.model_validate(
@@ -81,12 +80,11 @@ def test_still_failing_recordings_are_counted_and_stay_once(small_fleet, tmp_pat
     assert sorted(_statuses(st)) == ["failed"] * 2 + ["ok"] * 3 and st.counts()["estimate"] == 5
 
 
-def test_cli_time_format_that_dates_no_file_is_a_config_error(small_fleet, tmp_path):
+def test_cli_time_format_that_dates_no_file_is_a_config_error(small_fleet, tmp_path, capsys):
     bad = FILENAME_TIME.replace("%Y%m%dT%H%M%S", "%Y-%m-%dT%H%M%S")
     f = _tiny(small_fleet, tmp_path / "f", bad)
     db = tmp_path / "w.sqlite"
-    cmd = ingest_cmd(f, db)
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    r = ingest_here(f, db, capsys)
     assert r.returncode == 2, r.stderr
     err = r.stderr.strip()
     assert "\n" not in err and str(f) in err and "key 'time'" in err and "M01/X" in err
@@ -94,17 +92,16 @@ def test_cli_time_format_that_dates_no_file_is_a_config_error(small_fleet, tmp_p
     assert not db.exists()
     # negative control: the right format ingests (exit 0); summary without a retry count
     f.write_text(f.read_text().replace(bad, FILENAME_TIME))
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    r = ingest_here(f, db, capsys)
     assert r.returncode == 0, r.stderr
     assert "retried" not in r.stdout and len(Store(db, create=False).estimates()) == 3
 
 
-def test_cli_summary_counts_retried(small_fleet, tmp_path):
+def test_cli_summary_counts_retried(small_fleet, tmp_path, capsys):
     f = _tiny(small_fleet, tmp_path / "f", FILENAME_TIME)
     db = tmp_path / "w.sqlite"
     ingest(load_fleet(f), Store(db), workers=1, compute=_wrong_format)
-    cmd = ingest_cmd(f, db)
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    r = ingest_here(f, db, capsys)
     assert r.returncode == 0, r.stderr
     out = " ".join(r.stdout.split())
     assert "0 new recordings estimated" in out and "3 retried, 0 still failing" in out

@@ -8,7 +8,6 @@ from __future__ import annotations
 import importlib
 import os
 import shutil
-import subprocess
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -20,7 +19,7 @@ from drivelash.wear.alarms import fleet_summary
 from drivelash.wear.estimate import RecordingTask, estimate_recording
 from drivelash.wear.store import EstimateRow
 
-from .conftest import copy_fleet, ingest_cmd
+from .conftest import copy_fleet, ingest_here
 from .test_ingest_retry import _wrong_format
 from .test_redate_duplicates import FILENAME_TIME, _tiny, _write, ingested_with_a_copy
 
@@ -221,14 +220,12 @@ def test_only_files_of_unknown_facts_and_a_stored_size_are_hashed(small_fleet, t
     assert hashed == [str(a)]
 
 
-def test_cli_summary_counts_the_moved_recordings(small_fleet, tmp_path):
+def test_cli_summary_counts_the_moved_recordings(small_fleet, tmp_path, capsys):
     f = _tiny(small_fleet, tmp_path / "f", FILENAME_TIME)
     db = tmp_path / "w.sqlite"
     ingest(load_fleet(f), Store(db), workers=1)
     shutil.move(tmp_path / "f", tmp_path / "g")
-    r = subprocess.run(
-        ingest_cmd(tmp_path / "g" / "fleet.toml", db), capture_output=True, text=True, timeout=300
-    )
+    r = ingest_here(tmp_path / "g" / "fleet.toml", db, capsys)
     assert r.returncode == 0, r.stderr
     out = " ".join(r.stdout.split())
     assert "0 new recordings estimated" in out and "3 moved or renamed (not re-estimated)" in out, out

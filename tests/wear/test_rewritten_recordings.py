@@ -7,11 +7,10 @@ from __future__ import annotations
 import hashlib
 import json
 import shutil
-import subprocess
 
 from drivelash.wear import Store, ingest, load_fleet
 
-from .conftest import ingest_cmd
+from .conftest import ingest_here
 from .test_redate_duplicates import FILENAME_TIME, _tiny, ingested_with_a_copy
 
 
@@ -26,7 +25,7 @@ def _other_recording(small_fleet, exclude: set[str]) -> bytes:
     return (small_fleet / rel).read_bytes()
 
 
-def test_a_file_rewritten_under_its_name_replaces_its_recording(small_fleet, tmp_path):
+def test_a_file_rewritten_under_its_name_replaces_its_recording(small_fleet, tmp_path, capsys):
     f = _tiny(small_fleet, tmp_path / "f", FILENAME_TIME)
     db = tmp_path / "w.sqlite"
     st = Store(db)
@@ -37,7 +36,7 @@ def test_a_file_rewritten_under_its_name_replaces_its_recording(small_fleet, tmp
     new_bytes = _other_recording(small_fleet, {p.name for p in files})
     target.write_bytes(new_bytes)  # re-exported: same name, other content
 
-    r = subprocess.run(ingest_cmd(f, db), capture_output=True, text=True, timeout=300)
+    r = ingest_here(f, db, capsys)
     assert r.returncode == 0, r.stderr
     out = " ".join(r.stdout.split())
     assert "1 new recording estimated" in out and "1 replaced (content changed)" in out, out

@@ -4,9 +4,7 @@ tester B, B-08 and B-10)."""
 from __future__ import annotations
 
 import json
-import os
 import shutil
-import subprocess
 import sys
 from datetime import UTC, datetime
 
@@ -14,37 +12,33 @@ from drivelash.report.fleet import NOW_LEGEND
 from drivelash.wear import Store, ingest, load_fleet
 from drivelash.wear.alarms import stale_notes
 
-from .conftest import ingest_cmd
+from .conftest import ingest_here
 from .test_ingest_retry import tiny_with_corrupt
 from .test_redate_duplicates import FILENAME_TIME, _tiny
 
 DRIVELASH = [sys.executable, "-m", "drivelash.cli"]
 
 
-def test_cli_summary_does_not_count_failed_files_as_estimated(small_fleet, tmp_path):
+def test_cli_summary_does_not_count_failed_files_as_estimated(small_fleet, tmp_path, capsys):
     """B-10: '5 new recordings estimated (…, 2 failed)' called two unreadable files estimated."""
     f = tiny_with_corrupt(small_fleet, tmp_path)
-    cmd = ingest_cmd(f, tmp_path / "w.sqlite")
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    r = ingest_here(f, tmp_path / "w.sqlite", capsys)
     out = " ".join(r.stdout.split())
     assert "5 new recordings: 3 estimated, 2 failed (" in out, out
     assert "new recordings estimated" not in out
     # negative control: the retry run reads no new file; its wording is the plain one
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    r = ingest_here(f, tmp_path / "w.sqlite", capsys)
     out = " ".join(r.stdout.split())
     assert "0 new recordings estimated" in out and "2 retried, 2 still failing" in out, out
 
 
-def _status_forecast(f, db):
-    env = {**os.environ, "COLUMNS": "240"}
-    st = subprocess.run([*DRIVELASH, "track", "status", "--fleet", str(f), "--db", str(db)],
-                        capture_output=True, text=True, timeout=300, env=env)  # fmt: skip
-    fc = subprocess.run([*DRIVELASH, "track", "forecast", "M01/X", "--fleet", str(f), "--db", str(db)],
-                        capture_output=True, text=True, timeout=300, env=env)  # fmt: skip
+def _status_forecast(f, db, cli250):
+    st = cli250(["track", "status", "--fleet", str(f), "--db", str(db)])
+    fc = cli250(["track", "forecast", "M01/X", "--fleet", str(f), "--db", str(db)])
     return " ".join(st.stdout.split()), " ".join(fc.stdout.split())
 
 
-def test_too_few_estimates_show_the_latest_and_say_why_the_alarm(small_fleet, tmp_path):
+def test_too_few_estimates_show_the_latest_and_say_why_the_alarm(small_fleet, tmp_path, cli250):
     """B-08: an axis with 3 accurate estimates showed 'δ now –', 'fitted now – … 3 in the fit …
     model: none', and its threshold alarm blamed 'a jump or a bad recording'."""
     f = _tiny(small_fleet, tmp_path / "f", FILENAME_TIME)
@@ -53,7 +47,7 @@ def test_too_few_estimates_show_the_latest_and_say_why_the_alarm(small_fleet, tm
     rows = sorted(Store(db, create=False).estimates("M01/X"), key=lambda r: r["start_time"])
     latest = rows[-1]["delta"]
     f.write_text(f.read_text().replace("threshold = 0.2", "threshold = 0.001"))  # far below δ
-    status, forecast = _status_forecast(f, db)
+    status, forecast = _status_forecast(f, db, cli250)
     assert f"M01/X ({1e3 * latest:.2f}) 1.00 –" in status, status
     assert NOW_LEGEND in status
     assert "too few recordings for a trend yet, 3 usable estimates of 5" in status
@@ -67,7 +61,7 @@ def test_too_few_estimates_show_the_latest_and_say_why_the_alarm(small_fleet, tm
     for rel in more:
         shutil.copy(small_fleet / rel, tmp_path / "f" / "rec")
     ingest(load_fleet(f), Store(db), workers=1)
-    status, forecast = _status_forecast(f, db)
+    status, forecast = _status_forecast(f, db, cli250)
     assert NOW_LEGEND not in status and "(" + f"{1e3 * latest:.2f}" not in status, status
     assert "5 of 5 recordings usable, 5 in the fit" in forecast and "latest estimate" not in forecast
 

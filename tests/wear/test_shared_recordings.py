@@ -5,14 +5,13 @@ parameters and raised a false threshold alarm)."""
 from __future__ import annotations
 
 import shutil
-import subprocess
 
 import pytest
 
 from drivelash.errors import ConfigError
 from drivelash.wear import Store, ingest, load_fleet
 
-from .conftest import ingest_cmd
+from .conftest import ingest_here
 from .test_redate_duplicates import FILENAME_TIME, _tiny
 
 
@@ -31,11 +30,10 @@ def _two_axes(small_fleet, dst, second_glob: str):
     return f
 
 
-def test_cli_a_file_of_two_axes_is_refused_nothing_written(small_fleet, tmp_path):
+def test_cli_a_file_of_two_axes_is_refused_nothing_written(small_fleet, tmp_path, capsys):
     f = _two_axes(small_fleet, tmp_path / "f", "rec/*.parquet")  # the copy-paste slip
     db = tmp_path / "w.sqlite"
-    cmd = ingest_cmd(f, db)
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    r = ingest_here(f, db, capsys)
     assert r.returncode == 2, r.stderr
     err = r.stderr.strip()
     assert "\n" not in err and err.startswith(f"drivelash: error: {f}: "), err
@@ -44,7 +42,7 @@ def test_cli_a_file_of_two_axes_is_refused_nothing_written(small_fleet, tmp_path
     assert "nothing was written" in err and not db.exists()
     # negative control: M02/X on its own directory (a copy of the same content is another file)
     f2 = _two_axes(small_fleet, tmp_path / "g", "rec2/*.parquet")
-    r = subprocess.run([*cmd[:5], str(f2), *cmd[6:]], capture_output=True, text=True, timeout=300)
+    r = ingest_here(f2, db, capsys)
     assert r.returncode == 0, r.stderr
     assert {r["axis"] for r in Store(db, create=False).estimates()} == {"M01/X", "M02/X"}
 

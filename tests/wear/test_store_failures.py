@@ -17,10 +17,9 @@ from typing import Any
 import pytest
 import sqlalchemy as sa
 
-from cli_runner import run_in_process
 from drivelash.wear.store import Store, StoreError
 
-from .conftest import ingest_cmd
+from .conftest import ingest_cmd, ingest_here
 
 #: One machine, two axes, three short recordings each: enough for two batches and a trend.
 TINY = {"machines": 1, "axes": 2, "recordings": 3, "seed": 7, "duration": 4.0}
@@ -92,20 +91,12 @@ def _run(args: list[str], **env: str) -> subprocess.CompletedProcess:
     return subprocess.run(args, capture_output=True, text=True, timeout=300, env={**os.environ, **env})
 
 
-def _ingest_here(fleet_toml: Path, db, capsys):
-    """:func:`ingest_cmd`'s ``track ingest`` run in this process (no other writer involved: a
-    store to set up, or the ingest once the other writer is gone); a :class:`CliResult`."""
-    cmd = ingest_cmd(fleet_toml, db)
-    assert cmd[:3] == [sys.executable, "-m", "drivelash.cli"], cmd
-    return run_in_process(cmd[3:], capsys)
-
-
 def test_ingest_while_another_writer_holds_the_lock_is_one_line_and_writes_nothing(
     tiny_fleet, tmp_path, capsys
 ):
     fleet, held = _fleet_copy(tiny_fleet, tmp_path / "f", hold_back=1)
     db = tmp_path / "w.sqlite"
-    r = _ingest_here(fleet / "fleet.toml", db, capsys)
+    r = ingest_here(fleet / "fleet.toml", db, capsys)
     assert r.returncode == 0, r.stderr
     for aside, p in held:  # a new recording to store
         aside.rename(p)
@@ -126,7 +117,7 @@ def test_ingest_while_another_writer_holds_the_lock_is_one_line_and_writes_nothi
     assert waited < 60  # the lowered timeout was used, not 30 s per statement
     assert _state(db) == before
     # readers in WAL mode are not blocked by a writer, and once it is gone the ingest resumes
-    r = _ingest_here(fleet / "fleet.toml", db, capsys)
+    r = ingest_here(fleet / "fleet.toml", db, capsys)
     assert r.returncode == 0, r.stderr
     rec, est = _state(db)
     assert rec[: len(before[0])] == before[0] and len(rec) == len(before[0]) + 1 and len(est) == len(rec)
@@ -135,7 +126,7 @@ def test_ingest_while_another_writer_holds_the_lock_is_one_line_and_writes_nothi
 def test_readers_hitting_a_lock_say_so_in_one_line(tiny_fleet, tmp_path, capsys):
     fleet, _ = _fleet_copy(tiny_fleet, tmp_path / "f")
     db = tmp_path / "w.sqlite"
-    r = _ingest_here(fleet / "fleet.toml", db, capsys)
+    r = ingest_here(fleet / "fleet.toml", db, capsys)
     assert r.returncode == 0, r.stderr
     # a writer in exclusive locking mode keeps even WAL readers out
     other = sqlite3.connect(db, isolation_level=None)
@@ -346,7 +337,7 @@ def test_postgresql_writer_gives_up_on_a_held_write_lock_after_the_busy_timeout(
     from drivelash.wear.store import PG_WRITE_LOCK
 
     fleet, held = _fleet_copy(tiny_fleet, tmp_path / "f", hold_back=1)
-    r = _ingest_here(fleet / "fleet.toml", pg_url, capsys)
+    r = ingest_here(fleet / "fleet.toml", pg_url, capsys)
     assert r.returncode == 0, r.stderr
     for aside, p in held:  # a new recording to store
         aside.rename(p)
@@ -377,7 +368,7 @@ def test_postgresql_writer_gives_up_on_a_held_write_lock_after_the_busy_timeout(
         assert _pg_state(pg_url) == before
         other.execute("SELECT pg_advisory_unlock(%s)", (PG_WRITE_LOCK,))
     # the lock released, the ingest stores the new recording
-    r = _ingest_here(fleet / "fleet.toml", pg_url, capsys)
+    r = ingest_here(fleet / "fleet.toml", pg_url, capsys)
     assert r.returncode == 0, r.stderr
     rec, est = _pg_state(pg_url)
     assert rec[: len(before[0])] == before[0] and len(rec) == len(before[0]) + 1 and len(est) == len(rec)
