@@ -57,33 +57,6 @@ def _the_rest() -> str:
     return "paper law, identification, rack axis"
 
 
-def _te_runtime() -> str:
-    """The TE model's predictor and the compensator (≈ 20 s cold), on the small synthetic model the
-    TE runtime tests fit (tests/te_learn/conftest.py), saved and loaded as they do."""
-    import numpy as np
-
-    sys.path.insert(0, str(REPO / "tests"))
-    from drivelash.te.learn.preprocess import TEPipeline
-    from drivelash.te.runtime.compensator import Compensator, CompensatorParams
-    from drivelash.te.runtime.persist import load_model, save_model
-    from drivelash.te.runtime.table import build_table
-    from te_learn.conftest import GEOM, grid_x_default, make_small_trained, make_train_xy
-
-    pipe = TEPipeline(GEOM)
-    trained = make_small_trained(pipe, make_train_xy(pipe, grid_x_default()))
-    with tempfile.TemporaryDirectory() as d:
-        model = load_model(save_model(trained, Path(d) / "m"))
-    x = np.linspace(0.01, 0.29, 301)
-    for direction in (1, -1):
-        model.predict(x, 1.0 * direction, direction)
-        model.predict_def_um(x, 1.0 * direction, direction)
-    table = build_table(model, 0.0, 0.3, 1e-3, 9.0, 10)
-    n = 40
-    zero = np.zeros(n)
-    Compensator(table, CompensatorParams()).run(np.linspace(0.10, 0.14, n + 1), np.full(n, 1.0), zero, zero)
-    return "TE runtime"
-
-
 def _guarded(fn) -> str:
     try:
         return fn()
@@ -94,7 +67,7 @@ def _guarded(fn) -> str:
 def main() -> int:
     t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=2) as pool:
-        done = list(pool.map(_guarded, (_default_law, _the_rest, _te_runtime)))
+        done = list(pool.map(_guarded, (_default_law, _the_rest)))
     print(f"numba cache warmed ({', '.join(done)}) in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
     return 0
 

@@ -39,18 +39,13 @@ def pipe() -> TEPipeline:
     return TEPipeline(GEOM)
 
 
-def grid_x_default() -> np.ndarray:
-    """The positions of :func:`grid_x` [m] (a plain function: tests/warm_numba_cache.py uses it)."""
+@pytest.fixture(scope="session")
+def grid_x() -> np.ndarray:
     return np.arange(0.0, 0.3, 100e-6)
 
 
 @pytest.fixture(scope="session")
-def grid_x() -> np.ndarray:
-    return grid_x_default()
-
-
-def make_train_xy(pipe: TEPipeline, grid_x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The training set of :func:`train_xy` (a plain function: tests/warm_numba_cache.py uses it)."""
+def train_xy(pipe: TEPipeline, grid_x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     loads = (0.0, 1000.0, 2000.0, 3000.0)
     X = np.vstack([design(grid_x, F, pipe) for F in loads])
     y = np.concatenate([te_def_um(grid_x, F) for F in loads])
@@ -58,18 +53,8 @@ def make_train_xy(pipe: TEPipeline, grid_x: np.ndarray) -> tuple[np.ndarray, np.
 
 
 @pytest.fixture(scope="session")
-def train_xy(pipe: TEPipeline, grid_x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    return make_train_xy(pipe, grid_x)
-
-
-@pytest.fixture(scope="session")
 def small_trained(pipe: TEPipeline, train_xy: tuple[np.ndarray, np.ndarray]):
     """A quickly fitted trained model (no tuning) for persistence tests."""
-    return make_small_trained(pipe, train_xy)
-
-
-def make_small_trained(pipe: TEPipeline, train_xy: tuple[np.ndarray, np.ndarray]):
-    """The model of :func:`small_trained` (a plain function: tests/warm_numba_cache.py uses it)."""
     from drivelash.te.learn.fit import TrainedTEModel
     from drivelash.te.learn.network import MLPRegressor
     from drivelash.te.learn.stacked import StackedTERegressor, default_trees
