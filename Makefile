@@ -44,15 +44,11 @@ components:
 
 # One BLAS/OpenMP thread per pytest worker: two workers on two cores with two OpenBLAS threads
 # each oversubscribe the cores (tests/identify: 176 s -> 105 s wall, session 25).
-# tests/warm_numba_cache.py compiles the largest numba kernels once, in two processes, before the
-# workers start (each worker compiled them again on a clean clone; session 33).
 test: $(STAMP) components
-	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(PY) tests/warm_numba_cache.py
 	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 \
 	  $(PY) -m pytest -q -n $(PYTEST_WORKERS) -m "not slow"
 
 test-slow: $(STAMP) components
-	$(PY) tests/warm_numba_cache.py
 	$(PY) -m pytest -q -n $(PYTEST_WORKERS) -m "slow"
 
 bench: $(STAMP)
