@@ -19,6 +19,9 @@ from .helpers import TINY, spectrum_over_position
 FIG2 = CampaignConfig(velocities=(0.1,), loads=(0.0, 2500.0, 5000.0), sine_loads=())
 
 
+# slow since session 33 (8–9 s of `make test`'s 10-minute budget): the paper's Fig. 2 campaign; the
+# campaign's files, manifest and reproducibility stay fast (test_tiny_campaign_files_manifest_…)
+@pytest.mark.slow
 def test_fig2_structure(tmp_path):
     """Acceptance on one recorded Fig. 2 campaign (simulated once: the checks share it)."""
     run_campaign(tmp_path / "fig2", seed=5, config=FIG2, workers=2)

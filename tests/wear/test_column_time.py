@@ -7,8 +7,6 @@ the axis, the key and the file, exit 2, nothing written; POSIX stamps are read a
 from __future__ import annotations
 
 import shutil
-import subprocess
-import sys
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -42,16 +40,12 @@ def _fleet(small_fleet: Path, dst: Path, offset_s: float) -> Path:
     return dst / "fleet.toml"
 
 
-def test_a_relative_time_column_is_a_one_line_error(small_fleet, tmp_path):
+def test_a_relative_time_column_is_a_one_line_error(small_fleet, tmp_path, cli250):
     """Old code: exit 0, both recordings dated 1970-01-01 00:00:00. Now exit 2, one line naming
     the fleet file, [[axis]] #1 (id 'M01/Y'), key 'time.column' = 't', the file, its first
     value and the threshold; no store written."""
     f = _fleet(small_fleet, tmp_path / "f", 0.0)
-    out = subprocess.run(
-        [sys.executable, "-m", "drivelash.cli", "track", "ingest", str(f), "--workers", "1"],
-        capture_output=True,
-        text=True,
-    )
+    out = cli250(["track", "ingest", str(f), "--workers", "1"])
     assert out.returncode == 2, out.stdout + out.stderr
     err = out.stderr.strip()
     assert "\n" not in err and "Traceback" not in err

@@ -117,28 +117,18 @@ def test_missing_time_spec(tmp_path):
         load_fleet(p)
 
 
-def test_cli_bad_fleet_exit_2_one_line_and_no_store(tmp_path):
+def test_cli_bad_fleet_exit_2_one_line_and_no_store(tmp_path, cli250):
     p = _write(tmp_path, GOOD.replace("threshold = 0.2", "threshold = 'high'"))
     db = tmp_path / "w.sqlite"
-    r = subprocess.run(
-        [sys.executable, "-m", "drivelash.cli", "track", "ingest", str(p), "--db", str(db)],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    r = cli250(["track", "ingest", str(p), "--db", str(db)])
     assert r.returncode == 2
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("drivelash: error: ") and "key 'threshold'" in lines[0]
     assert not db.exists()
 
 
-def test_cli_missing_fleet_file(tmp_path):
-    r = subprocess.run(
-        [sys.executable, "-m", "drivelash.cli", "track", "ingest", str(tmp_path / "none.toml")],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+def test_cli_missing_fleet_file(tmp_path, cli250):
+    r = cli250(["track", "ingest", str(tmp_path / "none.toml")])
     assert r.returncode == 2 and "no such fleet file" in r.stderr and r.stderr.count("\n") == 1
 
 
@@ -180,6 +170,9 @@ def test_bad_estimate_rate_is_one_line_naming_the_key(tmp_path, value):
     assert "\n" not in msg and "table [fleet], key 'estimate_rate_hz'" in msg, msg
 
 
+# slow since session 33 (7 s of `make test`'s 10-minute budget): an example script's run; the 1 kHz
+# rate's accuracy is issue 10's slow acceptance (tests/wear/test_fleet_acceptance.py)
+@pytest.mark.slow
 def test_rate_accuracy_example_runs_on_a_simulated_fleet(small_fleet):
     """examples/fleet_rate_accuracy.py (whose figures docs/assumptions.md quotes for the
     acceptance fleet): on the small fleet both rates stay within the 1 mrad goal, and the 1 kHz

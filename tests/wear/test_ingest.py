@@ -229,21 +229,15 @@ def test_unreachable_dask_scheduler_writes_nothing(small_fleet, tmp_path):
     assert not db.exists()
 
 
-def test_unreachable_database_exit_2(small_fleet):
-    r = subprocess.run(
+def test_unreachable_database_exit_2(small_fleet, cli250):
+    r = cli250(
         [
-            sys.executable,
-            "-m",
-            "drivelash.cli",
             "track",
             "ingest",
             str(small_fleet / "fleet.toml"),
             "--db",
             "postgresql+psycopg://u:pw@127.0.0.1:1/x",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=120,
+        ]
     )
     assert r.returncode == 2 and r.stderr.strip().count("\n") == 0 and "cannot open the store" in r.stderr
     assert "pw@" not in r.stderr
@@ -374,20 +368,16 @@ def test_a_dying_worker_loses_no_recording(small_fleet, serial_store, tmp_path, 
     assert _values(st2) == _values(st)  # rerun, nothing lost, same numbers
 
 
-def test_cli_ingest_with_unreadable_recordings_exit_2_after_storing(tmp_path):
+def test_cli_ingest_with_unreadable_recordings_exit_2_after_storing(tmp_path, capsys):
     """Corrupt/unreadable recordings: one warning line each, stored as failed, the rest stored, exit 2."""
     from drivelash.sim.fleet import simulate_fleet
 
-    from .conftest import _add_corrupt
+    from .conftest import _add_corrupt, ingest_here
 
     simulate_fleet(tmp_path / "f", machines=1, axes=1, recordings=3, seed=1)
     _add_corrupt(tmp_path / "f")
     db = tmp_path / "w.sqlite"
-    r = subprocess.run(
-        [sys.executable, "-m", "drivelash.cli", "track", "ingest", str(tmp_path / "f" / "fleet.toml"), "--db",
-         str(db), "--workers", "1"],
-        capture_output=True, text=True, timeout=300,
-    )  # fmt: skip
+    r = ingest_here(tmp_path / "f" / "fleet.toml", db, capsys)
     assert r.returncode == 2, r.stderr
     err = r.stderr.strip().splitlines()
     warnings = [x for x in err if x.startswith("drivelash: warning: ")]
