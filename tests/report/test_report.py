@@ -69,12 +69,13 @@ def test_estimate_report_is_self_contained_with_rendered_figures(tmp_path, estim
     assert sorted(p.name for p in tmp_path.iterdir()) == ["est.html"]
 
 
-def test_report_states_the_recording_start_from_its_time_stamps(tmp_path, estimate_run):
+def test_report_states_the_recording_start_from_its_time_stamps(tmp_path, estimate_run, monkeypatch):
     """A recording whose time column held stamps (a logger's clock) names its start in the
     report's Recording section; one without stamps does not invent one."""
     from dataclasses import replace
 
     tr, result, cfg = estimate_run
+    monkeypatch.setattr("drivelash.report.html.png_bytes", lambda spec, dpi=90: b"")  # text only
     plain = write_estimate_report(tmp_path / "plain.html", tr, result, cfg).read_text()
     assert "Recorded from" not in plain
     stamped = replace(tr, meta={**tr.meta, "time_origin": {"Zeit": "2026-11-05T07:03:00+00:00"}})
@@ -282,19 +283,26 @@ def test_report_time_is_now_or_source_date_epoch(monkeypatch):
 
 
 def _drawn_figures(monkeypatch) -> dict[str, object]:
-    """Capture the matplotlib figures a report draws (key → Figure), instead of only its PNGs."""
+    """Capture the matplotlib figures a report draws (key → Figure) instead of its PNGs: the
+    checks using it read the figures' titles, labels and lines and the page's text, never its
+    pictures, so each figure is drawn but not rasterised (a 1×1 PNG stands in; session 33: the
+    rasterising was ≈ 0.5 s a figure of `make test`'s budget). The pictures themselves are checked
+    by the tests that render whole reports (test_estimate_report_is_self_contained_…, the
+    headless-Chromium check)."""
     from matplotlib.figure import Figure as MplFigure
 
     import drivelash.report.html as rhtml
 
     drawn: dict[str, object] = {}
-    real = rhtml.png_bytes
+    buf = io.BytesIO()
+    Image.new("RGB", (1, 1), "white").save(buf, format="PNG")
+    stand_in = buf.getvalue()
 
     def capture(spec, dpi=90):
         fig = MplFigure(figsize=spec.size, dpi=dpi, layout="constrained")
         spec.draw(fig)
         drawn[spec.key] = fig
-        return real(spec, dpi)
+        return stand_in
 
     monkeypatch.setattr(rhtml, "png_bytes", capture)
     return drawn
