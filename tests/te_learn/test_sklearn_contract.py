@@ -47,6 +47,9 @@ def _stacked() -> StackedTERegressor:
                               tune_trees=False, nn_stride=1, tree_stride=1, update_stride=1)  # fmt: skip
 
 
+# slow since session 33 (≈ 100 of scikit-learn's conformance checks, 9 s of `make test`); the grid
+# search over nested parameters below stays fast
+@pytest.mark.slow
 @parametrize_with_checks([_mlp(), _stacked()])
 def test_sklearn_compatible_estimator(estimator, check):
     check(estimator)

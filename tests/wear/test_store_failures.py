@@ -257,6 +257,9 @@ def _two_ingests_at_once(fleet: Path, db) -> list[int]:
     return estimated
 
 
+# slow since session 33 (11.7 s of `make test`'s 10-minute budget): the SQLite case of the same
+# protocol stays fast, so does a PostgreSQL ingest (test_ingest.py) and a kill on PostgreSQL (below)
+@pytest.mark.slow
 def test_two_first_ingests_at_once_on_an_empty_postgresql_database(tiny_fleet, pg_url):
     estimated = _two_ingests_at_once(tiny_fleet, pg_url)
     # one ingest at a time (Store.ingest_lock): each recording is estimated once, not by both
@@ -327,6 +330,8 @@ def _pg_state(url: str) -> tuple[list[tuple], list[tuple]]:
     return [tuple(r) for r in rec], [tuple(r) for r in est]
 
 
+# slow since session 33 (3.6 s of `make test`): the SQLite busy-timeout checks stay fast
+@pytest.mark.slow
 def test_postgresql_writer_gives_up_on_a_held_write_lock_after_the_busy_timeout(
     tiny_fleet, tmp_path, pg_server, pg_url, capsys
 ):
@@ -558,7 +563,8 @@ def _store_url(backend: str, tmp_path: Path, request) -> Any:
     return tmp_path / "w.sqlite" if backend == "sqlite" else request.getfixturevalue("pg_url")
 
 
-@pytest.mark.parametrize("backend", ["sqlite", "postgresql"])
+# the PostgreSQL case is slow since session 33 (7.8 s of `make test`); the SQLite case stays fast
+@pytest.mark.parametrize("backend", ["sqlite", pytest.param("postgresql", marks=pytest.mark.slow)])
 def test_a_second_ingest_waits_for_the_first_and_says_so(tiny_fleet, tmp_path, request, backend):
     """While one ingest holds the store (``Store.ingest_lock``), ``track ingest`` says in one line
     that it waits, writes nothing and does not finish; once the lock is released it runs. Without
