@@ -75,7 +75,7 @@ def test_report_states_the_recording_start_from_its_time_stamps(tmp_path, estima
     from dataclasses import replace
 
     tr, result, cfg = estimate_run
-    monkeypatch.setattr("drivelash.report.html.png_bytes", lambda spec, dpi=90: b"")  # text only
+    _drawn_figures(monkeypatch)  # the page's text is the subject: figures drawn, not rasterised
     plain = write_estimate_report(tmp_path / "plain.html", tr, result, cfg).read_text()
     assert "Recorded from" not in plain
     stamped = replace(tr, meta={**tr.meta, "time_origin": {"Zeit": "2026-11-05T07:03:00+00:00"}})

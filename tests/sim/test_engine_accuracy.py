@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -13,7 +15,7 @@ README_ERR = 3e-6  # rad, README: "within 3e-6 rad of `solve_ivp`"
 
 
 # slow since session 33 (14.4 s of `make test`'s budget): the README's 3e-6 rad figure over 5 s;
-# the engine against scipy's integrator stays fast in tests/physics/test_drivetrain.py.
+# its first second stays fast (test_bench0A_first_second_within_the_readme_figure, below).
 @pytest.mark.slow
 def test_bench0A_5s_matches_solve_ivp() -> None:
     """5 s of bench-0A: |θ − θ_ivp| ≤ 3e-6 rad on both sides, the figure README.md quotes
@@ -53,8 +55,6 @@ def test_bench0A_first_second_within_the_readme_figure() -> None:
     assert err == pytest.approx(README_ERR, rel=0.05)
     dth = tr["theta_m_true"] - tr["theta_l_true"]
     assert dth.max() > sc.plant_backlash.delta1 and dth.min() < 0.0
-    import dataclasses
-
     wrong = dataclasses.replace(sc.plant_drivetrain, J_l=1.01 * sc.plant_drivetrain.J_l)
     pw = plant_params_array(wrong, sc.plant_backlash, model=sc.model, omega_reg=sc.omega_reg)
     k = len(tr["u"]) // 4  # the first 0.25 s is enough to see it

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import shutil
-import sys
 from datetime import UTC, datetime
 
 from drivelash.report.fleet import NOW_LEGEND
@@ -15,8 +14,6 @@ from drivelash.wear.alarms import stale_notes
 from .conftest import ingest_here
 from .test_ingest_retry import tiny_with_corrupt
 from .test_redate_duplicates import FILENAME_TIME, _tiny
-
-DRIVELASH = [sys.executable, "-m", "drivelash.cli"]
 
 
 def test_cli_summary_does_not_count_failed_files_as_estimated(small_fleet, tmp_path, capsys):
