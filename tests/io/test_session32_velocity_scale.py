@@ -159,3 +159,22 @@ def test_a_loaded_trace_is_not_checked_twice(bench, tmp_path, monkeypatch):
     built = dl.Trace({n: tr[n] for n in tr.names}, {})  # negative control: built in Python
     as_trace(built, None, [], "identify_drive")
     assert len(calls) == 1
+
+
+def test_a_loaded_trace_changed_in_python_is_checked_again(bench_0c, tmp_path):
+    """The last read of session 33: the loader's own trace was recognised by ``meta["format"]``,
+    which ``with_columns`` copies — a loaded bench-0C with ω_m flipped in Python then reached the
+    estimator unchecked (the session-32 finding: δ̂ 197.9 mrad "converged" for 105). The check is
+    skipped only for the very object the loader returned. Negative control: that object itself
+    estimates without a second check's refusal."""
+    pq = tmp_path / "0c.parquet"
+    bench_0c.to_parquet(pq)
+    loaded = dl.load_trace(pq)
+    assert "format" in loaded.meta
+    flipped = loaded.with_columns({"omega_m": -np.asarray(loaded["omega_m"])})
+    assert flipped.meta.get("format") == loaded.meta["format"]  # what fooled the old rule
+    with pytest.raises(dl.DataError, match="counts against the derivative") as exc:
+        dl.estimate_backlash(flipped, BENCH_TOML, delta1=0.0525)
+    assert str(exc.value).startswith("estimate_backlash(data=Trace), column 'omega_m'")
+    est = dl.estimate_backlash(loaded, BENCH_TOML, delta1=0.0525)
+    assert round(1e3 * est.delta) == 105 and est.converged

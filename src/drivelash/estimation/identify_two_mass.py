@@ -3661,7 +3661,8 @@ def as_trace(data: Any, mapping: Any, need: list[str], caller: str) -> Trace:
 
     A Trace built in Python (``Trace({...})``, a simulation) gets the loader's velocity checks
     (sign, unit factor, scale against the position: :func:`drivelash.io.load.check_trace_velocities`);
-    one the loader returned (``meta["format"]`` set: ``identify``'s own trace) is not checked twice.
+    the very object the loader returned (``identify``'s own trace) is not checked twice
+    (:func:`drivelash.io.load.velocities_checked`).
 
     ``mapping`` is a DriveConfig or a ``[columns]``-style dict; ``need`` the required columns;
     ``caller`` names the API function in the error message. A loading error's command-line hint
@@ -3673,9 +3674,9 @@ def as_trace(data: Any, mapping: Any, need: list[str], caller: str) -> Trace:
     from drivelash.io.load import in_python_terms
 
     if isinstance(data, Trace):
-        if "format" not in data.meta:  # not read by the loader, which ran these checks already
-            from drivelash.io.load import check_trace_velocities
+        from drivelash.io.load import check_trace_velocities, velocities_checked
 
+        if not velocities_checked(data):  # the loader's own trace was checked there
             check_trace_velocities(data, caller)
         return data
     import pandas as pd

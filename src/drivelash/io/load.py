@@ -19,6 +19,7 @@ special case.
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -731,6 +732,17 @@ def _check_velocity_scales(cols: Mapping[str, np.ndarray], origin: Mapping[str, 
         check_velocity_scale(fit, side, path, origin.get(f"omega_{side}", f"omega_{side}"))
 
 
+#: The traces :func:`trace_from_table` returned, by identity and held weakly: their velocities were
+#: checked there. Any other Trace — also a loaded one changed with ``with_columns``, whose copied
+#: ``meta["format"]`` said nothing about its new columns (session 33) — is checked again.
+_CHECKED: weakref.WeakValueDictionary[int, Trace] = weakref.WeakValueDictionary()
+
+
+def velocities_checked(trace: Any) -> bool:
+    """True for the very Trace object the loader returned (its velocity checks ran there)."""
+    return _CHECKED.get(id(trace)) is trace
+
+
 def check_trace_velocities(trace: Any, caller: str) -> None:
     """The loader's velocity checks on a :class:`~drivelash.io.trace.Trace` built in Python
     (the API's ``data=Trace``): each velocity against its position — sign, a unit factor
@@ -1173,4 +1185,6 @@ def trace_from_table(
         meta["scalars"] = {k: float(v) for k, v in table.scalars.items()}
     if cmap is not None:
         meta["mapping"] = {k: v.model_dump(exclude_defaults=True) for k, v in cmap.items()}
-    return Trace(cols, meta, rows)
+    trace = Trace(cols, meta, rows)
+    _CHECKED[id(trace)] = trace
+    return trace
