@@ -94,3 +94,22 @@ def test_negative_control_an_angle_prints_mrad(linear, capsys):
     m = re.search(r"δ̂ = ([0-9.]+) mrad", stdout)
     assert m and float(m.group(1)) == pytest.approx(1e3 * js["delta"], abs=5e-4), stdout
     assert "µm" not in stdout
+
+
+def test_the_online_law_warnings_on_a_linear_axis_are_in_micrometres(linear, capsys):
+    """Session 34 (left open since session 32): the online law's own warnings said "mrad" on a
+    linear axis. δ1 stated 30 µm high (123 for 93 µm): δ̂ 215.9 µm leaves the observed Δθ range
+    of 203.1 µm — the warning says so in µm, with the numbers the JSON carries in m."""
+    text = (linear / "lin.toml").read_text(encoding="utf-8")
+    (linear / "d1.toml").write_text(text.replace("delta1 = 9.3e-05", "delta1 = 0.000123"), encoding="utf-8")
+    assert "delta1 = 0.000123" in (linear / "d1.toml").read_text(encoding="utf-8")
+    stdout, js = _run(linear, capsys, "d1")
+    flat = " ".join(stdout.split())
+    rng = js["extra"]["dtheta_range"] if "extra" in js else None
+    m = re.search(r"δ̂ = ([0-9.]+) µm exceeds the whole Δθ range observed \(([0-9.]+) µm\)", flat)
+    assert m, flat
+    assert float(m.group(1)) == pytest.approx(1e6 * js["delta"], abs=0.05)
+    if rng is not None:
+        assert float(m.group(2)) == pytest.approx(1e6 * rng, abs=0.05)
+    assert "mrad" not in flat and " rad" not in flat.replace("rad/s", "")
+    assert not js["converged"]

@@ -21,6 +21,7 @@ import typer
 
 from drivelash.commands import FORCE_HELP, print_warnings
 from drivelash.io.outputs import write_json
+from drivelash.units import gap_unit
 
 #: Environment variable: rows per chunk when ``estimate`` streams a recording.
 ENV_CHUNK_ROWS = "DRIVELASH_CHUNK_ROWS"
@@ -174,7 +175,8 @@ def _print_summary(s: dict[str, Any], axis: str | None = None) -> None:
     from rich.markup import escape
 
     c = Console()
-    k, u = (1e6, "µm") if axis == "prismatic" else (1e3, "mrad")
+    unit = gap_unit(axis)
+    k, u = unit.per_si, unit.symbol
     verdict = "[green]sufficient[/green]" if s["excitation_ok"] else "[red]INSUFFICIENT[/red]"
     if s.get("delta1_outside_range"):  # the reason names a wrong δ1, not the recording
         verdict = "[red]not judged[/red]"

@@ -21,6 +21,7 @@ from typing import Any
 from drivelash.estimation.identify_result import IDENTIFY_NEEDS
 from drivelash.io.outputs import jsonable
 from drivelash.io.trace import Trace
+from drivelash.units import gap_unit
 
 __all__ = [
     "IDENTIFY_COLUMNS",
@@ -96,7 +97,8 @@ class BacklashEstimate:
 
     def __repr__(self) -> str:
         d = self.summary.get("delta")
-        delta = "not run" if d is None else f"{1e3 * float(d):.4g} mrad"
+        u = gap_unit(self.trace.meta.get("axis"))
+        delta = "not run" if d is None else u.f(float(d), ".4g")
         return (
             f"BacklashEstimate(delta={delta}, converged={self.converged}, "
             f"excitation_ok={self.excitation_ok}, method={self.summary.get('method')!r}, "
@@ -375,6 +377,7 @@ def estimate_with_identification(
     from drivelash.params import OFFSET_FLOOR, delta1_tolerance
 
     ident = identify_from_config(trace, cfg, model="two-mass")
+    u = gap_unit(trace.meta.get("axis"))  # the warnings' unit: mrad, or µm on a prismatic axis
     off = {
         "delta": ident["delta"].as_dict(),
         "delta1": ident["delta1"].as_dict() if "delta1" in ident.parameters else None,
@@ -414,9 +417,9 @@ def estimate_with_identification(
             # result supplies δ1): the online law gets the identified one, and the user is told
             d1 = float(p.value)
             d1_note = (
-                f"[backlash] delta1 = {1e3 * d1_cfg:.3f} mrad lies outside the recording's 95 % interval "
-                f"[{1e3 * p.low:.3f}, {1e3 * p.high:.3f}] mrad and differs by more than the δ1 check's "
-                f"{1e3 * floor:.3g} mrad: the identified δ1 = {1e3 * p.value:.3f} mrad is used "
+                f"[backlash] delta1 = {u.f(d1_cfg, '.3f')} lies outside the recording's 95 % interval "
+                f"[{u.n(p.low, '.3f')}, {u.n(p.high, '.3f')}] {u} and differs by more than the δ1 "
+                f"check's {u.f(floor, '.3g')}: the identified δ1 = {u.f(p.value, '.3f')} is used "
                 "(wrong δ1 or an offset between the encoders)"
             )
     if why is None and d1 is None:
@@ -494,8 +497,8 @@ def estimate_with_identification(
         }
         if disagree:
             msg = (
-                f"online δ̂ = {1e3 * s['delta']:.4g} mrad and offline δ = {1e3 * dp.value:.4g} mrad "
-                f"[{1e3 * dp.low:.4g}, {1e3 * dp.high:.4g}] disagree beyond their intervals"
+                f"online δ̂ = {u.f(s['delta'], '.4g')} and offline δ = {u.f(dp.value, '.4g')} "
+                f"[{u.n(dp.low, '.4g')}, {u.n(dp.high, '.4g')}] disagree beyond their intervals"
             )
             s["warnings"].append(msg)
     else:

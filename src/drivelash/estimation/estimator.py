@@ -75,6 +75,7 @@ from drivelash.params import (
     delta1_tolerance,
     is_real_number,
 )
+from drivelash.units import gap_unit
 
 __all__ = [
     "INPUT_COLUMNS",
@@ -228,13 +229,6 @@ def check_sample_period(T_s: float, period: float, owner: str, median: float | N
         f"{T_s:.6g} s differs from the trace's sample period {period:.6g} s (mean interval{also}) by"
         f" more than {T_S_RTOL:.1%}; build the estimator with T_s=trace.T_s",
     )
-
-
-def _mrad(x: float) -> str:
-    """``x`` [rad] in mrad for a message: one decimal, or 2 significant digits below 0.1 mrad
-    (a small angle scale σ: "±0.0 mrad, more than the 0.0 mrad" said nothing)."""
-    v = 1e3 * x
-    return f"{v:.1f}" if abs(v) >= 0.1 or v == 0.0 else f"{v:.2g}"
 
 
 def _rms(x: np.ndarray) -> float:
@@ -654,6 +648,7 @@ class _Setup:
     encoder_reading: str = "unknown"
     cross_config: EstimatorConfig | None = None
     delta1_uncertainty: Delta1Uncertainty | None = None
+    axis: str = "rotary"  # Trace.meta["axis"]: the messages' unit (drivelash.units.gap_unit)
 
 
 def _check_config(config: EstimatorConfig, default_cfg: EstimatorConfig) -> EstimatorConfig:
@@ -683,6 +678,7 @@ def estimate_blocks(
     error_since: tuple[float, ...] = (),
     encoder_reading: str | None = None,
     delta1_uncertainty: Delta1Uncertainty | None = None,
+    axis: str | None = None,
 ) -> EstimationResult:
     """Run the online estimator over a block source in two passes (module docstring).
 
@@ -719,6 +715,9 @@ def estimate_blocks(
     delta1_uncertainty : Delta1Uncertainty, optional
         ``delta1`` is itself uncertain (identified, not configured): its standard uncertainty
         [rad] and δ̂ of reruns at shifted δ1, propagated into ``delta_std`` and the verdict.
+    axis : {"rotary", "prismatic"}, optional
+        The recording's axis kind (``Trace.meta["axis"]``): the warnings write gaps in mrad on
+        a rotary axis, in µm on a prismatic one (positions in m). The numbers stay SI.
 
     Returns
     -------
@@ -758,8 +757,9 @@ def estimate_blocks(
     if config.offset_check and not config.estimate_offset:
         check_cfg = _check_config(config, base)
     setup = _Setup(
-        drivetrain, float(delta1), T_s, config, check_cfg, motion, reading, cross_cfg, delta1_uncertainty
-    )
+        drivetrain, float(delta1), T_s, config, check_cfg, motion, reading, cross_cfg, delta1_uncertainty,
+        axis or "rotary",
+    )  # fmt: skip
     return _run_session(setup, blocks, keep, tuple(float(x) for x in error_since))
 
 
@@ -865,6 +865,7 @@ def _verdict(
     # claim, 1 mrad δ1 floor, 50 mrad range excess) follow a small Δθ range as the gains do
     sigma = cfg.angle_scale
     extra["angle_scale"] = sigma
+    u = gap_unit(setup.axis)  # mrad, or µm on a prismatic axis (the numbers stay SI)
 
     n_trav = int(st[dz.S_TRAV])
     raw_trav = int(st[dz.S_RAW_TRAV])
@@ -1036,15 +1037,15 @@ def _verdict(
             warnings.append(
                 f"the δ1 check cannot decide (its joint δ/δ1 law fits the lower and upper contact "
                 f"unequally, residual ratio {j_bal:.2f}) but puts the lower contact at δ1 ≈ "
-                f"{1e3 * d1_j:.2f} mrad, {1e3 * diff:+.1f} mrad from the configured δ1 = "
-                f"{1e3 * setup.delta1:.2f} mrad, and δ̂ moves with δ1 — check [backlash] delta1 "
+                f"{u.f(d1_j, '.2f')}, {u.f(diff, '+.1f')} from the configured δ1 = "
+                f"{u.f(setup.delta1, '.2f')}, and δ̂ moves with δ1 — check [backlash] delta1 "
                 "and the load encoder's zero"
             )
         if offset_state == "switched":
             chosen = check
             delta1_used = d1_j
             reason += (
-                f"; the data put the lower contact {1e3 * diff:+.1f} mrad from the configured δ1 "
+                f"; the data put the lower contact {u.f(diff, '+.1f')} from the configured δ1 "
                 "(wrong δ1 or an offset between the encoders), so δ and δ1 were estimated jointly"
             )
         elif offset_state == "inconsistent":
@@ -1055,7 +1056,7 @@ def _verdict(
             )
             warnings.append(
                 f"δ1 is inconsistent with the data: the joint δ/δ1 law puts the lower contact "
-                f"{1e3 * diff:+.1f} mrad from the configured δ1 = {1e3 * setup.delta1:.1f} mrad; {what}"
+                f"{u.f(diff, '+.1f')} from the configured δ1 = {u.f(setup.delta1, '.1f')}; {what}"
             )
     extra["offset_switched"] = offset_state == "switched"
     extra["delta1_used"] = delta1_used
@@ -1072,12 +1073,12 @@ def _verdict(
     at_bound = final >= BOUND_FRACTION * cfg.delta_max
     if at_bound:
         warnings.append(
-            f"δ̂ = {1e3 * final:.1f} mrad sits at its upper bound δ_max = {1e3 * cfg.delta_max:.0f} mrad: "
-            "the true gap is larger or the data are not in rad / rad/s (check the units)"
+            f"δ̂ = {u.f(final, '.1f')} sits at its upper bound δ_max = {u.f(cfg.delta_max, '.0f')}: "
+            f"the true gap is larger or the data are not in {u.si} / {u.velocity} (check the units)"
         )
     if ok and final > dth_range:
         warnings.append(
-            f"δ̂ = {1e3 * final:.1f} mrad exceeds the whole Δθ range observed ({1e3 * dth_range:.1f} mrad): "
+            f"δ̂ = {u.f(final, '.1f')} exceeds the whole Δθ range observed ({u.f(dth_range, '.1f')}): "
             "the gap was never crossed, the estimate is not a measurement"
         )
         if offset_state == "consistent" and check is not None and abs(diff) > floor:
@@ -1088,10 +1089,10 @@ def _verdict(
             if d_joint <= dth_range:
                 offset_state = "inconsistent"
                 warnings.append(
-                    f"δ1 is inconsistent with the data: with δ1 = {1e3 * setup.delta1:.1f} mrad the "
+                    f"δ1 is inconsistent with the data: with δ1 = {u.f(setup.delta1, '.1f')} the "
                     f"estimate leaves the observed Δθ range, while the joint δ/δ1 law puts the lower "
-                    f"contact {1e3 * diff:+.1f} mrad from it (δ1 ≈ {1e3 * float(extra['delta1_check']):.1f} "
-                    f"mrad, δ ≈ {1e3 * d_joint:.1f} mrad)"
+                    f"contact {u.f(diff, '+.1f')} from it (δ1 ≈ {u.f(float(extra['delta1_check']), '.1f')}, "
+                    f"δ ≈ {u.f(d_joint, '.1f')})"
                 )
             else:
                 offset_state = "inconclusive"
@@ -1104,14 +1105,14 @@ def _verdict(
     if ok and not at_bound and excess > max(RANGE_EXCESS_FACTOR * D_peak, RANGE_EXCESS_MIN * sigma):
         range_gap = excess
         d1_note = (
-            f" (the data's δ1 check gives {1e3 * float(extra['delta1_check']):.1f} mrad)"
+            f" (the data's δ1 check gives {u.f(float(extra['delta1_check']), '.1f')})"
             if "delta1_check" in extra
             else ""
         )
         warnings.append(
-            f"δ̂ = {1e3 * final:.1f} mrad is too small for the data: Δθ spanned {1e3 * dth_range:.1f} mrad, "
-            f"{1e3 * excess:.1f} mrad more than δ̂ and the two contact deflections — check [backlash] "
-            f"delta1 = {1e3 * setup.delta1:.1f} mrad{d1_note}"
+            f"δ̂ = {u.f(final, '.1f')} is too small for the data: Δθ spanned {u.f(dth_range, '.1f')}, "
+            f"{u.f(excess, '.1f')} more than δ̂ and the two contact deflections — check [backlash] "
+            f"delta1 = {u.f(setup.delta1, '.1f')}{d1_note}"
         )
     extra["delta_range_gap"] = range_gap
     if default and not (KAPPA_LIMITS[0] < kappa < KAPPA_LIMITS[1]):
@@ -1136,7 +1137,7 @@ def _verdict(
             if tc > 0 and abs(c0) > LOAD_TORQUE_FRACTION * tc:
                 warnings.append(
                     f"note: the motor torque and the load observer disagree by a constant "
-                    f"{c0:+.3g} N·m (a load torque such as gravity, or a wrong load friction or "
+                    f"{c0:+.3g} {u.torque} (a load torque such as gravity, or a wrong load friction or "
                     "inertia); the shaft torque was taken from the motor side, which includes it"
                 )
     # the angle constants assume a Δθ scale the recording does not have: the smallest angle
@@ -1146,14 +1147,14 @@ def _verdict(
     extra["dtheta_range_recorded"] = r_dth
     if math.isfinite(r_dth) and r_dth < ANGLE_SCALE_MISMATCH * ANGLE_SCALE_RANGE * sigma:
         size = (
-            f"({r_dth:.3g} rad) is {ANGLE_SCALE_RANGE * sigma / r_dth:.3g}× smaller than"
+            f"({r_dth:.3g} {u.si}) is {ANGLE_SCALE_RANGE * sigma / r_dth:.3g}× smaller than"
             if r_dth > 0
             else "is zero (θ_l follows θ_m exactly), below"
         )
         warnings.append(
             f"the recording's Δθ range {size} the scale the estimator's angle constants assume "
-            f"({ANGLE_SCALE_RANGE * sigma:.3g} rad: α ≤ {1e5 / sigma:.3g} 1/rad, band ≥ "
-            f"{BAND_FLOOR * sigma:.3g} rad): δ̂ is biased and its interval unreliable — check the "
+            f"({ANGLE_SCALE_RANGE * sigma:.3g} {u.si}: α ≤ {1e5 / sigma:.3g} 1/{u.si}, band ≥ "
+            f"{BAND_FLOOR * sigma:.3g} {u.si}): δ̂ is biased and its interval unreliable — check the "
             "position units (rad, m) and the load encoder, or let the tuning rule set the gains "
             "([estimator] angle_scale)"
         )
@@ -1253,32 +1254,31 @@ def _verdict(
         if d1_gap > 0.0:
             why_parts.append(
                 f"with δ1 estimated from the data the joint law puts δ at "
-                f"{1e3 * extra['delta1_check_delta']:.2f} mrad, {1e3 * d1_gap:.2f} mrad from δ̂"
+                f"{u.f(extra['delta1_check_delta'], '.2f')}, {u.f(d1_gap, '.2f')} from δ̂"
             )
         if range_gap > d1_gap:
             why_parts.append(
-                f"the observed Δθ range less the two contact deflections lies {1e3 * range_gap:.1f} mrad"
-                " above δ̂"
+                f"the observed Δθ range less the two contact deflections lies {u.f(range_gap, '.1f')} above δ̂"
             )
         if d1u is not None and (1.96 * std_base <= claim or 1.96 * s_d1 > claim):
             how = "measured at δ1 ± its standard error" if k_measured else "assumed one-for-one"
             why_parts.append(
-                f"δ1 from {d1u.source} is uncertain by ±{1e3 * 1.96 * d1u.std:.2f} mrad (95 %); "
-                f"δ̂ moves ~{k_d1:.2g} mrad per mrad of δ1 ({how}), ±{1e3 * 1.96 * s_d1:.2f} mrad "
+                f"δ1 from {d1u.source} is uncertain by ±{u.f(1.96 * d1u.std, '.2f')} (95 %); "
+                f"δ̂ moves ~{k_d1:.2g} {u} per {u} of δ1 ({how}), ±{u.f(1.96 * s_d1, '.2f')} "
                 "of δ̂ — the online law does not correct δ1: give [backlash] delta1 or a recording "
                 "that determines it"
             )
         if disagreement > 0.0 and 1.96 * std_base - disagreement - alt_gap <= claim:
             why_parts.append(
                 f"the paper law and the default law (which learns the contact stiffness) disagree by "
-                f"{1e3 * disagreement:.2f} mrad: the stated drive parameters do not fit the data "
+                f"{u.f(disagreement, '.2f')}: the stated drive parameters do not fit the data "
                 "(use --method default)"
             )
         if enc_bound > 0.0 and 1.96 * std_base - enc_bound - alt_gap <= claim:
             why_parts.append(
-                f"the encoders' counts ({1e3 * c_m:.3g} mrad motor, {1e3 * c_l:.3g} mrad load) leave "
-                f"Δθ offset by up to {1e3 * enc_offset:.2f} mrad depending on how they round "
-                f"(δ̂ by up to {1e3 * enc_bound:.2f} mrad) — neither the configuration nor the "
+                f"the encoders' counts ({u.f(c_m, '.3g')} motor, {u.f(c_l, '.3g')} load) leave "
+                f"Δθ offset by up to {u.f(enc_offset, '.2f')} depending on how they round "
+                f"(δ̂ by up to {u.f(enc_bound, '.2f')}) — neither the configuration nor the "
                 'recording states the convention: set [estimator] encoder_reading = "nearest" or '
                 '"truncate"'
             )
@@ -1289,8 +1289,8 @@ def _verdict(
             )
         why = "; ".join(why_parts)
         warnings.append(
-            f"the estimate is uncertain by ±{_mrad(1.96 * std)} mrad (95 %), more than the "
-            f"{_mrad(claim)} mrad a converged estimate must meet: {why}"
+            f"the estimate is uncertain by ±{u.small(1.96 * std)} {u} (95 %), more than the "
+            f"{u.small(claim)} {u} a converged estimate must meet: {why}"
         )
         # the one blocking warning whose interval states the doubt itself (a wear trend may take
         # such an estimate with its σ; every other blocking warning keeps it out)
@@ -1671,6 +1671,7 @@ class DeadzoneEstimator:
             keep=keep,
             motion=motion,
             encoder_reading=trace.meta.get("encoder_reading"),
+            axis=trace.meta.get("axis"),
         )
 
 

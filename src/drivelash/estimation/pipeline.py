@@ -174,6 +174,7 @@ def _estimate_blocks(
         error_since=since,
         encoder_reading=(meta or {}).get("encoder_reading"),
         delta1_uncertainty=delta1_uncertainty,
+        axis=(meta or {}).get("axis"),
     )
     return res, motion
 

@@ -1,0 +1,79 @@
+"""How a drive train's small displacements are written for a reader: mrad or µm.
+
+The numbers are SI everywhere (rad on a rotary axis, m on a prismatic one, :mod:`drivelash.io.load`);
+a message, a terminal summary or a report writes a gap, a δ1, a deflection or an encoder count in
+the unit an engineer reads for that axis — mrad for an angle, µm for a length (a linear axis's lost
+motion is micrometres: "δ̂ = 0.0 mrad … band 2 mrad" on a carriage in m read as an angle and said
+nothing; session 31 tester C, C7, and the online law's own warnings until session 34). One
+:class:`GapUnit` per axis kind; :func:`gap_unit` picks it from the recording's ``meta["axis"]``.
+
+Examples
+--------
+>>> u = gap_unit("prismatic")
+>>> u.f(2.04e-5), u.n(-3e-6, "+.2f"), str(u)
+('20.4 µm', '-3.00', 'µm')
+>>> gap_unit("rotary").f(1.027, ".1f"), gap_unit(None).small(4.2e-5)
+('1027.0 mrad', '0.042')
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = ["GapUnit", "MRAD", "MICROMETRE", "gap_unit"]
+
+
+@dataclass(frozen=True)
+class GapUnit:
+    """A display unit for the small displacements of one axis kind.
+
+    Parameters
+    ----------
+    symbol : str
+        "mrad" or "µm".
+    per_si : float
+        Display units per SI unit (1e3 per rad, 1e6 per m).
+    si : str
+        The SI unit of the value ("rad" or "m").
+    velocity : str
+        The SI unit of its rate ("rad/s" or "m/s").
+    torque : str
+        The unit of the drive's effort ("N·m" or "N").
+    stiffness : str
+        The unit of a stiffness acting across the gap ("N·m/rad" or "N/m").
+    """
+
+    symbol: str
+    per_si: float
+    si: str
+    velocity: str
+    torque: str
+    stiffness: str
+
+    def __str__(self) -> str:
+        return self.symbol
+
+    def n(self, x: float, spec: str = ".1f") -> str:
+        """``x`` [rad or m] as a number in this unit, formatted with ``spec``."""
+        return format(self.per_si * float(x), spec)
+
+    def f(self, x: float, spec: str = ".1f") -> str:
+        """``x`` [rad or m] as "number unit" (``spec`` as for :meth:`n`)."""
+        return f"{self.n(x, spec)} {self.symbol}"
+
+    def small(self, x: float) -> str:
+        """``x`` [rad or m] as a number with one decimal, or 2 significant digits below 0.1 units
+        (a small angle scale: "±0.0 mrad, more than the 0.0 mrad" said nothing)."""
+        v = self.per_si * float(x)
+        return f"{v:.1f}" if abs(v) >= 0.1 or v == 0.0 else f"{v:.2g}"
+
+
+#: a rotary axis: angles in rad, written in mrad
+MRAD = GapUnit("mrad", 1e3, "rad", "rad/s", "N·m", "N·m/rad")
+#: a prismatic axis: lengths in m, written in µm
+MICROMETRE = GapUnit("µm", 1e6, "m", "m/s", "N", "N/m")
+
+
+def gap_unit(axis: str | None) -> GapUnit:
+    """The display unit of an axis kind (``Trace.meta["axis"]``): µm on a "prismatic" axis, else mrad."""
+    return MICROMETRE if axis == "prismatic" else MRAD
