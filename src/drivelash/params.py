@@ -42,11 +42,15 @@ def is_real_number(value: object) -> bool:
 DELTA_MAX_DEFAULT = 2.0
 
 
-def _delta1_unit_hint(delta1: float) -> str:
+def _delta1_unit_hint(delta1: float, axis: str | None = None) -> str:
+    """What a δ1 slip most likely was: mrad written for rad, or µm written for m on a linear axis
+    (session 34 tester G, G10: "if 10 is in mrad, write 0.01" sent a linear axis to 10 mm)."""
+    if axis == "prismatic":
+        return f"δ1 is in m — if {delta1:g} is in µm, write {delta1 / 1e6:g}; if in mm, {delta1 / 1e3:g}"
     return f"δ1 is in rad — if {delta1:g} is in mrad, write {delta1 / 1e3:g}"
 
 
-def check_delta1_bound(owner: str, delta1: float, delta_max: float) -> None:
+def check_delta1_bound(owner: str, delta1: float, delta_max: float, axis: str | None = None) -> None:
     """Refuse an offset δ1 [rad] larger than the estimator's bound δ_max [rad].
 
     δ1 lies inside the gap (0 ≤ δ1 ≤ δ) and the online law keeps δ ≤ δ_max, so δ1 > δ_max is a
@@ -55,17 +59,20 @@ def check_delta1_bound(owner: str, delta1: float, delta_max: float) -> None:
     but still far off (``1.0`` for 1 mrad) is caught once the recording is seen:
     :func:`delta1_outside_range`.
 
+    ``axis`` is the recording's axis kind when known ("prismatic": δ1 in m, the hint reads µm).
+
     Raises
     ------
     ParameterError
-        Naming ``owner`` and ``delta1``, with δ1 read as mrad.
+        Naming ``owner`` and ``delta1``, with δ1 read as mrad (µm on a prismatic axis).
     """
     if delta1 > delta_max:
+        si = "m" if axis == "prismatic" else "rad"
         raise ParameterError(
             owner,
             "delta1",
-            f"δ1 = {delta1:g} rad exceeds δ_max = {delta_max:g} rad, the largest gap the estimator "
-            f"allows (0 ≤ δ1 ≤ δ ≤ δ_max); {_delta1_unit_hint(delta1)}",
+            f"δ1 = {delta1:g} {si} exceeds δ_max = {delta_max:g} {si}, the largest gap the estimator "
+            f"allows (0 ≤ δ1 ≤ δ ≤ δ_max); {_delta1_unit_hint(delta1, axis)}",
         )
 
 
@@ -75,12 +82,19 @@ DELTA1_GAP_TRAVEL_FACTOR = 4.0
 #: … and the configured lower contact (Δθ = −δ1) must lie further beyond that range than this
 #: multiple of its width …
 DELTA1_OUTSIDE_RANGE_FACTOR = 1.0
-#: … and than this [rad].
+#: … and than this [rad] times the recording's angle scale σ (:func:`angle_scale_of`; unscaled
+#: until session 34, when δ1 = 0.1 … 10 mm on a linear axis with a 50 µm Δθ range — 5× to 500× the
+#: gap — was read as "one flank keeps the load", tester G, G10).
 DELTA1_OUTSIDE_FLOOR = 0.05
 
 
 def delta1_outside_range(
-    delta1: float, dtheta_min: float, dtheta_max: float, deflection: float
+    delta1: float,
+    dtheta_min: float,
+    dtheta_max: float,
+    deflection: float,
+    angle_scale: float = 1.0,
+    axis: str | None = None,
 ) -> str | None:
     """The second stage of :func:`check_delta1_bound`, with the recording seen: a δ1 whose lower
     contact lies far outside the motor–load offsets the recording shows; None when it does not.
@@ -103,26 +117,31 @@ def delta1_outside_range(
         The lowest and highest Δθ of the recording [rad].
     deflection : float
         The largest contact deflection [rad] (peak shaft torque / contact stiffness).
+    angle_scale : float
+        The recording's angle scale σ [-]: the floor :data:`DELTA1_OUTSIDE_FLOOR` is taken times σ.
+    axis : {"rotary", "prismatic"}, optional
+        The recording's axis kind: the message's unit (m on a prismatic axis).
     """
     width = dtheta_max - dtheta_min
     if not (math.isfinite(width) and width > DELTA1_GAP_TRAVEL_FACTOR * deflection):
         return None
-    margin = max(DELTA1_OUTSIDE_RANGE_FACTOR * width, DELTA1_OUTSIDE_FLOOR)
+    margin = max(DELTA1_OUTSIDE_RANGE_FACTOR * width, DELTA1_OUTSIDE_FLOOR * float(angle_scale))
     if dtheta_min - margin <= -delta1 <= dtheta_max + margin:
         return None
+    si = "m" if axis == "prismatic" else "rad"
     head = (
-        f"[backlash] delta1 = {delta1:.4g} rad is outside the observed motor–load offset range "
-        f"[{dtheta_min:.4g}, {dtheta_max:.4g}] rad (Δθ = θ_m/N − θ_l, whose lower contact is at "
+        f"[backlash] delta1 = {delta1:.4g} {si} is outside the observed motor–load offset range "
+        f"[{dtheta_min:.4g}, {dtheta_max:.4g}] {si} (Δθ = θ_m/N − θ_l, whose lower contact is at "
         f"−δ1) — "
     )
     if not dtheta_min - margin <= 0.0 <= dtheta_max + margin:
         # Δθ = 0 (motor and load at their zeros) is never near the gap: the encoders' zeros are
         # offset, whatever δ1's unit (session 30 tester A, M4: "wrong unit?" for a 200.6 rad offset)
         return head + (
-            f"the encoders' zeros are offset: add offset = {dtheta_min + delta1:.6g} rad to theta_l "
+            f"the encoders' zeros are offset: add offset = {dtheta_min + delta1:.6g} {si} to theta_l "
             "in [columns] to put the lower contact at −δ1 (or identify δ1 with --identify)"
         )
-    return head + f"wrong unit? {_delta1_unit_hint(delta1)}"
+    return head + f"wrong unit? {_delta1_unit_hint(delta1, axis)}"
 
 
 def require_finite(obj: object) -> None:

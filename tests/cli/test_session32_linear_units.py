@@ -113,3 +113,37 @@ def test_the_online_law_warnings_on_a_linear_axis_are_in_micrometres(linear, cap
         assert float(m.group(2)) == pytest.approx(1e6 * rng, abs=0.05)
     assert "mrad" not in flat and " rad" not in flat.replace("rad/s", "")
     assert not js["converged"]
+
+
+def _estimate(d, capsys, cfg):
+    from cli_runner import run_in_process
+
+    return run_in_process(["estimate", str(d / "lin.parquet"), "--config", str(d / f"{cfg}.toml")], capsys)
+
+
+def test_a_delta1_slip_on_a_linear_axis_is_read_as_micrometres(linear, capsys):
+    """Session 34 tester G, G10: ``delta1 = 10`` (µm meant) on a linear axis was refused with "δ1 =
+    10 rad … if 10 is in mrad, write 0.01" — 10 mm on a carriage. Now the [columns] mapping's length
+    unit makes the hint metres → µm. Negative control: the same file mapped as an angle keeps mrad."""
+    text = (linear / "lin.toml").read_text(encoding="utf-8")
+    (linear / "slip.toml").write_text(text.replace("delta1 = 9.3e-05", "delta1 = 10.0"), encoding="utf-8")
+    code, out, err = _estimate(linear, capsys, "slip")
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert "δ1 = 10 m exceeds δ_max = 2 m" in err and "if 10 is in µm, write 1e-05" in err, err
+    ang = text.replace('unit = "m/s"', 'unit = "rad/s"').replace('unit = "m"', 'unit = "rad"')
+    (linear / "slip_ang.toml").write_text(ang.replace("delta1 = 9.3e-05", "delta1 = 10.0"), encoding="utf-8")
+    code, out, err = _estimate(linear, capsys, "slip_ang")
+    assert code == 2 and "δ1 = 10 rad" in err and "if 10 is in mrad, write 0.01" in err, err
+
+
+def test_a_delta1_of_millimetres_on_a_micrometre_gap_is_named_not_called_gravity(linear, capsys):
+    """G10: δ1 = 0.01 m (10 mm; the 186 µm gap's δ1 is 93 µm) lay inside the unscaled 0.05 rad floor
+    of the 'outside the observed offsets' test and was reported as "one flank keeps the load (…
+    gravity, or a preload)". The floor now follows the angle scale σ (0.0203 here): the δ1 is named."""
+    text = (linear / "lin.toml").read_text(encoding="utf-8")
+    (linear / "mm.toml").write_text(text.replace("delta1 = 9.3e-05", "delta1 = 0.01"), encoding="utf-8")
+    code, out, err = _estimate(linear, capsys, "mm")
+    assert code == 0, err
+    flat = " ".join(out.split())
+    assert "delta1 = 0.01 m is outside the observed motor–load offset range" in flat, flat
+    assert "gravity" not in flat and "not converged" in flat

@@ -241,6 +241,7 @@ def build_params(
     config: EstimatorConfig,
     T_s: float,
     k0: int = 0,
+    axis: str | None = None,
 ) -> np.ndarray:
     """Parameter array of :func:`~drivelash.estimation.deadzone.deadzone_run`.
 
@@ -257,9 +258,11 @@ def build_params(
         Sample time [s].
     k0 : int
         First sample index of the verdict accumulators (the last third of a run).
+    axis : {"rotary", "prismatic"}, optional
+        The recording's axis kind: a δ1 beyond δ_max is named in m and read as µm on a prismatic one.
     """
     delta1 = backlash.delta1 if isinstance(backlash, BacklashParams) else float(backlash)
-    check_delta1_bound("DeadzoneEstimator", delta1, config.delta_max)
+    check_delta1_bound("DeadzoneEstimator", delta1, config.delta_max, axis)
     p = np.zeros(dz.N_PARAMS)
     p[dz.P_J_L] = drivetrain.J_l
     p[dz.P_N] = drivetrain.N
@@ -784,7 +787,7 @@ def _run_session(
         if first:
             has_truth = "delta_true" in blk
             main = _Law(
-                build_params(setup.drivetrain, setup.delta1, setup.config, setup.T_s, k0),
+                build_params(setup.drivetrain, setup.delta1, setup.config, setup.T_s, k0, setup.axis),
                 setup.config.delta0,
                 _Track(n, keep == "full", has_truth, error_since),
             )
@@ -882,8 +885,8 @@ def _verdict(
     elif mo.motor_range > 0 and mo.load_range < 0.1 * mo.motor_range:
         ok = False
         reason = (
-            f"no engagement: the load moved {mo.load_range:.3g} rad while the motor moved "
-            f"{mo.motor_range:.3g} rad (load side) — the motion stays inside the deadzone (gap)"
+            f"no engagement: the load moved {mo.load_range:.3g} {u.si} while the motor moved "
+            f"{mo.motor_range:.3g} {u.si} (load side) — the motion stays inside the deadzone (gap)"
         )
     elif mo.reversals < 2:
         ok = False
@@ -903,14 +906,14 @@ def _verdict(
         dth_span = float(st[dz.S_DTH_MAX]) - float(st[dz.S_DTH_MIN])
         if dth_span <= DTH_SAME_SIGNAL * max(mo.motor_range, 1e-300):
             reason = (
-                f"Δθ = θ_m/N − θ_l stays at {float(st[dz.S_DTH_MAX]):.6g} rad at every sample while the "
-                f"motor moved {mo.motor_range:.3g} rad: the load position is the motor's own signal "
+                f"Δθ = θ_m/N − θ_l stays at {float(st[dz.S_DTH_MAX]):.6g} {u.si} at every sample while the "
+                f"motor moved {mo.motor_range:.3g} {u.si}: the load position is the motor's own signal "
                 "(one channel mapped twice?) or nothing between the encoders moves — no gap to see"
             )
         elif peak_tq < cfg.T_thr:
             reason = (
                 "no engagement: the shaft torque never exceeded the contact threshold "
-                f"({cfg.T_thr:.3g} N·m) — the motion seems to stay inside the deadzone (gap)"
+                f"({cfg.T_thr:.3g} {u.torque}) — the motion seems to stay inside the deadzone (gap)"
             )
         elif raw_trav >= 2:
             # the load moved back and forth with the shaft torque reversing: unless one flank
@@ -918,7 +921,7 @@ def _verdict(
             # configured δ1 far outside the Δθ seen is a wrong δ1 (a unit slip below δ_max)
             deflection = peak_tq / (min(_kappa(main) if default else 1.0, 1.0) * setup.drivetrain.K_S)
             d1_outside = delta1_outside_range(
-                setup.delta1, float(st[dz.S_DTH_MIN]), float(st[dz.S_DTH_MAX]), deflection
+                setup.delta1, float(st[dz.S_DTH_MIN]), float(st[dz.S_DTH_MAX]), deflection, sigma, setup.axis
             )
             extra["delta1_outside_range"] = d1_outside is not None
             reason = d1_outside or (

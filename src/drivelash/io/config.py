@@ -628,8 +628,12 @@ class DriveConfig(ConfigFile):
         if delta1 is None:
             return
         delta_max = getattr(self.estimator, "delta_max", None)
+        # a [columns] mapping with the motor position in a length unit makes the trace prismatic
+        # (io.load): δ1 is then in m, and a slip is read as µm or mm (session 34 tester G, G10)
+        kinds = {c.column: UNIT_KIND.get(c.unit) for c in (self.columns or {}).values()}
+        axis = "prismatic" if kinds.get("theta_m") == "length" else None
         try:
-            check_delta1_bound("", delta1, DELTA_MAX_DEFAULT if delta_max is None else delta_max)
+            check_delta1_bound("", delta1, DELTA_MAX_DEFAULT if delta_max is None else delta_max, axis)
         except ParameterError as exc:
             raise ConfigError(f"{self.source}: table [backlash], key 'delta1': {exc.problem}") from None
 
