@@ -83,7 +83,12 @@ def test_a_load_encoder_counting_the_other_way_is_named_by_both_commands(bench):
         msg = str(e.value)
         assert f"ratio {N_hat:.4g}" in msg and "check the sign of theta_l or theta_m" in msg, msg
     est = dl.estimate_backlash(tr, sc.estimator_drivetrain, sc.estimator_backlash.delta1)
-    assert est.converged  # negative control
+    # negative control: accepted, excited and accurate. 6 s of bench-0B (three 0.5 Hz reversal
+    # periods) no longer verify δ1: the δ1 check's joint law ends ≈ 2 mrad from δ̂, so the interval
+    # widens and `converged` is withheld (session 34, tests/estimation/test_session34_delta1_check.py)
+    blocking = [w for w in est.warnings if not w.startswith("note:")]
+    assert est.excitation_ok and abs(est.delta - sc.plant_backlash.delta) < 0.5e-3
+    assert est.converged or (len(blocking) == 1 and "the δ1 check did not settle" in blocking[0]), blocking
 
 
 def test_a_doubled_ratio_on_a_direct_drive_is_named(bench):

@@ -482,7 +482,10 @@ def test_estimate_outside_the_observed_range_is_no_measurement_and_delta1_is_nam
     # the joint law's δ1 and δ: the truth within 3 mrad (measured 51.1 / 103.6 for 52.5 / 105)
     assert abs(r.summary["delta1_estimate"] - truth.delta1) < 3e-3
     assert abs(r.result.extra["delta1_check_delta"] - truth.delta) < 3e-3
-    assert any("δ1 is inconsistent" in w and "leaves the observed Δθ range" in w for w in r.warnings)
+    # named: δ1 inconsistent (since session 34 by the lower-contact asymmetry directly, before by
+    # the range; the message then names the distance) and δ̂ beyond the observed range
+    assert any("δ1 is inconsistent" in w and "configured δ1 = 93.0 mrad" in w for w in r.warnings), r.warnings
+    assert any("exceeds the whole Δθ range observed" in w for w in r.warnings), r.warnings
     # negative control: the true δ1 — a measurement, no δ1 warning
     ok = dl.estimate_backlash(tr, cfg, delta1=truth.delta1)
     assert ok.excitation_ok and ok.delta <= ok.summary["dtheta_range"]
