@@ -10,44 +10,15 @@ from __future__ import annotations
 
 import json
 import re
-from dataclasses import replace
 
 import pytest
 
-from drivelash.sim.scenarios import get_scenario
-
-POSITIONS = ("theta_m", "omega_m", "theta_l", "omega_l")
-UNITS = {"theta_m": "m", "omega_m": "m/s", "theta_l": "m", "omega_l": "m/s", "torque_m": "N", "t": "s"}
+from linear_bench import UNITS, write_linear_bench
 
 
 @pytest.fixture(scope="module")
 def linear(tmp_path_factory):
-    sc = get_scenario("bench-0B")
-    tr = sc.simulate(duration=6.0, seed=1)
-    s = 1e-3
-    d = tmp_path_factory.mktemp("lin")
-    p = replace(
-        sc.estimator_drivetrain,
-        **{
-            f: getattr(sc.estimator_drivetrain, f) / s
-            for f in ("J_m", "J_l", "K_S", "D_S", "beta_m", "beta_l")
-        },
-    )
-    import pandas as pd
-
-    pd.DataFrame(
-        {c: tr[c] * s if c in POSITIONS else tr[c] for c in ("t", *POSITIONS, "torque_m")}
-    ).to_parquet(d / "lin.parquet")
-    dt = "".join(
-        f"{k} = {getattr(p, k)!r}\n"
-        for k in ("J_m", "J_l", "N", "K_S", "D_S", "T_Cm", "T_Cl", "beta_m", "beta_l")
-    )
-    cols = "".join(f'[columns.{c}]\ncolumn = "{c}"\nunit = "{u}"\n' for c, u in UNITS.items())
-    (d / "lin.toml").write_text(
-        f"[drivetrain]\n{dt}[backlash]\ndelta1 = {sc.estimator_backlash.delta1 * s!r}\n{cols}",
-        encoding="utf-8",
-    )
-    return d
+    return write_linear_bench(tmp_path_factory.mktemp("lin"))
 
 
 def _run(d, capsys, cfg):

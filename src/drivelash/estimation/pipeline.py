@@ -20,6 +20,8 @@ import numpy as np
 __all__ = [
     "MAEE_FRACTION",
     "SS_FRACTION",
+    "SUMMARY_EFFORT_KEYS",
+    "SUMMARY_LENGTH_KEYS",
     "estimate_stream",
     "estimate_summary",
     "estimate_trace",
@@ -176,13 +178,56 @@ def _estimate_blocks(
         delta1_uncertainty=delta1_uncertainty,
         axis=(meta or {}).get("axis"),
     )
+    # the axis kind travels with the result into the summary (its "axis" and "units" keys, G8)
+    res.extra.setdefault("axis", str((meta or {}).get("axis") or "rotary"))
     return res, motion
 
 
+#: Summary keys holding a gap, an offset or a displacement: rad on a rotary axis, m on a prismatic
+#: one (the ``_rad`` suffix of three of them is kept for compatibility: it names the rotary unit).
+SUMMARY_LENGTH_KEYS = (
+    "delta",
+    "delta1",
+    "convergence_band_rad",
+    "delta_std",
+    "delta_interval_95",
+    "delta1_estimate",
+    "delta1_used",
+    "dtheta_range",
+    "contact_deflection",
+    "load_range",
+    "motor_range",
+    "encoder_offset_bound",
+    "law_disagreement",
+    "delta1_std",
+    "delta1_propagated_std",
+    "delta_true",
+    "maee_rad",
+    "steady_state_peak_rad",
+)
+#: Summary keys holding the drive's effort: N·m on a rotary axis, N on a prismatic one.
+SUMMARY_EFFORT_KEYS = ("contact_threshold", "load_torque_constant")
+
+
 def estimate_summary(cfg: Any, res: Any, motion: Any, samples: int, T_s: float) -> dict[str, Any]:
-    """The JSON summary of an estimate, without the truth metrics (shared by both paths)."""
+    """The JSON summary of an estimate, without the truth metrics (shared by both paths).
+
+    ``axis`` is the recording's axis kind ("rotary", or "prismatic": positions in m) and
+    ``units`` the SI unit of every gap, displacement and effort key the summary may carry
+    (:data:`SUMMARY_LENGTH_KEYS`: "rad" or "m"; :data:`SUMMARY_EFFORT_KEYS`: "N·m" or "N"; the
+    truth keys ``delta_true``, ``maee_rad``, ``steady_state_peak_rad`` are listed although only a
+    recording with the true δ has them). On a prismatic axis the keys ending in ``_rad`` hold
+    metres: the names are kept for compatibility, ``units`` says what they hold (session 35,
+    tester G, G8: a script could not tell metres from radians). ``gains`` are in the same units.
+    """
+    from drivelash.units import gap_unit
+
+    axis = str(res.extra.get("axis") or "rotary")
+    u = gap_unit(axis)
+    units = {k: u.si for k in SUMMARY_LENGTH_KEYS} | {k: u.torque for k in SUMMARY_EFFORT_KEYS}
     return {
         "method": res.config.method,
+        "axis": axis,
         "delta": res.delta,
         "delta1": float(cfg.backlash.delta1),
         "excitation_ok": res.excitation_ok,
@@ -197,6 +242,7 @@ def estimate_summary(cfg: Any, res: Any, motion: Any, samples: int, T_s: float) 
             "measured" if motion.reversals >= 3 else "default (fewer than 3 motion reversals)"
         ),
         **result_summary(res),
+        "units": units,
         "gains": res.config.to_dict(),
     }
 
