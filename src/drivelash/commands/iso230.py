@@ -73,7 +73,12 @@ def run_iso230(
                     deadzone = deadzone_from_store(store, axis, when)
                     if deadzone is None:
                         notes.append(f"no excited estimate of axis {axis} in {store.name}: B is not compared")
-            if deadzone is not None and cfg.transmission is None and factor is None:
+            if (
+                deadzone is not None
+                and not deadzone.prismatic
+                and cfg.transmission is None
+                and factor is None
+            ):
                 raise ConfigError(
                     f"{cfg.source}: comparing with the deadzone needs a [transmission] table (lead or"
                     " pinion_radius, and i_G) or an axis transmission in the history store"
@@ -110,6 +115,8 @@ def run_iso230(
             }
             if deadzone is not None and deadzone.note:
                 notes.append(deadzone.note)
+            if comparison is not None:
+                notes.extend(comparison.notes)
             warnings = list(meas.warnings) + notes
             if meas.drift is not None:
                 dr = meas.drift

@@ -6,9 +6,13 @@ The deadzone δ of drivelash is an angle on the load-shaft scale of the drive mo
     L_δ = k · δ,   k = lead / (2π i_G)   (ball screw, lead per screw revolution)
                    k = r_p / i_G         (rack and pinion, pinion pitch radius r_p)
                    k = 1 / i_G           (rotary axis measured as an angle)
+                   k = 1                 (a prismatic estimate: δ already in m at the table)
 
 with i_G the revolutions of the θ_l shaft per screw/pinion revolution (1 when θ_l is the
-screw or pinion itself). A pure lost motion L gives x↑ = −L/2, x↓ = +L/2 at every target,
+screw or pinion itself). An estimate made on a prismatic recording (positions in m: a linear
+motor, or a ball-screw axis whose drive exports table travel; its JSON says ``"axis":
+"prismatic"``) is a length at the table already and is compared as it is; a ``[transmission]``
+is then not applied, and a note says so. A pure lost motion L gives x↑ = −L/2, x↓ = +L/2 at every target,
 so B_i = −L: the ISO test measures L as −B̄ (mean over targets, unbiased) and as
 B = max|B_i| (the standard's axis value, biased upward by the selection of the maximum).
 When the control compensates reversal during the test (a backlash compensation value
@@ -144,15 +148,18 @@ class Deadzone:
     Parameters
     ----------
     delta : float
-        Deadzone δ [rad].
+        Deadzone δ [rad; m when ``axis`` is "prismatic"].
     u_delta : float or None
-        Its standard uncertainty [rad]; None when the estimator gave none.
+        Its standard uncertainty [rad or m]; None when the estimator gave none.
     source : str
         Where it came from (file, or history store and axis).
     time : str, optional
         When the recording was made (ISO 8601), if known.
     note : str, optional
         What the comparison must say about the estimate (e.g. that it did not converge).
+    axis : {"rotary", "prismatic"} or None
+        The estimate's axis kind (the estimate JSON's ``axis``); None: not stated (a JSON written
+        before the key existed, or the history store), read as rotary.
     """
 
     delta: float
@@ -160,13 +167,20 @@ class Deadzone:
     source: str
     time: str | None = None
     note: str | None = None
+    axis: str | None = None
+
+    @property
+    def prismatic(self) -> bool:
+        """δ is a length [m] at the table, not an angle."""
+        return self.axis == "prismatic"
 
 
 def read_deadzone(path: str | Path) -> Deadzone:
     """The deadzone of a ``drivelash estimate --json`` file.
 
-    Reads ``delta`` [rad] and, when the estimator reports one, its standard uncertainty
-    (``delta_std`` [rad]).
+    Reads ``delta`` and, when the estimator reports one, its standard uncertainty
+    (``delta_std``), in rad — in m when the file's ``axis`` is "prismatic" (a file without
+    ``axis``, written before it existed, is a rotary one).
 
     Parameters
     ----------
@@ -176,13 +190,15 @@ def read_deadzone(path: str | Path) -> Deadzone:
     Returns
     -------
     Deadzone
-        δ [rad] and u(δ) [rad] (None when the file has none), ``source`` the file.
+        δ and u(δ) [rad or m] (None when the file has none), ``source`` the file, ``axis`` the
+        file's (None when it states none).
 
     Raises
     ------
     DataError
         Missing or unreadable file, not JSON, no finite ``delta`` ≥ 0, a ``delta_std`` that is
-        not a finite number ≥ 0, an estimate made without sufficient excitation, or one that
+        not a finite number ≥ 0, an ``axis`` other than "rotary" or "prismatic", an estimate
+        made without sufficient excitation, or one that
         did not converge and states no uncertainty — one line.
     """
     p = Path(path)
@@ -194,14 +210,18 @@ def read_deadzone(path: str | Path) -> Deadzone:
         raise DataError(f"not a drivelash estimate JSON ({type(exc).__name__})", path=str(p)) from None
     if not isinstance(data, dict):
         raise DataError("not a drivelash estimate JSON (top level is not an object)", path=str(p))
+    axis = data.get("axis")
+    if axis is not None and axis not in ("rotary", "prismatic"):
+        raise DataError(f"key 'axis' must be 'rotary' or 'prismatic', got {axis!r}", path=str(p))
+    si = "m" if axis == "prismatic" else "rad"
     delta = data.get("delta")
     if isinstance(delta, bool) or not isinstance(delta, int | float) or not math.isfinite(delta) or delta < 0:
-        raise DataError(f"key 'delta' must be a finite number >= 0 [rad], got {delta!r}", path=str(p))
+        raise DataError(f"key 'delta' must be a finite number >= 0 [{si}], got {delta!r}", path=str(p))
     u = data.get("delta_std")
     if u is not None and (
         isinstance(u, bool) or not isinstance(u, int | float) or not math.isfinite(u) or u < 0
     ):
-        raise DataError(f"key 'delta_std' must be a finite number >= 0 [rad], got {u!r}", path=str(p))
+        raise DataError(f"key 'delta_std' must be a finite number >= 0 [{si}], got {u!r}", path=str(p))
     if data.get("excitation_ok") is False:
         raise DataError(
             f"the estimate was made without sufficient excitation ({data.get('reason', 'no reason given')});"
@@ -218,16 +238,22 @@ def read_deadzone(path: str | Path) -> Deadzone:
                 + "; it cannot be compared",
                 path=str(p),
             )
-        note = unconverged_note(float(u), said[0] if said else None)
-    return Deadzone(float(delta), None if u is None else float(u), str(p), data.get("recording_time"), note)
+        note = unconverged_note(float(u), said[0] if said else None, axis)
+    return Deadzone(
+        float(delta), None if u is None else float(u), str(p), data.get("recording_time"), note, axis
+    )
 
 
-def unconverged_note(u: float, said: str | None) -> str:
+def unconverged_note(u: float, said: str | None, axis: str | None = None) -> str:
     """The comparison's warning for an estimate the estimator did not call converged, compared
-    with its stated standard uncertainty ``u`` [rad]; ``said`` its first warning, if any."""
+    with its stated standard uncertainty ``u`` [rad, or m on a "prismatic" ``axis``]; ``said``
+    its first warning, if any."""
+    from drivelash.units import gap_unit
+
+    gu = gap_unit(axis)
     return (
         f"the deadzone estimate did not converge: compared with its stated uncertainty "
-        f"(u = {1e3 * u:.3g} mrad)" + (f"; the estimator said: {said}" if said else "")
+        f"(u = {gu.n(u, '.3g')} {gu.symbol})" + (f"; the estimator said: {said}" if said else "")
     )
 
 
@@ -239,7 +265,7 @@ class Comparison:
     ----------
     unit : str
     factor : float
-        Lost motion per rad of deadzone [m/rad or rad/rad].
+        Lost motion per unit of deadzone [m/rad or rad/rad; 1 m/m for a prismatic estimate].
     compensation : float
         Reversal compensation active in the control during the test [m or rad].
     drift_correction : float
@@ -260,6 +286,9 @@ class Comparison:
     agree : bool
         |E_n| ≤ 1.
     deadzone : Deadzone
+    notes : tuple of str
+        What the comparison did beside the arithmetic (a transmission not applied to a
+        prismatic estimate).
     """
 
     unit: str
@@ -276,6 +305,7 @@ class Comparison:
     E_n: float
     agree: bool
     deadzone: Deadzone
+    notes: tuple[str, ...] = ()
 
     @property
     def iso_label(self) -> str:
@@ -298,8 +328,10 @@ class Comparison:
             "B": self.B,
             "u_B": self.u_B,
             "B_interval": list(self.B_interval),
-            "deadzone_rad": self.deadzone.delta,
+            "deadzone_rad": self.deadzone.delta,  # the name kept: m when deadzone_unit says so
             "u_deadzone_rad": self.deadzone.u_delta,
+            "deadzone_axis": self.deadzone.axis,
+            "deadzone_unit": "m" if self.deadzone.prismatic else "rad",
             "deadzone_at_load": self.L_delta,
             "u_deadzone_at_load": self.u_L_delta,
             "deadzone_source": self.deadzone.source,
@@ -398,7 +430,8 @@ def compare(
     result : Iso230Result
     deadzone : Deadzone
     transmission : Transmission or None
-        From the deadzone's shaft to the load; None to use ``factor``.
+        From the deadzone's shaft to the load; None to use ``factor``. Not applied to a
+        prismatic ``deadzone`` (δ in m at the table: compared as it is, with a note).
     compensation : float
         Reversal (backlash) compensation active in the control during the test [m or rad].
     drift : Drift, optional
@@ -408,16 +441,36 @@ def compare(
         ``evaluate(drift.corrected)``; required with ``drift``.
     factor : float, optional
         Lost motion per rad of deadzone [m/rad or rad/rad] when no ``transmission`` is given
-        (e.g. the axis's transmission in the wear history).
+        (e.g. the axis's transmission in the wear history); not applied to a prismatic
+        ``deadzone``.
 
     Raises
     ------
     ConfigError
-        The transmission does not fit the axis (missing lead/radius on a linear axis).
+        The transmission does not fit the axis (missing lead/radius on a linear axis); a
+        prismatic deadzone (m) beside an ISO test of a rotary axis (rad).
     ParameterError
         An implausible ``compensation`` (:func:`check_compensation`).
     """
-    if transmission is not None:
+    notes: tuple[str, ...] = ()
+    if deadzone.prismatic:
+        if result.unit != "m":
+            raise ConfigError(
+                f"the deadzone estimate ({deadzone.source}) is of a prismatic axis (δ in m) and the ISO"
+                f" test of a rotary one ({result.unit}): they cannot be compared"
+            )
+        k = 1.0
+        given = (
+            "[transmission]"
+            if transmission is not None
+            else ("the axis transmission of the history store" if factor is not None and factor > 0 else None)
+        )
+        if given is not None:
+            notes = (
+                f"the deadzone estimate is of a prismatic axis (δ̂ in m at the table): compared as it is,"
+                f" {given} not applied",
+            )
+    elif transmission is not None:
         try:
             k = transmission.factor(result.unit)
         except ParameterError as exc:
@@ -448,4 +501,5 @@ def compare(
         E_n=E_n,
         agree=E_n <= 1.0,
         deadzone=deadzone,
+        notes=notes,
     )

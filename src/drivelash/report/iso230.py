@@ -353,7 +353,12 @@ def render_iso230_report(
                         f"[{_f(c.B_interval[0], df)}, {_f(c.B_interval[1], df)}]",
                     ],
                     [
-                        f"estimated deadzone δ = {dz.delta * 1e3:.4g} mrad × {c.factor * df:.5g} {dl}/rad"
+                        (
+                            f"estimated deadzone δ = {dz.delta * 1e6:.4g} µm (a prismatic axis: at the table)"
+                            if dz.prismatic
+                            else f"estimated deadzone δ = {dz.delta * 1e3:.4g} mrad"
+                            f" × {c.factor * df:.5g} {dl}/rad"
+                        )
                         + (" (not converged: see above)" if dz.note else ""),
                         _f(c.L_delta, df),
                         _f(c.u_L_delta, df),
