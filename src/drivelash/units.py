@@ -6,6 +6,9 @@ the unit an engineer reads for that axis — mrad for an angle, µm for a length
 motion is micrometres: "δ̂ = 0.0 mrad … band 2 mrad" on a carriage in m read as an angle and said
 nothing; session 31 tester C, C7, and the online law's own warnings until session 34). One
 :class:`GapUnit` per axis kind; :func:`gap_unit` picks it from the recording's ``meta["axis"]``.
+It also names the axis's SI units of rate, acceleration, effort, mass and viscous friction —
+the reports' one unit table (session 35, tester G, G7: the estimate report drew a linear
+axis's δ̂ as "deadzone [mrad]" and its force as "shaft torque [N·m]").
 
 Examples
 --------
@@ -41,6 +44,14 @@ class GapUnit:
         The unit of the drive's effort ("N·m" or "N").
     stiffness : str
         The unit of a stiffness acting across the gap ("N·m/rad" or "N/m").
+    acceleration : str
+        The SI unit of an acceleration ("rad/s²" or "m/s²").
+    mass : str
+        The unit of an inertia ("kg·m²" or "kg").
+    viscous : str
+        The unit of a viscous friction coefficient ("N·m·s/rad" or "N·s/m").
+    effort : str
+        What the drive's effort is called ("torque" or "force").
     """
 
     symbol: str
@@ -49,6 +60,10 @@ class GapUnit:
     velocity: str
     torque: str
     stiffness: str
+    acceleration: str
+    mass: str
+    viscous: str
+    effort: str
 
     def __str__(self) -> str:
         return self.symbol
@@ -69,9 +84,9 @@ class GapUnit:
 
 
 #: a rotary axis: angles in rad, written in mrad
-MRAD = GapUnit("mrad", 1e3, "rad", "rad/s", "N·m", "N·m/rad")
+MRAD = GapUnit("mrad", 1e3, "rad", "rad/s", "N·m", "N·m/rad", "rad/s²", "kg·m²", "N·m·s/rad", "torque")
 #: a prismatic axis: lengths in m, written in µm
-MICROMETRE = GapUnit("µm", 1e6, "m", "m/s", "N", "N/m")
+MICROMETRE = GapUnit("µm", 1e6, "m", "m/s", "N", "N/m", "m/s²", "kg", "N·s/m", "force")
 
 
 def gap_unit(axis: str | None) -> GapUnit:

@@ -23,6 +23,7 @@ import numpy as np
 
 from drivelash.report.html import Figure, Section, render_html, significant_decimals
 from drivelash.report.save import save_figure
+from drivelash.units import GapUnit, gap_unit
 
 __all__ = [
     "render_estimate_report",
@@ -44,10 +45,10 @@ def _thin(*arrays: np.ndarray, n: int = _MAX_POINTS) -> list[np.ndarray]:
     return [np.asarray(a)[::k] for a in arrays]
 
 
-def _units(trace: Any) -> dict[str, str]:
-    if trace.meta.get("axis") == "prismatic":
-        return {"pos": "m", "vel": "m/s", "force": "N", "mass": "kg", "visc": "N·s/m"}
-    return {"pos": "rad", "vel": "rad/s", "force": "N·m", "mass": "kg·m²", "visc": "N·m·s/rad"}
+def _units(trace: Any) -> GapUnit:
+    """The recording's units (:func:`drivelash.units.gap_unit` of its ``meta["axis"]``): rad,
+    rad/s, N·m, kg·m² … on a rotary axis; m, m/s, N, kg … on a prismatic one, gaps in mrad or µm."""
+    return gap_unit(trace.meta.get("axis"))
 
 
 #: an ISO 8601 time that ends in a zone (``Z``, ``+01:00``)
@@ -85,9 +86,9 @@ def _overview_figure(trace: Any, N: float | None = None) -> Figure:
         groups = [g for g in groups if g] or [[n for n in trace.names if n != "t"][:1]]
         axes = fig.subplots(len(groups), 1, sharex=True, squeeze=False)[:, 0]
         labels = {
-            "theta": f"position [{u['pos']}]",
-            "omega": f"velocity [{u['vel']}]",
-            "torque": f"{'force' if u['force'] == 'N' else 'torque'} [{u['force']}]",
+            "theta": f"position [{u.si}]",
+            "omega": f"velocity [{u.velocity}]",
+            "torque": f"{u.effort} [{u.torque}]",
         }
         for ax, g in zip(axes, groups, strict=True):
             for n in g:
@@ -138,6 +139,8 @@ def render_estimate_report(
         beside the configuration, which then lacks them.
     """
     summary = summary or {}
+    u = _units(trace)  # gaps in mrad, or µm on a prismatic axis (positions in m, force in N)
+    k = u.per_si
     t = np.asarray(result.t)
     dh = np.asarray(result.delta_hat)
     sw = np.asarray(getattr(result, "sigma_window", np.zeros_like(t)))
@@ -149,13 +152,13 @@ def render_estimate_report(
         ax = fig.subplots()
         for a, b in _excited_spans(t, excited):
             ax.axvspan(a, b, color="#bfe3c6", alpha=0.6, lw=0)
-        tt, yy = _thin(t, dh * 1e3)
+        tt, yy = _thin(t, dh * k)
         ax.plot(tt, yy, color="#2a6fb0", lw=1.2, label="δ̂ (estimate)")
         if delta_true is not None:
-            tt, yy = _thin(t, delta_true * 1e3)
+            tt, yy = _thin(t, delta_true * k)
             ax.plot(tt, yy, "k--", lw=1, label="δ (true)")
         ax.set_xlabel("time [s]")
-        ax.set_ylabel("deadzone [mrad]")
+        ax.set_ylabel(f"deadzone [{u.symbol}]")
         from drivelash.report.estimation_figures import verdict_text
 
         verdict = verdict_text(result)
@@ -186,9 +189,9 @@ def render_estimate_report(
     def draw_deadzone(fig: Any) -> None:
         ax = fig.subplots()
         half = slice(t.size // 2, None)  # second half: δ̂ has settled
-        x, y1 = _thin(dtheta * 1e3, tq_meas)
+        x, y1 = _thin(dtheta * k, tq_meas)
         ax.plot(x, y1, ".", ms=1.5, alpha=0.35, color="#888", label="J_l φ̂ (observed)")
-        xh, yh = _thin(dtheta[half] * 1e3, tq_hat[half])
+        xh, yh = _thin(dtheta[half] * k, tq_hat[half])
         ax.plot(xh, yh, ".", ms=1.5, alpha=0.5, color="#e67e22", label="T_l(x, δ̂), second half")
         if k_s is not None and delta1 is not None and dh.size:
             d_fin = float(getattr(result, "delta", dh[-1]))  # the reported δ̂ (the JSON's)
@@ -200,16 +203,16 @@ def render_estimate_report(
                 np.where(grid > d_fin - delta1, k_eff * (grid + delta1 - d_fin), 0.0),
             )
             k_txt = "K_S" if kappa == 1.0 else f"κ K_S, κ = {kappa:.2f}"
-            label = f"deadzone with final δ̂ ({k_txt}, δ1 = {1e3 * delta1:.1f} mrad)"
-            ax.plot(grid * 1e3, static, color="#c0392b", lw=1.5, label=label)
-            ax.axvspan(-delta1 * 1e3, (d_fin - delta1) * 1e3, color="#f3e5c8", alpha=0.4, lw=0)
+            label = f"deadzone with final δ̂ ({k_txt}, δ1 = {u.f(delta1)})"
+            ax.plot(grid * k, static, color="#c0392b", lw=1.5, label=label)
+            ax.axvspan(-delta1 * k, (d_fin - delta1) * k, color="#f3e5c8", alpha=0.4, lw=0)
         lo, hi = np.percentile(np.concatenate([y1, yh]), [0.5, 99.5]) if y1.size else (0.0, 1.0)
         pad = 0.15 * (hi - lo) + 1e-9
         ax.set_ylim(lo - pad, hi + pad)
         ax.axvline(0, color="k", lw=0.5)
-        ax.set_xlabel("Δθ = θ_m/N − θ_l [mrad]")
-        ax.set_ylabel("shaft torque [N·m]")
-        ax.set_title("Estimated torque vs Δθ (deadzone picture)", fontsize=10)
+        ax.set_xlabel(f"Δθ = θ_m/N − θ_l [{u.symbol}]")
+        ax.set_ylabel(f"shaft {u.effort} [{u.torque}]")
+        ax.set_title(f"Estimated {u.effort} vs Δθ (deadzone picture)", fontsize=10)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
 
@@ -222,15 +225,15 @@ def render_estimate_report(
         if "theta_m" in trace and "theta_l" in trace:
             x, y = _thin(trace["theta_m"] / n_gear, trace["theta_l"])
             axes[0].plot(x, y, lw=0.6)
-            axes[0].set_xlabel("θ_m/N [rad]")
-            axes[0].set_ylabel("θ_l [rad]")
+            axes[0].set_xlabel(f"θ_m/N [{u.si}]")
+            axes[0].set_ylabel(f"θ_l [{u.si}]")
             axes[0].set_title("motor/load hysteresis", fontsize=10)
         for ax, side in ((axes[1], "m"), (axes[2], "l")):
             if f"theta_{side}" in trace and f"omega_{side}" in trace:
                 x, y = _thin(trace[f"theta_{side}"], trace[f"omega_{side}"])
                 ax.plot(x, y, lw=0.6, color="#2a6fb0" if side == "m" else "#c0392b")
-                ax.set_xlabel(f"θ_{side} [rad]")
-                ax.set_ylabel(f"ω_{side} [rad/s]")
+                ax.set_xlabel(f"θ_{side} [{u.si}]")
+                ax.set_ylabel(f"ω_{side} [{u.velocity}]")
                 ax.set_title(f"phase portrait, {'motor' if side == 'm' else 'load'}", fontsize=10)
         for ax in axes:
             ax.grid(alpha=0.3)
@@ -239,7 +242,7 @@ def render_estimate_report(
         axes = fig.subplots(2, 1, sharex=True)
         tt, ph = _thin(t, np.asarray(result.phi_hat))
         axes[0].plot(tt, ph, lw=0.7)
-        axes[0].set_ylabel("φ̂ [rad/s²]")
+        axes[0].set_ylabel(f"φ̂ [{u.acceleration}]")
         tt, sws = _thin(t, sw)
         axes[1].plot(tt, sws, lw=0.9, color="#1f7a35")
         axes[1].set_ylabel("∫σ over window [s]")
@@ -257,13 +260,14 @@ def render_estimate_report(
     )
     # the reported estimate (the JSON's δ̂), not the last point of the (decimated) series
     d_final = float(getattr(result, "delta", dh[-1] if dh.size else float("nan")))
-    figs_rows: list[list[Any]] = [["final δ̂ [mrad]", 1e3 * d_final]]
+    sym = u.symbol
+    figs_rows: list[list[Any]] = [[f"final δ̂ [{sym}]", k * d_final]]
     lo, hi = getattr(result, "delta_interval", (float("nan"), float("nan")))
     if np.isfinite(lo) and np.isfinite(hi):
-        label = "95 % interval of δ̂ [mrad]"
+        label = f"95 % interval of δ̂ [{sym}]"
         if not bool(getattr(result, "converged", False)):  # as the terminal says: do not use it
             label += " (statistical only; not converged: do not use)"
-        figs_rows.append([label, f"[{1e3 * lo:.3f}, {1e3 * hi:.3f}]"])
+        figs_rows.append([label, f"[{k * lo:.3f}, {k * hi:.3f}]"])
     figs_rows += [
         ["converged", str(bool(getattr(result, "converged", False)))],
         [
@@ -272,18 +276,18 @@ def render_estimate_report(
             if getattr(result, "convergence_time_s", None) is not None
             else "–",
         ],
-        ["band [mrad]", 1e3 * float(getattr(result, "band", float("nan")))],
+        [f"band [{sym}]", k * float(getattr(result, "band", float("nan")))],
     ]
     if delta_true is not None:
-        figs_rows.append(["true δ (final) [mrad]", 1e3 * float(delta_true[-1])])
+        figs_rows.append([f"true δ (final) [{sym}]", k * float(delta_true[-1])])
         figs_rows.append(["error of final δ̂ [%]", 100 * (d_final / float(delta_true[-1]) - 1)])
     ident = summary.get("identification") or {}
     off = ident.get("delta") or {}
     if off.get("identifiable") and off.get("value") is not None:
-        figs_rows.append(["offline δ (identified) [mrad]", 1e3 * float(off["value"])])
+        figs_rows.append([f"offline δ (identified) [{sym}]", k * float(off["value"])])
         ci = off.get("ci95")
         if ci and all(c is not None for c in ci):
-            figs_rows.append(["95 % interval of offline δ [mrad]", f"[{1e3 * ci[0]:.3f}, {1e3 * ci[1]:.3f}]"])
+            figs_rows.append([f"95 % interval of offline δ [{sym}]", f"[{k * ci[0]:.3f}, {k * ci[1]:.3f}]"])
     agreement = summary.get("agreement")
     if isinstance(agreement, dict) and agreement.get("disagree") is not None:
         figs_rows.append(
@@ -305,7 +309,7 @@ def render_estimate_report(
         tables=[
             ("Figures of merit", ["quantity", "value"], figs_rows),
             (
-                "Estimator diagnostics (the JSON's extra), SI units: rad, rad/s, N·m, s",
+                f"Estimator diagnostics (the JSON's extra), SI units: {u.si}, {u.velocity}, {u.torque}, s",
                 ["key", "value"],
                 diag_rows,
             ),
@@ -314,7 +318,7 @@ def render_estimate_report(
             Figure("delta", "Deadzone estimate over time; green: excitation present.", draw_delta, (10, 3.6)),
             Figure(
                 "deadzone",
-                "Observed and modelled shaft torque against the deflection.",
+                f"Observed and modelled shaft {u.effort} against the deflection.",
                 draw_deadzone,
                 (8, 4.5),
             ),
@@ -427,13 +431,13 @@ def render_identify_report(
         result = result.source
     u = _units(trace)
     unit_of = {
-        "M": u["mass"],
-        "J_l": u["mass"],
-        "F_v": u["visc"],
-        "beta_l": u["visc"],
-        "F_c": u["force"],
-        "T_Cl": u["force"],
-        "offset": u["force"],
+        "M": u.mass,
+        "J_l": u.mass,
+        "F_v": u.viscous,
+        "beta_l": u.viscous,
+        "F_c": u.torque,
+        "T_Cl": u.torque,
+        "offset": u.torque,
     }
     rows = [
         [n, unit_of.get(n, ""), float(v), float(s), 100 * float(s) / abs(float(v)) if v else float("nan")]
@@ -441,7 +445,7 @@ def render_identify_report(
     ]
     stats = [
         ["relative force error ‖y − Wθ̂‖/‖y‖ [%]", 100 * result.relative_error],
-        [f"residual std σ̂ [{u['force']}]", result.sigma],
+        [f"residual std σ̂ [{u.torque}]", result.sigma],
         ["condition number of W", result.condition],
         ["rows after decimation", result.n_rows],
     ]
@@ -458,10 +462,10 @@ def render_identify_report(
         axes = fig.subplots(2, 1, sharex=True, height_ratios=[3, 1])
         axes[0].plot(result.t, result.y, lw=0.9, label="measured (decimated)")
         axes[0].plot(result.t, result.y_hat, "--", lw=0.9, label="IDIM-LS model Wθ̂")
-        axes[0].set_ylabel(f"force/torque [{u['force']}]")
+        axes[0].set_ylabel(f"force/torque [{u.torque}]")
         axes[0].legend(fontsize=8, loc="upper right")
         axes[1].plot(result.t, result.y - result.y_hat, lw=0.7, color="k")
-        axes[1].set_ylabel(f"residual [{u['force']}]")
+        axes[1].set_ylabel(f"residual [{u.torque}]")
         axes[1].set_xlabel("time [s]")
         for ax in axes:
             ax.grid(alpha=0.3)
@@ -476,8 +480,8 @@ def render_identify_report(
         v = np.linspace(float(np.min(result.q_dot)), float(np.max(result.q_dot)), 400)
         model = result.theta[1] * v + result.theta[2] * np.sign(v) + result.theta[3]
         ax.plot(v, model, color="#c0392b", lw=1.5, label="F_v q̇ + F_c sign q̇ + offset")
-        ax.set_xlabel(f"velocity [{u['vel']}]")
-        ax.set_ylabel(f"friction {'force' if u['force'] == 'N' else 'torque'} [{u['force']}]")
+        ax.set_xlabel(f"velocity [{u.velocity}]")
+        ax.set_ylabel(f"friction {u.effort} [{u.torque}]")
         ax.set_title("Friction characteristic", fontsize=10)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
@@ -493,7 +497,7 @@ def render_identify_report(
             ax.plot(cross.t, cross.y, lw=0.9, label="measured")
             ax.plot(cross.t, cross.y_hat, "--", lw=0.9, label="model with identified parameters")
             ax.set_xlabel("time [s]")
-            ax.set_ylabel(f"{'force' if u['force'] == 'N' else 'torque'} [{u['force']}]")
+            ax.set_ylabel(f"{u.effort} [{u.torque}]")
             ax.set_title(f"Cross-test: relative error {100 * cross.relative_error:.2f} %", fontsize=10)
             ax.grid(alpha=0.3)
             ax.legend(fontsize=8)
@@ -513,11 +517,11 @@ def render_identify_report(
             )
             ax.plot(t[cv], d[cv], ".", ms=1.2, color="#1f7a35", label="constant-velocity samples")
             ax.set_xlabel("time [s]")
-            ax.set_ylabel(f"disturbance [{u['force']}]")
+            ax.set_ylabel(f"disturbance [{u.torque}]")
             shown = (observer.mean_positive, observer.mean_negative, f_c + off, -f_c + off)
             nd = significant_decimals(shown)
             ax.set_title(
-                f"Observer: mean {shown[0]:.{nd}f} / {shown[1]:.{nd}f} {u['force']}"
+                f"Observer: mean {shown[0]:.{nd}f} / {shown[1]:.{nd}f} {u.torque}"
                 f" at constant velocity vs {shown[2]:.{nd}f} / {shown[3]:.{nd}f} identified",
                 fontsize=10,
             )
@@ -607,21 +611,21 @@ def render_observe_report(
             (r,) = _thin(ref)
             axes[0].plot(t, r, lw=1.0, color="#c0392b", label=expected_label)
         axes[0].plot(t[cv], d[cv], ".", ms=1.5, color="#1f7a35", label="constant-velocity samples")
-        axes[0].set_ylabel(f"disturbance [{u['force']}]")
+        axes[0].set_ylabel(f"disturbance [{u.torque}]")
         axes[0].legend(fontsize=8, loc="upper right")
         axes[1].plot(t, v, lw=0.8)
-        axes[1].set_ylabel(f"velocity [{u['vel']}]")
+        axes[1].set_ylabel(f"velocity [{u.velocity}]")
         axes[1].set_xlabel("time [s]")
         for ax in axes:
             ax.grid(alpha=0.3)
 
     labels = {
-        "J": f"J, inertia assumed [{u['mass']}]",
-        "beta": f"β, viscous friction assumed [{u['visc']}]",
+        "J": f"J, inertia assumed [{u.mass}]",
+        "beta": f"β, viscous friction assumed [{u.viscous}]",
         "k1": "k1, STSMO gain",
         "k2": "k2, STSMO gain",
-        "mean_disturbance_forward": f"mean d̂, forward constant-velocity stretches [{u['force']}]",
-        "mean_disturbance_backward": f"mean d̂, backward constant-velocity stretches [{u['force']}]",
+        "mean_disturbance_forward": f"mean d̂, forward constant-velocity stretches [{u.torque}]",
+        "mean_disturbance_backward": f"mean d̂, backward constant-velocity stretches [{u.torque}]",
         "constant_velocity_samples": "constant-velocity samples",
     }
     rows = [[labels.get(k, k), v] for k, v in est.as_dict().items()]

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from drivelash.report.save import save_figure
+from drivelash.units import MRAD, GapUnit, gap_unit
 
 PAPER_FIG10_SLOPE = 0.0023  # rad per N·m, spec 01 §4
 
@@ -42,19 +43,22 @@ def verdict_text(res: Any) -> str:
 
 
 def estimate_figure(trace: Any, res: Any, path: str | Path) -> Path:
-    """δ̂(t) (with the truth if known) and observed/model shaft torque against Δθ; PNG."""
+    """δ̂(t) (with the truth if known) and observed/model shaft torque against Δθ; PNG.
+
+    Gaps in mrad and torque in N·m, or µm and N on a prismatic ``trace`` (``meta["axis"]``)."""
     plt = _plt()
+    u = gap_unit(trace.meta.get("axis"))
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.2))
     sl = _thin(res.t.size)
-    a1.plot(res.t[sl], 1e3 * res.delta_hat[sl], lw=1.2, label="δ̂ (estimate)")
+    a1.plot(res.t[sl], u.per_si * res.delta_hat[sl], lw=1.2, label="δ̂ (estimate)")
     if "delta_true" in trace:
-        a1.plot(trace["t"][sl], 1e3 * trace["delta_true"][sl], "k--", lw=1, label="δ (true)")
+        a1.plot(trace["t"][sl], u.per_si * trace["delta_true"][sl], "k--", lw=1, label="δ (true)")
     a1.set_xlabel("time [s]")
-    a1.set_ylabel("deadzone [mrad]")
+    a1.set_ylabel(f"deadzone [{u.symbol}]")
     a1.set_title(f"deadzone estimate — {verdict_text(res)}", fontsize=10)
     a1.grid(alpha=0.3)
     a1.legend(fontsize=8)
-    _torque_panel(a2, res)
+    _torque_panel(a2, res, unit=u)
     fig.tight_layout()
     path = Path(path)
     save_figure(fig, path)
@@ -62,20 +66,21 @@ def estimate_figure(trace: Any, res: Any, path: str | Path) -> Path:
     return path
 
 
-def _torque_panel(ax: Any, res: Any, tail: float = 0.5) -> None:
-    """Observed J_l φ̂ and model T_l(Δθ, δ̂) against Δθ, over the last ``tail`` of the run."""
+def _torque_panel(ax: Any, res: Any, tail: float = 0.5, unit: GapUnit = MRAD) -> None:
+    """Observed J_l φ̂ and model T_l(Δθ, δ̂) against Δθ, over the last ``tail`` of the run
+    (Δθ in ``unit``: mrad, or µm on a prismatic axis, whose effort is a force in N)."""
     n = res.t.size
     k0 = int(n * (1 - tail))
-    x = 1e3 * res.dtheta[k0:]
+    x = unit.per_si * res.dtheta[k0:]
     sl = _thin(x.size, 15000)
     ax.plot(x[sl], res.torque_meas[k0:][sl], ".", ms=1.5, alpha=0.35, color="#777", label="J_l φ̂ (observed)")
     o = np.argsort(x)
     kappa = float(res.extra.get("stiffness_scale", 1.0) or 1.0)
     label = "T_l(Δθ, δ̂) (model)" if kappa == 1.0 else f"κ T_l(Δθ, δ̂) (model, κ = {kappa:.2f})"
     ax.plot(x[o], kappa * res.torque_hat[k0:][o], color="#c0392b", lw=1.4, label=label)
-    ax.set_xlabel("Δθ = θ_m/N − θ_l [mrad]")
-    ax.set_ylabel("shaft torque [N·m]")
-    ax.set_title("estimated shaft torque vs Δθ", fontsize=10)
+    ax.set_xlabel(f"Δθ = θ_m/N − θ_l [{unit.symbol}]")
+    ax.set_ylabel(f"shaft {unit.effort} [{unit.torque}]")
+    ax.set_title(f"estimated shaft {unit.effort} vs Δθ", fontsize=10)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
 
