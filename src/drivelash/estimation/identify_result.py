@@ -194,7 +194,12 @@ class ParameterEstimate:
         return f"[{fmt(lo)}, {fmt(hi)}]"
 
 
-@dataclass
+#: Longest reason a :class:`DriveIdentification` repr prints for one parameter or the backlash
+#: verdict [characters] (the whole text stays on the object): one line of a wide notebook cell.
+REPR_REASON_CHARS = 100
+
+
+@dataclass(repr=False)
 class DriveIdentification:
     """Result of :func:`drivelash.identify_drive`.
 
@@ -243,6 +248,28 @@ class DriveIdentification:
 
     def __getitem__(self, name: str) -> ParameterEstimate:
         return self.parameters[name]
+
+    def __repr__(self) -> str:
+        """A table a notebook can read: model, N, the verdicts, one line per parameter (value,
+        unit, 95 % interval, or why not determined) — not the ``fit`` dictionary, the correlation
+        matrix and every field (the dataclass repr was one line of ~6.5 kB; session 35, tester G,
+        G12). ``fit``, ``correlation`` and ``warnings`` stay on the object."""
+        head = (
+            f"DriveIdentification(model={self.model!r}, N={self.N:g}, plausible={self.plausible},"
+            f" backlash_visible={self.backlash_visible}, warnings={len(self.warnings)}"
+        )
+
+        def short(text: str) -> str:
+            return text if len(text) <= REPR_REASON_CHARS else text[: REPR_REASON_CHARS - 1] + "…"
+
+        rows = [
+            f"  {name} = {p.value:.6g} {p.unit}  95 % {p.interval_text()}".rstrip()
+            if p.identifiable
+            else f"  {name} = –  ({short(p.reason)})"
+            for name, p in self.parameters.items()
+        ]
+        verdict = short(self.verdict)
+        return "\n".join([head, *rows, f"  {verdict})" if verdict else "  )"])
 
     def value(self, name: str) -> float:
         """Value of parameter ``name`` (NaN when not identifiable).
