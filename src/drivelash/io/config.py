@@ -425,8 +425,8 @@ class ColumnMap(Table):
     @classmethod
     def _known_unit(cls, v: str) -> str:
         if v not in UNIT_KIND:
-            close = difflib.get_close_matches(v, list(UNIT_KIND), n=1)
-            hint = f" (did you mean '{close[0]}'?)" if close else ""
+            close = did_you_mean(v, UNIT_KIND)
+            hint = f" (did you mean '{close}'?)" if close else ""
             raise ValueError(f"unknown unit '{v}'{hint}; known: {', '.join(UNIT_KIND)}")
         return v
 
@@ -696,6 +696,30 @@ def _walk(model: type[BaseModel], loc: tuple[Any, ...]) -> tuple[tuple[Any, ...]
     return tuple(kept), cur
 
 
+def did_you_mean(word: str, choices: Any, cutoff: float = 0.6) -> str | None:
+    """The choice a mistyped ``word`` most likely meant, or None.
+
+    A choice equal to ``word`` but for case wins (``J_L`` → ``J_l``, not ``J_m``: difflib's ratio
+    is case-sensitive and ``J_m`` shares as many characters; session 35, tester G, G13), when
+    exactly one does; else the closest by :func:`difflib.get_close_matches` above ``cutoff``.
+
+    Parameters
+    ----------
+    word : str
+        What was written.
+    choices : iterable of str
+        The valid names.
+    cutoff : float
+        Least similarity (0–1) of a difflib suggestion.
+    """
+    choices = [str(c) for c in choices]
+    same = [c for c in choices if c.casefold() == word.casefold()]
+    if len(same) == 1:
+        return same[0]
+    close = difflib.get_close_matches(word, choices, n=1, cutoff=cutoff)
+    return close[0] if close else None
+
+
 def _tables_with_key(model: type[BaseModel], key: str) -> list[str]:
     """Tables of ``model`` (a file) that have a key ``key``."""
     found = []
@@ -718,12 +742,12 @@ def _format_error(path: str, err: dict[str, Any], model: type[BaseModel]) -> str
         _, holder = _walk(model, loc[:-1])
         is_model = isinstance(holder, type) and issubclass(holder, BaseModel)
         valid = list(holder.model_fields) if is_model else []
-        close = difflib.get_close_matches(key, valid, n=1, cutoff=0.5)
+        close = did_you_mean(key, valid, cutoff=0.5)
         elsewhere = [t for t in _tables_with_key(model, key) if t != table] if table else []
         if elsewhere and not close:
             hint = "; it is a key of " + " and ".join(f"[{t}]" for t in elsewhere)
         elif close:
-            hint = f"; did you mean '{close[0]}'?"
+            hint = f"; did you mean '{close}'?"
         else:
             hint = f"; valid: {', '.join(valid)}" if valid else ""
         if not table and isinstance(err.get("input"), dict):

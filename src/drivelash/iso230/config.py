@@ -27,13 +27,12 @@ Errors are one line naming the file, the table and the key.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from drivelash.errors import ConfigError, ParameterError
-from drivelash.io.config import DriveConfig, parse_config, read_toml
+from drivelash.io.config import DriveConfig, did_you_mean, parse_config, read_toml
 from drivelash.iso230.compare import Transmission
 from drivelash.iso230.dwell import DwellParams
 from drivelash.iso230.inputs import Iso230Params
@@ -72,8 +71,8 @@ def _table(source: str, name: str, cls: type, data: Any) -> Any:
     valid = [f.name for f in dataclasses.fields(cls)]
     for key in data:
         if key not in valid:
-            close = difflib.get_close_matches(key, valid, n=1, cutoff=0.5)
-            hint = f"; did you mean '{close[0]}'?" if close else f"; valid: {', '.join(valid)}"
+            close = did_you_mean(key, valid, cutoff=0.5)
+            hint = f"; did you mean '{close}'?" if close else f"; valid: {', '.join(valid)}"
             raise ConfigError(f"{source}: table [{name}], key '{key}': unknown key{hint}")
     kw = dict(data)
     if cls is Iso230Params and "targets" in kw:
@@ -112,8 +111,8 @@ def load_iso230_config(path: str | Path | None) -> Iso230Config:
     known = [*_DRIVE_TABLES, *_TABLES]
     for key in data:
         if key not in known:
-            close = difflib.get_close_matches(key, known, n=1, cutoff=0.5)
-            hint = f"; did you mean '{close[0]}'?" if close else f"; valid: {', '.join(known)}"
+            close = did_you_mean(key, known, cutoff=0.5)
+            hint = f"; did you mean '{close}'?" if close else f"; valid: {', '.join(known)}"
             raise ConfigError(f"{src}: unknown table [{key}]{hint}")
     drive = {k: data[k] for k in _DRIVE_TABLES if k in data}
     mapping = parse_config(drive, src) if drive else None
