@@ -843,8 +843,10 @@ def float32_time_hint(a: float, b: float) -> str:
 def time_hint(names: list[str], meta: dict[str, Any] | None = None) -> str:
     """``"; …"`` naming what looks like the time in a table without a ``t`` column: a column
     whose name differs from ``t``/``time`` only in case or by a suffix (``Time``, ``time_s``), or
-    a DataFrame's unnamed increasing float index (``meta["unnamed_float_index"]``); ``""`` when
-    there is none (session 31 tester C, C14: "missing required column 't'" left the cause out).
+    a DataFrame's unnamed increasing float, time-stamp or duration index
+    (``meta["unnamed_time_index"]``: what it holds); ``""`` when there is none (session 31
+    tester C, C14: "missing required column 't'" left the cause out; session 35 tester G, G14:
+    an unnamed DatetimeIndex got no hint).
     """
     near = [n for n in names if n.lower() in ("t", "time") or n.lower().startswith(("time", "t_", "t ["))]
     if near:
@@ -852,8 +854,10 @@ def time_hint(names: list[str], meta: dict[str, Any] | None = None) -> str:
             f'; a column {near[0]!r} is there: map it ([columns."{near[0]}"] column = "t", unit = "s"; '
             f"or columns={{{near[0]!r}: 't'}} in Python) or rename it 't'"
         )
-    if (meta or {}).get("unnamed_float_index"):
-        return "; the DataFrame's unnamed index looks like time: df.rename_axis('t').reset_index()"
+    held = (meta or {}).get("unnamed_time_index")
+    if held:
+        what = "" if held == "numbers" else f" ({held})"
+        return f"; the DataFrame's unnamed index looks like time{what}: df.rename_axis('t').reset_index()"
     return ""
 
 

@@ -209,12 +209,13 @@ class Trace:
         dup = df.columns[df.columns.duplicated()]
         if len(dup):
             raise DataError("duplicate column name", path=where, column=str(dup[0]))
-        float_index = (
+        time_index = (
             df.index.name is None
-            and df.index.dtype.kind == "f"
+            and df.index.dtype.kind in "fMm"
             and len(df.index) > 1
             and bool(df.index.is_monotonic_increasing)
-        )  # an unnamed float index is likely the time: named in the missing-'t' message (C14)
+        )  # an unnamed float, time-stamp or duration index is likely the time: named in the
+        # missing-'t' message (C14; a resampled or logged frame's DatetimeIndex too, G14)
         if df.index.name in ("t", "time") and df.index.name not in df.columns:
             df = df.reset_index()  # the time as the index: the same column as from a file
         cmap, sampling = _mapping_from(mapping)
@@ -256,8 +257,11 @@ class Trace:
             raise DataError("no numeric columns found", path=where)
         if len(df) == 0:
             raise DataError("no data rows", path=where)
-        if float_index and sampling.sample_rate is None and not ({"t", "time"} & set(cols)):
-            meta["unnamed_float_index"] = True  # only for the message of the refusal that follows
+        if time_index and sampling.sample_rate is None and not ({"t", "time"} & set(cols)):
+            # only for the message of the refusal that follows: what the index holds
+            meta["unnamed_time_index"] = {"M": "time stamps", "m": "durations"}.get(
+                df.index.dtype.kind, "numbers"
+            )
         table = RawTable(cols, {}, meta, where, "DataFrame")
         return trace_from_table(table, cmap, sampling, required=required, check_saturation=check_saturation)
 
