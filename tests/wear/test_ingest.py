@@ -290,7 +290,7 @@ def test_postgresql_store_ingest_and_forecast(small_fleet, serial_store, pg_url)
     """The same ingest on a real PostgreSQL server gives the same values and forecasts."""
     st, _ = serial_store
     pg = Store(pg_url)
-    assert pg.revision() == "0003"
+    assert pg.revision() == "0004"
     ingest(load_fleet(small_fleet / "fleet.toml"), pg, workers=1)
     assert _values(pg) == _values(st)
     rep = ingest(load_fleet(small_fleet / "fleet.toml"), pg, workers=1)

@@ -53,7 +53,7 @@ def _row(i: int, axis: str = "M01/X", **kw) -> EstimateRow:
 
 def test_schema_is_created_by_the_shipped_migrations(tmp_path):
     st = Store(tmp_path / "w.sqlite")
-    assert st.revision() == "0003"
+    assert st.revision() == "0004"
     names = set(sa.inspect(st.engine).get_table_names())
     assert {"axis", "recording", "estimate", "measurement", "alarm", "alembic_version"} <= names
     cols = {c["name"] for c in sa.inspect(st.engine).get_columns("estimate")}
@@ -76,7 +76,7 @@ def test_schema_is_created_by_the_shipped_migrations(tmp_path):
     st.close()
     # reopening does not migrate again and keeps the data
     st2 = Store(tmp_path / "w.sqlite", create=False)
-    assert st2.revision() == "0003"
+    assert st2.revision() == "0004"
 
 
 def test_a_store_of_revision_0001_is_migrated_and_keeps_its_rows(tmp_path):
@@ -108,10 +108,10 @@ def test_a_store_of_revision_0001_is_migrated_and_keeps_its_rows(tmp_path):
             "'2026-01-01 00:00:00')"
         )
     eng.dispose()
-    with pytest.raises(StoreError, match="schema revision 0001 is not the current 0003"):
+    with pytest.raises(StoreError, match="schema revision 0001 is not the current 0004"):
         Store(db, create=False)
     st = Store(db)
-    assert st.revision() == "0003"
+    assert st.revision() == "0004"
     (row,) = st.estimates()
     assert row["delta"] == 0.1 and row["estimate_rate_hz"] is None
 

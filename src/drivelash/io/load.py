@@ -908,6 +908,14 @@ def _factor_hint(ratio: float) -> str:
     return ""
 
 
+def is_prismatic(kinds: Mapping[str, str | None]) -> bool:
+    """Whether mapped columns make a trace prismatic: ``theta_m`` in a length unit or ``omega_m``
+    in a velocity unit (``kinds``: Trace column → unit kind, :data:`~drivelash.io.config.UNIT_KIND`).
+    The one rule for both a recording (:func:`load_trace`) and a drive file's ``[columns]`` read
+    without a recording (the wear tracker's axis kind, :func:`drivelash.wear.fleet.drive_axis_kind`)."""
+    return kinds.get("theta_m") == "length" or kinds.get("omega_m") == "velocity"
+
+
 #: Positions that share one scale on a prismatic axis (m of carriage travel): the motor and load
 #: positions, and a mapped reference (a Trace name ending in ``_ref``, e.g. EMPS ``qg``).
 _LINEAR_POSITIONS = ("theta_m", "theta_l")
@@ -1166,7 +1174,7 @@ def trace_from_table(
     _check_seams(cols, kinds, origin, spath, rows)
     _check_velocity_scales(cols, origin, spath)
 
-    prismatic = kinds.get("theta_m") == "length" or kinds.get("omega_m") == "velocity"
+    prismatic = is_prismatic(kinds)
     kinds_m = {kinds.get("theta_m"), kinds.get("omega_m")} - {None, "dimensionless"}
     if prismatic and kinds_m & {"angle", "angular_velocity"}:
         raise DataError(

@@ -24,6 +24,7 @@ from typing import Any
 
 from drivelash.errors import DataError, DrivelashError
 from drivelash.io.config import DriveConfig
+from drivelash.units import gap_unit
 from drivelash.wear.fleet import TimeSpec, time_spec_hash
 from drivelash.wear.store import EstimateRow, utc_naive
 from drivelash.wear.words import UNCONVERGED_MARK
@@ -52,6 +53,8 @@ class RecordingTask:
     config_hash: str
     code_version: str
     estimate_rate_hz: float | None = None
+    #: the axis's kind as its fleet file resolves it ("rotary" or "prismatic", ``AxisSpec.kind``)
+    kind: str = "rotary"
 
 
 #: Earliest start time a ``time = {from = "column"}`` stamp may give (naive UTC): an earlier
@@ -223,6 +226,15 @@ def estimate_recording(task: RecordingTask) -> EstimateRow:
         duration = n * T_s
         rate = 1.0 / T_s
         start = recording_start(path, task.time, trace.meta)
+        got = "prismatic" if trace.meta.get("axis") == "prismatic" else "rotary"
+        if got != task.kind:
+            # its δ would be a length on an axis trended and shown in rad, or an angle in m
+            raise DataError(
+                f"the recording is {_KIND_WORDS[got]}, but axis {task.axis} is {_KIND_WORDS[task.kind]}"
+                " by its drive file's [columns]; give the position columns' unit there"
+                " (a length unit — m, mm, um — makes the axis linear)",
+                path=str(path),
+            )
         # only the figures are stored: the output series is not kept (same verdict and figures)
         res, _ = estimate_trace(cfg, trace, task.method, keep="decimated")
         d1 = res.extra.get("delta1_estimate", res.extra.get("delta1_check"))
@@ -231,7 +243,7 @@ def estimate_recording(task: RecordingTask) -> EstimateRow:
             std = res.extra.get("delta_std")
         reason = res.reason
         if res.excitation_ok and not res.converged:
-            cause, std = unconverged_cause(res, std)
+            cause, std = unconverged_cause(res, std, trace.meta.get("axis"))
             reason = f"{reason}{UNCONVERGED_MARK}{cause}"
         return EstimateRow(
             **base,
@@ -269,7 +281,11 @@ def estimate_recording(task: RecordingTask) -> EstimateRow:
     )
 
 
-def unconverged_cause(res: Any, std: Any) -> tuple[str, Any]:
+#: How a reason names an axis kind.
+_KIND_WORDS = {"prismatic": "linear (positions in a length unit)", "rotary": "rotary (positions in rad)"}
+
+
+def unconverged_cause(res: Any, std: Any, axis: str | None = None) -> tuple[str, Any]:
     """Why an excited estimate did not converge, and the uncertainty a wear trend may use.
 
     Parameters
@@ -277,7 +293,10 @@ def unconverged_cause(res: Any, std: Any) -> tuple[str, Any]:
     res : EstimationResult
         The estimator's result (excited, not converged).
     std : float or None
-        Its stated standard uncertainty of δ̂ [rad].
+        Its stated standard uncertainty of δ̂ [rad, or m on a linear axis].
+    axis : str, optional
+        The recording's axis kind (``Trace.meta["axis"]``): the movement is written in µm on a
+        "prismatic" one, else in mrad.
 
     Returns
     -------
@@ -303,7 +322,8 @@ def unconverged_cause(res: Any, std: Any) -> tuple[str, Any]:
         # the trend's σ spans the last window's movement (quadrature: one more standard
         # uncertainty of where δ̂ ends): KR300 rec_C axis 1 moved 1.41 mrad with a stated ±0.27
         return (
-            f"not settled: δ̂ moved {1e3 * move:.2f} mrad over its last window (σ widened to include it)",
+            f"not settled: δ̂ moved {gap_unit(axis).f(move, '.2f')} over its last window"
+            " (σ widened to include it)",
             math.hypot(std, move / 1.96),
         )
     return claim or "not settled", std

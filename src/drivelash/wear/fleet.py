@@ -19,6 +19,18 @@ Example::
     # threshold_unit = "mm"       # … or mm at the load, with
     # transmission = 1.59         #   mm of load travel per rad of load angle
 
+    [[axis]]
+    id = "M01/Z"                  # a linear (prismatic) axis: its drive file's [columns] give
+    drive = "drives/M01-Z.toml"   #   the positions in a length unit (m, mm, µm)
+    recordings = "rec/M01/Z/*.csv"
+    threshold = 30                # lost-motion threshold …
+    threshold_unit = "um"         # … in µm ("um" or "µm"; "mm"; "m", the default on a linear axis)
+
+The axis's kind follows its drive file (:func:`drive_axis_kind`): positions in a length unit make it
+linear, and its δ, threshold and noise are lengths (m; shown in µm), else rotary (rad; shown in mrad).
+On a linear axis ``threshold`` is in m unless ``threshold_unit`` says µm or mm; ``transmission``
+(mm per rad, a rotary axis's lead) and ``threshold_unit = "rad"`` have no meaning there and are refused.
+
 How the recording's start time is found (``time`` per axis, or the fleet default):
 
 * ``from = "filename"``: ``pattern`` is a regular expression whose first group (or group
@@ -54,10 +66,20 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from drivelash.errors import ConfigError, DrivelashError
-from drivelash.io.config import DriveConfig, load_config, read_toml
+from drivelash.io.config import UNIT_KIND, DriveConfig, load_config, read_toml
 from drivelash.params import DELTA_MAX_DEFAULT
+from drivelash.units import gap_unit
 
-__all__ = ["AxisSpec", "Fleet", "ListedFile", "TimeSpec", "load_fleet", "parse_fleet", "time_spec_hash"]
+__all__ = [
+    "AxisSpec",
+    "Fleet",
+    "ListedFile",
+    "TimeSpec",
+    "drive_axis_kind",
+    "load_fleet",
+    "parse_fleet",
+    "time_spec_hash",
+]
 
 
 #: Largest maintenance threshold on the backlash δ [rad at the load] taken as meant on an axis
@@ -73,41 +95,93 @@ MAX_THRESHOLD_RAD = 0.5
 #: the limit is min(4 × 0.5135, δ_max = 2) = 2 rad, and an mrad slip (1100 for 1.1 rad) is still
 #: 550× beyond.
 THRESHOLD_DELTA1_FACTOR = 4.0
+#: Largest lost-motion threshold [m] taken as meant on a linear (prismatic) axis whose drive file
+#: does not say its gap is larger (docs/assumptions.md): a ball-screw or linear-motor axis's lost
+#: motion is 5–60 µm, a rack and pinion's 0.05–0.3 mm; 1 mm is no backlash of a usual linear axis,
+#: while a threshold written in µm (30 for 30e-6 m) lands 30 000× beyond it and one written in mm
+#: (0.03 for 30 µm, what the rad hint said until session 35) 30× beyond.
+MAX_THRESHOLD_M = 1e-3
+#: Units ``threshold_unit`` takes for a length, and their factor to m.
+THRESHOLD_LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6}
 
 
-def threshold_limit(drive: DriveConfig) -> tuple[float, str]:
-    """The largest threshold [rad at the load] an axis with this drive file takes as meant, and
-    what sets it (for the message): :data:`MAX_THRESHOLD_RAD`, or :data:`THRESHOLD_DELTA1_FACTOR`
-    × the drive's δ1 (at most its δ_max) when that is larger.
+def drive_axis_kind(drive: DriveConfig) -> str:
+    """The kind of axis a drive file describes: "prismatic" when its ``[columns]`` give the motor
+    position in a length unit or its velocity in a length velocity (the loader's rule,
+    :func:`drivelash.io.load.is_prismatic`: its recordings carry m, m/s, N), else "rotary".
 
     Parameters
     ----------
     drive : DriveConfig
-        The axis's drive configuration ([backlash] delta1 [rad], [estimator] delta_max [rad]).
+        The axis's drive configuration.
+
+    Returns
+    -------
+    str
+        "prismatic" or "rotary" (also without ``[columns]``: recordings in Trace names are read
+        as SI rad unless their own metadata says otherwise — ingest then refuses them,
+        :func:`drivelash.wear.estimate.estimate_recording`).
+    """
+    from drivelash.io.load import is_prismatic
+
+    kinds = {cm.column: UNIT_KIND.get(cm.unit) for cm in (drive.columns or {}).values()}
+    return "prismatic" if is_prismatic(kinds) else "rotary"
+
+
+def threshold_limit(drive: DriveConfig, kind: str = "rotary") -> tuple[float, str]:
+    """The largest threshold [rad at the load, or m on a linear axis] an axis with this drive file
+    takes as meant, and what sets it (for the message): :data:`MAX_THRESHOLD_RAD` (on a linear
+    axis :data:`MAX_THRESHOLD_M`), or :data:`THRESHOLD_DELTA1_FACTOR` × the drive's δ1 (at most
+    its δ_max) when that is larger.
+
+    Parameters
+    ----------
+    drive : DriveConfig
+        The axis's drive configuration ([backlash] delta1 [rad or m], [estimator] delta_max).
+    kind : str
+        "rotary" or "prismatic" (:func:`drive_axis_kind`).
 
     Returns
     -------
     (float, str)
-        The limit [rad] and its basis, e.g. ``"limit 0.5 rad"``.
+        The limit and its basis, e.g. ``"limit 0.5 rad"`` or ``"limit 1000 µm"``.
     """
+    u = gap_unit(kind)
+    base = MAX_THRESHOLD_M if kind == "prismatic" else MAX_THRESHOLD_RAD
+
+    def shown(x: float) -> str:
+        return f"{x:g} rad" if kind != "prismatic" else u.f(x, "g")
+
     delta1 = getattr(drive.backlash, "delta1", None)
     delta_max = getattr(drive.estimator, "delta_max", None)
     delta_max = DELTA_MAX_DEFAULT if delta_max is None else float(delta_max)
     if delta1 is None or not math.isfinite(delta1):
-        return MAX_THRESHOLD_RAD, f"limit {MAX_THRESHOLD_RAD:g} rad"
+        return base, f"limit {shown(base)}"
     own = min(THRESHOLD_DELTA1_FACTOR * float(delta1), delta_max)
-    if own <= MAX_THRESHOLD_RAD:
-        return MAX_THRESHOLD_RAD, f"limit {MAX_THRESHOLD_RAD:g} rad"
+    if own <= base:
+        return base, f"limit {shown(base)}"
     if own >= delta_max:
-        return own, f"limit {own:g} rad: the estimator's delta_max, no estimate exceeds it"
-    return own, f"limit {own:g} rad: {THRESHOLD_DELTA1_FACTOR:g} × the drive's delta1 {float(delta1):g} rad"
+        return own, f"limit {shown(own)}: the estimator's delta_max, no estimate exceeds it"
+    return own, f"limit {shown(own)}: {THRESHOLD_DELTA1_FACTOR:g} × the drive's delta1 {shown(float(delta1))}"
 
 
-def _threshold_slip(a: AxisSection, drive: DriveConfig) -> str | None:
+def _threshold_slip(a: AxisSection, drive: DriveConfig, kind: str = "rotary") -> str | None:
     """Why ``a.threshold`` looks like a unit slip (None: plausible), judged against the axis's
-    drive file (:func:`threshold_limit`)."""
-    limit, basis = threshold_limit(drive)
-    if a.threshold_unit == "rad":
+    drive file (:func:`threshold_limit`); ``kind``: the axis's (:func:`drive_axis_kind`)."""
+    limit, basis = threshold_limit(drive, kind)
+    if kind == "prismatic":
+        unit = a.threshold_unit or "m"
+        m = a.threshold * THRESHOLD_LENGTH_UNITS[unit]
+        if m < limit:
+            return None
+        # the hint writes the number as meant in µm, the unit of a linear axis's lost motion
+        return (
+            f"{a.threshold:g} {unit} is {1e3 * m:.4g} mm of lost motion on a linear axis, no backlash"
+            f" threshold ({basis}); the key is in {unit} — {a.threshold:g} µm is"
+            f' threshold = {a.threshold:g} with threshold_unit = "um"'
+            + (f" (or threshold = {a.threshold * 1e-6:.6g} in m)" if unit == "m" else "")
+        )
+    if a.threshold_unit in (None, "rad"):
         if a.threshold < limit:
             return None
         return (
@@ -115,14 +189,58 @@ def _threshold_slip(a: AxisSection, drive: DriveConfig) -> str | None:
             f" ({basis}); the key is in rad — {a.threshold:g} mrad is"
             f" threshold = {a.threshold * 1e-3:.6g}"
         )
-    rad = a.threshold / float(a.transmission or 1.0)
+    mm = a.threshold * THRESHOLD_LENGTH_UNITS[a.threshold_unit] * 1e3
+    rad = mm / float(a.transmission or 1.0)
     if rad < limit:
         return None
+    shown = "µm" if a.threshold_unit == "um" else a.threshold_unit
     return (
-        f"{a.threshold:g} mm is {rad:.4g} rad at the load (transmission {a.transmission:g} mm/rad),"
-        f" no backlash threshold ({basis}); the key is in mm — {a.threshold:g} µm"
+        f"{a.threshold:g} {shown} is {rad:.4g} rad at the load (transmission {a.transmission:g} mm/rad),"
+        f" no backlash threshold ({basis}); the key is in {shown} — {a.threshold:g} µm"
         f" is threshold = {a.threshold * 1e-3:.6g}"
+        + ("" if a.threshold_unit == "mm" else ' with threshold_unit = "mm"')
     )
+
+
+def _axis_kind_and_threshold(a: AxisSection, drive: DriveConfig) -> tuple[str, float, str | None]:
+    """The axis's kind (:func:`drive_axis_kind`), its threshold in the kind's SI unit (rad at the
+    load, or m) and why the unit keys do not fit the kind (None when they do)."""
+    kind = drive_axis_kind(drive)
+    unit = a.threshold_unit
+    if kind == "prismatic":
+        if unit == "rad":
+            return (
+                kind,
+                math.nan,
+                (
+                    "threshold_unit = 'rad' on a linear axis (its drive file's [columns] give positions in"
+                    " a length unit): its lost motion is a length — threshold_unit = 'um', 'mm' or 'm'"
+                    " (the default)"
+                ),
+            )
+        if a.transmission is not None:
+            return (
+                kind,
+                math.nan,
+                (
+                    "'transmission' (mm of load travel per rad) has no meaning on a linear axis (its drive"
+                    " file's [columns] give positions in a length unit): its threshold is a length already —"
+                    " threshold_unit = 'um', 'mm' or 'm' (the default)"
+                ),
+            )
+        return kind, a.threshold * THRESHOLD_LENGTH_UNITS[unit or "m"], None
+    if unit in (None, "rad"):
+        return kind, a.threshold, None
+    if a.transmission is None:
+        return (
+            kind,
+            math.nan,
+            (
+                f"threshold_unit = '{unit}' needs 'transmission' (mm of load travel per rad) on a rotary"
+                " axis; a linear axis is one whose drive file's [columns] give positions in a length unit"
+            ),
+        )
+    return kind, a.threshold * THRESHOLD_LENGTH_UNITS[unit] * 1e3 / float(a.transmission), None
 
 
 class _Strict(BaseModel):
@@ -215,7 +333,8 @@ class AxisSection(_Strict):
     drive: str
     recordings: str
     threshold: float = Field(gt=0)
-    threshold_unit: Literal["rad", "mm"] = "rad"
+    #: None: the axis's own unit, rad on a rotary axis, m on a linear one
+    threshold_unit: Literal["rad", "m", "mm", "um", "µm"] | None = None
     transmission: float | None = Field(default=None, gt=0)
     time: TimeSpec | None = None
 
@@ -237,12 +356,6 @@ class AxisSection(_Strict):
         if v is not None and not math.isfinite(v):
             raise ValueError(f"must be finite, got {v!r}")
         return v
-
-    @model_validator(mode="after")
-    def _units(self) -> AxisSection:
-        if self.threshold_unit == "mm" and self.transmission is None:
-            raise ValueError("threshold_unit = 'mm' needs 'transmission' (mm of load travel per rad)")
-        return self
 
 
 class FleetFile(_Strict):
@@ -292,9 +405,11 @@ class AxisSpec:
     recordings : str
         Absolute glob of the recordings.
     threshold_rad : float
-        Maintenance threshold on δ [rad at the load].
+        Maintenance threshold on δ in the axis's SI unit: rad at the load, or m on a linear
+        axis (``kind`` "prismatic"; the name is the store's column's).
     transmission : float or None
-        mm of load travel per rad of load angle (for thresholds and laser checks in mm).
+        mm of load travel per rad of load angle (for thresholds and laser checks in mm; a
+        rotary axis only).
     time : TimeSpec
         How the start time is found.
     method : str
@@ -308,6 +423,8 @@ class AxisSpec:
         Consecutive unexcited recordings that raise an alarm.
     listing : tuple of ListedFile or None
         The files as listed once by :meth:`listed` (None: :meth:`files` globs each time).
+    kind : str
+        "rotary" (δ in rad) or "prismatic" (a linear axis, δ in m; :func:`drive_axis_kind`).
     """
 
     name: str
@@ -323,6 +440,7 @@ class AxisSpec:
     not_excited_alarm: int
     estimate_rate_hz: float | None = None
     listing: tuple[ListedFile, ...] | None = field(default=None, compare=False, repr=False)
+    kind: str = "rotary"
 
     def at_rate(self, estimate_rate_hz: float | None) -> AxisSpec:
         """This axis estimated at another rate (None: every sample), with the config hash
@@ -507,11 +625,14 @@ def parse_fleet(data: dict[str, Any], path: Path) -> Fleet:
             drive.require("backlash")
         except DrivelashError as exc:
             raise ConfigError(f"{src}: table {table}, key 'drive': {exc}") from None
-        slip = _threshold_slip(a, drive)  # after the drive: its gap sets the limit (F7)
+        # after the drive: its [columns] set the kind, its gap the limit (F7)
+        kind, thr, misfit = _axis_kind_and_threshold(a, drive)
+        if misfit:
+            raise ConfigError(f"{src}: table {table}: {misfit}")
+        slip = _threshold_slip(a, drive, kind)
         if slip:
             raise ConfigError(f"{src}: table {table}, key 'threshold': {slip}")
         rate = None if doc.fleet.estimate_rate_hz == "full" else float(doc.fleet.estimate_rate_hz)
-        thr = a.threshold if a.threshold_unit == "rad" else a.threshold / float(a.transmission or 1.0)
         axes.append(
             AxisSpec(
                 name=a.id,
@@ -526,6 +647,7 @@ def parse_fleet(data: dict[str, Any], path: Path) -> Fleet:
                 horizon_days=doc.fleet.horizon_days,
                 not_excited_alarm=doc.fleet.not_excited_alarm,
                 estimate_rate_hz=rate,
+                kind=kind,
             )
         )
     return Fleet(path=path, name=doc.fleet.name, db=doc.fleet.db, axes=tuple(axes))

@@ -217,6 +217,7 @@ def plan(
                     a.drive_hash,
                     ver,
                     a.estimate_rate_hz,
+                    getattr(a, "kind", "rotary"),
                 )
             )
     return ids, tasks, skipped

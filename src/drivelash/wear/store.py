@@ -99,6 +99,8 @@ axis_t = sa.Table(
     sa.Column("horizon_days", sa.Float),
     sa.Column("not_excited_alarm", sa.Integer),
     sa.Column("updated_at", sa.DateTime),
+    # "rotary" (δ, threshold in rad) or "prismatic" (in m); NULL: written before revision 0004, rotary
+    sa.Column("kind", sa.String(16)),
 )
 
 
@@ -869,6 +871,7 @@ class Store:
                     "horizon_days": a.horizon_days,
                     "not_excited_alarm": a.not_excited_alarm,
                     "updated_at": now,
+                    "kind": getattr(a, "kind", "rotary"),
                 }
                 row = conn.execute(sa.select(axis_t.c.id).where(axis_t.c.name == a.name)).first()
                 if row is None:
@@ -913,8 +916,12 @@ class Store:
         return int(row.id)
 
     def axes(self) -> list[dict[str, Any]]:
-        """Every axis as a dict (columns of the axis table), sorted by name."""
-        return [dict(r._mapping) for r in self._read(sa.select(axis_t).order_by(axis_t.c.name))]
+        """Every axis as a dict (columns of the axis table), sorted by name; ``kind`` is
+        "rotary" or "prismatic" (NULL, an axis written before revision 0004, reads "rotary")."""
+        rows = [dict(r._mapping) for r in self._read(sa.select(axis_t).order_by(axis_t.c.name))]
+        for r in rows:
+            r["kind"] = r.get("kind") or "rotary"
+        return rows
 
     def _read(self, q: Any) -> list[Any]:
         with self.engine.connect() as conn:
@@ -1350,8 +1357,9 @@ class Store:
     def estimates(self, axis: str | None = None) -> list[dict[str, Any]]:
         """Recording-based estimates joined with their recordings, ordered by axis and time.
 
-        Each dict has the estimate's columns plus ``axis``, ``path``, ``content_hash``,
-        ``start_time``, ``duration_s``, ``sample_rate_hz``, ``samples``.
+        Each dict has the estimate's columns plus ``axis``, ``axis_kind`` (the axis's kind,
+        "rotary" — also for a store written before revision 0004 — or "prismatic": δ in m),
+        ``path``, ``content_hash``, ``start_time``, ``duration_s``, ``sample_rate_hz``, ``samples``.
 
         Parameters
         ----------
@@ -1361,6 +1369,7 @@ class Store:
         q = (
             sa.select(
                 axis_t.c.name.label("axis"),
+                sa.func.coalesce(axis_t.c.kind, "rotary").label("axis_kind"),
                 recording_t.c.path,
                 recording_t.c.content_hash,
                 recording_t.c.start_time,
@@ -1430,7 +1439,8 @@ class Store:
             Its standard uncertainty [``unit``] (None when unknown).
         unit : {"rad", "mm", "um", "µm", "m"}
             Unit of ``value``/``std``; lengths are converted to rad with the axis's
-            transmission when it has one.
+            transmission when it has one — on a linear axis (``kind`` "prismatic") to m, the
+            unit of its δ, and an angle gets no δ value.
         source : str
             Kind of measurement, e.g. ``"iso230-2"``.
         reference : str, optional
@@ -1472,9 +1482,19 @@ class Store:
             ).first()
             if old is not None:
                 return int(old.id)
-            tr = conn.execute(sa.select(axis_t.c.transmission_mm_per_rad).where(axis_t.c.id == aid)).scalar()
+            tr, kind = conn.execute(
+                sa.select(axis_t.c.transmission_mm_per_rad, axis_t.c.kind).where(axis_t.c.id == aid)
+            ).one()
             tr = tr or transmission_mm_per_rad
-            if unit == "rad":
+            if kind == "prismatic":
+                # a linear axis's δ is a length (m) already: no transmission; an angle is not its δ
+                f = LENGTH_UNITS.get(unit, math.nan) * 1e-3
+                ok = math.isfinite(f)
+                v_rad, s_rad = (
+                    (float(value) * f if ok else None),
+                    (None if std is None or not ok else float(std) * f),
+                )
+            elif unit == "rad":
                 v_rad, s_rad = float(value), std
             elif tr:
                 f = LENGTH_UNITS[unit] / float(tr)
