@@ -20,8 +20,10 @@ import pytest
 import sqlalchemy as sa
 
 from drivelash.errors import ConfigError
+from drivelash.wear.alarms import axis_alarms
 from drivelash.wear.fleet import load_fleet
 from drivelash.wear.store import EstimateRow, Store
+from drivelash.wear.trend import analyse, usable
 
 T0 = datetime(2026, 11, 20, 8, 0)
 #: the tester's L1/Z (fz.json): δ̂ [m] of 7 daily 6 s recordings, true 20 µm then 60 µm
@@ -30,6 +32,88 @@ L1Z_STD = 0.447e-6
 #: the tester's L1/X (fx.json): 4 s recordings, not converged, σ ≈ 10 µm (95 % ≈ ±20 µm = the gap)
 L1X = [19.55e-6, 19.69e-6, 19.74e-6, 19.78e-6, 20.06e-6, 20.27e-6]
 L1X_STD = [9.99e-6, 10.08e-6, 10.15e-6, 10.26e-6, 11.05e-6, 11.65e-6]
+
+
+def _rows(deltas, std, converged=True, kind="prismatic"):
+    stds = std if isinstance(std, list) else [std] * len(deltas)
+    return [
+        {
+            "status": "ok",
+            "excitation_ok": True,
+            "converged": converged,
+            "delta": d,
+            "delta_std": s,
+            "start_time": T0 + timedelta(days=i),
+            "path": f"rec_{i:03d}.csv",
+            "reason": "6 crossings of the gap",
+            "axis_kind": kind,
+        }
+        for i, (d, s) in enumerate(zip(deltas, stds, strict=True))
+    ]
+
+
+def _axis(threshold, kind="prismatic", name="L1/Z"):
+    return {
+        "name": name,
+        "threshold_rad": threshold,
+        "horizon_days": 30.0,
+        "not_excited_alarm": 5,
+        "kind": kind,
+    }
+
+
+def test_a_jump_on_a_linear_axis_is_an_alarm_and_the_level_after_it_stays_flat():
+    rows = _rows(L1Z, L1Z_STD)
+    trend, used = analyse(rows, 100e-6, "prismatic")
+    assert len(used) == 7
+    # was: change_points [], noise 2e-5 (the floor), linear b = 8.6 µm/day, crossing in 4.3 days
+    (cp,) = trend.change_points
+    assert cp.index == 4 and cp.size == pytest.approx(40.1e-6, abs=0.2e-6)
+    assert trend.sigma < 0.1e-6  # the estimates' own scatter (0.045 µm), not a 20 µm floor
+    now = float(trend.curve(np.array([trend.t_now]))[0][0])
+    assert now == pytest.approx(59.95e-6, abs=0.05e-6)
+    assert abs(trend.params["b"]) < 0.05e-6  # flat after the jump: µm/day
+    assert trend.forecast is not None and trend.forecast.t_cross is None  # never reaches 100 µm
+    al = {a.kind: a for a in axis_alarms(_axis(100e-6), rows, trend)}
+    assert set(al) == {"jump"}, al
+    assert al["jump"].message == "L1/Z: sudden backlash increase of 40.11 µm at 2026-11-24 UTC"
+    # negative control: the same numbers on a rotary axis are 20 → 60 µrad, far below its 2 mrad
+    # jump minimum — no jump there, as before (the rotary rules are unchanged)
+    rot, _ = analyse(_rows(L1Z, L1Z_STD, kind="rotary"), 100e-6, "rotary")
+    assert rot.change_points == [] and rot.sigma == 2e-5
+
+
+def test_unconverged_estimates_of_a_linear_axis_enter_only_within_the_scaled_limit():
+    rows = _rows(L1X, L1X_STD, converged=False)
+    # was: all six admitted (±20 µm < "5 mrad") and a forecast crossing of 30 µm in 74 days
+    assert not any(usable(r) for r in rows)
+    trend, used = analyse(rows, 30e-6, "prismatic")
+    assert used == [] and trend.model is None and trend.forecast is None
+    al = {a.kind for a in axis_alarms(_axis(30e-6, name="L1/X"), rows, trend)}
+    assert al == {"not_converged"}
+    # the rotary rule scaled (5 mrad → 1.25 µm at 95 %): ±0.98 µm enters, ±1.37 µm does not
+    assert usable(_rows([20e-6], 0.5e-6, converged=False)[0])
+    assert not usable(_rows([20e-6], 0.7e-6, converged=False)[0])
+    # negative control: on a rotary axis the same σ (10 µrad) is far inside its 5 mrad gate, and
+    # 2.6 mrad (95 % 5.1 mrad) outside it, as before
+    assert all(usable(r) for r in _rows(L1X, L1X_STD, converged=False, kind="rotary"))
+    assert not usable(_rows([0.2], 2.6e-3, converged=False, kind="rotary")[0])
+
+
+def test_alarm_texts_of_a_linear_axis_are_in_micrometres():
+    # the tester's L1/Y with a 12 µm threshold and a 14 µm gap: was "backlash above the threshold
+    # 0.01 mrad (fitted 0.01 mrad)"
+    y = [14.0e-6 + 0.01e-6 * i for i in range(6)]
+    rows = _rows(y, 0.4e-6)
+    trend, _ = analyse(rows, 12e-6, "prismatic")
+    msg = {a.kind: a.message for a in axis_alarms(_axis(12e-6, name="L1/Y"), rows, trend)}
+    assert msg["threshold"] == "L1/Y: backlash above the threshold 12.00 µm (fitted 14.05 µm)", msg
+    # negative control: a rotary axis says mrad, as before
+    rot = [0.180 + 1e-4 * i for i in range(6)]
+    rrows = _rows(rot, 1e-4, kind="rotary")
+    rtrend, _ = analyse(rrows, 0.175, "rotary")
+    rmsg = {a.kind: a.message for a in axis_alarms(_axis(0.175, "rotary", "M01/X"), rrows, rtrend)}
+    assert rmsg["threshold"] == "M01/X: backlash above the threshold 175.00 mrad (fitted 180.50 mrad)"
 
 
 # --------------------------------------------------------------------------- fleet.toml

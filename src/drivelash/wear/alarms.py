@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from drivelash.units import gap_unit
 from drivelash.wear.store import Store
 from drivelash.wear.trend import MIN_POINTS, AxisTrend, analyse, usable
 from drivelash.wear.words import UNCONVERGED_MARK, count, crossing_time, to_the_minute
@@ -72,6 +73,7 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
     out: list[Alarm] = []
     name = axis["name"]
     thr = axis["threshold_rad"]
+    u = gap_unit(axis.get("kind"))  # mrad, or µm on a linear axis (its δ in m)
     # the time the trend is judged at (trend.judged_at): never an extrapolation to an estimate
     # that contradicts it
     t_now = trend.t_now if trend.t_now is not None else (float(trend.t[-1]) if trend.t.size else None)
@@ -86,7 +88,9 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
         (
             r
             for r in reversed(ok_rows)
-            if r["excitation_ok"] and r["delta"] is not None and (r["converged"] or usable(r))
+            if r["excitation_ok"]
+            and r["delta"] is not None
+            and (r["converged"] or usable(r, axis.get("kind")))
         ),
         None,
     )
@@ -98,11 +102,11 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
             single = latest, sd
     if single is not None:
         r, sd = single
-        pm = f" ± {1e3 * sd:.2f}" if sd is not None else ""
+        pm = f" ± {u.n(sd, '.2f')}" if sd is not None else ""
         cause = (r.get("reason") or "").partition(UNCONVERGED_MARK)[2]
         because = f" ({cause})" if cause else ""
         why = (
-            f"estimate not converged{because}: uncertainty ±{1e3 * 1.96 * sd:.2f} mrad (95 %)"
+            f"estimate not converged{because}: uncertainty ±{u.f(1.96 * sd, '.2f')} (95 %)"
             if not r["converged"] and sd is not None
             else "estimate not converged, no uncertainty stated"
             if not r["converged"]
@@ -121,8 +125,8 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
             Alarm(
                 "threshold",
                 "crossed",
-                f"{name}: latest estimate {1e3 * r['delta']:.2f}{pm} mrad ({_day(r['start_time'])}) above "
-                f"the threshold {1e3 * thr:.2f} mrad ({why})",
+                f"{name}: latest estimate {u.n(r['delta'], '.2f')}{pm} {u} ({_day(r['start_time'])}) above "
+                f"the threshold {u.f(thr, '.2f')} ({why})",
                 r["start_time"],
             )
         )
@@ -132,8 +136,8 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
                 Alarm(
                     "threshold",
                     "crossed",
-                    f"{name}: backlash above the threshold {1e3 * thr:.2f} mrad "
-                    f"(fitted {1e3 * float(trend.curve(np.array([t_now]))[0][0]):.2f} mrad)",
+                    f"{name}: backlash above the threshold {u.f(thr, '.2f')} "
+                    f"(fitted {u.f(float(trend.curve(np.array([t_now]))[0][0]), '.2f')})",
                     last_used,
                 )
             )
@@ -145,7 +149,7 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
                 Alarm(
                     "forecast",
                     "within-horizon",
-                    f"{name}: threshold {1e3 * thr:.2f} mrad may be crossed within "
+                    f"{name}: threshold {u.f(thr, '.2f')} may be crossed within "
                     f"{_days(axis['horizon_days'])} (90 % interval from "
                     f"{crossing_time(early, minute)} UTC; expected {crossing_time(when, minute)} UTC)",
                     last_used,
@@ -158,13 +162,13 @@ def axis_alarms(axis: dict[str, Any], rows: list[dict[str, Any]], trend: AxisTre
                 Alarm(
                     "jump",
                     when.isoformat() if when else f"{cp.t_days:.6f}",
-                    f"{name}: sudden backlash increase of {1e3 * cp.size:.2f} mrad at {_day(when)}",
+                    f"{name}: sudden backlash increase of {u.f(cp.size, '.2f')} at {_day(when)}",
                     when,
                 )
             )
     run = 0
     for r in reversed(ok_rows):
-        if usable(r):
+        if usable(r, axis.get("kind")):
             break
         run += 1
     if run >= axis["not_excited_alarm"]:
@@ -279,11 +283,13 @@ def _axis_notes(
     unmatched: list[dict[str, Any]],
     future: list[dict[str, Any]],
     fleet_file: str | None,
+    kind: str | None = None,
 ) -> list[str]:
     """The one-line notes of an axis's summary: stored recordings left out because the fleet
     file no longer matches them, recordings dated in the future, and latest estimates far
     below the trend that the judgement does not extrapolate to (:func:`~drivelash.wear.trend.judged_at`)."""
     out: list[str] = []
+    u = gap_unit(kind)
     if unmatched:
         out.append(unmatched_note(name, unmatched, fleet_file))
     if future:
@@ -308,9 +314,9 @@ def _axis_notes(
             fit = float(trend.curve(trend.t[j : j + 1])[0][0])
             if trend.y[j] < fit:
                 out.append(
-                    f"{name}: the latest estimate {1e3 * trend.y[j]:.2f} mrad "
+                    f"{name}: the latest estimate {u.f(trend.y[j], '.2f')} "
                     f"({_day(trend.to_time(float(trend.t[j])))}) lies far below the trend "
-                    f"({1e3 * fit:.2f} mrad there) and is left out: the machine stood still, or a wrong "
+                    f"({u.f(fit, '.2f')} there) and is left out: the machine stood still, or a wrong "
                     f"date? The trend is judged at {_day(trend.to_time(trend.t_now))}, not extrapolated to it"
                 )
     return out
@@ -488,7 +494,7 @@ def axis_summary(store: Store, axis: dict[str, Any], now: datetime | None = None
     future = [r for r in rows if r["start_time"] is not None and _naive_utc(r["start_time"]) > limit]
     if future:
         rows = [r for r in rows if not any(r is f for f in future)]
-    trend, used = analyse(rows, axis["threshold_rad"])
+    trend, used = analyse(rows, axis["threshold_rad"], axis.get("kind") or "rotary")
     alarms = axis_alarms(axis, rows, trend)
     fc = trend.forecast
     last_t = trend.to_time(float(trend.t[-1])) if trend.t.size else None
@@ -501,7 +507,9 @@ def axis_summary(store: Store, axis: dict[str, Any], now: datetime | None = None
     remaining = None
     if fc is not None and fc.t_cross is not None and t_now is not None:
         remaining = fc.t_cross - t_now
-    notes = _axis_notes(axis["name"], trend, used, unmatched, future, axis.get("fleet_file"))
+    notes = _axis_notes(
+        axis["name"], trend, used, unmatched, future, axis.get("fleet_file"), axis.get("kind")
+    )
     as_of = trend.t_now if trend.t_now is not None else (float(trend.t[-1]) if trend.t.size else None)
     failed = failed_note(axis["name"], failed_run(rows), trend.to_time(as_of))
     if failed is not None and not any(a.kind == "failed" for a in alarms):  # else the alarm says it
@@ -511,6 +519,9 @@ def axis_summary(store: Store, axis: dict[str, Any], now: datetime | None = None
         notes.append(twins)
     return {
         "axis": axis["name"],
+        # "rotary": δ, threshold, noise in rad; "prismatic" (a linear axis): in m (the *_rad keys'
+        # names are the store's), shown in µm (drivelash.units.gap_unit)
+        "kind": axis.get("kind") or "rotary",
         "threshold_rad": axis["threshold_rad"],
         "recordings": len(rows) + len(future),
         "unmatched": len(unmatched),
@@ -525,7 +536,9 @@ def axis_summary(store: Store, axis: dict[str, Any], now: datetime | None = None
             1 for r in rows if r["status"] == "ok" and r["excitation_ok"] and not r["converged"]
         ),
         "unconverged_used": sum(1 for r in used if not r["converged"]),
-        "unusable": sum(1 for r in rows if r["status"] == "ok" and r["excitation_ok"] and not usable(r)),
+        "unusable": sum(
+            1 for r in rows if r["status"] == "ok" and r["excitation_ok"] and not usable(r, axis.get("kind"))
+        ),
         "failed": sum(1 for r in rows if r["status"] != "ok"),
         "outliers": int((~trend.inlier).sum()) if trend.t.size else 0,
         "last_recording": last_t,
@@ -583,6 +596,7 @@ def judged_axes(store: Store, fleet: Any | None = None) -> list[dict[str, Any]]:
             horizon_days=f.horizon_days,
             not_excited_alarm=f.not_excited_alarm,
             transmission_mm_per_rad=f.transmission,
+            kind=f.kind,
             files=matched_files(f),
             fleet_file=fleet.path.name,
         )
@@ -704,7 +718,7 @@ def stale_notes(summaries: list[dict[str, Any]], now: datetime | None = None) ->
             else:
                 failed = sum(1 for r in later if r["status"] != "ok")
                 unexc = sum(1 for r in later if r["status"] == "ok" and not r["excitation_ok"])
-                out_of = sum(1 for r in later if usable(r))
+                out_of = sum(1 for r in later if usable(r, s.get("kind")))
                 other = len(later) - failed - unexc - out_of
                 parts = [
                     f"{unexc} not excited" if unexc else "",

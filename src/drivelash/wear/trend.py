@@ -59,12 +59,20 @@ docs/assumptions.md, "Wear tracking"):
    the axis's systematic error is shared by its next estimate) are drawn in the plots.
 6. **Monotone trend** for display: isotonic regression (scikit-learn) per segment, fitted to
    the inliers (an outlier gets the line's value at its time).
+
+**Linear axes.** The absolute constants below are in rad, set on rotary fleets (gaps 70–200
+mrad, 40 mrad or more of wear to the threshold, jumps of 10–20 mrad). A linear (prismatic)
+axis's δ is a length in m, its lost motion 5–60 µm: its series runs through the same rules in
+units of :data:`LINEAR_SCALE` m per rad (:func:`trend_scale`; :func:`fit_trend` divides δ̂, σ_i
+and the threshold by it and multiplies the results back), so each constant keeps its ratio to the
+wear a threshold allows — 2 mrad of jump is 0.5 µm, the 20 µrad noise floor 5 nm. In m they
+read as rad (2 mm of jump, a 20 µm noise floor, 5 mm admission: session 35 tester G, G5/G2).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import datetime, timedelta
 from typing import Any
 
@@ -72,7 +80,16 @@ import numpy as np
 
 from drivelash.wear.words import count
 
-__all__ = ["AxisTrend", "ChangePoint", "Forecast", "analyse", "fit_trend", "systematic_std", "usable"]
+__all__ = [
+    "AxisTrend",
+    "ChangePoint",
+    "Forecast",
+    "analyse",
+    "fit_trend",
+    "systematic_std",
+    "trend_scale",
+    "usable",
+]
 
 #: Lower bound of the noise scale σ̂ [rad] (estimates agree better than the encoder model).
 SIGMA_FLOOR = 2e-5
@@ -122,6 +139,24 @@ UNCONVERGED_MAX_U95 = 5e-3
 JUDGE_REACH_STEPS = 2.0
 #: Longest forecast look-ahead, in multiples of the data span (and at least 365 days).
 LOOKAHEAD_SPANS = 20.0
+#: Metres of a linear axis's lost motion per rad of a rotary axis's in the constants above
+#: (:func:`trend_scale`; docs/assumptions.md, "Wear tracking"): the wear a threshold allows, about
+#: 10 µm on a linear axis (5–60 µm of lost motion, e.g. 20 → 30 µm) against the 40 mrad the
+#: constants were set for — 0.25 µm per mrad: jumps from 0.5 µm, noise floor 5 nm, unconverged
+#: estimates admitted up to ±1.25 µm (95 %).
+LINEAR_SCALE = 2.5e-4
+
+
+def trend_scale(kind: str | None) -> float:
+    """SI units of an axis's δ per rad of the trend's constants: 1 on a rotary axis (δ in rad),
+    :data:`LINEAR_SCALE` on a linear one (``kind`` "prismatic", δ in m).
+
+    Parameters
+    ----------
+    kind : str or None
+        The axis's kind (``AxisSpec.kind``, the store's ``axis.kind``); None: rotary.
+    """
+    return LINEAR_SCALE if kind == "prismatic" else 1.0
 
 
 @dataclass(frozen=True)
@@ -737,6 +772,7 @@ def fit_trend(
     std: np.ndarray | None = None,
     threshold: float | None = None,
     t0: datetime | None = None,
+    kind: str | None = None,
 ) -> AxisTrend:
     """Trend, change points and forecast of one axis's used estimates.
 
@@ -755,7 +791,23 @@ def fit_trend(
         Maintenance threshold [rad].
     t0 : datetime, optional
         Time of ``t = 0``.
+    kind : str, optional
+        The axis's kind: "prismatic" — δ̂, ``std`` and ``threshold`` in m, the series runs
+        through the rules in units of :func:`trend_scale` and the trend is returned in m
+        (module docstring, "Linear axes"); else rad.
     """
+    scale = trend_scale(kind)
+    if scale != 1.0:
+        return _rescaled(
+            fit_trend(
+                t,
+                np.asarray(y, dtype=float) / scale,
+                None if std is None else np.asarray(std, dtype=float) / scale,
+                None if threshold is None else threshold / scale,
+                t0,
+            ),
+            scale,
+        )
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float)
     n = y.size
@@ -805,6 +857,27 @@ def fit_trend(
         # a +12 mrad wild estimate and stayed 3.8 mrad above every inlier for five days)
         trend.isotonic = _isotonic(t, y, w_all, cps, trend.inlier)
     return trend
+
+
+def _rescaled(tr: AxisTrend, scale: float) -> AxisTrend:
+    """A trend fitted to δ / ``scale`` (:func:`fit_trend` of a linear axis) in the units of δ:
+    every level, size, noise scale and parameter times ``scale`` (the growth constant k and the
+    times stay); each AICc shifts by n·ln(scale²), as the fit to δ itself, so their difference —
+    the model choice — is the same."""
+    n_in = int(np.sum(tr.inlier)) if tr.t.size else 0
+    curve = tr._curve
+    return replace(
+        tr,
+        y=tr.y * scale,
+        change_points=[replace(c, size=c.size * scale) for c in tr.change_points],
+        sigma=tr.sigma * scale,
+        params={k: (v if k == "k" else v * scale) for k, v in tr.params.items()},
+        aicc={k: v + 2.0 * n_in * math.log(scale) for k, v in tr.aicc.items()},
+        threshold=None if tr.threshold is None else tr.threshold * scale,
+        isotonic=tr.isotonic * scale,
+        sigma_sys=tr.sigma_sys * scale,
+        _curve=None if curve is None else (lambda tt: tuple(c * scale for c in curve(tt))),
+    )
 
 
 def _fit_models(
@@ -924,32 +997,40 @@ def _forecast(trend: AxisTrend, t_last: float, span: float, thr: float) -> Forec
     return Forecast(tc, te, tl if tl is not None else math.inf, False)
 
 
-def usable(r: dict[str, Any]) -> bool:
+def usable(r: dict[str, Any], kind: str | None = None) -> bool:
     """Whether a store row enters the trend: ok, excited, with δ̂ and a start time, and either
     converged or with a stated 95 % uncertainty 1.96·σ of at most :data:`UNCONVERGED_MAX_U95`
     (an excited estimate the estimator did not call converged — its uncertainty above its
-    2 mrad claim — enters weighted by 1/σ²; docs/assumptions.md, "Wear tracking"). An estimate a
-    blocking warning made unconverged is stored without σ and so stays out
-    (:func:`drivelash.wear.estimate.unconverged_cause`)."""
+    2 mrad claim — enters weighted by 1/σ²; docs/assumptions.md, "Wear tracking"), in units of
+    :func:`trend_scale` of ``kind``, by default the row's ``axis_kind`` (``Store.estimates``;
+    absent: rotary) — on a linear axis ±1.25 µm. An estimate a blocking warning made unconverged
+    is stored without σ and so stays out (:func:`drivelash.wear.estimate.unconverged_cause`)."""
     if r["status"] != "ok" or not r["excitation_ok"] or r["delta"] is None or r["start_time"] is None:
         return False
     if r["converged"]:
         return True
     s = r["delta_std"]
-    return s is not None and math.isfinite(s) and 0 < 1.96 * s <= UNCONVERGED_MAX_U95
+    u95 = UNCONVERGED_MAX_U95 * trend_scale(kind or r.get("axis_kind"))
+    return s is not None and math.isfinite(s) and 0 < 1.96 * s <= u95
 
 
-def analyse(rows: list[dict[str, Any]], threshold: float | None) -> tuple[AxisTrend, list[dict[str, Any]]]:
+def analyse(
+    rows: list[dict[str, Any]], threshold: float | None, kind: str | None = None
+) -> tuple[AxisTrend, list[dict[str, Any]]]:
     """Trend of one axis from its store rows (``Store.estimates(axis)``).
 
-    Returns the trend of the used estimates and the used rows (:func:`usable`), in time order.
+    ``kind``: the axis's kind (default: the rows' ``axis_kind``, else rotary); on a linear
+    axis ("prismatic") δ̂ and ``threshold`` are in m (:func:`fit_trend`). Returns the trend of the
+    used estimates and the used rows (:func:`usable`), in time order.
     """
-    used = [r for r in rows if usable(r)]
+    if kind is None:
+        kind = next((r.get("axis_kind") for r in rows), None)
+    used = [r for r in rows if usable(r, kind)]
     used.sort(key=lambda r: (r["start_time"], r["path"]))
     if not used:
-        return fit_trend(np.array([]), np.array([]), None, threshold, None), used
+        return fit_trend(np.array([]), np.array([]), None, threshold, None, kind), used
     t0 = used[0]["start_time"]
     t = np.array([(r["start_time"] - t0).total_seconds() / 86400.0 for r in used])
     y = np.array([r["delta"] for r in used], dtype=float)
     std = np.array([np.nan if r["delta_std"] is None else r["delta_std"] for r in used], dtype=float)
-    return fit_trend(t, y, std, threshold, t0), used
+    return fit_trend(t, y, std, threshold, t0, kind), used
