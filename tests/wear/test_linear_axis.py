@@ -12,6 +12,7 @@ negative control: its rules and texts are unchanged.
 from __future__ import annotations
 
 import dataclasses
+import json
 from datetime import datetime, timedelta
 from pathlib import Path
 
@@ -262,6 +263,70 @@ def _store(db: Path, rotary: bool = True) -> None:
         rows += [_estimate("M01/X", i, 0.186 + 1e-3 * i + 1e-4 * (-1) ** i, 1e-4) for i in range(7)]
     with Store(db) as st:
         st.commit_batch(rows, st.upsert_axes(axes))
+
+
+def test_status_forecast_and_report_of_a_linear_axis_are_in_micrometres(tmp_path, cli250):
+    db = tmp_path / "wear.sqlite"
+    _store(db)
+    res = cli250(["track", "status", "--db", str(db)])
+    assert res.returncode == 0, res.stderr
+    lines = {ln.split()[0]: ln for ln in res.stdout.splitlines() if ln.strip().startswith(("L1/Z", "M01/X"))}
+    # a fleet of both kinds: each cell carries its unit (was "0.06 | 0.10" under "[mrad]")
+    assert "δ now  " in res.stdout and "[mrad]" not in res.stdout and "[µm]" not in res.stdout
+    assert "59.95 µm" in lines["L1/Z"] and "100.00 µm" in lines["L1/Z"] and "jump" in lines["L1/Z"]
+    assert "192.0" in lines["M01/X"] and "mrad" in lines["M01/X"]
+    assert "alarm jump: L1/Z: sudden backlash increase of 40.11 µm at 2026-11-24 UTC" in res.stdout
+    res = cli250(["track", "forecast", "L1/Z", "--db", str(db)])
+    assert res.returncode == 0, res.stderr
+    assert "threshold 100.000 µm; fitted now 59.951 µm (noise 0.040 µm); model: linear" in res.stdout
+    assert "jump of +40.11 µm at 2026-11-24 08:00 UTC" in res.stdout and "forecast crossing" not in res.stdout
+    doc = json.loads(cli250(["track", "forecast", "L1/Z", "--db", str(db), "--json", "-"]).stdout)
+    assert doc["axis_kind"] == "prismatic" and doc["si_unit"] == "m" and doc["threshold_rad"] == 100e-6
+    assert doc["params_units"].startswith("a, J* [m]; b, v [m/day]")
+    # negative control: the rotary axis's forecast is in mrad, its JSON in rad
+    res = cli250(["track", "forecast", "M01/X", "--db", str(db)])
+    assert "threshold 200.000 mrad; fitted now" in res.stdout
+    rdoc = json.loads(cli250(["track", "forecast", "M01/X", "--db", str(db), "--json", "-"]).stdout)
+    assert rdoc["axis_kind"] == "rotary" and rdoc["params_units"].startswith("a, J* [rad]; b, v [rad/day]")
+
+
+def test_a_fleet_of_linear_axes_has_micrometres_in_the_headers_and_the_report(tmp_path, cli250):
+    from drivelash.commands.track import run_status, status_table
+    from drivelash.report.fleet import OVERVIEW_HEADER, overview_header, render_fleet_report
+
+    db = tmp_path / "wear.sqlite"
+    _store(db, rotary=False)
+    summ = run_status(str(db), quiet=True)
+    assert overview_header(summ)[1:3] == ["δ now [µm]", "threshold [µm]"]
+    _, legend = status_table(summ, "t", 60)
+    assert legend is not None and legend.startswith("δ now, thresh.: µm;")
+    html = render_fleet_report(summ, {}, title="t", store="s")
+    assert "threshold [µm]" in html and "[mrad]" not in html.split("<svg")[0].split("<img")[0]
+    assert "1.25 µm on a linear axis" in html
+    # the figure's axis and legend: draw it and read them back
+    import matplotlib
+
+    from drivelash.report.fleet import _axis_figure
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig = plt.figure()
+    _axis_figure(summ[0], []).draw(fig)
+    ax = fig.axes[0]
+    assert ax.get_ylabel() == "lost motion δ [µm]"
+    labels = ax.get_legend_handles_labels()[1]
+    assert "threshold 100.0 µm" in labels
+    assert max(ax.get_ylim()) > 60  # plotted in µm (was 0.06 on a "mrad" axis)
+    plt.close(fig)
+    # negative control: a rotary fleet keeps the "[mrad]" headers
+    db2 = tmp_path / "rot.sqlite"
+    with Store(db2) as st:
+        st.commit_batch(
+            [_estimate("M01/X", i, 0.186 + 1e-3 * i, 1e-4) for i in range(6)],
+            st.upsert_axes([_Axis("M01/X", 0.2, "rotary")]),
+        )
+    assert overview_header(run_status(str(db2), quiet=True)) == OVERVIEW_HEADER
 
 
 def test_a_store_of_revision_0003_keeps_working_and_reads_its_axes_as_rotary(tmp_path):

@@ -26,6 +26,7 @@ from typing import Any
 import typer
 
 from drivelash.errors import DrivelashError
+from drivelash.units import gap_unit
 
 track_app = typer.Typer(
     help="Wear tracking of backlash across a fleet: ingest, status, forecast, report.",
@@ -257,20 +258,20 @@ def status_table(summ: list[dict[str, Any]], title: str, width: int) -> tuple[An
     from drivelash.report.fleet import (
         COMPACT_DROP_ORDER,
         COMPACT_HEADER,
-        COMPACT_LEGEND,
-        OVERVIEW_HEADER,
+        compact_legend,
         compact_rows,
+        overview_header,
         overview_rows,
     )
 
     rows = [[str(x) for x in r] for r in overview_rows(summ)]
-    header, legend, pad = OVERVIEW_HEADER, None, (0, 1)
+    header, legend, pad = overview_header(summ), None, (0, 1)
 
     def columns(h: list[str], rs: list[list[str]]) -> int:  # the cells' width [chars]
         return sum(max(cell_len(x) for x in [hh, *col]) for hh, *col in zip(h, *rs, strict=True))
 
     if rows and columns(header, rows) + 2 * len(header) > width:  # 2 spaces between and around
-        header, rows, legend = COMPACT_HEADER, compact_rows(summ), COMPACT_LEGEND
+        header, rows, legend = COMPACT_HEADER, compact_rows(summ), compact_legend(summ)
         if columns(header, rows) + 2 * (len(header) - 1) > width:
             pad = (0, 1, 0, 0)  # still too wide: one space between the columns
         # still too wide: leave out the least needed columns (never the axis and its alarms),
@@ -314,9 +315,12 @@ def forecast_json(s: dict[str, Any]) -> dict[str, Any]:
         return (t.astimezone(UTC) if t.tzinfo is not None else t.replace(tzinfo=UTC)).isoformat()
 
     tr = s["trend"]
+    si = gap_unit(s.get("kind")).si  # rad, or m on a linear axis (the *_rad keys keep their names)
     return {
         "axis": s["axis"],
         "time_zone": "UTC",
+        "axis_kind": s.get("kind", "rotary"),
+        "si_unit": si,
         "threshold_rad": s["threshold_rad"],
         "recordings": s["recordings"],
         "used": s["used"],
@@ -331,7 +335,7 @@ def forecast_json(s: dict[str, Any]) -> dict[str, Any]:
         "noise_rad": s["noise_rad"],
         "model": s["model"],
         "params": s["params"],
-        "params_units": "a, J* [rad]; b, v [rad/day]; k [1/day]; t in days since t0",
+        "params_units": f"a, J* [{si}]; b, v [{si}/day]; k [1/day]; t in days since t0",
         "t0": iso(tr.t0),
         "aicc": s["aicc"],
         "crossed": s["crossed"],
@@ -438,7 +442,8 @@ def _print_forecast(s: dict[str, Any]) -> None:
     from drivelash.wear.words import count, not_excited_reasons
 
     c = Console()
-    mr = lambda x: "–" if x is None or not math.isfinite(x) else f"{1e3 * x:.3f} mrad"  # noqa: E731
+    u = gap_unit(s.get("kind"))  # mrad, or µm on a linear axis
+    mr = lambda x: "–" if x is None or not math.isfinite(x) else u.f(x, ".3f")  # noqa: E731
     day = lambda t: t.strftime("%Y-%m-%d %H:%M UTC") if t is not None else "–"  # noqa: E731
     conv = ""
     if s.get("unconverged"):
@@ -468,9 +473,9 @@ def _print_forecast(s: dict[str, Any]) -> None:
     )
     if s.get("latest_rad") is not None:
         sd = s.get("latest_std")
-        pm = f" ± {1e3 * sd:.3f}" if sd is not None and math.isfinite(sd) else ""
+        pm = f" ± {u.n(sd, '.3f')}" if sd is not None and math.isfinite(sd) else ""
         when = day(s["latest_time"])
-        c.print(f"  latest estimate {1e3 * s['latest_rad']:.3f}{pm} mrad ({when}), no trend yet")
+        c.print(f"  latest estimate {u.n(s['latest_rad'], '.3f')}{pm} {u} ({when}), no trend yet")
     if s["crossed"]:
         c.print(f"  [red]threshold crossed[/red] (fitted trend reached it {day(s['crossing'])})")
     elif s["crossing"] is not None:
@@ -485,7 +490,7 @@ def _print_forecast(s: dict[str, Any]) -> None:
     elif s["model"] is not None:
         c.print("  no crossing forecast: the trend does not reach the threshold within the look-ahead")
     for cp in s["change_points"]:
-        c.print(f"  jump of {1e3 * cp['size_rad']:+.2f} mrad at {day(cp['time'])}")
+        c.print(f"  jump of {u.f(cp['size_rad'], '+.2f')} at {day(cp['time'])}")
     for n in s.get("notes", []):
         c.print(f"  [yellow]note[/yellow] {escape(n)}")
     for a in s["alarms"]:

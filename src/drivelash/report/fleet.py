@@ -20,15 +20,28 @@ from typing import Any
 import numpy as np
 
 from drivelash.report.html import Figure, Section, render_html
+from drivelash.units import GapUnit, gap_unit
 from drivelash.wear.alarms import stale_notes
-from drivelash.wear.trend import UNCONVERGED_MAX_U95
+from drivelash.wear.trend import UNCONVERGED_MAX_U95, trend_scale
 from drivelash.wear.words import count, crossing_interval, not_excited_reasons
 
-__all__ = ["render_fleet_report", "write_fleet_report"]
+__all__ = ["fleet_unit", "render_fleet_report", "write_fleet_report"]
 
 
-def _mrad(x: float | None) -> str:
-    return "–" if x is None or not math.isfinite(x) else f"{1e3 * x:.2f}"
+def _mrad(x: float | None, u: GapUnit | None = None, with_unit: bool = False) -> str:
+    """δ-like value ``x`` [rad, or m on a linear axis] in the display unit ``u`` (default mrad),
+    2 decimals; ``with_unit``: followed by the unit (a table mixing rotary and linear axes)."""
+    if x is None or not math.isfinite(x):
+        return "–"
+    u = u or gap_unit(None)
+    return u.f(x, ".2f") if with_unit else u.n(x, ".2f")
+
+
+def fleet_unit(summaries: list[dict[str, Any]]) -> GapUnit | None:
+    """The one display unit of the axes' δ (mrad, or µm when every axis is linear), None when the
+    fleet mixes rotary and linear axes (each cell then carries its unit)."""
+    units = {gap_unit(s.get("kind")) for s in summaries}
+    return next(iter(units)) if len(units) == 1 else (gap_unit(None) if not units else None)
 
 
 def _day(t: datetime | None) -> str:
@@ -41,12 +54,13 @@ def _interval(s: dict[str, Any]) -> str:
     return crossing_interval(s["crossing_early"], s["crossing_late"], s["crossing_late_never"])
 
 
-def _now_cell(s: dict[str, Any]) -> str:
+def _now_cell(s: dict[str, Any], with_unit: bool = False) -> str:
     """The "δ now" cell: the fitted trend now, or — too few estimates for a trend — the latest
-    usable estimate in parentheses (:data:`NOW_LEGEND`)."""
+    usable estimate in parentheses (:data:`NOW_LEGEND`); in the axis's unit (mrad or µm)."""
+    u = gap_unit(s.get("kind"))
     if s["current_rad"] is None and s.get("latest_rad") is not None:
-        return f"({_mrad(s['latest_rad'])})"
-    return _mrad(s["current_rad"])
+        return f"({_mrad(s['latest_rad'], u, with_unit)})"
+    return _mrad(s["current_rad"], u, with_unit)
 
 
 def not_excited_line(summaries: list[dict[str, Any]]) -> str | None:
@@ -69,15 +83,18 @@ def any_latest_only(summaries: list[dict[str, Any]]) -> bool:
 
 
 def overview_rows(summaries: list[dict[str, Any]]) -> list[list[Any]]:
-    """Rows of the overview table (also used by ``track status``)."""
+    """Rows of the overview table (also used by ``track status``): δ now and the threshold in the
+    axes' unit (:func:`overview_header`), each with its unit when the fleet mixes rotary and
+    linear axes."""
     rows = []
+    mixed = fleet_unit(summaries) is None
     for s in summaries:
         days = s["days_to_threshold"]
         rows.append(
             [
                 s["axis"],
-                _now_cell(s),
-                _mrad(s["threshold_rad"]),
+                _now_cell(s, mixed),
+                _mrad(s["threshold_rad"], gap_unit(s.get("kind")), mixed),
                 s["model"] or "–",
                 "crossed" if s["crossed"] else _day(s["crossing"]),
                 _interval(s),
@@ -104,6 +121,14 @@ OVERVIEW_HEADER = [
     "failed",
     "alarms",
 ]
+
+
+def overview_header(summaries: list[dict[str, Any]]) -> list[str]:
+    """:data:`OVERVIEW_HEADER` with the fleet's unit of δ (:func:`fleet_unit`: "[µm]" when every
+    axis is linear; none in the header when the fleet mixes kinds, the cells carry it)."""
+    u = fleet_unit(summaries)
+    unit = "" if u is None else f" [{u}]"
+    return [h.replace(" [mrad]", unit) for h in OVERVIEW_HEADER]
 
 
 #: Headers of the narrow ``track status`` table (a terminal too narrow for
@@ -143,6 +168,14 @@ COMPACT_LEGEND = (
     + ", ".join(f"{v} {k}" for k, v in ALARM_ABBREV.items() if v != k)
     + " (listed in full below)"
 )
+
+
+def compact_legend(summaries: list[dict[str, Any]]) -> str:
+    """:data:`COMPACT_LEGEND` with the fleet's unit of δ (:func:`fleet_unit`)."""
+    u = fleet_unit(summaries)
+    return COMPACT_LEGEND.replace(
+        "δ now, thresh.: mrad", "δ now, thresh.: " + (str(u) if u is not None else "in each axis's unit")
+    )
 
 
 def _rel_days(x: float) -> str:
@@ -224,6 +257,9 @@ def tick_marks(s: dict[str, Any]) -> dict[str, list[datetime]]:
 def _axis_figure(s: dict[str, Any], meas: list[dict[str, Any]]) -> Figure:
     name = s["axis"]
 
+    u = gap_unit(s.get("kind"))  # mrad, or µm on a linear axis
+    per = u.per_si  # display units per SI unit
+
     def draw(fig: Any) -> None:
         import matplotlib.dates as mdates
 
@@ -251,7 +287,7 @@ def _axis_figure(s: dict[str, Any], meas: list[dict[str, Any]]) -> Figure:
             if good.any():
                 ax.plot(
                     [x for x, k in zip(d, good, strict=True) if k],
-                    1e3 * tr.y[good],
+                    per * tr.y[good],
                     "o",
                     ms=3.5,
                     color="C0",
@@ -263,8 +299,8 @@ def _axis_figure(s: dict[str, Any], meas: list[dict[str, Any]]) -> Figure:
                 # stated uncertainty, so the reader sees that uncertainty (session 32 tester F, F9)
                 ax.errorbar(
                     [x for x, k in zip(d, weak, strict=True) if k],
-                    1e3 * tr.y[weak],
-                    yerr=1e3 * 1.96 * np.nan_to_num(std[weak]),
+                    per * tr.y[weak],
+                    yerr=per * 1.96 * np.nan_to_num(std[weak]),
                     fmt="s",
                     ms=5,
                     mfc="white",
@@ -275,13 +311,13 @@ def _axis_figure(s: dict[str, Any], meas: list[dict[str, Any]]) -> Figure:
             if (~ok).any():
                 ax.plot(
                     [x for x, k in zip(d, ok, strict=True) if not k],
-                    1e3 * tr.y[~ok],
+                    per * tr.y[~ok],
                     "x",
                     ms=6,
                     color="C3",
                     label="outlier (not fitted)",
                 )
-            ax.plot(d, 1e3 * tr.isotonic, color="0.35", lw=1.0, label="monotone trend (isotonic)")
+            ax.plot(d, per * tr.isotonic, color="0.35", lw=1.0, label="monotone trend (isotonic)")
             if tr.model is not None:
                 fc = tr.forecast
                 end = float(tr.t[-1])
@@ -295,21 +331,21 @@ def _axis_figure(s: dict[str, Any], meas: list[dict[str, Any]]) -> Figure:
                 mean, lo, hi, plo, phi = tr.curve(tt)
                 dd = _dates(t0, tt)
                 ax.fill_between(
-                    dd, 1e3 * plo, 1e3 * phi, color="C1", alpha=0.12, lw=0, label="90 % prediction band"
+                    dd, per * plo, per * phi, color="C1", alpha=0.12, lw=0, label="90 % prediction band"
                 )
                 ax.fill_between(
                     dd,
-                    1e3 * lo,
-                    1e3 * hi,
+                    per * lo,
+                    per * hi,
                     color="C1",
                     alpha=0.35,
                     lw=0,
                     label="90 % band of the true δ (incl. systematic)",
                 )
-                ax.plot(dd, 1e3 * mean, color="C1", lw=1.6, label=f"{tr.model} model")
+                ax.plot(dd, per * mean, color="C1", lw=1.6, label=f"{tr.model} model")
                 if fc is not None and fc.t_cross is not None and thr is not None:
                     xc = t0 + timedelta(days=fc.t_cross)
-                    ax.plot([xc], [1e3 * thr], "v", color="C3", ms=9, label=f"crossing {_day(xc)}")
+                    ax.plot([xc], [per * thr], "v", color="C3", ms=9, label=f"crossing {_day(xc)}")
                     if fc.t_early is not None:
                         xe = t0 + timedelta(days=fc.t_early)
                         xl = (
@@ -319,7 +355,7 @@ def _axis_figure(s: dict[str, Any], meas: list[dict[str, Any]]) -> Figure:
                         )
                         ax.plot(
                             [xe, xl],
-                            [1e3 * thr] * 2,
+                            [per * thr] * 2,
                             color="C3",
                             lw=4,
                             alpha=0.5,
@@ -329,7 +365,7 @@ def _axis_figure(s: dict[str, Any], meas: list[dict[str, Any]]) -> Figure:
             for c in tr.change_points:
                 ax.axvline(t0 + timedelta(days=c.t_days), color="C3" if c.size > 0 else "C2", ls="--", lw=1.0)
         if thr is not None:
-            ax.axhline(1e3 * thr, color="k", lw=1.2, ls="-.", label=f"threshold {1e3 * thr:.1f} mrad")
+            ax.axhline(per * thr, color="k", lw=1.2, ls="-.", label=f"threshold {u.f(thr)}")
         marks = tick_marks(s)
         trans = ax.get_xaxis_transform()
         for key, color, what in TICKS:
@@ -349,8 +385,8 @@ def _axis_figure(s: dict[str, Any], meas: list[dict[str, Any]]) -> Figure:
         if m:
             ax.errorbar(
                 [x["time"] for x in m],
-                [1e3 * x["value_rad"] for x in m],
-                yerr=[1e3 * (x["std_rad"] or 0.0) for x in m],
+                [per * x["value_rad"] for x in m],
+                yerr=[per * (x["std_rad"] or 0.0) for x in m],
                 fmt="D",
                 color="C4",
                 ms=5,
@@ -359,7 +395,7 @@ def _axis_figure(s: dict[str, Any], meas: list[dict[str, Any]]) -> Figure:
             )
         if not tr.t.size and not times and not m:
             ax.text(0.5, 0.5, "no recordings", transform=ax.transAxes, ha="center", va="center")
-        ax.set_ylabel("deadzone δ [mrad]")
+        ax.set_ylabel(f"deadzone δ [{u}]" if u.si == "rad" else f"lost motion δ [{u}]")
         ax.set_title(
             f"{name}: {s['used']} of {count(s['recordings'], 'recording')} usable"
             + (
@@ -489,11 +525,11 @@ def render_fleet_report(
             "Only recordings with sufficient excitation enter a trend: converged estimates, and "
             "unconverged ones only when nothing but their uncertainty (or an unsettled last window, "
             "its movement added to σ) kept them from converging and that 95 % uncertainty is at most "
-            f"{1e3 * UNCONVERGED_MAX_U95:g} mrad, weighted by it. "
+            f"{_u95_text(summaries)}, weighted by it. "
             "Axes are sorted by the forecast time to their maintenance threshold. "
             f"{TIMES_UTC} " + rate_sentence(summaries),
         ],
-        tables=[("", OVERVIEW_HEADER, overview_rows(summaries))],
+        tables=[("", overview_header(summaries), overview_rows(summaries))],
         text_left=True,
     )
     if any_latest_only(summaries):
@@ -531,23 +567,36 @@ def render_fleet_report(
     for s in summaries:
         axes.figures.append(_axis_figure(s, measurements.get(s["axis"], [])))
     sections = [overview, alarm_sec]
+    kinds = {s["axis"]: s.get("kind") for s in summaries}
+    m_unit = fleet_unit([{"kind": kinds.get(ax)} for ax in measurements if measurements[ax]])
     mrows = [
         [
             m["axis"],
             m["source"],
             _day(m["time"]),
             *_readable(m["value"], m["std"], m["unit"]),
-            _mrad(m["value_rad"]),
+            _mrad(m["value_rad"], gap_unit(kinds.get(ax)), m_unit is None),
             m["reference"] or "–",
         ]
         for ax in sorted(measurements)
         for m in measurements[ax]
     ]
     if mrows:
-        head = ["axis", "source", "time", "value", "std", "unit", "as deadzone δ [mrad]", "reference"]
+        as_delta = "as deadzone δ" + ("" if m_unit is None else f" [{m_unit}]")
+        head = ["axis", "source", "time", "value", "std", "unit", as_delta, "reference"]
         sections.append(Section("Measurements of other sources", tables=[("", head, mrows)], text_left=True))
     sections.append(axes)
     return render_html(title, sections)
+
+
+def _u95_text(summaries: list[dict[str, Any]]) -> str:
+    """The admission limit of unconverged estimates as the overview states it: in mrad, and in µm
+    too when the fleet has a linear axis (:func:`~drivelash.wear.trend.usable`)."""
+    text = f"{1e3 * UNCONVERGED_MAX_U95:g} mrad"
+    if any(s.get("kind") == "prismatic" for s in summaries):
+        lin = gap_unit("prismatic").f(UNCONVERGED_MAX_U95 * trend_scale("prismatic"), "g")
+        text += f" ({lin} on a linear axis)"
+    return text
 
 
 def _readable(value: float, std: float | None, unit: str) -> tuple[str, str, str]:
