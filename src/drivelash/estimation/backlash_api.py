@@ -40,17 +40,20 @@ class BacklashEstimate:
     Attributes
     ----------
     delta : float
-        Final estimate δ̂ [rad] (NaN when ``identify`` could not run the online law).
+        Final estimate δ̂ [rad; m on a prismatic (linear) axis, ``summary["axis"]``] (NaN when
+        ``identify`` could not run the online law).
     warnings : list of str
         The estimate's warnings (``summary["warnings"]``).
     summary : dict
         Exactly what ``drivelash estimate --json`` writes (without the ``trace``/``config``
-        paths; plain JSON types, a non-finite number is None as the command's null): δ̂ [rad],
-        δ1 [rad], excitation verdict and reason, convergence, sample period ``T_s`` [s],
-        detected excitation frequency [Hz], gains, and MAEE / steady-state peak [rad] when the
+        paths; plain JSON types, a non-finite number is None as the command's null): the axis
+        kind (``axis``) and the unit of each length key (``units``), δ̂ and δ1 [rad, or m on a
+        prismatic axis — the ``_rad`` key names are kept there], excitation verdict and reason,
+        convergence, sample period ``T_s`` [s], detected excitation frequency [Hz], gains, and
+        MAEE / steady-state peak [rad or m] when the
         recording carries the true δ.
     result : EstimationResult
-        The estimator's time series (δ̂(t) [rad], φ̂, ω̂_l, Δθ, torques, traversals).
+        The estimator's time series (δ̂(t) [rad or m], φ̂, ω̂_l, Δθ, torques, traversals).
     trace : Trace
         The recording as the estimator saw it (SI units).
     gains : EstimatorConfig
@@ -67,8 +70,9 @@ class BacklashEstimate:
 
     @property
     def delta(self) -> float:
-        """Final δ̂ [rad]; NaN when the online law was not run (``identify=True`` and the
-        recording could not give the drive: ``summary["reason"]`` says why)."""
+        """Final δ̂ [rad, or m on a prismatic axis]; NaN when the online law was not run
+        (``identify=True`` and the recording could not give the drive: ``summary["reason"]`` says
+        why)."""
         d = self.summary["delta"]
         return math.nan if d is None else float(d)
 
@@ -158,7 +162,7 @@ def estimate_from_config(
     drivetrain : DrivetrainParams, optional
         Replaces ``[drivetrain]``.
     delta1 : float, optional
-        Known offset δ1 [rad]; replaces ``[backlash] delta1``.
+        Known offset δ1 [rad, or m on a prismatic axis]; replaces ``[backlash] delta1``.
     delta1_uncertainty : Delta1Uncertainty, optional
         δ1 is itself uncertain (identified): its standard uncertainty [rad] and δ̂ of reruns at
         shifted δ1, propagated into ``delta_std`` and the verdict
@@ -217,7 +221,8 @@ def estimate_backlash(
     Parameters
     ----------
     data : Trace, pandas.DataFrame, str or Path
-        The recording: θ_m, ω_m, θ_l, ω_l (motor side / load side, [rad], [rad/s]) and time
+        The recording: θ_m, ω_m, θ_l, ω_l (motor side / load side, [rad], [rad/s]; [m], [m/s] with
+        a force [N] on a linear axis mapped in length units) and time
         ``t`` [s]. A DataFrame is mapped and validated like a file (``columns``, or the
         configuration's ``[columns]`` table); a path is read with
         :func:`drivelash.load_trace`. A Trace is already mapped to SI: ``columns`` is refused
@@ -227,7 +232,8 @@ def estimate_backlash(
         ``[estimator]`` gains, ``[columns]`` and ``[sampling]``), its TOML path, or the
         parameters alone (then ``delta1`` is required).
     delta1 : float, optional
-        Known offset δ1 [rad] of the gap (replaces ``[backlash] delta1``; finite, ≥ 0).
+        Known offset δ1 [rad, or m on a prismatic axis] of the gap (replaces ``[backlash] delta1``;
+        finite, ≥ 0).
     method : {"default", "paper"}, optional
         Adaptation law: ``"default"`` (the improved law) or ``"paper"`` (the paper's gradient
         law). None (default): ``[estimator] method`` of the configuration, else ``"default"``
@@ -247,9 +253,9 @@ def estimate_backlash(
     Returns
     -------
     BacklashEstimate
-        ``.delta`` [rad], ``.converged``, ``.excitation_ok``, ``.warnings``, ``.summary`` (the
-        command's JSON), ``.result`` (time series; None when ``identify`` could not run the
-        online law).
+        ``.delta`` [rad, or m on a prismatic axis], ``.converged``, ``.excitation_ok``,
+        ``.warnings``, ``.summary`` (the command's JSON), ``.result`` (time series; None when
+        ``identify`` could not run the online law).
 
     Raises
     ------
