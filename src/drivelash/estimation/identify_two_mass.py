@@ -100,6 +100,10 @@ STANDSTILL_SIGMA = 4.0
 GRID_POINTS = 32
 #: ... and uniform grid between the 0.2 % and 99.8 % quantiles of Δθ.
 UNIFORM_POINTS = 48
+#: Ridge of the grid's linear solves, relative to each column's own norm (unit-norm columns):
+#: keeps the solve of a pair whose contact column is all zero ("never reached") defined and is
+#: otherwise below rounding (docs/assumptions.md, "The contact grid is unit-free").
+GRID_RIDGE = 1e-12
 #: A contact side counts as seen when at least this many usable windows lie in it.
 MIN_CONTACT_WINDOWS = 20
 #: With both contacts seen, δ, δ1, K_S and D_S are reported only when the gap was crossed at
@@ -958,11 +962,19 @@ def grid_start(
     def sse(H: np.ndarray, cols: list[int], y: int) -> tuple[np.ndarray, np.ndarray]:
         Ah = H[:, cols][:, :, cols]
         bh = H[:, cols, y]
-        reg = 1e-12 * np.trace(Ah, axis1=1, axis2=2)[:, None, None] / len(cols) * np.eye(len(cols))
+        # solved on unit-norm columns with a ridge of GRID_RIDGE of each column's own norm: the
+        # columns carry N, m/s and m (or rad/s, rad) — a ridge relative to their mean, which the
+        # torque column dominates, swamped the contact columns of a linear axis whose Δθ spans
+        # 5e-5 m (G1, session 35: every window "in the gap" in SI, correct ×1000 as rad)
+        dg = np.einsum("pii->pi", Ah)
+        s = np.sqrt(np.where(dg > 0, dg, 1.0))  # a "never reached" column is all zero: kept at 0
+        As = Ah / (s[:, :, None] * s[:, None, :])
+        bs = bh / s
+        reg = GRID_RIDGE * np.eye(len(cols))
         try:
-            beta = np.linalg.solve(Ah + reg, bh[..., None])[..., 0]
+            beta = np.linalg.solve(As + reg, bs[..., None])[..., 0] / s
         except np.linalg.LinAlgError:  # a pair whose columns are all zero: minimum-norm solution
-            beta = np.einsum("pij,pj->pi", np.linalg.pinv(Ah + reg), bh)
+            beta = np.einsum("pij,pj->pi", np.linalg.pinv(As + reg), bs) / s
         return H[:, y, y] - np.einsum("pi,pi->p", bh, beta), beta
 
     Hm, Hl = batched(Gm), batched(Gl)
