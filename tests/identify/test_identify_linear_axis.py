@@ -3,10 +3,11 @@
 A linear axis recorded in m, m/s and N came out with every parameter "not determined" (all 5614
 windows "in the gap", "deflection below what the recording resolves" for a 24 µm deflection =
 240 encoder counts), while the same samples declared ×1000 as rad identified within 0.5 % of the
-truth. Cause: the contact grid's linear solves (:func:`grid_start`) were regularised by 1e-12 of
+truth. Cause: the contact grid's linear solves (:func:`grid_start`) are regularised by 1e-12 of
 the *mean* diagonal of their Gram matrices, which the force column (~90 N) dominates — on an axis
 whose Δθ spans 5e-5 m the contact columns (~1e-5 m per window) fell below that ridge, and the grid
-chose contacts as if the shaft carried no force. The ridge is now relative to each column.
+chose contacts as if the shaft carried no force. The grid now measures a linear axis's lengths in
+mm (:func:`grid_length_scale`), the numbers its ridge was validated at on rotary axes in rad.
 """
 
 from __future__ import annotations

@@ -80,6 +80,7 @@ from numba import njit
 from drivelash.errors import DataError, ParameterError
 from drivelash.estimation.identify_result import IDENTIFY_NEEDS, Z95, DriveIdentification, ParameterEstimate
 from drivelash.io.trace import Trace
+from drivelash.units import MRAD, gap_unit
 
 #: Target window length of the integral equations [s] (M = round(WINDOW_S/T_s), at least 2):
 #: the default, and the first fit and shortest window of ``window_s="auto"``.
@@ -100,10 +101,6 @@ STANDSTILL_SIGMA = 4.0
 GRID_POINTS = 32
 #: ... and uniform grid between the 0.2 % and 99.8 % quantiles of Δθ.
 UNIFORM_POINTS = 48
-#: Ridge of the grid's linear solves, relative to each column's own norm (unit-norm columns):
-#: keeps the solve of a pair whose contact column is all zero ("never reached") defined and is
-#: otherwise below rounding (docs/assumptions.md, "The contact grid is unit-free").
-GRID_RIDGE = 1e-12
 #: A contact side counts as seen when at least this many usable windows lie in it.
 MIN_CONTACT_WINDOWS = 20
 #: With both contacts seen, δ, δ1, K_S and D_S are reported only when the gap was crossed at
@@ -612,6 +609,7 @@ def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> Window
             "standstill_l": thr_l,
             "derived_velocity": derived,
             "velocity_feedback_gain": feedback,
+            "axis": str(trace.meta.get("axis") or "rotary"),
         },
     )
     return out
@@ -862,7 +860,68 @@ class GridStart:
     physical: bool = True
 
 
+def grid_length_scale(data: WindowData) -> float:
+    """Factor [-] the contact grid multiplies lengths by: 1 on a rotary axis (rad), the ratio of
+    the axes' display units on a linear one (m → mm: :func:`drivelash.units.gap_unit`, µm per m over
+    mrad per rad = 1e3).
+
+    The grid's linear solves are regularised relative to the mean diagonal of their Gram
+    matrices, whose columns carry torque, speed and Δθ in their own units; that ridge was
+    calibrated on rotary axes in N·m and rad. A linear axis in SI has the same physics with
+    lengths 10⁻³ of a rotary axis's angles in number (µm of lost motion where a gear has mrad):
+    in m its contact columns fell below the ridge and every window came out "in the gap"
+    (session 35, tester G, G1); in mm it is the rotary problem, and the fit that follows (Levenberg–
+    Marquardt, scaled by its Jacobian) does not depend on the unit. docs/assumptions.md, "The
+    contact grid on a linear axis".
+    """
+    return gap_unit(data.info.get("axis")).per_si / MRAD.per_si
+
+
 def grid_start(
+    data: WindowData,
+    max_windows: int = 12_000,
+    *,
+    equations: str = "both",
+    tau: float = 0.0,
+    torque_offset: float | None = None,
+    physical: bool = False,
+) -> GridStart:
+    """Contact points from a grid of Δθ quantiles (and "never reached" on either side).
+
+    On a linear axis the grid runs with lengths in mm (:func:`grid_length_scale`); its start
+    values are returned in SI. See :func:`_grid_start` for the search.
+    """
+    L = grid_length_scale(data)
+    kw: dict[str, Any] = {
+        "equations": equations,
+        "tau": tau,
+        "torque_offset": torque_offset,
+        "physical": physical,
+    }
+    if L == 1.0:
+        return _grid_start(data, max_windows, **kw)
+    scaled = replace(
+        data,
+        a_m=L * data.a_m,
+        a_l=L * data.a_l,
+        WM=L * data.WM,
+        WL=L * data.WL,
+        dth=L * data.dth,
+        dw=L * data.dw,
+        wl=L * data.wl,
+    )
+    st = _grid_start(scaled, max_windows, **kw)
+    x = np.array(st.x0, dtype=float)
+    # J ω̇ = u: J, K_S, D_S, β in N·m per unit length scale with L; forces and τ do not
+    x[[I_JM, I_JL, I_KS, I_DS, I_BM, I_BL]] *= L
+    x[[I_CLO, I_CHI]] /= L
+    table = dict(st.table)
+    if "candidates" in table:
+        table["candidates"] = np.asarray(table["candidates"]) / L
+    return replace(st, c_lo=float(x[I_CLO]), c_hi=float(x[I_CHI]), x0=x, table=table)
+
+
+def _grid_start(
     data: WindowData,
     max_windows: int = 12_000,
     *,
@@ -962,19 +1021,13 @@ def grid_start(
     def sse(H: np.ndarray, cols: list[int], y: int) -> tuple[np.ndarray, np.ndarray]:
         Ah = H[:, cols][:, :, cols]
         bh = H[:, cols, y]
-        # solved on unit-norm columns with a ridge of GRID_RIDGE of each column's own norm: the
-        # columns carry N, m/s and m (or rad/s, rad) — a ridge relative to their mean, which the
-        # torque column dominates, swamped the contact columns of a linear axis whose Δθ spans
-        # 5e-5 m (G1, session 35: every window "in the gap" in SI, correct ×1000 as rad)
-        dg = np.einsum("pii->pi", Ah)
-        s = np.sqrt(np.where(dg > 0, dg, 1.0))  # a "never reached" column is all zero: kept at 0
-        As = Ah / (s[:, :, None] * s[:, None, :])
-        bs = bh / s
-        reg = GRID_RIDGE * np.eye(len(cols))
+        # the ridge is relative to the mean diagonal, which mixes the columns' units (N·m, rad/s,
+        # rad): calibrated on rotary axes in rad; a linear axis enters in mm (grid_start)
+        reg = 1e-12 * np.trace(Ah, axis1=1, axis2=2)[:, None, None] / len(cols) * np.eye(len(cols))
         try:
-            beta = np.linalg.solve(As + reg, bs[..., None])[..., 0] / s
+            beta = np.linalg.solve(Ah + reg, bh[..., None])[..., 0]
         except np.linalg.LinAlgError:  # a pair whose columns are all zero: minimum-norm solution
-            beta = np.einsum("pij,pj->pi", np.linalg.pinv(As + reg), bs) / s
+            beta = np.einsum("pij,pj->pi", np.linalg.pinv(Ah + reg), bh)
         return H[:, y, y] - np.einsum("pi,pi->p", bh, beta), beta
 
     Hm, Hl = batched(Gm), batched(Gl)
