@@ -7,7 +7,8 @@ backlash (whether the recording crossed the gap) and plausibility warnings. ``to
 gives the ``[drivetrain]`` and ``[backlash]`` tables that ``drivelash estimate`` reads.
 
 Units are SI: J [kg·m²], K_S [N·m/rad], D_S [N·m·s/rad], T_C [N·m], β [N·m·s/rad],
-torque offset [N·m], δ and δ1 [rad]; a prismatic rigid axis carries kg, N, N·s/m.
+torque offset [N·m], δ and δ1 [rad]. A prismatic (linear) axis keeps the names and carries
+kg (J_m, J_l are masses), N/m, N·s/m, N and m (:func:`parameter_units`).
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from drivelash.errors import ParameterError
+from drivelash.units import gap_unit
 
 #: Units of the parameters (rotary axes).
 UNITS: dict[str, str] = {
@@ -39,6 +41,31 @@ UNITS: dict[str, str] = {
     "c_hi": "rad",
     "encoder_delay": "s",
 }
+
+
+def parameter_units(axis: str | None) -> dict[str, str]:
+    """The unit of each parameter on an axis kind (``Trace.meta["axis"]``): :data:`UNITS` on a
+    rotary axis; on a "prismatic" one the same names in kg (J_m, J_l: masses), N/m, N·s/m, N
+    and m (:func:`drivelash.units.gap_unit`).
+
+    Examples
+    --------
+    >>> u = parameter_units("prismatic")
+    >>> u["J_m"], u["K_S"], u["beta_l"], u["T_Cm"], u["delta"]
+    ('kg', 'N/m', 'N·s/m', 'N', 'm')
+    >>> parameter_units("rotary") == UNITS
+    True
+    """
+    g = gap_unit(axis)
+    return {
+        **UNITS,
+        **dict.fromkeys(("J_m", "J_l"), g.mass),
+        "K_S": g.stiffness,
+        **dict.fromkeys(("D_S", "beta_m", "beta_l"), g.viscous),
+        **dict.fromkeys(("T_Cm", "T_Cl", "torque_offset"), g.torque),
+        **dict.fromkeys(("delta", "delta1", "c_lo", "c_hi"), g.si),
+    }
+
 
 #: Parameters positive by their physics (inertias, stiffness): a 95 % interval reaching 0 means
 #: the recording hardly determines them (:attr:`ParameterEstimate.note`).
@@ -231,6 +258,10 @@ class DriveIdentification:
         Δθ, shaft torque).
     source : object or None
         Rigid model: the IDIM-LS result it was built from (what the rigid report draws).
+    axis : {"rotary", "prismatic"}
+        The recording's axis kind (``Trace.meta["axis"]``): on a prismatic axis J_m, J_l are
+        masses [kg], K_S [N/m], D_S and β [N·s/m], T_C and the offset [N], δ, δ1 [m]
+        (:func:`parameter_units`) under the same names.
     """
 
     model: str
@@ -245,6 +276,7 @@ class DriveIdentification:
     method: str = ""
     signals: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
     source: Any = field(default=None, repr=False, compare=False)
+    axis: str = "rotary"
 
     def __getitem__(self, name: str) -> ParameterEstimate:
         return self.parameters[name]
@@ -336,13 +368,23 @@ class DriveIdentification:
         import tomli_w
 
         head = list(comments or [])
+        if self.axis == "prismatic":
+            u = parameter_units(self.axis)
+            head.append(
+                "linear (prismatic) axis: the keys keep their rotary names — J_m, J_l are masses "
+                f"[{u['J_m']}], K_S [{u['K_S']}], D_S, beta_m, beta_l [{u['D_S']}], "
+                f"T_Cm, T_Cl, torque_offset [{u['T_Cm']}], delta, delta1 [{u['delta']}]"
+            )
         tables = self.to_config() if tables is None else tables
         written = {k: v for t in tables.values() for k, v in t.items()}
         for p in self.parameters.values():
             if p.identifiable:
                 w = written.get(p.name)
+                small = ""  # a gap on a linear axis also in µm (the value stays SI: m)
+                if self.axis == "prismatic" and p.unit == "m":
+                    small = f" ({gap_unit(self.axis).f(p.value, '.5g')})"
                 head.append(
-                    f"{p.name} = {p.value:.6g} {p.unit}, 95 % CI {p.interval_text(6)}"
+                    f"{p.name} = {p.value:.6g} {p.unit}{small}, 95 % CI {p.interval_text(6)}"
                     + (f" — {p.note}" if p.note else "")
                     + (
                         f" — written as {w:.6g}: below 0, which the drive-train parameters do not "
@@ -395,6 +437,7 @@ class DriveIdentification:
         return jsonable(
             {
                 "model": self.model,
+                "axis": self.axis,
                 "method": self.method,
                 "N": self.N,
                 "parameters": {k: p.as_dict() for k, p in self.parameters.items()},

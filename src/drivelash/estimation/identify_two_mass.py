@@ -78,9 +78,15 @@ import numpy as np
 from numba import njit
 
 from drivelash.errors import DataError, ParameterError
-from drivelash.estimation.identify_result import IDENTIFY_NEEDS, Z95, DriveIdentification, ParameterEstimate
+from drivelash.estimation.identify_result import (
+    IDENTIFY_NEEDS,
+    Z95,
+    DriveIdentification,
+    ParameterEstimate,
+    parameter_units,
+)
 from drivelash.io.trace import Trace
-from drivelash.units import MRAD, gap_unit
+from drivelash.units import MRAD, GapUnit, gap_unit
 
 #: Target window length of the integral equations [s] (M = round(WINDOW_S/T_s), at least 2):
 #: the default, and the first fit and shortest window of ``window_s="auto"``.
@@ -322,7 +328,9 @@ GEAR_RATIO_TOLERANCE = 0.1
 GEAR_RATIO_SPAN_FACTOR = 2.5
 
 
-def check_gear_ratio(th_m: np.ndarray, th_l: np.ndarray, N: float, src: Any = None) -> None:
+def check_gear_ratio(
+    th_m: np.ndarray, th_l: np.ndarray, N: float, src: Any = None, *, unit: GapUnit = MRAD
+) -> None:
     """Refuse a configured gear ratio N the recorded positions contradict.
 
     The ratio the positions move in, N̂ = cov(θ_m, θ_l)/var(θ_l), differs from N by less than
@@ -331,7 +339,7 @@ def check_gear_ratio(th_m: np.ndarray, th_l: np.ndarray, N: float, src: Any = No
     revolution) makes Δθ = θ_m/N − θ_l follow the load travel: every later verdict ("the load
     stayed on one flank", "no contact") would blame the recording instead of N. A negative N̂
     (the load moving against the motor: one encoder counts the other way) is refused by the
-    same rule, naming the sign.
+    same rule, naming the sign. ``unit`` writes the spans (mrad, or µm on a linear axis).
 
     Raises
     ------
@@ -362,8 +370,8 @@ def check_gear_ratio(th_m: np.ndarray, th_l: np.ndarray, N: float, src: Any = No
             "drivetrain",
             "N",
             f"{N:.6g} contradicts the recording{f' {src}' if src else ''}: its motor and load positions "
-            f"move in the ratio {N_hat:.4g} (Δθ = θ_m/N − θ_l spans {1e3 * span_cfg:.4g} mrad with N, "
-            f"{1e3 * span_hat:.4g} mrad with {N_hat:.4g}, over a load travel of {travel:.4g} rad) — "
+            f"move in the ratio {N_hat:.4g} (Δθ = θ_m/N − θ_l spans {unit.f(span_cfg, '.4g')} with N, "
+            f"{unit.f(span_hat, '.4g')} with {N_hat:.4g}, over a load travel of {travel:.4g} {unit.si}) — "
             f"{check}",
         )
 
@@ -399,7 +407,8 @@ def check_load_encoder(th_m: np.ndarray, th_l: np.ndarray, N: float, trace: Trac
         return
     vel = " and so is the load velocity" if "omega_l" in trace else " and no load velocity is recorded"
     raise DataError(
-        f"θ_l is 0 at every sample{vel}, while the motor travelled {np.ptp(th_m) / N:.4g} rad (load "
+        f"θ_l is 0 at every sample{vel}, while the motor travelled {np.ptp(th_m) / N:.4g} "
+        f"{gap_unit(trace.meta.get('axis')).si} (load "
         "side): no load encoder signal in this column (a still load reads its position, not an empty "
         "channel) — the two-mass model needs a load-side encoder; map one, or use --model rigid",
         path=trace.meta.get("source"),
@@ -510,7 +519,7 @@ def window_data(trace: Trace, N: float, *, window_s: float = WINDOW_S) -> Window
     n = len(trace)
     th_m, th_l, u = trace["theta_m"], trace["theta_l"], trace["torque_m"]
     check_load_encoder(th_m, th_l, N, trace)
-    check_gear_ratio(th_m, th_l, N, src)
+    check_gear_ratio(th_m, th_l, N, src, unit=gap_unit(trace.meta.get("axis")))
     derived = []
     vel = {}
     for side, th in (("m", th_m), ("l", th_l)):
@@ -1849,7 +1858,8 @@ def refusal_evidence(trace: Trace, data: WindowData) -> dict[str, Any]:
         or the position never moved) — positive with the right velocity sign; ``load_travel`` and
         ``dtheta_span`` [rad]: the load's whole travel and the span of Δθ = θ_m/N − θ_l (the load
         moves only beyond the contacts); ``interpolated``: samples of straight-line interpolation
-        in the torque (:func:`interpolated_samples`); ``rate_hz``: the sample rate [Hz].
+        in the torque (:func:`interpolated_samples`); ``rate_hz``: the sample rate [Hz]; ``axis``:
+        the trace's axis kind (the unit its messages are written in, :func:`drivelash.units.gap_unit`).
     """
     vr: dict[str, float] = {}
     vp: dict[str, float] = {}
@@ -1868,6 +1878,7 @@ def refusal_evidence(trace: Trace, data: WindowData) -> dict[str, Any]:
         "dtheta_span": float(np.ptp(data.dth)) if data.dth.size else 0.0,
         "interpolated": interpolated_samples(np.asarray(trace["torque_m"], dtype=float)),
         "rate_hz": 1.0 / data.T_s,
+        "axis": str(trace.meta.get("axis") or "rotary"),
     }
 
 
@@ -1899,6 +1910,7 @@ def _friction_causes(side: str, ev: dict[str, Any] | None, J_m: ParameterEstimat
     if ev is None:
         return generic
     causes: list[str] = []
+    gu = gap_unit(ev.get("axis"))
     r, pv = ev["velocity_r"][side], ev["velocity_p"][side]
     col = "omega_m" if side == "motor" else "omega_l"
     vel_shown = math.isfinite(r) and pv < SIGN_EVIDENCE_LEVEL
@@ -1914,8 +1926,8 @@ def _friction_causes(side: str, ev: dict[str, Any] | None, J_m: ParameterEstimat
         )
     if ev["load_travel"] < ev["dtheta_span"]:
         causes.append(
-            f"too little motion beyond the contacts: the load travelled {1e3 * ev['load_travel']:.3g} mrad, "
-            f"less than the Δθ span of {1e3 * ev['dtheta_span']:.3g} mrad (the gap) — the contact "
+            f"too little motion beyond the contacts: the load travelled {gu.f(ev['load_travel'], '.3g')}, "
+            f"less than the Δθ span of {gu.f(ev['dtheta_span'], '.3g')} (the gap) — the contact "
             f"transients dominate and the {side} friction is not separated from the shaft torque; "
             "record a larger motion"
         )
@@ -1968,7 +1980,7 @@ def _plausibility(params: dict[str, ParameterEstimate], evidence: dict[str, Any]
     q = below("J_m")
     if q is not None:
         out.append(
-            f"J_m = {q.value:.4g} kg·m² < 0 (95 % CI up to {q.high:.3g}): the motor torque and the motor "
+            f"J_m = {q.value:.4g} {q.unit} < 0 (95 % CI up to {q.high:.3g}): the motor torque and the motor "
             "acceleration have opposite signs — the torque sign or gain "
             "is wrong (torque_m scale in [columns]) "
             "or the motor encoder counts the other way; with correct signs, the fit left the physical "
@@ -2225,11 +2237,12 @@ def _identify_two_mass(
         lo_ok = _side_ok(ev, "lower", -1.0)
         hi_ok = _side_ok(ev, "upper", 1.0)
         if not (lo_ok and hi_ok and ev["traversals"] >= 1):
+            gu = gap_unit(trace.meta.get("axis"))
             notes.append(
-                f"a second contact at {1e3 * fit.p[I_CLO]:.3g}/"
-                f"{1e3 * fit.p[I_CHI]:.3g} mrad was not confirmed "
+                f"a second contact at {gu.n(fit.p[I_CLO], '.3g')}/"
+                f"{gu.n(fit.p[I_CHI], '.3g')} {gu} was not confirmed "
                 f"(shaft torque {ev['lower']['shaft_torque_mean']:.3g} / "
-                f"{ev['upper']['shaft_torque_mean']:.3g} N·m, "
+                f"{ev['upper']['shaft_torque_mean']:.3g} {gu.torque}, "
                 f"{ev['traversals']} traversals)"
             )
             keep_hi = (
@@ -2919,12 +2932,13 @@ def meaningless_intervals(
     """
     span = float(np.ptp(data.dth)) if data.dth.size else 0.0
     wmax = float(np.max(np.abs(data.wl))) if data.wl.size else 0.0
+    gu = gap_unit(data.info.get("axis"))
     out: list[tuple[str, float, str]] = []
 
     def withhold(name: str, reason: str, low: float = -math.inf, high: float = math.inf) -> None:
         q = params[name]
         out.append((name, q.value, q.interval_text(3)))
-        params[name] = ParameterEstimate.unknown(name, reason, low=low, high=high)
+        params[name] = ParameterEstimate.unknown(name, reason, low=low, high=high, unit=q.unit)
 
     for n in ("delta", "delta1"):
         q = params.get(n)
@@ -2934,8 +2948,8 @@ def meaningless_intervals(
         if not width <= min(span, 2.0 * math.pi):
             withhold(
                 n,
-                f"not determined: its 95 % interval {q.interval_text(3)} rad is wider than the whole Δθ "
-                f"range of the recording ({1e3 * span:.3g} mrad) — the data do not place the contact",
+                f"not determined: its 95 % interval {q.interval_text(3)} {q.unit} is wider than the whole Δθ "
+                f"range of the recording ({gu.f(span, '.3g')}) — the data do not place the contact",
                 low=0.0 if n == "delta" else -math.inf,
             )
     q = params.get("encoder_delay")
@@ -2943,8 +2957,8 @@ def meaningless_intervals(
         withhold(
             "encoder_delay",
             f"not determined: its 95 % interval {q.interval_text(3)} s shifts Δθ by up to "
-            f"{1e3 * (q.high - q.low) * wmax:.3g} mrad at the largest load speed, more than the whole Δθ "
-            f"range ({1e3 * span:.3g} mrad)",
+            f"{gu.f((q.high - q.low) * wmax, '.3g')} at the largest load speed, more than the whole Δθ "
+            f"range ({gu.f(span, '.3g')})",
         )
     q = params.get("K_S")
     ks_reaches_0 = q is not None and q.identifiable and not q.low > 0.0
@@ -2984,11 +2998,12 @@ def meaningless_intervals(
     return out
 
 
-#: The motor-side totals a rigid shaft puts into the motor equation: name → (expression, unit).
+#: The motor-side totals a rigid shaft puts into the motor equation: name → (expression, the
+#: :class:`~drivelash.units.GapUnit` attribute naming its unit: kg·m² or kg, N·m or N, …).
 MOTOR_SIDE_TOTALS = {
-    "J_m": ("J_m + J_l/N²", "kg·m²"),
-    "T_Cm": ("T_Cm + T_Cl/N", "N·m"),
-    "beta_m": ("β_m + β_l/N²", "N·m·s/rad"),
+    "J_m": ("J_m + J_l/N²", "inertia"),
+    "T_Cm": ("T_Cm + T_Cl/N", "torque"),
+    "beta_m": ("β_m + β_l/N²", "damping"),
 }
 
 
@@ -3002,7 +3017,10 @@ def _fitted_text(params: dict[str, ParameterEstimate], names: tuple[str, ...]) -
 
 
 def _motor_side_totals(
-    params: dict[str, ParameterEstimate], totals: dict[str, tuple[float, float]], why: str
+    params: dict[str, ParameterEstimate],
+    totals: dict[str, tuple[float, float]],
+    why: str,
+    unit: GapUnit = MRAD,
 ) -> dict[str, dict[str, Any]]:
     """Replace J_m, T_Cm, β_m in ``params`` by "not determined as the motor's own" (B8).
 
@@ -3019,6 +3037,8 @@ def _motor_side_totals(
         Name (``"J_m"``, ``"T_Cm"``, ``"beta_m"``) → (total, standard error), SI units.
     why : str
         Why the shaft is rigid at the recording's resolution (a clause).
+    unit : GapUnit
+        The axis's units (kg·m², N·m, N·m·s/rad; kg, N, N·s/m on a linear axis).
 
     Returns
     -------
@@ -3027,16 +3047,17 @@ def _motor_side_totals(
     """
     out: dict[str, dict[str, Any]] = {}
     for n, (v, s) in totals.items():
-        expr, unit = MOTOR_SIDE_TOTALS[n]
+        expr, kind = MOTOR_SIDE_TOTALS[n]
+        u = getattr(unit, kind)
         lo, hi = v - Z95 * s, v + Z95 * s
-        out[n] = {"expression": expr, "value": v, "std": s, "ci95": [lo, hi]}
+        out[n] = {"expression": expr, "value": v, "std": s, "ci95": [lo, hi], "unit": u}
         q = params.get(n)
         if q is None or not q.identifiable:
             continue
         params[n] = ParameterEstimate.unknown(
             n,
             f"not determined as the motor's own: {why}, so the motor equation carries the load — "
-            f"{expr} = {v:.4g} [{lo:.4g}, {hi:.4g}] {unit} (95 %); {n} lies between 0 and its upper end",
+            f"{expr} = {v:.4g} [{lo:.4g}, {hi:.4g}] {u} (95 %); {n} lies between 0 and its upper end",
             low=0.0,
             high=max(hi, 0.0),
         )
@@ -3059,9 +3080,9 @@ def _contacts_seen_unconfirmed(
     candidate : TwoMassFit or None
         The two-contact fit that was not confirmed (None: there was none).
     travel : float
-        The load's whole travel, ptp θ_l [rad].
+        The load's whole travel, ptp θ_l [rad; m on a linear axis].
     span : float
-        The span of Δθ = θ_m/N − θ_l of the fit without contacts [rad].
+        The span of Δθ = θ_m/N − θ_l of the fit without contacts [rad; m].
     data : WindowData
         The windows (for the sample rate and window length).
 
@@ -3090,13 +3111,14 @@ def _contacts_seen_unconfirmed(
         if few
         else f"less than {CONTACT_EVIDENCE_Z:g} standard errors from 0"
     )
-    gap = 1e3 * (candidate.p[I_CHI] - candidate.p[I_CLO])
+    gu = gap_unit(data.info.get("axis"))
+    gap = gu.f(candidate.p[I_CHI] - candidate.p[I_CLO], ".4g")
     text = (
-        f"contacts seen but not confirmed — a fit with both contacts crosses a gap of δ ≈ {gap:.4g} mrad "
-        f"{ev['traversals']} times and the load travelled {travel:.3g} rad ({travel / span:.2g}× the Δθ "
+        f"contacts seen but not confirmed — a fit with both contacts crosses a gap of δ ≈ {gap} "
+        f"{ev['traversals']} times and the load travelled {travel:.3g} {gu.si} ({travel / span:.2g}× the Δθ "
         f"span), so the shaft carried torque, but its shaft torque in the lower / upper contact "
         f"({lo['shaft_torque_mean']:.3g} ± {lo['shaft_torque_se']:.2g} / {hi['shaft_torque_mean']:.3g} ± "
-        f"{hi['shaft_torque_se']:.2g} N·m) rests {why}"
+        f"{hi['shaft_torque_se']:.2g} {gu.torque}) rests {why}"
     )
     rate = 1.0 / data.T_s
     if below_verified(rate):
@@ -3124,8 +3146,11 @@ def _build_result(
     std = np.sqrt(np.clip(np.diag(cov), 0, None))
     params: dict[str, ParameterEstimate] = {}
     totals: dict[str, dict[str, Any]] | None = None  # motor-side totals where the shaft is rigid (B8)
+    axis = str(data.info.get("axis") or "rotary")
+    gu = gap_unit(axis)  # messages: mrad and N·m, or µm and N on a linear axis (numbers stay SI)
+    units = parameter_units(axis)
     for n, v, s in zip(rep, vals, std, strict=True):
-        params[n] = ParameterEstimate.normal(n, v, s)
+        params[n] = ParameterEstimate.normal(n, v, s, units.get(n))
     dth = prob.dtheta(p)
     dmin, dmax = float(np.min(dth)), float(np.max(dth))
     if all(sides) and ev["traversals"] < MIN_TRAVERSALS:
@@ -3133,16 +3158,16 @@ def _build_result(
         reason = (
             f"backlash not determined: the gap was crossed only {n_trav} time{'s' if n_trav != 1 else ''} "
             f"(at least {MIN_TRAVERSALS} needed) — both contacts carried torque (motor-side shaft torque "
-            f"{ev['lower']['shaft_torque_mean']:.3g} / {ev['upper']['shaft_torque_mean']:.3g} N·m in lower / "
-            "upper contact), but their positions and the "
+            f"{ev['lower']['shaft_torque_mean']:.3g} / {ev['upper']['shaft_torque_mean']:.3g} {gu.torque} in "
+            "lower / upper contact), but their positions and the "
             "stiffness rest on so few contact transients that no honest interval can be given; "
             "record more back-and-forth cycles"
         )
         visible = False
         why = f"not determined: the gap was crossed only {n_trav} time{'s' if n_trav != 1 else ''}"
         notes.append(
-            f"few gap crossings, not reported: δ = {1e3 * (p[I_CHI] - p[I_CLO]):.4g} mrad, "
-            f"δ1 = {-1e3 * p[I_CLO]:.4g} mrad, K_S = {p[I_KS]:.4g} N·m/rad"
+            f"few gap crossings, not reported: δ = {gu.f(p[I_CHI] - p[I_CLO], '.4g')}, "
+            f"δ1 = {gu.f(-p[I_CLO], '.4g')}, K_S = {p[I_KS]:.4g} {gu.stiffness}"
         )
         # both contacts lie inside the observed Δθ span, so it bounds δ from above
         params["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0, high=max(0.0, dmax - dmin))
@@ -3160,27 +3185,27 @@ def _build_result(
         if dq.high > 0.0:
             how = "the fitted contacts overlap" if dq.value < 0.0 else "the interval reaches below 0"
             reason = (
-                f"backlash below what the recording resolves: δ ≤ {1e3 * dq.high:.3g} mrad (upper end of "
-                f"the 95 % interval; {how}, δ̂ = {1e3 * dq.value:.3g} mrad) — both "
+                f"backlash below what the recording resolves: δ ≤ {gu.f(dq.high, '.3g')} (upper end of "
+                f"the 95 % interval; {how}, δ̂ = {gu.f(dq.value, '.3g')}) — both "
                 f"contacts seen, {ev['traversals']} traversals of the gap"
             )
             params["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0, high=dq.high)
         else:
             reason = (
-                f"backlash not determined: the fitted contacts overlap (δ̂ = {1e3 * dq.value:.3g} mrad, "
-                f"95 % interval {dq.interval_text(3)} rad entirely below 0) — a gap is never negative: "
+                f"backlash not determined: the fitted contacts overlap (δ̂ = {gu.f(dq.value, '.3g')}, "
+                f"95 % interval {dq.interval_text(3)} {dq.unit} entirely below 0) — a gap is never negative: "
                 "no gap is resolved, and the interval bounds nothing"
             )
             params["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0)
         params["delta1"] = ParameterEstimate.unknown(
             "delta1",
-            f"not determined: no gap resolved — both contacts lie at Δθ ≈ {1e3 * where:.4g} mrad, "
+            f"not determined: no gap resolved — both contacts lie at Δθ ≈ {gu.f(where, '.4g')}, "
             "the encoders' zero offset, not a contact position",
         )
         notes.append(
-            f"overlapping contacts, not reported: δ = {1e3 * dq.value:.4g} mrad "
-            f"[{1e3 * dq.low:.3g}, {1e3 * dq.high:.3g}] mrad (95 %), "
-            f"δ1 = {1e3 * d1q.value:.4g} mrad"
+            f"overlapping contacts, not reported: δ = {gu.f(dq.value, '.4g')} "
+            f"[{gu.n(dq.low, '.3g')}, {gu.n(dq.high, '.3g')}] {gu} (95 %), "
+            f"δ1 = {gu.f(d1q.value, '.4g')}"
         )
         visible = False
     elif all(sides):
@@ -3193,7 +3218,7 @@ def _build_result(
         seen = "upper" if sides[1] else "lower"
         reason = (
             f"the load stayed on the {seen} flank: the shaft torque did not reverse across the gap (only "
-            f"that contact carried it: {ev[seen]['shaft_torque_mean']:.3g} N·m motor-side over "
+            f"that contact carried it: {ev[seen]['shaft_torque_mean']:.3g} {gu.torque} motor-side over "
             f"{ev[seen]['windows']} windows), so the backlash cannot be seen in this recording "
             "(δ is not identifiable)"
         )
@@ -3211,7 +3236,7 @@ def _build_result(
             # Δθ may have reached it, so the Δθ span bounds nothing, and the load side of this
             # one-flank fit stands only if the two-contact fit agrees with it
             both = _fit_estimates(unconfirmed[0])
-            cand = 1e3 * (unconfirmed[0].p[I_CHI] - unconfirmed[0].p[I_CLO])
+            cand = gu.f(unconfirmed[0].p[I_CHI] - unconfirmed[0].p[I_CLO], ".3g")
             other = "lower" if sides[1] else "upper"
             ev2 = _contact_evidence(unconfirmed[0])
             e2 = ev2[other]
@@ -3227,18 +3252,19 @@ def _build_result(
                 # load "stayed on the flank" would be a false reason
                 z = abs(e2["shaft_torque_mean"]) / e2["shaft_torque_se"]
                 reason = (
-                    f"backlash not determined: a fit with both contacts finds a gap of δ ≈ {cand:.3g} mrad "
+                    f"backlash not determined: a fit with both contacts finds a gap of δ ≈ {cand} "
                     f"crossed {ev2['traversals']} times, but the shaft torque in its {other} contact "
-                    f"({e2['shaft_torque_mean']:.3g} ± {e2['shaft_torque_se']:.2g} N·m over {e2['windows']} "
-                    f"windows) lies {z:.2f} standard errors from 0, below the {CONTACT_EVIDENCE_Z:g} that "
-                    f"confirm a contact (the {seen} contact carried {ev[seen]['shaft_torque_mean']:.3g} N·m) "
+                    f"({e2['shaft_torque_mean']:.3g} ± {e2['shaft_torque_se']:.2g} {gu.torque} over "
+                    f"{e2['windows']} windows) lies {z:.2f} standard errors from 0, below the "
+                    f"{CONTACT_EVIDENCE_Z:g} that confirm a contact (the {seen} contact carried "
+                    f"{ev[seen]['shaft_torque_mean']:.3g} {gu.torque}) "
                     "— the recording does not show the torque reversing across the gap clearly enough; "
                     "larger torques in both directions (faster reversals) would, and δ has no bound from "
                     "this recording"
                 )
             else:
                 reason += (
-                    f"; a second contact (δ ≈ {cand:.3g} mrad) was fitted but the shaft torque does not "
+                    f"; a second contact (δ ≈ {cand}) was fitted but the shaft torque does not "
                     "confirm it, so δ has no lower bound from this recording"
                 )
             params["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0)
@@ -3270,8 +3296,9 @@ def _build_result(
             # the load travelled far more than Δθ ever spans: the gear drove it, so the shaft did
             # carry torque — the motor equation just cannot tell it from the motor's own terms
             reason = (
-                f"backlash not determined: the load travelled {travel:.3g} rad (Δθ spans only "
-                f"{dmax - dmin:.3g} rad), so the gear drove it, but the shaft torque is not "
+                f"backlash not determined: the load travelled {travel:.3g} {gu.si} (Δθ spans only "
+                f"{f'{dmax - dmin:.3g} rad' if gu is MRAD else gu.f(dmax - dmin, '.3g')}), so the gear "
+                "drove it, but the shaft torque is not "
                 "distinguishable in the motor torque (deflection below what the recording resolves)"
             )
             why = "the shaft torque is not distinguishable in the motor torque"
@@ -3283,6 +3310,7 @@ def _build_result(
                     params,
                     {n: (params[n].value, params[n].std) for n in RIGID_TOTALS if params[n].identifiable},
                     "the load travelled with the motor and no shaft deflection is resolved",
+                    gu,
                 )
         elif (seen_text := _contacts_seen_unconfirmed(candidate, travel, dmax - dmin, data)) is not None:
             # H2 (session 30): the two-contact fit crossed the gap with shaft torques of both
@@ -3355,6 +3383,7 @@ def _build_result(
                 for n, t in zip(RIGID_TOTALS, ("J_total", "T_C_total", "beta_total"), strict=True)
             },
             "the shaft is rigid at the recording's resolution (K_S not determined)",
+            gu,
         )
         if visible:
             reason += "; the shaft is rigid at the recording's resolution (K_S not determined)"
@@ -3399,16 +3428,17 @@ def _build_result(
     if halves is not None and halves["z"] > GAP_CHANGE_Z:
         (d_a, d_b), (s_a, s_b) = halves["delta"], halves["std"]
         gap_warning = (
-            f"the gap changed during the recording (first half δ {1e3 * d_a:.4g} ± {1e3 * Z95 * s_a:.2g} "
-            f"mrad, second half {1e3 * d_b:.4g} ± {1e3 * Z95 * s_b:.2g} mrad, split at t = "
+            f"the gap changed during the recording (first half δ {gu.n(d_a, '.4g')} ± "
+            f"{gu.n(Z95 * s_a, '.2g')} {gu}, second half {gu.n(d_b, '.4g')} ± {gu.n(Z95 * s_b, '.2g')} "
+            f"{gu}, split at t = "
             f"{halves['t_split']:.3g} s; "
             f"{halves['z']:.1f} standard errors apart): the fit assumes one gap — δ and δ1 are not reported "
             "and its other values may be biased; identify the parts before and after the change separately"
         )
         notes.append(f"gap changed, not reported: {_fitted_text(params, ('delta', 'delta1'))}")
         reason = (
-            f"backlash not determined: the gap changed during the recording (δ {1e3 * d_a:.4g} mrad in the "
-            f"first half, {1e3 * d_b:.4g} mrad in the second)"
+            f"backlash not determined: the gap changed during the recording (δ {gu.f(d_a, '.4g')} in the "
+            f"first half, {gu.f(d_b, '.4g')} in the second)"
         )
         visible = False
         params["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0)
@@ -3438,12 +3468,15 @@ def _build_result(
             },
             "K_S is not determined (its 95 % interval reaches 0) and with it the shaft torque that splits "
             "inertia and friction between motor and load",
+            gu,
         )
     if prob.equations == "motor":
         why = "the load equation was not used (equations = 'motor')"
         for n in ("J_l", "T_Cl", "beta_l"):
             params.setdefault(n, ParameterEstimate.unknown(n, why))
-    ordered = {n: params[n] for n in REPORT_ORDER if n in params}
+    # every estimate in the axis's units (kg, N/m, N·s/m, N, m on a linear axis), also those made
+    # "not determined" above
+    ordered = {n: replace(params[n], unit=units.get(n, params[n].unit)) for n in REPORT_ORDER if n in params}
     evidence = refusal_evidence(trace, data)
     warnings = _plausibility(ordered, evidence)
     implausible = bool(warnings)
@@ -3476,7 +3509,9 @@ def _build_result(
         ordered["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0)
         ordered["delta1"] = ParameterEstimate.unknown("delta1", "the fit is implausible")
         if fit_delta is not None:
-            notes.append(f"implausible fit: δ = {fit_delta.value:.4g} rad {fit_delta.interval_text(4)}")
+            notes.append(
+                f"implausible fit: δ = {fit_delta.value:.4g} {fit_delta.unit} {fit_delta.interval_text(4)}"
+            )
     elif warnings and reason.startswith("no contact:"):
         # "the shaft never carried torque" rests on the motor-only fit explaining the recording; an
         # implausible one does not (B12's small-motion recording: a ±0.12 rad sine drives the load
@@ -3486,7 +3521,7 @@ def _build_result(
         reason = (
             "backlash not determined: no contact was confirmed, but the motor-only fit that would "
             f"stand for 'no contact' is implausible ({warnings[0].split(':')[0]}) and the load "
-            f"travelled {1e3 * travel:.3g} mrad — whether the shaft carried torque is not decided by "
+            f"travelled {gu.f(travel, '.3g')} — whether the shaft carried torque is not decided by "
             "this fit (the warning names the likely cause)"
         )
         ordered["delta"] = ParameterEstimate.unknown("delta", reason, low=0.0)
@@ -3507,8 +3542,8 @@ def _build_result(
         if not (0.0 <= d1 <= dd):
             warnings.append(
                 "Δθ = θ_m/N − θ_l = 0 lies outside the gap (contacts at "
-                f"{-d1:.4g} and {dd - d1:.4g} rad): the "
-                f"encoders' zeros are offset — add offset = {dd / 2 - d1:.4g} rad to theta_l "
+                f"{-d1:.4g} and {dd - d1:.4g} {gu.si}): the "
+                f"encoders' zeros are offset — add offset = {dd / 2 - d1:.4g} {gu.si} to theta_l "
                 "in [columns] to centre the gap (δ1 must lie in [0, δ] for `estimate`)"
             )
     rate_note = below_verified_rate(data.T_s)
@@ -3578,6 +3613,7 @@ def _build_result(
         names=corr_names,
         correlation=corr,
         N=data.N,
+        axis=axis,
         backlash_visible=visible,
         reason=reason,
         warnings=warnings,
@@ -3620,16 +3656,12 @@ def rigid_result(result: Any) -> DriveIdentification:
     Newey–West sandwich on the decimated system, :func:`drivelash.estimation.identify.hac_sandwich`).
     """
     prismatic = result.axis == "prismatic"
-    units = (
-        {"M": "kg", "F_v": "N·s/m", "F_c": "N", "offset": "N"}
-        if prismatic
-        else {"M": "kg·m²", "F_v": "N·m·s/rad", "F_c": "N·m", "offset": "N·m"}
-    )
     rename = {"M": "J_m", "F_v": "beta_m", "F_c": "T_Cm", "offset": "torque_offset"}
     names = tuple(result.names)
     if result.side == "load":
         rename = {"J_l": "J_l", "beta_l": "beta_l", "T_Cl": "T_Cl", "offset": "torque_offset"}
-        units = {"J_l": "kg·m²", "beta_l": "N·m·s/rad", "T_Cl": "N·m", "offset": "N·m"}
+    # kg, N·s/m, N on a prismatic axis (either side: the load side said kg·m² there until session 35)
+    units = {n: parameter_units(result.axis)[rename[n]] for n in rename}
     nd = getattr(result, "not_determined", {})
     params = {
         rename[n]: (
@@ -3662,6 +3694,7 @@ def rigid_result(result: Any) -> DriveIdentification:
         fit={"implausible": bool(warnings), **result.as_dict()},
         method="IDIM-LS (zero-phase Butterworth, central differences, parallel decimation)",
         source=result,
+        axis="prismatic" if prismatic else "rotary",
     )
 
 

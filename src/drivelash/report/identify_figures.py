@@ -18,6 +18,7 @@ import numpy as np
 
 from drivelash.report import _overview_figure, _param_tables, _recording_html, _thin, _write
 from drivelash.report.html import Figure, Section, render_html
+from drivelash.units import gap_unit
 
 #: The fit table's "window chosen" row for a result without ``fit["window_rule"]`` (the window
 #: actually used, :func:`drivelash.estimation.identify_two_mass.window_rule`) nor an "auto" choice.
@@ -72,6 +73,9 @@ def render_two_mass_report(
     """
     sig = result.signals
     p = result.parameters
+    # Δθ, δ in mrad and torques in N·m — or µm and N on a linear axis (session 35, G1)
+    gu = gap_unit(getattr(result, "axis", None))
+    acc = f"{gu.si}/s²"
     verdict_cls = "verdict-ok" if result.backlash_visible else "verdict-bad"
     raw = _recording_html(trace)
     if online_not_run:
@@ -99,11 +103,14 @@ def render_two_mass_report(
         ["windows used, motor / load equation", pair("motor_windows_used", "load_windows_used", "{}")],
         ["window length [s]", fit.get("window_s")],
         ["window chosen", window_row],
-        ["RMS residual, motor / load acceleration [rad/s²]", pair("motor_accel_rms", "load_accel_rms")],
+        [f"RMS residual, motor / load acceleration [{acc}]", pair("motor_accel_rms", "load_accel_rms")],
         ["relative error, motor / load equation", pair("relative_error_motor", "relative_error_load")],
         ["HAC lags (Bartlett, Andrews plug-in)", fit.get("hac_lags")],
-        ["velocity noise σ_ω, motor / load [rad/s]", pair("sigma_omega_m", "sigma_omega_l", "{:.3g}")],
-        ["encoder count, motor / load [rad] (0 = continuous)", pair("count_m", "count_l", "{:.3g}")],
+        [
+            f"velocity noise σ_ω, motor / load [{gu.velocity}]",
+            pair("sigma_omega_m", "sigma_omega_l", "{:.3g}"),
+        ],
+        [f"encoder count, motor / load [{gu.si}] (0 = continuous)", pair("count_m", "count_l", "{:.3g}")],
     ]
     cp = fit.get("contact_points", {})
     c_lo, c_hi = cp.get("c_lo", -math.inf), cp.get("c_hi", math.inf)
@@ -125,39 +132,40 @@ def render_two_mass_report(
             sel = (x >= xlim[0]) & (x <= xlim[1])
             x, y = x[sel], y[sel]
         xt, yt = _thin(x, y)
-        ax.plot(1e3 * xt, yt, ".", ms=2, alpha=0.3, color="#999", label="N (u − u₀ − T_F,m − J_m ω̇_m)")
+        ax.plot(gu.per_si * xt, yt, ".", ms=2, alpha=0.3, color="#999", label="N (u − u₀ − T_F,m − J_m ω̇_m)")
         if x.size > 50:  # binned median: the characteristic through the noise
             edges = np.quantile(x, np.linspace(0, 1, 61))
             idx = np.clip(np.searchsorted(edges, x) - 1, 0, 59)
             xm = np.array([np.median(x[idx == k]) if np.any(idx == k) else np.nan for k in range(60)])
             ym = np.array([np.median(y[idx == k]) if np.any(idx == k) else np.nan for k in range(60)])
-            ax.plot(1e3 * xm, ym, "o", ms=3, color="#1d232a", label="binned median")
+            ax.plot(gu.per_si * xm, ym, "o", ms=3, color="#1d232a", label="binned median")
         lo, hi = (float(np.min(sig["dtheta"])), float(np.max(sig["dtheta"]))) if xlim is None else xlim
         if math.isfinite(K_S):
             g = np.linspace(lo, hi, 800)
             dz = np.minimum(g - c_lo, 0) + np.maximum(g - c_hi, 0)
-            ax.plot(1e3 * g, K_S * dz, color="#c0392b", lw=1.6, label=dz_label)
+            ax.plot(gu.per_si * g, K_S * dz, color="#c0392b", lw=1.6, label=dz_label)
         for c, name in contacts:
             if lo <= c <= hi:
-                label = f"contact {name} = {1e3 * c:.5g} mrad"
+                label = f"contact {name} = {gu.f(c, '.5g')}"
                 if undetermined:
-                    label = f"fit's contact {name} = {1e3 * c:.5g} mrad (not reported)"
-                ax.axvline(1e3 * c, color="#2a6fb0", ls="--", lw=1, label=label)
-        ax.set_xlabel("Δθ = θ_m/N − θ_l [mrad]")
+                    label = f"fit's contact {name} = {gu.f(c, '.5g')} (not reported)"
+                ax.axvline(gu.per_si * c, color="#2a6fb0", ls="--", lw=1, label=label)
+        ax.set_xlabel(f"Δθ = θ_m/N − θ_l [{gu}]")
         ax.grid(alpha=0.3)
 
     def draw_characteristic(fig: Any) -> None:
         n = 1 + len(contacts)
         axes = fig.subplots(1, n, squeeze=False, width_ratios=[2] + [1] * (n - 1))[0]
         characteristic(axes[0])
-        axes[0].set_ylabel("shaft torque [N·m]")
+        axes[0].set_ylabel(f"shaft torque [{gu.torque}]")
         axes[0].set_title("whole range", fontsize=9)
         axes[0].legend(fontsize=7, loc="best")
         x = sig["dtheta"][sig["ok_m"]]
         for ax, (c, name) in zip(axes[1:], contacts, strict=True):
             defl = (x - c) if c == c_hi else (c - x)  # deflection into this contact
             defl = defl[defl > 0]
-            w = max(2.0 * float(np.quantile(defl, 0.95)), 2e-4) if defl.size else 1e-3
+            # at least 0.2 display units (0.2 mrad; 0.2 µm on a linear axis, whose Δθ spans ~50 µm)
+            w = max(2.0 * float(np.quantile(defl, 0.95)), 0.2 / gu.per_si) if defl.size else 1.0 / gu.per_si
             characteristic(ax, (c - w, c + w))
             ax.set_title(f"zoom on the contact {name}", fontsize=9)
 
@@ -174,11 +182,11 @@ def render_two_mass_report(
             ax, axr = axes[2 * k], axes[2 * k + 1]
             ax.plot(t, a_t, lw=0.6, color="#888", label="measured (window mean)")
             ax.plot(t, ah_t, lw=0.8, color="#c0392b", label="model")
-            ax.set_ylabel(f"ω̇_{side} [rad/s²]")
+            ax.set_ylabel(f"ω̇_{side} [{acc}]")
             ax.legend(fontsize=8, loc="upper right")
             res = np.where(m_t, a_t - ah_t, np.nan)
             axr.plot(t, res, lw=0.5, color="k")
-            axr.set_ylabel("residual [rad/s²]")
+            axr.set_ylabel(f"residual [{acc}]")
             for a_ in (ax, axr):
                 a_.grid(alpha=0.3)
         axes[-1].set_xlabel("time [s] (gaps: standstill windows left out)")
@@ -249,7 +257,7 @@ def render_two_mass_report(
         )
     ident = getattr(config, "identification", None)
     offset_text = (
-        f"{float(getattr(ident, 'torque_offset', 0.0) or 0.0):g} N·m ([identification] torque_offset)"
+        f"{float(getattr(ident, 'torque_offset', 0.0) or 0.0):g} {gu.torque} ([identification] torque_offset)"
     )
     sections = [
         Section("Recording", raw=raw, figures=[_overview_figure(trace, result.N)]),
@@ -281,21 +289,25 @@ def render_two_mass_report(
         def draw_online(fig: Any) -> None:
             ax = fig.subplots()
             t, dh = _thin(online.t, online.delta_hat)
-            ax.plot(t, 1e3 * dh, lw=1, label="online δ̂ (identified parameters)")
+            ax.plot(t, gu.per_si * dh, lw=1, label="online δ̂ (identified parameters)")
             if d is not None and d.identifiable:
                 ax.axhspan(
-                    1e3 * d.low, 1e3 * d.high, color="#c0392b", alpha=0.2, label="offline δ, 95 % interval"
+                    gu.per_si * d.low,
+                    gu.per_si * d.high,
+                    color="#c0392b",
+                    alpha=0.2,
+                    label="offline δ, 95 % interval",
                 )
-                ax.axhline(1e3 * d.value, color="#c0392b", lw=1)
+                ax.axhline(gu.per_si * d.value, color="#c0392b", lw=1)
             ax.set_xlabel("time [s]")
-            ax.set_ylabel("δ [mrad]")
+            ax.set_ylabel(f"δ [{gu}]")
             ax.grid(alpha=0.3)
             ax.legend(fontsize=8)
 
         sections.append(
             Section(
                 "Online estimate with the identified parameters",
-                paragraphs=[f"online δ̂ = {1e3 * online.delta:.4g} mrad; excitation: {online.reason}"],
+                paragraphs=[f"online δ̂ = {gu.f(online.delta, '.4g')}; excitation: {online.reason}"],
                 figures=[
                     Figure(
                         "online", "Online deadzone estimate vs the offline interval.", draw_online, (10, 3.5)
