@@ -2932,7 +2932,7 @@ def meaningless_intervals(
     """
     span = float(np.ptp(data.dth)) if data.dth.size else 0.0
     wmax = float(np.max(np.abs(data.wl))) if data.wl.size else 0.0
-    gu = gap_unit(data.info.get("axis"))
+    gu = gap_unit(getattr(data, "info", {}).get("axis"))  # µm on a linear axis (Δθ and δ only needed)
     out: list[tuple[str, float, str]] = []
 
     def withhold(name: str, reason: str, low: float = -math.inf, high: float = math.inf) -> None:
