@@ -3001,9 +3001,9 @@ def meaningless_intervals(
 #: The motor-side totals a rigid shaft puts into the motor equation: name → (expression, the
 #: :class:`~drivelash.units.GapUnit` attribute naming its unit: kg·m² or kg, N·m or N, …).
 MOTOR_SIDE_TOTALS = {
-    "J_m": ("J_m + J_l/N²", "inertia"),
+    "J_m": ("J_m + J_l/N²", "mass"),
     "T_Cm": ("T_Cm + T_Cl/N", "torque"),
-    "beta_m": ("β_m + β_l/N²", "damping"),
+    "beta_m": ("β_m + β_l/N²", "viscous"),
 }
 
 
