@@ -148,6 +148,17 @@ def restore_trained(directory: str | Path) -> tuple[Any, TrainedTEModel]:
     return model, trained
 
 
+#: Further passes named in the refusal of passes beyond the model's torque range.
+MORE_NAMED = 6
+#: A pass whose |median motor torque| exceeds the model's torque_max by more than this share is
+#: refused by te update (:func:`_refuse_beyond_torque`). torque_max is the 99.9th percentile of
+#: |T_M| of the training runs, so a pass at a trained load lies below it (tester H's 2500 N passes:
+#: 8.31 … 8.50 N·m of 8.84); 10 % covers the friction change of a worn or warm axis (equal-load
+#: runs spread 0.23 N·m, 2.7 % of 8.5 N·m, across 20–100 mm/s) while the next load step of a
+#: protocol lies beyond it (3000 → 3500 N: +16 %; tester H's 5000 N passes: 15.8 N·m, +79 %).
+UPDATE_TORQUE_SLACK = 0.10
+
+
 def runs_for_update(campaign: Any, trained: TrainedTEModel) -> dict[str, list[RunData]]:
     """Every constant-velocity run of ``campaign`` (geometric, load), processed with the model's curves.
 
@@ -183,7 +194,51 @@ def runs_for_update(campaign: Any, trained: TrainedTEModel) -> dict[str, list[Ru
             for r in campaign.select(direction=d)
             if r.kind in ("geometric", "load")  # constant-velocity passes (not sine runs)
         ]
+    _refuse_beyond_torque(out, trained, campaign)
     return out
+
+
+def _refuse_beyond_torque(runs: Mapping[str, list[RunData]], trained: Any, campaign: Any) -> None:
+    """Refuse passes whose median motor torque lies beyond the model's trained torque range.
+
+    The limit is the flank's torque_max (:func:`~drivelash.te.runtime.table.valid_torque_range`;
+    |median torque| above (1 + :data:`UPDATE_TORQUE_SLACK`) × torque_max: the magnitude, since the
+    load, not the flank's sign convention, is what the model was not trained on), as ``te update`` refuses
+    passes beyond the valid position range. The model's load behaviour beyond its training
+    torques is an extrapolation (``te fit --max-load`` keeps heavier passes out of training);
+    a stage-2 refit on them spread a ripple over the whole no-load table (session 33 tester H,
+    TH3: six 5000 N passes, −15.8 N·m, beside a 3000 N model of torque_max 8.84 N·m: ±2.2 µm
+    along the travel away from the wear, 0.28 µm without them). A model without a torque range
+    (none stored) is not checked.
+    """
+    from drivelash.te.runtime.table import valid_torque_range
+
+    names = {e.file: e.recording for e in getattr(getattr(campaign, "manifest", None), "runs", [])}
+    bad, ranges = [], []
+    for key, rs in runs.items():
+        d = 1 if key == "pos" else -1
+        rng = valid_torque_range(trained, d)
+        if rng is None:
+            continue
+        t_max = max(abs(rng[0]), abs(rng[1]))
+        ranges.append(f"flank {d:+d} |torque| ≤ {t_max:.3g} N·m")
+        for r in rs:
+            tq = float(np.median(r.torque))
+            if abs(tq) > t_max * (1 + UPDATE_TORQUE_SLACK):
+                f = Path(r.meta["file"])
+                bad.append(
+                    (str(Path(campaign.directory) / names[f.name]) if names.get(f.name) else str(f), r, tq)
+                )
+    if bad:
+        listed = [f"{Path(p).name} ({r.meta['load']:g} N, {tq:+.3g} N·m)" for p, r, tq in bad[1:MORE_NAMED]]
+        more = f"; also {', '.join(listed)}{', …' if len(bad) > MORE_NAMED else ''}" if listed else ""
+        raise DataError(
+            f"{len(bad)} pass(es) beyond the model's trained torque range ({', '.join(ranges)}): this one"
+            f" at {bad[0][1].meta['load']:g} N has a median motor torque of {bad[0][2]:+.3g} N·m{more} —"
+            " the model's load behaviour there is an extrapolation and a refit on it changes the whole"
+            " no-load table: import the update passes without them, or refit with te fit (--max-load)",
+            path=bad[0][0],
+        )
 
 
 def half_sample_mode(values: np.ndarray) -> float:
