@@ -44,8 +44,8 @@ def export_table(table: TETable, path: Path, params: CompensatorParams | None = 
     Raises
     ------
     DataError
-        A table with |TE| beyond ``TE_MAX`` (an implausible model), or a suffix other than
-        ``.csv``/``.json``.
+        A table with |TE| beyond ``TE_MAX`` (an implausible model), a no-load TE beyond the CNC
+        layouts' ``TE_LIMIT`` (:func:`_check_noload`), or a suffix other than ``.csv``/``.json``.
     """
     path = Path(path)
     suffix = final_suffix(path)  # a staging name of drivelash.io.outputs keeps the final suffix
@@ -56,6 +56,7 @@ def export_table(table: TETable, path: Path, params: CompensatorParams | None = 
             " the model is implausible",
             path=str(path),
         )
+    _check_noload(table, path)
     doc = _grid_doc(table, params)
     path.parent.mkdir(parents=True, exist_ok=True)
     if suffix == ".json":
@@ -75,6 +76,25 @@ def export_table(table: TETable, path: Path, params: CompensatorParams | None = 
     else:
         raise DataError(f"unknown export format '{path.suffix}', use .csv or .json", path=str(path))
     return path
+
+
+def _check_noload(table: TETable, path: Path) -> None:
+    """The no-load TE (each flank's torque nearest 0) within the CNC layouts' limit
+    (:data:`drivelash.te.runtime.cnc.TE_LIMIT`): the runtime table holds the whole TE, so a no-load
+    TE the ``.ini``/``.COM`` export refuses as a unit, sign or zero-offset error must not reach
+    the CNC through it either (finding TH14: a 2 mm zero offset was refused by the CNC layouts and
+    written to the ``.csv``)."""
+    from drivelash.te.runtime.cnc import TE_LIMIT
+
+    for d, sgn in enumerate(DIRECTIONS):
+        j = int(np.argmin(np.abs(table.torque_grid(sgn))))
+        worst = float(np.max(np.abs(table.te[d, :, j])))
+        if worst > TE_LIMIT:
+            raise DataError(
+                f"refusing to export a no-load TE of {worst * 1e3:.4g} mm in direction {sgn:+d} "
+                f"(limit {TE_LIMIT * 1e3:g} mm): a unit, sign or zero-offset error, not a rack",
+                path=str(path),
+            )
 
 
 def _grid_doc(table: TETable, params: CompensatorParams | None) -> dict[str, Any]:
