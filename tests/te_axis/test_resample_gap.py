@@ -58,3 +58,21 @@ def test_jitter_is_still_resampled(tmp_path):
     import_campaign(axis, tmp_path / "camp", warn=warnings.append)
     assert any(str(f) in w and "resampled linearly" in w for w in warnings), warnings
     assert MAX_BRIDGED_PERIODS == 10
+
+
+def test_jitter_without_resample_names_the_axis_file_key_not_an_option(tmp_path):
+    """Tester H, TH9: the refusal advised "--resample", an option te import does not have."""
+    rng = np.random.default_rng(1)
+
+    def jitter(df):
+        df["time_ms"] = df["time_ms"] + rng.uniform(-0.2, 0.2, len(df))
+        return df
+
+    axis, f = _axis(tmp_path, jitter)
+    axis.write_text(axis.read_text().replace(RESAMPLE, "\n"))
+    with pytest.raises(DataError) as err:
+        import_campaign(axis, tmp_path / "camp")
+    msg = str(err.value)
+    assert str(f) in msg and "non-uniform sampling" in msg, msg
+    assert "--resample" not in msg and "[sampling] resample = true in the axis file" in msg, msg
+    assert not (tmp_path / "camp").exists()

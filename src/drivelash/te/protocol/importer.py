@@ -30,7 +30,7 @@ from drivelash.io.campaign import (
     RunEntry,
 )
 from drivelash.io.config import DriveConfig
-from drivelash.io.load import load_trace
+from drivelash.io.load import RESAMPLE_HINT, load_trace
 from drivelash.io.outputs import write_json
 from drivelash.io.trace import Trace
 from drivelash.te.protocol.axis import load_axis
@@ -59,6 +59,10 @@ def _direction_column(tr: Trace, direction: int) -> np.ndarray:
     s[s == 0] = 1.0
     return s
 
+
+#: What to do about non-uniform sampling in ``te import`` (tester H, TH9: the loader's hint named
+#: ``--resample``, an option ``te import`` does not have).
+RESAMPLE_HINT_AXIS = "resample explicitly with [sampling] resample = true in the axis file"
 
 #: Longest stretch [sample periods] that ``[sampling] resample = true`` may bridge by linear
 #: interpolation while the axis moves: resampling is for jitter (a sample a little early or
@@ -151,7 +155,12 @@ def import_campaign(
     records = []
     for r in runs:
         path = axis.directory / str(r.file)
-        tr = load_trace(path, mapping, required=REQUIRED_COLUMNS)
+        try:
+            tr = load_trace(path, mapping, required=REQUIRED_COLUMNS)
+        except DataError as exc:  # te import has no --resample option: name the axis file's key
+            if RESAMPLE_HINT in str(exc):
+                exc.args = (str(exc).replace(RESAMPLE_HINT, RESAMPLE_HINT_AXIS),)
+            raise
         if any("resampled linearly" in w for w in tr.meta.get("warnings", [])):
             check_bridged_gap(tr, str(path))
         for w in tr.meta.get("warnings", []):
