@@ -107,6 +107,13 @@ MIXED_WARN = 0.1e-3
 MIXED_SAME_ERROR = 20e-6
 MIXED_SAME_WARN = 5e-6
 MIXED_SAME_SCATTER = 10.0
+#: The mixed-zero checks compare runs over common positions (:func:`_levels`): TE means per bin of
+#: MIXED_BIN [m] of x_T, the median of the differences over at least MIXED_MIN_COMMON common bins.
+#: 2 mm: a fifth of the shortest tooth pitch of the example axes (6.3 … 10 mm), so the mesh ripple
+#: common to two runs cancels bin by bin; 10 bins (20 mm, two pitches) are the least overlap whose
+#: median is not one tooth's.
+MIXED_BIN = 2e-3
+MIXED_MIN_COMMON = 10
 #: Share of the recorded travel a geometric or load pass must cover (warning below).
 COVERAGE_WARN = 0.5
 #: A load pass reaching further than this [m] beyond its direction's no-load runs is warned:
@@ -889,7 +896,7 @@ def check_runs(
         elif len(train) == 2:
             add("warning", "loads", source, f"2 training loads in direction {d:+d}; 3 or more recommended")
         if len(rr) >= 2:
-            _mixed_zeros(rr, add)
+            _mixed_zeros(rr, add, r_eff)
         lr = [(r.load, i["torque_mean"] * d) for r, i in rr if r.kind == "load"]
         gross = False
         if len({f for f, _ in lr}) >= 2:
@@ -1253,13 +1260,51 @@ def _torque_load_message(
     )
 
 
-def _mixed_zeros(rr: Iterable[tuple[RunRecord, dict[str, Any]]], add: Any) -> None:
-    """Offsets of single runs against the others of a direction (load trend removed, Theil–Sen)."""
+def _profile(r: RunRecord, r_eff: float) -> tuple[np.ndarray, np.ndarray]:
+    """Mean TE [m] of the moving part of ``r`` per :data:`MIXED_BIN` of x_T, as (bin index, mean)."""
+    x, t = np.asarray(r.x_T, dtype=np.float64), np.asarray(r.t, dtype=np.float64)
+    mv = _moving(x, t)
+    te = x[mv] - np.asarray(r.theta_m, dtype=np.float64)[mv] * r_eff
+    b = np.floor(x[mv] / MIXED_BIN).astype(np.int64)
+    idx, inv = np.unique(b, return_inverse=True)
+    return idx, np.bincount(inv, weights=te) / np.bincount(inv)
+
+
+def _levels(rr: Sequence[tuple[RunRecord, dict[str, Any]]], r_eff: float) -> np.ndarray:
+    """Each run's TE level [m] on the positions of the direction's longest run (the reference).
+
+    The reference's level is its median TE; another run's is the reference's plus the median,
+    over the positions both cover (:data:`MIXED_BIN` bins, at least :data:`MIXED_MIN_COMMON`), of
+    its TE minus the reference's. A run's own median over a part of the travel holds the TE's
+    variation along it (drift, runout) — finding TH4: a pass stopped after 100 of 400 mm showed
+    "+24.4 um from the 2 other runs" of a 100 µm drift and was refused as mixed zeros. Without
+    enough common positions a run keeps its own median.
+    """
+    spans = [i["range_m"][1] - i["range_m"][0] for _, i in rr]
+    ref = int(np.argmax(spans))
+    pr = _profile(rr[ref][0], r_eff)
+    out = []
+    for n, (r, i) in enumerate(rr):
+        if n == ref:
+            out.append(float(i["te_median_m"]))
+            continue
+        idx, mean = _profile(r, r_eff)
+        _, a, b = np.intersect1d(idx, pr[0], assume_unique=True, return_indices=True)
+        if a.size < MIXED_MIN_COMMON:
+            out.append(float(i["te_median_m"]))
+        else:
+            out.append(float(rr[ref][1]["te_median_m"]) + float(np.median(mean[a] - pr[1][b])))
+    return np.array(out)
+
+
+def _mixed_zeros(rr: Iterable[tuple[RunRecord, dict[str, Any]]], add: Any, r_eff: float) -> None:
+    """Offsets of single runs against the others of a direction (load trend removed, Theil–Sen),
+    compared over common positions (:func:`_levels`)."""
     from scipy.stats import theilslopes
 
     rr = list(rr)
     F = np.array([r.load for r, _ in rr])
-    m = np.array([i["te_median_m"] for _, i in rr])
+    m = _levels(rr, r_eff)
     if np.ptp(F) > 0 and len(rr) >= 3:
         slope, icpt, _, _ = theilslopes(m, F)
         res = m - (icpt + slope * F)
