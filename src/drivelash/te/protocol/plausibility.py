@@ -679,6 +679,13 @@ def check_runs(
             continue
         rev = _reversal(x) if r.kind != "sine" else None
         if rev is not None:
+            k_rev = _ratio(x[mv], x_M[mv])
+            if math.isfinite(k_rev) and k_rev > 0 and abs(k_rev - 1.0) > RATIO_ERROR:
+                # x_T a unit's factor off the motor: the "turn" is the end-of-pass overshoot (µm)
+                # magnified — the ratio check below names the unit (finding TH6: µm declared as
+                # mm made a 6.5 µm overshoot a 6.5 mm "reversal": "split the file")
+                rev = None
+        if rev is not None:
             x_turn, ends = rev
             add(
                 "error",
@@ -799,14 +806,22 @@ def check_runs(
         if r.direction != 0 and r.kind != "sine":
             moved = float(np.median(np.gradient(x, t)[mv]))
             if np.sign(moved) != r.direction:
-                add(
-                    "error",
-                    "direction",
-                    r.label,
+                head = (
                     f"the table moves in direction {int(np.sign(moved)):+d} (x_T from {x[mv][0] * 1e3:.1f} to"
-                    f" {x[mv][-1] * 1e3:.1f} mm), the run is listed as direction {r.direction:+d}:"
-                    " fix 'direction' of this run in [[runs]]",
+                    f" {x[mv][-1] * 1e3:.1f} mm), the run is listed as direction {r.direction:+d}"
                 )
+                tq_mean = info["torque_mean"]
+                if np.sign(tq_mean) == r.direction and abs(tq_mean) > TORQUE_ORDER_NOISE:
+                    # the motor pushed the way the list says: the rows, not the label, are reversed
+                    # (finding TH7: "fix 'direction'", then "set scale = -1 on torque_m" for all files)
+                    why = (
+                        f", and its mean motor torque {tq_mean:+.3g} N·m drives direction {r.direction:+d} as"
+                        " listed: the rows look reversed in time (a trace exported newest first?) or the"
+                        " position columns belong to another pass — check this file, not 'direction'"
+                    )
+                else:
+                    why = ": fix 'direction' of this run in [[runs]]"
+                add("error", "direction", r.label, head + why)
                 info["gross"] = True
                 continue
         # 5. listed velocity
@@ -833,6 +848,7 @@ def check_runs(
                 f" {_sign_advice('torque_m', column_scales)}",
             )
     rep.runs = per_run
+    _minority(rep, per_run)
     _single_turn(starts, r_eff, rep, source)
     _frame(per_run, travel, column_offsets, source, add)
     judged = [(r, i) for r, i in zip(runs, per_run, strict=True) if "ratio" in i and not i.get("gross")]
@@ -943,6 +959,45 @@ def check_runs(
         else:
             add("error", "coverage", source, "the geometric runs of the two directions do not overlap")
     return rep
+
+
+def _minority(rep: PlausibilityReport, per_run: Sequence[dict[str, Any]]) -> None:
+    """A unit or sign finding on fewer than half of the runs it was judged on: the [columns] mapping
+    fits the others, so the advice to change it (shared by every file) gets the note that it
+    would change them too (findings TH6, TH7: one file in µm told "set unit = 'um'", one pass
+    reversed in time told "set scale = -1 on the torque_m column" — advice that breaks the other
+    19 files if followed)."""
+    judged = {"ratio": sum("ratio" in i for i in per_run)}
+    judged["torque"] = sum(
+        "ratio" in i and i["kind"] == "load" and i["load"] > 0 and i["direction"] != 0 for i in per_run
+    )
+    for check, n_all in judged.items():
+        bad = [
+            k
+            for k, f in enumerate(rep.findings)
+            if f.level == "error" and f.check == check and f.file in {i["file"] for i in per_run}
+        ]
+        # an encoder or scale counting the other way (k ≈ −1) keeps its one line (the README's
+        # example): a drive's sign parameter is set once for every recording
+        k_of = {i["file"]: i.get("ratio", math.nan) for i in per_run}
+        ratio_run = [k for k in bad if check == "ratio"]
+        if ratio_run:
+            n_bad = len(ratio_run)
+            bad = [k for k in bad if k_of.get(rep.findings[k].file, math.nan) > 0]
+            if len(bad) < n_bad:  # sign errors among them: no note
+                bad = []
+        if not bad or 2 * len(bad) >= n_all:
+            continue
+        for k in bad:
+            f = rep.findings[k]
+            rep.findings[k] = Finding(
+                f.level,
+                f.check,
+                f.file,
+                f"{f.message} — but only {len(bad)} of {n_all} runs disagree: if the others are right,"
+                " this file was recorded or exported differently (reversed in time, another unit or"
+                " channel): re-export it like them, since [columns] applies to every file",
+            )
 
 
 def _constant_part(
