@@ -36,3 +36,46 @@ def test_a_four_turn_counter_is_named_with_its_wrap(tmp_path):
     assert f"line {first + 2}:" in msg, (first, msg)  # + the header line, 1-based
     assert f"declare wrap = {W}" in msg and "(4 revolutions)" in msg, msg
     assert "i_PG" not in msg
+
+
+def _wrapping_axis(tmp_path):
+    """Every pass's motor counter is a 32-bit register that wraps inside the travel (tester H, TH5);
+    the axis file declares ``wrap = 2^32``."""
+    import numpy as np
+
+    from .synth import BENCH
+
+    runs = [dataclasses.replace(r, lo=0.05, hi=0.45) for r in standard_runs(loads=(0.0, 1500.0, 3000.0))]
+    axis = write_axis(tmp_path / "rec", runs)
+    off = 2**31 - round(0.25 / (2 * np.pi * BENCH.r_eff) * CPR)  # the register wraps at x_T ≈ 250 mm
+    for f in sorted((tmp_path / "rec").glob("run*.csv")):
+        df = pd.read_csv(f)
+        df["enc_motor"] = (df["enc_motor"].astype("int64") + off + 2**31) % 2**32 - 2**31
+        df.to_csv(f, index=False, float_format="%.9f")
+    text = axis.read_text().replace(f"counts_per_rev = {CPR}", f"counts_per_rev = {CPR}\nwrap = 4294967296")
+    axis.write_text(text)
+    return axis
+
+
+def test_a_wrapping_register_gives_one_zero_for_every_file(tmp_path):
+    """Before: each file unwrapped from its own first sample, so the +1 passes (starting before the
+    wrap) and the −1 passes (after it) came out 2^32 counts apart and no single offset fixed both
+    ("set offset = −3145.86", then "+3288.13"). Now one offset is advised and, set, imports."""
+    import re
+    import warnings as _w
+
+    axis = _wrapping_axis(tmp_path)
+    notes: list[str] = []
+    with pytest.raises(DataError) as err:
+        import_campaign(axis, tmp_path / "c1", warn=notes.append)
+    first = list(notes)
+    m = re.search(r"set offset = (-?\d+\.\d+) \(rad\) on the theta_m column", str(err.value))
+    assert m, str(err.value)
+    text = axis.read_text().replace("wrap = 4294967296", f"wrap = 4294967296\noffset = {m.group(1)}")
+    axis.write_text(text)
+    with _w.catch_warnings():
+        notes.clear()
+        import_campaign(axis, tmp_path / "c2", warn=notes.append)  # imports: one zero fits all files
+    assert (tmp_path / "c2" / "manifest.json").exists()
+    assert not [n for n in notes if "TE is" in n or "mixed" in n], notes
+    assert any("shifted by whole periods of wrap = 4.29497e+09" in n for n in first), first

@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -112,6 +113,52 @@ def check_bridged_gap(tr: Trace, path: str) -> None:
             )
 
 
+#: Radians per file unit of an angle column (for the wrap period of :func:`align_wraps`).
+_RAD_PER_UNIT = {"rad": 1.0, "deg": math.pi / 180.0, "rev": 2.0 * math.pi}
+
+
+def align_wraps(
+    traces: list[Trace], paths: Sequence[Path], columns: Any, r_eff: float, warn: Callable[[str], None] | None
+) -> list[Trace]:
+    """Put every file's unwrapped motor position on one branch of a declared counter ``wrap``.
+
+    The loader unwraps each file from its own first sample, so files that start on either side of
+    a wrap come out whole counter periods apart (finding TH5: a 32-bit counter at 2^22 counts/rev
+    wrapped inside the travel; the +1 passes started before the wrap, the −1 passes after it, 2^32
+    counts = 19.30 m of rack apart, and no single ``offset`` could fix both — the advice was
+    −3145.86 rad, then +3288.13 rad). Here the first file is put on the branch that brings its
+    median TE nearest zero and every other file on the branch nearest the first one's; the shifts
+    are reported in one line (``warn``) naming the files. Without a ``wrap`` on the theta_m mapping
+    nothing changes.
+    """
+    cm = next((m for m in dict(columns).values() if m.column == "theta_m"), None)
+    if cm is None or not cm.wrap:
+        return traces
+    per_unit = 2.0 * math.pi / cm.counts_per_rev if cm.unit == "counts" and cm.counts_per_rev else None
+    per_unit = per_unit or _RAD_PER_UNIT.get(cm.unit)
+    if per_unit is None:
+        return traces
+    period = float(cm.wrap) * per_unit * abs(float(cm.scale)) * r_eff  # [m] of TE per counter period
+    med = [float(np.median(np.asarray(tr["x_T"]) - np.asarray(tr["theta_m"]) * r_eff)) for tr in traces]
+    ref = med[0] - round(med[0] / period) * period
+    out, moved = [], []
+    for tr, m, path in zip(traces, med, paths, strict=True):
+        n = round((m - ref) / period)
+        out.append(
+            tr if n == 0 else tr.with_columns({"theta_m": np.asarray(tr["theta_m"]) + n * period / r_eff})
+        )
+        if n:
+            moved.append(f"{Path(path).name} ({n:+d})")
+    if moved and warn is not None:
+        shown = ", ".join(moved[:6]) + (", …" if len(moved) > 6 else "")
+        warn(
+            f"{paths[0]}: theta_m of {len(moved)} file(s) shifted by whole periods of wrap = {cm.wrap:g}"
+            f" ({period / r_eff:.6g} rad each) onto the branch of {Path(paths[0]).name}: {shown} — each file"
+            " is unwrapped from its own first sample, and these start on another side of the wrap"
+        )
+    return out
+
+
 def import_campaign(
     axis_path: str | Path,
     out_dir: str | Path,
@@ -167,7 +214,12 @@ def import_campaign(
             if warn is not None:
                 warn(w)
         traces.append(tr)
-        records.append(record_of(str(path), r.kind, r.direction, r.load, r.velocity, tr))
+    paths = [axis.directory / str(r.file) for r in runs]
+    traces = align_wraps(traces, paths, axis.columns or {}, bench.r_eff, warn)
+    for r, tr in zip(runs, traces, strict=True):
+        records.append(
+            record_of(str(axis.directory / str(r.file)), r.kind, r.direction, r.load, r.velocity, tr)
+        )
     scales = {m.column: float(m.scale) for m in (axis.columns or {}).values()}
     offsets = {m.column: float(m.offset) for m in (axis.columns or {}).values()}
     cols = axis.columns or {}
