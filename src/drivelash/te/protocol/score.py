@@ -116,6 +116,55 @@ class PassError:
     set_position: str
 
 
+#: A section is scored only where both passes cover it alike: each one's samples in the section
+#: may end at most this far [m] inside the other's (finding TH11). 1 mm: the tolerance of
+#: ``te update`` and of the load-pass span check (``GEO_SPAN_TOL``); passes of one commanded
+#: stroke cover the same positions within µm.
+COVER_TOL = 1e-3
+
+
+def _covered(x: np.ndarray, edges: np.ndarray) -> list[tuple[float, float]]:
+    """Per section of ``edges``: the first and last sample position [m] of ``x`` in it ((inf,
+    −inf) for none)."""
+    x = np.asarray(x, dtype=np.float64)
+    out = []
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        s = x[(x >= a) & (x < b)]
+        out.append((float(s.min()), float(s.max())) if s.size else (math.inf, -math.inf))
+    return out
+
+
+def _why_none(data: list[Any], cfg: ScoreConfig) -> str:
+    """Why no section of any pass pair was scored (finding TH10: always "passes shorter than one
+    section?", for passes at other machine coordinates and for sections too short to hold
+    ``min_count`` samples)."""
+    apart, few = [], []
+    for ru, _, _, _, pu, pc in data:
+        xu, xc = np.asarray(pu.x_T), np.asarray(pc.x_T)
+        if xu.size == 0 or xc.size == 0:
+            continue
+        if xc.min() > xu.max() or xc.max() < xu.min():
+            apart.append((ru, xu, xc))
+            continue
+        dx = float(np.median(np.abs(np.diff(np.sort(xu))))) if xu.size > 1 else math.inf
+        few.append(cfg.section_length / dx if dx > 0 else math.inf)
+    if apart and not few:
+        ru, xu, xc = apart[0]
+        return (
+            "the compensated passes lie at other positions than the uncompensated ones (e.g."
+            f" d={ru.direction:+d} v={ru.velocity * 1e3:g} mm/s: {xc.min() * 1e3:.1f} … {xc.max() * 1e3:.1f}"
+            f" mm against {xu.min() * 1e3:.1f} … {xu.max() * 1e3:.1f} mm): no common section — are both"
+            " recorded in the same machine coordinates (scale zero, [columns] offset)?"
+        )
+    if few and max(few) < cfg.min_count:
+        return (
+            f"a {cfg.section_length * 1e3:g} mm section holds at most {max(few):.0f} samples of these passes"
+            f" (at their speed and sample rate), fewer than the {cfg.min_count} a section needs: use"
+            f" longer sections (--section-mm)"
+        )
+    return "the passes are shorter than one section or share no section (compare their x_T ranges)"
+
+
 def _moving_average(v: np.ndarray, n: int) -> np.ndarray:
     if n <= 1:
         return v
@@ -411,8 +460,20 @@ def score_campaigns(
             me = section_mae(np.asarray(cc["x_T"])[m_c], e_est[m_c], edges, cfg.min_count)
         else:
             me = np.full(edges.size - 1, np.nan)
+        cover_u, cover_c = _covered(pu.x_T, edges), _covered(pc.x_T, edges)
         for i in range(edges.size - 1):
             if not (np.isfinite(mu[i]) and np.isfinite(mc[i])):
+                continue
+            (ua, ub), (ca, cb) = cover_u[i], cover_c[i]
+            if ca > ua + COVER_TOL or cb < ub - COVER_TOL:
+                # one pass covers part of the section only: its MAE is over other positions
+                # (finding TH11: a trace started 30 mm late "improved" 50-150 mm by 3.5-5 %)
+                warnings.append(
+                    f"pass d={ru.direction:+d} v={ru.velocity * 1e3:g} mm/s F={ru.load:g} N: section"
+                    f" {edges[i] * 1e3:.1f} … {edges[i + 1] * 1e3:.1f} mm left out: the compensated pass"
+                    f" covers {ca * 1e3:.1f} … {cb * 1e3:.1f} mm of it, the uncompensated {ua * 1e3:.1f} …"
+                    f" {ub * 1e3:.1f} mm"
+                )
                 continue
             rows.append({
                 "direction": int(ru.direction), "velocity": float(ru.velocity), "load": float(ru.load),
@@ -431,7 +492,7 @@ def score_campaigns(
         say(f"pass d={ru.direction:+d} v={ru.velocity * 1e3:g} mm/s F={ru.load:g} N: "
             f"x_d {pu.set_position}/{pc.set_position}")  # fmt: skip
     if not rows:
-        raise DataError("no section scored (passes shorter than one section?)", path=str(comp.directory))
+        raise DataError(f"no section scored: {_why_none(data, cfg)}", path=str(comp.directory))
     max_load = cfg.train_max_load if cfg.train_max_load is not None else math.inf
     out: dict[str, Any] = {
         "rows": rows,
