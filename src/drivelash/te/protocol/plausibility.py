@@ -1260,7 +1260,7 @@ def _torque_order(rr: Iterable[tuple[RunRecord, dict[str, Any]]], r_eff: float, 
             (r, i), o = (hi, ih), (lo, il)  # reversed: swapped labels, the higher stated load named
         else:
             (r, i), o = max(((lo, il), (hi, ih)), ((hi, ih), (lo, il)), key=lambda p: score[p[0][0].label])
-        zero = [d * j["torque_mean"] for q, j in rr if q.load == 0 and q.label != r.label]
+        zero = [d * j["torque_mean"] for p, j in rr if p.load == 0 and p.label != r.label]
         q0 = float(np.median(zero)) if zero else None
         add("error", "torque-load", r.label, _torque_load_message((r, i), o, r_eff, d, q0))
     return TORQUE_ORDER_NOISE
