@@ -97,6 +97,9 @@ def test_update_writes_a_new_version_and_keeps_the_old_one(setup, capsys):
     png = (m2 / "update" / "before_after.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000
     assert "held-out passes pos" in out and "version 2" in out
+    # the first line names the parent as the model being updated, not as "model version 1" of the
+    # result (session 34 tester H, TH13)
+    assert "updating model version 1" in out and "wrote model version 2" in out
     # a second update of the new version counts on
     m3 = root / "m3"
     code, out = _run(["te", "update", str(m2), str(camp), "-o", str(m3), "--stride", "4"], capsys)

@@ -131,7 +131,7 @@ def run_update(
             )
         n_train = sum(len(v) for v in train.values())
         echo(f"{n_train} update passes, {sum(len(v) for v in held.values())} held out; "
-             f"model version {parent_record(model_dir, model.meta)['model_version']}")  # fmt: skip
+             f"updating model version {parent_record(model_dir, model.meta)['model_version']}")  # fmt: skip
         rec = update_trained(trained, train, stage=stage, update_stride=stride, log=echo, parent=model)
         errors = {"update": update_errors(model, trained, train)}
         if any(held.values()):
