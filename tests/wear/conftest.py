@@ -214,3 +214,24 @@ def ingest_cmd(fleet_toml: Path, db: Path) -> list[str]:
         "--workers",
         "1",
     ]
+
+
+def old_store(db: Path, revision: str, *sql: str) -> Path:
+    """A SQLite store at Alembic ``revision`` (an older schema) holding the rows ``sql`` inserts —
+    what a store written by an earlier drivelash looks like to the migrations."""
+    import sqlalchemy as sa
+    from alembic import command
+    from alembic.config import Config
+
+    from drivelash.wear.store import MIGRATIONS
+
+    cfg = Config()
+    cfg.set_main_option("script_location", str(MIGRATIONS))
+    eng = sa.create_engine(f"sqlite:///{db}")
+    with eng.begin() as conn:
+        cfg.attributes["connection"] = conn
+        command.upgrade(cfg, revision)
+        for s in sql:
+            conn.exec_driver_sql(s)
+    eng.dispose()
+    return db

@@ -1,4 +1,4 @@
-"""Wear tracking of a linear (prismatic) axis: δ in m, lost motion 5–60 µm (session 35 tester G).
+"""Wear tracking of a linear (prismatic) axis: δ in m, lost motion 5–60 µm (session 34 tester G).
 
 G5: a 20 → 60 µm jump (4 + 3 estimates, ±0.45 µm each, converged) gave no change point, a noise
 of "0.020 mrad" (the 20 µrad floor read as 20 µm) and a linear fit crossing 100 µm in 4.3 days —
@@ -18,7 +18,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import sqlalchemy as sa
 
 from drivelash.errors import ConfigError
 from drivelash.wear.alarms import axis_alarms
@@ -330,23 +329,14 @@ def test_a_fleet_of_linear_axes_has_micrometres_in_the_headers_and_the_report(tm
 
 
 def test_a_store_of_revision_0003_keeps_working_and_reads_its_axes_as_rotary(tmp_path):
-    from alembic import command
-    from alembic.config import Config
+    from .conftest import old_store
 
-    from drivelash.wear.store import MIGRATIONS
-
-    db = tmp_path / "old.sqlite"
-    cfg = Config()
-    cfg.set_main_option("script_location", str(MIGRATIONS))
-    eng = sa.create_engine(f"sqlite:///{db}")
-    with eng.begin() as conn:
-        cfg.attributes["connection"] = conn
-        command.upgrade(cfg, "0003")
-        conn.exec_driver_sql(
-            "INSERT INTO axis (name, machine, threshold_rad, horizon_days, not_excited_alarm, updated_at) "
-            "VALUES ('M01/X', 'M01', 0.2, 30, 5, '2026-01-01 00:00:00')"
-        )
-    eng.dispose()
+    db = old_store(
+        tmp_path / "old.sqlite",
+        "0003",
+        "INSERT INTO axis (name, machine, threshold_rad, horizon_days, not_excited_alarm, updated_at) "
+        "VALUES ('M01/X', 'M01', 0.2, 30, 5, '2026-01-01 00:00:00')",
+    )
     with Store(db) as st:
         assert st.revision() == "0004"
         (a,) = st.axes()

@@ -82,32 +82,21 @@ def test_schema_is_created_by_the_shipped_migrations(tmp_path):
 def test_a_store_of_revision_0001_is_migrated_and_keeps_its_rows(tmp_path):
     """A store written before ``estimate_rate_hz`` existed: a read-only open refuses it with the
     command to run, a writing open upgrades it to 0002; its rows stay, the new column NULL."""
-    from alembic import command
-    from alembic.config import Config
+    from drivelash.wear.store import StoreError
 
-    from drivelash.wear.store import MIGRATIONS, StoreError
+    from .conftest import old_store
 
-    db = tmp_path / "old.sqlite"
-    cfg = Config()
-    cfg.set_main_option("script_location", str(MIGRATIONS))
-    eng = sa.create_engine(f"sqlite:///{db}")
-    with eng.begin() as conn:
-        cfg.attributes["connection"] = conn
-        command.upgrade(cfg, "0001")
-        conn.exec_driver_sql(
-            "INSERT INTO axis (name, machine, horizon_days, not_excited_alarm, updated_at) "
-            "VALUES ('M01/X', 'M01', 30, 5, '2026-01-01 00:00:00')"
-        )
-        conn.exec_driver_sql(
-            "INSERT INTO recording (axis_id, content_hash, path, size_bytes, mtime_ns) "
-            "VALUES (1, 'h', '/r.parquet', 1, 1)"
-        )
-        conn.exec_driver_sql(
-            "INSERT INTO estimate (recording_id, axis_id, method, code_version, config_hash, status, "
-            "reason, delta, runtime_s, created_at) VALUES (1, 1, 'default', 'v', 'c', 'ok', '', 0.1, 0, "
-            "'2026-01-01 00:00:00')"
-        )
-    eng.dispose()
+    db = old_store(
+        tmp_path / "old.sqlite",
+        "0001",
+        "INSERT INTO axis (name, machine, horizon_days, not_excited_alarm, updated_at) "
+        "VALUES ('M01/X', 'M01', 30, 5, '2026-01-01 00:00:00')",
+        "INSERT INTO recording (axis_id, content_hash, path, size_bytes, mtime_ns) "
+        "VALUES (1, 'h', '/r.parquet', 1, 1)",
+        "INSERT INTO estimate (recording_id, axis_id, method, code_version, config_hash, status, "
+        "reason, delta, runtime_s, created_at) VALUES (1, 1, 'default', 'v', 'c', 'ok', '', 0.1, 0, "
+        "'2026-01-01 00:00:00')",
+    )
     with pytest.raises(StoreError, match="schema revision 0001 is not the current 0004"):
         Store(db, create=False)
     st = Store(db)
