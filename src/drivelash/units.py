@@ -7,7 +7,7 @@ motion is micrometres: "δ̂ = 0.0 mrad … band 2 mrad" on a carriage in m read
 nothing; session 31 tester C, C7, and the online law's own warnings until session 34). One
 :class:`GapUnit` per axis kind; :func:`gap_unit` picks it from the recording's ``meta["axis"]``.
 It also names the axis's SI units of rate, acceleration, effort, mass and viscous friction —
-the reports' one unit table (session 35, tester G, G7: the estimate report drew a linear
+the reports' one unit table (session 34, tester G, G7: the estimate report drew a linear
 axis's δ̂ as "deadzone [mrad]" and its force as "shaft torque [N·m]").
 
 Examples

@@ -1,5 +1,5 @@
 """The estimate summary (``estimate --json``, ``BacklashEstimate.summary``) states the axis kind
-and the unit of its gap, displacement and effort values (session 35, tester G, G8: on a linear
+and the unit of its gap, displacement and effort values (session 34, tester G, G8: on a linear
 axis ``convergence_band_rad`` held metres and nothing in the JSON said so — a script, or
 ``iso230 --estimate`` (G6), could not tell metres from radians).
 

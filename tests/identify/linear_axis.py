@@ -1,7 +1,7 @@
 """A two-mass linear (prismatic) axis with lost motion, simulated for the identification tests.
 
 An independent simulator (numba, no drivelash code) after the exploratory tester's ``sim_lin.py``
-(session 35, finding G1): a 20 kg carriage driving a 100 kg table through a 2e7 N/m coupling with a
+(session 34, finding G1): a 20 kg carriage driving a 100 kg table through a 2e7 N/m coupling with a
 gap δ, Coulomb and viscous friction on both masses, a cascade position-P / velocity-PI controller
 on the motor side and a sine reference. The sensors are a 0.1 µm motor encoder, a 0.05 µm linear
 scale and velocities with 2e-5 m/s white noise. Numbers in SI (m, m/s, N): the recording a

@@ -1,4 +1,4 @@
-"""Two-mass identification of a linear (prismatic) axis in SI units (session 35, tester G, G1).
+"""Two-mass identification of a linear (prismatic) axis in SI units (session 34, tester G, G1).
 
 A linear axis recorded in m, m/s and N came out with every parameter "not determined" (all 5614
 windows "in the gap", "deflection below what the recording resolves" for a 24 µm deflection =

@@ -1,4 +1,4 @@
-"""``DriveIdentification``'s repr is a short table, not the dataclass dump (session 35, tester G,
+"""``DriveIdentification``'s repr is a short table, not the dataclass dump (session 34, tester G,
 G12: a notebook echo of ``identify_drive(...)`` printed one ~6.5 kB line — every field, the
 correlation matrix and the whole ``fit`` dictionary with its HAC, Hausman and window-shift
 diagnostics). Control: the fields themselves are unchanged and still on the object."""

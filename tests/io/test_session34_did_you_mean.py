@@ -1,4 +1,4 @@
-"""Session 35, tester G, G13: a configuration key mistyped in case only (``J_L``) was answered
+"""Session 34, tester G, G13: a configuration key mistyped in case only (``J_L``) was answered
 "did you mean 'J_m'?" (difflib's ratio is case-sensitive and J_m shares as many characters); a
 case-insensitive exact match now wins, for units too. Negative control: another typo still gets
 difflib's nearest key.

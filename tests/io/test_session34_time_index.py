@@ -1,4 +1,4 @@
-"""Session 35, tester G, G14: a DataFrame with an unnamed DatetimeIndex (a resampled or logged
+"""Session 34, tester G, G14: a DataFrame with an unnamed DatetimeIndex (a resampled or logged
 frame) got no "the index looks like time" hint, an unnamed float index did. Negative control: a
 default RangeIndex is not called time.
 """

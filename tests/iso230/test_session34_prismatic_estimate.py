@@ -1,4 +1,4 @@
-"""``iso230 --estimate`` with an estimate of a linear (prismatic) axis (session 35, tester G, G6).
+"""``iso230 --estimate`` with an estimate of a linear (prismatic) axis (session 34, tester G, G6).
 
 The estimate of a linear axis is in metres at the table already; it was multiplied by the
 ``[transmission]`` lead/2π: "deadzone at the load 0.031 µm, E_n = 183 disagree" when both the
@@ -74,7 +74,7 @@ def test_a_prismatic_estimate_is_compared_in_metres(tmp_path, run_cli, lead):
 
 @pytest.mark.parametrize("axis", [None, "rotary"])
 def test_negative_control_an_angle_estimate_is_converted_by_the_lead(tmp_path, run_cli, axis):
-    """A JSON without ``axis`` (before session 35) or a rotary one: δ [rad] × lead/2π as before."""
+    """A JSON without ``axis`` (before session 34) or a rotary one: δ [rad] × lead/2π as before."""
     laser, cfg = _laser(tmp_path / "laser.csv"), _config(tmp_path / "iso.toml", True)
     est, out = _estimate(tmp_path / "est.json", axis), tmp_path / "iso.json"
     argv = ["iso230", str(laser), "--estimate", str(est)]

@@ -1,5 +1,5 @@
 """``estimate --report`` and ``--plot`` on a linear (prismatic) axis label its gap in µm and its
-effort as a force in N (session 35, tester G, G7: the report showed "final δ̂ [mrad] 0.019784" for
+effort as a force in N (session 34, tester G, G7: the report showed "final δ̂ [mrad] 0.019784" for
 19.784 µm — a number in mm labelled mrad —, "deadzone [mrad]", "Δθ [mrad]", "shaft torque
 [N·m]", θ [rad], ω [rad/s], φ̂ [rad/s²] and the caption "SI units: rad, rad/s, N·m, s").
 

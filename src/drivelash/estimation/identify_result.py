@@ -284,7 +284,7 @@ class DriveIdentification:
     def __repr__(self) -> str:
         """A table a notebook can read: model, N, the verdicts, one line per parameter (value,
         unit, 95 % interval, or why not determined) — not the ``fit`` dictionary, the correlation
-        matrix and every field (the dataclass repr was one line of ~6.5 kB; session 35, tester G,
+        matrix and every field (the dataclass repr was one line of ~6.5 kB; session 34, tester G,
         G12). ``fit``, ``correlation`` and ``warnings`` stay on the object."""
         head = (
             f"DriveIdentification(model={self.model!r}, N={self.N:g}, plausible={self.plausible},"

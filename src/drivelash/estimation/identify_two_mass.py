@@ -879,7 +879,7 @@ def grid_length_scale(data: WindowData) -> float:
     calibrated on rotary axes in N·m and rad. A linear axis in SI has the same physics with
     lengths 10⁻³ of a rotary axis's angles in number (µm of lost motion where a gear has mrad):
     in m its contact columns fell below the ridge and every window came out "in the gap"
-    (session 35, tester G, G1); in mm it is the rotary problem, and the fit that follows (Levenberg–
+    (session 34, tester G, G1); in mm it is the rotary problem, and the fit that follows (Levenberg–
     Marquardt, scaled by its Jacobian) does not depend on the unit. docs/assumptions.md, "The
     contact grid on a linear axis".
     """
@@ -3660,7 +3660,7 @@ def rigid_result(result: Any) -> DriveIdentification:
     names = tuple(result.names)
     if result.side == "load":
         rename = {"J_l": "J_l", "beta_l": "beta_l", "T_Cl": "T_Cl", "offset": "torque_offset"}
-    # kg, N·s/m, N on a prismatic axis (either side: the load side said kg·m² there until session 35)
+    # kg, N·s/m, N on a prismatic axis (either side: the load side said kg·m² there until session 34)
     units = {n: parameter_units(result.axis)[rename[n]] for n in rename}
     nd = getattr(result, "not_determined", {})
     params = {

@@ -217,7 +217,7 @@ def estimate_summary(cfg: Any, res: Any, motion: Any, samples: int, T_s: float) 
     (:data:`SUMMARY_LENGTH_KEYS`: "rad" or "m"; :data:`SUMMARY_EFFORT_KEYS`: "N·m" or "N"; the
     truth keys ``delta_true``, ``maee_rad``, ``steady_state_peak_rad`` are listed although only a
     recording with the true δ has them). On a prismatic axis the keys ending in ``_rad`` hold
-    metres: the names are kept for compatibility, ``units`` says what they hold (session 35,
+    metres: the names are kept for compatibility, ``units`` says what they hold (session 34,
     tester G, G8: a script could not tell metres from radians). ``gains`` are in the same units.
     """
     from drivelash.units import gap_unit

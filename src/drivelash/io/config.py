@@ -700,7 +700,7 @@ def did_you_mean(word: str, choices: Any, cutoff: float = 0.6) -> str | None:
     """The choice a mistyped ``word`` most likely meant, or None.
 
     A choice equal to ``word`` but for case wins (``J_L`` → ``J_l``, not ``J_m``: difflib's ratio
-    is case-sensitive and ``J_m`` shares as many characters; session 35, tester G, G13), when
+    is case-sensitive and ``J_m`` shares as many characters; session 34, tester G, G13), when
     exactly one does; else the closest by :func:`difflib.get_close_matches` above ``cutoff``.
 
     Parameters

@@ -845,7 +845,7 @@ def time_hint(names: list[str], meta: dict[str, Any] | None = None) -> str:
     whose name differs from ``t``/``time`` only in case or by a suffix (``Time``, ``time_s``), or
     a DataFrame's unnamed increasing float, time-stamp or duration index
     (``meta["unnamed_time_index"]``: what it holds); ``""`` when there is none (session 31
-    tester C, C14: "missing required column 't'" left the cause out; session 35 tester G, G14:
+    tester C, C14: "missing required column 't'" left the cause out; session 34 tester G, G14:
     an unnamed DatetimeIndex got no hint).
     """
     near = [n for n in names if n.lower() in ("t", "time") or n.lower().startswith(("time", "t_", "t ["))]

@@ -73,7 +73,7 @@ def render_two_mass_report(
     """
     sig = result.signals
     p = result.parameters
-    # Δθ, δ in mrad and torques in N·m — or µm and N on a linear axis (session 35, G1)
+    # Δθ, δ in mrad and torques in N·m — or µm and N on a linear axis (session 34, G1)
     gu = gap_unit(getattr(result, "axis", None))
     acc = f"{gu.si}/s²"
     verdict_cls = "verdict-ok" if result.backlash_visible else "verdict-bad"

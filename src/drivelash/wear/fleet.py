@@ -99,7 +99,7 @@ THRESHOLD_DELTA1_FACTOR = 4.0
 #: does not say its gap is larger (docs/assumptions.md): a ball-screw or linear-motor axis's lost
 #: motion is 5–60 µm, a rack and pinion's 0.05–0.3 mm; 1 mm is no backlash of a usual linear axis,
 #: while a threshold written in µm (30 for 30e-6 m) lands 30 000× beyond it and one written in mm
-#: (0.03 for 30 µm, what the rad hint said until session 35) 30× beyond.
+#: (0.03 for 30 µm, what the rad hint said until session 34) 30× beyond.
 MAX_THRESHOLD_M = 1e-3
 #: Units ``threshold_unit`` takes for a length, and their factor to m.
 THRESHOLD_LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6}

@@ -66,7 +66,7 @@ axis's δ is a length in m, its lost motion 5–60 µm: its series runs through 
 units of :data:`LINEAR_SCALE` m per rad (:func:`trend_scale`; :func:`fit_trend` divides δ̂, σ_i
 and the threshold by it and multiplies the results back), so each constant keeps its ratio to the
 wear a threshold allows — 2 mrad of jump is 0.5 µm, the 20 µrad noise floor 5 nm. In m they
-read as rad (2 mm of jump, a 20 µm noise floor, 5 mm admission: session 35 tester G, G5/G2).
+read as rad (2 mm of jump, a 20 µm noise floor, 5 mm admission: session 34 tester G, G5/G2).
 """
 
 from __future__ import annotations
