@@ -400,3 +400,18 @@ def test_a_recording_whose_kind_contradicts_its_axis_is_refused_at_ingest(tmp_pa
     assert run(lin, "prismatic").endswith("estimator reached")
     rot = _recording(tmp_path / "rec_20261121T080000.parquet", None)
     assert run(rot, "rotary").endswith("estimator reached")
+
+
+def test_iso230_takes_a_linear_axis_estimate_from_the_store_in_metres(tmp_path):
+    """The session's last read: ``iso230 --db`` built the store's estimate without the axis kind,
+    so a linear axis's δ (m at the table) was taken as rotary (then refused without a
+    [transmission], or multiplied by its lead/2π). Negative control: the rotary axis stays rotary."""
+    from drivelash.iso230.history import deadzone_from_store
+
+    db = tmp_path / "w.sqlite"
+    _store(db)
+    with Store(db) as st:
+        lin = deadzone_from_store(st, "L1/Z", T0 + timedelta(days=10))
+        rot = deadzone_from_store(st, "M01/X", T0 + timedelta(days=10))
+    assert lin is not None and lin.axis == "prismatic" and lin.delta == pytest.approx(59.95e-6)
+    assert rot is not None and rot.axis == "rotary"

@@ -224,7 +224,9 @@ def _print_summary(s: dict[str, Any], axis: str | None = None) -> None:
             c.print("  [yellow]not converged[/yellow] — do not use this estimate")
         if s.get("delta1_check_result") not in (None, "not run"):
             d1 = s.get("delta1_estimate")
-            d1s = f" (data: {k * d1:.2f} {u})" if d1 is not None else ""
+            # an unsettled joint law's δ1 is where it was, not what the data give
+            said = "unsettled law" if s.get("delta1_check_result") == "not settled" else "data"
+            d1s = f" ({said}: {k * d1:.2f} {u})" if d1 is not None else ""
             c.print(f"  δ1 check: {escape(str(s['delta1_check_result']))}{d1s}")
     for w in s.get("warnings", []):
         if s["delta"] is None and w == s["reason"]:

@@ -434,7 +434,7 @@ def estimate_with_identification(
             why = f"δ1 is neither in [backlash] nor determined by the recording ({ident.reason})"
         elif not 0.0 <= p.value <= max(ident["delta"].value, 0.0):
             why = (
-                f"the identified gap does not contain Δθ = 0 (δ1 = {p.value:.4g} rad outside [0, δ]): "
+                f"the identified gap does not contain Δθ = 0 (δ1 = {u.f(p.value, '.4g')} outside [0, δ]): "
                 "the encoders' zeros are offset (see the identification warning)"
             )
         else:
@@ -523,7 +523,9 @@ def estimate_with_identification(
 CONFIG_DISAGREE_FACTOR = 1.25
 
 #: The drive values ``estimate --identify`` compares with the identification, and their units.
-_COMPARED = {"J_m": "kg·m²", "J_l": "kg·m²", "K_S": "N·m/rad", "D_S": "N·m·s/rad"}
+#: The drive values a configuration states that the identification checks (its units: the
+#: identification's own, kg·m² … or kg, N/m … on a linear axis).
+_COMPARED = ("J_m", "J_l", "K_S", "D_S")
 
 
 def _configured_disagreements(given: dict[str, Any], ident: Any) -> list[str]:
@@ -542,12 +544,13 @@ def _configured_disagreements(given: dict[str, Any], ident: Any) -> list[str]:
         One ``"note: …"`` per contradicted value (the online law still uses the configured one).
     """
     out = []
-    for k, unit in _COMPARED.items():
+    for k in _COMPARED:
         v, p = given.get(k), ident.parameters.get(k)
         if v is None or p is None or not p.identifiable or p.covers(v) or not (p.value > 0.0 and v > 0.0):
             continue
         ratio = float(v) / p.value
         if max(ratio, 1.0 / ratio) > CONFIG_DISAGREE_FACTOR:
+            unit = p.unit
             out.append(
                 f"note: [drivetrain] {k} = {v:.4g} {unit} is used as configured, but the recording gives "
                 f"{p.value:.4g} [{p.low:.4g}, {p.high:.4g}] {unit} ({ratio:.2f}× the identified value): "

@@ -1431,9 +1431,9 @@ def _uncertainty(
       not a random one, so it is added to the 95 % half-width (σ += enc_bound/1.96) rather
       than in quadrature — the interval then covers it whichever way the encoders round.
       The caller adds the other bounded alternatives the same way: the paper law's disagreement
-      with the default law and, when the δ1 check is "inconsistent" (or "inconclusive" with the
-      joint law's δ1 beyond the floor from the configured one), the distance to the joint δ/δ1
-      law's δ.
+      with the default law and, when the δ1 check is "inconsistent" or "not settled" (or
+      "inconclusive" with the joint law's δ1 beyond the floor from the configured one), the
+      distance to the joint δ/δ1 law's δ.
     * ``s_delta1`` [rad], an uncertain δ1 (``estimate --identify`` without ``[backlash]
       delta1``) propagated through the measured ∂δ̂/∂δ1 (:class:`Delta1Uncertainty`): the
       identification's standard error is a standard uncertainty, not a bound, so it is added in

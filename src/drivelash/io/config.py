@@ -66,6 +66,7 @@ import re
 import tomllib
 import types
 import typing
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal, TypeVar, Union
 
@@ -122,6 +123,20 @@ UNIT_KIND: dict[str, str] = {
     "V": "voltage",
     "1": "dimensionless",
 }
+
+
+def is_prismatic(kinds: Mapping[str, str | None]) -> bool:
+    """Whether mapped columns make a trace prismatic: ``theta_m`` in a length unit or ``omega_m``
+    in a velocity unit (``kinds``: Trace column → unit kind, :data:`UNIT_KIND`). The one rule for a
+    recording (:func:`drivelash.io.load.load_trace`, the streaming reader) and for a drive file's
+    ``[columns]`` read without a recording (:func:`columns_axis`)."""
+    return kinds.get("theta_m") == "length" or kinds.get("omega_m") == "velocity"
+
+
+def columns_axis(columns: Mapping[str, ColumnMap] | None) -> str:
+    """The axis kind a ``[columns]`` mapping gives its recordings: "prismatic" or "rotary"."""
+    kinds = {c.column: UNIT_KIND.get(c.unit) for c in (columns or {}).values()}
+    return "prismatic" if is_prismatic(kinds) else "rotary"
 
 
 class Table(BaseModel):
@@ -630,8 +645,7 @@ class DriveConfig(ConfigFile):
         delta_max = getattr(self.estimator, "delta_max", None)
         # a [columns] mapping with the motor position in a length unit makes the trace prismatic
         # (io.load): δ1 is then in m, and a slip is read as µm or mm (session 34 tester G, G10)
-        kinds = {c.column: UNIT_KIND.get(c.unit) for c in (self.columns or {}).values()}
-        axis = "prismatic" if kinds.get("theta_m") == "length" else None
+        axis = columns_axis(self.columns)
         try:
             check_delta1_bound("", delta1, DELTA_MAX_DEFAULT if delta_max is None else delta_max, axis)
         except ParameterError as exc:

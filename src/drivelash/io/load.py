@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from drivelash.errors import NO_LINES, DataError, DataRows
-from drivelash.io.config import UNIT_KIND, ColumnMap, DriveConfig, SamplingSection
+from drivelash.io.config import UNIT_KIND, ColumnMap, DriveConfig, SamplingSection, is_prismatic
 from drivelash.io.formats import WHOLE_READ_FACTOR, RawTable, read_raw
 from drivelash.io.trace import UNITS as TRACE_UNITS
 from drivelash.io.trace import Trace
@@ -906,14 +906,6 @@ def _factor_hint(ratio: float) -> str:
         if abs(ratio / factor - 1) < UNIT_FACTOR_TOLERANCE:
             return f"; {hint}"
     return ""
-
-
-def is_prismatic(kinds: Mapping[str, str | None]) -> bool:
-    """Whether mapped columns make a trace prismatic: ``theta_m`` in a length unit or ``omega_m``
-    in a velocity unit (``kinds``: Trace column → unit kind, :data:`~drivelash.io.config.UNIT_KIND`).
-    The one rule for both a recording (:func:`load_trace`) and a drive file's ``[columns]`` read
-    without a recording (the wear tracker's axis kind, :func:`drivelash.wear.fleet.drive_axis_kind`)."""
-    return kinds.get("theta_m") == "length" or kinds.get("omega_m") == "velocity"
 
 
 #: Positions that share one scale on a prismatic axis (m of carriage travel): the motor and load

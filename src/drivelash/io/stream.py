@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from drivelash.errors import DataError
-from drivelash.io.config import ColumnMap, DriveConfig, SamplingSection
+from drivelash.io.config import ColumnMap, DriveConfig, SamplingSection, is_prismatic
 from drivelash.io.formats import DEFAULT_CHUNK_ROWS, ColumnSource, open_source
 from drivelash.io.trace import UNITS as TRACE_UNITS
 from drivelash.io.trace import Trace
@@ -278,7 +278,7 @@ class TraceStream:
         self.meta = self._meta(kinds, cmap)
 
     def _meta(self, kinds: dict[str, str], cmap: Any) -> dict[str, Any]:
-        prismatic = kinds.get("theta_m") == "length" or kinds.get("omega_m") == "velocity"
+        prismatic = is_prismatic(kinds)
         kinds_m = {kinds.get("theta_m"), kinds.get("omega_m")} - {None, "dimensionless"}
         if prismatic and kinds_m & {"angle", "angular_velocity"}:
             raise DataError(

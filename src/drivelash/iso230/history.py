@@ -65,7 +65,8 @@ def _sha256(path: Path) -> str:
 def deadzone_from_store(store: Any, axis: str, when: datetime) -> Deadzone | None:
     """The axis's estimate nearest to ``when`` (the last one before it first) among those its
     wear trend uses (:func:`drivelash.wear.trend.usable`: excited, and converged or with a stated
-    95 % uncertainty of at most 5 mrad — then with a note saying so).
+    95 % uncertainty within the trend's gate — then with a note saying so), with the axis kind the
+    store holds (a linear axis's δ is in m at the table; NULL, an older store: rotary).
 
     Returns None when the history holds no usable estimate for the axis.
     """
@@ -84,7 +85,8 @@ def deadzone_from_store(store: Any, axis: str, when: datetime) -> Deadzone | Non
         None if best.get("delta_std") is None else float(best["delta_std"]),
         f"{store.name}, axis {axis}, recording {Path(best['path']).name}",
         best["start_time"].isoformat(timespec="seconds"),
-        None if best["converged"] else unconverged_note(float(best["delta_std"]), None),
+        None if best["converged"] else unconverged_note(float(best["delta_std"]), None, ax.get("kind")),
+        axis=ax.get("kind") or "rotary",
     )
 
 

@@ -75,7 +75,7 @@ def render_two_mass_report(
     p = result.parameters
     # Δθ, δ in mrad and torques in N·m — or µm and N on a linear axis (session 34, G1)
     gu = gap_unit(getattr(result, "axis", None))
-    acc = f"{gu.si}/s²"
+    acc = gu.acceleration
     verdict_cls = "verdict-ok" if result.backlash_visible else "verdict-bad"
     raw = _recording_html(trace)
     if online_not_run:
@@ -157,7 +157,7 @@ def render_two_mass_report(
         n = 1 + len(contacts)
         axes = fig.subplots(1, n, squeeze=False, width_ratios=[2] + [1] * (n - 1))[0]
         characteristic(axes[0])
-        axes[0].set_ylabel(f"shaft torque [{gu.torque}]")
+        axes[0].set_ylabel(f"shaft {gu.effort} [{gu.torque}]")
         axes[0].set_title("whole range", fontsize=9)
         axes[0].legend(fontsize=7, loc="best")
         x = sig["dtheta"][sig["ok_m"]]

@@ -66,7 +66,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from drivelash.errors import ConfigError, DrivelashError
-from drivelash.io.config import UNIT_KIND, DriveConfig, load_config, read_toml
+from drivelash.io.config import DriveConfig, load_config, read_toml
 from drivelash.params import DELTA_MAX_DEFAULT
 from drivelash.units import gap_unit
 
@@ -108,7 +108,7 @@ THRESHOLD_LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6}
 def drive_axis_kind(drive: DriveConfig) -> str:
     """The kind of axis a drive file describes: "prismatic" when its ``[columns]`` give the motor
     position in a length unit or its velocity in a length velocity (the loader's rule,
-    :func:`drivelash.io.load.is_prismatic`: its recordings carry m, m/s, N), else "rotary".
+    :func:`drivelash.io.config.is_prismatic`: its recordings carry m, m/s, N), else "rotary".
 
     Parameters
     ----------
@@ -122,10 +122,9 @@ def drive_axis_kind(drive: DriveConfig) -> str:
         as SI rad unless their own metadata says otherwise — ingest then refuses them,
         :func:`drivelash.wear.estimate.estimate_recording`).
     """
-    from drivelash.io.load import is_prismatic
+    from drivelash.io.config import columns_axis
 
-    kinds = {cm.column: UNIT_KIND.get(cm.unit) for cm in (drive.columns or {}).values()}
-    return "prismatic" if is_prismatic(kinds) else "rotary"
+    return columns_axis(drive.columns)
 
 
 def threshold_limit(drive: DriveConfig, kind: str = "rotary") -> tuple[float, str]:
