@@ -47,7 +47,10 @@ def test_import_refuses_a_zero_offset_the_cnc_export_would_refuse():
     rep = _check(0.99)
     run00 = next(r for r in rep.runs if r["file"] == "run00.csv")
     assert abs(run00["te_median_m"]) < 1e-3
-    assert any(f.level == "error" and f.check == "zero" and f.file == "run00.csv" for f in rep.findings)
+    (err,) = [f for f in rep.findings if f.level == "error" and f.check == "zero" and f.file == "run00.csv"]
+    # named by the TE that crosses the limit, not by the median inside it (session 34 last read)
+    assert re.match(r"TE reaches 1\.\d{3} mm \(median \+0\.9\d\d mm; limit 1 mm", err.message), err.message
+    assert "set offset = " in err.message
 
 
 def test_small_zero_offsets_stay_warnings_that_name_the_export_limit():

@@ -394,6 +394,7 @@ def _zero_message(
     x_range: tuple[float, float],
     travel: float | None,
     offsets: dict[str, float] | None,
+    peak: float | None = None,
 ) -> str:
     """The advice for two position zeros that differ by the run's median TE ``med`` [m].
 
@@ -405,9 +406,16 @@ def _zero_message(
     """
     offsets = offsets or {}
     lo, hi = x_range
+    # a median within the limit whose run reaches beyond it (``peak`` [m]) is named by the peak:
+    # "TE is +0.990 mm (limit 1 mm)" read as a contradiction (session 34 last read)
+    said = (
+        f"TE reaches {peak * 1e3:.3f} mm (median {med * 1e3:+.3f} mm"
+        if peak is not None and abs(med) <= ZERO_ERROR < peak
+        else f"TE is {med * 1e3:+.3f} mm ("
+    )
     head = (
-        f"TE is {med * 1e3:+.3f} mm (limit {ZERO_ERROR * 1e3:g} mm, te export's for a no-load TE): the"
-        " linear scale and the motor position have different zeros"
+        f"{said}{'; ' if said.endswith('mm') else ''}limit {ZERO_ERROR * 1e3:g} mm, te export's for a"
+        " no-load TE): the linear scale and the motor position have different zeros"
     )
     if (
         travel is not None
@@ -740,7 +748,7 @@ def check_runs(
         starts.append((float(th[0]), float(x[0]), med))
         peak = float(np.max(np.abs(te[mv]))) if r.kind == "geometric" else abs(med)
         if abs(med) > ZERO_ERROR or peak > ZERO_ERROR:
-            add("error", "zero", r.label, _zero_message(med, r_eff, (lo, hi), travel, column_offsets))
+            add("error", "zero", r.label, _zero_message(med, r_eff, (lo, hi), travel, column_offsets, peak))
             info["gross"] = True
             continue
         if abs(med) > ZERO_WARN:
