@@ -214,6 +214,13 @@ def test_unit_slips_on_a_linear_axis_get_a_hint_in_micrometres(tmp_path):
     (a,) = load_fleet(_fleet(tmp_path, '300\nthreshold_unit = "um"\ntransmission = 2.0', linear=False)).axes
     assert a.kind == "rotary" and a.threshold_rad == pytest.approx(0.15)
     assert "threshold_unit = 'um' needs 'transmission'" in refused('30\nthreshold_unit = "um"', linear=False)
+    # a value already in µm gets no hint to write it in µm (the last read: the hint repeated it)
+    msg = refused('2000\nthreshold_unit = "um"')
+    assert "2000 um is 2 mm of lost motion" in msg and "in µm already" in msg, msg
+    assert "threshold = 2000 with" not in msg
+    msg = refused('5000\nthreshold_unit = "um"\ntransmission = 2.0', linear=False)
+    assert "2.5 rad at the load" in msg and "check the value and the transmission" in msg, msg
+    assert "µm is threshold" not in msg
 
 
 # --------------------------------------------------------------------------- store and views

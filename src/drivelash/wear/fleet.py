@@ -173,10 +173,16 @@ def _threshold_slip(a: AxisSection, drive: DriveConfig, kind: str = "rotary") ->
         m = a.threshold * THRESHOLD_LENGTH_UNITS[unit]
         if m < limit:
             return None
-        # the hint writes the number as meant in µm, the unit of a linear axis's lost motion
-        return (
+        # the hint writes the number as meant in µm, the unit of a linear axis's lost motion —
+        # unless it is in µm already (the hint then repeated the setting; session 34 last read)
+        head = (
             f"{a.threshold:g} {unit} is {1e3 * m:.4g} mm of lost motion on a linear axis, no backlash"
-            f" threshold ({basis}); the key is in {unit} — {a.threshold:g} µm is"
+            f" threshold ({basis})"
+        )
+        if unit in ("um", "µm"):
+            return f"{head}: the key is in µm already — a linear axis's lost motion is µm to tens of µm"
+        return (
+            f"{head}; the key is in {unit} — {a.threshold:g} µm is"
             f' threshold = {a.threshold:g} with threshold_unit = "um"'
             + (f" (or threshold = {a.threshold * 1e-6:.6g} in m)" if unit == "m" else "")
         )
@@ -192,12 +198,15 @@ def _threshold_slip(a: AxisSection, drive: DriveConfig, kind: str = "rotary") ->
     rad = mm / float(a.transmission or 1.0)
     if rad < limit:
         return None
-    shown = "µm" if a.threshold_unit == "um" else a.threshold_unit
-    return (
+    shown = "µm" if a.threshold_unit in ("um", "µm") else a.threshold_unit
+    head = (
         f"{a.threshold:g} {shown} is {rad:.4g} rad at the load (transmission {a.transmission:g} mm/rad),"
-        f" no backlash threshold ({basis}); the key is in {shown} — {a.threshold:g} µm"
-        f" is threshold = {a.threshold * 1e-3:.6g}"
-        + ("" if a.threshold_unit == "mm" else ' with threshold_unit = "mm"')
+        f" no backlash threshold ({basis})"
+    )
+    if shown == "µm":  # a slip to µm cannot be suggested for a value already in µm
+        return f"{head}: check the value and the transmission"
+    return f"{head}; the key is in {shown} — {a.threshold:g} µm is threshold = {a.threshold * 1e-3:.6g}" + (
+        "" if a.threshold_unit == "mm" else ' with threshold_unit = "mm"'
     )
 
 
