@@ -241,12 +241,7 @@ def geometric_table(
     for d, v in zip((1, -1), te, strict=True):
         if not np.all(np.isfinite(v)):
             raise DataError(f"the model's no-load curve of direction {d:+d} is not finite")
-        worst = float(np.max(np.abs(v)))
-        if worst > TE_LIMIT:
-            raise DataError(
-                f"refusing to export a no-load TE of {worst * 1e3:.4g} mm in direction {d:+d} "
-                f"(limit {TE_LIMIT * 1e3:g} mm): a unit, sign or zero-offset error, not a rack"
-            )
+        check_noload_te(float(np.max(np.abs(v))), d)
     # what linear interpolation between the points loses against the model (50 µm grid)
     xf = np.arange(a, x[-1], 50e-6)
     err = 0.0
@@ -431,3 +426,15 @@ def write_cnc(
     raise ParameterError(
         "te export", "--format", f"must be one of table, {', '.join(CNC_LAYOUTS)}, got {layout!r}"
     )
+
+
+def check_noload_te(worst: float, direction: int, path: str | None = None) -> None:
+    """Refuse a no-load TE whose largest magnitude ``worst`` [m] in ``direction`` (±1) exceeds
+    :data:`TE_LIMIT` — a unit, sign or zero-offset error, not a rack (the CNC layouts here and the
+    runtime table, :func:`drivelash.te.runtime.export.export_table`, share it)."""
+    if worst > TE_LIMIT:
+        raise DataError(
+            f"refusing to export a no-load TE of {worst * 1e3:.4g} mm in direction {direction:+d} "
+            f"(limit {TE_LIMIT * 1e3:g} mm): a unit, sign or zero-offset error, not a rack",
+            path=path,
+        )

@@ -84,17 +84,11 @@ def _check_noload(table: TETable, path: Path) -> None:
     TE the ``.ini``/``.COM`` export refuses as a unit, sign or zero-offset error must not reach
     the CNC through it either (finding TH14: a 2 mm zero offset was refused by the CNC layouts and
     written to the ``.csv``)."""
-    from drivelash.te.runtime.cnc import TE_LIMIT
+    from drivelash.te.runtime.cnc import check_noload_te
 
     for d, sgn in enumerate(DIRECTIONS):
         j = int(np.argmin(np.abs(table.torque_grid(sgn))))
-        worst = float(np.max(np.abs(table.te[d, :, j])))
-        if worst > TE_LIMIT:
-            raise DataError(
-                f"refusing to export a no-load TE of {worst * 1e3:.4g} mm in direction {sgn:+d} "
-                f"(limit {TE_LIMIT * 1e3:g} mm): a unit, sign or zero-offset error, not a rack",
-                path=str(path),
-            )
+        check_noload_te(float(np.max(np.abs(table.te[d, :, j]))), sgn, str(path))
 
 
 def _grid_doc(table: TETable, params: CompensatorParams | None) -> dict[str, Any]:
