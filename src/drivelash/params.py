@@ -386,6 +386,37 @@ def delta1_tolerance(offset_switch: float = OFFSET_FLOOR, angle_scale: float = 1
     return max(float(offset_switch), OFFSET_FLOOR * float(angle_scale))
 
 
+def verdict_scale(angle_scale: float, delta_hat: float) -> float:
+    """Scale σ_δ [-] of the verdict's accuracy constants (δ1 floor, convergence band and claim) for
+    an estimate δ̂: the angle scale σ, capped by δ̂ / :data:`ANGLE_SCALE_RANGE`.
+
+    σ follows the Δθ range, which is the gap plus the contact deflections on both sides. Where the
+    deflection is as large as the gap (a compliant drive, a linear axis with µm of lost motion),
+    σ makes the 1 mrad δ1 floor and the 2 mrad band and claim large fractions of δ itself —
+    on tester G's 20 µm linear gap (Δθ range 73 µm) a δ1 floor of 7.3 µm, so a δ1 4 µm off was
+    "consistent" and δ̂ 35 % low "converged" (session 35). The constants were validated on gaps
+    of at least :data:`ANGLE_SCALE_RANGE` at σ = 1, i.e. as at most 10 % (floor) and 20 % (band,
+    claim) of δ: the cap keeps those fractions for a smaller δ̂ and leaves every gap of 10 mrad ×
+    σ or more as it was.
+
+    Parameters
+    ----------
+    angle_scale : float
+        The recording's angle scale σ (:func:`angle_scale_of`) [-].
+    delta_hat : float
+        The estimate judged [rad; m on a linear axis].
+
+    Returns
+    -------
+    float
+        min(σ, δ̂ / :data:`ANGLE_SCALE_RANGE`), never below :data:`ANGLE_SCALE_MIN`; σ when δ̂ is
+        not finite.
+    """
+    if not math.isfinite(delta_hat):
+        return float(angle_scale)
+    return max(min(float(angle_scale), float(delta_hat) / ANGLE_SCALE_RANGE), ANGLE_SCALE_MIN)
+
+
 #: Δθ range [rad] (:attr:`~drivelash.estimation.motion.MotionSummary.dtheta_range`) from which
 #: down the online tuning rule's angle constants — 1 mrad of contact deflection in T_ref, the
 #: bounds 10³ … 10⁵ 1/rad of α, the 1 rad of relative motion in the observers' ρ, the 2 mrad

@@ -41,7 +41,10 @@ Inputs: J_l, K_S, T_C,l (estimator side), T_s, f_r and, when known, the recordin
 * angle scale σ = min(1, Δθ range / 10 mrad) ≥ 10⁻⁴ (:func:`~drivelash.params.angle_scale_of`):
   every absolute angle above (10⁻³ rad in T_ref, α's bounds, the 1 rad of ρ) and in the
   verdict (2 mrad band and claim, 1 mrad δ1 floor, 50 mrad range excess) is multiplied by it,
-  so a recording in m or of a precision gearbox is tuned as one in rad of a 10 mrad Δθ range.
+  so a recording in m or of a precision gearbox is tuned as one in rad of a 10 mrad Δθ range;
+  the verdict's band, claim and δ1 floor use σ capped by δ̂ / 10 mrad
+  (:func:`~drivelash.params.verdict_scale`), so they stay within 20 % / 10 % of a small gap
+  whose contact deflection widens the Δθ range.
 """
 
 from __future__ import annotations
@@ -74,6 +77,7 @@ from drivelash.params import (
     delta1_outside_range,
     delta1_tolerance,
     is_real_number,
+    verdict_scale,
 )
 from drivelash.units import gap_unit
 
@@ -167,15 +171,17 @@ ONLINE_VERIFIED_RATE_HZ = 2000.0
 #: ≥ 0.254 (2.5× above), a mismatch scan (0A/0B/0C × 3 seeds × K_S ×¼…8, 1 kHz) has every other
 #: converged run at ≥ 0.25 (docs/assumptions.md, "Online estimate at 1 kHz").
 LOW_RATE_INFORMATION_MIN = 0.1
-#: Smallest convergence band [rad] (× the angle scale σ, :attr:`EstimatorConfig.angle_scale`):
-#: δ̂ settled when it varied by ≤ max(this σ, 2 % of δ̂) over the last window (issue 11).
+#: Smallest convergence band [rad] (× the verdict scale σ_δ, :func:`~drivelash.params.verdict_scale`:
+#: the angle scale σ capped by δ̂ / 10 mrad): δ̂ settled when it varied by ≤ max(this σ_δ, 2 % of
+#: δ̂) over the last window (issue 11).
 BAND_FLOOR = 2e-3
 #: The angle constants mismatch the recording when its Δθ range is below this fraction of the
 #: range they were scaled for (ANGLE_SCALE_RANGE × σ): at the smallest σ, or with gains tuned
 #: without the recording (a given configuration). A blocking warning names it (C8, session 31).
 ANGLE_SCALE_MISMATCH = 0.5
-#: Largest 95 % half-width [rad] with which an estimate may be called converged: the accuracy
-#: the tool promises when it says "converged" (issue 11: |δ̂ − δ| ≤ 2 mrad or flagged).
+#: Largest 95 % half-width [rad] (× σ_δ, as the band) with which an estimate may be called
+#: converged: the accuracy the tool promises when it says "converged" (issue 11: |δ̂ − δ| ≤ 2 mrad
+#: or flagged; at most 20 % of a δ̂ below 10 mrad × σ, session 35).
 CLAIM_HALF_WIDTH = 2e-3
 #: Model part of the uncertainty for the switched joint δ/δ1 law with the load-observer torque,
 #: relative to the anchored law's D·|1 − 1/κ| (both contact points from the model, not one).
@@ -829,11 +835,6 @@ def _window_movement(track: _Track, n: int, k_win: int) -> float:
     return float(np.max(track.dmax[b0:])) - float(np.min(track.dmin[b0:]))
 
 
-def _settled(track: _Track, n: int, k_win: int, band: float) -> bool:
-    """δ̂ varied by ≤ band over the blocks covering the last ``k_win`` samples."""
-    return _window_movement(track, n, k_win) <= band
-
-
 def _convergence_time(
     track: _Track, t0: float, T_s: float, n: int, band: float, final: float
 ) -> float | None:
@@ -976,6 +977,8 @@ def _verdict(
     # alternative the interval must reach, as for an inconsistent δ1 (H3 of session 30)
     d1_unjudged = False
     by_ratio = False  # "consistent" because the joint law fits the torque clearly worse
+    # the accuracy constants' scale for the anchored δ̂ (verdict_scale: σ capped by δ̂ / 10 mrad)
+    sigma_anchor = verdict_scale(sigma, float(main.state[dz.S_DELTA]))
     if check is not None:
         a_chk = check.acc()
         d1_j = float(check.state[dz.S_TH + 2])
@@ -991,7 +994,11 @@ def _verdict(
             residual_rms_anchored=a_main["residual_rms"],
             residual_rms_joint=a_chk["residual_rms"],
         )
-        floor = delta1_tolerance(cfg.offset_switch, sigma)
+        # the floor is capped by the anchored δ̂ (verdict_scale): a compliant drive's Δθ range is
+        # several gaps wide and σ alone made the floor 37 % of a 20 µm gap (session 35); an
+        # offset_switch set in [estimator] (not the tuned OFFSET_FLOOR σ) is kept
+        tuned_switch = cfg.offset_switch == OFFSET_FLOOR * sigma
+        floor = delta1_tolerance(0.0 if tuned_switch else cfg.offset_switch, sigma_anchor)
         ratio = a_chk["residual_rms"] / a_main["residual_rms"] if a_main["residual_rms"] > 0 else math.nan
         # per contact side: a wrong δ1 spoils the anchored law's fit in the *lower* contact
         # (where δ1 anchors it) and not the joint law's; a wrong torque model spoils both sides
@@ -1008,9 +1015,9 @@ def _verdict(
         # (the true δ1 on 6 s of bench-0C: moved 13 mrad, ended 0.15 mrad from δ̂).
         track_j = check.track
         band_j = (
-            max(BAND_FLOOR * sigma, 0.02 * float(np.max(track_j.dmax)))
+            max(BAND_FLOOR * sigma_anchor, 0.02 * float(np.max(track_j.dmax)))
             if track_j.dmax.size
-            else BAND_FLOOR * sigma
+            else BAND_FLOOR * sigma_anchor
         )
         k_win_j = max(1, int(round(win / T_s)))
         move_j = _window_movement(track_j, n, k_win_j) if n else math.inf
@@ -1229,12 +1236,15 @@ def _verdict(
     )
     # --- settling, convergence, uncertainty -----------------------------------------
     delta_max_seen = float(np.max(chosen.track.dmax)) if chosen.track.dmax.size else 0.0
-    band = max(BAND_FLOOR * sigma, 0.02 * delta_max_seen)
+    # band and claim scale with the reported δ̂ as well as with the Δθ range (verdict_scale)
+    sigma_final = verdict_scale(sigma, final)
+    extra["verdict_scale"] = sigma_final
+    band = max(BAND_FLOOR * sigma_final, 0.02 * delta_max_seen)
     k_win = max(1, int(round(win / T_s)))
-    settled = _settled(chosen.track, n, k_win, band) if n else False
-    # how far δ̂ moved over the last window (a wear trend widens an unsettled estimate's σ by it:
-    # wear.estimate.unconverged_cause; session 32 tester F, F5)
+    # how far δ̂ moved over the last window: settled within the band (a wear trend widens an
+    # unsettled estimate's σ by it: wear.estimate.unconverged_cause; session 32 tester F, F5)
     window_move = _window_movement(chosen.track, n, k_win) if n else math.nan
+    settled = bool(window_move <= band) if n else False
     # the uncertainty of a measurement; without sufficient excitation δ̂ is none (NaN → null)
     # the paper law against the default law on the same data: the paper law has no stiffness
     # scale, so a wrong K_S (or friction, inertia) moves its contact points unseen; where the
@@ -1274,16 +1284,16 @@ def _verdict(
             delta1_propagated_std=s_d1,
         )
     std_base = (
-        _uncertainty(a, extra, cfg.theta_def, enc_bound + disagreement + alt_gap, angle_scale=sigma)
+        _uncertainty(a, extra, cfg.theta_def, enc_bound + disagreement + alt_gap, angle_scale=sigma_anchor)
         if ok and not at_bound
         else math.nan
     )
     std = (
-        _uncertainty(a, extra, cfg.theta_def, enc_bound + disagreement + alt_gap, s_d1, sigma)
+        _uncertainty(a, extra, cfg.theta_def, enc_bound + disagreement + alt_gap, s_d1, sigma_anchor)
         if ok and not at_bound
         else math.nan
     )
-    claim = min(band, CLAIM_HALF_WIDTH * sigma)
+    claim = min(band, CLAIM_HALF_WIDTH * sigma_final)
     if ok and 1.96 * std > claim:
         # every bounded alternative that widens the interval is named; the rest (spread, δ1
         # check, model part, floor) is "the data disagree with the stated drive parameters"

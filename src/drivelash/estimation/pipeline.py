@@ -336,6 +336,8 @@ def result_summary(res: Any) -> dict[str, Any]:
         "encoder_reading",  # the convention applied (``gains`` holds the configuration's)
         "encoder_reading_from",  # "configuration", "recording metadata" or "none" (B7)
         "law_disagreement",
+        # σ_δ: the scale of the verdict's δ1 floor, band and claim (params.verdict_scale)
+        "verdict_scale",
         # an uncertain δ1 (estimate --identify): its std [rad], ∂δ̂/∂δ1 and the part of delta_std
         "delta1_std",
         "delta1_sensitivity",
