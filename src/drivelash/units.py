@@ -23,7 +23,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["GapUnit", "MRAD", "MICROMETRE", "gap_unit"]
+__all__ = ["LENGTH_TO_M", "GapUnit", "MRAD", "MICROMETRE", "gap_unit"]
+
+#: The length units a user writes (a column, a fleet threshold, a laser check, a TE pass), as
+#: factors to m — the one table the loader, the fleet file, the store and the TE import share.
+LENGTH_TO_M: dict[str, float] = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6}
 
 
 @dataclass(frozen=True)

@@ -32,6 +32,7 @@ from drivelash.io.config import UNIT_KIND, ColumnMap, DriveConfig, SamplingSecti
 from drivelash.io.formats import WHOLE_READ_FACTOR, RawTable, read_raw
 from drivelash.io.trace import UNITS as TRACE_UNITS
 from drivelash.io.trace import Trace
+from drivelash.units import LENGTH_TO_M
 
 #: Signal columns that are checked for constant and saturated values.
 SIGNAL_COLUMNS = ("theta_m", "omega_m", "theta_l", "omega_l", "torque_m")
@@ -49,10 +50,7 @@ _TO_SI: dict[str, float] = {
     "deg/s": math.pi / 180.0,
     "rpm": 2.0 * math.pi / 60.0,
     "rev/s": 2.0 * math.pi,
-    "m": 1.0,
-    "mm": 1e-3,
-    "um": 1e-6,
-    "µm": 1e-6,
+    **LENGTH_TO_M,
     "in": 25.4e-3,
     "arcsec": math.pi / 648000.0,
     "mrad": 1e-3,

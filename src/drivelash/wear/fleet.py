@@ -68,7 +68,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from drivelash.errors import ConfigError, DrivelashError
 from drivelash.io.config import DriveConfig, load_config, read_toml
 from drivelash.params import DELTA_MAX_DEFAULT
-from drivelash.units import gap_unit
+from drivelash.units import LENGTH_TO_M, gap_unit
 
 __all__ = [
     "AxisSpec",
@@ -102,7 +102,7 @@ THRESHOLD_DELTA1_FACTOR = 4.0
 #: (0.03 for 30 µm, what the rad hint said until session 34) 30× beyond.
 MAX_THRESHOLD_M = 1e-3
 #: Units ``threshold_unit`` takes for a length, and their factor to m.
-THRESHOLD_LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6}
+THRESHOLD_LENGTH_UNITS = LENGTH_TO_M
 
 
 def drive_axis_kind(drive: DriveConfig) -> str:

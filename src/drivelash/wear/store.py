@@ -39,6 +39,7 @@ from sqlalchemy.engine import Engine
 from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError, OperationalError
 
 from drivelash.errors import DrivelashError
+from drivelash.units import LENGTH_TO_M
 from drivelash.wear.words import count
 
 __all__ = ["EstimateRow", "Store", "StoreError", "store_file", "utc_naive"]
@@ -65,7 +66,7 @@ INGEST_LOCK_POLL_S = 0.2
 #: PostgreSQL's SQLSTATE ``lock_not_available``: a lock wait ran past ``lock_timeout``.
 PG_LOCK_NOT_AVAILABLE = "55P03"
 #: Units a measurement may carry, and their factor to mm (rad needs no transmission).
-LENGTH_UNITS = {"mm": 1.0, "um": 1e-3, "µm": 1e-3, "m": 1e3}
+LENGTH_UNITS = {unit: 1e3 * to_m for unit, to_m in LENGTH_TO_M.items()}
 
 
 class StoreError(DrivelashError):

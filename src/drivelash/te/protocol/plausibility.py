@@ -26,6 +26,7 @@ import numpy as np
 from drivelash.errors import DataError
 from drivelash.te.learn.preprocess import LOAD_TRIM, direction_key
 from drivelash.te.runtime.cnc import TE_LIMIT
+from drivelash.units import LENGTH_TO_M
 
 __all__ = [
     "Finding",
@@ -313,7 +314,7 @@ def _sign_advice(column: str, scales: dict[str, float] | None) -> str:
 
 
 #: Length units a [columns] mapping of x_T may declare, in metres (for :func:`_declared_slip`).
-_LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "nm": 1e-9}
+_LENGTH_UNITS = {**LENGTH_TO_M, "nm": 1e-9}
 
 
 def _declared_slip(k: float, declared: tuple[str, str] | None) -> str | None:
