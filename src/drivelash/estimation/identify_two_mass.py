@@ -3764,12 +3764,12 @@ def as_trace(data: Any, mapping: Any, need: list[str], caller: str) -> Trace:
 
     ``mapping`` is a DriveConfig or a ``[columns]``-style dict; ``need`` the required columns;
     ``caller`` names the API function in the error message. A loading error's command-line hint
-    (``--resample``) is put in Python terms (:func:`drivelash.io.load.in_python_terms`).
+    (``--resample``) is put in Python terms (:func:`drivelash.io.load.with_resample_hint`).
     """
     from pathlib import Path
 
     from drivelash.io import load_trace
-    from drivelash.io.load import in_python_terms
+    from drivelash.io.load import with_resample_hint
 
     if isinstance(data, Trace):
         from drivelash.io.load import check_trace_velocities, velocities_checked
@@ -3788,7 +3788,7 @@ def as_trace(data: Any, mapping: Any, need: list[str], caller: str) -> Trace:
             return load_trace(data, mapping, required=need)
         return _trace_from_frame(data, mapping, need)
     except DataError as exc:  # a Python caller: no --resample option to point to
-        raise in_python_terms(exc) from None
+        raise with_resample_hint(exc) from None
 
 
 def _trace_from_frame(df: Any, mapping: Any, need: list[str]) -> Trace:

@@ -529,12 +529,13 @@ RESAMPLE_HINT_API = (
 )
 
 
-def in_python_terms(exc: DataError) -> DataError:
-    """``exc`` with the command-line hint (``--resample``) replaced by what to do in Python
-    (:data:`RESAMPLE_HINT_API`); for the notebook API's callers."""
+def with_resample_hint(exc: DataError, hint: str = RESAMPLE_HINT_API) -> DataError:
+    """``exc`` with the command-line hint (``--resample``) replaced by ``hint``: what to do where
+    there is no ``--resample`` option — in Python (:data:`RESAMPLE_HINT_API`, the default), in an
+    iso230 configuration or in a TE axis file."""
     text = str(exc)
     if RESAMPLE_HINT in text:
-        exc.args = (text.replace(RESAMPLE_HINT, RESAMPLE_HINT_API),)
+        exc.args = (text.replace(RESAMPLE_HINT, hint),)
     return exc
 
 

@@ -474,16 +474,13 @@ def _read_table(path: Path, mapping: Any, params: Iso230Params, table: Any) -> M
 
 def _read_series(path: Path, mapping: Any, params: Iso230Params, dwell: DwellParams) -> Measurement:
     from drivelash.io.config import UNIT_KIND
-    from drivelash.io.load import RESAMPLE_HINT, load_trace
+    from drivelash.io.load import load_trace, with_resample_hint
 
     src = str(path)
     try:
         trace = load_trace(path, mapping, required=("P_cmd", "P_actual"), check_saturation=False)
     except DataError as exc:  # iso230 has no --resample option: name only what it takes (s19 F21)
-        text = str(exc)
-        if RESAMPLE_HINT in text:
-            exc.args = (text.replace(RESAMPLE_HINT, RESAMPLE_HINT_ISO230),)
-        raise
+        raise with_resample_hint(exc, RESAMPLE_HINT_ISO230) from None
     origin: dict[str, str] = {}
     kinds: dict[str, str] = {}
     for source_col, cm in (trace.meta.get("mapping") or {}).items():

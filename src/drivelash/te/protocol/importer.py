@@ -31,7 +31,7 @@ from drivelash.io.campaign import (
     RunEntry,
 )
 from drivelash.io.config import DriveConfig
-from drivelash.io.load import RESAMPLE_HINT, load_trace
+from drivelash.io.load import load_trace, with_resample_hint
 from drivelash.io.outputs import write_json
 from drivelash.io.trace import Trace
 from drivelash.te.protocol.axis import load_axis
@@ -205,9 +205,7 @@ def import_campaign(
         try:
             tr = load_trace(path, mapping, required=REQUIRED_COLUMNS)
         except DataError as exc:  # te import has no --resample option: name the axis file's key
-            if RESAMPLE_HINT in str(exc):
-                exc.args = (str(exc).replace(RESAMPLE_HINT, RESAMPLE_HINT_AXIS),)
-            raise
+            raise with_resample_hint(exc, RESAMPLE_HINT_AXIS) from None
         if any("resampled linearly" in w for w in tr.meta.get("warnings", [])):
             check_bridged_gap(tr, str(path))
         for w in tr.meta.get("warnings", []):
