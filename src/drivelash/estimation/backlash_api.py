@@ -449,10 +449,12 @@ def estimate_with_identification(
         )
         why = no_vel if why is None else f"{why}; and {no_vel}"  # every blocker, not only the first
     if why is not None:
-        from drivelash.estimation.pipeline import _estimator_overrides
+        from drivelash.estimation.pipeline import _estimator_overrides, summary_units
 
+        kind = summary_units(trace.meta.get("axis"))
         summary: dict[str, Any] = {
             "method": _estimator_overrides(cfg, method)[0],
+            "axis": kind["axis"],
             "delta": None,
             "delta1": d1,
             "excitation_ok": False,
@@ -464,6 +466,7 @@ def estimate_with_identification(
             "online_run": False,
             "identification": off,
             "warnings": [f"online estimate not run: {why}"],
+            "units": kind["units"],
         }
         return BacklashEstimate(
             summary=jsonable(summary), result=None, trace=trace, gains=None, identification=ident

@@ -209,6 +209,22 @@ SUMMARY_LENGTH_KEYS = (
 SUMMARY_EFFORT_KEYS = ("contact_threshold", "load_torque_constant")
 
 
+def summary_units(axis: str | None) -> dict[str, Any]:
+    """The ``axis`` and ``units`` keys of an estimate's summary for an axis kind (None: rotary).
+
+    ``units`` names the SI unit of every length key (:data:`SUMMARY_LENGTH_KEYS`: "rad" or "m")
+    and effort key (:data:`SUMMARY_EFFORT_KEYS`: "N·m" or "N") the summary may carry.
+    """
+    from drivelash.units import gap_unit
+
+    kind = str(axis or "rotary")
+    u = gap_unit(kind)
+    return {
+        "axis": kind,
+        "units": {k: u.si for k in SUMMARY_LENGTH_KEYS} | {k: u.torque for k in SUMMARY_EFFORT_KEYS},
+    }
+
+
 def estimate_summary(cfg: Any, res: Any, motion: Any, samples: int, T_s: float) -> dict[str, Any]:
     """The JSON summary of an estimate, without the truth metrics (shared by both paths).
 
@@ -220,14 +236,10 @@ def estimate_summary(cfg: Any, res: Any, motion: Any, samples: int, T_s: float) 
     metres: the names are kept for compatibility, ``units`` says what they hold (session 34,
     tester G, G8: a script could not tell metres from radians). ``gains`` are in the same units.
     """
-    from drivelash.units import gap_unit
-
-    axis = str(res.extra.get("axis") or "rotary")
-    u = gap_unit(axis)
-    units = {k: u.si for k in SUMMARY_LENGTH_KEYS} | {k: u.torque for k in SUMMARY_EFFORT_KEYS}
+    kind = summary_units(res.extra.get("axis"))
     return {
         "method": res.config.method,
-        "axis": axis,
+        "axis": kind["axis"],
         "delta": res.delta,
         "delta1": float(cfg.backlash.delta1),
         "excitation_ok": res.excitation_ok,
@@ -242,7 +254,7 @@ def estimate_summary(cfg: Any, res: Any, motion: Any, samples: int, T_s: float) 
             "measured" if motion.reversals >= 3 else "default (fewer than 3 motion reversals)"
         ),
         **result_summary(res),
-        "units": units,
+        "units": kind["units"],
         "gains": res.config.to_dict(),
     }
 
