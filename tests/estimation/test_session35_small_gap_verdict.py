@@ -115,6 +115,27 @@ def test_no_small_gap_estimate_with_a_wrong_delta1_is_converged_and_wrong(delta_
     assert not s["converged"] or abs(s["delta"] / delta - 1.0) < 0.05, s["delta"]
 
 
+def test_a_gap_below_the_resolution_floor_says_so_not_that_the_drive_is_wrong():
+    """The price of the cap, stated truthfully: the 5 µm gap with its true parameters is not
+    converged because the resolution floor (0.1 θ_def = ±1.03 µm at 95 %) exceeds 20 % of δ̂
+    (0.997 µm). Before this message the warning read "uncertain by ±1.0 µm (95 %), more than the
+    1.0 µm …: the data disagree with the stated drive parameters (contact stiffness 1.01× …)" —
+    equal numbers and a wrong cause. Negative control: a stated K_S ×½ on the 20 µm gap is not
+    blamed on the floor."""
+    tr = linear_axis_trace(5e-6, 2.5e-6, duration=6.0, freq=1.0)
+    s = _estimate(tr, 5e-6, {}, 0.0).summary
+    assert not s["converged"] and _covers(s, 5e-6)
+    assert abs(s["delta"] / 5e-6 - 1.0) < 0.01, s["delta"]
+    (w,) = [w for w in s["warnings"] if w.startswith("the estimate is uncertain")]
+    assert "the estimator resolves δ only to ±1.03 µm" in w, w
+    assert "disagree with the stated drive parameters" not in w, w
+    assert "±1.03 µm (95 %), more than the 0.997 µm" in w, w
+    tr20 = linear_axis_trace(20e-6, 10e-6, duration=6.0, freq=1.0)
+    s20 = _estimate(tr20, 20e-6, {"K_S": 0.5}, 0.0).summary
+    (w20,) = [w for w in s20["warnings"] if w.startswith("the estimate is uncertain")]
+    assert "resolves δ only" not in w20, w20
+
+
 def test_verdict_scale_caps_the_angle_scale_by_the_gap_only_below_10_mrad():
     """σ_δ = min(σ, δ̂ / 10 mrad) ≥ ANGLE_SCALE_MIN: a gap of 10 mrad × σ or more keeps σ (every
     rotary bench scenario and random drive of the acceptance tests: δ ≥ 10 mrad at σ = 1)."""
