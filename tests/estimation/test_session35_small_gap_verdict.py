@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import sys
 from pathlib import Path
 
@@ -129,7 +130,10 @@ def test_a_gap_below_the_resolution_floor_says_so_not_that_the_drive_is_wrong():
     (w,) = [w for w in s["warnings"] if w.startswith("the estimate is uncertain")]
     assert "the estimator resolves δ only to ±1.03 µm" in w, w
     assert "disagree with the stated drive parameters" not in w, w
-    assert "±1.03 µm (95 %), more than the 0.997 µm" in w, w
+    # the two numbers never print equal ("±1.0 µm, more than the 1.0 µm" read as a contradiction;
+    # measured in session 35: ±1.03 over 0.997 µm; session 36's δ1-check bound widens it to ±1.1)
+    m = re.search(r"uncertain by ±([0-9.]+) µm \(95 %\), more than the ([0-9.]+) µm", w)
+    assert m and m.group(1) != m.group(2) and float(m.group(1)) > float(m.group(2)), w
     tr20 = linear_axis_trace(20e-6, 10e-6, duration=6.0, freq=1.0)
     s20 = _estimate(tr20, 20e-6, {"K_S": 0.5}, 0.0).summary
     (w20,) = [w for w in s20["warnings"] if w.startswith("the estimate is uncertain")]

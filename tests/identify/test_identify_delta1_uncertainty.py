@@ -140,7 +140,14 @@ def test_configured_delta1_gets_no_term(geared: dict[str, object], at_250hz: dl.
     assert s["delta"] == s_id["delta"]
     for k in ("delta1_std", "delta1_sensitivity", "delta1_propagated_std"):
         assert k not in s, k
-    # the identified run's std is this one's and the δ1 part in quadrature
-    assert s_id["delta_std"] == pytest.approx(math.hypot(s["delta_std"], s_id["delta1_propagated_std"]))
+    # the identified run's std is this one's own part and the δ1 part in quadrature. Since session
+    # 36 a configured δ1 carries the δ1 check's bound (κ gain 2 × the difference it found, added
+    # linearly) where an identified δ1 carries its propagated std and half the difference in
+    # quadrature (its error is counted through the identification: docs/assumptions.md)
+    b = s["delta1_check_bound"]
+    diff = abs(s["delta1_estimate"] - s["delta1_used"])
+    assert b == pytest.approx(2.0 * diff, rel=1e-12) and b > 0
+    own = s["delta_std"] - b / 1.96
+    assert s_id["delta_std"] == pytest.approx(math.hypot(own, 0.5 * diff, s_id["delta1_propagated_std"]))
     assert s["delta_std"] < s_id["delta_std"]
     assert not any("δ1 from the identification" in x for x in est.warnings), est.warnings

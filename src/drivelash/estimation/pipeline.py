@@ -348,6 +348,9 @@ def result_summary(res: Any) -> dict[str, Any]:
         "encoder_reading",  # the convention applied (``gains`` holds the configuration's)
         "encoder_reading_from",  # "configuration", "recording metadata" or "none" (B7)
         "law_disagreement",
+        # what a δ1 the check called "consistent" (within its floor) may still do to δ̂ [rad]: the
+        # κ gain × the difference it found, a bounded part of the interval (session 36)
+        "delta1_check_bound",
         # σ_δ: the scale of the verdict's δ1 floor, band and claim (params.verdict_scale)
         "verdict_scale",
         # an uncertain δ1 (estimate --identify): its std [rad], ∂δ̂/∂δ1 and the part of delta_std
