@@ -154,6 +154,17 @@ def require_finite(obj: object) -> None:
             raise ParameterError(type(obj).__name__, f.name, f"must be finite, got {v!r}")
 
 
+#: A δ1 in [−DELTA1_ROUNDING, 0) [rad or m] is a computed zero's rounding (δ/2 − 0.5·δ in floating
+#: point gave −8.5e-22: tester I's I7) and is read as 0; a picometre or picoradian lies far below
+#: any encoder's count (a 2³² count encoder: 1.5e-9 rad). Anything more negative is refused.
+DELTA1_ROUNDING = 1e-12
+
+
+def rounded_delta1(delta1: float) -> float:
+    """``delta1`` [rad or m], with a negative value within :data:`DELTA1_ROUNDING` of 0 read as 0."""
+    return 0.0 if -DELTA1_ROUNDING <= delta1 < 0.0 else delta1
+
+
 def require_positive(obj: object, *names: str) -> None:
     """Raise :class:`ParameterError` naming the first of ``names`` that is not > 0."""
     for n in names:

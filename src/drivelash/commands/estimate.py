@@ -226,7 +226,15 @@ def _print_summary(s: dict[str, Any], axis: str | None = None) -> None:
             d1 = s.get("delta1_estimate")
             # an unsettled joint law's δ1 is where it was, not what the data give
             said = "unsettled law" if s.get("delta1_check_result") == "not settled" else "data"
-            d1s = f" ({said}: {k * d1:.2f} {u})" if d1 is not None else ""
+            d1s = f" ({said}: {k * d1:.3g} {u})" if d1 is not None else ""
+            bound = s.get("delta1_check_bound")
+            if s.get("delta1_check_result") == "consistent" and d1 is not None and bound:
+                # the data's δ1 beside a different configured one: say why that is "consistent"
+                # and what it costs (I5: "consistent (data: 1.50 mrad)" beside δ1 = 1.800 mrad)
+                d1s = (
+                    f" (data: {k * d1:.3g} {u}, {k * (d1 - s['delta1_used']):+.2g} {u} from δ1, within the"
+                    f" check's tolerance; δ1 kept, the interval allows ±{k * bound:.2g} {u} for it)"
+                )
             c.print(f"  δ1 check: {escape(str(s['delta1_check_result']))}{d1s}")
     for w in s.get("warnings", []):
         if s["delta"] is None and w == s["reason"]:

@@ -133,7 +133,10 @@ def _backlash_with_delta1(cfg: Any, delta1: Any) -> Any:
     """``cfg``'s ``[backlash]`` table (the keys the user set) with ``delta1`` [rad] replaced by the
     argument (checked: finite, ≥ 0)."""
     from drivelash.io.config import BacklashSection
+    from drivelash.params import is_real_number, rounded_delta1
 
+    if is_real_number(delta1):
+        delta1 = rounded_delta1(float(delta1))
     _check_delta1(delta1)
     given = cfg.backlash.given() if cfg.backlash is not None else {}
     return BacklashSection(**{**given, "delta1": float(delta1)})

@@ -77,6 +77,7 @@ from drivelash.params import (
     delta1_outside_range,
     delta1_tolerance,
     is_real_number,
+    rounded_delta1,
     verdict_scale,
 )
 from drivelash.units import gap_unit
@@ -733,6 +734,7 @@ def estimate_blocks(
     -------
     EstimationResult
     """
+    delta1 = rounded_delta1(delta1)
     if not (math.isfinite(delta1) and delta1 >= 0):
         raise ParameterError("BacklashParams", "delta1", f"must be finite and >= 0, got {delta1!r}")
     if motion is None:
@@ -1604,7 +1606,8 @@ class DeadzoneEstimator:
         if not is_real_number(T_s):
             raise ParameterError("DeadzoneEstimator", "T_s", f"sample time must be a number [s], got {T_s!r}")
         self.drivetrain = drivetrain
-        self.delta1 = backlash.delta1 if isinstance(backlash, BacklashParams) else float(backlash)
+        d1 = backlash.delta1 if isinstance(backlash, BacklashParams) else float(backlash)
+        self.delta1 = rounded_delta1(d1)
         if not (math.isfinite(self.delta1) and self.delta1 >= 0):
             raise ParameterError("BacklashParams", "delta1", f"must be finite and >= 0, got {self.delta1!r}")
         self.T_s = float(T_s)

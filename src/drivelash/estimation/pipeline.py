@@ -150,10 +150,12 @@ def _estimate_blocks(
     """
     from drivelash.errors import ConfigError
     from drivelash.estimation.estimator import estimate_blocks, scan_blocks
+    from drivelash.params import rounded_delta1
 
     drivetrain = cfg.to_drivetrain_params()
     bl = cfg.require("backlash")
-    if not (math.isfinite(bl.delta1) and bl.delta1 >= 0):
+    delta1 = rounded_delta1(bl.delta1)
+    if not (math.isfinite(delta1) and delta1 >= 0):
         raise ConfigError(
             f"{cfg.source or '<config>'}: table [backlash], key 'delta1': "
             f"must be finite and >= 0, got {bl.delta1!r}"
@@ -167,7 +169,7 @@ def _estimate_blocks(
         since = (motion.t_last - MAEE_FRACTION * T, motion.t_last - SS_FRACTION * T)
     res = estimate_blocks(
         drivetrain,
-        float(bl.delta1),
+        float(delta1),
         blocks,
         method=law,  # type: ignore[arg-type]
         overrides=over,
@@ -349,7 +351,7 @@ def result_summary(res: Any) -> dict[str, Any]:
         "encoder_reading_from",  # "configuration", "recording metadata" or "none" (B7)
         "law_disagreement",
         # what a δ1 the check called "consistent" (within its floor) may still do to δ̂ [rad]: the
-        # κ gain × the difference it found, a bounded part of the interval (session 36)
+        # κ gain × the difference the check found, a bounded part of the interval (session 36)
         "delta1_check_bound",
         # σ_δ: the scale of the verdict's δ1 floor, band and claim (params.verdict_scale)
         "verdict_scale",
