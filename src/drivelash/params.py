@@ -445,6 +445,43 @@ ANGLE_SCALE_RANGE = 1e-2
 ANGLE_SCALE_MIN = 1e-4
 
 
+#: The Δθ reconstruction's velocity random walk may reach this fraction of θ_def before its
+#: cut-off is raised (:func:`reconstruction_cutoff`): the estimator's resolution floor is 0.1 θ_def
+#: (``estimator.UNCERTAINTY_FLOOR``); noise in Δθ beyond it biases κ low, as an error in the
+#: regressor does (errors-in-variables), and δ̂ with it — uncounted by the interval.
+VELOCITY_NOISE_FRACTION = 0.1
+#: Largest cut-off of the reconstruction, × 1/T_s: c = 1 − exp(−20) — the recorded Δθ itself.
+OMEGA_C_MAX_TS = 20.0
+
+
+def reconstruction_cutoff(omega_c0: float, T_s: float, theta_def: float, N: float, motion: Any) -> float:
+    """Cut-off ω_c [rad/s] of the default law's Δθ complementary filter.
+
+    The filter integrates the measured Δω = ω_m/N − ω_l between encoder updates to resolve Δθ
+    below a count; white velocity noise σ_Δω becomes a random walk the position pulls back,
+    std σ_Δω √(T_s / (2 ω_c)). ``omega_c0`` (10 ω_r, the rule for encoders whose quantisation
+    dominates) is kept while that walk stays below :data:`VELOCITY_NOISE_FRACTION` θ_def. Beyond
+    it the cut-off balancing the two errors is taken: the walk's variance σ_Δω² T_s / (2 ω_c)
+    plus the quantisation's σ_q² ω_c T_s / 2 (σ_q² = (q_m/N)² / 12 + q_l² / 12, a first-order
+    low-pass of white quantisation noise) is smallest at ω_c = σ_Δω / σ_q — never below
+    ``omega_c0`` and at most :data:`OMEGA_C_MAX_TS` / T_s (unquantised positions: the recorded Δθ).
+
+    Session 36, tester I's I2: on a ball-screw axis (2e8 N/m, 2 µm gap, 10 nm counts, θ_def
+    0.53 µm) white velocity noise of 3e-4 m/s on both channels made the walk 0.42 µm at
+    ω_c0 = 63 rad/s: κ 0.46, δ̂ 20 % low and "converged" outside its interval; the bench's
+    2048-count encoders with 0.032 rad/s noise balance at 36 rad/s, where 10 ω_r = 31 rad/s is
+    kept (walk 2e-3 of θ_def).
+    """
+    s_dw = getattr(motion, "velocity_noise", math.nan) if motion is not None else math.nan
+    if not (math.isfinite(s_dw) and s_dw > 0.0 and omega_c0 > 0.0 and theta_def > 0.0):
+        return omega_c0
+    if s_dw * math.sqrt(T_s / (2.0 * omega_c0)) <= VELOCITY_NOISE_FRACTION * theta_def:
+        return omega_c0
+    s_q = math.sqrt(((motion.count_m / N) ** 2 + motion.count_l**2) / 12.0)
+    top = OMEGA_C_MAX_TS / T_s
+    return max(omega_c0, min(s_dw / s_q if s_q > 0.0 else top, top))
+
+
 def angle_scale_of(dtheta_range: float) -> float:
     """The recording's angle scale σ [-] for the tuning rule: min(1, Δθ range / 10 mrad).
 
@@ -733,6 +770,7 @@ class EstimatorConfig:
         theta_def = T_ref / K_S
         alpha = min(max(20.0 / theta_def, 1e3 / sigma), 1e5 / sigma)
         v_typ = motion.v_typ if motion is not None and motion.v_typ > 0 else math.pi * f_exc
+        omega_c = reconstruction_cutoff(10.0 * w_r, T_s, theta_def, N, motion)
         values: dict[str, Any] = dict(
             k1=k1,
             k2=k2,
@@ -742,7 +780,7 @@ class EstimatorConfig:
             delta0=0.0,
             alpha=alpha,
             method=method,
-            omega_c=10.0 * w_r,
+            omega_c=omega_c,
             tau_f=max(2.0 / w_n, 4.0 * T_s),
             lam=w_r / 25.0,
             P_max=min(16.0 * w_r, 1.0 * w_n),

@@ -513,7 +513,9 @@ def scan_blocks(blocks: Callable[[], Iterable[Block]], N: float) -> MotionSummar
         for c in ("theta_m", "theta_l"):
             if c not in blk:
                 raise DataError(f"missing column {c} needed by the estimator", column=c)
-        sc.feed(t, blk["theta_m"], blk["theta_l"], blk.get(TORQUE_COLUMN))
+        sc.feed(
+            t, blk["theta_m"], blk["theta_l"], blk.get(TORQUE_COLUMN), blk.get("omega_m"), blk.get("omega_l")
+        )
         row += t.size
     summary = sc.summary()
     sc.check_gear_ratio()  # a wrong N is named, not blamed on excitation or δ1 (B6)

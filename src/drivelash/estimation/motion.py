@@ -178,6 +178,12 @@ class MotionSummary:
         [-]; None without a torque column or when either is constant. Positive on a drive whose
         motor drives the load (in contact the shaft torque follows the deflection); negative
         when the motor and load channels are swapped (B2).
+    velocity_noise : float
+        Standard deviation of the white noise on Δω = ω_m/N − ω_l [rad/s, m/s on a linear axis]:
+        the median absolute second difference of Δω over the recording, / (0.6745 √6) (a white
+        noise's second difference has variance 6 σ²; the signal's own second difference, a jerk
+        times T_s², is far below it at a drive's sample rates); NaN when the velocities were not
+        scanned. Sets the Δθ reconstruction's cut-off (:meth:`~drivelash.params.EstimatorConfig.tuned`).
     dtheta_range : float
         max − min of the recorded Δθ = θ_m/N − θ_l over every sample [rad] (the gap plus the
         contact deflections and noise); NaN when not scanned. The tuning rule scales its angle
@@ -197,6 +203,7 @@ class MotionSummary:
     count_l: float = 0.0
     torque_deflection_corr: float | None = None
     dtheta_range: float = math.nan
+    velocity_noise: float = math.nan
 
     @property
     def duration(self) -> float:
@@ -246,14 +253,32 @@ class MotionScanner:
         # shifted sums of Δθ = θ_m/N − θ_l and the torque (by their first values), for their correlation
         self._c0: tuple[float, float] | None = None
         self._cs = np.zeros(6)  # n, Σx, Σu, Σx², Σu², Σxu
+        # per block: median |second difference of Δω| and its sample count (velocity_noise)
+        self._d2: list[tuple[float, int]] = []
+        self._last_dw: np.ndarray = np.zeros(0)
 
     def feed(
-        self, t: np.ndarray, theta_m: np.ndarray, theta_l: np.ndarray, torque_m: np.ndarray | None = None
+        self,
+        t: np.ndarray,
+        theta_m: np.ndarray,
+        theta_l: np.ndarray,
+        torque_m: np.ndarray | None = None,
+        omega_m: np.ndarray | None = None,
+        omega_l: np.ndarray | None = None,
     ) -> None:
-        """Add the next block (arrays of equal length, SI units)."""
+        """Add the next block (arrays of equal length, SI units; the velocities are optional and
+        give :attr:`MotionSummary.velocity_noise`)."""
         k = int(t.size)
         if k == 0:
             return
+        if omega_m is not None and omega_l is not None:
+            dw = np.asarray(omega_m, dtype=np.float64) / self.N - np.asarray(omega_l, dtype=np.float64)
+            # the last two samples of the previous block continue the differences across blocks
+            dw = np.concatenate((self._last_dw, dw))
+            if dw.size >= 3:
+                d2 = dw[2:] - 2.0 * dw[1:-1] + dw[:-2]
+                self._d2.append((float(np.median(np.abs(d2))), int(d2.size)))
+            self._last_dw = dw[-2:].copy()
         if self.n == 0:
             self.t_first = float(t[0])
         if self.B == 0:
@@ -343,6 +368,13 @@ class MotionScanner:
             vx, vu = sxx - sx * sx / m, suu - su * su / m
             if vx > 0 and vu > 0:
                 corr = float((sxu - sx * su / m) / math.sqrt(vx * vu))
+        noise = math.nan
+        if self._d2:  # the sample-weighted median of the block medians
+            med = np.array([b[0] for b in self._d2])
+            w = np.array([b[1] for b in self._d2], dtype=np.float64)
+            o = np.argsort(med)
+            cw = np.cumsum(w[o])
+            noise = float(med[o][np.searchsorted(cw, 0.5 * cw[-1])]) / (0.6745 * math.sqrt(6.0))
         return MotionSummary(
             n=n,
             T_s=float(T_s),
@@ -357,6 +389,7 @@ class MotionScanner:
             count_l=self.step_l if COUNT_FLOOR <= self.step_l < math.inf else 0.0,
             torque_deflection_corr=corr,
             dtheta_range=float(self.dth_max - self.dth_min) if n else math.nan,
+            velocity_noise=noise,
         )
 
 
@@ -372,6 +405,8 @@ def scan_trace(trace, N: float = 1.0, chunk: int = 1 << 16) -> MotionSummary:  #
             trace["theta_m"][a:b],
             trace["theta_l"][a:b] if "theta_l" in trace else trace["theta_m"][a:b],
             None if tq is None else tq[a:b],
+            trace["omega_m"][a:b] if "omega_m" in trace else None,
+            trace["omega_l"][a:b] if "omega_l" in trace else None,
         )
     return sc.summary()
 
