@@ -35,6 +35,8 @@ class Run:
     zero_mm: float = 0.0  # scale zero offset in the file [mm]
     name: str = ""
     extra: dict = field(default_factory=dict)
+    hold: float = 0.0  # standstill [s] added after the pass, holding one current (see columns)
+    clip: float | None = None  # |current| clipped at this [A] (a recorder's range)
 
 
 def te_of(x: np.ndarray, d: int, F: float) -> np.ndarray:
@@ -62,12 +64,25 @@ def columns(run: Run, rate: float = 1000.0) -> dict[str, np.ndarray]:
     moving = (s > 0) & (s < 1)
     torque = np.where(moving, run.direction * F * BENCH.r_eff / 0.95 + run.direction * BENCH.T_Cm, 0.0)
     torque = torque + 0.01 * np.sin(2 * np.pi * t * 3.3)
+    current = torque / K_T
+    if run.hold > 0:
+        # a CNC's standstill: the drive holds the load with one quantised current (1 mA) before
+        # the pass and for ``hold`` s after it (finding TH12)
+        extra = np.arange(1, int(round(run.hold * rate)) + 1) / rate
+        t = np.concatenate((t, t[-1] + extra))
+        x = np.concatenate((x, np.full(extra.size, x[-1])))
+        theta = np.concatenate((theta, np.full(extra.size, theta[-1])))
+        moving = np.concatenate((moving, np.zeros(extra.size, bool)))
+        current = np.concatenate((current, np.zeros(extra.size)))
+        current[~moving] = round(0.5 * run.direction * F * BENCH.r_eff / K_T, 3)
+    if run.clip is not None:
+        current = np.clip(current, -run.clip, run.clip)
     return {
         "time_ms": t * 1e3,
         "pos_set_mm": x * 1e3,
         "pos_scale_mm": x * 1e3 + run.zero_mm,
         "enc_motor": np.rint(run.sign * theta * CPR / (2 * math.pi)),
-        "current_A": torque / K_T,
+        "current_A": current,
     }
 
 

@@ -109,8 +109,23 @@ VELOCITY_SCALE_FACTOR = 1.5
 VELOCITY_SCALE_MIN_R2 = 0.9
 
 #: A torque/force column is "saturated" when at least this fraction of samples sits
-#: exactly at its maximum or minimum, in runs of at least SATURATION_MIN_RUN samples.
+#: exactly at its maximum or minimum while the axis moves, in runs of at least
+#: SATURATION_MIN_RUN samples (a run held at standstill is a dwell: :data:`DWELL_SPEED`).
 SATURATION_FRACTION = 0.02
+#: A run of samples at a torque/force extreme is a *dwell*, not clipping, when every position
+#: column that moves in the recording (:data:`DWELL_POSITIONS`) travels over the run at most this
+#: fraction of the recording's mean speed (its range over the run ≤ DWELL_SPEED × run samples ×
+#: its range over the recording / (samples − 1)): the axis stands still and the drive holds a
+#: constant current (finding TH12: a stroke end held for 1.5 s at one quantised current value,
+#: 9.1 % of a pass, was refused as "clipped recording?"). A run while the axis moves at the pass
+#: speed gives ≥ 1 (the recording's mean speed counts its standstills too); a clip at the
+#: reversal of an oscillation, where the speed passes zero, gives 0.39 ωτ for a run of τ (one
+#: period recorded, more periods give more) — below 1 % only for runs shorter than 0.4 % of
+#: the period, which stay under SATURATION_FRACTION. docs/assumptions.md, "Saturation".
+DWELL_SPEED = 0.01
+#: Position columns whose standstill makes a run at a torque extreme a dwell (motor, load, linear
+#: scale, set position); a recording without any of them moving has no dwell.
+DWELL_POSITIONS = ("theta_m", "theta_l", "x_T", "x_d")
 #: Columns that may be constant: a load that stays inside the deadzone (quantised encoder)
 #: is a legitimate recording — the estimator's verdict says so, it is not a loading error.
 MAY_STAND_STILL = ("theta_l", "omega_l")
@@ -672,23 +687,141 @@ def _check_signals(
                 f"constant signal (every sample is {a[0]:.6g})", path=path, column=src, row=0, rows=rows
             )
         if name.startswith("torque") or name.startswith("F_"):
+            positions = {p: cols[p] for p in DWELL_POSITIONS if p in cols}
             for ext, label in ((a.max(), "maximum"), (a.min(), "minimum")):
                 at = a == ext
-                frac = at.mean()
-                if frac < SATURATION_FRACTION:
-                    continue
-                # longest run at the extreme
-                edges = np.diff(np.concatenate(([0], at.view(np.int8), [0])))
-                starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-                if (stops - starts).max() >= SATURATION_MIN_RUN:
-                    raise DataError(
-                        f"saturated signal: {frac:.1%} of samples sit at the {label} {ext:.6g}"
-                        " (clipped recording?)",
-                        path=path,
-                        column=src,
-                        row=int(starts[0]),
-                        rows=rows,
-                    )
+                if at.mean() < SATURATION_FRACTION:
+                    continue  # fewer at the extreme than the rule needs, dwells or not
+                runs = ExtremeRuns(positions)
+                runs.feed(at, positions, 0)
+                raise_saturated(runs, a.size, label, float(ext), path, src, rows)
+
+
+class ExtremeRuns:
+    """Runs of samples at one extreme of a torque/force column, fed in chunks (the loader feeds
+    the whole column once, :class:`~drivelash.io.stream.TraceStream` chunk by chunk: one rule).
+
+    Each run keeps its length, its first row and the range each position column (``names``, of
+    :data:`DWELL_POSITIONS`) covers over it; :meth:`clipped` classifies the runs once the whole
+    recording was fed: a run over which no moving position travels faster than
+    :data:`DWELL_SPEED` × the recording's mean speed is a dwell (the axis stands still holding a
+    current), every other run counts as clipping.
+
+    Parameters
+    ----------
+    names : iterable of str
+        The position columns fed with every chunk.
+    """
+
+    def __init__(self, names: Iterable[str]) -> None:
+        self.names = list(names)
+        self.n = 0
+        self.lengths: list[np.ndarray] = []
+        self.starts: list[np.ndarray] = []
+        self.spans: dict[str, list[np.ndarray]] = {p: [] for p in self.names}
+        self.lo = dict.fromkeys(self.names, math.inf)
+        self.hi = dict.fromkeys(self.names, -math.inf)
+        # the run still open at the end of the last chunk: [length, start, {name: (lo, hi)}]
+        self.open: tuple[int, int, dict[str, tuple[float, float]]] | None = None
+
+    def feed(self, hit: np.ndarray, positions: Mapping[str, np.ndarray], row0: int) -> None:
+        """One chunk: ``hit`` marks the samples at the extreme, ``positions`` the position columns
+        (SI, unwrapped) of the same rows, ``row0`` the row of its first sample."""
+        m = hit.size
+        self.n += m
+        for p in self.names:
+            x = positions[p]
+            if m:
+                self.lo[p], self.hi[p] = min(self.lo[p], float(x.min())), max(self.hi[p], float(x.max()))
+        if not hit.any():
+            self._close()
+            return
+        edges = np.diff(np.concatenate(([0], hit.view(np.int8), [0])))
+        starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+        lengths = stops - starts
+        # the range of each position over each run: reduceat over [start, stop) pairs
+        idx = np.column_stack((starts, stops)).ravel()
+        rng: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        # a run that ends where the chunk ends has stop == m: one sentinel sample makes it an index
+        for p in self.names:
+            x = np.append(positions[p], 0.0)
+            rng[p] = (np.minimum.reduceat(x, idx)[::2], np.maximum.reduceat(x, idx)[::2])
+        seg = {p: (lo, hi) for p, (lo, hi) in rng.items()}
+        first = 0
+        if self.open is not None:
+            if starts[0] == 0:  # the open run goes on into this chunk
+                k, s0, r = self.open
+                r = {p: (min(r[p][0], float(seg[p][0][0])), max(r[p][1], float(seg[p][1][0]))) for p in r}
+                self.open = (k + int(lengths[0]), s0, r)
+                if stops[0] == m:  # and on past it
+                    return
+                first = 1
+            self._close()
+        last = len(starts) - 1 if stops[-1] == m else len(starts)  # a run reaching the end stays open
+        if first < last:
+            self._keep(
+                lengths[first:last],
+                row0 + starts[first:last],
+                {p: (lo[first:last], hi[first:last]) for p, (lo, hi) in seg.items()},
+            )
+        if last < len(starts):
+            self.open = (
+                int(lengths[last]),
+                row0 + int(starts[last]),
+                {p: (float(lo[last]), float(hi[last])) for p, (lo, hi) in seg.items()},
+            )
+
+    def _keep(
+        self, lengths: np.ndarray, starts: np.ndarray, rng: Mapping[str, tuple[np.ndarray, np.ndarray]]
+    ) -> None:
+        self.lengths.append(np.asarray(lengths, dtype=np.int64))
+        self.starts.append(np.asarray(starts, dtype=np.int64))
+        for p in self.names:
+            self.spans[p].append(np.asarray(rng[p][1] - rng[p][0], dtype=np.float64))
+
+    def _close(self) -> None:
+        if self.open is not None:
+            k, s0, r = self.open
+            self._keep(
+                np.array([k]), np.array([s0]), {p: (np.array([r[p][0]]), np.array([r[p][1]])) for p in r}
+            )
+            self.open = None
+
+    def clipped(self) -> tuple[int, int, int | None]:
+        """``(samples, longest run, first row)`` of the runs that are not dwells (after the last
+        chunk); ``first row`` None when there is none."""
+        self._close()
+        if not self.lengths:
+            return 0, 0, None
+        lengths, starts = np.concatenate(self.lengths), np.concatenate(self.starts)
+        moving = [p for p in self.names if self.hi[p] - self.lo[p] > 0]
+        dwell = np.ones(lengths.size, dtype=bool) if moving else np.zeros(lengths.size, dtype=bool)
+        for p in moving:
+            per_sample = DWELL_SPEED * (self.hi[p] - self.lo[p]) / max(self.n - 1, 1)
+            dwell &= np.concatenate(self.spans[p]) <= per_sample * lengths
+        keep = ~dwell
+        if not keep.any():
+            return 0, 0, None
+        return int(lengths[keep].sum()), int(lengths[keep].max()), int(starts[keep][0])
+
+
+def raise_saturated(
+    runs: ExtremeRuns, n: int, label: str, ext: float, path: str, column: str, rows: DataRows
+) -> None:
+    """Refuse a torque/force column clipped at ``ext`` (its ``label``: ``"maximum"`` or
+    ``"minimum"``): at least :data:`SATURATION_FRACTION` of the ``n`` samples sit there outside
+    dwells, in a run of at least :data:`SATURATION_MIN_RUN` (the loader's and the stream's text)."""
+    count, best, start = runs.clipped()
+    frac = count / n if n else 0.0
+    if start is None or frac < SATURATION_FRACTION or best < SATURATION_MIN_RUN:
+        return
+    raise DataError(
+        f"saturated signal: {frac:.1%} of samples sit at the {label} {ext:.6g} (clipped recording?)",
+        path=path,
+        column=column,
+        row=start,
+        rows=rows,
+    )
 
 
 def _check_units(

@@ -481,13 +481,14 @@ class TraceStream:
         from drivelash.io._seam import SeamScan
         from drivelash.io._velscale import VelocityScaleFit
         from drivelash.io.load import (
+            DWELL_POSITIONS,
             MAY_STAND_STILL,
-            SATURATION_FRACTION,
-            SATURATION_MIN_RUN,
             SIGNAL_COLUMNS,
+            ExtremeRuns,
             check_position_spans,
             check_unit_ratio,
             check_velocity_scale,
+            raise_saturated,
             raise_seam,
         )
 
@@ -527,9 +528,8 @@ class TraceStream:
             spans()
             return
         k = max(1, min(25, self.n_samples // 50))
-        sat_state = {
-            n: {"hi": [0, 0, 0, None], "lo": [0, 0, 0, None]} for n in sat
-        }  # count, run, best, start
+        dwell = [p for p in DWELL_POSITIONS if p in plan]
+        sat_state = {n: {key: ExtremeRuns(dwell) for key in ("hi", "lo")} for n in sat}
         units = {s: _UnitAcc(k) for s in pairs}
         seams = {s: SeamScan(plan[f"theta_{s}"].source) for s in pairs}
         scales = {s: VelocityScaleFit() for s in pairs}
@@ -537,25 +537,16 @@ class TraceStream:
             for n in sat:
                 a = ch[n]
                 for key, ext in (("hi", stats[n].hi), ("lo", stats[n].lo)):
-                    _runs(sat_state[n][key], a == ext, ch.row0)
+                    sat_state[n][key].feed(a == ext, {p: ch[p] for p in dwell}, ch.row0)
             for s, acc in units.items():
                 acc.feed(ch["t"], ch[f"theta_{s}"], ch[f"omega_{s}"], ch.row0)
                 seams[s].feed(ch["t"], ch[f"theta_{s}"], ch[f"omega_{s}"], ch.row0)
                 scales[s].feed(ch["t"], ch[f"theta_{s}"], ch[f"omega_{s}"])
-        n_all = self.n_samples
         for n in sat:
             for key, label, ext in (("hi", "maximum", stats[n].hi), ("lo", "minimum", stats[n].lo)):
-                count, _run, best, start = sat_state[n][key]
-                frac = count / n_all
-                if frac >= SATURATION_FRACTION and best >= SATURATION_MIN_RUN:
-                    raise DataError(
-                        f"saturated signal: {frac:.1%} of samples sit at the {label} {ext:.6g}"
-                        " (clipped recording?)",
-                        path=spath,
-                        column=plan[n].source,
-                        row=int(start),
-                        rows=self._src.rows,
-                    )
+                raise_saturated(
+                    sat_state[n][key], self.n_samples, label, ext, spath, plan[n].source, self._src.rows
+                )
         spans()
         for s, acc in units.items():
             acc.finish()
@@ -715,25 +706,6 @@ def _median_of_counts(counts: dict[float, int]) -> float:
     lo = vals[int(np.searchsorted(cum, (total - 1) // 2, side="right"))]
     hi = vals[int(np.searchsorted(cum, total // 2, side="right"))]
     return float(np.median(np.array([lo, hi]))) if total % 2 == 0 else float(hi)
-
-
-def _runs(state: list, hit: np.ndarray, row0: int) -> None:
-    """Count of hits, the current run, the longest run and the first run's start, across chunks."""
-    count, run, best, start = state
-    count += int(hit.sum())
-    if hit.any():
-        if start is None:
-            start = row0 + int(np.flatnonzero(hit)[0])
-        edges = np.diff(np.concatenate(([0], hit.view(np.int8), [0])))
-        starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-        lengths = stops - starts
-        if starts[0] == 0:
-            lengths[0] += run
-        best = max(best, int(lengths.max()))
-        run = int(lengths[-1]) if stops[-1] == hit.size else 0
-    else:
-        run = 0
-    state[:] = [count, run, best, start]
 
 
 class _UnitAcc:
