@@ -93,8 +93,11 @@ def standard_runs(loads=(0.0, 1000.0, 2000.0, 3000.0), velocity: float = 0.1) ->
     return runs
 
 
-def write_axis(out: Path, runs: list[Run], extra_toml: str = "") -> Path:
-    """CSV files and ``axis.toml`` of ``runs`` in ``out``; returns the axis file."""
+def write_axis(
+    out: Path, runs: list[Run], extra_toml: str = "", current_unit: str = "A", declared: str | None = None
+) -> Path:
+    """CSV files and ``axis.toml`` of ``runs`` in ``out``; returns the axis file (the current
+    written in ``current_unit``, "A" or "mA", and declared as ``declared``, default the same)."""
     out.mkdir(parents=True, exist_ok=True)
     b = BENCH
     lines = [
@@ -104,11 +107,13 @@ def write_axis(out: Path, runs: list[Run], extra_toml: str = "") -> Path:
         "[columns.pos_set_mm]", 'column = "x_d"', 'unit = "mm"',
         "[columns.pos_scale_mm]", 'column = "x_T"', 'unit = "mm"',
         "[columns.enc_motor]", 'column = "theta_m"', 'unit = "counts"', f"counts_per_rev = {CPR}",
-        "[columns.current_A]", 'column = "torque_m"', 'unit = "A"', f"torque_constant = {K_T!r}",
+        "[columns.current_A]", 'column = "torque_m"', f'unit = "{declared or current_unit}"',
+        f"torque_constant = {K_T!r}",
     ]  # fmt: skip
     for i, r in enumerate(runs):
         name = r.name or f"run{i:02d}_{r.kind}_{r.load:g}_{'pos' if r.direction > 0 else 'neg'}.csv"
         cols = columns(r)
+        cols["current_A"] = cols["current_A"] * {"A": 1.0, "mA": 1e3}[current_unit]
         with (out / name).open("w") as fh:
             fh.write(",".join(cols) + "\n")
             for row in zip(*cols.values(), strict=True):

@@ -120,6 +120,7 @@ UNIT_KIND: dict[str, str] = {
     "Nm": "torque",
     "N": "force",
     "A": "current",
+    "mA": "current",  # a CNC's current trace in milliamps (×1e-3, then torque_constant)
     "V": "voltage",
     "1": "dimensionless",
 }
@@ -390,11 +391,15 @@ BacklashSection = section(BacklashParams, optional=("delta",))
 EstimatorSection = section(EstimatorConfig, overrides=True)
 
 
-#: ``[columns]`` conversion keys and the one unit that applies each (key, unit, what it converts).
-_FACTOR_UNITS = (
-    ("gain", "V", "a voltage times gain is the torque/force"),
-    ("torque_constant", "A", "a current times torque_constant is the torque/force"),
-    ("counts_per_rev", "counts", "encoder counts per revolution"),
+#: The units of a current column (:data:`UNIT_KIND` "current"): ``torque_constant`` turns them into
+#: a torque/force (``unit = "mA"``: ×1e-3 to A first).
+CURRENT_UNITS = tuple(u for u, kind in UNIT_KIND.items() if kind == "current")
+
+#: ``[columns]`` conversion keys and the units that apply each (key, units, what it converts).
+_FACTOR_UNITS: tuple[tuple[str, tuple[str, ...], str], ...] = (
+    ("gain", ("V",), "a voltage times gain is the torque/force"),
+    ("torque_constant", CURRENT_UNITS, "a current times torque_constant is the torque/force"),
+    ("counts_per_rev", ("counts",), "encoder counts per revolution"),
 )
 
 
@@ -412,7 +417,8 @@ class ColumnMap(Table):
         Encoder counts per revolution, required with ``unit = "counts"``.
     torque_constant : float, optional
         Motor torque constant [N·m/A] (or [N/A] on a prismatic axis), required
-        with ``unit = "A"``.
+        with a current unit, ``unit = "A"`` or ``unit = "mA"`` (milliamps: ×1e-3 first;
+        the constant stays per ampere).
     gain : float or str, optional
         Scale of a ``V`` signal into torque/force [N·m/V or N/V], required with
         ``unit = "V"``; a string names a scalar stored in the same file (e.g.
@@ -457,11 +463,12 @@ class ColumnMap(Table):
         # a conversion factor only the unit that needs it applies: given with another unit it
         # would change nothing (session 31 tester C, C6: EMPS force declared "N" with
         # gain = "gtau" gave M = 2.7 kg instead of 95.1, no word)
-        for key, unit, what in _FACTOR_UNITS:
-            if getattr(self, key) is not None and self.unit != unit:
+        for key, units, what in _FACTOR_UNITS:
+            if getattr(self, key) is not None and self.unit not in units:
+                named = " or ".join(repr(u) for u in units)
                 raise ValueError(
-                    f"{key} applies only with unit = {unit!r} ({what}), got unit = {self.unit!r}:"
-                    f" declare unit = {unit!r} for the raw column, or drop {key} (use scale for a"
+                    f"{key} applies only with unit = {named} ({what}), got unit = {self.unit!r}:"
+                    f" declare unit = {named} for the raw column, or drop {key} (use scale for a"
                     " plain factor)"
                 )
         return self

@@ -61,6 +61,8 @@ _TO_SI: dict[str, float] = {
     "N*m": 1.0,
     "Nm": 1.0,
     "N": 1.0,
+    "A": 1.0,
+    "mA": 1e-3,
     "1": 1.0,
 }
 
@@ -222,10 +224,14 @@ def _factor(cm: ColumnMap, table: RawTable, source: str, warnings: list[str] | N
         if cm.counts_per_rev is None:
             raise DataError("unit 'counts' needs counts_per_rev in [columns]", path=path, column=source)
         return 2.0 * math.pi / cm.counts_per_rev
-    if cm.unit == "A":
+    if UNIT_KIND[cm.unit] == "current":  # A or mA: to amperes, times the torque constant [N·m/A]
         if cm.torque_constant is None:
-            raise DataError("unit 'A' needs torque_constant in [columns]", path=path, column=source)
-        return cm.torque_constant
+            raise DataError(
+                f"unit {cm.unit!r} needs torque_constant (N·m/A or N/A) in [columns]",
+                path=path,
+                column=source,
+            )
+        return _TO_SI[cm.unit] * cm.torque_constant
     if cm.unit == "V":
         g = cm.gain
         if g is None:

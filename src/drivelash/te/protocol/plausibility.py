@@ -1286,12 +1286,13 @@ def _unit_slip_message(slope: float, r_eff: float, d: int, lr: Sequence[tuple[fl
     if abs(math.log10(k / 1e3)) < math.log10(2):
         why = (
             "the loads look like kN given as N (state load in N in [[runs]]; max load and the training"
-            " loads are counted in N), or torque_m is 1000× too large (its unit or torque_constant)"
+            " loads are counted in N), or torque_m is 1000× too large (a current in mA declared as unit ="
+            ' "A", or its torque_constant)'
         )
     elif abs(math.log10(k * 1e3)) < math.log10(2):
         why = (
-            "the loads look like N given as kN ×1000 or torque_m is 1000× too small (mA read as A,"
-            " its unit or torque_constant)"
+            "the loads look like N given as kN ×1000 or torque_m is 1000× too small (a current in A"
+            ' declared as unit = "mA", or its torque_constant)'
         )
     else:
         why = "no gear efficiency explains it: the unit of the loads in [[runs]] (N) or of torque_m"
