@@ -58,8 +58,10 @@ def test_scale_zero_offset_is_an_error_with_the_offset_to_set():
     rep = _check(runs)
     f = _one(rep, "zero")
     assert f.level == "error" and f.file == "run00.csv"
-    # the measured TE is the 1234.5 mm zero plus the true TE of the drive (-16 µm on this run)
-    assert re.search(r"TE is \+1234\.4\d\d mm", f.message) and "offset = -1.2344" in f.message
+    # the measured TE is the 1234.5 mm zero plus the true TE of the drive (-16 µm on this run); the
+    # offset is the zero all ten runs share, the drive's TE cancelled between the directions
+    # (session 36, TH13 b: before, this run's own -1.23448 m)
+    assert re.search(r"TE is \+1234\.4\d\d mm", f.message) and "offset = -1.2345 (m)" in f.message
     with pytest.raises(DataError, match=r"run00.csv: implausible campaign: TE is \+1234\.4"):
         rep.raise_errors()
 

@@ -96,7 +96,8 @@ def test_a_scale_out_of_its_frame_still_gets_the_x_t_advice():
     """The scale itself shifted (zero_mm) and out of the frame: the x_T offset is the fix."""
     runs = [dataclasses.replace(r, **SHORT, zero_mm=1234.5) for r in standard_runs()]
     f = _found(_check(_records(runs)), "zero")[0]
-    assert "offset = -1.2344" in f.message and "on the x_T column" in f.message
+    # the zero of all runs (1234.5 mm), not the first run's median (-1.23448 m before session 36)
+    assert "offset = -1.2345 (m)" in f.message and "on the x_T column" in f.message
 
 
 # --- D4: a run that reverses inside ---------------------------------------------------------------------

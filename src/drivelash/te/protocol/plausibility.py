@@ -396,47 +396,133 @@ def _zero_message(
     travel: float | None,
     offsets: dict[str, float] | None,
     peak: float | None = None,
+    zero: float | None = None,
+    basis: str = "",
 ) -> str:
     """The advice for two position zeros that differ by the run's median TE ``med`` [m].
 
     The linear scale reads the machine coordinates the CNC tables are positioned in, so the
-    motor column is the one to shift: θ_M + med/r_eff [rad] makes TE = x_T − θ_M r_eff lose
-    ``med`` (finding D1: the advice on x_T moved the scale, i.e. the tables, by metres). Only when
+    motor column is the one to shift: θ_M + zero/r_eff [rad] makes TE = x_T − θ_M r_eff lose
+    ``zero`` (finding D1: the advice on x_T moved the scale, i.e. the tables, by metres). Only when
     the scale itself lies outside the axis's frame (beyond travel from zero) and shifting it by
-    −med brings it in is the x_T column named.
+    −zero brings it in is the x_T column named. ``zero`` [m] is the zero the runs share
+    (:func:`_zero_advice`; default ``med``), ``basis`` what it rests on (appended to the advice).
     """
+    zero = med if zero is None else zero
     offsets = offsets or {}
     lo, hi = x_range
-    # a median within the limit whose run reaches beyond it (``peak`` [m]) is named by the peak:
-    # "TE is +0.990 mm (limit 1 mm)" read as a contradiction (session 34 last read)
-    said = (
-        f"TE reaches {peak * 1e3:.3f} mm (median {med * 1e3:+.3f} mm"
-        if peak is not None and abs(med) <= ZERO_ERROR < peak
-        else f"TE is {med * 1e3:+.3f} mm ("
-    )
-    head = (
-        f"{said}{'; ' if said.endswith('mm') else ''}limit {ZERO_ERROR * 1e3:g} mm, te export's for a"
-        " no-load TE): the linear scale and the motor position have different zeros"
-    )
+    head = f"{_zero_said(med, peak)}: the linear scale and the motor position have different zeros"
     if (
         travel is not None
         and not _in_frame(lo, hi, travel, FRAME_WARN)
-        and _in_frame(lo - med, hi - med, travel, FRAME_WARN)
+        and _in_frame(lo - zero, hi - zero, travel, FRAME_WARN)
     ):
         now = offsets.get("x_T", 0.0)
         was = f" (now {now:g})" if now else ""
         return (
             f"{head}, and x_T lies at {lo:.4g} … {hi:.4g} m, beyond the travel ({travel:g} m) of any"
-            f" machine frame — the scale's zero is off: set offset = {now - med:.6g} (m){was} on the x_T"
-            " column in [columns] or home both"
+            f" machine frame — the scale's zero is off: set offset = {now - zero:.6g} (m){was} on the x_T"
+            f" column in [columns] or home both{basis}"
         )
     now = offsets.get("theta_m", 0.0)
     was = f" (now {now:g})" if now else ""
     return (
         f"{head} — the scale gives the machine coordinates of the tables: set offset ="
-        f" {now + med / r_eff:.6f} (rad){was} on the theta_m column in [columns] (the motor encoder's"
-        " zero to the scale's) or home both"
+        f" {now + zero / r_eff:.6f} (rad){was} on the theta_m column in [columns] (the motor encoder's"
+        f" zero to the scale's) or home both{basis}"
     )
+
+
+def _zero_said(med: float, peak: float | None) -> str:
+    """``TE is +2.025 mm (limit 1 mm, te export's for a no-load TE)``: a run's TE against the zero
+    limit. A median within the limit whose run reaches beyond it (``peak`` [m]) is named by the
+    peak: "TE is +0.990 mm (limit 1 mm)" read as a contradiction (session 34 last read)."""
+    said = (
+        f"TE reaches {peak * 1e3:.3f} mm (median {med * 1e3:+.3f} mm"
+        if peak is not None and abs(med) <= ZERO_ERROR < peak
+        else f"TE is {med * 1e3:+.3f} mm ("
+    )
+    sep = "; " if said.endswith("mm") else ""
+    return f"{said}{sep}limit {ZERO_ERROR * 1e3:g} mm, te export's for a no-load TE)"
+
+
+def _te_level(items: Sequence[tuple[RunRecord, float]]) -> tuple[float, list[int]] | None:
+    """The constant part of the TE from runs and their median TE [m]: per direction the median of
+    its geometric runs (else of its lowest-load runs), the mean over the directions — the
+    backlash ±b/2 cancels between them. Returns it and the directions it rests on; None without a
+    geometric or load run of either direction. One rule for the zero advice and the constant part."""
+    levels, dirs = [], []
+    for d in (1, -1):
+        rr = [(r, m) for r, m in items if r.direction == d and r.kind in ("geometric", "load")]
+        if not rr:
+            continue
+        geo = [m for r, m in rr if r.kind == "geometric"]
+        if not geo:
+            low = min(r.load for r, _ in rr)
+            geo = [m for r, m in rr if r.load == low]
+        levels.append(float(np.median(geo)))
+        dirs.append(d)
+    return (float(np.mean(levels)), dirs) if levels else None
+
+
+def _zero_advice(
+    rep: PlausibilityReport,
+    errors: Sequence[tuple[int, RunRecord, float, tuple[float, float], float]],
+    seen: Sequence[tuple[RunRecord, float]],
+    r_eff: float,
+    travel: float | None,
+    offsets: dict[str, float] | None,
+) -> None:
+    """The messages of the zero errors, once every run's median TE is known.
+
+    An offset in ``[columns]`` applies to every file, so it is advised only as the zero the runs
+    share (session 36, tester H, TH13 b: one run of ten homed 2 mm off got "set offset = 0.763463
+    (rad) on the theta_m column", which would have moved the nine others 2 mm off):
+
+    * the run agrees (within :data:`MIXED_ERROR`) with at least one other run: the offset of the
+      zero of the runs that agree (:func:`_te_level`), named with their number and TE range;
+    * it is the only run that reached the check: its own median, said to rest on this run alone;
+    * every other run sits at another zero: mixed zeros, no offset — home and record it again.
+
+    Parameters
+    ----------
+    rep : PlausibilityReport
+        Its zero findings (indices in ``errors``) are rewritten.
+    errors : sequence
+        Per zero error: finding index, run, median TE [m], x_T range [m], |TE| peak [m].
+    seen : sequence of (RunRecord, float)
+        Every run that reached the zero check and its median TE [m].
+    r_eff, travel, offsets
+        As for :func:`_zero_message`.
+    """
+    for k, r, med, x_range, peak in errors:
+        agree = [(o, m) for o, m in seen if abs(m - med) <= MIXED_ERROR]
+        others = [m for o, m in seen if o is not r]
+        if len(agree) >= 2:
+            level = _te_level(agree)
+            zero = level[0] if level is not None else float(np.median([m for _, m in agree]))
+            meds = [m for _, m in agree]
+            rest = len(seen) - len(agree)
+            basis = (
+                f" (the zero of the {len(agree)} runs that share it, median TE {min(meds) * 1e3:+.3f} …"
+                f" {max(meds) * 1e3:+.3f} mm"
+                + (f"; {rest} other run(s) sit at another zero: mixed zeros" if rest else "")
+                + ")"
+            )
+            msg = _zero_message(med, r_eff, x_range, travel, offsets, peak, zero, basis)
+        elif not others:
+            basis = " (from this run alone: no other run confirms the zero)"
+            msg = _zero_message(med, r_eff, x_range, travel, offsets, peak, med, basis)
+        else:
+            o_lo, o_hi = min(others), max(others)
+            msg = (
+                f"{_zero_said(med, peak)}: this run's zero differs from the {len(others)} other run(s)"
+                f" (median TE {o_lo * 1e3:+.3f} … {o_hi * 1e3:+.3f} mm): mixed position zeros (homed in"
+                " between?) — an offset in [columns] applies to every file: home and record this run"
+                " again, or leave it out of [[runs]]"
+            )
+        f = rep.findings[k]
+        rep.findings[k] = Finding(f.level, f.check, f.file, msg)
 
 
 def _contact_ratio(geometry: Any, source: str, add: Any) -> None:
@@ -671,6 +757,8 @@ def check_runs(
     lam_c = tooth_pitch / cutoff_factor  # shortest wavelength the model keeps [m]
     per_run: list[dict[str, Any]] = []
     starts: list[tuple[float, float, float]] = []  # (θ_M, x_T at the first sample, median TE) per run
+    zero_seen: list[tuple[RunRecord, float]] = []  # every run that reached the zero check: median TE
+    zero_errors: list[tuple[int, RunRecord, float, tuple[float, float], float]] = []
     for r in runs:
         x, th, tq, t = (np.asarray(a, dtype=np.float64) for a in (r.x_T, r.theta_m, r.torque_m, r.t))
         x_M = th * r_eff
@@ -747,9 +835,11 @@ def check_runs(
             )
         # 2. the two position zeros
         starts.append((float(th[0]), float(x[0]), med))
+        zero_seen.append((r, med))
         peak = float(np.max(np.abs(te[mv]))) if r.kind == "geometric" else abs(med)
         if abs(med) > ZERO_ERROR or peak > ZERO_ERROR:
-            add("error", "zero", r.label, _zero_message(med, r_eff, (lo, hi), travel, column_offsets, peak))
+            zero_errors.append((len(rep.findings), r, med, (lo, hi), peak))
+            add("error", "zero", r.label, "")  # the advice once every run is read: _zero_advice
             info["gross"] = True
             continue
         if abs(med) > ZERO_WARN:
@@ -857,6 +947,7 @@ def check_runs(
                 f" {_sign_advice('torque_m', column_scales)}",
             )
     rep.runs = per_run
+    _zero_advice(rep, zero_errors, zero_seen, r_eff, travel, column_offsets)
     _minority(rep, per_run)
     _single_turn(starts, r_eff, rep, source)
     _frame(per_run, travel, column_offsets, source, add)
@@ -1012,22 +1103,20 @@ def _minority(rep: PlausibilityReport, per_run: Sequence[dict[str, Any]]) -> Non
 def _constant_part(
     judged: Sequence[tuple[RunRecord, Any]], r_eff: float, rep: PlausibilityReport, source: str, add: Any
 ) -> None:
-    """The constant part of the TE (:data:`CONSTANT_TE_WARN`), stored in ``rep.constant_te``."""
-    levels = []
-    for d in (1, -1):
-        rr = [(r, i) for r, i in judged if r.direction == d and r.kind in ("geometric", "load")]
-        if not rr:
-            continue
-        geo = [i["te_median_m"] for r, i in rr if r.kind == "geometric"]
-        if not geo:
-            low = min(r.load for r, _ in rr)
-            geo = [i["te_median_m"] for r, i in rr if r.load == low]
-        levels.append(float(np.median(geo)))
-    if not levels:
+    """The constant part of the TE (:data:`CONSTANT_TE_WARN`), stored in ``rep.constant_te``.
+
+    From both directions the backlash ±b/2 cancels and the warning advises the theta_m offset;
+    from one direction alone (passes recorded to be scored) it holds that direction's b/2, so the
+    warning says what it rests on and gives no offset (session 36, TH13 b: the offset advised
+    from one pass as if the campaign had established it)."""
+    level = _te_level([(r, i["te_median_m"]) for r, i in judged])
+    if level is None:
         return
-    c = float(np.mean(levels))
+    c, dirs = level
     rep.constant_te = c
-    if abs(c) > CONSTANT_TE_WARN:
+    if abs(c) <= CONSTANT_TE_WARN:
+        return
+    if len(dirs) == 2:
         add(
             "warning",
             "zero",
@@ -1037,6 +1126,18 @@ def _constant_part(
             f" counts), add {c / r_eff:+.6f} rad to the offset of the theta_m column in [columns] or home"
             " both",
         )
+        return
+    d = dirs[0]
+    used = [r.label for r, _ in judged if r.direction == d and r.kind in ("geometric", "load")]
+    runs = f"1 run, {Path(used[0]).name}" if len(used) == 1 else f"{len(used)} runs"
+    add(
+        "warning",
+        "zero",
+        source,
+        f"the TE's constant part is {c * 1e6:+.1f} um from direction {d:+d} alone ({runs}): it holds"
+        " half the backlash, which only the other direction cancels — record a pass in direction"
+        f" {-d:+d} before offsetting the theta_m column (the CNC tables take the constant part as it is)",
+    )
 
 
 def _measured_under_load(
