@@ -138,9 +138,10 @@ def run_update(
             errors["held_out"] = update_errors(model, trained, {k: v for k, v in held.items() if v})
         worse = worse_splits(errors)
         if worse and not accept_worse:
+            cause = worse_cause(train, held, model)
             raise DataError(
-                f"the update makes the model worse ({'; '.join(worse)}): nothing written;"
-                " give --accept-worse to write it anyway, or refit with te fit",
+                f"the update makes the model worse ({'; '.join(worse)}){f' — {cause}' if cause else ''}:"
+                " nothing written; give --accept-worse to write it anyway, or refit with te fit",
                 path=str(passes[0]),
             )
         parent = parent_record(model_dir, model.meta)
@@ -204,6 +205,57 @@ def worse_splits(errors: dict[str, dict[str, dict[str, Any]]]) -> list[str]:
             if not a <= b * (1 + WORSE_REL):
                 out.append(f"{names[split]} {key}: TE_def MAE {b:.3f} um before, {a:.3f} um after")
     return out
+
+
+#: The passes' TE_def error against the parent (MAE before the update) growing by more than this
+#: factor from the lightest to the heaviest update pass of a direction (each at least
+#: :data:`LOAD_GROWTH_MIN_UM` at the heaviest) names the cause "the passes' load dependence differs
+#: from the model's": wear is local on the rack and does not scale with the load (the README's
+#: 3 µm defect: the before-MAE is flat over 0 … 3000 N), another axis or drive stiffness does.
+LOAD_GROWTH = 2.0
+LOAD_GROWTH_MIN_UM = 0.5
+
+
+def worse_cause(train: dict[str, list[Any]], held: dict[str, list[Any]], model: Any) -> str:
+    """The measured cause of a worse update, when one is identifiable from the passes, else "".
+
+    In order: held-out loads outside the update passes' load range (the update extrapolates its
+    change to them); a pass error against the parent that grows with the load (by more than
+    :data:`LOAD_GROWTH`: another axis or drive stiffness, not local wear). Session 36 (tester H):
+    the refusal named the MAEs but not why.
+
+    Parameters
+    ----------
+    train, held : dict
+        Processed update and held-out passes per direction (``meta["load"]`` [N]).
+    model : TEModel
+        The parent (``predict_def_um``).
+    """
+    for key in sorted(held):
+        hl = sorted({float(r.meta["load"]) for r in held[key]})
+        tl = sorted({float(r.meta["load"]) for r in train.get(key, [])})
+        out = [f for f in hl if tl and not tl[0] - 1e-6 <= f <= tl[-1] + 1e-6]
+        if out:
+            return (
+                f"the held-out loads {', '.join(f'{f:g}' for f in out)} N ({key}) lie outside the update"
+                f" passes' loads {tl[0]:g} … {tl[-1]:g} N: the update extrapolates its change to them —"
+                " update on passes that span the loads"
+            )
+    for key in sorted(train):
+        rs = sorted(train[key], key=lambda r: float(r.meta["load"]))
+        if len({float(r.meta["load"]) for r in rs}) < 2:
+            continue
+        mae = [
+            float(np.mean(np.abs(model.predict_def_um(r.x, r.torque, r.direction) - r.te_def_um))) for r in rs
+        ]
+        light, heavy = mae[0], mae[-1]
+        if heavy >= LOAD_GROWTH_MIN_UM and heavy > LOAD_GROWTH * light:
+            return (
+                f"the passes differ from the model by {light:.3f} um at {rs[0].meta['load']:g} N and"
+                f" {heavy:.3f} um at {rs[-1].meta['load']:g} N ({key}): a load dependence other than the"
+                " model's (another axis or drive stiffness), which a wear update does not learn"
+            )
+    return ""
 
 
 def format_update(rec: dict[str, Any], out: Path) -> str:
