@@ -107,6 +107,7 @@ class DataError(DrivelashError, ValueError):
         self.path = path
         self.column = column
         self.row = row
+        self.problem = message
         where = []
         if path:
             where.append(str(path))

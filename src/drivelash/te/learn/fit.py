@@ -20,7 +20,15 @@ import numpy as np
 from sklearn.base import clone
 
 from drivelash.errors import DataError
-from drivelash.te.learn.preprocess import UM, GearGeometry, GeometricCurve, RunData, TEPipeline, direction_key
+from drivelash.te.learn.preprocess import (
+    UM,
+    GearGeometry,
+    GeometricCurve,
+    RunData,
+    TEPipeline,
+    direction_key,
+    process_pass,
+)
 from drivelash.te.learn.stacked import StackedTERegressor
 
 __all__ = [
@@ -173,8 +181,9 @@ def prepare_campaign(
         # only where TE_geo was measured (span): beyond the no-load curve it is held flat, and
         # the geometric error there would be learnt as load behaviour (finding A9)
         runs[key] = [
-            pipeline.process(
-                r.trace().columns,
+            process_pass(
+                pipeline,
+                r,
                 d,
                 geo[key],
                 meta={"load": float(r.load), "velocity": float(r.velocity), "name": Path(r.path).stem},

@@ -52,6 +52,7 @@ __all__ = [
     "mesh_cutoff",
     "mesh_frequency",
     "monotone_part",
+    "process_pass",
     "remove_offset",
     "resample_on_grid",
     "transmission_error",
@@ -545,9 +546,14 @@ class TEPipeline:
             "def": lowpass(deformation(grid, c["te"], geo), self.step, self.cutoff, self.filter_order),
             "torque": lowpass(c["torque"], self.step, self.cutoff, self.filter_order),
         }
+        travel = float(grid[-1] - grid[0]) if grid.size else 0.0
         grid, filt = trim_ends(grid, filt, self.trim)
         if grid.size < 8:
-            raise DataError("run shorter than twice the trim length", column="x_T")
+            raise DataError(
+                f"the pass in direction {int(np.sign(direction)):+d} covers {travel * 1e3:.4g} mm at constant"
+                f" velocity, too short for the {self.trim * 1e3:.4g} mm trimmed at each end",
+                column="x_T",
+            )
         te_def = remove_offset(filt["def"], self.offset)
         torque = filt["torque"]
         m["offset_um"] = float(np.mean(filt["def"]) * UM) if self.offset == "mean" else 0.0
@@ -600,3 +606,22 @@ class TEPipeline:
             trim=float(d["trim"]),
             geo_trim=float(d.get("geo_trim", 5e-3)),
         )
+
+
+def process_pass(
+    pipeline: Any,
+    run: Any,
+    direction: int,
+    geo: Any,
+    meta: Mapping[str, Any],
+    span: tuple[float, float] | None = None,
+) -> RunData:
+    """``pipeline.process`` of one campaign pass (:class:`~drivelash.te.protocol.campaign` run),
+    its error naming the pass's file (``te update`` said "column 'x_T': run shorter than twice the
+    trim length" for a 30 mm pass, without saying which of the passes; session 36)."""
+    try:
+        return pipeline.process(run.trace().columns, direction, geo, meta=meta, span=span)
+    except DataError as exc:
+        if exc.path:
+            raise
+        raise DataError(exc.problem, path=str(run.path), column=exc.column, row=exc.row) from None

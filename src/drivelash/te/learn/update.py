@@ -33,7 +33,7 @@ import numpy as np
 
 from drivelash.errors import DataError, ParameterError
 from drivelash.te.learn.fit import TrainedTEModel, stack_runs
-from drivelash.te.learn.preprocess import GeometricCurve, RunData, direction_key
+from drivelash.te.learn.preprocess import GeometricCurve, RunData, direction_key, process_pass
 
 __all__ = [
     "UPDATE_STAGES",
@@ -180,8 +180,9 @@ def runs_for_update(campaign: Any, trained: TrainedTEModel) -> dict[str, list[Ru
         if key not in trained.models:
             continue
         out[key] = [
-            trained.pipeline.process(
-                r.trace().columns,
+            process_pass(
+                trained.pipeline,
+                r,
                 d,
                 trained.geo[key],
                 meta={
