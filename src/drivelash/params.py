@@ -162,7 +162,7 @@ DELTA1_ROUNDING = 1e-12
 
 def rounded_delta1(delta1: float) -> float:
     """``delta1`` [rad or m], with a negative value within :data:`DELTA1_ROUNDING` of 0 read as 0."""
-    return 0.0 if -DELTA1_ROUNDING <= delta1 < 0.0 else delta1
+    return 0.0 if -DELTA1_ROUNDING <= delta1 <= 0.0 else delta1  # −0.0 too: "−0.000 mrad" said nothing
 
 
 def require_positive(obj: object, *names: str) -> None:

@@ -95,10 +95,11 @@ class GapUnit:
         return f"{self.n(x, spec)} {self.symbol}"
 
     def small(self, x: float) -> str:
-        """``x`` [rad or m] as a number with one decimal, or 2 significant digits below 0.1 units
-        (a small angle scale: "±0.0 mrad, more than the 0.0 mrad" said nothing)."""
+        """``x`` [rad or m] as a number with one decimal, or 2 significant digits below 1 unit
+        (a small angle scale: "±0.0 mrad, more than the 0.0 mrad" said nothing; "±0.5 mrad" for
+        0.511 hid a digit: session 36, tester J's J7)."""
         v = self.per_si * float(x)
-        return f"{v:.1f}" if abs(v) >= 0.1 or v == 0.0 else f"{v:.2g}"
+        return f"{v:.1f}" if abs(v) >= 1.0 or v == 0.0 else f"{v:.2g}"
 
 
 #: a rotary axis: angles in rad, written in mrad

@@ -96,3 +96,54 @@ def test_a_computed_zero_delta1_is_zero():
     with pytest.raises(ParameterError, match="delta1"):
         DeadzoneEstimator(dt, -1e-9, tr.T_s)
     assert rounded_delta1(-DELTA1_ROUNDING) == 0.0 and rounded_delta1(-2 * DELTA1_ROUNDING) < 0
+
+
+# --- tester J (session 36) -------------------------------------------------------------
+
+
+def test_small_keeps_two_significant_digits_below_one_unit():
+    """J7: "uncertain by ±0.5 mrad … more than the 0.2 mrad" for a 0.511 mrad half-width."""
+    assert MRAD.small(0.511e-3) == "0.51" and MRAD.small(0.198e-3) == "0.2"
+    assert MRAD.small(1.04e-3) == "1.0" and MRAD.small(0.0) == "0.0"  # controls: ≥ 1, zero
+
+
+def test_a_negative_zero_delta1_prints_as_zero():
+    """J6: δ1 = −0.0 (or −8.5e-22) printed "δ1 = -0.000 mrad"; the summary now holds 0."""
+    assert rounded_delta1(-0.0) == 0.0 and str(rounded_delta1(-0.0)) == "0.0"
+    drive, tr = small_gap_drive(1, 10e-3)
+    s = estimate_backlash(tr, drive.drivetrain(), -8.5e-22).summary
+    assert s["delta1"] == 0.0 and str(s["delta1"]) == "0.0"
+
+
+def test_a_consistent_check_by_the_torque_ratio_says_its_delta1_is_no_evidence(capsys):
+    """J4: bench-0C with its true δ1 = 52.5 mrad printed "δ1 check: consistent (data: 49 mrad)" —
+    a 3.5 mrad difference beyond the 1 mrad floor, "consistent" because the joint law fits the torque
+    clearly worse, and no word of it."""
+    s = SUMMARY | {
+        "delta": 0.105,
+        "delta1": 0.0525,
+        "delta1_used": 0.0525,
+        "delta1_estimate": 0.049,
+        "delta1_check_bound": 0.0,
+        "delta1_check_by_ratio": True,
+    }
+    _print_summary(s)
+    out = " ".join(capsys.readouterr().out.split())
+    assert (
+        "δ1 check: consistent (data: 49 mrad — no evidence against δ1: the joint δ/δ1 law that gives it"
+        " fits the shaft torque clearly worse)"
+    ) in out, out
+
+
+def test_an_unsettled_estimate_says_why_it_is_not_converged():
+    """J5: bench-0C for 4 s — sufficient excitation, δ1 consistent, no warning, "not converged".
+    Now a note names the settling test; negative control: 20 s converge without it."""
+    from drivelash.sim.scenarios import get_scenario
+
+    sc = get_scenario("bench-0C")
+    short = estimate_backlash(sc.simulate(duration=4.0), sc.estimator_drivetrain, 0.0525).summary
+    assert short["excitation_ok"] and not short["converged"]
+    (note,) = [w for w in short["warnings"] if w.startswith("note: δ̂ has not settled")]
+    assert "over the last 4 s, more than the" in note and "band a converged estimate" in note, note
+    full = estimate_backlash(sc.simulate(), sc.estimator_drivetrain, sc.estimator_backlash.delta1).summary
+    assert full["converged"] and not any("has not settled" in w for w in full["warnings"])

@@ -52,7 +52,12 @@ def test_estimate_report_labels_follow_the_axis(monkeypatch, estimates, name, wa
     assert dz.get_xlabel() == f"Δθ = θ_m/N − θ_l [{g}]"
     assert dz.get_ylabel() == f"shaft {want['effort']} [{want['unit']}]"
     line = next(ln for ln in dz.get_lines() if ln.get_label().startswith("deadzone with final δ̂"))
-    assert f"δ1 = {want['per'] * est.summary['delta1_used']:.1f} {g})" in line.get_label()
+    # the gap unit's own formatting: one decimal, two significant digits below 1 (session 36, I5:
+    # the rotary case's δ1 = 0.093 mrad printed "0.1 mrad")
+    from drivelash.units import gap_unit
+
+    d1 = gap_unit(est.trace.meta["axis"]).f(est.summary["delta1_used"], ".1f")
+    assert f"δ1 = {d1})" in line.get_label() and d1.endswith(f" {g}"), line.get_label()
     # the plotted δ̂ is the reported one in the labelled unit
     y = drawn["delta"].axes[0].get_lines()[0].get_ydata()
     assert y[-1] == pytest.approx(want["per"] * _thin(est.result.delta_hat)[0][-1], rel=1e-12)

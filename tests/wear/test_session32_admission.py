@@ -59,7 +59,10 @@ def _axis(thr: float) -> dict:
 def test_blocked_unconverged_estimate_enters_no_trend_and_raises_no_alarm():
     est, true = _bench0b(5.0, 8)  # 1 kHz, K_S 5x: κ at its limit (a blocking warning)
     assert est.excitation_ok and not est.converged
-    assert est.delta - true > 2e-3 and 1.96 * est.summary["delta_std"] < 0.5e-3  # confidently wrong
+    # confidently wrong: the error ten times the 95 % half-width (measured 2.37 mrad against
+    # ±0.08 mrad until session 35; 1.99 against ±0.17 since the Δθ reconstruction's cut-off
+    # follows the velocity noise — K_S 5× makes θ_def 5× smaller, ω_c 31.4 → 36.2 rad/s)
+    assert est.delta - true > 10 * 1.96 * est.summary["delta_std"] > 0
     row = _row(est.result, est.summary["delta_std"])
     assert row["delta_std"] is None and "contact stiffness" in row["reason"].partition(UNCONVERGED_MARK)[2]
     assert not usable(row)

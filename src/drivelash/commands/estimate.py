@@ -228,7 +228,17 @@ def _print_summary(s: dict[str, Any], axis: str | None = None) -> None:
             said = "unsettled law" if s.get("delta1_check_result") == "not settled" else "data"
             d1s = f" ({said}: {k * d1:.3g} {u})" if d1 is not None else ""
             bound = s.get("delta1_check_bound")
-            if s.get("delta1_check_result") == "consistent" and d1 is not None and bound:
+            if (
+                s.get("delta1_check_result") == "consistent"
+                and d1 is not None
+                and s.get("delta1_check_by_ratio")
+            ):
+                # the joint law's δ1 beside a different configured one, no bound: say why (J4)
+                d1s = (
+                    f" (data: {k * d1:.3g} {u} — no evidence against δ1: the joint δ/δ1 law that gives it"
+                    " fits the shaft torque clearly worse)"
+                )
+            elif s.get("delta1_check_result") == "consistent" and d1 is not None and bound:
                 # the data's δ1 beside a different configured one: say why that is "consistent"
                 # and what it costs (I5: "consistent (data: 1.50 mrad)" beside δ1 = 1.800 mrad)
                 d1s = (

@@ -1079,6 +1079,8 @@ def _verdict(
             # wandering 92 mrad over the window — the anchored δ̂ 0.1 mrad from the truth)
             offset_state = "not settled"
         extra["delta1_check_result"] = offset_state
+        # "consistent" because the joint law fits the torque clearly worse: its δ1 is no evidence
+        extra["delta1_check_by_ratio"] = by_ratio
         if d1_unjudged:
             warnings.append(
                 f"the δ1 check cannot decide (its joint δ/δ1 law fits the lower and upper contact "
@@ -1428,6 +1430,16 @@ def _verdict(
             f"({LOW_RATE_INFORMATION_MIN / SIGMA_FRACTION_MIN:.0f}× the minimum): at this rate it depends "
             "on where the samples hit the contact edge — estimate at "
             f"≥ {ONLINE_VERIFIED_RATE_HZ:.4g} Hz, and check K_S (a stated shaft too stiff sharpens the edge)"
+        )
+    if ok and not at_bound and n and not settled:
+        # "not converged" with no warning said nothing (session 36, tester J's J5: bench-0C, 4 s,
+        # δ̂ within its band of the truth): the settling test is named. A note, not a blocking
+        # warning: unsettled is already not converged, and a wear trend takes such an estimate
+        # with its σ widened by the movement (wear.estimate.unconverged_cause)
+        warnings.append(
+            f"note: δ̂ has not settled: it moved {u.f(window_move, '.3g')} over the last {win:.3g} s, "
+            f"more than the {u.f(band, '.3g')} band a converged estimate must stay within — a longer "
+            "recording (more reversals) lets it settle"
         )
     blocking = [w for w in warnings if not w.startswith("note:")]
     converged = bool(ok and settled and not blocking)

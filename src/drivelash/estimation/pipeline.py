@@ -238,12 +238,14 @@ def estimate_summary(cfg: Any, res: Any, motion: Any, samples: int, T_s: float) 
     metres: the names are kept for compatibility, ``units`` says what they hold (session 34,
     tester G, G8: a script could not tell metres from radians). ``gains`` are in the same units.
     """
+    from drivelash.params import rounded_delta1
+
     kind = summary_units(res.extra.get("axis"))
     return {
         "method": res.config.method,
         "axis": kind["axis"],
         "delta": res.delta,
-        "delta1": float(cfg.backlash.delta1),
+        "delta1": rounded_delta1(float(cfg.backlash.delta1)),
         "excitation_ok": res.excitation_ok,
         "reason": res.reason,
         "converged": res.converged,
@@ -353,6 +355,8 @@ def result_summary(res: Any) -> dict[str, Any]:
         # what a δ1 the check called "consistent" (within its floor) may still do to δ̂ [rad]: the
         # κ gain × the difference the check found, a bounded part of the interval (session 36)
         "delta1_check_bound",
+        # "consistent" because the joint law fits the torque clearly worse (its δ1 no evidence)
+        "delta1_check_by_ratio",
         # σ_δ: the scale of the verdict's δ1 floor, band and claim (params.verdict_scale)
         "verdict_scale",
         # an uncertain δ1 (estimate --identify): its std [rad], ∂δ̂/∂δ1 and the part of delta_std
