@@ -125,6 +125,14 @@ SATURATION_FRACTION = 0.02
 #: period recorded, more periods give more) — below 1 % only for runs shorter than 0.4 % of
 #: the period, which stay under SATURATION_FRACTION. docs/assumptions.md, "Saturation".
 DWELL_SPEED = 0.01
+#: … or, when larger, this many of the position column's encoder counts (its smallest non-zero
+#: step between consecutive samples over the recording, measured from the data): a position
+#: controller holding a standstill dithers by a count or two, whatever the run's length (finding
+#: J2: a 1 s hold toggling between two adjacent counts of a 2048-count encoder, 3.07 mrad, was
+#: refused as "clipped recording?" under a speed limit of 2.2 mrad). 2 counts hold a ±1 count
+#: dither; a position recorded finer than its motion (unquantised, resampled) has a tiny step and
+#: keeps the speed rule. docs/assumptions.md, "Saturation".
+DWELL_COUNTS = 2.0
 #: Position columns whose standstill makes a run at a torque extreme a dwell (motor, load, linear
 #: scale, set position); a recording without any of them moving has no dwell.
 DWELL_POSITIONS = ("theta_m", "theta_l", "x_T", "x_d")
@@ -710,8 +718,10 @@ class ExtremeRuns:
     Each run keeps its length, its first row and the range each position column (``names``, of
     :data:`DWELL_POSITIONS`) covers over it; :meth:`clipped` classifies the runs once the whole
     recording was fed: a run over which no moving position travels faster than
-    :data:`DWELL_SPEED` × the recording's mean speed is a dwell (the axis stands still holding a
-    current), every other run counts as clipping.
+    :data:`DWELL_SPEED` × the recording's mean speed — or, when more, than :data:`DWELL_COUNTS`
+    of its encoder counts over the whole run (the smallest non-zero step between consecutive
+    samples, over every chunk and across their boundaries) — is a dwell (the axis stands still
+    holding a current), every other run counts as clipping.
 
     Parameters
     ----------
@@ -727,6 +737,10 @@ class ExtremeRuns:
         self.spans: dict[str, list[np.ndarray]] = {p: [] for p in self.names}
         self.lo = dict.fromkeys(self.names, math.inf)
         self.hi = dict.fromkeys(self.names, -math.inf)
+        # smallest non-zero |step| between consecutive samples (the encoder count) and the last
+        # sample fed, so that a step across a chunk boundary counts as in the whole column
+        self.step = dict.fromkeys(self.names, math.inf)
+        self.last: dict[str, float] = {}
         # the run still open at the end of the last chunk: [length, start, {name: (lo, hi)}]
         self.open: tuple[int, int, dict[str, tuple[float, float]]] | None = None
 
@@ -739,6 +753,11 @@ class ExtremeRuns:
             x = positions[p]
             if m:
                 self.lo[p], self.hi[p] = min(self.lo[p], float(x.min())), max(self.hi[p], float(x.max()))
+                d = np.abs(np.diff(x, prepend=self.last[p]) if p in self.last else np.diff(x))
+                d = d[d > 0]
+                if d.size:
+                    self.step[p] = min(self.step[p], float(d.min()))
+                self.last[p] = float(x[-1])
         if not hit.any():
             self._close()
             return
@@ -804,7 +823,8 @@ class ExtremeRuns:
         dwell = np.ones(lengths.size, dtype=bool) if moving else np.zeros(lengths.size, dtype=bool)
         for p in moving:
             per_sample = DWELL_SPEED * (self.hi[p] - self.lo[p]) / max(self.n - 1, 1)
-            dwell &= np.concatenate(self.spans[p]) <= per_sample * lengths
+            limit = np.maximum(per_sample * lengths, DWELL_COUNTS * self.step[p])
+            dwell &= np.concatenate(self.spans[p]) <= limit
         keep = ~dwell
         if not keep.any():
             return 0, 0, None
