@@ -49,6 +49,12 @@ RATIO_WARN = 1e-3
 ZERO_ERROR = TE_LIMIT
 #: |median TE| of a run: warning beyond [m].
 ZERO_WARN = 0.5e-3
+#: Runs share a position zero (the zero advice, :func:`_zero_advice`): the runs' median TE,
+#: sorted, split where two neighbours lie more than this apart [m] — one partition of the runs,
+#: clustered once; a group spanning more than it has no common zero (drifting zeros). 0.5 mm, the
+#: mixed-zero limit (``MIXED_ERROR``): runs at one zero differ by the backlash (±b/2 between the
+#: directions) and the deflection under load, well under it (seed-0 campaign: 65 µm).
+ZERO_SHARE = 0.5e-3
 #: Travel [m] a pass may go back against its main motion before it counts as reversing inside
 #: the run (out and back in one file, finding D4: blamed on the torque sign). Half a tooth pitch
 #: of the example axes (9.4 … 10 mm): far above a settling overshoot (µm) or scale noise, far
@@ -465,6 +471,31 @@ def _te_level(items: Sequence[tuple[RunRecord, float]]) -> tuple[float, list[int
     return (float(np.mean(levels)), dirs) if levels else None
 
 
+def _zero_groups(seen: Sequence[tuple[RunRecord, float]]) -> list[list[tuple[RunRecord, float]]]:
+    """The runs' position zeros clustered once: ``seen`` (run, median TE [m]) sorted by median TE
+    and split where two neighbours lie more than :data:`ZERO_SHARE` apart — a partition, every
+    run in one group."""
+    groups: list[list[tuple[RunRecord, float]]] = []
+    for item in sorted(seen, key=lambda it: it[1]):
+        if groups and item[1] - groups[-1][-1][1] <= ZERO_SHARE:
+            groups[-1].append(item)
+        else:
+            groups.append([item])
+    return groups
+
+
+def _listed(items: Sequence[tuple[RunRecord, float]]) -> str:
+    """``run03.csv, run07.csv``: the runs' file names, at most :data:`MORE_LISTED` of them."""
+    names = [Path(r.label).name for r, _ in items]
+    return ", ".join(names[:MORE_LISTED]) + (", …" if len(names) > MORE_LISTED else "")
+
+
+def _te_range(items: Sequence[tuple[RunRecord, float]]) -> str:
+    """``median TE +1.980 … +2.029 mm`` of the runs."""
+    meds = [m for _, m in items]
+    return f"median TE {min(meds) * 1e3:+.3f} … {max(meds) * 1e3:+.3f} mm"
+
+
 def _zero_advice(
     rep: PlausibilityReport,
     errors: Sequence[tuple[int, RunRecord, float, tuple[float, float], float]],
@@ -475,14 +506,20 @@ def _zero_advice(
 ) -> None:
     """The messages of the zero errors, once every run's median TE is known.
 
-    An offset in ``[columns]`` applies to every file, so it is advised only as the zero the runs
+    An offset in ``[columns]`` applies to every file, so it is advised only for a zero most runs
     share (session 36, tester H, TH13 b: one run of ten homed 2 mm off got "set offset = 0.763463
-    (rad) on the theta_m column", which would have moved the nine others 2 mm off):
+    (rad) on the theta_m column", which would have moved the nine others 2 mm off; tester J, J1:
+    two runs of ten got it from their own group, and drifting zeros got four different offsets
+    from overlapping groups). The runs' zeros are clustered once (:func:`_zero_groups`, a
+    partition at :data:`ZERO_SHARE`), and a run beyond the limit is judged by its group:
 
-    * the run agrees (within :data:`MIXED_ERROR`) with at least one other run: the offset of the
-      zero of the runs that agree (:func:`_te_level`), named with their number and TE range;
+    * the group spans more than :data:`ZERO_SHARE`: drifting zeros, no common zero, no offset;
     * it is the only run that reached the check: its own median, said to rest on this run alone;
-    * every other run sits at another zero: mixed zeros, no offset — home and record it again.
+    * the group holds more than half of the runs: the offset of its zero (:func:`_te_level`),
+      named with their number and TE range, and the runs at another zero named;
+    * otherwise mixed zeros, no offset — the group's runs named: home and record them again.
+
+    Every run of a group gets the same advice (one offset value).
 
     Parameters
     ----------
@@ -495,31 +532,52 @@ def _zero_advice(
     r_eff, travel, offsets
         As for :func:`_zero_message`.
     """
+    groups = _zero_groups(seen)
+    n = len(seen)
     for k, r, med, x_range, peak in errors:
-        agree = [(o, m) for o, m in seen if abs(m - med) <= MIXED_ERROR]
-        others = [m for o, m in seen if o is not r]
-        if len(agree) >= 2:
-            level = _te_level(agree)
-            zero = level[0] if level is not None else float(np.median([m for _, m in agree]))
-            meds = [m for _, m in agree]
-            rest = len(seen) - len(agree)
+        cluster = next(g for g in groups if any(o is r for o, _ in g))
+        group = [(o, m) for o, m in seen if any(o is x for x, _ in cluster)]  # in the runs' order
+        rest = [(o, m) for o, m in seen if not any(o is x for x, _ in cluster)]
+        said = _zero_said(med, peak)
+        meds = [m for _, m in group]
+        if max(meds) - min(meds) > ZERO_SHARE:
+            who = f"all {n} runs" if not rest else f"{len(group)} runs ({_listed(group)})"
+            msg = (
+                f"{said}: the zeros of {who} drift ({_te_range(group)}, no gap over {ZERO_SHARE * 1e3:g} mm"
+                f" between neighbours, {(max(meds) - min(meds)) * 1e3:.3f} mm end to end): no common zero"
+                " (an encoder or scale slipping, homed in between?) — an offset in [columns] applies to"
+                " every file and none fits these runs: home both and record them again"
+            )
+        elif n == 1:
+            basis = " (from this run alone: no other run confirms the zero)"
+            msg = _zero_message(med, r_eff, x_range, travel, offsets, peak, med, basis)
+        elif 2 * len(group) > n:
+            level = _te_level(group)
+            zero = level[0] if level is not None else float(np.median(meds))
             basis = (
-                f" (the zero of the {len(agree)} runs that share it, median TE {min(meds) * 1e3:+.3f} …"
-                f" {max(meds) * 1e3:+.3f} mm"
-                + (f"; {rest} other run(s) sit at another zero: mixed zeros" if rest else "")
+                f" (the zero of the {len(group)} runs that share it, {_te_range(group)}"
+                + (
+                    f"; the {len(rest)} other run(s) ({_listed(rest)}) sit at another zero: home and"
+                    " record them again, or leave them out of [[runs]]"
+                    if rest
+                    else ""
+                )
                 + ")"
             )
             msg = _zero_message(med, r_eff, x_range, travel, offsets, peak, zero, basis)
-        elif not others:
-            basis = " (from this run alone: no other run confirms the zero)"
-            msg = _zero_message(med, r_eff, x_range, travel, offsets, peak, med, basis)
-        else:
-            o_lo, o_hi = min(others), max(others)
+        elif len(group) == 1:
             msg = (
-                f"{_zero_said(med, peak)}: this run's zero differs from the {len(others)} other run(s)"
-                f" (median TE {o_lo * 1e3:+.3f} … {o_hi * 1e3:+.3f} mm): mixed position zeros (homed in"
-                " between?) — an offset in [columns] applies to every file: home and record this run"
-                " again, or leave it out of [[runs]]"
+                f"{said}: this run's zero differs from the {len(rest)} other run(s) ({_te_range(rest)}):"
+                " mixed position zeros (homed in between?) — an offset in [columns] applies to every"
+                " file: home and record this run again, or leave it out of [[runs]]"
+            )
+        else:
+            msg = (
+                f"{said}: this run's zero is shared by {len(group)} of the {n} runs ({_listed(group)};"
+                f" {_te_range(group)}), the {len(rest)} other run(s) sit at another zero"
+                f" ({_te_range(rest)}): mixed position zeros (homed in between?) — an offset in"
+                " [columns] applies to every file: home and record these runs again, or leave them out"
+                " of [[runs]]"
             )
         f = rep.findings[k]
         rep.findings[k] = Finding(f.level, f.check, f.file, msg)
