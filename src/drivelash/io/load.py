@@ -186,6 +186,15 @@ def stated_unit(
         return
     where = table.meta.get("column_units_from", "units row")
     canon = unit_name(stated, number=True)
+    mega = _mega(stated) if canon is None else None
+    if mega is not None:  # 'MA' is no 'mA': the case of a prefix matters (finding J9)
+        raise DataError(
+            f"the file's {where} says {stated!r}: M is mega (10^6 {mega}; milli is a lower-case m, a"
+            f" unit's case matters), but the column would be read in {unit!r}; drivelash reads no mega"
+            f" unit — if the column is in {'m' + mega!r}, write that in the {where}",
+            path=table.path,
+            column=source,
+        )
     if canon is None and warnings is not None:
         warnings.append(
             f"{table.path}, column {source!r}: the file's {where} names {stated!r}, which drivelash"
@@ -209,11 +218,41 @@ def stated_unit(
         )
 
 
+def _mega(stated: str) -> str | None:
+    """The unit ``stated`` names with the mega prefix ``M`` (``'MA'``: ``'A'``), else None — read
+    case-insensitively it would be the milli unit (``'mA'``, 10^9 × apart)."""
+    from drivelash.io.formats import unit_name
+
+    u = stated.strip().strip('"').strip()
+    if len(u) >= 2 and u[0] + u[-1] in ("[]", "()", "{}"):
+        u = u[1:-1].strip()
+    if len(u) < 2 or u[0] != "M":
+        return None
+    return unit_name(u[1:])
+
+
+def unit_needs(unit: str) -> str:
+    """What a column read in ``unit`` needs besides it, as `` and …`` to append to the advice to
+    declare it: a current (A, mA) its torque_constant — in N·m/A (N/A for a force) even for a
+    column in mA — a voltage its gain; else ``""`` (finding J9: "set unit = 'mA' in
+    [columns.cur]" alone was then refused for the missing torque_constant)."""
+    if UNIT_KIND.get(unit) == "current":
+        return " and torque_constant (N·m/A, or N/A for a force; per ampere even for a column in mA)"
+    if unit == "V":
+        return " and gain (N·m/V or N/V)"
+    return ""
+
+
 def passthrough_unit(table: Any, name: str) -> None:
     """An unmapped column read under its Trace name is in SI (:data:`TRACE_UNITS`): refused when
     the file states another unit for it; one rule for the whole-file loader and the stream."""
     if name in TRACE_UNITS and name != "t":
-        stated_unit(table, name, TRACE_UNITS[name], lambda u: f"map it in [columns.{name}] with unit = {u!r}")
+        stated_unit(
+            table,
+            name,
+            TRACE_UNITS[name],
+            lambda u: f"map it in [columns.{name}] with unit = {u!r}{unit_needs(u)}",
+        )
 
 
 def time_factor(table: Any, name: str, sampling: SamplingSection) -> float:
@@ -227,7 +266,12 @@ def time_factor(table: Any, name: str, sampling: SamplingSection) -> float:
 def _factor(cm: ColumnMap, table: RawTable, source: str, warnings: list[str] | None = None) -> float:
     """Multiplicative factor from file units to SI for one mapped column."""
     path = table.path
-    stated_unit(table, source, cm.unit, lambda u: f"set unit = {u!r} in [columns.{source}]", warnings)
+
+    def fix(u: str) -> str:
+        have = cm.torque_constant if UNIT_KIND.get(u) == "current" else cm.gain if u == "V" else None
+        return f"set unit = {u!r}{unit_needs(u) if have is None else ''} in [columns.{source}]"
+
+    stated_unit(table, source, cm.unit, fix, warnings)
     if cm.unit == "counts":
         if cm.counts_per_rev is None:
             raise DataError("unit 'counts' needs counts_per_rev in [columns]", path=path, column=source)
