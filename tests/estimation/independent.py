@@ -60,6 +60,18 @@ class IndependentDrive:
         return DrivetrainParams(**v)
 
 
+def draw_plant(rng: np.random.Generator) -> tuple[float, float, float, float, float, float]:
+    """The first draws of a random drive in the generalisation test's ranges: N, J_l [kg·m²],
+    J_m [kg·m²], ω_n [rad/s] (60–600), K_S = J_l ω_n² [N·m/rad], T_Cl [N·m] (K_S · 1e-4 … 3e-3)."""
+    N = float(rng.choice([1, 2, 5, 10]))
+    J_l = 10 ** rng.uniform(-4, -2)
+    J_m = 10 ** rng.uniform(-4, -3)
+    wn = 10 ** rng.uniform(np.log10(60), np.log10(600))
+    K_S = J_l * wn**2
+    T_Cl = K_S * 10 ** rng.uniform(-4, -2.5)
+    return N, J_l, J_m, wn, K_S, T_Cl
+
+
 def simulate_independent(
     drive: IndependentDrive,
     *,

@@ -31,11 +31,11 @@ import numpy as np
 
 if __package__ in (None, ""):  # run as a script
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    from estimation.independent import IndependentDrive, simulate_independent  # type: ignore[no-redef]
+    from estimation.independent import IndependentDrive, draw_plant, simulate_independent  # type: ignore[no-redef]
     from estimation.test_generalisation import random_drive  # type: ignore[no-redef]
     from estimation.test_robustness import MISMATCH  # type: ignore[no-redef]
 else:
-    from .independent import IndependentDrive, simulate_independent
+    from .independent import IndependentDrive, draw_plant, simulate_independent
     from .test_generalisation import random_drive
     from .test_robustness import MISMATCH
 
@@ -77,12 +77,7 @@ def independent_drives(
     """Random drives as in the generalisation test, simulated by the independent simulator."""
     rng = np.random.default_rng(1000 + seed)
     for case in range(n):
-        N = float(rng.choice([1, 2, 5, 10]))
-        J_l = 10 ** rng.uniform(-4, -2)
-        J_m = 10 ** rng.uniform(-4, -3)
-        wn = 10 ** rng.uniform(np.log10(60), np.log10(600))
-        K_S = J_l * wn**2
-        T_Cl = K_S * 10 ** rng.uniform(-4, -2.5)
+        N, J_l, J_m, wn, K_S, T_Cl = draw_plant(rng)
         delta = 10 ** rng.uniform(-2, np.log10(0.5))
         drive = IndependentDrive(
             J_m=J_m, J_l=J_l, N=N, K_S=K_S, D_S=2 * 0.02 * np.sqrt(K_S * J_l) * rng.uniform(0.5, 3),

@@ -29,7 +29,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from drivelash import estimate_backlash  # noqa: E402
-from estimation.independent import IndependentDrive, simulate_independent  # noqa: E402
+from estimation.independent import IndependentDrive, draw_plant, simulate_independent  # noqa: E402
 
 #: the sweep: gaps [rad] and δ1 errors as a fraction of δ
 GAPS = (3e-3, 10e-3, 30e-3)
@@ -42,12 +42,7 @@ def small_gap_drive(case: int, delta: float) -> tuple[IndependentDrive, object]:
     ranges (ω_n 60–600 rad/s, T_Cl/K_S 1e-4–3e-3), a sine of 0.3–2 rad at 0.3–2 Hz, 20 s at
     2 kHz, encoders ideal or 8192/65536 counts, velocity noise 0 or 0.01 rad/s."""
     rng = np.random.default_rng(5000 + case)
-    N = float(rng.choice([1, 2, 5, 10]))
-    J_l = 10 ** rng.uniform(-4, -2)
-    J_m = 10 ** rng.uniform(-4, -3)
-    wn = 10 ** rng.uniform(np.log10(60), np.log10(600))
-    K_S = J_l * wn**2
-    T_Cl = K_S * 10 ** rng.uniform(-4, -2.5)
+    N, J_l, J_m, wn, K_S, T_Cl = draw_plant(rng)
     drive = IndependentDrive(
         J_m=J_m, J_l=J_l, N=N, K_S=K_S, D_S=2 * 0.02 * np.sqrt(K_S * J_l) * rng.uniform(0.5, 3),
         T_Cm=0.02 * J_m / 8e-4, T_Cl=T_Cl, beta_m=0.001, beta_l=T_Cl * 0.05, delta=delta,

@@ -30,6 +30,19 @@ def torque_of(F: float, x: np.ndarray) -> np.ndarray:
     return F * R_EFF / 0.95 + 0.4 + 0.02 * np.sin(2 * np.pi * x / 0.05)
 
 
+def pass_columns(model, x: np.ndarray, d: int, F: float, te_def: np.ndarray, T_s: float) -> dict:
+    """The recorded columns of one constant-velocity pass over ``x`` [m] in direction ``d`` at
+    load ``F`` [N]: TE = the model's TE_geo + d · ``te_def`` [µm]; θ_m from x − TE."""
+    te = model.geometric(x, d) + d * te_def * 1e-6
+    return {
+        "t": np.arange(x.size) * T_s,
+        "x_T": x,
+        "theta_m": (x - te) * 2 * GEOM.i_pg / GEOM.d_p,
+        "torque_m": torque_of(F, x),
+        "direction": np.full(x.size, float(d)),
+    }
+
+
 def design(x: np.ndarray, F: float, pipe: TEPipeline) -> np.ndarray:
     return pipe.design_matrix(x, torque_of(F, x))
 

@@ -12,7 +12,7 @@ import numpy as np
 from cli_runner import run_in_process
 from drivelash.io.trace import Trace
 
-from .conftest import GEOM, te_def_um, torque_of
+from .conftest import pass_columns, te_def_um
 from .test_update_cli import T_S, V
 from .test_update_worse_cause import _campaign, parent  # noqa: F401  (the module's fixture)
 
@@ -20,15 +20,7 @@ from .test_update_worse_cause import _campaign, parent  # noqa: F401  (the modul
 def _short(path, model, F: float, d: int) -> None:
     x = np.arange(0.10, 0.125, V * T_S)
     x = x if d > 0 else x[::-1]
-    te = model.geometric(x, d) + d * te_def_um(x, F) * 1e-6
-    cols = {
-        "t": np.arange(x.size) * T_S,
-        "x_T": x,
-        "theta_m": (x - te) * 2 * GEOM.i_pg / GEOM.d_p,
-        "torque_m": torque_of(F, x),
-        "direction": np.full(x.size, float(d)),
-    }
-    Trace(cols, {}).to_parquet(path)
+    Trace(pass_columns(model, x, d, F, te_def_um(x, F), T_S), {}).to_parquet(path)
 
 
 def test_a_short_update_pass_is_named(parent, tmp_path, capsys):  # noqa: F811

@@ -18,7 +18,7 @@ from cli_runner import run_in_process
 from drivelash.io.trace import Trace
 from drivelash.te.runtime.persist import load_model, save_model
 
-from .conftest import GEOM, te_def_um, torque_of
+from .conftest import pass_columns, te_def_um
 from .test_update_cli import T_S, V
 
 
@@ -30,14 +30,7 @@ def _campaign(directory, model, loads, scale: float = 1.0, defect: float = 0.0):
     for d, key in ((1, "pos"), (-1, "neg")):
         x = x_up if d > 0 else x_up[::-1]
         for F in loads:
-            te = model.geometric(x, d) + d * (scale * te_def_um(x, F) + te_def_um(x, 0.0, defect)) * 1e-6
-            cols = {
-                "t": np.arange(x.size) * T_S,
-                "x_T": x,
-                "theta_m": (x - te) * 2 * GEOM.i_pg / GEOM.d_p,
-                "torque_m": torque_of(F, x),
-                "direction": np.full(x.size, float(d)),
-            }
+            cols = pass_columns(model, x, d, F, scale * te_def_um(x, F) + te_def_um(x, 0.0, defect), T_S)
             name = f"{key}_F{F:g}.parquet"
             Trace(cols, {}).to_parquet(directory / name)
             runs.append({"file": name, "kind": "load", "load": F, "velocity": V, "direction": d})
