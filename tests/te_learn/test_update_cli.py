@@ -24,16 +24,19 @@ V = 0.05  # m/s
 T_S = 1e-3  # s
 
 
-def write_campaign(directory: Path, model, loads, defect: float, lo: float = 0.01, hi: float = 0.29) -> Path:
+def write_campaign(
+    directory: Path, model, loads, defect: float, lo: float = 0.01, hi: float = 0.29, te_def=None
+) -> Path:
     """One constant-velocity pass per load and direction over lo … hi [m] (default 10..290 mm)
-    at 1 kHz."""
+    at 1 kHz; ``te_def(x, F)`` [µm] the load-dependent TE (default: the model's with ``defect``)."""
     directory.mkdir(parents=True)
     runs = []
     x_up = np.arange(lo, hi, V * T_S)
     for d, key in ((1, "pos"), (-1, "neg")):
         x = x_up if d > 0 else x_up[::-1]
         for F in loads:
-            cols = pass_columns(model, x, d, F, te_def_um(x, F, defect), T_S)
+            te = te_def_um(x, F, defect) if te_def is None else te_def(x, F)
+            cols = pass_columns(model, x, d, F, te, T_S)
             name = f"{key}_F{F:g}.parquet"
             Trace(cols, {}).to_parquet(directory / name)
             runs.append({"file": name, "kind": "load", "load": F, "velocity": V, "direction": d})

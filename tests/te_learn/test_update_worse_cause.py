@@ -8,42 +8,26 @@ model grows with the load (another axis or drive stiffness, which a wear update 
 
 from __future__ import annotations
 
-import json
 import re
 
-import numpy as np
 import pytest
 
 from cli_runner import run_in_process
-from drivelash.io.trace import Trace
 from drivelash.te.runtime.persist import load_model, save_model
 
-from .conftest import pass_columns, te_def_um
-from .test_update_cli import T_S, V
+from .conftest import te_def_um
+from .test_update_cli import write_campaign
 
 
 def _campaign(directory, model, loads, scale: float = 1.0, defect: float = 0.0):
     """Passes over 10 … 290 mm; ``scale`` multiplies the load-dependent TE (another axis)."""
-    directory.mkdir(parents=True)
-    runs = []
-    x_up = np.arange(0.01, 0.29, V * T_S)
-    for d, key in ((1, "pos"), (-1, "neg")):
-        x = x_up if d > 0 else x_up[::-1]
-        for F in loads:
-            cols = pass_columns(model, x, d, F, scale * te_def_um(x, F) + te_def_um(x, 0.0, defect), T_S)
-            name = f"{key}_F{F:g}.parquet"
-            Trace(cols, {}).to_parquet(directory / name)
-            runs.append({"file": name, "kind": "load", "load": F, "velocity": V, "direction": d})
-    manifest = {
-        "format": "drivelash.te-campaign",
-        "version": 2,
-        "source": "imported",
-        "axis": model.context.axis.model_dump(mode="json"),
-        "columns": ["t", "x_T", "theta_m", "torque_m", "direction"],
-        "runs": runs,
-    }
-    (directory / "manifest.json").write_text(json.dumps(manifest), encoding="utf-8")
-    return directory
+    return write_campaign(
+        directory,
+        model,
+        loads,
+        defect,
+        te_def=lambda x, F: scale * te_def_um(x, F) + te_def_um(x, 0.0, defect),
+    )
 
 
 @pytest.fixture(scope="module")
